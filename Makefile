@@ -1,0 +1,35 @@
+# ble_latex developer commands. Everything runs in a local virtualenv (.venv)
+# that `make venv` creates or refreshes idempotently from constraints.txt.
+PYTHON ?= python3.11
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.ble_latex-installed
+OUT ?= demo_output
+
+.PHONY: venv demo test test-slow test-all clean
+
+venv: $(STAMP)
+
+# Re-installs only when setup.py or constraints.txt change.
+$(STAMP): setup.py constraints.txt
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[test]'
+	touch $(STAMP)
+
+# The main job: a short demo run (see README "Quick start").
+demo: venv
+	$(PY) -m ble_latex.demo --output_dir=$(OUT)
+
+# Default test suite (slow tests excluded; see pytest.ini).
+test: venv
+	$(PY) -m pytest
+
+test-slow: venv
+	$(PY) -m pytest -m slow
+
+test-all: venv
+	$(PY) -m pytest -m 'slow or not slow'
+
+clean:
+	rm -rf $(VENV) $(OUT) .pytest_cache

@@ -1,0 +1,62 @@
+"""Setup for ble_latex: a latex (vent/ballast) balloon plugin for BLE."""
+
+import pathlib
+
+import setuptools
+
+_HERE = pathlib.Path(__file__).parent
+
+# Tested versions are pinned in constraints.txt (pip install -c constraints.txt).
+# `tensorflow` (not tensorflow-cpu): BLE and tf-keras require the `tensorflow`
+# distribution, so listing tensorflow-cpu would install both into the same
+# folder. The Linux `tensorflow` wheel runs on CPU; no CUDA packages are pulled.
+_INSTALL_REQUIRES = [
+    'balloon-learning-environment==1.0.1',
+    'dopamine-rl==4.0.9',
+    'jax>=0.6',
+    'jaxlib>=0.6',
+    'flax',
+    'optax',
+    'tensorflow',
+    'tf-keras',
+    'tensorflow-probability',
+    'tensorboard',
+    'gym==0.25.2',
+    'gin-config',
+    'opensimplex',
+    'scipy>=1.14',
+    'numpy',
+    'scikit-learn',
+    'matplotlib',
+    'xarray',
+    'netCDF4',
+    'cdsapi',
+    'tqdm',
+]
+
+setuptools.setup(
+    name='ble_latex',
+    version='0.1.0',
+    description=('Latex high-altitude balloon (vent helium / drop sand) for '
+                 "Google's Balloon Learning Environment, with SAC."),
+    long_description=(_HERE / 'README.md').read_text(encoding='utf-8'),
+    long_description_content_type='text/markdown',
+    python_requires='>=3.11',
+    packages=(setuptools.find_packages(include=['ble_latex', 'ble_latex.*']) +
+              ['ble_latex.gin_configs']),
+    # The top-level gin_configs/ folder installs as ble_latex/gin_configs.
+    package_dir={'ble_latex.gin_configs': 'gin_configs'},
+    package_data={'ble_latex.gin_configs': ['*.gin']},
+    install_requires=_INSTALL_REQUIRES,
+    extras_require={
+        'test': ['pytest', 'pytest-timeout', 'hypothesis'],
+    },
+    entry_points={
+        'gym.envs': [
+            '__root__ = ble_latex.gym_registration:register_env',
+        ],
+        'console_scripts': [
+            'ble-latex-ble = ble_latex.ble_commands:main',
+        ],
+    },
+)
