@@ -57,6 +57,7 @@ setuptools.setup(
         ],
         'console_scripts': [
             'ble-latex-ble = ble_latex.ble_commands:main',
+            'ble-latex-validate = ble_latex.validate:main',
         ],
     },
 )

@@ -24,6 +24,7 @@ in `GLOBAL_CHANGES` (and in README).
 | 7 | `from flax import optim` (BLE mlp_agent)           | `_flax_optim_shim` (module) |
 | 8 | jax.tree_map removed (dopamine agents, BLE)        | `_jax_tree_map` (add)       |
 | 9 | jax_threefry_partitionable default flipped         | `_jax_threefry` (global)    |
+|10 | gym's RandomNumberGenerator uncopyable on NumPy 2  | `_gym_rng_copy` (gym class) |
 """
 
 import contextlib
@@ -265,6 +266,29 @@ def _gym_checker_bool8(checker: types.ModuleType) -> None:
     checker.np = _NumpyWithBool8(checker.np)
 
 
+def _gym_rng_copy(seeding: types.ModuleType) -> None:
+  """Lets gym's `RandomNumberGenerator` be copied/pickled on NumPy 2.
+
+  NumPy 2 `Generator.__reduce__` passes the bit generator itself, where gym
+  0.25.2's `_generator_ctor` expects its name and raises "is not a known
+  BitGenerator module" — so `copy.deepcopy(env.np_random)` fails, and with it
+  gym's own env checker. Accept the bit generator object as NumPy does.
+  """
+  cls = seeding.RandomNumberGenerator
+  original = cls._generator_ctor
+  if getattr(original, '_ble_latex_fixed', False):
+    return
+
+  def _generator_ctor(bit_generator_name='MT19937'):
+    import numpy as np  # pylint: disable=g-import-not-at-top
+    if isinstance(bit_generator_name, np.random.BitGenerator):
+      return cls(bit_generator_name)
+    return original(bit_generator_name)
+
+  _generator_ctor._ble_latex_fixed = True
+  cls._generator_ctor = staticmethod(_generator_ctor)
+
+
 # ---------------------------------------------------------------------------
 # 7. `from flax import optim` (removed in flax 0.6), BLE's MLP agent.
 # ---------------------------------------------------------------------------
@@ -313,6 +337,7 @@ _HOOKS: Dict[str, Tuple[str, _Around, _After]] = {
         'hashable_field_shape', _hashable_field_shape, None),
     f'{_BLE}.env.wind_gp': ('wind_gp_std', None, _wind_gp_std),
     'gym.utils.passive_env_checker': ('gym_bool8', None, _gym_checker_bool8),
+    'gym.utils.seeding': ('gym_rng_copy', None, _gym_rng_copy),
 }
 # Top-level packages whose (non-trivial) import first applies the jax fixes.
 _JAX_USERS = (f'{_BLE}.', 'dopamine.', 'tensorflow_probability.substrates')

@@ -49,6 +49,12 @@ _NEEDED = {
         'import ble_latex\n'
         'from balloon_learning_environment.agents import agent_registry',
         'optim'),
+    'gym_rng_copy': (
+        'import ble_latex, copy, gym\n'
+        'from gym.utils import seeding\n'
+        'rng = seeding.np_random(3)[0]\n'
+        'assert copy.deepcopy(rng).random() == rng.random()',
+        'BitGenerator'),
     'jax_tree_map': (
         'import ble_latex\n'
         'from dopamine.jax.agents.sac import sac_agent\n'

@@ -1,0 +1,38 @@
+# coding=utf-8
+"""Locates the gin files shipped with ble_latex.
+
+The top-level `gin_configs/` folder installs as `ble_latex/gin_configs` in a
+regular install; in an editable install from a checkout it stays beside the
+package. `gin_file('sac.gin')` finds it in either place.
+"""
+
+import pathlib
+
+_PACKAGE = pathlib.Path(__file__).resolve().parent
+_CANDIDATES = (_PACKAGE / 'gin_configs', _PACKAGE.parent / 'gin_configs')
+
+
+def gin_dir() -> pathlib.Path:
+  """The folder holding ble_latex's gin files."""
+  for folder in _CANDIDATES:
+    if folder.is_dir():
+      return folder
+  raise FileNotFoundError(
+      'ble_latex gin_configs folder not found; looked in '
+      f'{[str(c) for c in _CANDIDATES]}')
+
+
+def add_search_path() -> None:
+  """Lets gin `include` resolve ble_latex's gin files by name."""
+  import gin  # pylint: disable=g-import-not-at-top
+  gin.add_config_file_search_path(str(gin_dir()))
+
+
+def gin_file(name: str) -> str:
+  """Path of the shipped gin file `name` (e.g. 'latex_env.gin')."""
+  path = gin_dir() / name
+  if not path.is_file():
+    available = sorted(p.name for p in gin_dir().glob('*.gin'))
+    raise FileNotFoundError(
+        f'No gin file {name!r} in {gin_dir()}; available: {available}')
+  return str(path)

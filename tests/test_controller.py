@@ -1,0 +1,209 @@
+# coding=utf-8
+"""Tests for ble_latex.controller (Eq. fullcontroller)."""
+
+import datetime as dt
+
+from balloon_learning_environment.env.balloon import standard_atmosphere
+from balloon_learning_environment.utils import units
+from hypothesis import assume
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
+import jax
+import numpy as np
+import pytest
+
+from ble_latex import controller as controller_lib
+from ble_latex import physics
+
+_SETTINGS = settings(max_examples=40, deadline=None)
+PAYLOAD = 2.2  # [kg]
+SAND = 2.0  # [kg]
+C_D = 0.25
+Decision = controller_lib.Decision
+
+
+@pytest.fixture(scope='module')
+def atmosphere():
+  return standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
+
+
+def _ambient(atmosphere, h):
+  a = atmosphere.at_height(units.Distance(m=h))
+  return dict(temperature=float(a.temperature), pressure=float(a.pressure))
+
+
+def _steady(atmosphere, h, rate, sand=SAND):
+  """Keyword state of a balloon in steady motion at `rate` at altitude h."""
+  amb = _ambient(atmosphere, h)
+  n = physics.vent_target_mols(PAYLOAD, sand, rate, C_D, **amb)
+  return dict(altitude_m=h, ascent_rate_mps=rate, helium_mols=n,
+              sand_kg=sand, payload_kg=PAYLOAD, drag_coefficient=C_D, **amb)
+
+
+def _apply(state, act):
+  n = state['helium_mols'] - act.vent_mols
+  sand = state['sand_kg'] - act.drop_kg
+  return n, sand
+
+
+@pytest.mark.parametrize('action', [
+    [14_000, 1, -1], [21_000, 5, 1], (17_500.0, 2.5, 0.0),
+    np.array([15_000, 3, 0.3], dtype=np.float32)])
+def test_validate_action_accepts_in_range(action):
+  a = controller_lib.validate_action(action)
+  assert a.dtype == np.float64 and a.shape == (3,)
+
+
+@pytest.mark.parametrize('action,match', [
+    ([float('nan'), 1, 0], 'a0'),
+    ([17_000, float('inf'), 0], 'a1'),
+    ([17_000, 1, float('-inf')], 'a2'),
+    ([13_999, 1, 0], r'a0 .*\[14000, 21000\]'),
+    ([21_001, 1, 0], 'a0'),
+    ([17_000, 0.5, 0], 'a1'),
+    ([17_000, 5.1, 0], 'a1'),
+    ([17_000, 1, 1.5], 'a2'),
+    ([17_000, 1], '3 components'),
+    ([[17_000, 1, 0, 0]], '3 components'),
+    ('abc', '3 numbers'),
+    (None, '3 components'),
+])
+def test_validate_action_rejects_bad(action, match):
+  with pytest.raises(ValueError, match=match):
+    controller_lib.validate_action(action)
+
+
+def test_action_bounds_match_paper():
+  np.testing.assert_array_equal(controller_lib.ACTION_LOW, [14_000, 1, -1])
+  np.testing.assert_array_equal(controller_lib.ACTION_HIGH, [21_000, 5, 1])
+  assert controller_lib.STRIDE == dt.timedelta(minutes=20)
+
+
+def test_desired_ascent_rate_formula():
+  c = controller_lib.AltitudeController()
+  assert c.desired_ascent_rate(17_000.0, 18_200.0, 2.0) == pytest.approx(
+      1_200.0 / (2.0 * 1_200.0))
+
+
+@pytest.mark.parametrize('kwargs', [
+    dict(min_vent_mols=-1.0), dict(min_drop_kg=float('nan')),
+    dict(band_low_m=22_000.0, band_high_m=13_000.0),
+    dict(stride=dt.timedelta(0))])
+def test_constructor_rejects_bad_values(kwargs):
+  with pytest.raises(ValueError):
+    controller_lib.AltitudeController(**kwargs)
+
+
+def test_float_takes_precedence_and_reaches_neutral(atmosphere):
+  c = controller_lib.AltitudeController()
+  # Rising with free lift: float vents to neutral, a0/a1 ignored.
+  state = _steady(atmosphere, 17_000.0, 1.0)
+  act = c.decide([14_000, 1, 0.5], **state)
+  assert act.decision == Decision.FLOAT and act.drop_kg == 0.0
+  n, sand = _apply(state, act)
+  assert physics.free_lift(n, PAYLOAD, sand) == pytest.approx(0.0, abs=1e-12)
+  # Sinking: float drops sand to neutral.
+  state = _steady(atmosphere, 17_000.0, -1.0)
+  act = c.decide([21_000, 5, 1.0], **state)
+  assert act.decision == Decision.FLOAT and act.vent_mols == 0.0
+  n, sand = _apply(state, act)
+  assert physics.free_lift(n, PAYLOAD, sand) == pytest.approx(0.0, abs=1e-12)
+
+
+@_SETTINGS
+@given(h=st.floats(14_000.0, 21_000.0), v=st.floats(-3.0, 3.0),
+       a0=st.floats(14_000.0, 21_000.0), a1=st.floats(1.0, 5.0))
+def test_vent_or_ballast_solution_has_zero_force_residual(atmosphere, h, v,
+                                                          a0, a1):
+  c = controller_lib.AltitudeController()
+  state = _steady(atmosphere, h, v)
+  act = c.decide([a0, a1, -1.0], **state)
+  rate = c.desired_ascent_rate(h, a0, a1)
+  assert act.desired_ascent_rate == pytest.approx(rate)
+  if act.decision == Decision.NOTHING:
+    return
+  assert act.decision == (Decision.BALLAST if rate > v else Decision.VENT)
+  n, sand = _apply(state, act)
+  assume(sand > 0.0)  # Reachable without running out of sand.
+  residual = physics.force_balance_residual(
+      rate, n, PAYLOAD, sand, C_D, state['temperature'], state['pressure'])
+  assert abs(residual) <= 1e-9 * physics.weight_force(PAYLOAD, sand, n)
+
+
+@_SETTINGS
+@given(h=st.floats(13_000.0, 22_000.0), v=st.floats(-6.0, 6.0),
+       sand=st.floats(0.0, 0.2), a0=st.floats(14_000.0, 21_000.0),
+       a1=st.floats(1.0, 5.0), a2=st.floats(-1.0, 1.0))
+def test_never_more_than_aboard(atmosphere, h, v, sand, a0, a1, a2):
+  c = controller_lib.AltitudeController()
+  state = _steady(atmosphere, h, v, sand=sand)
+  act = c.decide([a0, a1, a2], **state)
+  assert 0.0 <= act.vent_mols <= state['helium_mols']
+  assert 0.0 <= act.drop_kg <= sand
+  assert act.vent_mols == 0.0 or act.drop_kg == 0.0
+
+
+def test_below_thresholds_do_nothing(atmosphere):
+  c = controller_lib.AltitudeController()
+  state = _steady(atmosphere, 17_000.0, 0.0)
+  # 100 m in 5 strides: 0.017 m/s needs ~0.01 g of sand.
+  for a0 in (17_100.0, 16_900.0):
+    act = c.decide([a0, 5.0, -1.0], **state)
+    assert act.decision == Decision.NOTHING
+    assert act.vent_mols == 0.0 and act.drop_kg == 0.0
+  # The same command with huge thresholds, and a real one with default ones.
+  big = controller_lib.AltitudeController(min_vent_mols=50.0, min_drop_kg=1.0)
+  assert big.decide([19_000, 1, -1], **state).decision == Decision.NOTHING
+  assert big.decide([15_000, 1, -1], **state).decision == Decision.NOTHING
+  assert c.decide([19_000, 1, -1], **state).decision == Decision.BALLAST
+  assert c.decide([15_000, 1, -1], **state).decision == Decision.VENT
+
+
+def test_threshold_edges(atmosphere):
+  state = _steady(atmosphere, 17_000.0, 0.0)
+  act = controller_lib.AltitudeController().decide([18_000, 1, -1], **state)
+  exact = controller_lib.AltitudeController(min_drop_kg=act.drop_kg)
+  assert exact.decide([18_000, 1, -1], **state).decision == Decision.BALLAST
+  above = controller_lib.AltitudeController(min_drop_kg=act.drop_kg * 1.001)
+  assert above.decide([18_000, 1, -1], **state).decision == Decision.NOTHING
+
+
+@pytest.mark.parametrize('h,v,expect_guard', [
+    (12_900.0, -0.3, True),   # below the band, sinking, command too weak
+    (12_900.0, 0.0, True),    # below the band, floating
+    (12_900.0, 0.3, False),   # below the band but already rising
+    (22_100.0, 0.3, True),    # above the band, rising
+    (22_100.0, -0.3, False),  # above the band but already sinking
+    (13_000.0, -0.3, False),  # at the edge: inside
+    (22_000.0, 0.3, False),   # at the edge: inside
+])
+def test_band_guard_when_doing_nothing(atmosphere, h, v, expect_guard):
+  c = controller_lib.AltitudeController(min_vent_mols=1e3, min_drop_kg=1e3)
+  state = _steady(atmosphere, h, v)
+  act = c.decide([17_000, 5, -1], **state)  # Thresholds: always "nothing".
+  assert act.guarded == expect_guard
+  assert act.decision == (Decision.FLOAT if expect_guard else Decision.NOTHING)
+  if expect_guard:
+    n, sand = _apply(state, act)
+    assert physics.free_lift(n, PAYLOAD, sand) == pytest.approx(0.0,
+                                                                abs=1e-12)
+
+
+def test_band_guard_lets_moves_back_into_band(atmosphere):
+  c = controller_lib.AltitudeController()
+  below = _steady(atmosphere, 12_800.0, -0.5)
+  act = c.decide([15_000, 1, -1], **below)
+  assert act.decision == Decision.BALLAST and not act.guarded
+  above = _steady(atmosphere, 22_300.0, 0.5)
+  act = c.decide([20_000, 1, -1], **above)
+  assert act.decision == Decision.VENT and not act.guarded
+
+
+@pytest.mark.parametrize('field', ['altitude_m', 'ascent_rate_mps',
+                                   'helium_mols', 'temperature'])
+def test_decide_rejects_non_finite_state(atmosphere, field):
+  state = _steady(atmosphere, 17_000.0, 0.0)
+  state[field] = float('nan')
+  with pytest.raises(ValueError, match=field):
+    controller_lib.AltitudeController().decide([17_000, 1, -1], **state)
