@@ -58,6 +58,8 @@ setuptools.setup(
         'console_scripts': [
             'ble-latex-ble = ble_latex.ble_commands:main',
             'ble-latex-validate = ble_latex.validate:main',
+            'ble-latex-train = ble_latex.train:run',
+            'ble-latex-eval = ble_latex.eval:run',
         ],
     },
 )

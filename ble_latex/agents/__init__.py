@@ -1,0 +1,40 @@
+# coding=utf-8
+"""ble_latex agents, added to BLE's agent registry by `register()`.
+
+- 'sac': `sac.SACAgent`, Soft Actor-Critic for the Box action of
+  LatexBalloon-v0; default gin file `gin_configs/sac.gin`.
+- 'latex_random', 'latex_station_seeker': the Box baselines of
+  `baselines.py` (no gin file).
+
+Importing this package is cheap; `register()` imports BLE's registry and the
+agents (TensorFlow, JAX, Dopamine).
+"""
+
+from typing import FrozenSet
+
+SAC_GIN_FILE = 'sac.gin'
+
+# Registered agents that take a Box action (constructor keywords action_low,
+# action_high, seed); the others are BLE's discrete-action agents.
+BOX_AGENTS: FrozenSet[str] = frozenset(
+    {'sac', 'latex_random', 'latex_station_seeker'})
+
+
+def register() -> None:
+  """Adds the ble_latex agents to BLE's `agent_registry.REGISTRY`.
+
+  Idempotent: calling it again rewrites the same entries. The gin path is
+  absolute, so BLE's `run_helpers.bind_gin_variables` (which only adds the
+  BLE package's parent folder to gin's search path) finds it as is.
+  """
+  # pylint: disable=g-import-not-at-top
+  from balloon_learning_environment.agents import agent_registry
+  from ble_latex import configs
+  from ble_latex.agents import baselines
+  from ble_latex.agents import sac
+  # pylint: enable=g-import-not-at-top
+  agent_registry.REGISTRY['sac'] = (sac.SACAgent,
+                                    configs.gin_file(SAC_GIN_FILE))
+  agent_registry.REGISTRY['latex_random'] = (baselines.LatexRandomAgent, None)
+  agent_registry.REGISTRY['latex_station_seeker'] = (
+      baselines.GeometricStationSeeker, None)

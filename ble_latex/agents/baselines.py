@@ -1,0 +1,137 @@
+# coding=utf-8
+"""Baseline agents for `LatexBalloon-v0` (Box actions), BLE `Agent`s.
+
+- `LatexRandomAgent`: uniform random (a0, a1, a2) inside the action box.
+- `GeometricStationSeeker`: Du et al.'s geometric rule through the altitude
+  controller: go to the altitude whose forecast wind best points at the target
+  (largest speed * cos(bearing error)), float once there. It reads only the
+  observation (features.py): the 25-level wind column and the altitude.
+BLE's own `station_seeker` flies `LatexBalloonDiscrete-v0` unchanged.
+"""
+
+import math
+from typing import Optional, Sequence
+
+from balloon_learning_environment.agents import agent
+from balloon_learning_environment.env.balloon import standard_atmosphere
+from balloon_learning_environment.utils import units
+import gin
+import jax
+import numpy as np
+
+from ble_latex import features as latex_features
+
+
+class _BoxAgent(agent.Agent):
+  """Common constructor of the Box-action baselines."""
+
+  supports_box_actions = True
+
+  def __init__(self, num_actions: int, observation_shape: Sequence[int], *,
+               action_low: Sequence[float], action_high: Sequence[float],
+               seed: int = 0):
+    super().__init__(num_actions, observation_shape)
+    self._low = np.asarray(action_low, dtype=np.float64)
+    self._high = np.asarray(action_high, dtype=np.float64)
+    if self._low.shape != (num_actions,) or self._high.shape != (num_actions,):
+      raise ValueError(f'action_low/high must have shape ({num_actions},)')
+    self._seed = seed
+
+
+@gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
+                            'action_high'])
+class LatexRandomAgent(_BoxAgent):
+  """Uniform random actions in the Box (seeded)."""
+
+  def __init__(self, num_actions, observation_shape, *, action_low,
+               action_high, seed: int = 0):
+    super().__init__(num_actions, observation_shape, action_low=action_low,
+                     action_high=action_high, seed=seed)
+    self._rng = np.random.default_rng(seed)
+
+  def _action(self) -> np.ndarray:
+    return self._rng.uniform(self._low, self._high)
+
+  def begin_episode(self, observation: np.ndarray) -> np.ndarray:
+    return self._action()
+
+  def step(self, reward: float, observation: np.ndarray) -> np.ndarray:
+    return self._action()
+
+  def end_episode(self, reward: float, terminal: bool = True) -> None:
+    pass
+
+
+@gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
+                            'action_high'])
+class GeometricStationSeeker(_BoxAgent):
+  """Du et al. (2019): fly to the level whose wind points at the target."""
+
+  def __init__(self, num_actions, observation_shape, *, action_low,
+               action_high, seed: int = 0,
+               time_factor: float = 2.0,
+               float_within_m: float = 300.0,  # [m]
+               min_gain_mps: float = 0.5,  # [m/s]
+               min_pressure: float = 5000.0,  # [Pa]
+               max_pressure: float = 14000.0):  # [Pa]
+    """Constructor.
+
+    Args:
+      num_actions: Action dimension (3).
+      observation_shape: (71,) latex features.
+      action_low: Box low.
+      action_high: Box high.
+      seed: Unused (deterministic policy); kept for the common signature.
+      time_factor: a1 used when moving (larger = slower, cheaper).
+      float_within_m: Float when this close to the chosen altitude. # [m]
+      min_gain_mps: Move only if the best level's velocity towards the target
+        beats the current level's by this much. # [m/s]
+      min_pressure: Lowest pressure level of the observation. # [Pa]
+      max_pressure: Highest pressure level of the observation. # [Pa]
+    """
+    super().__init__(num_actions, observation_shape, action_low=action_low,
+                     action_high=action_high, seed=seed)
+    if tuple(observation_shape) != (latex_features.NUM_FEATURES,):
+      raise ValueError('GeometricStationSeeker reads LatexBalloon-v0 features '
+                       f'({latex_features.NUM_FEATURES}), got '
+                       f'{observation_shape}')
+    self._time_factor = float(np.clip(time_factor, action_low[1],
+                                      action_high[1]))
+    self._float_within_m = float_within_m
+    self._min_gain_mps = min_gain_mps
+    # Level altitudes from BLE's standard atmosphere (nominal lapse rates).
+    atmosphere = standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
+    levels = np.linspace(min_pressure, max_pressure, latex_features.N_LEVELS)
+    self._level_altitudes = np.array(
+        [atmosphere.at_pressure(p).height.meters for p in levels])
+    self._target: Optional[float] = None
+
+  def _act(self, observation: np.ndarray) -> np.ndarray:
+    n = latex_features.N_LEVELS
+    squashed = np.clip(observation[:n], 0.0, 1.0 - 1e-6)
+    speeds = -30.0 * np.log1p(-squashed)  # Undo 1 - exp(-|v|/30).
+    bearing = observation[n:2 * n] * math.pi
+    towards = speeds * np.cos(bearing)  # Velocity component to target [m/s].
+    altitude = 17_500.0 + 3_500.0 * float(observation[2 * n])
+    reachable = ((self._level_altitudes >= self._low[0]) &
+                 (self._level_altitudes <= self._high[0]))
+    towards = np.where(reachable, towards, -np.inf)
+    best = int(np.argmax(towards))
+    here = int(np.argmin(np.abs(self._level_altitudes - altitude)))
+    if self._target is None or towards[best] > towards[here] + (
+        self._min_gain_mps):
+      self._target = float(self._level_altitudes[best])
+    a0 = float(np.clip(self._target, self._low[0], self._high[0]))
+    if abs(a0 - altitude) <= self._float_within_m:
+      return np.array([a0, self._time_factor, 1.0])  # Float here.
+    return np.array([a0, self._time_factor, -1.0])
+
+  def begin_episode(self, observation: np.ndarray) -> np.ndarray:
+    self._target = None
+    return self._act(observation)
+
+  def step(self, reward: float, observation: np.ndarray) -> np.ndarray:
+    return self._act(observation)
+
+  def end_episode(self, reward: float, terminal: bool = True) -> None:
+    pass

@@ -1,0 +1,135 @@
+# coding=utf-8
+r"""Evaluates an agent on held-out latex seeds (`ble-latex-eval`), BLE-style.
+
+Same flags and meaning as BLE's `balloon_learning_environment.eval.eval`, with
+the latex env and suites:
+
+  ble-latex-eval --agent=sac --suite=latex_tiny --output_dir=/tmp/latex/eval \
+      --checkpoint_dir=/tmp/latex/sac/checkpoints --checkpoint_idx=49
+
+Writes OUTPUT_DIR/SUITE/NAME.json: one object per seed with seed, reward,
+tw50, steps, helium_vented_mols, sand_dropped_kg, terminal_reason,
+final_distance_km and flight_path (README, "Eval output").
+"""
+
+import json
+import os
+import sys
+from typing import Any, Dict, List, Optional, Sequence
+
+from absl import app
+from absl import flags
+
+import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from balloon_learning_environment.agents import agent as base_agent
+from balloon_learning_environment.eval import suites as ble_suites
+import gym
+import tqdm
+
+from ble_latex import metrics
+from ble_latex import runner
+from ble_latex import suites
+
+flags.DEFINE_string('agent', 'sac', 'The name of the agent to create.')
+flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Environment to evaluate.')
+flags.DEFINE_string('suite', 'latex_tiny',
+                    f'Evaluation suite: {sorted(suites.SUITE_SIZES)} or any '
+                    'BLE suite.')
+flags.DEFINE_string('agent_gin_file', None, 'Gin file for agent configuration.')
+flags.DEFINE_multi_string('gin_file', [], 'Extra gin files.')
+flags.DEFINE_multi_string('gin_bindings', [],
+                          'Gin bindings to override default values.')
+flags.DEFINE_string('output_dir', '/tmp/ble_latex/eval',
+                    'The directory to output the json summary.')
+flags.DEFINE_integer('num_shards', 1, 'Number of shards to split the suite.',
+                     lower_bound=1)
+flags.DEFINE_integer('shard_idx', 0, 'The index of this shard.', lower_bound=0)
+flags.DEFINE_boolean('pretty_json', False, 'Indent the json output.')
+flags.DEFINE_string('checkpoint_dir', None, 'Directory to load checkpoints.')
+flags.DEFINE_integer('checkpoint_idx', None, 'Checkpoint iteration to load.')
+flags.DEFINE_string('name_override', None, 'Name of the json output file.')
+flags.DEFINE_integer('max_episode_length', None,
+                     'Override the suite\'s episode length.')
+flags.DEFINE_integer('seed', 0, 'Agent seed.')
+FLAGS = flags.FLAGS
+
+
+def shard(seeds: Sequence[int], num_shards: int, shard_idx: int) -> List[int]:
+  """BLE's sharding of a suite's seeds."""
+  if not 0 <= shard_idx < num_shards:
+    raise ValueError(f'shard_idx must be in [0, {num_shards}), got {shard_idx}')
+  start = int(len(seeds) * shard_idx / num_shards)
+  end = int(len(seeds) * (shard_idx + 1) / num_shards)
+  return list(seeds[start:end])
+
+
+def evaluate(agent: base_agent.Agent, env: gym.Env, seeds: Sequence[int],
+             max_steps: int, description: str = 'eval'
+             ) -> List[Dict[str, Any]]:
+  """Flies one deterministic episode per seed; returns the records."""
+  agent.set_mode(base_agent.AgentMode.EVAL)
+  results = []
+  bar = tqdm.tqdm(seeds, desc=description, unit='episode', dynamic_ncols=True)
+  for i, seed in enumerate(bar):
+    summary, flight = runner.run_episode(
+        env, agent, episode=i, seed=seed, max_steps=max_steps,
+        record_flight=True)
+    record = summary.to_json()
+    del record['episode'], record['wall_time_s']
+    record['flight_path'] = flight
+    results.append(record)
+    stats = metrics.summarize(results)
+    bar.set_postfix(tw50=f'{stats["tw50_mean"]:.3f}',
+                    reward=f'{stats["reward_mean"]:.1f}')
+  return results
+
+
+def output_path(output_dir: str, suite: str, name: str, num_shards: int,
+                shard_idx: int) -> str:
+  if num_shards > 1:
+    name = f'{name}_{shard_idx}'
+  return os.path.join(output_dir, suite, f'{name}.json')
+
+
+def write_results(path: str, results: List[Dict[str, Any]],
+                  pretty: bool = False) -> None:
+  """Writes atomically (tmp + rename)."""
+  os.makedirs(os.path.dirname(path), exist_ok=True)
+  tmp = path + '.tmp'
+  with open(tmp, 'w') as f:
+    json.dump(results, f, indent=2 if pretty else None)
+  os.replace(tmp, path)
+
+
+def main(argv: Sequence[str]) -> None:
+  if len(argv) > 1:
+    raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
+  runner.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
+                  FLAGS.gin_bindings)
+  suite = ble_suites.get_eval_suite(FLAGS.suite)
+  seeds = shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)
+  env = gym.make(FLAGS.env_name).unwrapped
+  agent = runner.create_agent(FLAGS.agent, env, seed=FLAGS.seed)
+  if (FLAGS.checkpoint_dir is None) != (FLAGS.checkpoint_idx is None):
+    raise app.UsageError('--checkpoint_dir and --checkpoint_idx go together.')
+  if FLAGS.checkpoint_dir is not None:
+    agent.load_checkpoint(FLAGS.checkpoint_dir, FLAGS.checkpoint_idx)
+  max_steps = FLAGS.max_episode_length or suite.max_episode_length
+  results = evaluate(agent, env, seeds, max_steps,
+                     description=f'eval {FLAGS.agent} {FLAGS.suite}')
+  name = FLAGS.name_override or (
+      f'{FLAGS.agent}_{FLAGS.checkpoint_idx}'
+      if FLAGS.checkpoint_idx is not None else FLAGS.agent)
+  path = output_path(FLAGS.output_dir, FLAGS.suite, name, FLAGS.num_shards,
+                     FLAGS.shard_idx)
+  write_results(path, results, FLAGS.pretty_json)
+  print(json.dumps({'output': path, **metrics.summarize(results)}))
+
+
+def run(argv: Optional[Sequence[str]] = None) -> None:
+  """Console-script entry point."""
+  app.run(main, argv=[sys.argv[0], *(argv or sys.argv[1:])])
+
+
+if __name__ == '__main__':
+  app.run(main)

@@ -1,0 +1,241 @@
+# coding=utf-8
+"""Per-episode metrics and collectors for latex-balloon training.
+
+BLE's collector machinery (`collector.Collector`, `CollectorDispatcher`,
+`PickleCollector`, `TensorboardCollector`) is reused; what is new:
+- `LatexStatistics`: BLE's `StatisticsInstance` plus the env's `info` and, at
+  episode end, the `EpisodeSummary` (TW50, resources, terminal reason);
+- `EpisodeLogCollector`: RUN/episodes.jsonl, one line per episode, which a
+  resumed run truncates back to its checkpoint so no episode is lost or
+  repeated;
+- `LatexTensorboardCollector`: BLE's, plus TW50/resources/terminal scalars;
+- `ProgressCollector`: a tqdm bar (BLE's ConsoleCollector counts discrete
+  actions, which a Box action space does not have).
+"""
+
+import dataclasses
+import json
+import math
+import os
+import time
+from typing import Any, Dict, List, Mapping, Optional, Sequence
+
+from balloon_learning_environment.metrics import collector
+from balloon_learning_environment.metrics import pickle_collector
+from balloon_learning_environment.metrics import statistics_instance
+from balloon_learning_environment.metrics import tensorboard_collector
+import tqdm
+
+EPISODE_LOG = 'episodes.jsonl'
+TERMINAL_REASONS = ('time_limit', 'out_of_sand', 'out_of_helium', 'burst',
+                    'grounded', 'max_episode_length')
+
+
+@dataclasses.dataclass
+class EpisodeSummary:
+  """What one episode achieved (a line of episodes.jsonl)."""
+  episode: int
+  seed: int
+  reward: float
+  tw50: float  # Fraction of steps within the station-keeping radius.
+  steps: int
+  helium_vented_mols: float  # [mol]
+  sand_dropped_kg: float  # [kg]
+  terminal_reason: str
+  final_distance_km: float  # [km]
+  wall_time_s: float = 0.0  # [s]
+
+  def to_json(self) -> Dict[str, Any]:
+    return dataclasses.asdict(self)
+
+
+@dataclasses.dataclass
+class LatexStatistics(statistics_instance.StatisticsInstance):
+  """BLE's per-step statistics plus the env's info and the episode summary."""
+  info: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+  summary: Optional[EpisodeSummary] = None
+
+
+def terminal_reason(info: Mapping[str, Any], done: bool) -> str:
+  """Why an episode ended, from the env's last info."""
+  if info.get('time_limit'):
+    return 'time_limit'
+  if done:
+    return info.get('terminal_reason', 'terminal')
+  return 'max_episode_length'
+
+
+class EpisodeTracker:
+  """Accumulates one episode's steps into an EpisodeSummary."""
+
+  def __init__(self, episode: int, seed: int, radius_km: float = 50.0):
+    self.episode, self.seed, self._radius_km = episode, seed, radius_km
+    self.reward, self.steps, self._within = 0.0, 0, 0
+    self.info: Mapping[str, Any] = {}
+    self._start = time.monotonic()
+
+  def step(self, reward: float, info: Mapping[str, Any]) -> None:
+    self.reward += float(reward)
+    self.steps += 1
+    self._within += info['distance_km'] <= self._radius_km
+    self.info = info
+
+  def summary(self, done: bool) -> EpisodeSummary:
+    info = self.info
+    return EpisodeSummary(
+        episode=self.episode,
+        seed=self.seed,
+        reward=self.reward,
+        tw50=self._within / max(self.steps, 1),
+        steps=self.steps,
+        helium_vented_mols=float(info.get('helium_vented_mols', 0.0)),
+        sand_dropped_kg=float(info.get('sand_dropped_kg', 0.0)),
+        terminal_reason=terminal_reason(info, done),
+        final_distance_km=float(info.get('distance_km', math.nan)),
+        wall_time_s=time.monotonic() - self._start)
+
+
+def read_episode_log(path: str) -> List[Dict[str, Any]]:
+  """Reads episodes.jsonl; a torn last line (killed run) is ignored."""
+  records = []
+  if not os.path.exists(path):
+    return records
+  with open(path) as f:
+    lines = f.read().split('\n')
+  for i, line in enumerate(lines):
+    if not line.strip():
+      continue
+    try:
+      records.append(json.loads(line))
+    except json.JSONDecodeError as e:
+      if i >= len(lines) - 2:  # Only the last line may be torn.
+        break
+      raise ValueError(f'{path}: corrupt line {i + 1}: {e}') from e
+  return records
+
+
+def truncate_episode_log(path: str, num_episodes: int) -> None:
+  """Keeps the first `num_episodes` records (atomically)."""
+  records = read_episode_log(path)[:num_episodes]
+  tmp = path + '.tmp'
+  with open(tmp, 'w') as f:
+    for r in records:
+      f.write(json.dumps(r) + '\n')
+  os.replace(tmp, path)
+
+
+class EpisodeLogCollector(collector.Collector):
+  """Appends each finished episode's summary to RUN/episodes.jsonl."""
+
+  def __init__(self, base_dir: str, num_actions: int, current_episode: int):
+    if base_dir is None:
+      raise ValueError('EpisodeLogCollector needs a base_dir.')
+    super().__init__(base_dir, num_actions, current_episode)
+    self.path = os.path.join(base_dir, EPISODE_LOG)
+    # Drop episodes after the checkpoint we resume from (a killed run may have
+    # logged some); they are re-run identically from their seeds.
+    truncate_episode_log(self.path, current_episode)
+
+  def get_name(self) -> str:
+    return 'episodes'
+
+  def pre_training(self) -> None:
+    pass
+
+  def begin_episode(self) -> None:
+    pass
+
+  def step(self, statistics: statistics_instance.StatisticsInstance) -> None:
+    pass
+
+  def end_episode(self, statistics: LatexStatistics) -> None:
+    with open(self.path, 'a') as f:
+      f.write(json.dumps(statistics.summary.to_json()) + '\n')
+      f.flush()
+      os.fsync(f.fileno())
+    self.current_episode += 1
+
+  def end_training(self) -> None:
+    pass
+
+
+class LatexTensorboardCollector(tensorboard_collector.TensorboardCollector):
+  """BLE's tensorboard collector plus TW50, resources and terminal reasons."""
+
+  def end_episode(self, statistics: LatexStatistics) -> None:
+    episode = self.current_episode
+    super().end_episode(statistics)
+    s = statistics.summary
+    w = self.summary_writer
+    w.scalar('Train/TW50', s.tw50, episode)
+    w.scalar('Train/HeliumVentedMols', s.helium_vented_mols, episode)
+    w.scalar('Train/SandDroppedKg', s.sand_dropped_kg, episode)
+    w.scalar('Train/FinalDistanceKm', s.final_distance_km, episode)
+    for reason in TERMINAL_REASONS:
+      w.scalar(f'Train/Terminal/{reason}', float(s.terminal_reason == reason),
+               episode)
+    w.flush()
+
+
+class ProgressCollector(collector.Collector):
+  """A tqdm progress bar over episodes with TW50, reward and resources."""
+
+  def __init__(self, base_dir: Optional[str], num_actions: int,
+               current_episode: int, total_episodes: Optional[int] = None,
+               description: str = 'train'):
+    super().__init__(None, num_actions, current_episode)
+    self._bar = tqdm.tqdm(total=total_episodes, initial=current_episode,
+                          desc=description, unit='episode', dynamic_ncols=True)
+    self._recent: List[EpisodeSummary] = []
+
+  def get_name(self) -> str:
+    return 'progress'
+
+  def pre_training(self) -> None:
+    pass
+
+  def begin_episode(self) -> None:
+    pass
+
+  def step(self, statistics: statistics_instance.StatisticsInstance) -> None:
+    pass
+
+  def end_episode(self, statistics: LatexStatistics) -> None:
+    s = statistics.summary
+    self._recent = (self._recent + [s])[-50:]
+    n = len(self._recent)
+    self._bar.set_postfix(
+        tw50=f'{s.tw50:.2f}', tw50_50=f'{sum(r.tw50 for r in self._recent) / n:.2f}',
+        reward=f'{s.reward:.1f}', sand=f'{s.sand_dropped_kg:.2f}kg',
+        helium=f'{s.helium_vented_mols:.1f}mol', end=s.terminal_reason)
+    self._bar.update(1)
+    self.current_episode += 1
+
+  def end_training(self) -> None:
+    self._bar.close()
+
+
+AVAILABLE_COLLECTORS = {
+    'progress': ProgressCollector,
+    'console': ProgressCollector,  # BLE's name for the console summary.
+    'episodes': EpisodeLogCollector,
+    'pickle': pickle_collector.PickleCollector,
+    'tensorboard': LatexTensorboardCollector,
+}
+
+
+def summarize(records: Sequence[Mapping[str, Any]]) -> Dict[str, float]:
+  """Mean/std of TW50, reward, resources and % out of resources."""
+  import numpy as np  # pylint: disable=g-import-not-at-top
+  if not records:
+    return {}
+  def col(key):
+    return np.array([float(r[key]) for r in records])
+  out = {'episodes': len(records)}
+  for key in ('tw50', 'reward', 'helium_vented_mols', 'sand_dropped_kg'):
+    out[f'{key}_mean'] = float(col(key).mean())
+    out[f'{key}_std'] = float(col(key).std())
+  out['out_of_resources_pct'] = 100.0 * float(np.mean(
+      [r['terminal_reason'] in ('out_of_sand', 'out_of_helium')
+       for r in records]))
+  return out

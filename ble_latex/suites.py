@@ -1,0 +1,39 @@
+# coding=utf-8
+"""Held-out evaluation suites for the latex balloon, in BLE's suite registry.
+
+Training episode i uses env seed TRAIN_SEED_OFFSET + i (< EVAL_SEED_OFFSET);
+evaluation suites use seeds from EVAL_SEED_OFFSET up, so they never overlap.
+After `register()`, BLE's `suites.get_eval_suite('latex_small')` knows them.
+"""
+
+from balloon_learning_environment.eval import suites
+
+TRAIN_SEED_OFFSET = 0
+EVAL_SEED_OFFSET = 1_000_000
+EPISODE_STEPS = 216  # 3 days of 20-minute actions.
+
+SUITE_SIZES = {
+    'latex_micro': 1,
+    'latex_tiny': 10,
+    'latex_small': 100,
+    'latex_medium': 1000,
+}
+
+
+def register() -> None:
+  """Adds the latex suites to BLE's registry (idempotent)."""
+  for name, size in SUITE_SIZES.items():
+    suites._eval_suites[name] = suites.EvaluationSuite(  # pylint: disable=protected-access
+        list(range(EVAL_SEED_OFFSET, EVAL_SEED_OFFSET + size)), EPISODE_STEPS)
+
+
+def train_seed(episode: int) -> int:
+  """Env seed of training episode `episode`."""
+  seed = TRAIN_SEED_OFFSET + episode
+  if seed >= EVAL_SEED_OFFSET:
+    raise ValueError(f'training episode {episode} would use seed {seed}, '
+                     f'inside the held-out eval seeds (>= {EVAL_SEED_OFFSET})')
+  return seed
+
+
+register()

@@ -1,0 +1,128 @@
+# coding=utf-8
+r"""Trains an agent on the latex balloon (`ble-latex-train`), BLE-style.
+
+Same flags and meaning as BLE's `balloon_learning_environment.train`, with the
+latex env and SAC as defaults:
+
+  ble-latex-train --base_dir=/tmp/latex/sac --num_iterations=50 \
+      --episodes_per_iteration=10
+
+The run directory holds `checkpoints/` (one per iteration), `episodes.jsonl`
+(one line per episode) and `metrics/` (tensorboard, pickle). Killed and
+restarted with the same flags, training resumes after the last checkpoint:
+episodes logged after it are dropped and re-run from their seeds, so no
+episode is lost or repeated. Episode i always flies env seed i (held-out eval
+seeds start at 1,000,000).
+"""
+
+import os
+import sys
+from typing import Optional, Sequence
+
+from absl import app
+from absl import flags
+from absl import logging
+
+import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from balloon_learning_environment.agents import agent as base_agent
+from balloon_learning_environment.metrics import collector_dispatcher
+import gin
+import gym
+
+from ble_latex import metrics
+from ble_latex import runner
+from ble_latex import suites
+
+flags.DEFINE_string('agent', 'sac', 'Type of agent to create.')
+flags.DEFINE_string('env_name', 'LatexBalloon-v0',
+                    'Name of environment to create.')
+flags.DEFINE_integer('num_iterations', 50, 'Number of iterations to train.')
+flags.DEFINE_integer('episodes_per_iteration', 10,
+                     'Episodes per iteration; a checkpoint is written after '
+                     'each iteration.')
+flags.DEFINE_integer('max_episode_length', suites.EPISODE_STEPS,
+                     'Maximum steps per episode (216 x 20 min = 3 days).')
+flags.DEFINE_string('base_dir', None,
+                    'Directory for checkpoints, episodes.jsonl and metrics.')
+flags.DEFINE_string('agent_gin_file', None,
+                    'Gin file for agent configuration (default: the agent\'s).')
+flags.DEFINE_multi_string('gin_file', [],
+                          'Extra gin files (e.g. gin_configs/paper_era5.gin).')
+flags.DEFINE_multi_string('gin_bindings', [],
+                          'Gin bindings to override default values.')
+flags.DEFINE_multi_string('collectors', ['progress', 'episodes', 'tensorboard'],
+                          f'Collectors: {sorted(metrics.AVAILABLE_COLLECTORS)}.')
+flags.DEFINE_integer('seed', 0, 'Seed of the agent (env seeds are episode '
+                     'indices).')
+flags.mark_flag_as_required('base_dir')
+FLAGS = flags.FLAGS
+
+
+def train(*, agent_name: str, env_name: str, base_dir: str,
+          num_iterations: int, episodes_per_iteration: int,
+          max_episode_length: int, collectors: Sequence[str],
+          seed: int = 0) -> None:
+  """Runs (or resumes) a training run; gin must already be bound."""
+  for name in collectors:
+    if name not in metrics.AVAILABLE_COLLECTORS:
+      raise ValueError(f'Unknown collector {name!r}; available: '
+                       f'{sorted(metrics.AVAILABLE_COLLECTORS)}')
+  if num_iterations < 1 or episodes_per_iteration < 1 or max_episode_length < 1:
+    raise ValueError('num_iterations, episodes_per_iteration and '
+                     'max_episode_length must be >= 1')
+  os.makedirs(base_dir, exist_ok=True)
+  env = gym.make(env_name).unwrapped
+  agent = runner.create_agent(agent_name, env, seed=seed)
+  checkpoint_dir = os.path.join(base_dir, 'checkpoints')
+  start_iteration = agent.reload_latest_checkpoint(checkpoint_dir) + 1
+  start_episode = start_iteration * episodes_per_iteration
+  if start_iteration:
+    logging.info('Resuming after checkpoint %d (episode %d).',
+                 start_iteration - 1, start_episode)
+  total = num_iterations * episodes_per_iteration
+
+  def make(name):
+    ctor = metrics.AVAILABLE_COLLECTORS[name]
+    if ctor is metrics.ProgressCollector:
+      return lambda d, n, e: ctor(d, n, e, total_episodes=total,
+                                  description=f'train {agent_name}')
+    return ctor
+
+  action_dim = (env.action_space.n if hasattr(env.action_space, 'n') else
+                env.action_space.shape[0])
+  dispatcher = collector_dispatcher.CollectorDispatcher(
+      base_dir, action_dim, [make(c) for c in collectors], start_episode)
+  agent.set_summary_writer(dispatcher.get_summary_writer())
+  agent.set_mode(base_agent.AgentMode.TRAIN)
+  dispatcher.pre_training()
+  for iteration in range(start_iteration, num_iterations):
+    for i in range(episodes_per_iteration):
+      episode = iteration * episodes_per_iteration + i
+      runner.run_episode(env, agent, episode=episode,
+                         seed=suites.train_seed(episode),
+                         max_steps=max_episode_length, dispatcher=dispatcher)
+    agent.save_checkpoint(checkpoint_dir, iteration)
+  dispatcher.end_training()
+  with open(os.path.join(base_dir, 'operative_config.gin'), 'w') as f:
+    f.write(gin.operative_config_str())
+
+
+def main(argv: Sequence[str]) -> None:
+  if len(argv) > 1:
+    raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
+  runner.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
+                  FLAGS.gin_bindings)
+  train(agent_name=FLAGS.agent, env_name=FLAGS.env_name,
+        base_dir=FLAGS.base_dir, num_iterations=FLAGS.num_iterations,
+        episodes_per_iteration=FLAGS.episodes_per_iteration,
+        max_episode_length=FLAGS.max_episode_length,
+        collectors=FLAGS.collectors, seed=FLAGS.seed)
+
+
+def run(argv: Optional[Sequence[str]] = None) -> None:
+  """Console-script entry point."""
+  app.run(main, argv=[sys.argv[0], *(argv or sys.argv[1:])])
+
+
+if __name__ == '__main__':
+  app.run(main)

@@ -1,0 +1,307 @@
+# coding=utf-8
+"""Tests of ble_latex's SAC agent (ble_latex/agents/sac.py)."""
+
+import os
+import pickle
+
+import ble_latex  # noqa: F401  pylint: disable=unused-import
+from balloon_learning_environment.agents import agent as base_agent
+from balloon_learning_environment.agents import agent_registry
+from balloon_learning_environment.utils import run_helpers
+import gin
+import jax
+import numpy as np
+import pytest
+
+from ble_latex import agents as latex_agents
+from ble_latex.agents import sac
+
+# The latex env's action box: a0 altitude [m], a1 time factor, a2 float flag.
+LOW = np.array([14_000.0, 1.0, -1.0])
+HIGH = np.array([21_000.0, 5.0, 1.0])
+TARGET = np.array([19_100.0, 2.0, 0.5])
+OBS = np.array([0.5, -0.25, 1.0, 0.0], dtype=np.float32)
+
+# Small networks and batches keep the tests fast on one core.
+SMALL = dict(hidden_units=32, batch_size=16, min_replay_history=16,
+             summary_writing_frequency=10**9)
+
+
+def _agent(seed=0, obs_dim=OBS.size, **kwargs):
+  return sac.SACAgent(3, (obs_dim,), action_low=LOW, action_high=HIGH,
+                      seed=seed, **{**SMALL, **kwargs})
+
+
+def _bandit_reward(action):
+  """-||u - t||^2 on the normalised action: best at TARGET, 0 there."""
+  u = 2.0 * (action - LOW) / (HIGH - LOW) - 1.0
+  t = 2.0 * (TARGET - LOW) / (HIGH - LOW) - 1.0
+  return -float(np.sum((u - t) ** 2))
+
+
+def _eval_bandit(agent):
+  agent.set_mode(base_agent.AgentMode.EVAL)
+  action = agent.begin_episode(OBS)
+  reward = _bandit_reward(action)
+  agent.end_episode(reward, True)
+  agent.set_mode(base_agent.AgentMode.TRAIN)
+  return reward
+
+
+class _WalkEnv:
+  """Deterministic 4-step task; episodes end by time limit (not terminal)."""
+
+  steps = 4
+
+  def reset(self):
+    self._h, self._t = 0.0, 0
+    return self._obs()
+
+  def _obs(self):
+    return np.array([self._h, self._t / self.steps, np.sin(self._h), 1.0],
+                    dtype=np.float32)
+
+  def step(self, action):
+    u = 2.0 * (action - LOW) / (HIGH - LOW) - 1.0
+    self._h = float(np.clip(self._h + 0.5 * u[0] * u[1], -2.0, 2.0))
+    self._t += 1
+    return self._obs(), -abs(self._h - 1.0), self._t >= self.steps
+
+
+def _run_episodes(agent, env, n):
+  """BLE train_lib's loop; returns every action taken."""
+  actions = []
+  for _ in range(n):
+    obs = env.reset()
+    action = agent.begin_episode(obs)
+    actions.append(action)
+    while True:
+      obs, reward, done = env.step(action)
+      if done:
+        break
+      action = agent.step(reward, obs)
+      actions.append(action)
+    agent.end_episode(reward, False)  # Time limit: not a terminal state.
+  return np.array(actions)
+
+
+def test_learns_one_step_task_deterministic_eval_improves():
+  agent = _agent(seed=0, batch_size=32, min_replay_history=32,
+                 actor_learning_rate=1e-3, critic_learning_rate=1e-3,
+                 alpha_learning_rate=1e-3)
+  before = _eval_bandit(agent)
+  for _ in range(300):  # One SAC update per 1-step episode.
+    action = agent.begin_episode(OBS)
+    agent.end_episode(_bandit_reward(action), True)
+  after = _eval_bandit(agent)
+  assert before < -0.5
+  assert after > -0.1
+  assert after > before + 0.5
+  assert agent.training_steps == 300  # The two eval episodes do not train.
+  assert agent.replay_size == 300
+
+
+class _AltitudeEnv:
+  """Reach 19 000 m in 6 steps: a0 is the desired altitude [m], a1 how many
+  steps the move is spread over (h += (a0 - h) / a1); reward 1 at 19 km."""
+
+  steps = 6
+
+  def reset(self):
+    self._h, self._t = 15_000.0, 0  # [m]
+    return self._obs()
+
+  def _obs(self):
+    return np.array([(self._h - 17_500.0) / 3_500.0, self._t / self.steps],
+                    dtype=np.float32)
+
+  def step(self, action):
+    self._h += (action[0] - self._h) / action[1]
+    self._t += 1
+    reward = float(np.exp(-abs(self._h - 19_000.0) / 500.0))
+    return self._obs(), reward, self._t >= self.steps
+
+
+def _episode_return(agent, env, mode):
+  agent.set_mode(mode)
+  obs = env.reset()
+  action = agent.begin_episode(obs)
+  total = 0.0
+  while True:
+    obs, reward, done = env.step(action)
+    total += reward
+    if done:
+      break
+    action = agent.step(reward, obs)
+  agent.end_episode(reward, False)
+  return total
+
+
+def test_learns_multi_step_altitude_task():
+  agent = sac.SACAgent(3, (2,), action_low=LOW, action_high=HIGH, seed=0,
+                       hidden_units=64, batch_size=64, min_replay_history=100,
+                       actor_learning_rate=1e-3, critic_learning_rate=1e-3,
+                       alpha_learning_rate=1e-3, gamma=0.9)
+  env = _AltitudeEnv()
+  before = _episode_return(agent, env, 'eval')
+  for _ in range(200):
+    _episode_return(agent, env, 'train')
+  after = _episode_return(agent, env, 'eval')
+  assert before < 0.5  # Of at most 6.
+  assert after > 2.0
+
+
+def test_same_seed_same_actions_and_different_seed_differs():
+  a = _run_episodes(_agent(seed=3), _WalkEnv(), 8)
+  b = _run_episodes(_agent(seed=3), _WalkEnv(), 8)
+  c = _run_episodes(_agent(seed=4), _WalkEnv(), 8)
+  np.testing.assert_array_equal(a, b)
+  assert not np.allclose(a, c)
+
+
+def test_checkpoint_round_trip_resumes_identically(tmp_path):
+  ckpt = str(tmp_path / 'checkpoints')
+  env = _WalkEnv()
+  probe = np.random.default_rng(0).uniform(-1, 1, (5, OBS.size))
+  original = _agent(seed=1)
+  _run_episodes(original, env, 8)  # 32 transitions: updates have started.
+  assert original.training_steps > original.min_replay_history
+  original.save_checkpoint(ckpt, 0)
+  original.set_mode('eval')
+  eval_before = [original.begin_episode(o) for o in probe]
+  original.set_mode('train')
+  continued = _run_episodes(original, env, 3)
+
+  restored = _agent(seed=99)  # Everything must come from the checkpoint.
+  assert restored.reload_latest_checkpoint(ckpt) == 0
+  assert restored.replay_size == 32
+  assert restored.training_steps == 8 * 4
+  restored.set_mode('eval')
+  eval_after = [restored.begin_episode(o) for o in probe]
+  restored.set_mode('train')
+  np.testing.assert_array_equal(eval_before, eval_after)
+  # Same replay, PRNG key, optimizer and temperature: identical training.
+  np.testing.assert_array_equal(continued, _run_episodes(restored, env, 3))
+  assert restored.training_steps == original.training_steps
+  assert restored.temperature == original.temperature
+  for x, y in zip(jax.tree.leaves(original.network_params),
+                  jax.tree.leaves(restored.network_params)):
+    np.testing.assert_array_equal(x, y)
+
+
+def test_checkpoint_files_atomic_names_and_cleanup(tmp_path):
+  ckpt = str(tmp_path)
+  agent = _agent(seed=0, checkpoint_duration=1)
+  assert agent.reload_latest_checkpoint(str(tmp_path / 'missing')) == -1
+  assert agent.reload_latest_checkpoint(ckpt) == -1
+  _run_episodes(agent, _WalkEnv(), 1)
+  for iteration in range(4):
+    agent.save_checkpoint(ckpt, iteration)
+  # A write killed mid-way leaves only a temporary file, never a
+  # checkpoint_*.pkl; it is ignored on reload and removed on the next save.
+  with open(os.path.join(ckpt, '.tmp-checkpoint_00009.pkl-x'), 'wb') as f:
+    f.write(b'partial')
+  assert sorted(os.listdir(ckpt)) == [
+      '.tmp-checkpoint_00009.pkl-x', 'checkpoint_00002.pkl',
+      'checkpoint_00003.pkl']
+  assert _agent(seed=0).reload_latest_checkpoint(ckpt) == 3
+  agent.save_checkpoint(ckpt, 4)
+  assert sorted(os.listdir(ckpt)) == ['checkpoint_00003.pkl',
+                                      'checkpoint_00004.pkl']
+  with pytest.raises(FileNotFoundError):
+    agent.load_checkpoint(ckpt, 7)
+  with pytest.raises(ValueError, match='config'):
+    _agent(seed=0, hidden_units=16).load_checkpoint(ckpt, 4)
+  with open(os.path.join(ckpt, 'checkpoint_00005.pkl'), 'wb') as f:
+    pickle.dump({'not': 'sac'}, f)
+  with pytest.raises(ValueError, match='not a ble_latex SAC checkpoint'):
+    agent.load_checkpoint(ckpt, 5)
+
+
+def test_actions_always_inside_box():
+  agent = _agent(seed=5, min_replay_history=8)
+  rng = np.random.default_rng(1)
+  actions = []
+  # Train mode: uniform warm-up actions, then samples of the policy.
+  actions.append(agent.begin_episode(rng.normal(size=4)))
+  for _ in range(24):
+    actions.append(agent.step(0.0, rng.normal(size=4)))
+  agent.end_episode(0.0, False)
+  assert agent.training_steps > agent.min_replay_history
+  # Eval mode: the mean action, also for inputs that saturate the tanh.
+  agent.set_mode(base_agent.AgentMode.EVAL)
+  for scale in (1.0, 1e3):
+    actions.append(agent.begin_episode(scale * rng.normal(size=4)))
+    for _ in range(8):
+      actions.append(agent.step(0.0, scale * rng.normal(size=4)))
+  # A mean action saturated at either edge maps exactly onto the box edge.
+  params = agent.network_params['params']
+  for sign, edge in ((1.0, HIGH), (-1.0, LOW)):
+    params['_actor_final_layer']['bias'] = params['_actor_final_layer'][
+        'bias'].at[:3].set(sign * 1e3)
+    actions.append(agent.begin_episode(OBS))
+    np.testing.assert_array_equal(actions[-1], edge.astype(np.float32))
+  actions = np.array(actions)
+  assert actions.dtype == np.float32 and actions.shape[1] == 3
+  assert np.all(actions >= LOW.astype(np.float32))
+  assert np.all(actions <= HIGH.astype(np.float32))
+  # Diverged (NaN) parameters never reach the env as a NaN action.
+  params['_actor_final_layer']['bias'] = params['_actor_final_layer'][
+      'bias'].at[0].set(np.nan)
+  with pytest.raises(FloatingPointError, match='non-finite action'):
+    agent.begin_episode(OBS)
+
+
+def test_registry_and_gin_file():
+  latex_agents.register()
+  latex_agents.register()  # Idempotent.
+  assert agent_registry.agent_constructor('sac') is sac.SACAgent
+  assert sac.SACAgent.supports_box_actions
+  assert 'sac' in latex_agents.BOX_AGENTS
+  gin_path = agent_registry.get_default_gin_config('sac')
+  assert os.path.isabs(gin_path) and os.path.isfile(gin_path)
+  assert os.path.basename(gin_path) == 'sac.gin'
+  try:
+    gin.clear_config()
+    gin.parse_config_file(gin_path)
+    gin.clear_config()
+    # BLE's own gin + constructor path (as its train/eval use them).
+    run_helpers.bind_gin_variables('sac', gin_bindings=[
+        'ble_latex.agents.sac.SACAgent.replay_capacity = 1000'])
+    agent = run_helpers.create_agent('sac', 3, observation_shape=(7,))
+    assert isinstance(agent, sac.SACAgent)
+    assert agent.get_name() == 'sac'
+    assert agent._hidden_units == 256  # pylint: disable=protected-access
+    assert agent._replay_capacity == 1000  # pylint: disable=protected-access
+    assert agent.target_entropy == 0.0
+    assert agent.min_replay_history == 1000
+    action = agent.begin_episode(np.zeros(7))  # Default box: [-1, 1]^3.
+    assert np.all(np.abs(action) <= 1.0)
+  finally:
+    gin.clear_config()
+
+
+def test_bad_inputs_raise_clear_errors_and_leave_state_untouched():
+  agent = _agent(seed=0)
+  nan_obs = OBS.copy()
+  nan_obs[2] = np.nan
+  rng_before = np.asarray(agent._rng).copy()  # pylint: disable=protected-access
+  with pytest.raises(ValueError, match=r'observation.*NaN/inf.*\[2\]'):
+    agent.begin_episode(nan_obs)
+  with pytest.raises(ValueError, match='observation has shape'):
+    agent.begin_episode(np.zeros(5))
+  np.testing.assert_array_equal(rng_before, agent._rng)  # pylint: disable=protected-access
+  assert agent.training_steps == 0
+  agent.begin_episode(OBS)
+  steps, size = agent.training_steps, agent.replay_size
+  with pytest.raises(ValueError, match='observation'):
+    agent.step(0.0, np.full(4, np.inf))
+  with pytest.raises(ValueError, match='reward'):
+    agent.step(float('nan'), OBS)
+  with pytest.raises(ValueError, match='reward'):
+    agent.end_episode(float('inf'), True)
+  assert (agent.training_steps, agent.replay_size) == (steps, size)
+  with pytest.raises(ValueError, match='low < high'):
+    sac.SACAgent(3, (4,), action_low=HIGH, action_high=LOW)
+  with pytest.raises(ValueError, match='shape'):
+    sac.SACAgent(3, (4,), action_low=[0.0, 0.0], action_high=[1.0, 1.0])

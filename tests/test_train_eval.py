@@ -1,0 +1,134 @@
+"""ble-latex-train / ble-latex-eval: CLI smoke tests, resume after a kill."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import ble_latex  # noqa: F401
+from ble_latex import metrics
+from ble_latex import suites
+import pytest
+
+# A tiny SAC so the test is fast; the schedule is the real one.
+_TINY = ['--gin_bindings=ble_latex.agents.sac.SACAgent.min_replay_history=30',
+         '--gin_bindings=ble_latex.agents.sac.SACAgent.batch_size=16',
+         '--gin_bindings=ble_latex.agents.sac.SACAgent.hidden_units=16',
+         '--max_episode_length=12', '--episodes_per_iteration=2']
+_ENV = dict(os.environ, TF_CPP_MIN_LOG_LEVEL='3', JAX_PLATFORMS='cpu')
+
+
+def _train_cmd(base_dir, iterations):
+  return [sys.executable, '-m', 'ble_latex.train', f'--base_dir={base_dir}',
+          f'--num_iterations={iterations}', '--collectors=episodes',
+          '--collectors=pickle', '--collectors=tensorboard', *_TINY]
+
+
+def _run(cmd):
+  out = subprocess.run(cmd, env=_ENV, capture_output=True, text=True,
+                       timeout=600)
+  assert out.returncode == 0, out.stderr[-3000:]
+  return out
+
+
+def _comparable(records):
+  return [{k: v for k, v in r.items() if k != 'wall_time_s'} for r in records]
+
+
+def test_train_killed_and_resumed_equals_uninterrupted_run(tmp_path):
+  full, killed = tmp_path / 'full', tmp_path / 'killed'
+  _run(_train_cmd(full, 4))
+  reference = metrics.read_episode_log(str(full / metrics.EPISODE_LOG))
+  assert [r['episode'] for r in reference] == list(range(8))
+  assert [r['seed'] for r in reference] == [suites.train_seed(i)
+                                            for i in range(8)]
+
+  # Kill the second run once its checkpoint 1 exists (mid iteration 2).
+  proc = subprocess.Popen(_train_cmd(killed, 4), env=_ENV,
+                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+  checkpoint = killed / 'checkpoints' / 'checkpoint_00001.pkl'
+  deadline = time.time() + 300
+  while not checkpoint.exists() and proc.poll() is None:
+    assert time.time() < deadline
+    time.sleep(0.05)
+  proc.send_signal(signal.SIGKILL)
+  proc.wait()
+  logged = metrics.read_episode_log(str(killed / metrics.EPISODE_LOG))
+  assert len(logged) < 8  # It really was interrupted.
+
+  _run(_train_cmd(killed, 4))
+  resumed = metrics.read_episode_log(str(killed / metrics.EPISODE_LOG))
+  assert [r['episode'] for r in resumed] == list(range(8))  # None lost/twice.
+  assert _comparable(resumed) == _comparable(reference)
+  assert sorted(os.listdir(killed / 'metrics')) == ['episodes', 'pickle',
+                                                    'tensorboard']
+
+
+def test_eval_writes_per_episode_json_with_flight_path(tmp_path):
+  out = _run([sys.executable, '-m', 'ble_latex.eval',
+              '--agent=latex_station_seeker', '--suite=latex_micro',
+              f'--output_dir={tmp_path}', '--max_episode_length=6'])
+  summary = json.loads(out.stdout.strip().splitlines()[-1])
+  path = tmp_path / 'latex_micro' / 'latex_station_seeker.json'
+  assert summary['output'] == str(path)
+  (record,) = json.loads(path.read_text())
+  assert record['seed'] == suites.EVAL_SEED_OFFSET
+  assert record['steps'] == 6 and len(record['flight_path']) == 7
+  assert record['terminal_reason'] == 'max_episode_length'
+  assert set(record) >= {'reward', 'tw50', 'helium_vented_mols',
+                         'sand_dropped_kg', 'final_distance_km'}
+  assert set(record['flight_path'][0]) == {
+      't_s', 'x_km', 'y_km', 'altitude_m', 'ascent_rate_mps', 'decision',
+      'helium_mols', 'sand_kg'}
+
+
+def test_eval_loads_a_trained_checkpoint_and_shards(tmp_path):
+  run = tmp_path / 'run'
+  _run(_train_cmd(run, 1))
+  _run([sys.executable, '-m', 'ble_latex.eval', '--agent=sac',
+        '--suite=latex_tiny', f'--output_dir={tmp_path}', '--num_shards=5',
+        '--shard_idx=1', f'--checkpoint_dir={run / "checkpoints"}',
+        '--checkpoint_idx=0', '--max_episode_length=3', *_TINY[:3]])
+  records = json.loads((tmp_path / 'latex_tiny' / 'sac_0_1.json').read_text())
+  assert [r['seed'] for r in records] == [suites.EVAL_SEED_OFFSET + 2,
+                                          suites.EVAL_SEED_OFFSET + 3]
+
+
+def test_missing_checkpoint_is_an_error(tmp_path):
+  out = subprocess.run(
+      [sys.executable, '-m', 'ble_latex.eval', '--agent=sac',
+       '--suite=latex_micro', f'--output_dir={tmp_path}',
+       f'--checkpoint_dir={tmp_path}', '--checkpoint_idx=3'],
+      env=_ENV, capture_output=True, text=True, timeout=600)
+  assert out.returncode != 0
+  assert 'checkpoint' in out.stderr.lower()
+
+
+def test_discrete_agent_on_box_env_is_a_clear_error(tmp_path):
+  out = subprocess.run(
+      [sys.executable, '-m', 'ble_latex.train', '--agent=station_seeker',
+       f'--base_dir={tmp_path}', '--num_iterations=1'],
+      env=_ENV, capture_output=True, text=True, timeout=600)
+  assert out.returncode != 0
+  assert 'LatexBalloonDiscrete-v0' in out.stderr
+
+
+def test_ble_agent_trains_on_discrete_latex_env(tmp_path):
+  _run([sys.executable, '-m', 'ble_latex.train', '--agent=random',
+        '--env_name=LatexBalloonDiscrete-v0', f'--base_dir={tmp_path}',
+        '--num_iterations=1', '--episodes_per_iteration=1',
+        '--max_episode_length=3', '--collectors=episodes'])
+  (record,) = metrics.read_episode_log(str(tmp_path / metrics.EPISODE_LOG))
+  assert record['steps'] == 3
+
+
+def test_torn_last_line_is_ignored(tmp_path):
+  path = tmp_path / metrics.EPISODE_LOG
+  path.write_text('{"episode": 0}\n{"episode": 1}\n{"epis')
+  assert metrics.read_episode_log(str(path)) == [{'episode': 0},
+                                                 {'episode': 1}]
+  path.write_text('{"episode": 0}\nnot json\n{"episode": 2}\n')
+  with pytest.raises(ValueError, match='corrupt line 2'):
+    metrics.read_episode_log(str(path))
