@@ -60,6 +60,7 @@ setuptools.setup(
             'ble-latex-validate = ble_latex.validate:main',
             'ble-latex-train = ble_latex.train:run',
             'ble-latex-eval = ble_latex.eval:run',
+            'ble-latex-download-era5 = ble_latex.download_era5:main',
         ],
     },
 )

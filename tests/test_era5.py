@@ -1,0 +1,617 @@
+# coding=utf-8
+"""Tests of the ERA5 wind field, its CDS request builder and downloader.
+
+The tests write small synthetic ERA5 files (both CDS layouts) whose winds are
+multi-linear functions of (time, pressure, latitude, longitude), so the
+interpolated winds can be checked exactly. No network.
+"""
+
+import datetime as dt
+import json
+import math
+import sys
+import types
+
+import ble_latex  # noqa: F401  pylint: disable=unused-import
+from balloon_learning_environment.env import wind_field
+from balloon_learning_environment.utils import spherical_geometry
+from balloon_learning_environment.utils import units
+import gin
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
+import jax
+import numpy as np
+import pytest
+import s2sphere as s2
+import xarray as xr
+
+from ble_latex import configs
+from ble_latex import download_era5
+from ble_latex import era5
+
+T0 = np.datetime64('2022-11-01T00:00', 'ns')
+TIMES = T0 + np.arange(3) * np.timedelta64(6, 'h')  # 12 h of data.
+LEVELS_HPA = np.array([20.0, 50.0, 100.0, 175.0])  # [hPa]
+LATS = np.array([3.0, 2.0, 1.0, 0.0, -1.0])  # Descending, as ERA5. # [deg N]
+LONS = np.array([-115.0, -114.0, -113.0, -112.0, -111.0])  # [deg E]
+CENTER = (1.0, -113.0)  # (lat, lon) [deg]
+
+
+def wind_u(t_h, p_hpa, lat, lon):
+  """Multi-linear u: exact under multi-linear interpolation. # [m/s]"""
+  dlon = lon + 113.0
+  return (2.0 + 0.5 * t_h + 0.01 * p_hpa + 0.3 * lat - 0.2 * dlon +
+          0.05 * lat * dlon + 0.001 * t_h * p_hpa)
+
+
+def wind_v(t_h, p_hpa, lat, lon):
+  """Multi-linear v. # [m/s]"""
+  dlon = lon + 113.0
+  return -1.0 + 0.1 * t_h * lat + 0.002 * p_hpa * dlon - 0.4 * lat
+
+
+def write_era5(path, *, layout='new', pressure_unit='hPa', lat=LATS,
+               lon=LONS, times=TIMES, levels_hpa=LEVELS_HPA, drop=(),
+               nan=False, dtype='float64'):
+  """Writes a synthetic ERA5 file; returns its path as str."""
+  t_h = (times - T0) / np.timedelta64(1, 'h')
+  tt, pp, la, lo = np.meshgrid(t_h, levels_hpa, lat, lon, indexing='ij')
+  lon_true = (lo + 180.0) % 360.0 - 180.0
+  u = wind_u(tt, pp, la, lon_true).astype(dtype)
+  v = wind_v(tt, pp, la, lon_true).astype(dtype)
+  if nan:
+    u[1, 2, 0, 3] = np.nan
+  if layout == 'new':
+    dims = ('valid_time', 'pressure_level', 'latitude', 'longitude')
+    p_attrs = {'units': 'hPa', 'long_name': 'pressure'}
+  else:
+    dims = ('time', 'level', 'latitude', 'longitude')
+    p_attrs = {'units': 'millibars', 'long_name': 'pressure_level'}
+  levels = levels_hpa
+  if pressure_unit == 'Pa':
+    levels, p_attrs = levels_hpa * 100.0, {'units': 'Pa'}
+  coords = {dims[0]: times, dims[1]: (dims[1], levels, p_attrs),
+            'latitude': ('latitude', lat, {'units': 'degrees_north'}),
+            'longitude': ('longitude', lon, {'units': 'degrees_east'})}
+  if layout == 'new':
+    coords['number'] = 0
+    coords['expver'] = ('valid_time', np.array(['0001'] * len(times)))
+  variables = {'u': (dims, u, {'units': 'm s**-1'}),
+               'v': (dims, v, {'units': 'm s**-1'}),
+               't': (dims, np.full(u.shape, 210.0), {'units': 'K'})}
+  for name in drop:
+    del variables[name]
+  xr.Dataset(variables, coords=coords).to_netcdf(path)
+  return str(path)
+
+
+@pytest.fixture(name='era5_file')
+def fixture_era5_file(tmp_path):
+  return write_era5(tmp_path / 'era5.nc')
+
+
+def make_field(path, **kwargs):
+  kwargs.setdefault('episode_hours', 6.0)
+  field = era5.Era5WindField(path=path, **kwargs)
+  field.set_start_date_time(dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc))
+  return field
+
+
+def latlng(x_km, y_km):
+  ll = spherical_geometry.calculate_latlng_from_offset(
+      s2.LatLng.from_degrees(*CENTER), units.Distance(km=x_km),
+      units.Distance(km=y_km))
+  return ll.lat().degrees, ll.lng().degrees
+
+
+def as_tuple(vector):
+  return (vector.u.meters_per_second, vector.v.meters_per_second)
+
+
+# Interpolation.
+
+
+def test_interpolate_off_grid_points_exact(era5_file):
+  data = era5.load(era5_file)
+  t_h = np.array([0.0, 1.5, 7.25, 12.0])
+  p_hpa = np.array([20.0, 33.0, 140.5, 175.0])
+  lat = np.array([-1.0, 0.3, 1.77, 2.9])
+  lon = np.array([-114.6, -113.0, -111.2, -112.45])
+  uv = data.interpolate(t_h * 3600.0, p_hpa * 100.0, lat, lon)
+  np.testing.assert_allclose(uv[:, 0], wind_u(t_h, p_hpa, lat, lon),
+                             rtol=0, atol=1e-9)
+  np.testing.assert_allclose(uv[:, 1], wind_v(t_h, p_hpa, lat, lon),
+                             rtol=0, atol=1e-9)
+
+
+def test_interpolate_hand_computed_value(era5_file):
+  data = era5.load(era5_file)
+  # Midway between 50 and 100 hPa, 3 h, lat 1.5, lon -112.5.
+  uv = data.interpolate(3 * 3600.0, 7500.0, 1.5, -112.5)
+  # u = 2 + 0.5*3 + 0.01*75 + 0.3*1.5 - 0.2*0.5 + 0.05*1.5*0.5 + 0.001*3*75
+  u = 2 + 1.5 + 0.75 + 0.45 - 0.1 + 0.0375 + 0.225
+  # v = -1 + 0.1*3*1.5 + 0.002*75*0.5 - 0.4*1.5
+  v = -1 + 0.45 + 0.075 - 0.6
+  np.testing.assert_allclose(uv, [u, v], atol=1e-12)
+
+
+@pytest.fixture(name='shared_data', scope='module')
+def fixture_shared_data(tmp_path_factory):
+  return era5.load(write_era5(tmp_path_factory.mktemp('era5') / 'era5.nc'))
+
+
+@settings(max_examples=60, deadline=None)
+@given(t_h=st.floats(-5.0, 20.0), p_hpa=st.floats(5.0, 300.0),
+       lat=st.floats(-3.0, 5.0), lon=st.floats(-118.0, -108.0))
+def test_interpolate_is_exact_inside_and_clipped_outside(shared_data, t_h,
+                                                         p_hpa, lat, lon):
+  uv = shared_data.interpolate(t_h * 3600.0, p_hpa * 100.0, lat, lon)
+  clipped = (np.clip(t_h, 0.0, 12.0), np.clip(p_hpa, 20.0, 175.0),
+             np.clip(lat, -1.0, 3.0), np.clip(lon, -115.0, -111.0))
+  np.testing.assert_allclose(uv, [wind_u(*clipped), wind_v(*clipped)],
+                             atol=1e-9)
+
+
+def test_get_forecast_at_offsets_uses_ble_geometry(era5_file):
+  field = make_field(era5_file)
+  for x_km, y_km, hours, pressure in ((0.0, 0.0, 0.0, 9000.0),
+                                      (60.0, -35.0, 2.5, 5000.0),
+                                      (-120.0, 80.0, 5.75, 14000.0)):
+    lat, lon = latlng(x_km, y_km)
+    got = field.get_forecast(units.Distance(km=x_km), units.Distance(km=y_km),
+                             pressure, dt.timedelta(hours=hours))
+    assert isinstance(got, wind_field.WindVector)
+    np.testing.assert_allclose(
+        as_tuple(got), (wind_u(hours, pressure / 100, lat, lon),
+                        wind_v(hours, pressure / 100, lat, lon)), atol=1e-9)
+
+
+def test_x_is_east_and_y_is_north(era5_file):
+  field = make_field(era5_file)
+  t = dt.timedelta(hours=0)
+  # 100 km east at lat 1: lon + 100 / (111.195 cos 1deg). v depends on lon
+  # only via 0.002 p dlon: with p = 100 hPa, dv = 0.2 dlon.
+  dlon = 100.0 / (6371.0 * math.pi / 180.0 * math.cos(math.radians(1.0)))
+  east = field.get_forecast(units.Distance(km=100.0), units.Distance(km=0.0),
+                            10000.0, t)
+  centre = field.get_forecast(units.Distance(km=0.0), units.Distance(km=0.0),
+                              10000.0, t)
+  # (The great circle heading east dips ~1e-4 deg south over 100 km.)
+  assert east.v.meters_per_second - centre.v.meters_per_second == (
+      pytest.approx(0.2 * dlon, rel=1e-3))
+  # 100 km north: lat + 0.8993 deg; v has -0.4 lat.
+  north = field.get_forecast(units.Distance(km=0.0), units.Distance(km=100.0),
+                             10000.0, t)
+  assert north.v.meters_per_second - centre.v.meters_per_second == (
+      pytest.approx(-0.4 * 100.0 / (6371.0 * math.pi / 180.0), rel=1e-6))
+
+
+def test_forecast_uses_sampled_start_plus_elapsed(era5_file):
+  field = make_field(era5_file)
+  field.set_start_date_time(dt.datetime(2022, 11, 1, 4, 30))  # Naive = UTC.
+  assert field.start_date_time == dt.datetime(2022, 11, 1, 4, 30,
+                                              tzinfo=dt.timezone.utc)
+  got = field.get_forecast(units.Distance(km=0.0), units.Distance(km=0.0),
+                           6000.0, dt.timedelta(hours=2))
+  np.testing.assert_allclose(as_tuple(got), (wind_u(6.5, 60.0, *CENTER),
+                                             wind_v(6.5, 60.0, *CENTER)),
+                             atol=1e-9)
+
+
+def test_column_is_one_vectorised_call_matching_points(era5_file, monkeypatch):
+  field = make_field(era5_file)
+  pressures = np.linspace(5000.0, 14000.0, 25)
+  x, y = units.Distance(km=30.0), units.Distance(km=-45.0)
+  elapsed = dt.timedelta(hours=4, minutes=20)
+  expected = [as_tuple(field.get_forecast(x, y, p, elapsed))
+              for p in pressures]
+  calls = []
+  interpolate = field.data.interpolate
+  monkeypatch.setattr(
+      field, '_data', types.SimpleNamespace(
+          interpolate=lambda *a: calls.append(1) or interpolate(*a)))
+  column = field.get_forecast_column(x, y, pressures, elapsed)
+  assert len(calls) == 1
+  np.testing.assert_allclose([as_tuple(c) for c in column], expected,
+                             rtol=0, atol=1e-12)
+
+
+def test_outside_the_data_is_clipped_to_the_edge(era5_file):
+  field = make_field(era5_file)
+  far = field.get_forecast(units.Distance(km=2000.0),
+                           units.Distance(km=-3000.0), 30000.0,
+                           dt.timedelta(days=5))
+  edge = (12.0, 175.0, -1.0, -111.0)  # Last time, max level, south, east.
+  np.testing.assert_allclose(as_tuple(far), (wind_u(*edge), wind_v(*edge)),
+                             atol=1e-9)
+  high = field.get_forecast(units.Distance(km=0.0), units.Distance(km=0.0),
+                            100.0, dt.timedelta(0))
+  np.testing.assert_allclose(as_tuple(high), (wind_u(0, 20.0, *CENTER),
+                                              wind_v(0, 20.0, *CENTER)),
+                             atol=1e-9)
+
+
+# Layouts and units.
+
+
+@pytest.mark.parametrize('kwargs', [
+    dict(layout='old'),
+    dict(pressure_unit='Pa'),
+    dict(layout='old', pressure_unit='Pa'),
+    dict(lat=LATS[::-1]),
+    dict(lon=LONS % 360.0),
+    dict(layout='old', lat=LATS[::-1], lon=LONS % 360.0),
+    dict(levels_hpa=LEVELS_HPA[::-1]),
+])
+def test_layouts_give_the_same_winds(tmp_path, era5_file, kwargs):
+  reference = make_field(era5_file)
+  other = make_field(write_era5(tmp_path / 'other.nc', **kwargs))
+  rng = np.random.default_rng(0)
+  for _ in range(5):
+    x, y = (units.Distance(km=k) for k in rng.uniform(-150, 150, 2))
+    pressures = rng.uniform(1000.0, 20000.0, 7)
+    elapsed = dt.timedelta(hours=rng.uniform(0.0, 6.0))
+    np.testing.assert_allclose(
+        [as_tuple(w) for w in other.get_forecast_column(
+            x, y, pressures, elapsed)],
+        [as_tuple(w) for w in reference.get_forecast_column(
+            x, y, pressures, elapsed)], rtol=0, atol=1e-9)
+
+
+def test_pressure_axis_is_pa_whatever_the_file_unit(tmp_path, era5_file):
+  pa = era5.load(write_era5(tmp_path / 'pa.nc', pressure_unit='Pa'))
+  hpa = era5.load(era5_file)
+  np.testing.assert_array_equal(pa.pressure, [2000.0, 5000.0, 10000.0,
+                                              17500.0])
+  np.testing.assert_array_equal(hpa.pressure, pa.pressure)
+  np.testing.assert_array_equal(hpa.latitude, np.sort(LATS))
+
+
+def test_float32_file(tmp_path):
+  data = era5.load(write_era5(tmp_path / 'f4.nc', dtype='float32'))
+  uv = data.interpolate(3600.0, 6000.0, 0.5, -112.5)
+  np.testing.assert_allclose(uv, [wind_u(1.0, 60.0, 0.5, -112.5),
+                                  wind_v(1.0, 60.0, 0.5, -112.5)], atol=1e-5)
+
+
+def test_packed_int16_file(tmp_path, era5_file):
+  # Old CDS files store u, v as int16 with scale_factor / add_offset.
+  path = str(tmp_path / 'packed.nc')
+  with xr.open_dataset(write_era5(tmp_path / 'plain.nc', layout='old')) as ds:
+    packing = {'dtype': 'int16', 'scale_factor': 1e-3, 'add_offset': 5.0,
+               '_FillValue': -32767}
+    ds.load().to_netcdf(path, encoding={'u': packing, 'v': packing})
+  np.testing.assert_allclose(era5.load(path).uv, era5.load(era5_file).uv,
+                             atol=6e-4)
+
+
+def test_old_cds_expver_dimension_is_combined(tmp_path, era5_file):
+  # Old CDS files mixing ERA5 (expver 1) and ERA5T (expver 5) carry an
+  # `expver` dimension; each time is valid (non-NaN) in one of them.
+  with xr.open_dataset(write_era5(tmp_path / 'plain.nc', layout='old')) as ds:
+    ds = ds.load()
+  parts = []
+  for number, valid in ((1, [True, True, False]), (5, [False, False, True])):
+    mask = xr.DataArray(valid, dims='time')
+    parts.append(ds[['u', 'v']].where(mask).expand_dims(expver=[number]))
+  path = str(tmp_path / 'expver.nc')
+  xr.concat(parts, dim='expver').to_netcdf(path)
+  np.testing.assert_array_equal(era5.load(path).uv, era5.load(era5_file).uv)
+
+
+def test_files_are_joined_along_time(tmp_path, era5_file):
+  first = write_era5(tmp_path / 'era5_a.nc', times=TIMES[:2])
+  second = write_era5(tmp_path / 'era5_b.nc', times=TIMES[2:])
+  whole = era5.load(era5_file)
+  for path in ([second, first], str(tmp_path / 'era5_?.nc')):
+    joined = era5.load(path)
+    np.testing.assert_array_equal(joined.times, whole.times)
+    np.testing.assert_array_equal(joined.uv, whole.uv)
+
+
+# Start time sampling and noise.
+
+
+def test_start_sampling_is_deterministic_and_fits_the_episode(era5_file):
+  field = era5.Era5WindField(path=era5_file, episode_hours=6.0)
+  starts = []
+  for seed in range(40):
+    key = jax.random.PRNGKey(seed)
+    field.reset(key, dt.datetime(2013, 5, 1, tzinfo=dt.timezone.utc))
+    start = field.start_date_time
+    field.reset(key, dt.datetime(2011, 1, 1, tzinfo=dt.timezone.utc))
+    assert field.start_date_time == start
+    assert field.data.start <= start
+    assert start + dt.timedelta(hours=6) <= field.data.end
+    assert start.second == 0 and start.microsecond == 0
+    starts.append(start)
+  assert len(set(starts)) > 30
+  assert field.data.start == dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc)
+
+
+def test_episode_longer_than_data_is_an_error(era5_file):
+  with pytest.raises(ValueError, match=r'shorter than episode_hours = 72'):
+    era5.Era5WindField(path=era5_file, episode_hours=72.0)
+
+
+def test_forecast_before_reset_is_an_error(era5_file):
+  field = era5.Era5WindField(path=era5_file, episode_hours=6.0)
+  with pytest.raises(RuntimeError, match='reset'):
+    field.get_forecast(units.Distance(km=0), units.Distance(km=0), 1e4,
+                       dt.timedelta(0))
+
+
+def test_non_finite_queries_are_errors(era5_file):
+  field = make_field(era5_file)
+  with pytest.raises(ValueError, match='Pressure must be finite'):
+    field.get_forecast(units.Distance(km=0), units.Distance(km=0),
+                       float('nan'), dt.timedelta(0))
+  with pytest.raises(ValueError, match='Position must be finite'):
+    field.get_forecast(units.Distance(km=float('inf')), units.Distance(km=0),
+                       1e4, dt.timedelta(0))
+  with pytest.raises(ValueError, match='outside the ERA5 data'):
+    field.set_start_date_time(dt.datetime(2023, 1, 1))
+
+
+@pytest.mark.parametrize('add_noise', [False, True])
+def test_add_noise_switch(era5_file, add_noise):
+  field = era5.Era5WindField(path=era5_file, episode_hours=6.0,
+                             add_noise=add_noise)
+  field.reset(jax.random.PRNGKey(7), dt.datetime(2013, 1, 1))
+  args = (units.Distance(km=20.0), units.Distance(km=-10.0), 8000.0,
+          dt.timedelta(hours=1))
+  forecast = as_tuple(field.get_forecast(*args))
+  truth = as_tuple(field.get_ground_truth(*args))
+  if add_noise:
+    assert truth != pytest.approx(forecast, abs=1e-6)
+  else:
+    assert truth == forecast
+
+
+# Bad files.
+
+
+def test_missing_file(tmp_path):
+  path = str(tmp_path / 'nope.nc')
+  with pytest.raises(FileNotFoundError, match=f'ERA5 file {path} does not'):
+    era5.Era5WindField(path=path)
+  with pytest.raises(FileNotFoundError, match='No ERA5 file matches'):
+    era5.load(str(tmp_path / 'era5_*.nc'))
+
+
+def test_not_netcdf(tmp_path):
+  path = tmp_path / 'garbage.nc'
+  path.write_bytes(b'\x00\x01garbage, not NetCDF\xff' * 50)
+  with pytest.raises(ValueError,
+                     match=f'ERA5 file {path} is not a readable NetCDF'):
+    era5.load(str(path))
+
+
+def test_missing_variable(tmp_path):
+  path = write_era5(tmp_path / 'no_u.nc', drop=('u',))
+  with pytest.raises(ValueError) as error:
+    era5.load(path)
+  assert str(error.value) == (
+      f"ERA5 file {path} has no variable 'u' (found: ['t', 'v'])")
+
+
+def test_missing_dimension(tmp_path):
+  path = str(tmp_path / 'surface.nc')
+  dims = ('valid_time', 'latitude', 'longitude')
+  zeros = np.zeros((3, 5, 5))
+  xr.Dataset({'u': (dims, zeros), 'v': (dims, zeros)},
+             coords={'valid_time': TIMES, 'latitude': LATS,
+                     'longitude': LONS}).to_netcdf(path)
+  with pytest.raises(ValueError,
+                     match=f"ERA5 file {path} has no pressure-level dimension"
+                     r".*'pressure_level', 'level'.*variable 'u' has dims "
+                     r"\['valid_time', 'latitude', 'longitude'\]"):
+    era5.load(path)
+
+
+def test_nan_winds(tmp_path):
+  path = write_era5(tmp_path / 'nan.nc', nan=True)
+  with pytest.raises(ValueError, match=f'ERA5 file {path} has NaN/inf winds: '
+                     '1 values of u and 0 of v'):
+    era5.load(path)
+
+
+def test_target_outside_area(era5_file):
+  with pytest.raises(ValueError, match=r'Target \(lat 10.0, lon -113.0\) lies '
+                     'outside the area of ERA5 file'):
+    era5.Era5WindField(path=era5_file, center_lat=10.0, episode_hours=6.0)
+  # The same target in the 0..360 convention is inside.
+  era5.Era5WindField(path=era5_file, center_lon=247.0, episode_hours=6.0)
+
+
+def test_files_on_different_grids_are_not_joined(tmp_path, era5_file):
+  other = write_era5(tmp_path / 'other.nc', times=TIMES + np.timedelta64(
+      1, 'D'), lon=LONS + 0.5)
+  with pytest.raises(ValueError, match='different longitudes'):
+    era5.load([era5_file, other])
+
+
+def test_single_level_is_an_error(tmp_path):
+  path = write_era5(tmp_path / 'one.nc', levels_hpa=np.array([50.0]))
+  with pytest.raises(ValueError, match='1 pressure level value'):
+    era5.load(path)
+
+
+# Gin.
+
+
+def test_paper_gin_file_binds_the_field(era5_file):
+  configs.add_search_path()
+  try:
+    gin.parse_config_files_and_bindings(
+        [configs.gin_file('paper_era5.gin')],
+        [f"Era5WindField.path = '{era5_file}'",
+         'Era5WindField.episode_hours = 6.0'])
+    field = era5.Era5WindField()
+    assert field.add_noise
+    from ble_latex import env as env_lib  # pylint: disable=g-import-not-at-top
+    factory = gin.query_parameter('LatexBalloonEnv.wind_field_factory')
+    assert factory.selector == 'Era5WindField'
+    del env_lib
+  finally:
+    gin.clear_config()
+
+
+# Requests and the download command.
+
+
+def test_paper_requests_are_exact():
+  requests = era5.build_requests()
+  assert [month for month, _ in requests] == ['2022-11', '2022-12', '2023-01']
+  month, request = requests[0]
+  assert request == {
+      'product_type': ['reanalysis'],
+      'variable': ['u_component_of_wind', 'v_component_of_wind'],
+      'year': ['2022'],
+      'month': ['11'],
+      'day': [f'{d:02d}' for d in range(1, 31)],
+      'time': ['00:00', '06:00', '12:00', '18:00'],
+      'pressure_level': ['20', '30', '50', '70', '100', '125', '150', '175'],
+      'area': [6.0, -118.0, -4.0, -108.0],
+      'grid': [0.4, 0.4],
+      'data_format': 'netcdf',
+      'download_format': 'unarchived',
+  }
+  assert requests[1][1]['day'][-1] == '31'
+  assert requests[2][1]['year'] == ['2023'] and requests[2][1]['month'] == [
+      '01']
+  assert len(requests[2][1]['day']) == 31
+  del month
+
+
+def test_requests_for_partial_months():
+  requests = era5.build_requests(start_date=dt.date(2022, 12, 30),
+                                 end_date=dt.date(2023, 1, 2),
+                                 half_width_deg=2.0, min_pressure_hpa=50,
+                                 max_pressure_hpa=100)
+  assert [(m, r['day']) for m, r in requests] == [
+      ('2022-12', ['30', '31']), ('2023-01', ['01', '02'])]
+  assert requests[0][1]['area'] == [3.0, -115.0, -1.0, -111.0]
+  assert requests[0][1]['pressure_level'] == ['50', '70', '100']
+  with pytest.raises(ValueError, match='before start_date'):
+    era5.build_requests(start_date=dt.date(2023, 1, 2),
+                        end_date=dt.date(2023, 1, 1))
+  with pytest.raises(ValueError, match='No ERA5 pressure level'):
+    era5.build_requests(min_pressure_hpa=21, max_pressure_hpa=29)
+
+
+def test_dry_run_prints_json_without_cdsapi(monkeypatch, capsys, tmp_path):
+  monkeypatch.setitem(sys.modules, 'cdsapi', None)  # Importing it fails.
+  output = str(tmp_path / 'era5_paper.nc')
+  assert download_era5.main(['--dry_run', '--output', output]) == 0
+  printed = json.loads(capsys.readouterr().out)
+  assert printed['dataset'] == 'reanalysis-era5-pressure-levels'
+  assert printed['output'] == output
+  assert [r['request'] for r in printed['requests']] == [
+      r for _, r in era5.build_requests()]
+  assert [r['target'] for r in printed['requests']] == [
+      str(tmp_path / f'era5_paper_{m}.nc')
+      for m in ('2022-11', '2022-12', '2023-01')]
+  assert not list(tmp_path.iterdir())
+
+
+def test_missing_credentials_is_a_clear_error(monkeypatch, capsys, tmp_path):
+  monkeypatch.setitem(sys.modules, 'cdsapi', None)
+  monkeypatch.delenv('CDSAPI_URL', raising=False)
+  monkeypatch.delenv('CDSAPI_KEY', raising=False)
+  monkeypatch.setenv('CDSAPI_RC', str(tmp_path / 'no_cdsapirc'))
+  assert download_era5.main(['--output', str(tmp_path / 'x.nc')]) == 2
+  err = capsys.readouterr().err
+  assert f'no CDS API credentials: {tmp_path / "no_cdsapirc"} does not ' in err
+
+
+def test_download_with_fake_client_writes_and_joins_months(
+    monkeypatch, capsys, tmp_path):
+  retrieved = []
+
+  class FakeClient:
+
+    def retrieve(self, dataset, request, target):
+      retrieved.append((dataset, request))
+      year, month = int(request['year'][0]), int(request['month'][0])
+      days = [int(d) for d in request['day']]
+      times = np.array([np.datetime64(dt.datetime(year, month, d, h))
+                        for d in days for h in (0, 6, 12, 18)],
+                       dtype='datetime64[ns]')
+      write_era5(target, times=times, lat=np.array([2.0, 1.0, 0.0]),
+                 lon=np.array([-114.0, -113.0, -112.0]),
+                 levels_hpa=np.array([50.0, 70.0, 100.0]),
+                 dtype='float32')
+
+  monkeypatch.setitem(sys.modules, 'cdsapi',
+                      types.SimpleNamespace(Client=FakeClient))
+  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
+  monkeypatch.setenv('CDSAPI_KEY', 'fake')
+  output = str(tmp_path / 'era5.nc')
+  argv = ['--output', output, '--start_date', '2022-12-31', '--end_date',
+          '2023-01-01', '--half_width_deg', '1']
+  assert download_era5.main(argv) == 0
+  assert [r['month'] for _, r in retrieved] == [['12'], ['01']]
+  data = era5.load(output)
+  assert data.times.size == 8
+  assert data.start == dt.datetime(2022, 12, 31, tzinfo=dt.timezone.utc)
+  assert 'wrote' in capsys.readouterr().out
+  # Months already there are not fetched again.
+  assert download_era5.main(argv) == 0
+  assert len(retrieved) == 2
+
+
+def test_failed_retrieval_is_a_clear_error(monkeypatch, capsys, tmp_path):
+
+  class FailingClient:
+
+    def retrieve(self, dataset, request, target):
+      raise RuntimeError('403 Forbidden: required licences not accepted')
+
+  monkeypatch.setitem(sys.modules, 'cdsapi',
+                      types.SimpleNamespace(Client=FailingClient))
+  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
+  monkeypatch.setenv('CDSAPI_KEY', 'fake')
+  assert download_era5.main(['--output', str(tmp_path / 'x.nc')]) == 1
+  assert 'CDS request for 2022-11 failed (RuntimeError: 403' in (
+      capsys.readouterr().err)
+  assert not list(tmp_path.iterdir())
+
+
+# The environment.
+
+
+def test_env_flies_at_the_sampled_era5_start(tmp_path):
+  from ble_latex import env as env_lib  # pylint: disable=g-import-not-at-top
+  path = write_era5(tmp_path / 'era5.nc')
+  env = env_lib.LatexBalloonEnv(
+      wind_field_factory=lambda: era5.Era5WindField(path=path,
+                                                    episode_hours=1.0),
+      episode_steps=2, seed=0)
+  starts = []
+  for _ in range(2):
+    env.reset(seed=5)
+    field = env.arena._wind_field  # pylint: disable=protected-access
+    starts.append(field.start_date_time)
+    assert env.arena.get_balloon_state().date_time == field.start_date_time
+    env.step(np.array([17_000.0, 1.0, 1.0]))
+  assert starts[0] == starts[1]
+
+
+def test_full_random_episode_on_era5_wind(tmp_path):
+  from ble_latex import env as env_lib  # pylint: disable=g-import-not-at-top
+  times = T0 + np.arange(17) * np.timedelta64(6, 'h')  # 4 days of data.
+  path = write_era5(tmp_path / 'era5_4d.nc', times=times)
+  env = env_lib.LatexBalloonEnv(
+      wind_field_factory=lambda: era5.Era5WindField(path=path), seed=0)
+  env.reset(seed=3)
+  rng = np.random.default_rng(0)
+  done, steps = False, 0
+  while not done:
+    _, reward, done, info = env.step(
+        rng.uniform(env.action_space.low, env.action_space.high))
+    steps += 1
+    assert np.isfinite(reward)
+  assert steps == 216 or info['out_of_resources'] or info['envelope_burst']
+  assert info['time_limit'] == (steps == 216)
