@@ -61,6 +61,8 @@ setuptools.setup(
             'ble-latex-train = ble_latex.train:run',
             'ble-latex-eval = ble_latex.eval:run',
             'ble-latex-download-era5 = ble_latex.download_era5:main',
+            'ble-latex-plot = ble_latex.plot:main',
+            'ble-latex-demo = ble_latex.demo:main',
         ],
     },
 )

@@ -10,6 +10,8 @@ import pathlib
 
 _PACKAGE = pathlib.Path(__file__).resolve().parent
 _CANDIDATES = (_PACKAGE / 'gin_configs', _PACKAGE.parent / 'gin_configs')
+# The env defaults every command parses first, in this order.
+ENV_GIN_FILES = ('latex_physics.gin', 'latex_env.gin')
 
 
 def gin_dir() -> pathlib.Path:
@@ -22,10 +24,9 @@ def gin_dir() -> pathlib.Path:
       f'{[str(c) for c in _CANDIDATES]}')
 
 
-def add_search_path() -> None:
-  """Lets gin `include` resolve ble_latex's gin files by name."""
-  import gin  # pylint: disable=g-import-not-at-top
-  gin.add_config_file_search_path(str(gin_dir()))
+def env_gin_files() -> list:
+  """Paths of ENV_GIN_FILES."""
+  return [gin_file(name) for name in ENV_GIN_FILES]
 
 
 def gin_file(name: str) -> str:

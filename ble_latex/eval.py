@@ -13,19 +13,17 @@ final_distance_km and flight_path (README, "Eval output").
 """
 
 import json
-import os
 import sys
-from typing import Any, Dict, List, Optional, Sequence
+from typing import Optional, Sequence
 
 from absl import app
 from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
-from balloon_learning_environment.agents import agent as base_agent
 from balloon_learning_environment.eval import suites as ble_suites
 import gym
-import tqdm
 
+from ble_latex import eval_lib
 from ble_latex import metrics
 from ble_latex import runner
 from ble_latex import suites
@@ -54,60 +52,13 @@ flags.DEFINE_integer('seed', 0, 'Agent seed.')
 FLAGS = flags.FLAGS
 
 
-def shard(seeds: Sequence[int], num_shards: int, shard_idx: int) -> List[int]:
-  """BLE's sharding of a suite's seeds."""
-  if not 0 <= shard_idx < num_shards:
-    raise ValueError(f'shard_idx must be in [0, {num_shards}), got {shard_idx}')
-  start = int(len(seeds) * shard_idx / num_shards)
-  end = int(len(seeds) * (shard_idx + 1) / num_shards)
-  return list(seeds[start:end])
-
-
-def evaluate(agent: base_agent.Agent, env: gym.Env, seeds: Sequence[int],
-             max_steps: int, description: str = 'eval'
-             ) -> List[Dict[str, Any]]:
-  """Flies one deterministic episode per seed; returns the records."""
-  agent.set_mode(base_agent.AgentMode.EVAL)
-  results = []
-  bar = tqdm.tqdm(seeds, desc=description, unit='episode', dynamic_ncols=True)
-  for i, seed in enumerate(bar):
-    summary, flight = runner.run_episode(
-        env, agent, episode=i, seed=seed, max_steps=max_steps,
-        record_flight=True)
-    record = summary.to_json()
-    del record['episode'], record['wall_time_s']
-    record['flight_path'] = flight
-    results.append(record)
-    stats = metrics.summarize(results)
-    bar.set_postfix(tw50=f'{stats["tw50_mean"]:.3f}',
-                    reward=f'{stats["reward_mean"]:.1f}')
-  return results
-
-
-def output_path(output_dir: str, suite: str, name: str, num_shards: int,
-                shard_idx: int) -> str:
-  if num_shards > 1:
-    name = f'{name}_{shard_idx}'
-  return os.path.join(output_dir, suite, f'{name}.json')
-
-
-def write_results(path: str, results: List[Dict[str, Any]],
-                  pretty: bool = False) -> None:
-  """Writes atomically (tmp + rename)."""
-  os.makedirs(os.path.dirname(path), exist_ok=True)
-  tmp = path + '.tmp'
-  with open(tmp, 'w') as f:
-    json.dump(results, f, indent=2 if pretty else None)
-  os.replace(tmp, path)
-
-
 def main(argv: Sequence[str]) -> None:
   if len(argv) > 1:
     raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
   runner.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
                   FLAGS.gin_bindings)
   suite = ble_suites.get_eval_suite(FLAGS.suite)
-  seeds = shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)
+  seeds = eval_lib.shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)
   env = gym.make(FLAGS.env_name).unwrapped
   agent = runner.create_agent(FLAGS.agent, env, seed=FLAGS.seed)
   if (FLAGS.checkpoint_dir is None) != (FLAGS.checkpoint_idx is None):
@@ -115,14 +66,14 @@ def main(argv: Sequence[str]) -> None:
   if FLAGS.checkpoint_dir is not None:
     agent.load_checkpoint(FLAGS.checkpoint_dir, FLAGS.checkpoint_idx)
   max_steps = FLAGS.max_episode_length or suite.max_episode_length
-  results = evaluate(agent, env, seeds, max_steps,
+  results = eval_lib.evaluate(agent, env, seeds, max_steps,
                      description=f'eval {FLAGS.agent} {FLAGS.suite}')
   name = FLAGS.name_override or (
       f'{FLAGS.agent}_{FLAGS.checkpoint_idx}'
       if FLAGS.checkpoint_idx is not None else FLAGS.agent)
-  path = output_path(FLAGS.output_dir, FLAGS.suite, name, FLAGS.num_shards,
-                     FLAGS.shard_idx)
-  write_results(path, results, FLAGS.pretty_json)
+  path = eval_lib.output_path(FLAGS.output_dir, FLAGS.suite, name,
+                              FLAGS.num_shards, FLAGS.shard_idx)
+  eval_lib.write_results(path, results, FLAGS.pretty_json)
   print(json.dumps({'output': path, **metrics.summarize(results)}))
 
 

@@ -5,7 +5,7 @@ BLE's collector machinery (`collector.Collector`, `CollectorDispatcher`,
 `PickleCollector`, `TensorboardCollector`) is reused; what is new:
 - `LatexStatistics`: BLE's `StatisticsInstance` plus the env's `info` and, at
   episode end, the `EpisodeSummary` (TW50, resources, terminal reason);
-- `EpisodeLogCollector`: RUN/episodes.jsonl, one line per episode, which a
+- `EpisodeLogCollector`: writes RUN/episodes.jsonl (`episode_log`), which a
   resumed run truncates back to its checkpoint so no episode is lost or
   repeated;
 - `LatexTensorboardCollector`: BLE's, plus TW50/resources/terminal scalars;
@@ -26,7 +26,8 @@ from balloon_learning_environment.metrics import statistics_instance
 from balloon_learning_environment.metrics import tensorboard_collector
 import tqdm
 
-EPISODE_LOG = 'episodes.jsonl'
+from ble_latex import episode_log
+
 TERMINAL_REASONS = ('time_limit', 'out_of_sand', 'out_of_helium', 'burst',
                     'grounded', 'max_episode_length')
 
@@ -95,35 +96,6 @@ class EpisodeTracker:
         wall_time_s=time.monotonic() - self._start)
 
 
-def read_episode_log(path: str) -> List[Dict[str, Any]]:
-  """Reads episodes.jsonl; a torn last line (killed run) is ignored."""
-  records = []
-  if not os.path.exists(path):
-    return records
-  with open(path) as f:
-    lines = f.read().split('\n')
-  for i, line in enumerate(lines):
-    if not line.strip():
-      continue
-    try:
-      records.append(json.loads(line))
-    except json.JSONDecodeError as e:
-      if i >= len(lines) - 2:  # Only the last line may be torn.
-        break
-      raise ValueError(f'{path}: corrupt line {i + 1}: {e}') from e
-  return records
-
-
-def truncate_episode_log(path: str, num_episodes: int) -> None:
-  """Keeps the first `num_episodes` records (atomically)."""
-  records = read_episode_log(path)[:num_episodes]
-  tmp = path + '.tmp'
-  with open(tmp, 'w') as f:
-    for r in records:
-      f.write(json.dumps(r) + '\n')
-  os.replace(tmp, path)
-
-
 class EpisodeLogCollector(collector.Collector):
   """Appends each finished episode's summary to RUN/episodes.jsonl."""
 
@@ -131,10 +103,10 @@ class EpisodeLogCollector(collector.Collector):
     if base_dir is None:
       raise ValueError('EpisodeLogCollector needs a base_dir.')
     super().__init__(base_dir, num_actions, current_episode)
-    self.path = os.path.join(base_dir, EPISODE_LOG)
+    self.path = os.path.join(base_dir, episode_log.EPISODE_LOG)
     # Drop episodes after the checkpoint we resume from (a killed run may have
     # logged some); they are re-run identically from their seeds.
-    truncate_episode_log(self.path, current_episode)
+    episode_log.truncate(self.path, current_episode)
 
   def get_name(self) -> str:
     return 'episodes'

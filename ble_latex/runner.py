@@ -19,17 +19,13 @@ from ble_latex import agents as latex_agents
 from ble_latex import configs
 from ble_latex import metrics
 
-ENV_GIN_FILE = 'latex_env.gin'
-
-
 def bind_gin(agent: str, agent_gin_file: Optional[str],
              gin_files: Sequence[str], gin_bindings: Sequence[str]) -> None:
   """BLE's gin binding, plus ble_latex's env defaults and the user's files."""
   latex_agents.register()
-  configs.add_search_path()
   run_helpers.bind_gin_variables(
       agent, agent_gin_file, gin_bindings,
-      additional_gin_files=[configs.gin_file(ENV_GIN_FILE), *gin_files])
+      additional_gin_files=[*configs.env_gin_files(), *gin_files])
 
 
 def create_agent(name: str, env: gym.Env, seed: int = 0) -> base_agent.Agent:

@@ -162,9 +162,8 @@ def test_discrete_action_validation(discrete_env):
 def test_shipped_env_gin_file_parses_and_binds():
   import gin
   from ble_latex import configs
-  configs.add_search_path()
   try:
-    gin.parse_config_file(configs.gin_file('latex_env.gin'))
+    gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
     assert gin.query_parameter('LatexBalloonEnv.episode_steps') == 216
     assert gin.query_parameter('create_state.sand_kg') == 2.0
     env = gym.make('LatexBalloon-v0').unwrapped

@@ -442,7 +442,6 @@ def test_single_level_is_an_error(tmp_path):
 
 
 def test_paper_gin_file_binds_the_field(era5_file):
-  configs.add_search_path()
   try:
     gin.parse_config_files_and_bindings(
         [configs.gin_file('paper_era5.gin')],

@@ -8,7 +8,7 @@ import sys
 import time
 
 import ble_latex  # noqa: F401
-from ble_latex import metrics
+from ble_latex import episode_log
 from ble_latex import suites
 import pytest
 
@@ -40,7 +40,7 @@ def _comparable(records):
 def test_train_killed_and_resumed_equals_uninterrupted_run(tmp_path):
   full, killed = tmp_path / 'full', tmp_path / 'killed'
   _run(_train_cmd(full, 4))
-  reference = metrics.read_episode_log(str(full / metrics.EPISODE_LOG))
+  reference = episode_log.read(str(full / episode_log.EPISODE_LOG))
   assert [r['episode'] for r in reference] == list(range(8))
   assert [r['seed'] for r in reference] == [suites.train_seed(i)
                                             for i in range(8)]
@@ -55,11 +55,11 @@ def test_train_killed_and_resumed_equals_uninterrupted_run(tmp_path):
     time.sleep(0.05)
   proc.send_signal(signal.SIGKILL)
   proc.wait()
-  logged = metrics.read_episode_log(str(killed / metrics.EPISODE_LOG))
+  logged = episode_log.read(str(killed / episode_log.EPISODE_LOG))
   assert len(logged) < 8  # It really was interrupted.
 
   _run(_train_cmd(killed, 4))
-  resumed = metrics.read_episode_log(str(killed / metrics.EPISODE_LOG))
+  resumed = episode_log.read(str(killed / episode_log.EPISODE_LOG))
   assert [r['episode'] for r in resumed] == list(range(8))  # None lost/twice.
   assert _comparable(resumed) == _comparable(reference)
   assert sorted(os.listdir(killed / 'metrics')) == ['episodes', 'pickle',
@@ -120,15 +120,15 @@ def test_ble_agent_trains_on_discrete_latex_env(tmp_path):
         '--env_name=LatexBalloonDiscrete-v0', f'--base_dir={tmp_path}',
         '--num_iterations=1', '--episodes_per_iteration=1',
         '--max_episode_length=3', '--collectors=episodes'])
-  (record,) = metrics.read_episode_log(str(tmp_path / metrics.EPISODE_LOG))
+  (record,) = episode_log.read(str(tmp_path / episode_log.EPISODE_LOG))
   assert record['steps'] == 3
 
 
 def test_torn_last_line_is_ignored(tmp_path):
-  path = tmp_path / metrics.EPISODE_LOG
+  path = tmp_path / episode_log.EPISODE_LOG
   path.write_text('{"episode": 0}\n{"episode": 1}\n{"epis')
-  assert metrics.read_episode_log(str(path)) == [{'episode': 0},
+  assert episode_log.read(str(path)) == [{'episode': 0},
                                                  {'episode': 1}]
   path.write_text('{"episode": 0}\nnot json\n{"episode": 2}\n')
-  with pytest.raises(ValueError, match='corrupt line 2'):
-    metrics.read_episode_log(str(path))
+  with pytest.raises(ValueError, match='line 2 is not valid JSON'):
+    episode_log.read(str(path))

@@ -14,7 +14,6 @@ from typing import Optional, Sequence
 
 from balloon_learning_environment.agents import agent
 from balloon_learning_environment.env.balloon import standard_atmosphere
-from balloon_learning_environment.utils import units
 import gin
 import jax
 import numpy as np
