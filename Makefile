@@ -33,3 +33,22 @@ test-all: venv
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache
+
+# Issue 6 results: baselines and the shipped policy on the 100 held-out seeds
+# of latex_small, then the table README shows (benchmarks/results.md).
+RESULTS ?= benchmarks/results
+EVAL := $(PY) -m ble_latex.eval --suite=latex_small --output_dir=$(RESULTS)
+
+.PHONY: baselines results env-speed
+baselines: venv
+	$(EVAL) --agent=latex_random
+	$(EVAL) --agent=latex_station_seeker
+	$(EVAL) --agent=station_seeker --env_name=LatexBalloonDiscrete-v0 --name_override=ble_station_seeker_discrete
+	$(EVAL) --agent=sac --name_override=sac_untrained
+
+results: baselines
+	$(EVAL) --agent=sac_pretrained
+	$(PY) benchmarks/results_table.py $(RESULTS)/latex_small/*.json | tee benchmarks/results.md
+
+env-speed: venv
+	$(PY) benchmarks/env_speed.py --episodes 3 --repeats 3 --profile --json benchmarks/env_speed.json

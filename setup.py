@@ -46,7 +46,8 @@ setuptools.setup(
               ['ble_latex.gin_configs']),
     # The top-level gin_configs/ folder installs as ble_latex/gin_configs.
     package_dir={'ble_latex.gin_configs': 'gin_configs'},
-    package_data={'ble_latex.gin_configs': ['*.gin']},
+    package_data={'ble_latex.gin_configs': ['*.gin'],
+                  'ble_latex.agents': ['policies/*.pkl']},
     install_requires=_INSTALL_REQUIRES,
     extras_require={
         'test': ['pytest', 'pytest-timeout', 'hypothesis'],

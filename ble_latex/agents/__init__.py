@@ -3,6 +3,8 @@
 
 - 'sac': `sac.SACAgent`, Soft Actor-Critic for the Box action of
   LatexBalloon-v0; default gin file `gin_configs/sac.gin`.
+- 'sac_pretrained': `pretrained.SACPretrainedAgent`, SAC with the policy
+  shipped in `agents/policies/sac_latex.pkl`.
 - 'latex_random', 'latex_station_seeker': the Box baselines of
   `baselines.py` (no gin file).
 
@@ -17,7 +19,7 @@ SAC_GIN_FILE = 'sac.gin'
 # Registered agents that take a Box action (constructor keywords action_low,
 # action_high, seed); the others are BLE's discrete-action agents.
 BOX_AGENTS: FrozenSet[str] = frozenset(
-    {'sac', 'latex_random', 'latex_station_seeker'})
+    {'sac', 'sac_pretrained', 'latex_random', 'latex_station_seeker'})
 
 
 def register() -> None:
@@ -31,10 +33,13 @@ def register() -> None:
   from balloon_learning_environment.agents import agent_registry
   from ble_latex import configs
   from ble_latex.agents import baselines
+  from ble_latex.agents import pretrained
   from ble_latex.agents import sac
   # pylint: enable=g-import-not-at-top
   agent_registry.REGISTRY['sac'] = (sac.SACAgent,
                                     configs.gin_file(SAC_GIN_FILE))
+  agent_registry.REGISTRY['sac_pretrained'] = (
+      pretrained.SACPretrainedAgent, configs.gin_file(SAC_GIN_FILE))
   agent_registry.REGISTRY['latex_random'] = (baselines.LatexRandomAgent, None)
   agent_registry.REGISTRY['latex_station_seeker'] = (
       baselines.GeometricStationSeeker, None)

@@ -1,0 +1,68 @@
+"""sac_pretrained: exporting a checkpoint's policy and flying it."""
+
+import pickle
+
+import ble_latex  # noqa: F401
+from ble_latex.agents import pretrained
+from ble_latex.agents import sac
+import numpy as np
+import pytest
+
+_LOW = np.array([14000.0, 1.0, -1.0], dtype=np.float32)
+_HIGH = np.array([21000.0, 5.0, 1.0], dtype=np.float32)
+
+
+def _sac(hidden=16, seed=0):
+  return sac.SACAgent(3, (71,), action_low=_LOW, action_high=_HIGH,
+                      seed=seed, hidden_units=hidden, min_replay_history=8,
+                      batch_size=4)
+
+
+def _train_a_little(agent):
+  rng = np.random.default_rng(0)
+  agent.begin_episode(rng.uniform(-1, 1, 71).astype(np.float32))
+  for _ in range(20):
+    agent.step(float(rng.uniform()), rng.uniform(-1, 1, 71).astype(np.float32))
+  agent.end_episode(0.5, False)
+
+
+def test_exported_policy_acts_like_the_checkpoint(tmp_path):
+  agent = _sac()
+  _train_a_little(agent)
+  agent.save_checkpoint(str(tmp_path), 0)
+  policy_file = str(tmp_path / 'policy.pkl')
+  pretrained.export_policy(sac.checkpoint_path(str(tmp_path), 0), policy_file,
+                           note='test')
+  loaded = pretrained.SACPretrainedAgent(
+      3, (71,), action_low=_LOW, action_high=_HIGH, seed=7, hidden_units=16,
+      policy_path=policy_file)
+  assert loaded.policy_info['note'] == 'test'
+  agent.set_mode('eval')
+  loaded.set_mode('eval')
+  for obs in np.random.default_rng(1).uniform(-1, 1, (5, 71)):
+    obs = obs.astype(np.float32)
+    np.testing.assert_array_equal(agent.begin_episode(obs),
+                                  loaded.begin_episode(obs))
+  with open(policy_file, 'rb') as f:
+    assert 'replay' not in pickle.load(f)  # Small: no replay buffer.
+
+
+def test_bad_policy_files(tmp_path):
+  with pytest.raises(FileNotFoundError):
+    pretrained.load_policy(str(tmp_path / 'missing.pkl'))
+  bad = tmp_path / 'bad.pkl'
+  bad.write_bytes(pickle.dumps({'format': 'something else'}))
+  with pytest.raises(ValueError, match='not a ble_latex SAC policy'):
+    pretrained.load_policy(str(bad))
+  with pytest.raises(ValueError, match='not a ble_latex SAC checkpoint'):
+    pretrained.export_policy(str(bad), str(tmp_path / 'out.pkl'))
+
+
+def test_policy_for_other_shapes_is_rejected(tmp_path):
+  agent = _sac(hidden=16)
+  agent.save_checkpoint(str(tmp_path), 0)
+  policy_file = str(tmp_path / 'policy.pkl')
+  pretrained.export_policy(sac.checkpoint_path(str(tmp_path), 0), policy_file)
+  with pytest.raises(ValueError, match='observation_shape'):
+    pretrained.SACPretrainedAgent(3, (70,), action_low=_LOW,
+                                  action_high=_HIGH, policy_path=policy_file)
