@@ -242,6 +242,29 @@ class TrajectoryPoint(NamedTuple):
   sand_kg: float  # [kg]
 
 
+class _StepAtmosphere:
+  """The atmosphere during one step, remembering `at_height` answers.
+
+  The physics asks for the ambient at the same altitude several times (the end
+  of one vertical step is the start of the next, the burst check and the next
+  wind query); each distinct altitude is computed once by BLE's atmosphere.
+  Only valid while the atmosphere does not change (one `simulate_step`).
+  """
+
+  def __init__(self, atmosphere: standard_atmosphere.Atmosphere):
+    self._atmosphere = atmosphere
+    self._known = {}
+
+  def at_height(
+      self, height: units.Distance) -> standard_atmosphere.AtmosphericValues:
+    h = height.meters
+    key = (h, type(h))
+    ambient = self._known.get(key)
+    if ambient is None:
+      ambient = self._known[key] = self._atmosphere.at_height(height)
+    return ambient
+
+
 @dataclasses.dataclass
 class _Flight:
   """Mutable working copy of the state during a step (committed at the end)."""
@@ -360,6 +383,7 @@ class LatexBalloon:
                        f'(x, y, pressure, time_elapsed), got {wind_vector!r}')
     s.validate()
 
+    atmosphere = _StepAtmosphere(atmosphere)
     ambient = atmosphere.at_height(units.Distance(m=s.altitude_m))
     actuation = self.controller.decide(
         a, altitude_m=s.altitude_m, ascent_rate_mps=s.ascent_rate_mps,

@@ -16,8 +16,6 @@ from typing import Any, Callable, Dict, Mapping, Optional, Tuple, Union
 
 from balloon_learning_environment.env import balloon_env
 from balloon_learning_environment.env import features
-from balloon_learning_environment.env import generative_wind_field
-from balloon_learning_environment.env import simulator_data
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import control
 from balloon_learning_environment.env.balloon import standard_atmosphere
@@ -30,6 +28,7 @@ import numpy as np
 from ble_latex import arena as arena_lib
 from ble_latex import balloon as balloon_lib
 from ble_latex import controller as controller_lib
+from ble_latex import fast_wind
 from ble_latex import features as latex_features
 from ble_latex import perciatelli_features
 from ble_latex import reward as reward_lib
@@ -56,7 +55,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
           features.FeatureConstructor] = (
               latex_features.LatexFeatureConstructor),
       wind_field_factory: Callable[
-          [], wind_field.WindField] = generative_wind_field.GenerativeWindField,
+          [], wind_field.WindField] = fast_wind.FastGenerativeWindField,
       episode_steps: int = 216,
       seed: Optional[int] = None,
       renderer: Optional[renderer_lib.Renderer] = None):
@@ -69,8 +68,10 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
       arena: A latex balloon arena; built from the factories if None.
       reward_function: (simulator_state, vented_mols, dropped_kg) -> reward.
       feature_constructor_factory: Builds the observation features.
-      wind_field_factory: Builds the wind field (BLE's generative VAE field by
-        default; `ble_latex.era5.Era5WindField` for ERA5 data).
+      wind_field_factory: Builds the wind field: by default BLE's generative
+        VAE field with BLE's noise, queried fast
+        (`ble_latex.fast_wind.FastGenerativeWindField`, identical values);
+        `ble_latex.era5.Era5WindField` for ERA5 data.
       episode_steps: Steps per episode; 216 x 20 min = 3 days. The episode is
         cut there (`info['time_limit']`, `info['TimeLimit.truncated']`).
       seed: PRNG seed; the same seed gives the identical trajectory.

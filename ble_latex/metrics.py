@@ -96,7 +96,23 @@ class EpisodeTracker:
         wall_time_s=time.monotonic() - self._start)
 
 
-class EpisodeLogCollector(collector.Collector):
+class _EpisodeCollector(collector.Collector):
+  """A collector that acts only at episode ends (BLE's other hooks no-op)."""
+
+  def pre_training(self) -> None:
+    pass
+
+  def begin_episode(self) -> None:
+    pass
+
+  def step(self, statistics: statistics_instance.StatisticsInstance) -> None:
+    pass
+
+  def end_training(self) -> None:
+    pass
+
+
+class EpisodeLogCollector(_EpisodeCollector):
   """Appends each finished episode's summary to RUN/episodes.jsonl."""
 
   def __init__(self, base_dir: str, num_actions: int, current_episode: int):
@@ -111,24 +127,12 @@ class EpisodeLogCollector(collector.Collector):
   def get_name(self) -> str:
     return 'episodes'
 
-  def pre_training(self) -> None:
-    pass
-
-  def begin_episode(self) -> None:
-    pass
-
-  def step(self, statistics: statistics_instance.StatisticsInstance) -> None:
-    pass
-
   def end_episode(self, statistics: LatexStatistics) -> None:
     with open(self.path, 'a') as f:
       f.write(json.dumps(statistics.summary.to_json()) + '\n')
       f.flush()
       os.fsync(f.fileno())
     self.current_episode += 1
-
-  def end_training(self) -> None:
-    pass
 
 
 class LatexTensorboardCollector(tensorboard_collector.TensorboardCollector):
@@ -149,7 +153,7 @@ class LatexTensorboardCollector(tensorboard_collector.TensorboardCollector):
     w.flush()
 
 
-class ProgressCollector(collector.Collector):
+class ProgressCollector(_EpisodeCollector):
   """A tqdm progress bar over episodes with TW50, reward and resources."""
 
   def __init__(self, base_dir: Optional[str], num_actions: int,
@@ -162,15 +166,6 @@ class ProgressCollector(collector.Collector):
 
   def get_name(self) -> str:
     return 'progress'
-
-  def pre_training(self) -> None:
-    pass
-
-  def begin_episode(self) -> None:
-    pass
-
-  def step(self, statistics: statistics_instance.StatisticsInstance) -> None:
-    pass
 
   def end_episode(self, statistics: LatexStatistics) -> None:
     s = statistics.summary
