@@ -66,3 +66,22 @@ def test_policy_for_other_shapes_is_rejected(tmp_path):
   with pytest.raises(ValueError, match='observation_shape'):
     pretrained.SACPretrainedAgent(3, (70,), action_low=_LOW,
                                   action_high=_HIGH, policy_path=policy_file)
+
+
+def test_shipped_policy_flies_the_latex_env():
+  import gym
+  from ble_latex import runner
+  env = gym.make('LatexBalloon-v0').unwrapped
+  agent = runner.create_agent('sac_pretrained', env)
+  assert agent.policy_info['source'].startswith('checkpoint_')
+  agent.set_mode('eval')
+  obs = env.reset(seed=1_000_000)
+  first = agent.begin_episode(obs)
+  assert env.action_space.contains(first.astype(np.float32))
+  for _ in range(5):
+    obs, reward, done, _ = env.step(first)
+    action = agent.step(reward, obs)
+    assert env.action_space.contains(action.astype(np.float32))
+  # Deterministic in eval mode: the same observation, the same action.
+  np.testing.assert_array_equal(agent.begin_episode(obs),
+                                agent.begin_episode(obs))
