@@ -16,6 +16,7 @@ import tqdm
 
 from ble_latex import metrics
 from ble_latex import runner
+from ble_latex import suites  # pylint: disable=unused-import  # Registers latex suites.
 
 
 def shard(seeds: Sequence[int], num_shards: int, shard_idx: int) -> List[int]:

@@ -85,3 +85,27 @@ def test_shipped_policy_flies_the_latex_env():
   # Deterministic in eval mode: the same observation, the same action.
   np.testing.assert_array_equal(agent.begin_episode(obs),
                                 agent.begin_episode(obs))
+
+
+@pytest.mark.slow
+def test_shipped_policy_reproduces_its_results_row():
+  """README's sac_pretrained row (benchmarks/results.json), all 100 seeds."""
+  import json
+  import pathlib
+  import gym
+  from balloon_learning_environment.eval import suites as ble_suites
+  from ble_latex import eval_lib
+  from ble_latex import runner
+  root = pathlib.Path(__file__).resolve().parent.parent
+  rows = json.loads((root / 'benchmarks' / 'results.json').read_text())
+  (row,) = [r for r in rows if r['agent'] == 'sac_pretrained']
+  env = gym.make('LatexBalloon-v0').unwrapped
+  agent = runner.create_agent('sac_pretrained', env)
+  suite = ble_suites.get_eval_suite('latex_small')
+  records = eval_lib.evaluate(agent, env, suite.seeds,
+                              suite.max_episode_length)
+  tw50 = np.array([r['tw50'] for r in records])
+  rewards = np.array([r['reward'] for r in records])
+  assert len(records) == row['episodes'] == 100
+  assert tw50.mean() == pytest.approx(row['tw50'][0], abs=1e-12)
+  assert rewards.mean() == pytest.approx(row['reward'][0], rel=1e-9)
