@@ -614,3 +614,18 @@ def test_full_random_episode_on_era5_wind(tmp_path):
     assert np.isfinite(reward)
   assert steps == 216 or info['out_of_resources'] or info['envelope_burst']
   assert info['time_limit'] == (steps == 216)
+
+
+def test_era5_noise_equals_bles_simplex_noise(era5_file):
+  import jax  # pylint: disable=g-import-not-at-top
+  field = era5.Era5WindField(path=era5_file, episode_hours=6.0)
+  key = jax.random.PRNGKey(4)
+  field.reset(key, dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc))
+  reference = wind_field.SimplexWindNoise()
+  reference.reset_wind_noise(jax.random.split(key, num=2)[0], None)
+  for x_km, y_km, p, h in [(0, 0, 9000.0, 1.0), (120, -40, 5200.0, 5.5),
+                           (-300, 250, 13900.0, 0.0)]:
+    args = (units.Distance(km=x_km), units.Distance(km=y_km), p,
+            dt.timedelta(hours=h))
+    assert as_tuple(field._noise_model.get_wind_noise(*args)) == as_tuple(  # pylint: disable=protected-access
+        reference.get_wind_noise(*args))
