@@ -12,26 +12,24 @@ import json
 import os
 import sys
 
-import numpy as np
+from ble_latex import metrics
 
 
 def row(path: str) -> dict:
+  """One table row: `metrics.summarize` of an eval file, plus its name/seeds."""
   with open(path) as f:
     records = json.load(f)
   if not isinstance(records, list) or not records:
     raise ValueError(f'{path}: not a non-empty ble-latex-eval result list')
-  def col(key):
-    return np.array([float(r[key]) for r in records])
-  out_of = np.mean([r['terminal_reason'] in ('out_of_sand', 'out_of_helium')
-                    for r in records])
+  s = metrics.summarize(records)
   return {
       'agent': os.path.splitext(os.path.basename(path))[0],
-      'episodes': len(records),
-      'tw50': (col('tw50').mean(), col('tw50').std()),
-      'reward': (col('reward').mean(), col('reward').std()),
-      'helium': col('helium_vented_mols').mean(),
-      'sand': col('sand_dropped_kg').mean(),
-      'out_of_resources_pct': 100.0 * out_of,
+      'episodes': s['episodes'],
+      'tw50': (s['tw50_mean'], s['tw50_std']),
+      'reward': (s['reward_mean'], s['reward_std']),
+      'helium': s['helium_vented_mols_mean'],
+      'sand': s['sand_dropped_kg_mean'],
+      'out_of_resources_pct': s['out_of_resources_pct'],
       'seeds': (min(r['seed'] for r in records),
                 max(r['seed'] for r in records)),
   }

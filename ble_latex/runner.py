@@ -19,6 +19,7 @@ from ble_latex import agents as latex_agents
 from ble_latex import configs
 from ble_latex import metrics
 
+
 def bind_gin(agent: str, agent_gin_file: Optional[str],
              gin_files: Sequence[str], gin_bindings: Sequence[str]) -> None:
   """BLE's gin binding, plus ble_latex's env defaults and the user's files."""
