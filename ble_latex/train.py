@@ -49,6 +49,10 @@ flags.DEFINE_multi_string('collectors', ['progress', 'episodes', 'tensorboard'],
                           f'Collectors: {sorted(metrics.AVAILABLE_COLLECTORS)}.')
 flags.DEFINE_integer('seed', 0, 'Seed of the agent (env seeds are episode '
                      'indices).')
+flags.DEFINE_integer('policy_snapshot_period', 0,
+                     'SAC only: every this many iterations also export the '
+                     'policy (~1 MB) to BASE_DIR/policies/, for choosing one '
+                     'on a validation suite afterwards. 0: never.')
 flags.mark_flag_as_required('base_dir')
 FLAGS = flags.FLAGS
 
@@ -62,7 +66,8 @@ def main(argv: Sequence[str]) -> None:
         base_dir=FLAGS.base_dir, num_iterations=FLAGS.num_iterations,
         episodes_per_iteration=FLAGS.episodes_per_iteration,
         max_episode_length=FLAGS.max_episode_length,
-        collectors=FLAGS.collectors, seed=FLAGS.seed)
+        collectors=FLAGS.collectors, seed=FLAGS.seed,
+        policy_snapshot_period=FLAGS.policy_snapshot_period)
 
 
 def run(argv: Optional[Sequence[str]] = None) -> None:

@@ -17,13 +17,41 @@ import gym
 from ble_latex import metrics
 from ble_latex import runner
 from ble_latex import suites
+from ble_latex.agents import pretrained
+from ble_latex.agents import sac
+
+
+def policy_snapshot_path(base_dir: str, iteration: int) -> str:
+  """Where `train` exports the policy of `iteration` (0-based)."""
+  return os.path.join(base_dir, 'policies', f'policy_{iteration:05d}.pkl')
 
 
 def train(*, agent_name: str, env_name: str, base_dir: str,
           num_iterations: int, episodes_per_iteration: int,
           max_episode_length: int, collectors: Sequence[str],
-          seed: int = 0) -> None:
-  """Runs (or resumes) a training run; gin must already be bound."""
+          seed: int = 0, policy_snapshot_period: int = 0) -> None:
+  """Runs (or resumes) a training run; gin must already be bound.
+
+  Args:
+    agent_name: Registered agent name (`runner.create_agent`).
+    env_name: Gym id of the env.
+    base_dir: Run directory (checkpoints/, episodes.jsonl, metrics/).
+    num_iterations: Iterations to train in total (a resumed run counts the
+      finished ones).
+    episodes_per_iteration: Episodes per iteration; a checkpoint follows each.
+    max_episode_length: Steps per episode at most.
+    collectors: Names from `metrics.AVAILABLE_COLLECTORS`.
+    seed: Agent seed.
+    policy_snapshot_period: If > 0 (SAC agents only), every this many
+      iterations the acting part of the checkpoint is also exported to
+      `base_dir/policies/policy_NNNNN.pkl` (~1 MB; checkpoints hold the
+      replay buffer and only the newest few are kept), so a policy can be
+      chosen afterwards on a validation suite (`benchmarks/train_sac.py`).
+
+  Raises:
+    ValueError: On an unknown collector, a non-positive count, or policy
+      snapshots asked of an agent that is not SAC.
+  """
   for name in collectors:
     if name not in metrics.AVAILABLE_COLLECTORS:
       raise ValueError(f'Unknown collector {name!r}; available: '
@@ -31,9 +59,14 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
   if num_iterations < 1 or episodes_per_iteration < 1 or max_episode_length < 1:
     raise ValueError('num_iterations, episodes_per_iteration and '
                      'max_episode_length must be >= 1')
+  if policy_snapshot_period < 0:
+    raise ValueError('policy_snapshot_period must be >= 0, got '
+                     f'{policy_snapshot_period}')
   os.makedirs(base_dir, exist_ok=True)
   env = gym.make(env_name).unwrapped
   agent = runner.create_agent(agent_name, env, seed=seed)
+  if policy_snapshot_period and not isinstance(agent, sac.SACAgent):
+    raise ValueError(f'policy snapshots need a SAC agent, not {agent_name!r}')
   checkpoint_dir = os.path.join(base_dir, 'checkpoints')
   start_iteration = agent.reload_latest_checkpoint(checkpoint_dir) + 1
   start_episode = start_iteration * episodes_per_iteration
@@ -63,6 +96,12 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
                          seed=suites.train_seed(episode),
                          max_steps=max_episode_length, dispatcher=dispatcher)
     agent.save_checkpoint(checkpoint_dir, iteration)
+    if policy_snapshot_period and (iteration + 1) % policy_snapshot_period == 0:
+      pretrained.export_policy(
+          sac.checkpoint_path(checkpoint_dir, iteration),
+          policy_snapshot_path(base_dir, iteration),
+          note=f'{agent_name} after {(iteration + 1) * episodes_per_iteration} '
+          'training episodes')
   dispatcher.end_training()
   with open(os.path.join(base_dir, 'operative_config.gin'), 'w') as f:
     f.write(gin.operative_config_str())

@@ -148,6 +148,89 @@ class _ScalarSummaryWriter:
     return getattr(self._writer, name)
 
 
+class VectorReplayBuffer(circular_replay_buffer.OutOfGraphReplayBuffer):
+  """Dopamine's uniform replay buffer with array-at-once sampling.
+
+  Storage, `add`, episode-end bookkeeping and checkpoint elements are
+  Dopamine's. For the 1-frame, 1-step transitions SAC uses here
+  (`stack_size == 1`, `update_horizon == 1`), validity checks and batch
+  gathering are done with NumPy fancy indexing instead of Dopamine's
+  per-index Python loop (which was ~8 ms of a ~25 ms training step). The
+  results equal Dopamine's element for element (tests/test_sac_agent.py);
+  any other stack size or horizon falls back to Dopamine's code.
+  """
+
+  def _vectorizable(self) -> bool:
+    return self._stack_size == 1 and self._update_horizon == 1
+
+  def valid_transition_mask(self, indices: np.ndarray) -> np.ndarray:
+    """Vectorised `is_valid_transition` for an array of indices.
+
+    Args:
+      indices: Integer array of replay indices.
+
+    Returns:
+      Boolean array, True where Dopamine's `is_valid_transition` is True.
+    """
+    indices = np.asarray(indices, dtype=np.int64)
+    if not self._vectorizable():
+      return np.array([self.is_valid_transition(int(i)) for i in indices],
+                      dtype=bool)
+    valid = (indices >= 0) & (indices < self._replay_capacity)
+    if not self.is_full():
+      valid &= indices < self.cursor() - self._update_horizon
+    valid &= ~np.isin(indices, np.asarray(self.invalid_range, dtype=np.int64))
+    # A transition cut by a time limit (episode end without a terminal flag)
+    # has no next state of its own episode.
+    if self.episode_end_indices:
+      ends = np.fromiter(self.episode_end_indices, dtype=np.int64,
+                         count=len(self.episode_end_indices))
+      cut = np.isin(indices, ends)
+      safe = np.clip(indices, 0, self._replay_capacity - 1)
+      valid &= ~(cut & ~self._store['terminal'][safe].astype(bool))
+    return valid
+
+  def sample_transition_batch(self, batch_size=None, indices=None):
+    """Dopamine's `sample_transition_batch`, gathered with array indexing."""
+    if not self._vectorizable():
+      return super().sample_transition_batch(batch_size, indices)
+    if batch_size is None:
+      batch_size = self._batch_size
+    if indices is None:
+      indices = self.sample_index_batch(batch_size)
+    idx = np.asarray(indices, dtype=np.int64)
+    assert len(idx) == batch_size
+    nxt = (idx + 1) % self._replay_capacity
+    store = self._store
+    terminal = store['terminal'][idx].astype(bool)
+    batch = []
+    for element in self.get_transition_elements(batch_size):
+      name = element.name
+      if name in ('state', 'next_state'):
+        rows = store['observation'][idx if name == 'state' else nxt]
+        value = rows[..., np.newaxis]  # The 1-frame stack is the last axis.
+      elif name in ('next_action', 'next_reward'):
+        value = store[name[len('next_'):]][nxt]
+      elif name == 'terminal':
+        value = terminal
+      elif name == 'indices':
+        value = idx
+      elif name in store:  # action, reward (1-step discounted sum = reward)
+        value = store[name][idx]
+      else:  # Filled by a subclass, as in Dopamine.
+        value = np.empty(element.shape, dtype=element.type)
+      batch.append(np.asarray(value, dtype=element.type).reshape(
+          element.shape))
+    return tuple(batch)
+
+
+@jax.jit
+def _polyak_update(online_params: Any, target_params: Any,
+                   tau: float) -> Any:
+  """Soft target update tau * online + (1 - tau) * target, one XLA call."""
+  return optax.incremental_update(online_params, target_params, tau)
+
+
 def checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:
   """BLE's checkpoint file name (dopamine_utils) for `iteration_number`."""
   return os.path.join(checkpoint_dir, f'checkpoint_{iteration_number:05d}.pkl')
@@ -280,9 +363,9 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
 
   # --- Construction (Dopamine hooks) ---------------------------------------
 
-  def _build_replay_buffer(self) -> circular_replay_buffer.OutOfGraphReplayBuffer:
+  def _build_replay_buffer(self) -> VectorReplayBuffer:
     """Dopamine's uniform replay buffer, sized by this agent's arguments."""
-    return circular_replay_buffer.OutOfGraphReplayBuffer(
+    return VectorReplayBuffer(
         observation_shape=self.observation_shape,
         stack_size=self.stack_size,
         replay_capacity=self._replay_capacity,
@@ -316,7 +399,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     types = self._replay.get_transition_elements(self._batch_size)
     self.replay_elements = {t.name: s for s, t in zip(samples, types)}
 
-  def _sample_indices(self, key: jnp.ndarray) -> list[int]:
+  def _sample_indices(self, key: jnp.ndarray) -> np.ndarray:
     """Valid replay indices, uniform as in Dopamine's `sample_index_batch`."""
     replay = self._replay
     capacity = self._replay_capacity
@@ -328,17 +411,23 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     if max_id <= min_id:
       raise RuntimeError('replay buffer holds too few transitions to sample')
     rng = np.random.default_rng(np.asarray(key, dtype=np.uint32))
-    indices = []
-    attempts = 0
-    while len(indices) < self._batch_size:
-      index = int(rng.integers(min_id, max_id)) % capacity
-      if replay.is_valid_transition(index):
-        indices.append(index)
-      else:
-        attempts += 1
-        if attempts > 1000 + 10 * self._batch_size:
-          raise RuntimeError('could not sample enough valid replay indices')
-    return indices
+    # Rejection sampling in rounds: uniform over the valid indices, as in
+    # Dopamine, with the validity test done for a whole round at once.
+    indices = np.empty(0, dtype=np.int64)
+    for _ in range(20):
+      candidates = rng.integers(min_id, max_id, size=self._batch_size)
+      candidates %= capacity
+      indices = np.concatenate(
+          [indices, candidates[replay.valid_transition_mask(candidates)]])
+      if len(indices) >= self._batch_size:
+        return indices[:self._batch_size]
+    raise RuntimeError('could not sample enough valid replay indices')
+
+  def _maybe_sync_weights(self) -> None:
+    """Dopamine's soft target update, as one jitted call (was 18 eager ops)."""
+    self.target_params = _polyak_update(
+        self.network_params, self.target_params,
+        self.target_smoothing_coefficient)
 
   # --- Input checks and action mapping -------------------------------------
 
