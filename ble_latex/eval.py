@@ -31,8 +31,9 @@ from ble_latex import suites
 flags.DEFINE_string('agent', 'sac', 'The name of the agent to create.')
 flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Environment to evaluate.')
 flags.DEFINE_string('suite', 'latex_tiny',
-                    f'Evaluation suite: {sorted(suites.SUITE_SIZES)} or any '
-                    'BLE suite.')
+                    f'Evaluation suite: {sorted(suites.SUITE_SIZES)} (held '
+                    'out), latex_validation (for choosing checkpoints) or '
+                    'any BLE suite.')
 flags.DEFINE_string('agent_gin_file', None, 'Gin file for agent configuration.')
 flags.DEFINE_multi_string('gin_file', [], 'Extra gin files.')
 flags.DEFINE_multi_string('gin_bindings', [],

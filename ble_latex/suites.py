@@ -3,6 +3,9 @@
 
 Training episode i uses env seed TRAIN_SEED_OFFSET + i (< EVAL_SEED_OFFSET);
 evaluation suites use seeds from EVAL_SEED_OFFSET up, so they never overlap.
+`latex_validation` (seeds from VALIDATION_SEED_OFFSET) is for choosing among
+checkpoints (`benchmarks/train_sac.py select`); it overlaps neither training
+nor the held-out suites that results are reported on.
 After `register()`, BLE's `suites.get_eval_suite('latex_small')` knows them.
 """
 
@@ -10,6 +13,7 @@ from balloon_learning_environment.eval import suites
 
 TRAIN_SEED_OFFSET = 0
 EVAL_SEED_OFFSET = 1_000_000
+VALIDATION_SEED_OFFSET = 2_000_000
 EPISODE_STEPS = 216  # 3 days of 20-minute actions.
 
 SUITE_SIZES = {
@@ -25,6 +29,9 @@ def register() -> None:
   for name, size in SUITE_SIZES.items():
     suites._eval_suites[name] = suites.EvaluationSuite(  # pylint: disable=protected-access
         list(range(EVAL_SEED_OFFSET, EVAL_SEED_OFFSET + size)), EPISODE_STEPS)
+  suites._eval_suites['latex_validation'] = suites.EvaluationSuite(  # pylint: disable=protected-access
+      list(range(VALIDATION_SEED_OFFSET, VALIDATION_SEED_OFFSET + 100)),
+      EPISODE_STEPS)
 
 
 def train_seed(episode: int) -> int:

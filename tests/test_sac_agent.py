@@ -8,8 +8,13 @@ import ble_latex  # noqa: F401  pylint: disable=unused-import
 from balloon_learning_environment.agents import agent as base_agent
 from balloon_learning_environment.agents import agent_registry
 from balloon_learning_environment.utils import run_helpers
+from dopamine.replay_memory import circular_replay_buffer
 import gin
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -305,3 +310,173 @@ def test_bad_inputs_raise_clear_errors_and_leave_state_untouched():
     sac.SACAgent(3, (4,), action_low=HIGH, action_high=LOW)
   with pytest.raises(ValueError, match='shape'):
     sac.SACAgent(3, (4,), action_low=[0.0, 0.0], action_high=[1.0, 1.0])
+
+
+# --- VectorReplayBuffer equals Dopamine's OutOfGraphReplayBuffer -----------
+
+_CAPACITY = 50
+_REPLAY_ARGS = dict(observation_shape=(5,), replay_capacity=_CAPACITY,
+                    batch_size=16, update_horizon=1, gamma=0.99,
+                    observation_dtype=np.float32, action_shape=(3,),
+                    action_dtype=np.float32)
+# How an episode ends: (terminal, episode_end) of its last add; 'open' runs
+# on into the next episode.
+_ENDS = {'terminal': (True, True), 'terminal_flag_only': (True, False),
+         'time_limit': (False, True), 'open': (False, False)}
+_EPISODES = st.lists(
+    st.tuples(st.integers(1, 12), st.sampled_from(sorted(_ENDS))),
+    min_size=1, max_size=8)
+
+
+def _replay_pair(stack_size=1):
+  """A VectorReplayBuffer and a stock Dopamine buffer with equal arguments."""
+  return (sac.VectorReplayBuffer(stack_size=stack_size, **_REPLAY_ARGS),
+          circular_replay_buffer.OutOfGraphReplayBuffer(
+              stack_size=stack_size, **_REPLAY_ARGS))
+
+
+def _feed_both(fast, stock, episodes, n_adds, seed, check):
+  """Adds the same n_adds random transitions to both, cycling `episodes`.
+
+  Calls `check()` after every add, so not-full, just-full and wrapped states
+  are all compared.
+  """
+  rng = np.random.default_rng(seed)
+  adds = 0
+  while True:
+    for length, end in episodes:
+      for t in range(length):
+        last = t == length - 1
+        terminal, episode_end = _ENDS[end] if last else (False, False)
+        obs = rng.normal(size=5).astype(np.float32)
+        action = rng.uniform(-1.0, 1.0, 3).astype(np.float32)
+        reward = np.float32(rng.normal())
+        for replay in (fast, stock):
+          replay.add(obs, action, reward, terminal, episode_end=episode_end)
+        adds += 1
+        check()
+        if adds == n_adds:
+          return
+
+
+def _assert_same_as_dopamine(fast, stock, rng):
+  """valid_transition_mask and sample_transition_batch equal Dopamine's."""
+  probe = np.arange(-2, _CAPACITY + 2)
+  expected = np.array([stock.is_valid_transition(int(i)) for i in probe])
+  mask = fast.valid_transition_mask(probe)
+  assert mask.dtype == bool and mask.shape == probe.shape
+  np.testing.assert_array_equal(mask, expected)
+  valid = probe[expected]
+  if valid.size == 0:
+    return
+  # Every valid index once, plus seeded repeats, in a random order.
+  idx = rng.permutation(np.concatenate([valid, rng.choice(valid, 16)]))
+  elements = stock.get_transition_elements(len(idx))
+  got = fast.sample_transition_batch(batch_size=len(idx), indices=idx)
+  want = stock.sample_transition_batch(batch_size=len(idx), indices=idx)
+  assert len(got) == len(want) == len(elements)
+  for element, g, w in zip(elements, got, want):
+    assert g.dtype == w.dtype, element.name
+    assert g.shape == w.shape == element.shape, element.name
+    np.testing.assert_array_equal(g, w, err_msg=element.name)
+
+
+@settings(max_examples=25, deadline=None)
+@given(episodes=_EPISODES,
+       n_adds=st.integers(_CAPACITY + 2, 3 * _CAPACITY),
+       seed=st.integers(0, 2**16))
+def test_vector_replay_buffer_equals_dopamine(episodes, n_adds, seed):
+  fast, stock = _replay_pair()
+  rng = np.random.default_rng(seed)
+  _feed_both(fast, stock, episodes, n_adds, seed,
+             lambda: _assert_same_as_dopamine(fast, stock, rng))
+  assert fast.is_full() and fast.add_count > _CAPACITY  # Wrapped.
+
+
+def test_vector_replay_buffer_stack_size_2_falls_back_to_dopamine():
+  fast, stock = _replay_pair(stack_size=2)
+  episodes = [(3, 'time_limit'), (1, 'terminal'), (7, 'open'),
+              (5, 'terminal'), (2, 'time_limit'), (9, 'terminal_flag_only')]
+  rng = np.random.default_rng(0)
+  _feed_both(fast, stock, episodes, 2 * _CAPACITY, 0,
+             lambda: _assert_same_as_dopamine(fast, stock, rng))
+  assert fast.is_full()
+
+
+# --- SACAgent._sample_indices and _maybe_sync_weights ----------------------
+
+
+def test_sample_indices_valid_deterministic_and_cover_valid_set():
+  capacity = 40
+  # No updates: only the replay contents matter here.
+  agent = _agent(seed=0, replay_capacity=capacity, min_replay_history=10**6)
+  replay = agent._replay  # pylint: disable=protected-access
+  sample = agent._sample_indices  # pylint: disable=protected-access
+
+  def check():
+    valid = {i for i in range(capacity) if replay.is_valid_transition(i)}
+    assert 0 < len(valid) < capacity - 2  # Episode ends exclude some.
+    key = jax.random.PRNGKey(7)
+    idx = sample(key)
+    assert idx.shape == (SMALL['batch_size'],)
+    assert np.issubdtype(idx.dtype, np.integer)
+    assert all(replay.is_valid_transition(int(i)) for i in idx)
+    np.testing.assert_array_equal(idx, sample(key))
+    np.testing.assert_array_equal(idx, sample(jax.random.PRNGKey(7)))
+    assert not np.array_equal(idx, sample(jax.random.PRNGKey(8)))
+    # Uniform over the valid set: 60 x 16 draws reach every valid index.
+    seen = set()
+    for k in range(60):
+      seen.update(sample(jax.random.PRNGKey(k)).tolist())
+    assert seen == valid
+
+  def terminal_episodes(n):  # 2 transitions each, ending in a terminal.
+    for _ in range(n):
+      agent.begin_episode(OBS)
+      agent.step(0.0, -OBS)
+      agent.end_episode(1.0, True)
+
+  _run_episodes(agent, _WalkEnv(), 4)  # Time-limit ends.
+  terminal_episodes(3)
+  assert agent.replay_size == 22 and not replay.is_full()
+  check()
+  _run_episodes(agent, _WalkEnv(), 5)
+  terminal_episodes(1)
+  # Wrapped; the oldest transitions (cursor + 1, ...) are valid ones.
+  assert agent.replay_size == 44 and replay.is_full()
+  assert replay.is_valid_transition(replay.cursor() + 1)
+  check()
+  assert agent.training_steps == 44
+
+
+def test_maybe_sync_weights_is_soft_update():
+  tau = 0.25
+  agent = _agent(seed=0, target_smoothing_coefficient=tau)
+  rng = np.random.default_rng(0)
+
+  def known(low, high):
+    return jax.tree.map(
+        lambda x: jnp.asarray(rng.uniform(low, high, x.shape), x.dtype),
+        agent.network_params)
+
+  online, target = known(1.0, 2.0), known(3.0, 4.0)
+  agent.network_params, agent.target_params = online, target
+  agent._maybe_sync_weights()  # pylint: disable=protected-access
+  leaves = jax.tree.leaves
+  assert (jax.tree.structure(agent.target_params) ==
+          jax.tree.structure(online))
+  assert len(leaves(online)) > 2
+  expected = []
+  for o, t, new in zip(leaves(online), leaves(target),
+                       leaves(agent.target_params)):
+    want = tau * np.asarray(o, np.float64) + (1 - tau) * np.asarray(
+        t, np.float64)
+    assert new.dtype == o.dtype and new.shape == o.shape
+    np.testing.assert_allclose(new, want, rtol=1e-6)
+    expected.append(want)
+  for o, now in zip(leaves(online), leaves(agent.network_params)):
+    np.testing.assert_array_equal(o, now)  # Online weights untouched.
+  agent._maybe_sync_weights()  # pylint: disable=protected-access
+  for o, e, new in zip(leaves(online), expected, leaves(agent.target_params)):
+    np.testing.assert_allclose(
+        new, tau * np.asarray(o, np.float64) + (1 - tau) * e, rtol=1e-6)

@@ -10,6 +10,8 @@ import time
 import ble_latex  # noqa: F401
 from ble_latex import episode_log
 from ble_latex import suites
+import jax
+import numpy as np
 import pytest
 
 # A tiny SAC so the test is fast; the schedule is the real one.
@@ -132,3 +134,59 @@ def test_torn_last_line_is_ignored(tmp_path):
   path.write_text('{"episode": 0}\nnot json\n{"episode": 2}\n')
   with pytest.raises(ValueError, match='line 2 is not valid JSON'):
     episode_log.read(str(path))
+
+
+def test_latex_validation_suite_is_disjoint_from_training_and_held_out():
+  from balloon_learning_environment.eval import suites as ble_suites  # pylint: disable=g-import-not-at-top
+  validation = set(ble_suites.get_eval_suite('latex_validation').seeds)
+  assert len(validation) == 100
+  held_out = set()
+  for name in suites.SUITE_SIZES:
+    held_out |= set(ble_suites.get_eval_suite(name).seeds)
+  assert not validation & held_out
+  assert min(validation) >= suites.EVAL_SEED_OFFSET  # Never a training seed.
+  with pytest.raises(ValueError, match='held-out'):
+    suites.train_seed(min(validation))
+
+
+def test_policy_snapshots_and_validation_selection(tmp_path):
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  import pickle  # pylint: disable=g-import-not-at-top
+  run = tmp_path / 'run'
+  _run(_train_cmd(run, 2) + ['--policy_snapshot_period=1'])
+  for iteration in (0, 1):
+    policy = pretrained.load_policy(
+        str(run / 'policies' / f'policy_{iteration:05d}.pkl'))
+    assert policy['iteration'] == iteration
+  # The newest snapshot is exactly the newest checkpoint's network.
+  with open(run / 'checkpoints' / 'checkpoint_00001.pkl', 'rb') as f:
+    bundle = pickle.load(f)
+  for a, b in zip(*(jax.tree_util.tree_leaves(p['network_params'])
+                    for p in (bundle, policy))):
+    np.testing.assert_array_equal(a, b)
+
+  script = os.path.join(os.path.dirname(__file__), '..', 'benchmarks',
+                        'train_sac.py')
+  output = tmp_path / 'best.pkl'
+  out = _run([sys.executable, script, 'select', f'--base_dir={run}',
+              '--every=1', '--validation_episodes=1', f'--output={output}'])
+  results = json.loads((run / 'validation.json').read_text())
+  assert sorted(results) == ['policy_00000.pkl', 'policy_00001.pkl']
+  assert all(r['seeds'] == [suites.VALIDATION_SEED_OFFSET] * 2
+             for r in results.values())
+  chosen = max(results, key=lambda k: (results[k]['tw50_mean'],
+                                       results[k]['reward_mean']))
+  assert f'best: {chosen}' in out.stdout
+  best = pretrained.load_policy(str(output))
+  assert best['iteration'] == results[chosen]['iteration']
+  assert 'latex_validation' in best['note']
+
+
+def test_policy_snapshots_need_a_sac_agent(tmp_path):
+  out = subprocess.run(
+      [sys.executable, '-m', 'ble_latex.train', f'--base_dir={tmp_path}',
+       '--agent=latex_random', '--num_iterations=1',
+       '--policy_snapshot_period=1', '--collectors=episodes'],
+      env=_ENV, capture_output=True, text=True, timeout=600)
+  assert out.returncode != 0
+  assert 'policy snapshots need a SAC agent' in out.stderr

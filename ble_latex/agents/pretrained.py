@@ -40,12 +40,19 @@ def export_policy(checkpoint_file: str, output_file: str,
   policy = {k: bundle[k] for k in _KEPT}
   policy.update(format=POLICY_FORMAT, source=os.path.basename(checkpoint_file),
                 note=note)
+  write_policy(policy, output_file)
+  return policy
+
+
+def write_policy(policy: Dict[str, Any], output_file: str) -> None:
+  """Writes a policy dict (from `export_policy`/`load_policy`) atomically."""
+  if policy.get('format') != POLICY_FORMAT:
+    raise ValueError(f'not a {POLICY_FORMAT} policy')
   os.makedirs(os.path.dirname(os.path.abspath(output_file)), exist_ok=True)
   tmp = output_file + '.tmp'
   with open(tmp, 'wb') as f:
     pickle.dump(policy, f, protocol=pickle.HIGHEST_PROTOCOL)
   os.replace(tmp, output_file)
-  return policy
 
 
 def load_policy(path: str) -> Dict[str, Any]:

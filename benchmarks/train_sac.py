@@ -1,0 +1,177 @@
+"""Trains SAC with the paper's settings, then picks a policy on validation seeds.
+
+Two steps, both resumable (re-run the same command after a kill):
+
+  # 1. Up to 2500 episodes on the default wind field (gin_configs/sac.gin:
+  #    the paper's SAC settings), exporting the policy after every iteration.
+  python benchmarks/train_sac.py train --base_dir=RUN --episodes=2500
+
+  # 2. Evaluate every --every-th exported policy (and the newest) on the first
+  #    --validation_episodes seeds of `latex_validation` (seeds from 2e6: not
+  #    training, not held out), keep the best TW50 among those with at most
+  #    --max_oor_pct % of episodes out of resources, and write it to --output.
+  python benchmarks/train_sac.py select --base_dir=RUN \
+      --output=ble_latex/agents/policies/sac_latex.pkl
+
+  # 3. Report it on the held-out seeds (README "Results"):
+  ble-latex-eval --agent=sac_pretrained --suite=latex_small \
+      --output_dir=benchmarks/results
+
+`select` can run while `train` is still going (it only reads finished policy
+files); its results accumulate in RUN/validation.json.
+"""
+
+import argparse
+import glob
+import json
+import math
+import os
+import re
+import sys
+from typing import Any, Dict, List, Optional
+
+_POLICY_RE = re.compile(r'policy_(\d{5})\.pkl$')
+
+
+def train(base_dir: str, episodes: int, episodes_per_iteration: int,
+          seed: int, gin_bindings: List[str]) -> None:
+  """Runs (or resumes) `ble-latex-train` with policy snapshots."""
+  from ble_latex import runner  # pylint: disable=g-import-not-at-top
+  from ble_latex import suites  # pylint: disable=g-import-not-at-top
+  from ble_latex import train_lib  # pylint: disable=g-import-not-at-top
+  runner.bind_gin('sac', None, [], gin_bindings)
+  train_lib.train(
+      agent_name='sac', env_name='LatexBalloon-v0', base_dir=base_dir,
+      num_iterations=math.ceil(episodes / episodes_per_iteration),
+      episodes_per_iteration=episodes_per_iteration,
+      max_episode_length=suites.EPISODE_STEPS,
+      collectors=['progress', 'episodes', 'tensorboard'], seed=seed,
+      policy_snapshot_period=1)
+
+
+def candidates(base_dir: str, every: int) -> List[str]:
+  """Exported policies of iterations (i + 1) % every == 0, plus the newest."""
+  paths = sorted(p for p in glob.glob(os.path.join(base_dir, 'policies',
+                                                   'policy_*.pkl'))
+                 if _POLICY_RE.search(p))
+  if not paths:
+    raise FileNotFoundError(
+        f'no exported policies in {base_dir}/policies (train with '
+        '--policy_snapshot_period, or `train_sac.py train`)')
+  chosen = [p for p in paths
+            if (int(_POLICY_RE.search(p).group(1)) + 1) % every == 0]
+  if paths[-1] not in chosen:
+    chosen.append(paths[-1])
+  return chosen
+
+
+def best(results: Dict[str, Dict[str, Any]],
+         max_oor_pct: float) -> Optional[str]:
+  """Name with the highest validation TW50 among those within the OOR cap."""
+  ok = {k: v for k, v in results.items()
+        if v['out_of_resources_pct'] <= max_oor_pct}
+  if not ok:
+    return None
+  return max(ok, key=lambda k: (ok[k]['tw50_mean'], ok[k]['reward_mean']))
+
+
+def select(base_dir: str, every: int, validation_episodes: int,
+           max_oor_pct: float, output: Optional[str]) -> int:
+  """Evaluates candidate policies on validation seeds; writes the best."""
+  import gym  # pylint: disable=g-import-not-at-top
+  from balloon_learning_environment.eval import suites as ble_suites  # pylint: disable=g-import-not-at-top
+  from ble_latex import eval_lib  # pylint: disable=g-import-not-at-top
+  from ble_latex import metrics  # pylint: disable=g-import-not-at-top
+  from ble_latex import runner  # pylint: disable=g-import-not-at-top
+  from ble_latex import suites  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+
+  suite = ble_suites.get_eval_suite('latex_validation')
+  if not 1 <= validation_episodes <= len(suite.seeds):
+    raise ValueError(f'--validation_episodes must be in [1, '
+                     f'{len(suite.seeds)}], got {validation_episodes}')
+  seeds = suite.seeds[:validation_episodes]
+  results_path = os.path.join(base_dir, 'validation.json')
+  results: Dict[str, Dict[str, Any]] = {}
+  if os.path.exists(results_path):
+    with open(results_path) as f:
+      results = {k: v for k, v in json.load(f).items()
+                 if v.get('seeds') == [seeds[0], seeds[-1]]}
+  runner.bind_gin('sac_pretrained', None, [], [])
+  env = gym.make('LatexBalloon-v0').unwrapped
+  space = env.action_space
+  for path in candidates(base_dir, every):
+    name = os.path.basename(path)
+    if name in results:
+      continue
+    agent = pretrained.SACPretrainedAgent(
+        space.shape[0], env.observation_space.shape, action_low=space.low,
+        action_high=space.high, policy_path=path)
+    records = eval_lib.evaluate(agent, env, seeds, suite.max_episode_length,
+                                description=f'validate {name}')
+    summary = metrics.summarize(records)
+    summary['seeds'] = [seeds[0], seeds[-1]]
+    summary['iteration'] = agent.policy_info['iteration']
+    summary['training_steps'] = agent.policy_info['training_steps']
+    summary['note'] = agent.policy_info['note']
+    results[name] = summary
+    eval_lib.write_results(results_path, results, pretty=True)
+
+  print('| policy | note | validation TW50 | reward | out of resources |')
+  print('|---|---|---|---|---|')
+  for name in sorted(results):
+    r = results[name]
+    print(f'| {name} | {r["note"]} | {100 * r["tw50_mean"]:.1f} % | '
+          f'{r["reward_mean"]:.1f} | {r["out_of_resources_pct"]:.0f} % |')
+  chosen = best(results, max_oor_pct)
+  if chosen is None:
+    print(f'no policy has <= {max_oor_pct} % out of resources',
+          file=sys.stderr)
+    return 1
+  r = results[chosen]
+  print(f'best: {chosen} ({r["note"]}), validation TW50 '
+        f'{100 * r["tw50_mean"]:.1f} % on {validation_episodes} seeds')
+  if output:
+    policy = pretrained.load_policy(os.path.join(base_dir, 'policies', chosen))
+    policy['note'] = (
+        f'{r["note"]}; chosen among {len(results)} exported policies by TW50 '
+        f'on latex_validation seeds {seeds[0]}..{seeds[-1]} '
+        f'({100 * r["tw50_mean"]:.1f} %, <= {max_oor_pct:g} % out of '
+        'resources)')
+    pretrained.write_policy(policy, output)
+    print(f'wrote {output}')
+  return 0
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+  sub = parser.add_subparsers(dest='command', required=True)
+  p = sub.add_parser('train', help='train (or resume) SAC with snapshots')
+  p.add_argument('--base_dir', required=True)
+  p.add_argument('--episodes', type=int, default=2500)
+  p.add_argument('--episodes_per_iteration', type=int, default=10)
+  p.add_argument('--seed', type=int, default=0)
+  p.add_argument('--gin_bindings', action='append', default=[])
+  p = sub.add_parser('select', help='pick a policy on validation seeds')
+  p.add_argument('--base_dir', required=True)
+  p.add_argument('--every', type=int, default=5,
+                 help='evaluate the policy of every this many iterations')
+  p.add_argument('--validation_episodes', type=int, default=30)
+  p.add_argument('--max_oor_pct', type=float, default=10.0)
+  p.add_argument('--output', help='write the chosen policy here')
+  args = parser.parse_args(argv)
+  import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
+  if args.command == 'train':
+    if args.episodes < 1 or args.episodes_per_iteration < 1:
+      parser.error('--episodes and --episodes_per_iteration must be >= 1')
+    train(args.base_dir, args.episodes, args.episodes_per_iteration,
+          args.seed, args.gin_bindings)
+    return 0
+  if args.every < 1:
+    parser.error('--every must be >= 1')
+  return select(args.base_dir, args.every, args.validation_episodes,
+                args.max_oor_pct, args.output)
+
+
+if __name__ == '__main__':
+  sys.exit(main())
