@@ -6,7 +6,7 @@ Two steps, both resumable (re-run the same command after a kill):
   #    the paper's SAC settings), exporting the policy after every iteration.
   python benchmarks/train_sac.py train --base_dir=RUN --episodes=2500
 
-  # 2. Evaluate every --every-th exported policy (and the newest) on the first
+  # 2. Evaluate every --every-th exported policy on the first
   #    --validation_episodes seeds of `latex_validation` (seeds from 2e6: not
   #    training, not held out), keep the best TW50 among those with at most
   #    --max_oor_pct % of episodes out of resources, and write it to --output.
@@ -49,8 +49,8 @@ def train(base_dir: str, episodes: int, episodes_per_iteration: int,
       policy_snapshot_period=1)
 
 
-def candidates(base_dir: str, every: int) -> List[str]:
-  """Exported policies of iterations (i + 1) % every == 0, plus the newest."""
+def candidates(base_dir: str, every: int, include_newest: bool) -> List[str]:
+  """Exported policies of iterations (i + 1) % every == 0 (and the newest)."""
   paths = sorted(p for p in glob.glob(os.path.join(base_dir, 'policies',
                                                    'policy_*.pkl'))
                  if _POLICY_RE.search(p))
@@ -60,7 +60,7 @@ def candidates(base_dir: str, every: int) -> List[str]:
         '--policy_snapshot_period, or `train_sac.py train`)')
   chosen = [p for p in paths
             if (int(_POLICY_RE.search(p).group(1)) + 1) % every == 0]
-  if paths[-1] not in chosen:
+  if include_newest and paths[-1] not in chosen:
     chosen.append(paths[-1])
   return chosen
 
@@ -75,8 +75,9 @@ def best(results: Dict[str, Dict[str, Any]],
   return max(ok, key=lambda k: (ok[k]['tw50_mean'], ok[k]['reward_mean']))
 
 
-def select(base_dir: str, every: int, validation_episodes: int,
-           max_oor_pct: float, output: Optional[str]) -> int:
+def select(base_dir: str, every: int, include_newest: bool,
+           validation_episodes: int, max_oor_pct: float,
+           output: Optional[str]) -> int:
   """Evaluates candidate policies on validation seeds; writes the best."""
   import gym  # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.eval import suites as ble_suites  # pylint: disable=g-import-not-at-top
@@ -100,7 +101,7 @@ def select(base_dir: str, every: int, validation_episodes: int,
   runner.bind_gin('sac_pretrained', None, [], [])
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
-  for path in candidates(base_dir, every):
+  for path in candidates(base_dir, every, include_newest):
     name = os.path.basename(path)
     if name in results:
       continue
@@ -154,8 +155,11 @@ def main(argv: Optional[List[str]] = None) -> int:
   p.add_argument('--gin_bindings', action='append', default=[])
   p = sub.add_parser('select', help='pick a policy on validation seeds')
   p.add_argument('--base_dir', required=True)
-  p.add_argument('--every', type=int, default=5,
+  p.add_argument('--every', type=int, default=10,
                  help='evaluate the policy of every this many iterations')
+  p.add_argument('--include_newest', action='store_true',
+                 help='also evaluate the newest policy (e.g. a run stopped '
+                 'between two multiples of --every)')
   p.add_argument('--validation_episodes', type=int, default=30)
   p.add_argument('--max_oor_pct', type=float, default=10.0)
   p.add_argument('--output', help='write the chosen policy here')
@@ -169,8 +173,8 @@ def main(argv: Optional[List[str]] = None) -> int:
     return 0
   if args.every < 1:
     parser.error('--every must be >= 1')
-  return select(args.base_dir, args.every, args.validation_episodes,
-                args.max_oor_pct, args.output)
+  return select(args.base_dir, args.every, args.include_newest,
+                args.validation_episodes, args.max_oor_pct, args.output)
 
 
 if __name__ == '__main__':

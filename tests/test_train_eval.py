@@ -169,7 +169,8 @@ def test_policy_snapshots_and_validation_selection(tmp_path):
                         'train_sac.py')
   output = tmp_path / 'best.pkl'
   out = _run([sys.executable, script, 'select', f'--base_dir={run}',
-              '--every=1', '--validation_episodes=1', f'--output={output}'])
+              '--every=1', '--include_newest', '--validation_episodes=1',
+              f'--output={output}'])
   results = json.loads((run / 'validation.json').read_text())
   assert sorted(results) == ['policy_00000.pkl', 'policy_00001.pkl']
   assert all(r['seeds'] == [suites.VALIDATION_SEED_OFFSET] * 2
@@ -190,3 +191,37 @@ def test_policy_snapshots_need_a_sac_agent(tmp_path):
       env=_ENV, capture_output=True, text=True, timeout=600)
   assert out.returncode != 0
   assert 'policy snapshots need a SAC agent' in out.stderr
+
+
+def _train_sac_script():
+  import importlib.util  # pylint: disable=g-import-not-at-top
+  path = os.path.join(os.path.dirname(__file__), '..', 'benchmarks',
+                      'train_sac.py')
+  spec = importlib.util.spec_from_file_location('train_sac', path)
+  module = importlib.util.module_from_spec(spec)
+  spec.loader.exec_module(module)
+  return module
+
+
+def test_train_sac_candidates_and_best(tmp_path):
+  train_sac = _train_sac_script()
+  with pytest.raises(FileNotFoundError, match='no exported policies'):
+    train_sac.candidates(str(tmp_path), 2, False)
+  (tmp_path / 'policies').mkdir()
+  for i in range(5):
+    (tmp_path / 'policies' / f'policy_{i:05d}.pkl').write_bytes(b'')
+  (tmp_path / 'policies' / 'policy_00005.pkl.tmp').write_bytes(b'')
+  names = lambda paths: [os.path.basename(p) for p in paths]
+  assert names(train_sac.candidates(str(tmp_path), 2, False)) == [
+      'policy_00001.pkl', 'policy_00003.pkl']
+  assert names(train_sac.candidates(str(tmp_path), 2, True)) == [
+      'policy_00001.pkl', 'policy_00003.pkl', 'policy_00004.pkl']
+
+  def r(tw50, oor, reward=0.0):
+    return {'tw50_mean': tw50, 'out_of_resources_pct': oor,
+            'reward_mean': reward}
+  results = {'a': r(0.5, 20.0), 'b': r(0.3, 10.0), 'c': r(0.3, 0.0, 5.0),
+             'd': r(0.1, 0.0)}
+  assert train_sac.best(results, 10.0) == 'c'  # 'a' is over the cap.
+  assert train_sac.best(results, 100.0) == 'a'
+  assert train_sac.best({'a': r(0.5, 20.0)}, 10.0) is None
