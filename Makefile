@@ -39,7 +39,7 @@ clean:
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.eval --suite=latex_small --output_dir=$(RESULTS)
 
-.PHONY: baselines results env-speed
+.PHONY: baselines results env-speed sac-step train-sac select-sac
 baselines: venv
 	$(EVAL) --agent=latex_random
 	$(EVAL) --agent=latex_station_seeker
@@ -52,3 +52,16 @@ results: baselines
 
 env-speed: venv
 	$(PY) benchmarks/env_speed.py --episodes 3 --repeats 3 --profile --json benchmarks/env_speed.json
+
+sac-step: venv
+	$(PY) benchmarks/sac_step.py --steps 200 --rounds 3 --json benchmarks/sac_step.json
+
+# Issue 6 training: the paper's SAC run (resumable), then the policy chosen on
+# latex_validation is written into the package (see README "Results").
+RUN ?= runs/sac_paper
+train-sac: venv
+	$(PY) benchmarks/train_sac.py train --base_dir=$(RUN) --episodes=2500
+
+select-sac: venv
+	$(PY) benchmarks/train_sac.py select --base_dir=$(RUN) --every=10 --validation_episodes=30 \
+		--output=ble_latex/agents/policies/sac_latex.pkl
