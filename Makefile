@@ -63,5 +63,5 @@ train-sac: venv
 	$(PY) benchmarks/train_sac.py train --base_dir=$(RUN) --episodes=2500
 
 select-sac: venv
-	$(PY) benchmarks/train_sac.py select --base_dir=$(RUN) --every=10 --validation_episodes=30 \
+	$(PY) benchmarks/train_sac.py select --base_dir=$(RUN) --every=10 --include_newest --validation_episodes=30 \
 		--output=ble_latex/agents/policies/sac_latex.pkl
