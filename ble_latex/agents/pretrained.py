@@ -15,7 +15,7 @@ parameters and the temperature. The result ships as package data
 import os
 import pickle
 import sys
-from typing import Any, Dict, Optional, Sequence
+from typing import Any, Dict, Mapping, Optional, Sequence
 
 import gin
 import jax.numpy as jnp
@@ -34,13 +34,33 @@ def export_policy(checkpoint_file: str, output_file: str,
   """Writes the acting part of a SAC checkpoint to `output_file`."""
   with open(checkpoint_file, 'rb') as f:
     bundle = pickle.load(f)
-  if not isinstance(bundle, dict) or bundle.get(
-      'format') != sac.CHECKPOINT_FORMAT:
-    raise ValueError(f'{checkpoint_file} is not a ble_latex SAC checkpoint')
-  policy = {k: bundle[k] for k in _KEPT}
-  policy.update(format=POLICY_FORMAT, source=os.path.basename(checkpoint_file),
-                note=note)
+  policy = policy_from_bundle(bundle, os.path.basename(checkpoint_file), note,
+                              what=checkpoint_file)
   write_policy(policy, output_file)
+  return policy
+
+
+def policy_from_bundle(bundle: Mapping[str, Any], source: str, note: str = '',
+                       what: str = 'bundle') -> Dict[str, Any]:
+  """The acting part of a SAC checkpoint bundle (or `SACAgent.acting_bundle`).
+
+  Args:
+    bundle: A `SACAgent.bundle_and_checkpoint` or `acting_bundle` dict.
+    source: Checkpoint file name recorded in the policy.
+    note: Free text recorded in the policy.
+    what: How to name the bundle in the error message.
+
+  Returns:
+    The policy dict (`POLICY_FORMAT`).
+
+  Raises:
+    ValueError: If `bundle` is not a ble_latex SAC checkpoint bundle.
+  """
+  if not isinstance(bundle, Mapping) or bundle.get(
+      'format') != sac.CHECKPOINT_FORMAT:
+    raise ValueError(f'{what} is not a ble_latex SAC checkpoint')
+  policy = {k: bundle[k] for k in _KEPT}
+  policy.update(format=POLICY_FORMAT, source=source, note=note)
   return policy
 
 

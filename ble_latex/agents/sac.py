@@ -622,19 +622,35 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       and target parameters, optimizer states, log(alpha) and the replay.
     """
     del checkpoint_dir
+    bundle = self.acting_bundle(iteration_number)
+    bundle.update(
+        rng=np.asarray(self._rng),
+        state=np.array(self.state),
+        target_params=_to_numpy(self.target_params),
+        optimizer_state=_to_numpy(self.optimizer_state),
+        alpha_optimizer_state=_to_numpy(self.alpha_optimizer_state),
+        replay=self._replay_bundle())
+    return bundle
+
+  def acting_bundle(self, iteration_number: int) -> Dict[str, Any]:
+    """The part of `bundle_and_checkpoint` that acting needs.
+
+    Format tag, iteration, config, train-step counter, online network
+    parameters and log(alpha); no replay buffer, optimizer or target states.
+
+    Args:
+      iteration_number: Iteration the bundle belongs to.
+
+    Returns:
+      A dict with those entries, as in a checkpoint.
+    """
     return {
         'format': CHECKPOINT_FORMAT,
         'iteration': int(iteration_number),
         'config': self._config(),
         'training_steps': int(self.training_steps),
-        'rng': np.asarray(self._rng),
-        'state': np.array(self.state),
         'network_params': _to_numpy(self.network_params),
-        'target_params': _to_numpy(self.target_params),
-        'optimizer_state': _to_numpy(self.optimizer_state),
         'log_alpha': np.asarray(self.log_alpha),
-        'alpha_optimizer_state': _to_numpy(self.alpha_optimizer_state),
-        'replay': self._replay_bundle(),
     }
 
   def unbundle(self, checkpoint_dir: str, iteration_number: int,
