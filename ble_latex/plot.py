@@ -26,8 +26,11 @@ Writes into --output_dir, each only when its inputs are given:
                            helium vented, sand dropped, % out of resources
                            (also printed).
 
-Prints the paths written. Exit status 0 on success, 1 on bad input (a message
-naming the file), 2 on bad flags.
+Every input is read and checked (each record against its schema, see
+`ble_latex.plots`) and the wind sampled before the first figure is drawn, so a
+bad input leaves nothing written. Prints the paths written. Exit status 0 on
+success, 1 on bad input (a message naming the file, record and field), 2 on bad
+flags.
 """
 
 import datetime as dt
@@ -136,29 +139,58 @@ def sample_wind_grid(field: Any, pressures_pa: Sequence[float], *,
 def wind_rows(seeds: Sequence[int], pressures_pa: Sequence[float], *,
               env_name: str, hours: float, extent_km: float,
               num_points: int) -> List[plots.WindPanelRow]:
-  """Builds the env (gin already parsed), resets per seed, samples the wind."""
+  """Builds the env (gin already parsed), resets per seed, samples the wind.
+
+  Args:
+    seeds: Env seeds, one row each.
+    pressures_pa: Pressure levels, one column each. # [Pa]
+    env_name: A registered balloon env.
+    hours: Forecast time after the reset. # [h]
+    extent_km: Grid half-width. # [km]
+    num_points: Grid points per side.
+
+  Returns:
+    One `plots.WindPanelRow` per seed.
+
+  Raises:
+    flags.ValidationError: `env_name` is not a registered balloon env.
+  """
   import gym  # pylint: disable=g-import-not-at-top
-  env = gym.make(env_name)
-  rows = []
-  for seed in seeds:
-    env.reset(seed=seed)
-    arena = env.unwrapped.arena
-    field = arena._wind_field  # pylint: disable=protected-access
-    atmosphere = arena._atmosphere  # pylint: disable=protected-access
-    state = arena.get_balloon_state()
-    elapsed = dt.timedelta(hours=hours)
-    grid = sample_wind_grid(field, pressures_pa, extent_km=extent_km,
-                            num_points=num_points, elapsed=elapsed)
-    altitudes = [atmosphere.at_pressure(p).height.kilometers
-                 for p in pressures_pa]
-    when = (state.date_time + elapsed).strftime('%Y-%m-%d %H:%M UTC')
-    rows.append(plots.WindPanelRow(
-        title=f'seed {seed}, {when}\n{type(field).__name__}',
-        pressures_pa=np.asarray(pressures_pa, dtype=float),
-        altitudes_km=np.asarray(altitudes),
-        balloon_xy_km=(state.x.kilometers, state.y.kilometers), **grid))
-  env.close()
-  return rows
+  try:
+    env = gym.make(env_name)
+  except gym.error.Error as e:
+    raise flags.ValidationError(f'--env_name={env_name}: {e}') from e
+  try:
+    if not hasattr(env.unwrapped, 'arena'):
+      raise flags.ValidationError(f'--env_name={env_name}: not a balloon env '
+                                  '(it has no arena to take the wind from)')
+    return [_wind_row(env, seed, pressures_pa, hours=hours,
+                      extent_km=extent_km, num_points=num_points)
+            for seed in seeds]
+  finally:
+    env.close()
+
+
+def _wind_row(env: Any, seed: int, pressures_pa: Sequence[float], *,
+              hours: float, extent_km: float,
+              num_points: int) -> plots.WindPanelRow:
+  """Resets `env` to `seed` and samples its forecast wind."""
+  env.reset(seed=seed)
+  arena = env.unwrapped.arena
+  field = arena._wind_field  # pylint: disable=protected-access
+  atmosphere = arena._atmosphere  # pylint: disable=protected-access
+  state = arena.get_balloon_state()
+  elapsed = dt.timedelta(hours=hours)
+  grid = sample_wind_grid(field, pressures_pa, extent_km=extent_km,
+                          num_points=num_points, elapsed=elapsed)
+  altitudes = [atmosphere.at_pressure(p).height.kilometers
+               for p in pressures_pa]
+  when = (state.date_time + elapsed).strftime('%Y-%m-%d %H:%M UTC')
+  return plots.WindPanelRow(
+      title=f'seed {seed}, {when}\n{type(field).__name__}',
+      pressures_pa=np.asarray(pressures_pa, dtype=float),
+      altitudes_km=np.asarray(altitudes),
+      balloon_xy_km=(state.x.kilometers, state.y.kilometers), **grid)
 
 
 def format_summary(summary: Dict[str, Dict[str, float]]) -> str:
@@ -182,8 +214,9 @@ def _float_list(name: str, values: Sequence[str]) -> List[float]:
     out = [float(v) for v in values]
   except ValueError as e:
     raise flags.ValidationError(f'--{name}: {e}') from e
-  if not out or not all(np.isfinite(out)):
-    raise flags.ValidationError(f'--{name} needs finite numbers, got {values}')
+  if not out or not all(np.isfinite(out)) or min(out) <= 0:
+    raise flags.ValidationError(
+        f'--{name} needs finite positive numbers, got {values}')
   return out
 
 
@@ -194,6 +227,8 @@ def _wind_seed_list(f: flags.FlagValues) -> List[int]:
     raise flags.ValidationError(f'--wind_seeds: {e}') from e
   if f.wind_seed is not None:
     seeds = [f.wind_seed] + [s for s in seeds if s != f.wind_seed]
+  if any(s < 0 for s in seeds):
+    raise flags.ValidationError(f'--wind_seed(s) must be >= 0, got {seeds}')
   return seeds
 
 
@@ -213,10 +248,31 @@ def _parse_gin(gin_files: Sequence[str], gin_bindings: Sequence[str]) -> None:
 
 
 def run(f: flags.FlagValues) -> List[str]:
-  """Makes every figure whose inputs are given; returns the paths written."""
+  """Makes every figure whose inputs are given; returns the paths written.
+
+  All inputs are loaded and validated (and the wind sampled) first: an error
+  in any of them raises before anything is drawn or written.
+
+  Args:
+    f: The parsed flags.
+
+  Returns:
+    The paths written, in drawing order.
+
+  Raises:
+    flags.ValidationError: bad flag values (exit status 2).
+    OSError, ValueError: a missing or malformed input, naming the file (and
+      record and field).
+  """
   out = f.output_dir
   written = []
-  # Load (and so validate) every input before drawing anything.
+  # 1. Flags that need no file.
+  wind_seeds = _wind_seed_list(f)
+  pressures = _float_list('wind_pressures_pa', f.wind_pressures_pa)
+  if f.seed is not None and not (f.eval_json and f.baseline_eval_json):
+    raise flags.ValidationError('--seed needs --eval_json and '
+                                '--baseline_eval_json')
+  # 2. Load (and so validate) every input file.
   episodes = None
   if f.run_dir:
     episodes = plots.load_episodes(
@@ -224,21 +280,27 @@ def run(f: flags.FlagValues) -> List[str]:
   evals = {p: plots.load_eval(p) for p in f.eval_json}
   baseline = (plots.load_eval(f.baseline_eval_json)
               if f.baseline_eval_json else None)
-  wind_seeds = _wind_seed_list(f)
-  pressures = _float_list('wind_pressures_pa', f.wind_pressures_pa)
-  if f.seed is not None and not (evals and baseline):
-    raise flags.ValidationError('--seed needs --eval_json and '
-                                '--baseline_eval_json')
   first = next(iter(evals.values())) if evals else None
-  seed_3d = (plots.common_seed(first, baseline, f.seed)
-             if first and baseline else None)
+  seed_3d = None
+  if first and baseline:
+    try:
+      seed_3d = plots.common_seed(first, baseline, f.seed)
+    except ValueError as e:
+      raise ValueError(f'{f.eval_json[0]} and {f.baseline_eval_json}: '
+                       f'{e}') from e
+  # 3. The wind, from the env.
+  rows = None
   if wind_seeds:
     _parse_gin(f.gin_files, f.gin_bindings)
+    rows = wind_rows(wind_seeds, pressures, env_name=f.env_name,
+                     hours=f.wind_hours, extent_km=f.wind_extent_km,
+                     num_points=f.wind_grid)
   elif f.gin_files or f.gin_bindings:
     print('ble-latex-plot: --gin_files/--gin_bindings only affect '
           f'{WIND_FIELD} (give --wind_seed); ignored.', file=sys.stderr)
-  os.makedirs(out, exist_ok=True)
 
+  # 4. Draw.
+  os.makedirs(out, exist_ok=True)
   if episodes is not None:
     written.append(plots.plot_training_curves(
         episodes, os.path.join(out, TRAINING_CURVES),
@@ -256,10 +318,7 @@ def run(f: flags.FlagValues) -> List[str]:
     written.append(plots.plot_trajectory_3d(
         by_seed(first), by_seed(baseline), os.path.join(out, TRAJECTORY_3D),
         labels=names))
-  if wind_seeds:
-    rows = wind_rows(wind_seeds, pressures, env_name=f.env_name,
-                     hours=f.wind_hours, extent_km=f.wind_extent_km,
-                     num_points=f.wind_grid)
+  if rows is not None:
     written.append(plots.plot_wind_fields(rows, os.path.join(out, WIND_FIELD)))
   if baseline is not None:
     evals[f.baseline_eval_json] = baseline

@@ -1,6 +1,7 @@
 # coding=utf-8
 """Tests for ble_latex.plots (figures) and ble_latex.plot (`ble-latex-plot`)."""
 
+import dataclasses
 import json
 import math
 import pathlib
@@ -132,11 +133,14 @@ def test_load_episodes_bad_files(tmp_path):
     plots.load_episodes(str(corrupt))
   duplicate = tmp_path / 'duplicate.jsonl'
   duplicate.write_text('\n'.join([lines[0], lines[1], lines[1]]))
-  with pytest.raises(ValueError, match='duplicate.jsonl: record 3: episode 1'):
+  with pytest.raises(ValueError,
+                     match=r'duplicate.jsonl: record 3 \(episode 1\): '
+                     'episode 1 does not follow episode 1'):
     plots.load_episodes(str(duplicate))
   no_key = tmp_path / 'no_key.jsonl'
   no_key.write_text(json.dumps({'episode': 0, 'reward': 1.0}) + '\n')
-  with pytest.raises(ValueError, match=r"no_key.jsonl: record 1: .*'tw50'"):
+  with pytest.raises(ValueError, match=r'no_key.jsonl: record 1 \(episode 0\): '
+                     r"missing field\(s\) .*'tw50'"):
     plots.load_episodes(str(no_key))
   empty = tmp_path / 'empty.jsonl'
   empty.write_text('\n')
@@ -155,10 +159,173 @@ def test_load_eval_bad_files(tmp_path):
     plots.load_eval(str(_write_json(tmp_path / 'dict.json', {'seed': 1})))
   bad_point = _eval_records()
   del bad_point[1]['flight_path'][4]['y_km']
-  with pytest.raises(ValueError, match=r'record 1 \(seed 5\) flight_path\[4\]'):
+  with pytest.raises(ValueError, match=r"bad_point.json: record 1 \(seed 5\): "
+                     r"flight_path\[4\]: missing field\(s\) 'y_km'"):
     plots.load_eval(str(_write_json(tmp_path / 'bad_point.json', bad_point)))
   with pytest.raises(FileNotFoundError, match='nope.json'):
     plots.load_eval(str(tmp_path / 'nope.json'))
+
+
+def _set(record: Dict[str, Any], key: str, value: Any) -> Dict[str, Any]:
+  record[key] = value
+  return record
+
+
+def _drop(record: Dict[str, Any], key: str) -> Dict[str, Any]:
+  del record[key]
+  return record
+
+
+def _set_point(record: Dict[str, Any], j: int, key: str,
+               value: Any) -> Dict[str, Any]:
+  record['flight_path'][j][key] = value
+  return record
+
+
+# (test id, change to the third record, what the error says after the file).
+_BAD_EPISODES = [
+    ('reward_null', lambda r: _set(r, 'reward', None),
+     "record 3 (episode 2): field 'reward': expected a finite number, got "
+     'null'),
+    ('tw50_string', lambda r: _set(r, 'tw50', 'x'),
+     "record 3 (episode 2): field 'tw50': expected a finite number in [0, 1], "
+     'got "x"'),
+    ('tw50_above_one', lambda r: _set(r, 'tw50', 1.5),
+     "record 3 (episode 2): field 'tw50': expected a finite number in [0, 1], "
+     'got 1.5'),
+    ('reward_nan', lambda r: _set(r, 'reward', float('nan')),
+     "record 3 (episode 2): field 'reward': expected a finite number, got NaN"),
+    ('reward_inf', lambda r: _set(r, 'reward', float('-inf')),
+     "record 3 (episode 2): field 'reward': expected a finite number, got "
+     '-Infinity'),
+    ('reward_huge_int', lambda r: _set(r, 'reward', 10**400),
+     "record 3 (episode 2): field 'reward': expected a finite number"),
+    ('reward_bool', lambda r: _set(r, 'reward', True),
+     "record 3 (episode 2): field 'reward': expected a finite number, got "
+     'true'),
+    ('steps_float', lambda r: _set(r, 'steps', 2.5),
+     "record 3 (episode 2): field 'steps': expected a non-negative integer, "
+     'got 2.5'),
+    ('seed_bool', lambda r: _set(r, 'seed', False),
+     "record 3 (episode 2): field 'seed': expected an integer, got false"),
+    ('episode_negative', lambda r: _set(r, 'episode', -1),
+     "record 3: field 'episode': expected a non-negative integer, got -1"),
+    ('episode_string', lambda r: _set(r, 'episode', '2'),
+     "record 3: field 'episode': expected a non-negative integer, got \"2\""),
+    ('unknown_reason', lambda r: _set(r, 'terminal_reason', 'abducted'),
+     "record 3 (episode 2): field 'terminal_reason': expected one of "
+     "'time_limit', "),
+    ('missing_sand', lambda r: _drop(r, 'sand_dropped_kg'),
+     "record 3 (episode 2): missing field(s) 'sand_dropped_kg'"),
+    ('not_an_object', lambda r: [r['episode']],
+     'record 3: expected a JSON object, got an array [2]'),
+    ('null_line', lambda r: None,
+     'record 3: expected a JSON object, got null'),
+]
+
+
+@pytest.mark.parametrize('change,message',
+                         [c[1:] for c in _BAD_EPISODES],
+                         ids=[c[0] for c in _BAD_EPISODES])
+def test_load_episodes_names_file_record_and_field(tmp_path, change, message):
+  records = [_episode(i) for i in range(5)]
+  records[2] = change(records[2])
+  path = tmp_path / 'bad.jsonl'
+  # json.dumps writes NaN/Infinity tokens, as Python's json writers do.
+  path.write_text('\n'.join(json.dumps(r) for r in records) + '\n')
+  with pytest.raises(ValueError) as e:
+    plots.load_episodes(str(path))
+  assert str(e.value).startswith(f'{path}: {message}'), str(e.value)
+
+
+_BAD_EVALS = [
+    ('missing_flight_path', lambda r: _drop(r, 'flight_path'),
+     "record 1 (seed 5): missing field(s) 'flight_path'"),
+    ('empty_flight_path', lambda r: _set(r, 'flight_path', []),
+     "record 1 (seed 5): field 'flight_path': expected a non-empty list of "
+     'flight points, got []'),
+    ('flight_path_object', lambda r: _set(r, 'flight_path', {'t_s': 0}),
+     "record 1 (seed 5): field 'flight_path': expected a non-empty list"),
+    ('point_altitude_null', lambda r: _set_point(r, 4, 'altitude_m', None),
+     "record 1 (seed 5): flight_path[4]: field 'altitude_m': expected a finite "
+     'number, got null'),
+    ('point_x_nan', lambda r: _set_point(r, 0, 'x_km', float('nan')),
+     "record 1 (seed 5): flight_path[0]: field 'x_km': expected a finite "
+     'number, got NaN'),
+    ('point_t_string', lambda r: _set_point(r, 9, 't_s', '1200'),
+     "record 1 (seed 5): flight_path[9]: field 't_s': expected a finite "
+     'number, got "1200"'),
+    ('point_bad_decision', lambda r: _set_point(r, 2, 'decision', 'hover'),
+     "record 1 (seed 5): flight_path[2]: field 'decision': expected one of "
+     "'nothing', 'float', 'vent', 'ballast', got \"hover\""),
+    ('point_not_object', lambda r: _set(r, 'flight_path', [None]),
+     'record 1 (seed 5): flight_path[0]: expected a JSON object, got null'),
+    ('reward_null', lambda r: _set(r, 'reward', None),
+     "record 1 (seed 5): field 'reward': expected a finite number, got null"),
+    ('helium_bool', lambda r: _set(r, 'helium_vented_mols', True),
+     "record 1 (seed 5): field 'helium_vented_mols': expected a finite "
+     'number, got true'),
+    ('seed_string', lambda r: _set(r, 'seed', '5'),
+     "record 1: field 'seed': expected an integer, got \"5\""),
+    ('unknown_reason', lambda r: _set(r, 'terminal_reason', None),
+     "record 1 (seed 5): field 'terminal_reason': expected one of "),
+    ('duplicate_seed', lambda r: _set(r, 'seed', 3),
+     'record 1 (seed 3): seed 3 already in record 0'),
+    ('record_string', lambda r: 'seed 5',
+     'record 1: expected a JSON object, got a string "seed 5"'),
+]
+
+
+@pytest.mark.parametrize('change,message',
+                         [c[1:] for c in _BAD_EVALS],
+                         ids=[c[0] for c in _BAD_EVALS])
+def test_load_eval_names_file_record_and_field(tmp_path, change, message):
+  records = _eval_records((3, 5, 7))
+  records[1] = change(records[1])
+  path = _write_json(tmp_path / 'bad.json', records)
+  with pytest.raises(ValueError) as e:
+    plots.load_eval(str(path))
+  assert str(e.value).startswith(f'{path}: {message}'), str(e.value)
+
+
+@pytest.mark.parametrize('top,message', [
+    ({'seed': 1}, 'got an object {"seed": 1}'),
+    ([], 'got an array []'),
+    (None, 'got null'),
+    ('records', 'got a string "records"'),
+])
+def test_load_eval_top_level_must_be_a_list(tmp_path, top, message):
+  path = _write_json(tmp_path / 'top.json', top)
+  with pytest.raises(ValueError) as e:
+    plots.load_eval(str(path))
+  assert str(e.value) == (f'{path}: expected a non-empty JSON list of per-seed '
+                          f'records, {message}')
+
+
+def test_loaders_name_file_on_bad_encoding(tmp_path):
+  latin = tmp_path / 'latin.jsonl'
+  latin.write_bytes(b'{"x": "\xe9"}\n')
+  with pytest.raises(ValueError, match='latin.jsonl: not a UTF-8'):
+    plots.load_episodes(str(latin))
+  latin_eval = tmp_path / 'latin.json'
+  latin_eval.write_bytes(b'[{"x": "\xe9"}]')
+  with pytest.raises(ValueError, match='latin.json: not a valid eval JSON'):
+    plots.load_eval(str(latin_eval))
+
+
+def test_schemas_match_what_is_written():
+  # pylint: disable-next=g-import-not-at-top
+  from ble_latex import controller, metrics
+  assert set(plots.TERMINAL_COLORS) == set(metrics.TERMINAL_REASONS)
+  assert set(plots.DECISIONS) == {d.value for d in controller.Decision}
+  fields = {f.name for f in dataclasses.fields(metrics.EpisodeSummary)}
+  assert set(plots.EPISODE_SCHEMA) == fields
+  assert set(plots.EVAL_SCHEMA) == (
+      fields - {'episode', 'wall_time_s'}) | {'flight_path'}
+  # The run shipped in benchmarks/ passes.
+  shipped = (pathlib.Path(__file__).parent.parent / 'benchmarks' /
+             'sac_paper_run' / 'episodes.jsonl')
+  assert len(plots.load_episodes(str(shipped))) == 2260
 
 
 # --- figures ---------------------------------------------------------------
@@ -270,6 +437,62 @@ def test_main_bad_inputs(tmp_path, capsys):
   assert not out.exists()  # Nothing drawn on bad input.
   assert plot.main(['--help']) == 0
   assert '--wind_seeds' in capsys.readouterr().out
+
+
+def test_main_validates_every_input_before_drawing(tmp_path, capsys):
+  run_dir = tmp_path / 'run'
+  _write_episodes(run_dir / 'episodes.jsonl', n=60)
+  good = _write_json(tmp_path / 'good.json', _eval_records())
+  bad_records = _eval_records()
+  bad_records[2]['flight_path'][3]['altitude_m'] = None
+  bad = _write_json(tmp_path / 'bad.json', bad_records)
+  out = tmp_path / 'plots'
+  for inputs in ([f'--eval_json={bad}'],
+                 [f'--eval_json={good}', f'--eval_json={bad}'],
+                 [f'--eval_json={good}', f'--baseline_eval_json={bad}']):
+    assert plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
+                      *inputs]) == 1
+    err = capsys.readouterr().err
+    assert (f"{bad}: record 2 (seed 7): flight_path[3]: field 'altitude_m': "
+            'expected a finite number, got null') in err
+    assert not out.exists(), sorted(out.iterdir())  # No figure, no summary.
+
+
+def test_main_bad_episode_value_exits_1_naming_file(tmp_path, capsys):
+  run_dir = tmp_path / 'run'
+  records = [_episode(i) for i in range(8)]
+  records[5]['reward'] = None  # Was an uncaught TypeError while drawing.
+  (run_dir).mkdir()
+  log = run_dir / 'episodes.jsonl'
+  log.write_text('\n'.join(json.dumps(r) for r in records) + '\n')
+  trained = _write_json(tmp_path / 'a.json', _eval_records())
+  out = tmp_path / 'plots'
+  assert plot.main([f'--output_dir={out}', f'--eval_json={trained}',
+                    f'--run_dir={run_dir}']) == 1
+  assert (f"ble-latex-plot: error: {log}: record 6 (episode 5): field "
+          "'reward': expected a finite number, got null"
+          ) in capsys.readouterr().err
+  assert not out.exists()
+
+
+def test_main_bad_wind_flags_draw_nothing(tmp_path, capsys):
+  run_dir = tmp_path / 'run'
+  _write_episodes(run_dir / 'episodes.jsonl', n=60)
+  out = tmp_path / 'plots'
+  assert plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
+                    '--wind_seed=-1']) == 2
+  assert '--wind_seed(s) must be >= 0' in capsys.readouterr().err
+  assert plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
+                    '--wind_seed=0', '--wind_pressures_pa=14000,-5']) == 2
+  assert 'finite positive numbers' in capsys.readouterr().err
+  try:
+    status = plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
+                        '--wind_seed=0', '--env_name=NoSuchBalloon-v0'])
+  finally:
+    gin.clear_config()
+  assert status == 2
+  assert '--env_name=NoSuchBalloon-v0' in capsys.readouterr().err
+  assert not out.exists()
 
 
 def test_main_wind_field_real_env(tmp_path, capsys):
