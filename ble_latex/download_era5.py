@@ -25,7 +25,7 @@ import datetime as dt
 import json
 import os
 import sys
-from typing import List, Optional, Sequence
+from typing import Any, List, Optional, Sequence, Tuple
 
 import numpy as np
 import xarray as xr
@@ -55,14 +55,15 @@ def merge_files(paths: Sequence[str], output: str) -> str:
 
   Raises:
     FileNotFoundError: a file is missing.
-    ValueError: a file is not NetCDF or has no time dimension.
+    IsADirectoryError: a path is a directory.
+    OSError: `output` cannot be written (no partial file is left).
+    ValueError: a file is not NetCDF, is truncated or has no time dimension.
   """
   datasets = []
   try:
     time_dim = None
     for path in paths:
-      if not os.path.isfile(path):
-        raise FileNotFoundError(f'ERA5 file {path} does not exist')
+      era5.check_file(path)
       try:
         dataset = xr.open_dataset(path)
       except Exception as error:  # pylint: disable=broad-except
@@ -89,9 +90,49 @@ def merge_files(paths: Sequence[str], output: str) -> str:
     if np.issubdtype(merged[name].dtype, np.floating):
       encoding[name] = {'dtype': 'float32', 'zlib': True, 'complevel': 4}
   partial = output + '.part'
-  merged.to_netcdf(partial, encoding=encoding)
-  os.replace(partial, output)
+  try:
+    merged.to_netcdf(partial, encoding=encoding)
+    os.replace(partial, output)
+  except OSError as error:
+    raise OSError(f'could not write {output} ({type(error).__name__}: '
+                  f'{error})') from error
+  finally:
+    _remove_partial(partial)
   return output
+
+
+def _remove_partial(path: str) -> None:
+  """Removes a partial download or write, if there is one (best effort)."""
+  try:
+    os.remove(path)
+  except OSError:
+    pass
+
+
+def _output_error(output: str,
+                  jobs: Sequence[Tuple[str, Any, str]]) -> Optional[str]:
+  """Why `--output` or a monthly file cannot be written there, or None.
+
+  Args:
+    output: The joined file.
+    jobs: (month, request, monthly file) of each request.
+
+  Returns:
+    A one-line error, or None when the paths are usable.
+  """
+  separators = tuple(s for s in (os.sep, os.altsep, '/') if s)
+  if output.endswith(separators) or os.path.isdir(output):
+    return (f'--output {output} is a directory; give a file name such as '
+            f'{os.path.join(output, "era5_paper.nc")}')
+  parent = os.path.dirname(os.path.abspath(output))
+  while not os.path.exists(parent):  # Created later: check what exists.
+    parent = os.path.dirname(parent)
+  if not os.path.isdir(parent):
+    return f'--output {output}: {parent} is not a directory'
+  for month, _, target in jobs:
+    if os.path.isdir(target):
+      return f'{target} (the file for {month}) is a directory'
+  return None
 
 
 def _credentials_error() -> Optional[str]:
@@ -171,6 +212,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     return 2
   jobs = [(month, request, monthly_path(args.output, month))
           for month, request in requests]
+  problem = _output_error(args.output, jobs)
+  if problem:
+    print(f'error: {problem}', file=sys.stderr)
+    return 2
   if args.dry_run:
     print(json.dumps({
         'dataset': era5.DATASET,
@@ -190,21 +235,29 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     for month, request, target in todo:
       print(f'requesting {era5.DATASET} {month} -> {target}', flush=True)
       os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
-      try:
-        client.retrieve(era5.DATASET, request, target + '.part')
-      except Exception as error:  # pylint: disable=broad-except
-        print(f'error: CDS request for {month} failed ({type(error).__name__}: '
-              f'{error}). Check your token in ~/.cdsapirc and that you '
-              'accepted the ERA5 licence on the dataset page.',
-              file=sys.stderr)
-        return 1
-      os.replace(target + '.part', target)
+      partial = target + '.part'
+      try:  # No partial download is left behind, whatever happens.
+        try:
+          client.retrieve(era5.DATASET, request, partial)
+        except Exception as error:  # pylint: disable=broad-except
+          print(f'error: CDS request for {month} failed '
+                f'({type(error).__name__}: {error}). Check your token in '
+                '~/.cdsapirc and that you accepted the ERA5 licence on the '
+                'dataset page.', file=sys.stderr)
+          return 1
+        os.replace(partial, target)
+      finally:
+        _remove_partial(partial)
   targets: List[str] = [target for _, _, target in jobs]
-  if args.no_merge:
-    data = era5.load(targets)
-  else:
-    merge_files(targets, args.output)
-    data = era5.load(args.output)
+  try:
+    if args.no_merge:
+      data = era5.load(targets)
+    else:
+      merge_files(targets, args.output)
+      data = era5.load(args.output)
+  except (OSError, ValueError) as error:
+    print(f'error: {error}', file=sys.stderr)
+    return 1
   print(f'wrote {args.output if not args.no_merge else targets}: '
         f'{data.times.size} times {data.start:%Y-%m-%d %H:%M} to '
         f'{data.end:%Y-%m-%d %H:%M} UTC, pressure {data.pressure.min():.0f}-'

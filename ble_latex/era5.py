@@ -18,6 +18,12 @@ pressure levels in hPa (or Pa, from the `units` attribute), latitude in any
 order (ERA5 stores it descending), longitude in -180..180 or 0..360. A list of
 files or a glob pattern (e.g. one file per month) is joined along time.
 
+Loading checks the files: truncated files (NetCDF3: shorter than the header's
+variables and records; NetCDF4: shorter than the HDF5 superblock's end of
+file), pressure values that contradict their `units`, NaN winds (declared
+fill values) and winds above `MAX_WIND_MPS` (undeclared fill values such as
+9.97e36, corrupt data) are errors naming the file.
+
 `build_requests` builds the exact `cdsapi` requests for such files
 (`ble-latex-download-era5`, `ble_latex.download_era5`, fetches them).
 """
@@ -29,7 +35,8 @@ import functools
 import glob
 import math
 import os
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+import struct
+from typing import Any, BinaryIO, Dict, List, Optional, Sequence, Tuple, Union
 
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.utils import spherical_geometry
@@ -55,6 +62,21 @@ WIND_VARIABLES = ('u', 'v')
 _PRESSURE_UNITS = {'pa': 1.0, 'hpa': 100.0, 'mbar': 100.0, 'millibars': 100.0,
                    'millibar': 100.0, 'mb': 100.0}
 _WIND_UNITS = ('m s**-1', 'm s-1', 'm/s', 'm.s-1', 'meters per second')
+# Largest wind component a file may hold. ERA5's strongest winds (jet
+# streams, the stratospheric polar-night jet) stay below it; NetCDF's default
+# fill value 9.97e36 written without a `_FillValue` attribute, or corrupt
+# data, are far above it. # [m/s]
+MAX_WIND_MPS = 200.0
+# Pressure values against their `units` (ERA5's levels are 1..1000 hPa):
+# hPa (mbar) values above _MAX_HPA are Pa numbers (ERA5's deepest level is
+# 1000 hPa; no surface pressure reaches 1100 hPa); Pa values below _MIN_PA
+# (ERA5's top level, 1 hPa) are hPa numbers, and Pa values all <=
+# _MAX_PA_CHECKED (10 hPa) must be ERA5 levels (100, 200, 300, 500, 700, 1000
+# Pa), else they are hPa numbers (e.g. 125, 150 "Pa"). Every real ERA5 level
+# set passes, in hPa and in Pa.
+_MAX_HPA = 1100.0  # [hPa]
+_MIN_PA = 100.0  # [Pa]
+_MAX_PA_CHECKED = 1000.0  # [Pa]
 
 # The paper's ERA5 data (Saunders et al. 2023, "RL problem", Wind).
 DATASET = 'reanalysis-era5-pressure-levels'
@@ -73,6 +95,12 @@ ERA5_PRESSURE_LEVELS_HPA = (
     1, 2, 3, 5, 7, 10, 20, 30, 50, 70, 100, 125, 150, 175, 200, 225, 250, 300,
     350, 400, 450, 500, 550, 600, 650, 700, 750, 775, 800, 825, 850, 875, 900,
     925, 950, 975, 1000)
+
+# NetCDF3 (classic, 64-bit offset, CDF-5) header: type sizes and list tags.
+_NC3_TYPE_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 4, 6: 8, 7: 1, 8: 2, 9: 4,
+                   10: 8, 11: 8}  # [bytes]
+_NC3_DIMENSION, _NC3_VARIABLE, _NC3_ATTRIBUTE = 0x0A, 0x0B, 0x0C
+_HDF5_SIGNATURE = b'\x89HDF\r\n\x1a\n'
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -190,7 +218,20 @@ def find_time_dim(dataset: xr.Dataset) -> Optional[str]:
 
 
 def _pressure_factor(coordinate: xr.DataArray, path: str) -> float:
-  """Factor that converts the pressure coordinate to Pa."""
+  """Factor that converts the pressure coordinate to Pa.
+
+  Args:
+    coordinate: The pressure coordinate.
+    path: The file (for errors).
+
+  Returns:
+    The factor from the coordinate's units to Pa.
+
+  Raises:
+    ValueError: unknown units, or values that contradict the units (see
+      `_MAX_HPA`, `_MIN_PA`): hPa numbers labelled Pa or Pa numbers labelled
+      hPa.
+  """
   unit = str(coordinate.attrs.get('units', '')).strip()
   if unit:
     factor = _PRESSURE_UNITS.get(unit.lower())
@@ -199,6 +240,24 @@ def _pressure_factor(coordinate: xr.DataArray, path: str) -> float:
           f'ERA5 file {path}: pressure coordinate {coordinate.name!r} has '
           f'unknown units {unit!r} (expected one of '
           f'{sorted(_PRESSURE_UNITS)})')
+    values = np.asarray(coordinate.values, dtype=np.float64).reshape(-1)
+    values = values[np.isfinite(values)]
+    if values.size:
+      low, high = float(values.min()), float(values.max())
+      if factor == 1.0:
+        levels_pa = np.array(ERA5_PRESSURE_LEVELS_HPA, dtype=np.float64) * 100
+        on_levels = np.isclose(values[:, None], levels_pa, rtol=1e-6,
+                               atol=0.0).any(axis=1).all()
+        wrong = low < _MIN_PA or (high <= _MAX_PA_CHECKED and not on_levels)
+        other = 'hPa'
+      else:
+        wrong, other = high > _MAX_HPA, 'Pa'
+      if wrong:
+        raise ValueError(
+            f'ERA5 file {path}: pressure coordinate {coordinate.name!r} has '
+            f'units {unit!r} but values {low:g}..{high:g}, which look like '
+            f'{other} (ERA5 levels are 1..1000 hPa = 100..100000 Pa); fix '
+            'its units attribute')
     return factor
   # No units: ERA5 levels are 1..1000 hPa, in Pa they are >= 100.
   return 100.0 if float(np.nanmax(coordinate.values)) <= 1100.0 else 1.0
@@ -240,11 +299,218 @@ def _read_variable(dataset: xr.Dataset, name: str, path: str) -> xr.DataArray:
   return array.transpose(*wanted)
 
 
-def _open(path: str) -> xr.Dataset:
-  """Opens one NetCDF file, with errors that name the file."""
+class _HeaderReader:
+  """Reads a file's header, with errors when it runs past the end."""
+
+  def __init__(self, file: BinaryIO, size: int, path: str):
+    self._file = file
+    self._size = size
+    self._path = path
+
+  def read(self, count: int) -> bytes:
+    """The next `count` bytes; ValueError (truncated) if there are fewer."""
+    self.need(count)
+    return self._file.read(count)
+
+  def need(self, count: int) -> None:
+    """ValueError (truncated) if fewer than `count` bytes are left."""
+    if count > self._size - self._file.tell():
+      raise ValueError(
+          f'ERA5 file {self._path} is truncated: its header runs past the end '
+          f'of the file ({self._size} bytes); download it again')
+
+  def corrupt(self, why: str) -> ValueError:
+    return ValueError(f'ERA5 file {self._path} is not a readable NetCDF file '
+                      f'(corrupt NetCDF3 header: {why})')
+
+
+def _netcdf3_needed_size(file: BinaryIO, size: int,
+                         path: str) -> Tuple[int, str]:
+  """Least size of a NetCDF3 file from its header, and what ends there.
+
+  The header (NetCDF classic format spec) gives each variable's type,
+  dimensions and data offset (`begin`) and the number of records; the data
+  of fixed-size variables ends at begin + size, that of record variables at
+  begin + (numrecs - 1) * record size + their size per record. Padding is
+  not counted, so a complete file is never too short.
+
+  Args:
+    file: The file, positioned at its start.
+    size: Its size. # [bytes]
+    path: Its path (for errors).
+
+  Returns:
+    (least size [bytes], why: what ends there).
+
+  Raises:
+    ValueError: a header that runs past the end of the file (truncated) or
+      is malformed.
+  """
+  reader = _HeaderReader(file, size, path)
+  version = reader.read(4)[3]
+  count_size = 8 if version == 5 else 4  # NON_NEG
+  offset_size = 4 if version == 1 else 8  # OFFSET
+
+  def number() -> int:
+    return int.from_bytes(reader.read(count_size), 'big')
+
+  def skip_name() -> str:
+    length = number()
+    return reader.read(length + (-length) % 4)[:length].decode(
+        'utf-8', 'replace')
+
+  def list_length(tag: int) -> int:
+    found, length = struct.unpack('>I', reader.read(4))[0], number()
+    if found not in (0, tag) or (found == 0 and length):
+      raise reader.corrupt(f'list tag {found:#x} where {tag:#x} belongs')
+    reader.need(4 * length)  # Each element takes at least 4 bytes.
+    return length
+
+  def skip_attributes():
+    for _ in range(list_length(_NC3_ATTRIBUTE)):
+      skip_name()
+      nc_type = struct.unpack('>I', reader.read(4))[0]
+      if nc_type not in _NC3_TYPE_SIZES:
+        raise reader.corrupt(f'attribute type {nc_type}')
+      nbytes = number() * _NC3_TYPE_SIZES[nc_type]
+      reader.read(nbytes + (-nbytes) % 4)
+
+  numrecs = number()
+  streaming = numrecs == 2**(8 * count_size) - 1  # Unknown count.
+  dims = []
+  for _ in range(list_length(_NC3_DIMENSION)):
+    skip_name()
+    dims.append(number())
+  skip_attributes()
+  variables = []  # (name, item size, dim lengths, is record, begin)
+  for _ in range(list_length(_NC3_VARIABLE)):
+    name = skip_name()
+    dim_ids = [number() for _ in range(number())]
+    if any(i >= len(dims) for i in dim_ids):
+      raise reader.corrupt(f'variable {name!r} has dimension ids {dim_ids} '
+                           f'but there are {len(dims)} dimensions')
+    skip_attributes()
+    nc_type = struct.unpack('>I', reader.read(4))[0]
+    if nc_type not in _NC3_TYPE_SIZES:
+      raise reader.corrupt(f'variable {name!r} has type {nc_type}')
+    number()  # vsize: redundant (and clipped for large variables).
+    begin = int.from_bytes(reader.read(offset_size), 'big')
+    shape = [dims[i] for i in dim_ids]
+    is_record = bool(dim_ids) and dims[dim_ids[0]] == 0
+    variables.append((name, _NC3_TYPE_SIZES[nc_type],
+                      shape[1:] if is_record else shape, is_record, begin))
+  needed, what = file.tell(), 'header'
+  record = [v for v in variables if v[3]]
+  per_record = [item * math.prod(shape) for _, item, shape, _, _ in record]
+  # One record variable is not padded; several are, each to 4 bytes.
+  record_size = (per_record[0] if len(record) == 1 else
+                 sum(n + (-n) % 4 for n in per_record))
+  for name, item, shape, is_record, begin in variables:
+    if not is_record:
+      end = begin + item * math.prod(shape)
+    elif streaming or not numrecs:
+      continue
+    else:
+      end = begin + (numrecs - 1) * record_size + item * math.prod(shape)
+    if end > needed:
+      needed, what = end, f'variable {name!r}'
+  return needed, f'its NetCDF3 header puts the end of {what} at byte {needed}'
+
+
+def _hdf5_needed_size(file: BinaryIO, size: int,
+                      path: str) -> Optional[Tuple[int, str]]:
+  """Least size of an HDF5 (NetCDF4) file from its superblock, or None.
+
+  The superblock (at 0, or 512, 1024, ... after a user block) stores the
+  end-of-file address; HDF5 files are at least that long.
+
+  Args:
+    file: The file.
+    size: Its size. # [bytes]
+    path: Its path (for errors).
+
+  Returns:
+    (least size [bytes], why), or None if the file is not HDF5 or its
+    superblock has no end-of-file address.
+
+  Raises:
+    ValueError: the superblock itself is cut (truncated).
+  """
+  offset = 0
+  while offset < size:
+    file.seek(offset)
+    head = file.read(64)
+    if head.startswith(_HDF5_SIGNATURE) or _HDF5_SIGNATURE.startswith(head):
+      break  # A signature, or the start of one at the end of the file.
+    offset = 512 if offset == 0 else 2 * offset
+  else:
+    return None
+  truncated = ValueError(
+      f'ERA5 file {path} is truncated: its HDF5 superblock is cut at '
+      f'{size} bytes; download it again')
+  if len(head) < 14:
+    raise truncated
+  version = head[8]
+  if version in (0, 1):
+    address_size, start = head[13], 24 if version == 0 else 28
+  elif version in (2, 3):
+    address_size, start = head[9], 12
+  else:
+    return None
+  if address_size not in (2, 4, 8):
+    return None
+  # Base address, free-space (v0/1) or extension (v2/3) address, end of file.
+  eof_at = start + 2 * address_size
+  if len(head) < eof_at + address_size:
+    raise truncated
+  eof = int.from_bytes(head[eof_at:eof_at + address_size], 'little')
+  if eof == 2**(8 * address_size) - 1:
+    return None  # Undefined address.
+  needed = offset + eof
+  return needed, f'its HDF5 superblock puts the end at byte {needed}'
+
+
+def check_file(path: str) -> None:
+  """Checks that `path` is a whole file: not a directory, missing or cut.
+
+  NetCDF3 files (classic, 64-bit offset, CDF-5) must hold every variable's
+  data and all records their header declares; NetCDF4 (HDF5) files must
+  reach the end-of-file address of their superblock. Other files are left
+  to the NetCDF library.
+
+  Args:
+    path: A file.
+
+  Raises:
+    IsADirectoryError: `path` is a directory.
+    FileNotFoundError: `path` does not exist.
+    ValueError: the file is truncated (shorter than its header says) or its
+      NetCDF3 header is malformed.
+  """
+  if os.path.isdir(path):
+    raise IsADirectoryError(
+        f'ERA5 path {path} is a directory, not a NetCDF file (give a file or '
+        f'a glob pattern such as {os.path.join(path, "era5_*.nc")})')
   if not os.path.isfile(path):
     raise FileNotFoundError(f'ERA5 file {path} does not exist (download it '
                             'with ble-latex-download-era5)')
+  size = os.path.getsize(path)
+  with open(path, 'rb') as file:
+    magic = file.read(4)
+    file.seek(0)
+    if magic[:3] == b'CDF' and magic[3:] in (b'\x01', b'\x02', b'\x05'):
+      needed = _netcdf3_needed_size(file, size, path)
+    else:
+      needed = _hdf5_needed_size(file, size, path)
+  if needed is not None and needed[0] > size:
+    raise ValueError(
+        f'ERA5 file {path} is truncated: it has {size} bytes but {needed[1]} '
+        '(an interrupted download or copy?); download it again')
+
+
+def _open(path: str) -> xr.Dataset:
+  """Opens one NetCDF file, with errors that name the file."""
+  check_file(path)
   try:
     return xr.open_dataset(path)
   except Exception as error:  # pylint: disable=broad-except
@@ -273,8 +539,13 @@ def _read_file(path: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
                 _pressure_factor(u[pressure_dim], path))
     latitude = u[lat_dim].values.astype(np.float64)
     longitude = u[lon_dim].values.astype(np.float64)
-    uv = np.stack([u.values.astype(np.float64),
-                   v.values.astype(np.float64)], axis=-1)
+    try:
+      uv = np.stack([u.values.astype(np.float64),
+                     v.values.astype(np.float64)], axis=-1)
+    except Exception as error:  # pylint: disable=broad-except
+      raise ValueError(f'ERA5 file {path} is corrupt or truncated: reading '
+                       f'its winds failed ({type(error).__name__}: {error})'
+                       ) from error
   for name, axis in (('time', times), ('pressure', pressure),
                      ('latitude', latitude), ('longitude', longitude)):
     if name != 'time' and not np.all(np.isfinite(axis)):
@@ -286,6 +557,20 @@ def _read_file(path: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
     raise ValueError(
         f'ERA5 file {path} has NaN/inf winds: {int(counts[0])} values of u '
         f'and {int(counts[1])} of v (check the requested area and levels)')
+  absurd = np.abs(uv) > MAX_WIND_MPS
+  if absurd.any():
+    k = 0 if absurd[..., 0].any() else 1
+    name = WIND_VARIABLES[k]
+    first = tuple(int(i) for i in np.argwhere(absurd[..., k])[0])
+    it, ip, ilat, ilon = first
+    raise ValueError(
+        f'ERA5 file {path}: variable {name!r} has '
+        f'{int(absurd[..., k].sum())} values with |{name}| > '
+        f'{MAX_WIND_MPS:g} m/s (first {uv[first + (k,)]:.4g} m/s at '
+        f'{time_dim} {np.datetime_as_string(times[it], unit="m")}, pressure '
+        f'{pressure[ip]:g} Pa, latitude {latitude[ilat]:g}, longitude '
+        f'{longitude[ilon]:g}): an undeclared fill value (no _FillValue or '
+        'missing_value attribute) or corrupt data')
   orders = [np.argsort(a, kind='stable')
             for a in (times, pressure, latitude, longitude)]
   uv = uv[np.ix_(*orders)]
@@ -337,14 +622,17 @@ def load(path: Union[str, Sequence[str]]) -> Era5Data:
 
   Raises:
     FileNotFoundError: a file is missing.
-    ValueError: a file is not NetCDF, lacks a variable, dimension or
-      coordinate, has NaN winds, or files do not share one grid.
+    IsADirectoryError: a path (or a glob's match) is a directory.
+    ValueError: a file is not NetCDF, is truncated, lacks a variable,
+      dimension or coordinate, has pressure values that contradict their
+      units, NaN winds (e.g. declared fill values) or winds above
+      `MAX_WIND_MPS` (e.g. undeclared fill values), or files do not share one
+      grid.
   """
   paths = expand_paths(path)
   for p in paths:
-    if not os.path.isfile(p):
-      raise FileNotFoundError(f'ERA5 file {p} does not exist (download it '
-                              'with ble-latex-download-era5)')
+    if os.path.isdir(p) or not os.path.isfile(p):
+      check_file(p)  # Raises.
   stamps = tuple((p, os.stat(p).st_mtime_ns, os.stat(p).st_size)
                  for p in paths)
   return _load_cached(stamps)
@@ -424,6 +712,7 @@ class Era5WindField(wind_field.WindField):
 
     Raises:
       FileNotFoundError: a file is missing.
+      IsADirectoryError: a path is a directory.
       ValueError: bad file (see `load`), target outside the file's area,
         non-finite arguments, or data shorter than `episode_hours`.
     """

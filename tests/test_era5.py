@@ -9,6 +9,8 @@ interpolated winds can be checked exactly. No network.
 import datetime as dt
 import json
 import math
+import os
+import re
 import sys
 import types
 
@@ -53,9 +55,16 @@ def wind_v(t_h, p_hpa, lat, lon):
 
 def write_era5(path, *, layout='new', pressure_unit='hPa', lat=LATS,
                lon=LONS, times=TIMES, levels_hpa=LEVELS_HPA, drop=(),
-               nan=False, dtype='float64'):
-  """Writes a synthetic ERA5 file; returns its path as str."""
-  t_h = (times - T0) / np.timedelta64(1, 'h')
+               nan=False, dtype='float64', units_attr=None, file_format=None,
+               coords_first=False, unlimited_dims=(), t0=T0):
+  """Writes a synthetic ERA5 file; returns its path as str.
+
+  `units_attr` overrides the pressure coordinate's `units` attribute (not its
+  values); `file_format` is xarray's (e.g. 'NETCDF3_CLASSIC'); with
+  `coords_first` the coordinates come first in the file, as in old CDS files.
+  The winds' time origin is `t0` (far from it they exceed real winds).
+  """
+  t_h = (times - t0) / np.timedelta64(1, 'h')
   tt, pp, la, lo = np.meshgrid(t_h, levels_hpa, lat, lon, indexing='ij')
   lon_true = (lo + 180.0) % 360.0 - 180.0
   u = wind_u(tt, pp, la, lon_true).astype(dtype)
@@ -71,6 +80,8 @@ def write_era5(path, *, layout='new', pressure_unit='hPa', lat=LATS,
   levels = levels_hpa
   if pressure_unit == 'Pa':
     levels, p_attrs = levels_hpa * 100.0, {'units': 'Pa'}
+  if units_attr is not None:
+    p_attrs = dict(p_attrs, units=units_attr)
   coords = {dims[0]: times, dims[1]: (dims[1], levels, p_attrs),
             'latitude': ('latitude', lat, {'units': 'degrees_north'}),
             'longitude': ('longitude', lon, {'units': 'degrees_east'})}
@@ -82,7 +93,14 @@ def write_era5(path, *, layout='new', pressure_unit='hPa', lat=LATS,
                't': (dims, np.full(u.shape, 210.0), {'units': 'K'})}
   for name in drop:
     del variables[name]
-  xr.Dataset(variables, coords=coords).to_netcdf(path)
+  if coords_first:
+    dataset = xr.Dataset(coords=coords)
+    for name, variable in variables.items():
+      dataset[name] = variable
+  else:
+    dataset = xr.Dataset(variables, coords=coords)
+  dataset.to_netcdf(path, format=file_format,
+                    unlimited_dims=list(unlimited_dims))
   return str(path)
 
 
@@ -438,6 +456,150 @@ def test_single_level_is_an_error(tmp_path):
     era5.load(path)
 
 
+@pytest.mark.parametrize('unlimited_dims', [(), ('time',)])
+@pytest.mark.parametrize('coords_first', [True, False])
+@pytest.mark.parametrize('file_format', ['NETCDF3_CLASSIC', 'NETCDF3_64BIT'])
+def test_truncated_netcdf3_file_is_an_error(tmp_path, file_format,
+                                            coords_first, unlimited_dims):
+  # Old CDS files are NetCDF3 with the coordinates first: cut, they used to
+  # load with wrong winds (or fail with "time more than once").
+  path = write_era5(tmp_path / 'whole.nc', layout='old',
+                    file_format=file_format, coords_first=coords_first,
+                    unlimited_dims=unlimited_dims)
+  np.testing.assert_array_equal(
+      era5.load(path).uv,
+      era5.load(write_era5(tmp_path / 'nc4.nc', layout='old')).uv)
+  content = open(path, 'rb').read()
+  for size in (len(content) - 8, len(content) * 3 // 4, len(content) // 2,
+               60):
+    cut = str(tmp_path / f'cut_{size}.nc')
+    with open(cut, 'wb') as f:
+      f.write(content)
+    with open(cut, 'r+b') as f:
+      f.truncate(size)
+    with pytest.raises(ValueError,
+                       match=f'ERA5 file {re.escape(cut)} is truncated'):
+      era5.load(cut)
+
+
+def test_truncated_netcdf4_file_is_an_error(tmp_path, era5_file):
+  content = open(era5_file, 'rb').read()
+  for size in (len(content) - 10, len(content) // 2, 100, 30):
+    cut = tmp_path / f'cut_{size}.nc'
+    cut.write_bytes(content[:size])
+    with pytest.raises(ValueError,
+                       match=f'ERA5 file {re.escape(str(cut))} is truncated'):
+      era5.load(str(cut))
+
+
+def test_directory_is_an_error(tmp_path, era5_file):
+  directory = tmp_path / 'era5_dir.nc'
+  directory.mkdir()
+  for path in (str(directory), [era5_file, str(directory)],
+               str(tmp_path / 'era5_*')):
+    with pytest.raises(IsADirectoryError,
+                       match=f'ERA5 path {re.escape(str(directory))} is a '
+                       'directory'):
+      era5.load(path)
+  with pytest.raises(IsADirectoryError, match='is a directory'):
+    era5.Era5WindField(path=str(directory))
+
+
+@pytest.mark.parametrize('pressure_unit, units_attr', [
+    ('hPa', 'Pa'), ('Pa', 'hPa'), ('Pa', 'millibars')])
+def test_pressure_values_contradicting_units_are_errors(tmp_path,
+                                                        pressure_unit,
+                                                        units_attr):
+  path = write_era5(tmp_path / 'p.nc', pressure_unit=pressure_unit,
+                    units_attr=units_attr)
+  with pytest.raises(ValueError,
+                     match=f'ERA5 file {re.escape(path)}: pressure coordinate '
+                     f"'pressure_level' has units '{units_attr}' but values "):
+    era5.load(path)
+
+
+def test_hpa_numbers_labelled_pa_above_10_hpa_are_errors(tmp_path):
+  # 100..1000 hPa labelled Pa: no value below 100 Pa, but 125, 150 Pa are no
+  # ERA5 levels.
+  path = write_era5(tmp_path / 'p.nc', units_attr='Pa',
+                    levels_hpa=np.array([100.0, 125.0, 150.0, 200.0]))
+  with pytest.raises(ValueError, match="has units 'Pa' but values"):
+    era5.load(path)
+
+
+@pytest.mark.parametrize('pressure_unit', ['hPa', 'Pa'])
+@pytest.mark.parametrize('levels_hpa', [
+    era5.ERA5_PRESSURE_LEVELS_HPA, (1, 2, 3, 5, 7, 10), (1, 2), (975, 1000)])
+def test_every_era5_pressure_level_set_loads(tmp_path, pressure_unit,
+                                             levels_hpa):
+  levels = np.array(levels_hpa, dtype=np.float64)
+  data = era5.load(write_era5(tmp_path / 'all.nc', times=TIMES[:2],
+                              levels_hpa=levels,
+                              pressure_unit=pressure_unit))
+  np.testing.assert_array_equal(data.pressure, levels * 100.0)
+
+
+FILL = 9.969209968386869e36  # NetCDF's default float fill value.
+
+
+def rewrite(source, path, edit, encoding=None):
+  """Copies an ERA5 file with `edit(dataset)` applied; returns the path."""
+  with xr.open_dataset(source) as dataset:
+    dataset = dataset.load()
+  edit(dataset)
+  dataset.to_netcdf(path, encoding=encoding)
+  return str(path)
+
+
+@pytest.mark.parametrize('name, value', [('u', FILL), ('v', -FILL),
+                                         ('v', 250.0)])
+def test_undeclared_fill_values_and_absurd_winds_are_errors(tmp_path, name,
+                                                            value):
+  source = write_era5(tmp_path / 'f4.nc', dtype='float32')
+
+  def edit(dataset):
+    dataset[name].values[2, 1, 0, 3] = value
+    dataset[name].values[2, 3, 4, 4] = value
+
+  path = rewrite(source, tmp_path / 'fill.nc', edit,
+                 encoding={name: {'_FillValue': None}})
+  with pytest.raises(ValueError) as error:
+    era5.load(path)
+  message = str(error.value)
+  assert message.startswith(f'ERA5 file {path}: variable {name!r} has 2 '
+                            f'values with |{name}| > 200 m/s (first ')
+  assert 'valid_time 2022-11-01T12:00, pressure 5000 Pa, latitude 3' in (
+      message)
+  assert 'undeclared fill value' in message
+
+
+def test_strong_but_possible_winds_load(tmp_path):
+  source = write_era5(tmp_path / 'f4.nc', dtype='float32')
+
+  def edit(dataset):
+    dataset['u'].values[0, 0, 0, 0] = -199.0
+    dataset['v'].values[1, 1, 1, 1] = 180.0
+
+  data = era5.load(rewrite(source, tmp_path / 'strong.nc', edit))
+  assert data.uv.min() == -199.0 and data.uv.max() == 180.0
+
+
+@pytest.mark.parametrize('attribute', ['_FillValue', 'missing_value'])
+def test_declared_fill_values_are_nan_errors(tmp_path, attribute):
+  source = write_era5(tmp_path / 'f4.nc', dtype='float32')
+
+  def edit(dataset):
+    dataset['u'].values[0, 0, 0, 0] = FILL
+
+  encoding = {'u': {attribute: np.float32(FILL)}}
+  if attribute == 'missing_value':
+    encoding['u']['_FillValue'] = None
+  path = rewrite(source, tmp_path / 'declared.nc', edit, encoding=encoding)
+  with pytest.raises(ValueError, match=f'ERA5 file {re.escape(path)} has '
+                     'NaN/inf winds: 1 values of u and 0 of v'):
+    era5.load(path)
+
+
 # Gin.
 
 
@@ -541,7 +703,7 @@ def test_download_with_fake_client_writes_and_joins_months(
       write_era5(target, times=times, lat=np.array([2.0, 1.0, 0.0]),
                  lon=np.array([-114.0, -113.0, -112.0]),
                  levels_hpa=np.array([50.0, 70.0, 100.0]),
-                 dtype='float32')
+                 dtype='float32', t0=times[0])
 
   monkeypatch.setitem(sys.modules, 'cdsapi',
                       types.SimpleNamespace(Client=FakeClient))
@@ -576,6 +738,121 @@ def test_failed_retrieval_is_a_clear_error(monkeypatch, capsys, tmp_path):
   assert 'CDS request for 2022-11 failed (RuntimeError: 403' in (
       capsys.readouterr().err)
   assert not list(tmp_path.iterdir())
+
+
+def recording_client(calls):
+  """A fake cdsapi module whose client records its calls (never called)."""
+
+  class Client:
+
+    def retrieve(self, dataset, request, target):
+      calls.append((dataset, request, target))
+      raise AssertionError('no request expected')
+
+  return types.SimpleNamespace(Client=Client)
+
+
+@pytest.mark.parametrize('dry_run', [False, True])
+def test_output_directory_is_a_usage_error(monkeypatch, capsys, tmp_path,
+                                           dry_run):
+  calls = []
+  monkeypatch.setitem(sys.modules, 'cdsapi', recording_client(calls))
+  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
+  monkeypatch.setenv('CDSAPI_KEY', 'fake')
+  existing = tmp_path / 'existing'
+  existing.mkdir()
+  for output in (str(existing), str(tmp_path / 'new') + '/',
+                 str(tmp_path / 'new') + os.sep, str(existing) + '/'):
+    argv = ['--output', output] + (['--dry_run'] if dry_run else [])
+    assert download_era5.main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ''
+    assert captured.err == (
+        f'error: --output {output} is a directory; give a file name such as '
+        f'{os.path.join(output, "era5_paper.nc")}\n')
+  assert not calls
+  assert [p.name for p in tmp_path.iterdir()] == ['existing']
+  assert not list(existing.iterdir())
+
+
+def test_output_under_a_file_is_a_usage_error(monkeypatch, capsys, tmp_path):
+  calls = []
+  monkeypatch.setitem(sys.modules, 'cdsapi', recording_client(calls))
+  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
+  monkeypatch.setenv('CDSAPI_KEY', 'fake')
+  (tmp_path / 'file').write_text('x')
+  output = str(tmp_path / 'file' / 'era5.nc')
+  assert download_era5.main(['--output', output]) == 2
+  assert capsys.readouterr().err == (
+      f'error: --output {output}: {tmp_path / "file"} is not a directory\n')
+  assert not calls
+
+
+def test_monthly_target_directory_is_a_usage_error(monkeypatch, capsys,
+                                                   tmp_path):
+  calls = []
+  monkeypatch.setitem(sys.modules, 'cdsapi', recording_client(calls))
+  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
+  monkeypatch.setenv('CDSAPI_KEY', 'fake')
+  (tmp_path / 'era5_2022-12.nc').mkdir()
+  assert download_era5.main(['--output', str(tmp_path / 'era5.nc')]) == 2
+  assert capsys.readouterr().err == (
+      f'error: {tmp_path / "era5_2022-12.nc"} (the file for 2022-12) is a '
+      'directory\n')
+  assert not calls
+
+
+@pytest.mark.parametrize('exception', [RuntimeError, KeyboardInterrupt])
+def test_failed_retrieval_leaves_no_part_file(monkeypatch, capsys, tmp_path,
+                                              exception):
+
+  class HalfClient:
+
+    def retrieve(self, dataset, request, target):
+      with open(target, 'wb') as f:
+        f.write(b'CDF\x01 half a download')
+      raise exception('connection reset')
+
+  monkeypatch.setitem(sys.modules, 'cdsapi',
+                      types.SimpleNamespace(Client=HalfClient))
+  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
+  monkeypatch.setenv('CDSAPI_KEY', 'fake')
+  argv = ['--output', str(tmp_path / 'x.nc')]
+  if exception is KeyboardInterrupt:
+    with pytest.raises(KeyboardInterrupt):
+      download_era5.main(argv)
+  else:
+    assert download_era5.main(argv) == 1
+    assert 'CDS request for 2022-11 failed' in capsys.readouterr().err
+  assert not list(tmp_path.iterdir())
+
+
+def test_failed_merge_leaves_no_part_file(monkeypatch, capsys, tmp_path):
+  sources = [write_era5(tmp_path / f'era5_{m}.nc', times=times)
+             for m, times in (('2022-11', TIMES[:2]), ('2022-12', TIMES[2:]))]
+  written = []
+
+  def failing_to_netcdf(self, path, *args, **kwargs):
+    del self, args, kwargs
+    written.append(path)
+    with open(path, 'wb') as f:
+      f.write(b'CDF\x01 half written')
+    raise OSError(28, 'No space left on device')
+
+  monkeypatch.setattr(xr.Dataset, 'to_netcdf', failing_to_netcdf)
+  output = str(tmp_path / 'era5.nc')
+  with pytest.raises(OSError, match='No space left'):
+    download_era5.merge_files(sources, output)
+  assert written == [output + '.part']
+  assert sorted(p.name for p in tmp_path.iterdir()) == [
+      'era5_2022-11.nc', 'era5_2022-12.nc']
+  # The command reports it as a one-line error.
+  assert download_era5.main(['--output', output, '--start_date', '2022-11-01',
+                             '--end_date', '2022-12-31']) == 1
+  assert capsys.readouterr().err.startswith(
+      f'error: could not write {output} (OSError: [Errno 28] No space left')
+  assert sorted(p.name for p in tmp_path.iterdir()) == [
+      'era5_2022-11.nc', 'era5_2022-12.nc']
 
 
 # The environment.
