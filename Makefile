@@ -64,4 +64,4 @@ train-sac: venv
 
 select-sac: venv
 	$(PY) benchmarks/train_sac.py select --base_dir=$(RUN) --every=10 --include_newest --validation_episodes=30 \
-		--output=ble_latex/agents/policies/sac_latex.pkl
+		--output=ble_latex/agents/policies/sac_latex.msgpack

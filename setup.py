@@ -47,7 +47,7 @@ setuptools.setup(
     # The top-level gin_configs/ folder installs as ble_latex/gin_configs.
     package_dir={'ble_latex.gin_configs': 'gin_configs'},
     package_data={'ble_latex.gin_configs': ['*.gin'],
-                  'ble_latex.agents': ['policies/*.pkl']},
+                  'ble_latex.agents': ['policies/*.msgpack']},
     install_requires=_INSTALL_REQUIRES,
     extras_require={
         'test': ['pytest', 'pytest-timeout', 'hypothesis'],
@@ -64,6 +64,7 @@ setuptools.setup(
             'ble-latex-download-era5 = ble_latex.download_era5:main',
             'ble-latex-plot = ble_latex.plot:main',
             'ble-latex-demo = ble_latex.demo:main',
+            'ble-latex-export-policy = ble_latex.export_policy:run',
         ],
     },
 )

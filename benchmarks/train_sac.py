@@ -11,7 +11,7 @@ Two steps, both resumable (re-run the same command after a kill):
   #    training, not held out), keep the best TW50 among those with at most
   #    --max_oor_pct % of episodes out of resources, and write it to --output.
   python benchmarks/train_sac.py select --base_dir=RUN \
-      --output=ble_latex/agents/policies/sac_latex.pkl
+      --output=ble_latex/agents/policies/sac_latex.msgpack
 
   # 3. Report it on the held-out seeds (README "Results"):
   ble-latex-eval --agent=sac_pretrained --suite=latex_small \
@@ -22,15 +22,12 @@ files); its results accumulate in RUN/validation.json.
 """
 
 import argparse
-import glob
 import json
 import math
 import os
-import re
 import sys
 from typing import Any, Dict, List, Optional
 
-_POLICY_RE = re.compile(r'policy_(\d{5})\.pkl$')
 
 
 def train(base_dir: str, episodes: int, episodes_per_iteration: int,
@@ -51,15 +48,19 @@ def train(base_dir: str, episodes: int, episodes_per_iteration: int,
 
 def candidates(base_dir: str, every: int, include_newest: bool) -> List[str]:
   """Exported policies of iterations (i + 1) % every == 0 (and the newest)."""
-  paths = sorted(p for p in glob.glob(os.path.join(base_dir, 'policies',
-                                                   'policy_*.pkl'))
-                 if _POLICY_RE.search(p))
+  from ble_latex import train_lib  # pylint: disable=g-import-not-at-top
+  pattern = train_lib.POLICY_SNAPSHOT_PATTERN
+  folder = os.path.join(base_dir, 'policies')
+  paths = sorted(os.path.join(folder, name)
+                 for name in (os.listdir(folder) if os.path.isdir(folder)
+                              else []) if pattern.match(name))
   if not paths:
     raise FileNotFoundError(
         f'no exported policies in {base_dir}/policies (train with '
         '--policy_snapshot_period, or `train_sac.py train`)')
   chosen = [p for p in paths
-            if (int(_POLICY_RE.search(p).group(1)) + 1) % every == 0]
+            if (int(pattern.match(os.path.basename(p)).group(1)) + 1) %
+            every == 0]
   if include_newest and paths[-1] not in chosen:
     chosen.append(paths[-1])
   return chosen

@@ -73,7 +73,8 @@ def validate_action(action: Any) -> np.ndarray:
   """Checks an action (a0, a1, a2) and returns it as a float64 array.
 
   Args:
-    action: Sequence / array of 3 numbers inside [ACTION_LOW, ACTION_HIGH].
+    action: Array of shape (3,) or a flat sequence of 3 numbers inside
+      [ACTION_LOW, ACTION_HIGH]; (1, 3), (3, 1) and other shapes are refused.
 
   Returns:
     The action as np.float64 array of shape (3,).
@@ -82,14 +83,16 @@ def validate_action(action: Any) -> np.ndarray:
     ValueError: wrong shape, NaN/inf, or out of range (naming the component).
   """
   try:
-    a = np.asarray(action, dtype=np.float64).reshape(-1)
-  except (TypeError, ValueError) as e:
+    if np.asarray(action).dtype.kind not in 'iuf':
+      raise TypeError(f'not numeric (dtype {np.asarray(action).dtype})')
+    a = np.asarray(action, dtype=np.float64)
+  except (TypeError, ValueError, OverflowError) as e:
     raise ValueError(
         f'action must be 3 numbers (a0 desired altitude [m], a1 time factor, '
         f'a2 float flag), got {action!r}') from e
   if a.shape != (3,):
-    raise ValueError(f'action must have 3 components (a0, a1, a2), got shape '
-                     f'{np.shape(action)}')
+    raise ValueError(f'action must have shape (3,) (a0, a1, a2), got shape '
+                     f'{a.shape}: {action!r}')
   names = ('a0 (desired altitude [m])', 'a1 (time factor)',
            'a2 (float flag)')
   for i, name in enumerate(names):

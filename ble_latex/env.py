@@ -12,6 +12,8 @@ Both use BLE's old gym API: `reset(seed=...)` returns the observation and
 `step` returns (observation, reward, done, info). See README for the contract.
 """
 
+import math
+import secrets
 from typing import Any, Callable, Dict, Mapping, Optional, Tuple, Union
 
 from balloon_learning_environment.env import balloon_env
@@ -38,6 +40,39 @@ INFO_KEYS = ('distance_km', 'altitude_m', 'ascent_rate_mps', 'helium_mols',
              'sand_kg', 'helium_vented_mols', 'sand_dropped_kg',
              'controller_decision', 'out_of_resources', 'envelope_burst',
              'time_limit', 'time_elapsed')
+
+
+MAX_SEED = 2**32  # Exclusive; BLE's PRNGKey(seed) aliases larger seeds.
+
+
+def validate_seed(seed: Any) -> None:
+  """Raises ValueError unless `seed` is None or an int in [0, 2**32).
+
+  `jax.random.PRNGKey` takes seeds modulo 2**32 (so 2**32 + s would silently
+  fly seed s) and overflows at 2**64; gym's seeding refuses negative seeds.
+  """
+  if seed is None:
+    return
+  if isinstance(seed, (bool, np.bool_)) or not isinstance(
+      seed, (int, np.integer)):
+    raise ValueError(f'seed must be None or an int in [0, 2**32), got '
+                     f'{seed!r} ({type(seed).__name__})')
+  if not 0 <= int(seed) < MAX_SEED:
+    raise ValueError(f'seed must be in [0, 2**32), got {seed}')
+
+
+def validate_discrete_action(action: Any) -> int:
+  """An `AltitudeControlCommand` value 0, 1 or 2 as int, else ValueError."""
+  valid = False
+  if action is not None and not isinstance(action, (bool, np.bool_)):
+    a = np.asarray(action)
+    if a.shape == () and a.dtype.kind in 'iuf':
+      value = a.item()
+      valid = math.isfinite(value) and value in (0, 1, 2)
+  if not valid:
+    raise ValueError(f'action must be 0 (DOWN), 1 (STAY) or 2 (UP), got '
+                     f'{action!r}')
+  return int(value)
 
 
 @gin.configurable
@@ -74,11 +109,17 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
         `ble_latex.era5.Era5WindField` for ERA5 data.
       episode_steps: Steps per episode; 216 x 20 min = 3 days. The episode is
         cut there (`info['time_limit']`, `info['TimeLimit.truncated']`).
-      seed: PRNG seed; the same seed gives the identical trajectory.
+      seed: PRNG seed in [0, 2**32); the same seed gives the identical
+        trajectory. None: a random one.
       renderer: An optional BLE renderer.
     """
     if episode_steps < 1:
       raise ValueError(f'episode_steps must be >= 1, got {episode_steps}')
+    validate_seed(seed)
+    if seed is None:  # BLE would use time in microseconds, beyond 2**32.
+      seed = secrets.randbits(32)
+    if reward_function is reward_lib.latex_reward:
+      reward_lib.check_config()
     self._episode_steps = episode_steps
     self._steps = 0
     if arena is None:
@@ -112,8 +153,14 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
 
     The seed seeds BLE's JAX key (which samples the flight: start position,
     altitude, time, atmosphere and wind) and gym's `np_random`.
+
+    Raises:
+      ValueError: If `seed` is not None or an int in [0, 2**32); the env is
+        left exactly as it was.
     """
     del options  # No reset options.
+    validate_seed(seed)  # Before anything changes.
+    seed = None if seed is None else int(seed)  # gym refuses NumPy ints.
     gym.Env.reset(self, seed=seed)
     self._steps = 0
     return super().reset(seed=seed, return_info=return_info)
@@ -212,10 +259,9 @@ class LatexBalloonDiscreteEnv(LatexBalloonEnv):
 
   def step(
       self, action: int) -> Tuple[np.ndarray, float, bool, Dict[str, Any]]:
-    if not self.action_space.contains(int(action)) or int(action) != action:
-      raise ValueError(f'action must be 0 (DOWN), 1 (STAY) or 2 (UP), '
-                       f'got {action!r}')
-    return super().step(self.continuous_action(int(action)))
+    """Applies one BLE command; anything but 0, 1 or 2 raises ValueError."""
+    return super().step(self.continuous_action(validate_discrete_action(
+        action)))
 
   def continuous_action(self, action: int) -> np.ndarray:
     """Maps an AltitudeControlCommand to the controller's (a0, a1, a2)."""

@@ -16,6 +16,7 @@ import tqdm
 
 from ble_latex import metrics
 from ble_latex import runner
+from ble_latex import safe_io
 from ble_latex import suites  # pylint: disable=unused-import  # Registers latex suites.
 
 
@@ -58,9 +59,5 @@ def output_path(output_dir: str, suite: str, name: str, num_shards: int,
 
 def write_results(path: str, results: List[Dict[str, Any]],
                   pretty: bool = False) -> None:
-  """Writes atomically (tmp + rename)."""
-  os.makedirs(os.path.dirname(path), exist_ok=True)
-  tmp = path + '.tmp'
-  with open(tmp, 'w') as f:
-    json.dump(results, f, indent=2 if pretty else None)
-  os.replace(tmp, path)
+  """Writes the records as JSON, atomically (`safe_io.atomic_write`)."""
+  safe_io.atomic_write(path, json.dumps(results, indent=2 if pretty else None))

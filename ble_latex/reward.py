@@ -16,6 +16,10 @@ This module adds only the optional resource penalty (default off, as in the
 paper).
 """
 
+import inspect
+import math
+from typing import Any, Callable, Dict
+
 from balloon_learning_environment.env import balloon_env
 from balloon_learning_environment.env import simulator_data
 from balloon_learning_environment.env.balloon import control
@@ -45,6 +49,61 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
       control.AltitudeControlCommand.DOWN):
     raise ValueError('A latex balloon state must not record the air-pump DOWN '
                      "command: BLE's reward would apply its power penalty.")
+  _check_penalties(helium_penalty_per_mol=helium_penalty_per_mol,
+                   sand_penalty_per_kg=sand_penalty_per_kg)
   reward = balloon_env.perciatelli_reward_function(simulator_state)
   return (reward - helium_penalty_per_mol * helium_vented_mols -
           sand_penalty_per_kg * sand_dropped_kg)
+
+
+def _effective(function: Callable[..., Any]) -> Dict[str, Any]:
+  """A gin configurable's keyword defaults overridden by its gin bindings."""
+  target = inspect.unwrap(function)
+  values = {name: p.default for name, p in
+            inspect.signature(target).parameters.items()
+            if p.default is not inspect.Parameter.empty}
+  values.update(gin.get_bindings(function))
+  return values
+
+
+def _require(ok: bool, binding: str, requirement: str, value: Any) -> None:
+  if not ok:
+    raise ValueError(f'gin binding {binding} must be {requirement}, got '
+                     f'{value!r}: the reward would leave its declared range '
+                     '(-inf, 1]')
+
+
+def _is_number(value: Any) -> bool:
+  return (isinstance(value, (int, float)) and not isinstance(value, bool) and
+          math.isfinite(value))
+
+
+def _check_penalties(**penalties: Any) -> None:
+  for name, value in penalties.items():
+    _require(_is_number(value) and value >= 0, f'latex_reward.{name}',
+             'a finite number >= 0', value)
+
+
+def check_config() -> None:
+  """Checks the reward's gin bindings once, when an env is built.
+
+  Resource penalties must be finite and >= 0 (a negative one would pay for
+  venting: rewards above 1), BLE's Perciatelli radius and half-life finite
+  and > 0 (a zero half-life divides by zero), the drop-off in [0, 1].
+
+  Raises:
+    ValueError: Naming the first gin binding that breaks the contract.
+  """
+  _check_penalties(**{k: v for k, v in _effective(latex_reward).items()
+                      if k.endswith('_penalty_per_mol') or
+                      k.endswith('_penalty_per_kg')})
+  ble = _effective(balloon_env.perciatelli_reward_function)
+  prefix = 'perciatelli_reward_function.'
+  for name in ('station_keeping_radius_km', 'reward_halflife'):
+    if name in ble:
+      _require(_is_number(ble[name]) and ble[name] > 0, prefix + name,
+               'a finite number > 0', ble[name])
+  if 'reward_dropoff' in ble:
+    value = ble['reward_dropoff']
+    _require(_is_number(value) and 0 <= value <= 1, prefix + 'reward_dropoff',
+             'in [0, 1]', value)

@@ -5,8 +5,10 @@ Checkpoints after each iteration; a restarted run resumes after the last
 checkpoint. Used by `ble-latex-train` and the demo.
 """
 
+import json
 import os
-from typing import Sequence
+import re
+from typing import Any, Dict, Sequence
 
 from absl import logging
 from balloon_learning_environment.agents import agent as base_agent
@@ -14,16 +16,99 @@ from balloon_learning_environment.metrics import collector_dispatcher
 import gin
 import gym
 
+from ble_latex import episode_log
 from ble_latex import metrics
 from ble_latex import runner
+from ble_latex import safe_io
 from ble_latex import suites
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 
 
+POLICY_SNAPSHOT_PATTERN = re.compile(r'^policy_(\d{5,})\.msgpack$')
+RUN_INFO = 'run.json'  # What a resumed run must agree with.
+# BLE's own agents checkpoint with Dopamine's `checkpoint_NNNNN.pkl` files.
+_BLE_CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.pkl$')
+
+
+class ResumeError(ValueError):
+  """A run directory cannot be resumed safely; nothing was changed."""
+
+
 def policy_snapshot_path(base_dir: str, iteration: int) -> str:
   """Where `train` exports the policy of `iteration` (0-based)."""
-  return os.path.join(base_dir, 'policies', f'policy_{iteration:05d}.pkl')
+  return os.path.join(base_dir, 'policies', f'policy_{iteration:05d}.msgpack')
+
+
+def _reload_latest(agent: base_agent.Agent, checkpoint_dir: str) -> int:
+  """Loads the newest numbered checkpoint; returns its iteration or -1.
+
+  SAC agents find theirs themselves (`sac.SACAgent.reload_latest_checkpoint`).
+  For BLE's agents, whose `reload_latest_checkpoint` gives -1 as soon as any
+  `checkpoint_*.pkl` name lacks a number, the numbered files are found here
+  and loaded with the agent's own `load_checkpoint`.
+  """
+  if isinstance(agent, sac.SACAgent):
+    return agent.reload_latest_checkpoint(checkpoint_dir)
+  iterations = sac.checkpoint_iterations(checkpoint_dir,
+                                         _BLE_CHECKPOINT_PATTERN)
+  if not iterations:
+    return -1
+  agent.load_checkpoint(checkpoint_dir, iterations[-1])
+  return iterations[-1]
+
+
+def _check_resume(base_dir: str, run_info: Dict[str, Any],
+                  start_iteration: int, log_episodes: bool) -> None:
+  """Refuses to resume where resuming would lose or skip logged episodes.
+
+  Args:
+    base_dir: The run directory.
+    run_info: This invocation's `RUN_INFO` settings.
+    start_iteration: First iteration to run (last checkpoint + 1, or 0).
+    log_episodes: Whether the episodes.jsonl collector is on.
+
+  Raises:
+    ResumeError: If `RUN_INFO` records other settings (e.g. another
+      `episodes_per_iteration`), or episodes.jsonl holds more episodes than
+      the newest checkpoint and the one unfinished iteration after it cover,
+      or fewer than the checkpoint covers.
+  """
+  info_path = os.path.join(base_dir, RUN_INFO)
+  if os.path.exists(info_path):
+    try:
+      with open(info_path, encoding='utf-8') as f:
+        recorded = json.load(f)
+    except (OSError, ValueError) as e:
+      raise ResumeError(f'{info_path} is unreadable ({e}); not resuming') from e
+    if not isinstance(recorded, dict):
+      raise ResumeError(f'{info_path} is not a JSON object; not resuming')
+    for key, value in run_info.items():
+      if key in recorded and recorded[key] != value:
+        raise ResumeError(
+            f'{base_dir} was started with {key}={recorded[key]!r}, this run '
+            f'asks for {key}={value!r}: resuming would leave a gap in its '
+            f'episode log. Use the same value or a new --base_dir.')
+  if not log_episodes:
+    return
+  log_path = os.path.join(base_dir, episode_log.EPISODE_LOG)
+  logged = len(episode_log.read(log_path))
+  per_iteration = run_info['episodes_per_iteration']
+  covered = start_iteration * per_iteration
+  if logged > covered + per_iteration:
+    newest = ('no checkpoint' if not start_iteration else
+              f'the newest checkpoint (iteration {start_iteration - 1})')
+    raise ResumeError(
+        f'{log_path} holds {logged} episodes but {newest} covers only '
+        f'{covered}: resuming would drop {logged - covered} logged episodes. '
+        f'Are checkpoints missing from {base_dir}/checkpoints? Nothing was '
+        'changed.')
+  if logged < covered:
+    raise ResumeError(
+        f'{log_path} holds {logged} episodes but the newest checkpoint '
+        f'(iteration {start_iteration - 1}) covers {covered}: episodes '
+        f'{logged}..{covered - 1} would be missing from the log. Nothing was '
+        'changed.')
 
 
 def train(*, agent_name: str, env_name: str, base_dir: str,
@@ -44,13 +129,15 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
     seed: Agent seed.
     policy_snapshot_period: If > 0 (SAC agents only), every this many
       iterations the acting part of the checkpoint is also exported to
-      `base_dir/policies/policy_NNNNN.pkl` (~1 MB; checkpoints hold the
+      `base_dir/policies/policy_NNNNN.msgpack` (~1 MB; checkpoints hold the
       replay buffer and only the newest few are kept), so a policy can be
       chosen afterwards on a validation suite (`benchmarks/train_sac.py`).
 
   Raises:
     ValueError: On an unknown collector, a non-positive count, or policy
       snapshots asked of an agent that is not SAC.
+    ResumeError: If `base_dir` holds a run that cannot be resumed without
+      losing logged episodes or with these settings (nothing is changed).
   """
   for name in collectors:
     if name not in metrics.AVAILABLE_COLLECTORS:
@@ -68,7 +155,14 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
   if policy_snapshot_period and not isinstance(agent, sac.SACAgent):
     raise ValueError(f'policy snapshots need a SAC agent, not {agent_name!r}')
   checkpoint_dir = os.path.join(base_dir, 'checkpoints')
-  start_iteration = agent.reload_latest_checkpoint(checkpoint_dir) + 1
+  start_iteration = _reload_latest(agent, checkpoint_dir) + 1
+  run_info = {'agent': agent_name, 'env_name': env_name, 'seed': seed,
+              'episodes_per_iteration': episodes_per_iteration,
+              'max_episode_length': max_episode_length}
+  _check_resume(base_dir, run_info, start_iteration,
+                log_episodes='episodes' in collectors)
+  safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
+                       json.dumps(run_info, indent=1) + '\n')
   start_episode = start_iteration * episodes_per_iteration
   if start_iteration:
     logging.info('Resuming after checkpoint %d (episode %d).',
@@ -106,5 +200,5 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
           'training episodes')
       pretrained.write_policy(policy, policy_snapshot_path(base_dir, iteration))
   dispatcher.end_training()
-  with open(os.path.join(base_dir, 'operative_config.gin'), 'w') as f:
-    f.write(gin.operative_config_str())
+  safe_io.atomic_write(os.path.join(base_dir, 'operative_config.gin'),
+                       gin.operative_config_str())

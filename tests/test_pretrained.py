@@ -1,9 +1,8 @@
 """sac_pretrained: exporting a checkpoint's policy and flying it."""
 
-import pickle
-
 import ble_latex  # noqa: F401
 from ble_latex.agents import pretrained
+from ble_latex import safe_io
 from ble_latex.agents import sac
 import numpy as np
 import pytest
@@ -30,7 +29,7 @@ def test_exported_policy_acts_like_the_checkpoint(tmp_path):
   agent = _sac()
   _train_a_little(agent)
   agent.save_checkpoint(str(tmp_path), 0)
-  policy_file = str(tmp_path / 'policy.pkl')
+  policy_file = str(tmp_path / 'policy.msgpack')
   pretrained.export_policy(sac.checkpoint_path(str(tmp_path), 0), policy_file,
                            note='test')
   loaded = pretrained.SACPretrainedAgent(
@@ -43,25 +42,25 @@ def test_exported_policy_acts_like_the_checkpoint(tmp_path):
     obs = obs.astype(np.float32)
     np.testing.assert_array_equal(agent.begin_episode(obs),
                                   loaded.begin_episode(obs))
-  with open(policy_file, 'rb') as f:
-    assert 'replay' not in pickle.load(f)  # Small: no replay buffer.
+  stored = safe_io.read_tree(policy_file, file_format=pretrained.POLICY_FORMAT)
+  assert 'replay' not in stored  # Small: no replay buffer.
 
 
 def test_bad_policy_files(tmp_path):
   with pytest.raises(FileNotFoundError):
-    pretrained.load_policy(str(tmp_path / 'missing.pkl'))
-  bad = tmp_path / 'bad.pkl'
-  bad.write_bytes(pickle.dumps({'format': 'something else'}))
-  with pytest.raises(ValueError, match='not a ble_latex SAC policy'):
+    pretrained.load_policy(str(tmp_path / 'missing.msgpack'))
+  bad = tmp_path / 'bad.msgpack'
+  safe_io.write_tree(str(bad), {}, file_format='something else')
+  with pytest.raises(ValueError, match='not a SAC policy'):
     pretrained.load_policy(str(bad))
-  with pytest.raises(ValueError, match='not a ble_latex SAC checkpoint'):
-    pretrained.export_policy(str(bad), str(tmp_path / 'out.pkl'))
+  with pytest.raises(ValueError, match='not a SAC checkpoint'):
+    pretrained.export_policy(str(bad), str(tmp_path / 'out.msgpack'))
 
 
 def test_policy_for_other_shapes_is_rejected(tmp_path):
   agent = _sac(hidden=16)
   agent.save_checkpoint(str(tmp_path), 0)
-  policy_file = str(tmp_path / 'policy.pkl')
+  policy_file = str(tmp_path / 'policy.msgpack')
   pretrained.export_policy(sac.checkpoint_path(str(tmp_path), 0), policy_file)
   with pytest.raises(ValueError, match='observation_shape'):
     pretrained.SACPretrainedAgent(3, (70,), action_low=_LOW,

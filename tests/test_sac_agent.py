@@ -2,7 +2,6 @@
 """Tests of ble_latex's SAC agent (ble_latex/agents/sac.py)."""
 
 import os
-import pickle
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 from balloon_learning_environment.agents import agent as base_agent
@@ -19,6 +18,7 @@ import numpy as np
 import pytest
 
 from ble_latex import agents as latex_agents
+from ble_latex import safe_io
 from ble_latex.agents import sac
 
 # The latex env's action box: a0 altitude [m], a1 time factor, a2 float flag.
@@ -203,23 +203,23 @@ def test_checkpoint_files_atomic_names_and_cleanup(tmp_path):
   for iteration in range(4):
     agent.save_checkpoint(ckpt, iteration)
   # A write killed mid-way leaves only a temporary file, never a
-  # checkpoint_*.pkl; it is ignored on reload and removed on the next save.
-  with open(os.path.join(ckpt, '.tmp-checkpoint_00009.pkl-x'), 'wb') as f:
+  # checkpoint_*.msgpack; it is ignored on reload and removed on the next save.
+  with open(os.path.join(ckpt, '.tmp-checkpoint_00009.msgpack-x'), 'wb') as f:
     f.write(b'partial')
   assert sorted(os.listdir(ckpt)) == [
-      '.tmp-checkpoint_00009.pkl-x', 'checkpoint_00002.pkl',
-      'checkpoint_00003.pkl']
+      '.tmp-checkpoint_00009.msgpack-x', 'checkpoint_00002.msgpack',
+      'checkpoint_00003.msgpack']
   assert _agent(seed=0).reload_latest_checkpoint(ckpt) == 3
   agent.save_checkpoint(ckpt, 4)
-  assert sorted(os.listdir(ckpt)) == ['checkpoint_00003.pkl',
-                                      'checkpoint_00004.pkl']
+  assert sorted(os.listdir(ckpt)) == ['checkpoint_00003.msgpack',
+                                      'checkpoint_00004.msgpack']
   with pytest.raises(FileNotFoundError):
     agent.load_checkpoint(ckpt, 7)
   with pytest.raises(ValueError, match='config'):
     _agent(seed=0, hidden_units=16).load_checkpoint(ckpt, 4)
-  with open(os.path.join(ckpt, 'checkpoint_00005.pkl'), 'wb') as f:
-    pickle.dump({'not': 'sac'}, f)
-  with pytest.raises(ValueError, match='not a ble_latex SAC checkpoint'):
+  safe_io.write_tree(os.path.join(ckpt, 'checkpoint_00005.msgpack'),
+                     {'not': 'sac'}, file_format='something else')
+  with pytest.raises(ValueError, match='not a SAC checkpoint'):
     agent.load_checkpoint(ckpt, 5)
 
 

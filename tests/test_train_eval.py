@@ -50,7 +50,7 @@ def test_train_killed_and_resumed_equals_uninterrupted_run(tmp_path):
   # Kill the second run once its checkpoint 1 exists (mid iteration 2).
   proc = subprocess.Popen(_train_cmd(killed, 4), env=_ENV,
                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-  checkpoint = killed / 'checkpoints' / 'checkpoint_00001.pkl'
+  checkpoint = killed / 'checkpoints' / 'checkpoint_00001.msgpack'
   deadline = time.time() + 300
   while not checkpoint.exists() and proc.poll() is None:
     assert time.time() < deadline
@@ -151,28 +151,27 @@ def test_latex_validation_suite_is_disjoint_from_training_and_held_out():
 
 def test_policy_snapshots_and_validation_selection(tmp_path):
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
-  import pickle  # pylint: disable=g-import-not-at-top
   run = tmp_path / 'run'
   _run(_train_cmd(run, 2) + ['--policy_snapshot_period=1'])
   for iteration in (0, 1):
     policy = pretrained.load_policy(
-        str(run / 'policies' / f'policy_{iteration:05d}.pkl'))
+        str(run / 'policies' / f'policy_{iteration:05d}.msgpack'))
     assert policy['iteration'] == iteration
   # The newest snapshot is exactly the newest checkpoint's network.
-  with open(run / 'checkpoints' / 'checkpoint_00001.pkl', 'rb') as f:
-    bundle = pickle.load(f)
+  bundle = pretrained.read_checkpoint(
+      str(run / 'checkpoints' / 'checkpoint_00001.msgpack'))
   for a, b in zip(*(jax.tree_util.tree_leaves(p['network_params'])
                     for p in (bundle, policy))):
     np.testing.assert_array_equal(a, b)
 
   script = os.path.join(os.path.dirname(__file__), '..', 'benchmarks',
                         'train_sac.py')
-  output = tmp_path / 'best.pkl'
+  output = tmp_path / 'best.msgpack'
   out = _run([sys.executable, script, 'select', f'--base_dir={run}',
               '--every=1', '--include_newest', '--validation_episodes=1',
               f'--output={output}'])
   results = json.loads((run / 'validation.json').read_text())
-  assert sorted(results) == ['policy_00000.pkl', 'policy_00001.pkl']
+  assert sorted(results) == ['policy_00000.msgpack', 'policy_00001.msgpack']
   assert all(r['seeds'] == [suites.VALIDATION_SEED_OFFSET] * 2
              for r in results.values())
   chosen = max(results, key=lambda k: (results[k]['tw50_mean'],
@@ -209,13 +208,14 @@ def test_train_sac_candidates_and_best(tmp_path):
     train_sac.candidates(str(tmp_path), 2, False)
   (tmp_path / 'policies').mkdir()
   for i in range(5):
-    (tmp_path / 'policies' / f'policy_{i:05d}.pkl').write_bytes(b'')
-  (tmp_path / 'policies' / 'policy_00005.pkl.tmp').write_bytes(b'')
+    (tmp_path / 'policies' / f'policy_{i:05d}.msgpack').write_bytes(b'')
+  (tmp_path / 'policies' / 'policy_00005.msgpack.tmp').write_bytes(b'')
+  (tmp_path / 'policies' / 'policy_00006.pkl').write_bytes(b'')
   names = lambda paths: [os.path.basename(p) for p in paths]
   assert names(train_sac.candidates(str(tmp_path), 2, False)) == [
-      'policy_00001.pkl', 'policy_00003.pkl']
+      'policy_00001.msgpack', 'policy_00003.msgpack']
   assert names(train_sac.candidates(str(tmp_path), 2, True)) == [
-      'policy_00001.pkl', 'policy_00003.pkl', 'policy_00004.pkl']
+      'policy_00001.msgpack', 'policy_00003.msgpack', 'policy_00004.msgpack']
 
   def r(tw50, oor, reward=0.0):
     return {'tw50_mean': tw50, 'out_of_resources_pct': oor,

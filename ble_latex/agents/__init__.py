@@ -4,7 +4,7 @@
 - 'sac': `sac.SACAgent`, Soft Actor-Critic for the Box action of
   LatexBalloon-v0; default gin file `gin_configs/sac.gin`.
 - 'sac_pretrained': `pretrained.SACPretrainedAgent`, SAC with the policy
-  shipped in `agents/policies/sac_latex.pkl`.
+  shipped in `agents/policies/sac_latex.msgpack`.
 - 'latex_random', 'latex_station_seeker': the Box baselines of
   `baselines.py` (no gin file).
 

@@ -1,39 +1,72 @@
 # coding=utf-8
-"""The SAC policy shipped with ble_latex, registered as agent `sac_pretrained`.
+r"""The SAC policy shipped with ble_latex, registered as agent `sac_pretrained`.
 
 `export_policy` strips a training checkpoint (replay buffer, optimiser states,
 PRNG key, target networks) down to what acting needs: the config, the network
-parameters and the temperature. The result ships as package data
-(`ble_latex/agents/policies/sac_latex.pkl`) and `SACPretrainedAgent` loads it:
+parameters and the temperature. Policies are msgpack data files
+(`ble_latex.safe_io`; reading one cannot run code). The shipped one is package
+data (`ble_latex/agents/policies/sac_latex.msgpack`) and `SACPretrainedAgent`
+loads it:
 
   ble-latex-eval --agent=sac_pretrained --suite=latex_small
 
-  python -m ble_latex.agents.pretrained RUN/checkpoints/checkpoint_00049.pkl \
-      ble_latex/agents/policies/sac_latex.pkl
+  ble-latex-export-policy \
+      --checkpoint=RUN/checkpoints/checkpoint_00049.msgpack \
+      --output=ble_latex/agents/policies/sac_latex.msgpack
+
+Pickled policies and checkpoints of ble_latex <= 0.1 (`*.pkl`) are read only
+with `trust_legacy_pickle=True` (`ble-latex-export-policy
+--trust_legacy_pickle`, `SACPretrainedAgent.trust_legacy_pickle`); converting
+one once gives a data-only file.
 """
 
 import os
-import pickle
-import sys
 from typing import Any, Dict, Mapping, Optional, Sequence
 
 import gin
 import jax.numpy as jnp
 
+from ble_latex import safe_io
 from ble_latex.agents import sac
 
-POLICY_FORMAT = 'ble_latex-sac-policy-v1'
+POLICY_FORMAT = 'ble_latex-sac-policy-v2'  # msgpack (`safe_io`).
+LEGACY_POLICY_FORMAT = 'ble_latex-sac-policy-v1'  # Pickles of ble_latex <= 0.1.
+POLICY_SUFFIX = '.msgpack'
 DEFAULT_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
-                              'sac_latex.pkl')
+                              'sac_latex' + POLICY_SUFFIX)
 _KEPT = ('config', 'iteration', 'training_steps', 'network_params',
          'log_alpha')
+_TEXT = ('source', 'note')
 
 
-def export_policy(checkpoint_file: str, output_file: str,
-                  note: str = '') -> Dict[str, Any]:
-  """Writes the acting part of a SAC checkpoint to `output_file`."""
-  with open(checkpoint_file, 'rb') as f:
-    bundle = pickle.load(f)
+def _is_pickle_path(path: str) -> bool:
+  return path.endswith('.pkl')
+
+
+def read_checkpoint(path: str, trust_legacy_pickle: bool = False
+                   ) -> Mapping[str, Any]:
+  """A SAC checkpoint file's bundle (`.msgpack`, or a trusted legacy `.pkl`)."""
+  if _is_pickle_path(path):
+    return safe_io.read_legacy_pickle(path, trust=trust_legacy_pickle,
+                                      what='SAC checkpoint')
+  return safe_io.read_tree(path, file_format=sac.CHECKPOINT_FORMAT,
+                           what='SAC checkpoint')
+
+
+def export_policy(checkpoint_file: str, output_file: str, note: str = '',
+                  trust_legacy_pickle: bool = False) -> Dict[str, Any]:
+  """Writes the acting part of a SAC checkpoint to `output_file`.
+
+  Args:
+    checkpoint_file: A `checkpoint_NNNNN.msgpack` (or, trusted, `.pkl`).
+    output_file: The policy file to write (`.msgpack`).
+    note: Free text recorded in the policy.
+    trust_legacy_pickle: Allow reading a legacy pickle checkpoint.
+
+  Returns:
+    The policy dict written.
+  """
+  bundle = read_checkpoint(checkpoint_file, trust_legacy_pickle)
   policy = policy_from_bundle(bundle, os.path.basename(checkpoint_file), note,
                               what=checkpoint_file)
   write_policy(policy, output_file)
@@ -45,7 +78,8 @@ def policy_from_bundle(bundle: Mapping[str, Any], source: str, note: str = '',
   """The acting part of a SAC checkpoint bundle (or `SACAgent.acting_bundle`).
 
   Args:
-    bundle: A `SACAgent.bundle_and_checkpoint` or `acting_bundle` dict.
+    bundle: A `SACAgent.bundle_and_checkpoint` or `acting_bundle` dict (or a
+      legacy checkpoint's).
     source: Checkpoint file name recorded in the policy.
     note: Free text recorded in the policy.
     what: How to name the bundle in the error message.
@@ -56,10 +90,16 @@ def policy_from_bundle(bundle: Mapping[str, Any], source: str, note: str = '',
   Raises:
     ValueError: If `bundle` is not a ble_latex SAC checkpoint bundle.
   """
-  if not isinstance(bundle, Mapping) or bundle.get(
-      'format') != sac.CHECKPOINT_FORMAT:
+  if not isinstance(bundle, Mapping) or bundle.get('format') not in (
+      sac.CHECKPOINT_FORMAT, sac.LEGACY_CHECKPOINT_FORMAT):
     raise ValueError(f'{what} is not a ble_latex SAC checkpoint')
+  missing = [k for k in _KEPT if k not in bundle]
+  if missing:
+    raise ValueError(f'{what} misses {missing}')
   policy = {k: bundle[k] for k in _KEPT}
+  policy['config'] = dict(policy['config'])
+  policy['config']['observation_shape'] = list(
+      policy['config']['observation_shape'])
   policy.update(format=POLICY_FORMAT, source=source, note=note)
   return policy
 
@@ -68,20 +108,50 @@ def write_policy(policy: Dict[str, Any], output_file: str) -> None:
   """Writes a policy dict (from `export_policy`/`load_policy`) atomically."""
   if policy.get('format') != POLICY_FORMAT:
     raise ValueError(f'not a {POLICY_FORMAT} policy')
-  os.makedirs(os.path.dirname(os.path.abspath(output_file)), exist_ok=True)
-  tmp = output_file + '.tmp'
-  with open(tmp, 'wb') as f:
-    pickle.dump(policy, f, protocol=pickle.HIGHEST_PROTOCOL)
-  os.replace(tmp, output_file)
+  if _is_pickle_path(output_file):
+    raise ValueError(f'{output_file}: policies are msgpack files; use a '
+                     f'{POLICY_SUFFIX} name')
+  safe_io.write_tree(output_file, policy, file_format=POLICY_FORMAT)
 
 
-def load_policy(path: str) -> Dict[str, Any]:
-  if not os.path.isfile(path):
-    raise FileNotFoundError(f'No SAC policy file at {path}')
-  with open(path, 'rb') as f:
-    policy = pickle.load(f)
-  if not isinstance(policy, dict) or policy.get('format') != POLICY_FORMAT:
-    raise ValueError(f'{path} is not a ble_latex SAC policy ({POLICY_FORMAT})')
+def load_policy(path: str, trust_legacy_pickle: bool = False
+               ) -> Dict[str, Any]:
+  """Reads and checks a policy file.
+
+  Args:
+    path: A `.msgpack` policy, or (with `trust_legacy_pickle`) a legacy
+      `.pkl` one.
+    trust_legacy_pickle: Allow a legacy pickle (it can run code).
+
+  Returns:
+    The policy dict, converted to `POLICY_FORMAT`.
+
+  Raises:
+    FileNotFoundError: If `path` does not exist.
+    safe_io.UntrustedFileError: For a pickle without the opt-in.
+    ValueError: If the file is truncated, corrupt or not a policy; the
+      message names `path`.
+  """
+  if _is_pickle_path(path):
+    policy = safe_io.read_legacy_pickle(path, trust=trust_legacy_pickle,
+                                        what='SAC policy')
+    if not isinstance(policy, dict) or policy.get(
+        'format') != LEGACY_POLICY_FORMAT:
+      raise ValueError(f'{path} is not a ble_latex SAC policy '
+                       f'({LEGACY_POLICY_FORMAT})')
+    policy = dict(policy, format=POLICY_FORMAT)
+    policy['config'] = dict(policy.get('config') or {})
+    if 'observation_shape' in policy['config']:
+      policy['config']['observation_shape'] = list(
+          policy['config']['observation_shape'])
+  else:
+    policy = safe_io.read_tree(path, file_format=POLICY_FORMAT,
+                               what='SAC policy')
+  missing = [k for k in (*_KEPT, *_TEXT) if k not in policy]
+  if missing:
+    raise ValueError(f'SAC policy {path} misses {missing}')
+  if not isinstance(policy['config'], dict):
+    raise ValueError(f'SAC policy {path}: config is not a mapping')
   return policy
 
 
@@ -94,39 +164,47 @@ class SACPretrainedAgent(sac.SACAgent):
                action_low: Optional[Sequence[float]] = None,
                action_high: Optional[Sequence[float]] = None,
                seed: int = 0, policy_path: str = DEFAULT_POLICY,
+               trust_legacy_pickle: bool = False,
                **kwargs: Any):
-    policy = load_policy(policy_path)
+    """Loads the policy, then builds the agent around it.
+
+    Args:
+      num_actions: Dimension of the action vector.
+      observation_shape: Shape of the observation vector.
+      action_low: Lower bounds of the Box action space.
+      action_high: Upper bounds of the Box action space.
+      seed: Agent seed (only used if the agent is fine-tuned).
+      policy_path: Policy file (`.msgpack`; default: the shipped policy).
+      trust_legacy_pickle: Also read a legacy `.pkl` policy or checkpoint.
+        Unpickling can run code: only for files you made.
+      **kwargs: Further `sac.SACAgent` arguments.
+
+    Raises:
+      ValueError: If the policy file is bad or does not fit the env.
+    """
+    policy = load_policy(policy_path, trust_legacy_pickle)
     config = policy['config']
+    for key in ('num_layers', 'hidden_units'):
+      if key not in config:
+        raise ValueError(f'SAC policy {policy_path}: config misses {key!r}')
     kwargs.setdefault('num_layers', config['num_layers'])
     kwargs.setdefault('hidden_units', config['hidden_units'])
     super().__init__(num_actions, observation_shape, action_low=action_low,
-                     action_high=action_high, seed=seed, **kwargs)
+                     action_high=action_high, seed=seed,
+                     trust_legacy_pickle=trust_legacy_pickle, **kwargs)
     mine = self._config()
     for key in ('observation_shape', 'num_actions', 'action_low',
                 'action_high', 'num_layers', 'hidden_units'):
-      if mine[key] != config[key]:
-        raise ValueError(f'policy {policy_path} has {key}={config[key]}, '
+      if mine[key] != config.get(key):
+        raise ValueError(f'policy {policy_path} has {key}={config.get(key)}, '
                          f'this agent {mine[key]}')
-    self.network_params = sac._to_device(policy['network_params'])  # pylint: disable=protected-access
+    self.network_params = self.restore_network(policy['network_params'],
+                                               f'SAC policy {policy_path}')
     # Fine-tuning starts with the target networks equal to the online ones.
     self.target_params = self.network_params
-    self.log_alpha = jnp.asarray(policy['log_alpha'])
+    self.log_alpha = jnp.asarray(policy['log_alpha'], dtype=jnp.float32)
     self.policy_info = {k: policy[k] for k in ('source', 'iteration',
                                                'training_steps', 'note')}
 
   def get_name(self) -> str:
     return 'sac_pretrained'
-
-
-def main(argv: Sequence[str]) -> int:
-  if len(argv) not in (3, 4):
-    print(f'usage: {argv[0]} CHECKPOINT.pkl OUTPUT.pkl [NOTE]', file=sys.stderr)
-    return 2
-  policy = export_policy(argv[1], argv[2], argv[3] if len(argv) > 3 else '')
-  print(f'wrote {argv[2]} ({os.path.getsize(argv[2]) / 1e6:.1f} MB) from '
-        f'{policy["source"]}, iteration {policy["iteration"]}')
-  return 0
-
-
-if __name__ == '__main__':
-  sys.exit(main(sys.argv))

@@ -29,12 +29,14 @@ What this wrapper changes, and why:
 - Replay sampling uses indices drawn from the agent's explicitly split JAX
   PRNG key (Dopamine samples with NumPy's global RNG), so a seed fixes every
   action and every update.
-- Checkpoints are one pickle per iteration (BLE's `checkpoint_NNNNN.pkl`
-  names) holding network, target and optimizer states, temperature and its
-  optimizer state, the PRNG key, the train-step counter and the filled part
-  of the replay buffer; written atomically (temporary file, fsync, rename).
-  Dopamine writes the replay buffer as a dozen separate, non-atomic files and
-  does not save the PRNG key.
+- Checkpoints are one msgpack file per iteration (`checkpoint_NNNNN.msgpack`,
+  `ble_latex.safe_io`: data only, reading one cannot run code) holding
+  network, target and optimizer states, temperature and its optimizer state,
+  the PRNG key, the train-step counter and the filled part of the replay
+  buffer; written atomically (temporary file, fsync, rename). Dopamine
+  pickles the bundle and writes the replay buffer as a dozen separate,
+  non-atomic files and does not save the PRNG key. Pickled checkpoints of
+  older ble_latex versions are read only with `trust_legacy_pickle=True`.
 - Observations and rewards are checked: NaN / inf / wrong shape raises a
   ValueError before any state changes.
 
@@ -44,13 +46,11 @@ Polyak-averaged (target) actor rather than the online actor; we keep that.
 
 import functools
 import os
-import pickle
-import secrets
+import re
 from typing import Any, Dict, Mapping, Optional, Sequence, Union
 
 from absl import logging
 from balloon_learning_environment.agents import agent
-from balloon_learning_environment.agents import dopamine_utils
 from dopamine.jax import continuous_networks
 from dopamine.jax.agents.sac import sac_agent
 from dopamine.replay_memory import circular_replay_buffer
@@ -60,8 +60,12 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-CHECKPOINT_FORMAT = 'ble_latex.sac/1'
-_TMP_PREFIX = '.tmp-'
+from ble_latex import safe_io
+
+CHECKPOINT_FORMAT = 'ble_latex.sac/2'  # msgpack (`safe_io`).
+LEGACY_CHECKPOINT_FORMAT = 'ble_latex.sac/1'  # Pickles of ble_latex <= 0.1.
+CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.msgpack$')
+LEGACY_CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.pkl$')
 _STORE_PREFIX = circular_replay_buffer.STORE_FILENAME_PREFIX
 
 
@@ -87,47 +91,12 @@ def _param_labels(params: Any) -> Any:
 
 
 def _to_numpy(tree: Any) -> Any:
-  """Host (NumPy) copy of a pytree of arrays, for pickling."""
+  """Host (NumPy) copy of a pytree of arrays, for checkpoints."""
   return jax.tree.map(np.asarray, jax.device_get(tree))
 
 
 def _to_device(tree: Any) -> Any:
   return jax.tree.map(jnp.asarray, tree)
-
-
-def _atomic_pickle(path: str, obj: Any) -> None:
-  """Pickles `obj` to `path` so that `path` is either old or complete.
-
-  Writes to a temporary file in the same folder (a name BLE's checkpoint glob
-  `checkpoint_*.pkl` never matches), fsyncs it, then renames it over `path`.
-
-  Args:
-    path: Destination file.
-    obj: Object to pickle.
-  """
-  folder = os.path.dirname(path) or '.'
-  tmp_path = os.path.join(folder, f'{_TMP_PREFIX}{os.path.basename(path)}-'
-                          f'{os.getpid()}-{secrets.token_hex(4)}')
-  # Mode 0o666 minus the umask, like a plain open() (mkstemp would use 0o600).
-  fd = os.open(tmp_path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-  try:
-    with os.fdopen(fd, 'wb') as f:
-      pickle.dump(obj, f, protocol=pickle.HIGHEST_PROTOCOL)
-      f.flush()
-      os.fsync(f.fileno())
-    os.replace(tmp_path, path)
-  except BaseException:
-    if os.path.exists(tmp_path):
-      os.remove(tmp_path)
-    raise
-  try:  # Make the rename itself durable.
-    dir_fd = os.open(folder, os.O_RDONLY)
-    try:
-      os.fsync(dir_fd)
-    finally:
-      os.close(dir_fd)
-  except OSError:
-    pass
 
 
 class _ScalarSummaryWriter:
@@ -231,9 +200,120 @@ def _polyak_update(online_params: Any, target_params: Any,
   return optax.incremental_update(online_params, target_params, tau)
 
 
+def _check_hyperparameters(**values: Any) -> None:
+  """Raises ValueError naming the `SACAgent.<name>` binding that is invalid.
+
+  Args:
+    **values: The constructor's hyperparameters by name.
+  """
+
+  def number(name, lo=None, hi=None, lo_open=False, integer=False,
+             allow_none=False):
+    value = values[name]
+    if value is None and allow_none:
+      return
+    ok = (isinstance(value, (int, float, np.integer, np.floating)) and
+          not isinstance(value, bool) and np.isfinite(value) and
+          (not integer or float(value).is_integer()))
+    if ok and lo is not None:
+      ok = value > lo if lo_open else value >= lo
+    if ok and hi is not None:
+      ok = value <= hi
+    if not ok:
+      bounds = ''
+      if lo is not None:
+        bounds += f' {">" if lo_open else ">="} {lo}'
+      if hi is not None:
+        bounds += f'{" and" if lo is not None else ""} <= {hi}'
+      kind = 'an integer' if integer else 'a finite number'
+      raise ValueError(f'SACAgent.{name} must be {kind}{bounds}, got '
+                       f'{value!r}')
+
+  number('gamma', 0.0, 1.0)
+  for name in ('actor_learning_rate', 'critic_learning_rate',
+               'alpha_learning_rate'):
+    number(name, 0.0, lo_open=True)
+  number('batch_size', 1, integer=True)
+  number('replay_capacity', 2, integer=True)
+  number('min_replay_history', 0, integer=True)
+  number('update_period', 1, integer=True)
+  number('target_smoothing_coefficient', 0.0, 1.0, lo_open=True)
+  number('target_entropy')
+  number('reward_scale_factor', 0.0, lo_open=True)
+  number('num_layers', 1, integer=True)
+  number('hidden_units', 1, integer=True)
+  number('checkpoint_duration', 0, integer=True, allow_none=True)
+  number('summary_writing_frequency', 1, integer=True)
+
+
 def checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:
-  """BLE's checkpoint file name (dopamine_utils) for `iteration_number`."""
+  """The checkpoint file of `iteration_number` (BLE's numbering)."""
+  return os.path.join(checkpoint_dir,
+                      f'checkpoint_{iteration_number:05d}.msgpack')
+
+
+def legacy_checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:
+  """The pickle checkpoint an older ble_latex wrote for `iteration_number`."""
   return os.path.join(checkpoint_dir, f'checkpoint_{iteration_number:05d}.pkl')
+
+
+def checkpoint_iterations(checkpoint_dir: str,
+                          pattern: re.Pattern = CHECKPOINT_PATTERN) -> list:
+  """Iterations of the numbered checkpoints in a folder, ascending.
+
+  Only names that match `pattern` exactly count: stray files such as
+  `checkpoint_backup.pkl` or `checkpoint_00002 (copy).msgpack` are ignored
+  (BLE's `get_latest_checkpoint` gives -1 when it meets one).
+
+  Args:
+    checkpoint_dir: Folder to scan (missing: no checkpoints).
+    pattern: Regex with the iteration as group 1.
+
+  Returns:
+    Sorted iteration numbers.
+  """
+  if not os.path.isdir(checkpoint_dir):
+    return []
+  found = (pattern.match(name) for name in os.listdir(checkpoint_dir))
+  return sorted(int(m.group(1)) for m in found if m)
+
+
+def _restore_like(template: Any, stored: Any, what: str) -> Any:
+  """A tree shaped like `template` from stored data, checked leaf by leaf.
+
+  Args:
+    template: The agent's current tree (e.g. freshly initialised parameters).
+    stored: A tree of the same structure (dicts), or the list of its leaves
+      in `jax.tree_util` order (optimizer states, whose named tuples a data
+      file does not hold).
+    what: Name for error messages.
+
+  Returns:
+    `stored`'s values on the device, in `template`'s structure and dtypes.
+
+  Raises:
+    ValueError: On a different structure, leaf count or leaf shape.
+  """
+  treedef = jax.tree_util.tree_structure(template)
+  expected = jax.tree_util.tree_leaves(template)
+  if isinstance(stored, list):
+    leaves = stored
+  else:
+    if jax.tree_util.tree_structure(stored) != treedef:
+      raise ValueError(f'{what}: structure {jax.tree_util.tree_structure(stored)}'
+                       f' differs from the agent\'s {treedef}')
+    leaves = jax.tree_util.tree_leaves(stored)
+  if not isinstance(leaves, list) or len(leaves) != len(expected):
+    raise ValueError(f'{what}: expected {len(expected)} arrays, found '
+                     f'{len(leaves) if isinstance(leaves, list) else leaves!r}')
+  restored = []
+  for i, (leaf, ref) in enumerate(zip(leaves, expected)):
+    leaf = np.asarray(leaf)
+    if leaf.shape != np.shape(ref):
+      raise ValueError(f'{what}: array {i} has shape {leaf.shape}, expected '
+                       f'{np.shape(ref)}')
+    restored.append(jnp.asarray(leaf, dtype=jnp.asarray(ref).dtype))
+  return jax.tree_util.tree_unflatten(treedef, restored)
 
 
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
@@ -265,7 +345,8 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       target_entropy: float = 0.0,
       reward_scale_factor: float = 1.0,
       checkpoint_duration: Optional[int] = 2,
-      summary_writing_frequency: int = 500):
+      summary_writing_frequency: int = 500,
+      trust_legacy_pickle: bool = False):
     """Creates the agent.
 
     Args:
@@ -296,9 +377,13 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         besides the newest (BLE's `clean_up_old_checkpoints`); None keeps all.
         Each checkpoint holds the replay buffer.
       summary_writing_frequency: Training steps between tensorboard scalars.
+      trust_legacy_pickle: Also read pickle checkpoints written by ble_latex
+        <= 0.1 (`checkpoint_NNNNN.pkl`). Unpickling can run code: set it only
+        for files you made (README "Trusted files").
 
     Raises:
-      ValueError: On an invalid action box or hyperparameter.
+      ValueError: On an invalid action box or hyperparameter; the message
+        names the gin binding (`SACAgent.<name>`).
     """
     observation_shape = tuple(int(d) for d in observation_shape)
     num_actions = int(num_actions)
@@ -316,12 +401,18 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
             np.all(low < high)):
       raise ValueError('action box must be finite with low < high, got '
                        f'low={low.tolist()}, high={high.tolist()}')
-    if batch_size < 1 or replay_capacity < 2 or min_replay_history < 0:
-      raise ValueError('need batch_size >= 1, replay_capacity >= 2, '
-                       'min_replay_history >= 0')
-    if not 0.0 < target_smoothing_coefficient <= 1.0:
-      raise ValueError('target_smoothing_coefficient must be in (0, 1], got '
-                       f'{target_smoothing_coefficient}')
+    _check_hyperparameters(
+        gamma=gamma, actor_learning_rate=actor_learning_rate,
+        critic_learning_rate=critic_learning_rate,
+        alpha_learning_rate=alpha_learning_rate, batch_size=batch_size,
+        replay_capacity=replay_capacity, min_replay_history=min_replay_history,
+        update_period=update_period,
+        target_smoothing_coefficient=target_smoothing_coefficient,
+        target_entropy=target_entropy, reward_scale_factor=reward_scale_factor,
+        num_layers=num_layers, hidden_units=hidden_units,
+        checkpoint_duration=checkpoint_duration,
+        summary_writing_frequency=summary_writing_frequency)
+    self._trust_legacy_pickle = bool(trust_legacy_pickle)
     self._action_low = low
     self._action_high = high
     self._seed = int(seed)
@@ -575,7 +666,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
 
   def _config(self) -> Dict[str, Any]:
     return {
-        'observation_shape': tuple(self.observation_shape),
+        'observation_shape': list(self.observation_shape),
         'num_actions': int(self._num_actions),
         'action_low': self._action_low.tolist(),
         'action_high': self._action_high.tolist(),
@@ -591,27 +682,48 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     for name, value in self._replay._return_checkpointable_elements().items():  # pylint: disable=protected-access
       if name.startswith(_STORE_PREFIX):
         bundle[name] = np.array(value[:filled])
+      elif name == 'episode_end_indices':
+        bundle[name] = np.array(sorted(value), dtype=np.int64)
+      elif isinstance(value, np.ndarray):
+        bundle[name] = np.array(value)
       else:
-        bundle[name] = pickle.loads(pickle.dumps(value))
-    bundle['_next_experience_is_episode_start'] = (
+        raise TypeError(f'unexpected replay buffer member {name!r} '
+                        f'({type(value).__name__})')
+    bundle['_next_experience_is_episode_start'] = bool(
         self._replay._next_experience_is_episode_start)  # pylint: disable=protected-access
     return bundle
 
   def _restore_replay(self, bundle: Mapping[str, Any]) -> None:
     # A fresh buffer of the same capacity, so nothing of the current one stays.
-    self._replay = replay = self._build_replay_buffer()
+    replay = self._build_replay_buffer()
+    expected = set(replay._return_checkpointable_elements()) | {  # pylint: disable=protected-access
+        '_next_experience_is_episode_start'}
+    if not isinstance(bundle, Mapping) or set(bundle) != expected:
+      raise ValueError('replay buffer entries differ: expected '
+                       f'{sorted(expected)}, found '
+                       f'{sorted(bundle) if isinstance(bundle, Mapping) else bundle!r}')
     for name, value in bundle.items():
       if name.startswith(_STORE_PREFIX):
         array = replay._store[name[len(_STORE_PREFIX):]]  # pylint: disable=protected-access
+        value = np.asarray(value)
+        if value.ndim != array.ndim or value.shape[1:] != array.shape[1:] or (
+            len(value) > len(array)):
+          raise ValueError(f'replay {name} has shape {value.shape}, buffer '
+                           f'{array.shape}')
         array[:len(value)] = value
       elif name == '_next_experience_is_episode_start':
-        replay._next_experience_is_episode_start = value  # pylint: disable=protected-access
+        replay._next_experience_is_episode_start = bool(value)  # pylint: disable=protected-access
+      elif name == 'episode_end_indices':
+        indices = value if isinstance(value, (set, frozenset, list)) else (
+            np.asarray(value).reshape(-1))  # Legacy pickles hold a set.
+        replay.episode_end_indices = {int(i) for i in indices}
       else:
-        setattr(replay, name, value)
+        setattr(replay, name, np.array(value))
+    self._replay = replay
 
   def bundle_and_checkpoint(self, checkpoint_dir: str,
                             iteration_number: int) -> Dict[str, Any]:
-    """The agent's full training state as a picklable dict (Dopamine API).
+    """The agent's full training state as a data-only dict (Dopamine API).
 
     Args:
       checkpoint_dir: Unused (everything is in the returned dict).
@@ -619,16 +731,21 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
 
     Returns:
       Dict with the format tag, config, train-step counter, PRNG key, online
-      and target parameters, optimizer states, log(alpha) and the replay.
+      and target parameters, optimizer states (as lists of arrays), log(alpha)
+      and the replay; only dicts, lists, numbers, strings and NumPy arrays
+      (`safe_io.write_tree`).
     """
     del checkpoint_dir
     bundle = self.acting_bundle(iteration_number)
+    leaves = jax.tree_util.tree_leaves
     bundle.update(
         rng=np.asarray(self._rng),
         state=np.array(self.state),
         target_params=_to_numpy(self.target_params),
-        optimizer_state=_to_numpy(self.optimizer_state),
-        alpha_optimizer_state=_to_numpy(self.alpha_optimizer_state),
+        optimizer_state=[np.asarray(x) for x in leaves(_to_numpy(
+            self.optimizer_state))],
+        alpha_optimizer_state=[np.asarray(x) for x in leaves(_to_numpy(
+            self.alpha_optimizer_state))],
         replay=self._replay_bundle())
     return bundle
 
@@ -653,48 +770,104 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         'log_alpha': np.asarray(self.log_alpha),
     }
 
+  def check_config(self, config: Any, what: str) -> None:
+    """Raises ValueError unless `config` (from a file) matches this agent's.
+
+    Args:
+      config: The `config` entry of a checkpoint or policy.
+      what: The file, for the message.
+    """
+    mine = self._config()
+    if not isinstance(config, Mapping):
+      raise ValueError(f'{what}: config is not a mapping: {config!r}')
+    theirs = dict(config)
+    if isinstance(theirs.get('observation_shape'), (tuple, np.ndarray)):
+      theirs['observation_shape'] = list(theirs['observation_shape'])
+    if theirs != mine:
+      raise ValueError(f'{what} was written by an agent with config {theirs}, '
+                       f'this agent has {mine}')
+
+  def restore_network(self, network_params: Any, what: str) -> Any:
+    """Network parameters from a file, checked against this agent's shapes."""
+    return _restore_like(self.network_params, network_params,
+                         f'{what}: network_params')
+
   def unbundle(self, checkpoint_dir: str, iteration_number: int,
                bundle_dictionary: Mapping[str, Any]) -> bool:
     """Restores the state written by `bundle_and_checkpoint` (Dopamine API).
 
+    Nothing of the agent changes unless the whole bundle is valid.
+
     Args:
       checkpoint_dir: Unused.
       iteration_number: Unused (the bundle carries its own).
-      bundle_dictionary: A dict from `bundle_and_checkpoint`.
+      bundle_dictionary: A dict from `bundle_and_checkpoint` (or a legacy
+        pickle's, format `LEGACY_CHECKPOINT_FORMAT`).
 
     Returns:
       True.
 
     Raises:
-      ValueError: If the bundle is not an ble_latex SAC checkpoint or was
-        written by an agent with a different shape / action box / network.
+      ValueError: If the bundle is not an ble_latex SAC checkpoint, misses an
+        entry, or was written by an agent with a different shape / action box
+        / network.
     """
     del checkpoint_dir, iteration_number
     bundle = bundle_dictionary
-    if not isinstance(bundle, Mapping) or bundle.get(
-        'format') != CHECKPOINT_FORMAT:
+    what = 'checkpoint'
+    if not isinstance(bundle, Mapping) or bundle.get('format') not in (
+        CHECKPOINT_FORMAT, LEGACY_CHECKPOINT_FORMAT):
       raise ValueError('not a ble_latex SAC checkpoint (format '
                        f'{CHECKPOINT_FORMAT!r} expected)')
-    if bundle['config'] != self._config():
-      raise ValueError('checkpoint was written by an agent with config '
-                       f'{bundle["config"]}, this agent has {self._config()}')
+    legacy = bundle['format'] == LEGACY_CHECKPOINT_FORMAT
+    needed = ('config', 'training_steps', 'rng', 'state', 'network_params',
+              'target_params', 'optimizer_state', 'log_alpha',
+              'alpha_optimizer_state', 'replay')
+    missing = [k for k in needed if k not in bundle]
+    if missing:
+      raise ValueError(f'{what} misses {missing}')
+    self.check_config(bundle['config'], what)
+
+    def opt_leaves(value):
+      return jax.tree_util.tree_leaves(value) if legacy else value
+
+    network_params = self.restore_network(bundle['network_params'], what)
+    target_params = _restore_like(self.target_params, bundle['target_params'],
+                                  f'{what}: target_params')
+    optimizer_state = _restore_like(
+        self.optimizer_state, opt_leaves(bundle['optimizer_state']),
+        f'{what}: optimizer_state')
+    alpha_optimizer_state = _restore_like(
+        self.alpha_optimizer_state, opt_leaves(bundle['alpha_optimizer_state']),
+        f'{what}: alpha_optimizer_state')
+    log_alpha = _restore_like(self.log_alpha, bundle['log_alpha'],
+                              f'{what}: log_alpha')
+    rng = np.asarray(bundle['rng'], dtype=np.uint32)
+    if rng.shape != (2,):
+      raise ValueError(f'{what}: rng has shape {rng.shape}, expected (2,)')
+    state = np.array(bundle['state'])
+    if state.shape != np.shape(self.state):
+      raise ValueError(f'{what}: state has shape {state.shape}, expected '
+                       f'{np.shape(self.state)}')
+    old_replay = self._replay
+    self._restore_replay(bundle['replay'])  # Raises before replacing.
+    del old_replay
     self.training_steps = int(bundle['training_steps'])
-    self._rng = jnp.asarray(bundle['rng'], dtype=jnp.uint32)
-    self.state = np.array(bundle['state'])
-    self.network_params = _to_device(bundle['network_params'])
-    self.target_params = _to_device(bundle['target_params'])
-    self.optimizer_state = _to_device(bundle['optimizer_state'])
-    self.log_alpha = jnp.asarray(bundle['log_alpha'])
-    self.alpha_optimizer_state = _to_device(bundle['alpha_optimizer_state'])
-    self._restore_replay(bundle['replay'])
+    self._rng = jnp.asarray(rng)
+    self.state = state
+    self.network_params = network_params
+    self.target_params = target_params
+    self.optimizer_state = optimizer_state
+    self.log_alpha = log_alpha
+    self.alpha_optimizer_state = alpha_optimizer_state
     self._episode_started = False
     return True
 
   def save_checkpoint(self, checkpoint_dir: str, iteration_number: int) -> None:
-    """Writes checkpoint_dir/checkpoint_NNNNN.pkl atomically.
+    """Writes checkpoint_dir/checkpoint_NNNNN.msgpack atomically.
 
     Call it between episodes (BLE does, after each iteration): the state of
-    an unfinished episode is not saved. Older checkpoints beyond
+    an unfinished episode is not saved. Numbered checkpoints older than
     `checkpoint_duration` iterations are removed afterwards.
 
     Args:
@@ -702,18 +875,20 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       iteration_number: Iteration just completed.
     """
     os.makedirs(checkpoint_dir, exist_ok=True)
-    for name in os.listdir(checkpoint_dir):  # Leftovers of a killed write.
-      if name.startswith(_TMP_PREFIX + 'checkpoint_'):
-        os.remove(os.path.join(checkpoint_dir, name))
+    safe_io.remove_stale_temporaries(checkpoint_dir, 'checkpoint_')
     bundle = self.bundle_and_checkpoint(checkpoint_dir, iteration_number)
-    _atomic_pickle(checkpoint_path(checkpoint_dir, iteration_number), bundle)
+    safe_io.write_tree(checkpoint_path(checkpoint_dir, iteration_number),
+                       bundle, file_format=CHECKPOINT_FORMAT)
     if self._checkpoint_duration is not None:
-      dopamine_utils.clean_up_old_checkpoints(
-          checkpoint_dir, iteration_number,
-          checkpoint_duration=self._checkpoint_duration)
+      for old in checkpoint_iterations(checkpoint_dir):
+        if old < iteration_number - self._checkpoint_duration:
+          os.remove(checkpoint_path(checkpoint_dir, old))
 
   def load_checkpoint(self, checkpoint_dir: str, iteration_number: int) -> None:
     """Restores the checkpoint of `iteration_number`.
+
+    Reads `checkpoint_NNNNN.msgpack`; a legacy `checkpoint_NNNNN.pkl` only
+    with `trust_legacy_pickle=True`. The agent is unchanged on any error.
 
     Args:
       checkpoint_dir: Folder of the checkpoints.
@@ -721,22 +896,32 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
 
     Raises:
       FileNotFoundError: If there is no such checkpoint.
-      ValueError: If the file is not a compatible SAC checkpoint.
+      safe_io.UntrustedFileError: If only a legacy pickle exists and
+        `trust_legacy_pickle` is False.
+      ValueError: If the file is truncated, corrupt or not a compatible SAC
+        checkpoint (the message names the file).
     """
     path = checkpoint_path(checkpoint_dir, iteration_number)
-    if not os.path.isfile(path):
-      raise FileNotFoundError(f'no SAC checkpoint {path}')
+    legacy = legacy_checkpoint_path(checkpoint_dir, iteration_number)
+    if not os.path.exists(path) and os.path.exists(legacy):
+      path = legacy
+      bundle = safe_io.read_legacy_pickle(
+          legacy, trust=self._trust_legacy_pickle, what='SAC checkpoint')
+    else:
+      bundle = safe_io.read_tree(path, file_format=CHECKPOINT_FORMAT,
+                                 what='SAC checkpoint')
     try:
-      with open(path, 'rb') as f:
-        bundle = pickle.load(f)
-    except (pickle.UnpicklingError, EOFError, AttributeError) as e:
-      raise ValueError(f'unreadable SAC checkpoint {path}: {e}') from e
-    self.unbundle(checkpoint_dir, iteration_number, bundle)
+      self.unbundle(checkpoint_dir, iteration_number, bundle)
+    except (ValueError, TypeError, KeyError) as e:
+      raise ValueError(f'SAC checkpoint {path}: {e}') from e
     logging.info('Restored SAC checkpoint %s (training step %d, replay %d).',
                  path, self.training_steps, self.replay_size)
 
   def reload_latest_checkpoint(self, checkpoint_dir: str) -> int:
-    """Loads the newest checkpoint in `checkpoint_dir`, if any.
+    """Loads the newest numbered checkpoint in `checkpoint_dir`, if any.
+
+    Only `checkpoint_NNNNN.msgpack` files count (legacy `.pkl` ones with
+    `trust_legacy_pickle=True`); other files in the folder are ignored.
 
     Args:
       checkpoint_dir: Folder of the checkpoints.
@@ -744,9 +929,25 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     Returns:
       The iteration number of the loaded checkpoint (BLE's `Agent` semantics:
       training resumes at that number + 1), or -1 if there is none.
+
+    Raises:
+      safe_io.UntrustedFileError: If the folder holds only legacy pickle
+        checkpoints and `trust_legacy_pickle` is False.
+      ValueError: If the newest checkpoint cannot be read (never falls back
+        silently to starting over).
     """
-    latest = dopamine_utils.get_latest_checkpoint(checkpoint_dir)
-    if latest < 0:
+    iterations = checkpoint_iterations(checkpoint_dir)
+    legacy = checkpoint_iterations(checkpoint_dir, LEGACY_CHECKPOINT_PATTERN)
+    if legacy and (not iterations or legacy[-1] > iterations[-1]):
+      if not self._trust_legacy_pickle:
+        raise safe_io.UntrustedFileError(
+            f'{checkpoint_dir} holds legacy pickle checkpoints (newest '
+            f'{os.path.basename(legacy_checkpoint_path(checkpoint_dir, legacy[-1]))}'
+            '); pickles can run code. If you made them, resume with '
+            "--gin_bindings='SACAgent.trust_legacy_pickle = True' "
+            '(README "Trusted files").')
+      iterations = legacy
+    if not iterations:
       return -1
-    self.load_checkpoint(checkpoint_dir, latest)
-    return latest
+    self.load_checkpoint(checkpoint_dir, iterations[-1])
+    return iterations[-1]

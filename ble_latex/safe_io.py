@@ -1,0 +1,222 @@
+# coding=utf-8
+"""Files that cannot run code: atomic writes and msgpack state files.
+
+Checkpoints and policies are trees of dicts, lists, strings, numbers and NumPy
+arrays, written with flax's msgpack serialisation
+(`flax.serialization.msgpack_serialize`). Reading such a file decodes data
+only: a crafted file can at worst fail to load, never execute code. Every
+file carries a format tag that `read_tree` checks, and every error names the
+file.
+
+Older ble_latex versions wrote pickles (`*.pkl`). Unpickling can run arbitrary
+code, so `read_legacy_pickle` reads one only when the caller passes
+`trust=True` (an explicit user opt-in, see README "Trusted files"), and even
+then only through an unpickler that accepts NumPy arrays and optax's
+optimiser-state tuples and refuses any other class.
+"""
+
+import os
+import pickle
+import secrets
+from typing import Any, Union
+
+from flax import serialization
+import numpy as np
+
+FORMAT_KEY = 'format'
+TMP_PREFIX = '.tmp-'
+
+
+class UntrustedFileError(ValueError):
+  """A pickle file was given without the explicit opt-in to trust it."""
+
+
+def atomic_write(path: str, data: Union[bytes, str]) -> None:
+  """Writes `data` to `path` so that `path` is either the old or the new file.
+
+  Writes a uniquely named temporary file in the same folder (its name starts
+  with `TMP_PREFIX`, which no checkpoint or policy pattern matches), fsyncs
+  it, renames it over `path` and fsyncs the folder. On any error the
+  temporary file is removed and `path` is left as it was.
+
+  Args:
+    path: Destination file; its folder is created if missing.
+    data: Bytes, or text (written as UTF-8).
+  """
+  folder = os.path.dirname(os.path.abspath(path))
+  os.makedirs(folder, exist_ok=True)
+  if isinstance(data, str):
+    data = data.encode('utf-8')
+  tmp_path = os.path.join(folder, f'{TMP_PREFIX}{os.path.basename(path)}-'
+                          f'{os.getpid()}-{secrets.token_hex(4)}')
+  # Mode 0o666 minus the umask, like a plain open() (mkstemp would use 0o600).
+  fd = os.open(tmp_path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+  try:
+    with os.fdopen(fd, 'wb') as f:
+      f.write(data)
+      f.flush()
+      os.fsync(f.fileno())
+    os.replace(tmp_path, path)
+  except BaseException:
+    if os.path.exists(tmp_path):
+      os.remove(tmp_path)
+    raise
+  try:  # Make the rename itself durable.
+    dir_fd = os.open(folder, os.O_RDONLY)
+    try:
+      os.fsync(dir_fd)
+    finally:
+      os.close(dir_fd)
+  except OSError:
+    pass
+
+
+def remove_stale_temporaries(folder: str, prefix: str) -> None:
+  """Removes `atomic_write` leftovers of a killed write (`TMP_PREFIX` + prefix)."""
+  if not os.path.isdir(folder):
+    return
+  for name in os.listdir(folder):
+    if name.startswith(TMP_PREFIX + prefix):
+      os.remove(os.path.join(folder, name))
+
+
+def _check_tree(tree: Any, where: str) -> None:
+  """Raises TypeError for anything msgpack would not store as plain data."""
+  if isinstance(tree, dict):
+    for key, value in tree.items():
+      if not isinstance(key, str):
+        raise TypeError(f'{where}: key {key!r} is not a string')
+      _check_tree(value, f'{where}/{key}')
+  elif isinstance(tree, list):
+    for i, value in enumerate(tree):
+      _check_tree(value, f'{where}[{i}]')
+  elif isinstance(tree, np.ndarray):
+    if tree.dtype.hasobject:
+      raise TypeError(f'{where}: object arrays cannot be stored')
+  elif not (tree is None or isinstance(tree, (bool, int, float, str,
+                                              np.generic))):
+    raise TypeError(f'{where}: cannot store a {type(tree).__name__} (use '
+                    'dicts with string keys, lists, numbers, strings, arrays)')
+
+
+def write_tree(path: str, tree: dict, *, file_format: str) -> None:
+  """Writes a data tree atomically as msgpack, tagged with `file_format`.
+
+  Args:
+    path: Destination file.
+    tree: Dict of dicts / lists / numbers / strings / NumPy arrays (no tuples,
+      no objects); the key `FORMAT_KEY` is set to `file_format`.
+    file_format: Format tag that `read_tree` checks.
+
+  Raises:
+    TypeError: If the tree holds anything but plain data.
+  """
+  tree = {**tree, FORMAT_KEY: file_format}
+  _check_tree(tree, os.path.basename(path))
+  atomic_write(path, serialization.msgpack_serialize(tree))
+
+
+def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
+  """Reads a `write_tree` file; decodes data only (no code can run).
+
+  Args:
+    path: File to read.
+    file_format: The format tag the file must carry.
+    what: What the file is, for error messages (e.g. 'SAC checkpoint').
+
+  Returns:
+    The tree (dict), including `FORMAT_KEY`. Arrays are read-only views of
+    the file's bytes; copy them before writing into them.
+
+  Raises:
+    FileNotFoundError: If `path` does not exist.
+    ValueError: If `path` is a directory, not a msgpack file, truncated or
+      corrupt, or carries another format tag; the message names `path`.
+  """
+  if os.path.isdir(path):
+    raise ValueError(f'{what} {path} is a directory, not a file')
+  if not os.path.exists(path):
+    raise FileNotFoundError(f'no {what} at {path}')
+  with open(path, 'rb') as f:
+    data = f.read()
+  if data[:1] == b'\x80' and data[1:2] in (b'\x02', b'\x03', b'\x04',
+                                           b'\x05'):
+    raise UntrustedFileError(
+        f'{path} is a pickle ({what} of an older ble_latex?). Pickles can run '
+        'code and are not read by default; see README "Trusted files" to '
+        'convert one you made yourself.')
+  try:
+    tree = serialization.msgpack_restore(data)
+  except Exception as e:  # msgpack raises several types for bad bytes.
+    raise ValueError(f'{what} {path} is truncated or corrupt (not a '
+                     f'readable msgpack file: {type(e).__name__}: {e})') from e
+  if not isinstance(tree, dict) or tree.get(FORMAT_KEY) != file_format:
+    found = tree.get(FORMAT_KEY) if isinstance(tree, dict) else None
+    raise ValueError(f'{path} is not a {what} (format {file_format!r} '
+                     f'expected, found {found!r})')
+  return tree
+
+
+# Classes a legacy ble_latex pickle may contain: NumPy arrays and scalars, and
+# optax's optimiser-state named tuples (checkpoints only). Nothing callable
+# beyond these constructors is ever looked up.
+_NUMPY_GLOBALS = frozenset([
+    ('numpy', 'ndarray'), ('numpy', 'dtype'),
+    ('numpy.core.multiarray', '_reconstruct'),
+    ('numpy._core.multiarray', '_reconstruct'),
+    ('numpy.core.multiarray', 'scalar'),
+    ('numpy._core.multiarray', 'scalar'),
+    ('numpy.core.numeric', '_frombuffer'),
+    ('numpy._core.numeric', '_frombuffer'),
+    ('builtins', 'set'), ('builtins', 'frozenset'),
+])
+
+
+class _DataOnlyUnpickler(pickle.Unpickler):
+  """Unpickler that resolves only `_NUMPY_GLOBALS` and optax NamedTuples."""
+
+  def find_class(self, module: str, name: str) -> Any:
+    if (module, name) in _NUMPY_GLOBALS:
+      return super().find_class(module, name)
+    if module.startswith('optax.') or module.startswith('numpy.dtypes'):
+      cls = super().find_class(module, name)
+      if isinstance(cls, type) and (issubclass(cls, tuple) or issubclass(
+          cls, np.dtype)):
+        return cls
+    raise pickle.UnpicklingError(f'refusing to load {module}.{name}')
+
+
+def read_legacy_pickle(path: str, *, trust: bool, what: str = 'file') -> Any:
+  """Reads a pickle written by an older ble_latex, only if `trust` is True.
+
+  Args:
+    path: The `.pkl` file.
+    trust: The user's explicit statement that they made this file (or trust
+      whoever did). False raises `UntrustedFileError`.
+    what: What the file is, for error messages.
+
+  Returns:
+    The unpickled object (dicts, lists, numbers, strings, arrays, optax
+    state tuples).
+
+  Raises:
+    UntrustedFileError: If `trust` is False.
+    FileNotFoundError: If `path` does not exist.
+    ValueError: If the file is corrupt, truncated or refers to any class
+      outside the allowed data classes; names `path`.
+  """
+  if not trust:
+    raise UntrustedFileError(
+        f'{path} is a legacy pickle {what}; pickles can run code, so it is '
+        'read only with the explicit opt-in (README "Trusted files").')
+  if os.path.isdir(path):
+    raise ValueError(f'{what} {path} is a directory, not a file')
+  if not os.path.exists(path):
+    raise FileNotFoundError(f'no {what} at {path}')
+  try:
+    with open(path, 'rb') as f:
+      return _DataOnlyUnpickler(f).load()
+  except (pickle.UnpicklingError, EOFError, AttributeError, ImportError,
+          IndexError, TypeError, ValueError, KeyError) as e:
+    raise ValueError(f'unreadable legacy {what} {path}: '
+                     f'{type(e).__name__}: {e}') from e
