@@ -11,6 +11,8 @@ import os
 from typing import Any, Dict, List
 import warnings
 
+from ble_latex import safe_io
+
 EPISODE_LOG = 'episodes.jsonl'
 
 
@@ -44,10 +46,6 @@ def read(path: str) -> List[Dict[str, Any]]:
 
 
 def truncate(path: str, num_episodes: int) -> None:
-  """Keeps the first `num_episodes` records (atomically)."""
+  """Keeps the first `num_episodes` records (atomically, `safe_io`)."""
   records = read(path)[:num_episodes]
-  tmp = path + '.tmp'
-  with open(tmp, 'w') as f:
-    for r in records:
-      f.write(json.dumps(r) + '\n')
-  os.replace(tmp, path)
+  safe_io.atomic_write(path, ''.join(json.dumps(r) + '\n' for r in records))

@@ -145,15 +145,10 @@ EPISODE_SCHEMA: Mapping[str, FieldType] = {
     'wall_time_s': NUMBER,
 }
 # One per-seed record of a `ble-latex-eval` file (eval_lib.evaluate).
+# It is the episode summary without `episode` and `wall_time_s`, plus the path.
 EVAL_SCHEMA: Mapping[str, FieldType] = {
-    'seed': INTEGER,
-    'reward': NUMBER,
-    'tw50': FRACTION,
-    'steps': COUNT,
-    'helium_vented_mols': NUMBER,
-    'sand_dropped_kg': NUMBER,
-    'terminal_reason': TERMINAL_REASON,
-    'final_distance_km': NUMBER,
+    **{k: v for k, v in EPISODE_SCHEMA.items()
+       if k not in ('episode', 'wall_time_s')},
     'flight_path': list_of(FLIGHT_POINT_SCHEMA, 'flight points'),
 }
 # Required keys (the schemas' fields).

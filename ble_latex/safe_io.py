@@ -20,7 +20,6 @@ import pickle
 import secrets
 from typing import Any, Union
 
-from flax import serialization
 import numpy as np
 
 FORMAT_KEY = 'format'
@@ -111,6 +110,7 @@ def write_tree(path: str, tree: dict, *, file_format: str) -> None:
   Raises:
     TypeError: If the tree holds anything but plain data.
   """
+  from flax import serialization  # pylint: disable=g-import-not-at-top  # Light import of this module.
   tree = {**tree, FORMAT_KEY: file_format}
   _check_tree(tree, os.path.basename(path))
   atomic_write(path, serialization.msgpack_serialize(tree))
@@ -145,6 +145,7 @@ def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
         f'{path} is a pickle ({what} of an older ble_latex?). Pickles can run '
         'code and are not read by default; see README "Trusted files" to '
         'convert one you made yourself.')
+  from flax import serialization  # pylint: disable=g-import-not-at-top
   try:
     tree = serialization.msgpack_restore(data)
   except Exception as e:  # msgpack raises several types for bad bytes.

@@ -944,7 +944,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
             f'{checkpoint_dir} holds legacy pickle checkpoints (newest '
             f'{os.path.basename(legacy_checkpoint_path(checkpoint_dir, legacy[-1]))}'
             '); pickles can run code. If you made them, resume with '
-            "--gin_bindings='SACAgent.trust_legacy_pickle = True' "
+            "--gin_bindings='ble_latex.agents.sac.SACAgent.trust_legacy_pickle = True' "
             '(README "Trusted files").')
       iterations = legacy
     if not iterations:
