@@ -1,0 +1,35 @@
+# coding=utf-8
+"""The latex balloon's flight core in JAX: pure, jittable, vmappable.
+
+A functional re-implementation of `ble_latex.physics`, `ble_latex.controller`
+and `ble_latex.balloon.LatexBalloon.simulate_step` (the NumPy reference) in
+the style of gymnax: parameters and state are `flax.struct` pytrees and every
+transition is a pure function, so a batch of balloons (and atmospheres) can
+be stepped with `jax.vmap` inside one `jax.jit`.
+
+Modules (import them directly; this package imports nothing):
+
+  params      `FlightParams`: every flight-system constant (payload, sand,
+              helium, c_d, burst volume, n_min, m_s_min, band, valve/ballast
+              rates, step structure); `flight_params_from_gin` reads the
+              existing gin bindings (`create_state.*`, `AltitudeController.*`,
+              `LatexBalloon.*`) in one place.
+  state       `FlightState` (position, altitude, ascent rate, helium, sand,
+              settled free lift, pending and cumulative releases, time, status,
+              last action/decision) and `initial_state` (neutral start as
+              `balloon.create_state`); `FlightStatus`, `DecisionCode`.
+  atmosphere  BLE's standard atmosphere with its per-reset lapse-rate blend:
+              `reset(key)`, `at_height`, `at_pressure`.
+  physics     The paper's equations (Eq. fullN2L, its closed-form `relax`, the
+              vertical integrator, Eq. vent, Eq. ballast, Eq. float).
+  controller  Eq. fullcontroller (`decide`), Eq. float (`float_actuation`),
+              the altitude-band guard as an action filter (`band_guard`) and
+              its in-stride test (`heading_out_of_band`).
+  dynamics    `step`: one controller action and the physics of one stride
+              (sub-steps, wind callback, releases, in-stride guard, envelope
+              and resource statuses); `make_step` jits it.
+
+Everything works in JAX's default float32 and, inside a caller's
+`jax.enable_x64(True)` scope, in float64; nothing here changes JAX's
+process-wide configuration.
+"""

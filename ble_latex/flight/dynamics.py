@@ -1,0 +1,384 @@
+# coding=utf-8
+"""One 20-minute stride of the latex balloon, as a pure JAX function.
+
+The JAX twin of `ble_latex.balloon.LatexBalloon.simulate_step` (paper
+sections "Equations of Motion" and "Altitude Controller"):
+
+  1. The controller acts once (Eq. fullcontroller, `controller.decide`, at
+     the ambient T and P of the start altitude) and its amounts replace any
+     pending release; instantaneous releases (the paper's default) happen at
+     once.
+  2. The stride is cut into n = ceil(time_delta / max_substep) equal
+     sub-steps (<= 3 min, boundaries rounded to microseconds as
+     `datetime.timedelta` does). At the start of each, `wind_fn(x, y, P, t)`
+     gives the horizontal wind at the balloon's position, pressure and time;
+     the horizontal velocity equals the wind for the whole sub-step.
+  3. Inside a sub-step the vertical motion (Eq. fullN2L) advances in chunks
+     of at most `vertical_step_s` (60 s), each one `physics.vertical_step`
+     (exact `relax`, k at the predicted midpoint). While a finite-rate
+     release is pending the chunks are at most `actuation_chunk_s` (10 s) and
+     end when the release does; the piece rate * chunk is released at the
+     chunk's midpoint. After every chunk: grounded (h <= 0) or burst
+     (V > burst volume) end the flight; otherwise the in-stride band guard
+     floats a balloon heading out of the band (`guard_within_stride`).
+  4. At the end: out of helium (n (M_air - M_He) < m_p) or out of sand
+     (m_s < m_s_min). A terminal status stops the sub-steps (the time
+     advances to the end of the sub-step in which it happened) and freezes
+     the state: stepping a terminal state returns it unchanged (NumPy raises
+     instead).
+
+Everything is traced once: the sub-step and chunk grid of the instantaneous
+case is static (computed from the static `time_delta_s`, `max_substep_s` and
+`vertical_step_s`) and run with `lax.scan`; with finite rates each sub-step
+runs a `lax.while_loop` that reproduces NumPy's chunking exactly. `step` is
+vmappable over states, actions and atmosphere/flight parameters.
+"""
+
+import datetime as dt
+import functools
+import math
+from typing import Callable, Tuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ble_latex.flight import atmosphere as atmosphere_lib
+from ble_latex.flight import controller as controller_lib
+from ble_latex.flight import params as params_lib
+from ble_latex.flight import physics
+from ble_latex.flight import state as state_lib
+
+Array = jax.Array
+FlightState = state_lib.FlightState
+FlightStatus = state_lib.FlightStatus
+# (x [m], y [m], pressure [Pa], time [s]) -> (u [m/s], v [m/s]); pure JAX.
+WindFn = Callable[[Array, Array, Array, Array], Tuple[Array, Array]]
+
+# BLE's standard atmosphere is defined on [-610 m, 85 km).
+ATMOSPHERE_MIN_M = -600.0  # [m]
+ATMOSPHERE_MAX_M = 84_000.0  # [m]
+DEFAULT_TIME_DELTA_S = 1200.0  # [s] the paper's 20-minute stride
+# Safety bound on the chunks of one sub-step with finite rates.
+_MAX_CHUNKS_PER_SUBSTEP = 10_000
+# Shortest chunk that completes a finite-rate release (as NumPy). # [s]
+_MIN_RELEASE_CHUNK_S = 1e-6
+
+
+def _clamp(h: Array) -> Array:
+  return jnp.clip(h, ATMOSPHERE_MIN_M, ATMOSPHERE_MAX_M)
+
+
+def _keep(new, old):
+  """`new` with the dtypes of `old` (scan/while carries must not change)."""
+  return jax.tree.map(lambda a, b: jnp.asarray(a, b.dtype), new, old)
+
+
+def _select(condition: Array, on_true, on_false):
+  return _keep(controller_lib.select(condition, on_true, on_false), on_false)
+
+
+def schedule(time_delta_s: float, max_substep_s: float,
+             vertical_step_s: float) -> Tuple[np.ndarray, ...]:
+  """The static sub-step and chunk grid of `LatexBalloon.simulate_step`.
+
+  Args:
+    time_delta_s: Stride length. # [s]
+    max_substep_s: Longest sub-step. # [s]
+    vertical_step_s: Longest vertical chunk. # [s]
+
+  Returns:
+    (starts, durations, ends) of the sub-steps, shape (n,), and the chunk
+    lengths of each sub-step (instantaneous releases), shape (n, m), padded
+    with zeros; all float64 seconds.
+  """
+  total = dt.timedelta(seconds=time_delta_s)
+  sub = dt.timedelta(seconds=max_substep_s)
+  n_sub = max(1, math.ceil(total / sub - 1e-9))
+  starts, durations, ends, rows = [], [], [], []
+  elapsed = dt.timedelta()
+  for i in range(1, n_sub + 1):
+    boundary = total * i / n_sub
+    duration = (boundary - elapsed).total_seconds()
+    starts.append(elapsed.total_seconds())
+    durations.append(duration)
+    ends.append(boundary.total_seconds())
+    row, done = [], 0.0
+    while duration - done > 1e-9:
+      chunk = min(vertical_step_s, duration - done)
+      row.append(chunk)
+      done += chunk
+    rows.append(row)
+    elapsed = boundary
+  chunks = np.zeros((n_sub, max(len(r) for r in rows)))
+  for i, row in enumerate(rows):
+    chunks[i, :len(row)] = row
+  return (np.asarray(starts), np.asarray(durations), np.asarray(ends),
+          chunks)
+
+
+def release(state: FlightState, *, vent: Array, drop: Array) -> FlightState:
+  """Vents / drops, capped at the pending amounts and at what is aboard.
+
+  The settled lift does not change: the current free lift (its property)
+  follows the pending amounts and reaches the settled lift exactly when they
+  are released.
+
+  Args:
+    state: The balloon.
+    vent: Helium to vent now. # [mol]
+    drop: Sand to drop now. # [kg]
+
+  Returns:
+    The balloon after the release.
+  """
+  f = state
+  vent = jnp.maximum(0.0, jnp.minimum(vent, jnp.minimum(f.pending_vent_mols,
+                                                          f.helium_mols)))
+  drop = jnp.maximum(0.0, jnp.minimum(drop, jnp.minimum(f.pending_drop_kg,
+                                                          f.sand_kg)))
+  return _keep(f.replace(
+      helium_mols=f.helium_mols - vent,
+      helium_vented_mols=f.helium_vented_mols + vent,
+      pending_vent_mols=jnp.maximum(0.0, f.pending_vent_mols - vent),
+      sand_kg=f.sand_kg - drop,
+      sand_dropped_kg=f.sand_dropped_kg + drop,
+      pending_drop_kg=jnp.maximum(0.0, f.pending_drop_kg - drop)), f)
+
+
+def actuate(params: params_lib.FlightParams, state: FlightState,
+            actuation: controller_lib.Actuation) -> FlightState:
+  """Replaces the pending release by `actuation` (instant without a rate).
+
+  What was still pending is abandoned (as NumPy); the settled lift becomes
+  the actuation's target lift.
+  """
+  f = _keep(state.replace(
+      pending_vent_mols=jnp.minimum(actuation.vent_mols, state.helium_mols),
+      pending_drop_kg=jnp.minimum(actuation.drop_kg, state.sand_kg),
+      settled_lift_kg=actuation.lift_after_kg), state)
+  if not params.finite_valve:
+    f = release(f, vent=f.pending_vent_mols, drop=0.0)
+  if not params.finite_ballast:
+    f = release(f, vent=0.0, drop=f.pending_drop_kg)
+  return f
+
+
+def _integrate(params: params_lib.FlightParams,
+               atm: atmosphere_lib.AtmosphereParams, f: FlightState,
+               duration: Array) -> FlightState:
+  """Eq. fullN2L over `duration` (one `physics.vertical_step`)."""
+
+  def drag_k_at(h):
+    ambient = atmosphere_lib.at_height(atm, _clamp(h))
+    return physics.drag_factor(f.helium_mols, params.drag_coefficient,
+                               ambient.temperature, ambient.pressure)
+
+  mass = physics.total_mass(params.payload_kg, f.sand_kg, f.helium_mols)
+  h, v = physics.vertical_step(
+      f.altitude_m, f.ascent_rate_mps, duration,
+      lift_force=f.free_lift_kg * physics.GRAVITY, mass=mass,
+      drag_k_at=drag_k_at)
+  return _keep(f.replace(altitude_m=h, ascent_rate_mps=v), f)
+
+
+def envelope_status(params: params_lib.FlightParams,
+                    atm: atmosphere_lib.AtmosphereParams,
+                    state: FlightState) -> Array:
+  """GROUNDED (h <= 0), BURST (nRT/P > burst volume) or the current status."""
+  ambient = atmosphere_lib.at_height(atm, _clamp(state.altitude_m))
+  volume = physics.volume(state.helium_mols, ambient.temperature,
+                          ambient.pressure)
+  return jnp.where(
+      state.altitude_m <= 0.0, FlightStatus.GROUNDED,
+      jnp.where(volume > params.burst_volume_m3, FlightStatus.BURST,
+                state.status)).astype(jnp.int32)
+
+
+def resource_status(params: params_lib.FlightParams,
+                    state: FlightState) -> Array:
+  """OUT_OF_HELIUM (n (M_air - M_He) < m_p), OUT_OF_SAND (m_s < m_s_min), OK.
+
+  n (M_air - M_He) - m_p is evaluated as L + m_s from the carried free lift,
+  so a balloon floated exactly with no sand left is not out of helium.
+  """
+  out_of_helium = state.free_lift_kg + state.sand_kg < 0.0
+  out_of_sand = state.sand_kg + 1e-12 < params.min_drop_kg
+  return jnp.where(out_of_helium, FlightStatus.OUT_OF_HELIUM,
+                   jnp.where(out_of_sand, FlightStatus.OUT_OF_SAND,
+                             FlightStatus.OK)).astype(jnp.int32)
+
+
+def _after_chunk(params: params_lib.FlightParams,
+                 atm: atmosphere_lib.AtmosphereParams,
+                 f: FlightState) -> FlightState:
+  """Envelope check, then the in-stride band guard (if enabled)."""
+  f = f.replace(status=envelope_status(params, atm, f))
+  if not params.guard_within_stride:
+    return f
+  heading = (f.status == FlightStatus.OK) & (
+      controller_lib.heading_out_of_band(params, f))
+  guard = controller_lib.float_actuation(f, guarded=True)
+  engage = heading & ((guard.vent_mols > 0.0) | (guard.drop_kg > 0.0))
+  guarded = actuate(params, f, guard).replace(
+      guard_engaged=jnp.ones_like(f.guard_engaged))
+  return _select(engage, guarded, f)
+
+
+def _releasing(params: params_lib.FlightParams, f: FlightState) -> Array:
+  """A finite-rate release is under way."""
+  out = jnp.zeros_like(f.status, bool)
+  if params.finite_valve:
+    out = out | (f.pending_vent_mols > 0.0)
+  if params.finite_ballast:
+    out = out | (f.pending_drop_kg > 0.0)
+  return out
+
+
+def _time_to_release(params: params_lib.FlightParams,
+                     f: FlightState) -> Array:
+  """Seconds until the pending release that finishes last is done."""
+  t = jnp.zeros_like(f.altitude_m)
+  if params.finite_valve:
+    t = jnp.maximum(t, jnp.where(f.pending_vent_mols > 0.0,
+                                 f.pending_vent_mols /
+                                 params.valve_flow_mols_per_s, 0.0))
+  if params.finite_ballast:
+    t = jnp.maximum(t, jnp.where(f.pending_drop_kg > 0.0,
+                                 f.pending_drop_kg /
+                                 params.ballast_rate_kg_per_s, 0.0))
+  return jnp.maximum(t, _MIN_RELEASE_CHUNK_S)
+
+
+def _chunks_static(params: params_lib.FlightParams,
+                   atm: atmosphere_lib.AtmosphereParams, f: FlightState,
+                   chunks: Array) -> FlightState:
+  """A sub-step on the static chunk grid (instantaneous releases)."""
+
+  def body(f, chunk):
+    active = (f.status == FlightStatus.OK) & (chunk > 0.0)
+    g = _after_chunk(params, atm, _integrate(params, atm, f, chunk))
+    return _select(active, g, f), None
+
+  f, _ = jax.lax.scan(body, f, chunks)
+  return f
+
+
+def _chunks_dynamic(params: params_lib.FlightParams,
+                    atm: atmosphere_lib.AtmosphereParams, f: FlightState,
+                    duration: Array) -> FlightState:
+  """A sub-step with finite-rate releases (NumPy's chunking, while_loop)."""
+  eps = jnp.finfo(jnp.result_type(duration)).eps
+  tolerance = jnp.maximum(1e-9, 16.0 * eps * duration)  # [s]
+  zero = jnp.zeros_like(duration)
+
+  def cond(carry):
+    f, done, count = carry
+    return ((duration - done > tolerance) & (f.status == FlightStatus.OK) &
+            (count < _MAX_CHUNKS_PER_SUBSTEP))
+
+  def body(carry):
+    f, done, count = carry
+    chunk = jnp.minimum(params.vertical_step_s, duration - done)
+    releasing = _releasing(params, f)
+    piece = jnp.minimum(jnp.minimum(chunk, params.actuation_chunk_s),
+                        _time_to_release(params, f))
+    whole = _integrate(params, atm, f, chunk)
+    half = _integrate(params, atm, f, 0.5 * piece)
+    half = release(
+        half,
+        vent=(params.valve_flow_mols_per_s * piece
+              if params.finite_valve else zero),
+        drop=(params.ballast_rate_kg_per_s * piece
+              if params.finite_ballast else zero))
+    half = _integrate(params, atm, half, 0.5 * piece)
+    g = _after_chunk(params, atm, _select(releasing, half, whole))
+    done = done + jnp.where(releasing, piece, chunk)
+    return _keep(g, f), done, count + 1
+
+  f, _, _ = jax.lax.while_loop(cond, body, (f, zero, jnp.zeros((), jnp.int32)))
+  return f
+
+
+def step(params: params_lib.FlightParams,
+         atm_params: atmosphere_lib.AtmosphereParams,
+         state: FlightState,
+         action: Array,
+         wind_fn: WindFn,
+         time_delta_s: float = DEFAULT_TIME_DELTA_S) -> FlightState:
+  """One controller action and `time_delta_s` of flight (one stride).
+
+  Args:
+    params: The flight system (its static fields shape the computation).
+    atm_params: The atmosphere (`atmosphere.reset(key)`).
+    state: The balloon; a terminal status is returned unchanged.
+    action: (a0 desired altitude [m], a1 time factor [.], a2 float flag [.]),
+      shape (3,); clipped into the action Box.
+    wind_fn: Pure JAX (x [m], y [m], pressure [Pa], time [s]) -> (u, v)
+      [m/s], queried at the start of every sub-step at the balloon.
+    time_delta_s: Simulated time to advance; a static Python number. # [s]
+
+  Returns:
+    The state after the stride.
+  """
+  action = _keep(controller_lib.clip_action(action), state.last_action)
+  ambient = atmosphere_lib.at_height(atm_params, _clamp(state.altitude_m))
+  actuation = controller_lib.decide(params, state, action,
+                                    ambient.temperature, ambient.pressure)
+  f = actuate(params, state.replace(guard_engaged=actuation.guarded),
+              actuation)
+
+  starts, durations, ends, chunks = schedule(
+      time_delta_s, params.max_substep_s, params.vertical_step_s)
+  dtype = state.altitude_m.dtype
+  xs = tuple(jnp.asarray(a, dtype) for a in (starts, durations, ends, chunks))
+  finite = params.finite_valve or params.finite_ballast
+
+  def substep(carry, x):
+    f, elapsed = carry
+    start, duration, end, chunk_row = x
+    active = f.status == FlightStatus.OK
+    pressure = atmosphere_lib.at_height(atm_params,
+                                        _clamp(f.altitude_m)).pressure
+    u, v = wind_fn(f.x_m, f.y_m, pressure, state.time_s + start)
+    if finite:
+      g = _chunks_dynamic(params, atm_params, f, duration)
+    else:
+      g = _chunks_static(params, atm_params, f, chunk_row)
+    g = g.replace(x_m=g.x_m + u * duration, y_m=g.y_m + v * duration)
+    return (_select(active, g, f),
+            jnp.where(active, end, elapsed).astype(elapsed.dtype)), None
+
+  (f, elapsed), _ = jax.lax.scan(substep, (f, jnp.zeros((), dtype)), xs)
+
+  status = jnp.where(f.status == FlightStatus.OK,
+                     resource_status(params, f), f.status)
+  ambient = atmosphere_lib.at_height(atm_params, _clamp(f.altitude_m))
+  new = f.replace(
+      sand_kg=jnp.maximum(f.sand_kg, 0.0),
+      time_s=state.time_s + elapsed,
+      status=status,
+      last_action=action,
+      last_decision=actuation.decision,
+      desired_ascent_rate_mps=actuation.desired_ascent_rate,
+      pressure_pa=ambient.pressure,
+      temperature_k=ambient.temperature)
+  return _select(state.status == FlightStatus.OK, _keep(new, state), state)
+
+
+def make_step(wind_fn: WindFn,
+              time_delta_s: float = DEFAULT_TIME_DELTA_S) -> Callable[
+                  [params_lib.FlightParams, atmosphere_lib.AtmosphereParams,
+                   FlightState, Array], FlightState]:
+  """`step` with the wind and stride bound, jitted.
+
+  Args:
+    wind_fn: The wind callback (part of the jit cache key).
+    time_delta_s: Stride length. # [s]
+
+  Returns:
+    jitted (params, atm_params, state, action) -> state; vmap it for
+    batches, e.g. jax.vmap(fn, in_axes=(None, None, 0, 0)).
+  """
+  return jax.jit(functools.partial(step, wind_fn=wind_fn,
+                                   time_delta_s=float(time_delta_s)))

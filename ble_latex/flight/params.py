@@ -1,0 +1,233 @@
+# coding=utf-8
+"""`FlightParams`: every constant of the latex flight system, in one pytree.
+
+The defaults are today's (`gin_configs/latex_physics.gin`, the defaults of
+`ble_latex.balloon.create_state` / `LatexBalloon` and
+`ble_latex.controller.AltitudeController`). `flight_params_from_gin()` builds
+the parameters from the gin bindings of those three configurables, so the
+existing gin files configure the JAX flight core too and no new gin names
+are registered.
+
+Numeric constants are pytree leaves (so a batch of flight systems can be
+vmapped); what decides the structure of the computation (finite-rate
+releases on or off, the in-stride guard, the sub-step and vertical-step
+lengths, the initial helium rule) is static (`pytree_node=False`) and part of
+the jit cache key.
+"""
+
+import datetime as dt
+import math
+from typing import Any, Dict, Optional
+
+from flax import struct
+
+# Names of the gin configurables read by `flight_params_from_gin`.
+_GIN_CREATE_STATE = 'create_state'
+_GIN_CONTROLLER = 'AltitudeController'
+_GIN_BALLOON = 'LatexBalloon'
+
+
+@struct.dataclass
+class FlightParams:
+  """The latex balloon's flight system (paper "Method" and README table).
+
+  Attributes:
+    payload_kg: m_p, including the 1.2 kg latex envelope. # [kg]
+    initial_sand_kg: Sand at launch m_s. # [kg]
+    drag_coefficient: c_d. # [.]
+    burst_volume_m3: Envelope volume at which the latex bursts. # [m^3]
+    min_vent_mols: n_min, smallest ventable helium. # [mol]
+    min_drop_kg: m_s_min, smallest droppable sand; also the out-of-sand
+      level. # [kg]
+    band_low_m: Lower edge of the altitude-band guard. # [m]
+    band_high_m: Upper edge of the altitude-band guard. # [m]
+    stride_s: Delta t of hdot_des = (a0 - h) / (a1 Delta t). # [s]
+    valve_flow_mols_per_s: Finite valve flow (used when finite_valve).
+      # [mol/s]
+    ballast_rate_kg_per_s: Finite ballast rate (used when finite_ballast).
+      # [kg/s]
+    actuation_chunk_s: Longest piece of a finite-rate release. # [s]
+    initial_helium_mols: Helium at launch; None = neutrally buoyant,
+      (m_p + m_s) / (M_air - M_He). Static. # [mol]
+    finite_valve: Venting at valve_flow_mols_per_s (else instantaneous, as
+      in the paper). Static.
+    finite_ballast: Dropping at ballast_rate_kg_per_s (else instantaneous).
+      Static.
+    guard_within_stride: Apply the altitude-band guard between actions too.
+      Static.
+    max_substep_s: Longest physics sub-step; the wind is re-queried at each.
+      Static. # [s]
+    vertical_step_s: Longest step with the drag factor frozen. Static. # [s]
+  """
+  payload_kg: float = 2.2  # [kg]
+  initial_sand_kg: float = 2.0  # [kg]
+  drag_coefficient: float = 0.25  # [.]
+  burst_volume_m3: float = 336.5  # [m^3]
+  min_vent_mols: float = 0.2  # [mol]
+  min_drop_kg: float = 0.005  # [kg]
+  band_low_m: float = 13_000.0  # [m]
+  band_high_m: float = 22_000.0  # [m]
+  stride_s: float = 1200.0  # [s]
+  valve_flow_mols_per_s: float = 0.0  # [mol/s]
+  ballast_rate_kg_per_s: float = 0.0  # [kg/s]
+  actuation_chunk_s: float = 10.0  # [s]
+  initial_helium_mols: Optional[float] = struct.field(
+      pytree_node=False, default=None)  # [mol]
+  finite_valve: bool = struct.field(pytree_node=False, default=False)
+  finite_ballast: bool = struct.field(pytree_node=False, default=False)
+  guard_within_stride: bool = struct.field(pytree_node=False, default=True)
+  max_substep_s: float = struct.field(pytree_node=False, default=180.0)  # [s]
+  vertical_step_s: float = struct.field(pytree_node=False,
+                                        default=60.0)  # [s]
+
+
+def _seconds(value: Any, name: str) -> float:
+  """A timedelta or a number of seconds as positive finite seconds."""
+  if isinstance(value, dt.timedelta):
+    value = value.total_seconds()
+  value = float(value)
+  if not math.isfinite(value) or value <= 0.0:
+    raise ValueError(f'{name} must be a positive duration, got {value}')
+  return value
+
+
+def make_flight_params(
+    *,
+    payload_kg: float = 2.2,
+    sand_kg: float = 2.0,
+    helium_mols: Optional[float] = None,
+    drag_coefficient: float = 0.25,
+    burst_volume_m3: float = 336.5,
+    min_vent_mols: float = 0.2,
+    min_drop_kg: float = 0.005,
+    band_low_m: float = 13_000.0,
+    band_high_m: float = 22_000.0,
+    stride: Any = 1200.0,
+    valve_flow_mols_per_s: Optional[float] = None,
+    ballast_rate_kg_per_s: Optional[float] = None,
+    actuation_chunk: Any = 10.0,
+    guard_within_stride: bool = True,
+    max_substep: Any = 180.0,
+    vertical_step: Any = 60.0) -> FlightParams:
+  """Validated `FlightParams` from the NumPy code's argument names.
+
+  Durations may be numbers of seconds or `datetime.timedelta`s; a rate of
+  None means instantaneous (static flag off).
+
+  Returns:
+    The parameters (Python floats, so they follow JAX's default precision).
+
+  Raises:
+    ValueError: for non-finite, non-positive or inconsistent values.
+  """
+  for name, value in (('payload_kg', payload_kg),
+                      ('drag_coefficient', drag_coefficient),
+                      ('burst_volume_m3', burst_volume_m3)):
+    if not math.isfinite(value) or value <= 0.0:
+      raise ValueError(f'{name} must be finite and > 0, got {value}')
+  for name, value in (('sand_kg', sand_kg), ('min_vent_mols', min_vent_mols),
+                      ('min_drop_kg', min_drop_kg)):
+    if not math.isfinite(value) or value < 0.0:
+      raise ValueError(f'{name} must be finite and >= 0, got {value}')
+  if helium_mols is not None and (not math.isfinite(helium_mols) or
+                                  helium_mols <= 0.0):
+    raise ValueError(f'helium_mols must be None or > 0, got {helium_mols}')
+  if not (math.isfinite(band_low_m) and math.isfinite(band_high_m) and
+          band_low_m < band_high_m):
+    raise ValueError('band must satisfy band_low_m < band_high_m (finite), '
+                     f'got [{band_low_m}, {band_high_m}]')
+  for name, value in (('valve_flow_mols_per_s', valve_flow_mols_per_s),
+                      ('ballast_rate_kg_per_s', ballast_rate_kg_per_s)):
+    if value is not None and (not math.isfinite(value) or value <= 0.0):
+      raise ValueError(f'{name} must be None or a finite rate > 0, got '
+                       f'{value}')
+  return FlightParams(
+      payload_kg=float(payload_kg),
+      initial_sand_kg=float(sand_kg),
+      drag_coefficient=float(drag_coefficient),
+      burst_volume_m3=float(burst_volume_m3),
+      min_vent_mols=float(min_vent_mols),
+      min_drop_kg=float(min_drop_kg),
+      band_low_m=float(band_low_m),
+      band_high_m=float(band_high_m),
+      stride_s=_seconds(stride, 'stride'),
+      valve_flow_mols_per_s=float(valve_flow_mols_per_s or 0.0),
+      ballast_rate_kg_per_s=float(ballast_rate_kg_per_s or 0.0),
+      actuation_chunk_s=_seconds(actuation_chunk, 'actuation_chunk'),
+      initial_helium_mols=(None if helium_mols is None else
+                           float(helium_mols)),
+      finite_valve=valve_flow_mols_per_s is not None,
+      finite_ballast=ballast_rate_kg_per_s is not None,
+      guard_within_stride=bool(guard_within_stride),
+      max_substep_s=_seconds(max_substep, 'max_substep'),
+      vertical_step_s=_seconds(vertical_step, 'vertical_step'))
+
+
+# gin parameter -> make_flight_params argument, per configurable. Other
+# bindings of these configurables (start altitude and position, the
+# controller instance, ...) are not flight-system constants.
+_GIN_NAMES = {
+    _GIN_CREATE_STATE: {
+        'payload_kg': 'payload_kg',
+        'sand_kg': 'sand_kg',
+        'helium_mols': 'helium_mols',
+        'drag_coefficient': 'drag_coefficient',
+        'burst_volume_m3': 'burst_volume_m3',
+    },
+    _GIN_CONTROLLER: {
+        'stride': 'stride',
+        'min_vent_mols': 'min_vent_mols',
+        'min_drop_kg': 'min_drop_kg',
+        'band_low_m': 'band_low_m',
+        'band_high_m': 'band_high_m',
+    },
+    _GIN_BALLOON: {
+        'max_substep': 'max_substep',
+        'vertical_step': 'vertical_step',
+        'valve_flow_mols_per_s': 'valve_flow_mols_per_s',
+        'ballast_rate_kg_per_s': 'ballast_rate_kg_per_s',
+        'actuation_chunk': 'actuation_chunk',
+        'guard_within_stride': 'guard_within_stride',
+    },
+}
+
+
+def gin_overrides() -> Dict[str, Any]:
+  """The flight-system values bound in gin, as `make_flight_params` kwargs.
+
+  Reads the bindings of `create_state`, `AltitudeController` and
+  `LatexBalloon` (importing `ble_latex.balloon` and `ble_latex.controller`
+  registers them).
+  """
+  # Imported here: they pull in BLE; the flight core itself does not need it.
+  # pylint: disable=g-import-not-at-top,unused-import
+  from ble_latex import balloon
+  from ble_latex import controller
+  import gin
+  # pylint: enable=g-import-not-at-top,unused-import
+
+  overrides = {}
+  for configurable, names in _GIN_NAMES.items():
+    bindings = gin.get_bindings(configurable)
+    for gin_name, arg in names.items():
+      if gin_name in bindings:
+        overrides[arg] = bindings[gin_name]
+  return overrides
+
+
+def flight_params_from_gin(**overrides: Any) -> FlightParams:
+  """`FlightParams` from the current gin bindings (the one place gin is read).
+
+  Values bound for `create_state.*`, `AltitudeController.*` and
+  `LatexBalloon.*` (e.g. by gin_configs/latex_physics.gin) replace the
+  defaults; keyword `overrides` replace both.
+
+  Args:
+    **overrides: `make_flight_params` arguments.
+
+  Returns:
+    The validated parameters.
+  """
+  values = gin_overrides()
+  values.update(overrides)
+  return make_flight_params(**values)
