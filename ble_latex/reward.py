@@ -56,7 +56,7 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
           sand_penalty_per_kg * sand_dropped_kg)
 
 
-def _effective(function: Callable[..., Any]) -> Dict[str, Any]:
+def effective_bindings(function: Callable[..., Any]) -> Dict[str, Any]:
   """A gin configurable's keyword defaults overridden by its gin bindings."""
   target = inspect.unwrap(function)
   values = {name: p.default for name, p in
@@ -94,10 +94,10 @@ def check_config() -> None:
   Raises:
     ValueError: Naming the first gin binding that breaks the contract.
   """
-  _check_penalties(**{k: v for k, v in _effective(latex_reward).items()
+  _check_penalties(**{k: v for k, v in effective_bindings(latex_reward).items()
                       if k.endswith('_penalty_per_mol') or
                       k.endswith('_penalty_per_kg')})
-  ble = _effective(balloon_env.perciatelli_reward_function)
+  ble = effective_bindings(balloon_env.perciatelli_reward_function)
   prefix = 'perciatelli_reward_function.'
   for name in ('station_keeping_radius_km', 'reward_halflife'):
     if name in ble:

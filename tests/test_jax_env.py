@@ -1,0 +1,217 @@
+"""The batched JAX env (issue 11) against the gym env and the golden data."""
+
+import functools
+
+import gin
+import gym
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import ble_latex  # noqa: F401
+from ble_latex import configs
+from ble_latex import jax_env
+from ble_latex.flight import atmosphere as atmosphere_lib
+from ble_latex.flight import state as state_lib
+import test_golden
+
+_KEY = jax.random.PRNGKey(0)
+
+
+@functools.lru_cache(maxsize=None)
+def _setup():
+  """The env, its gin-bound params and jitted functions (built once)."""
+  gin.clear_config()
+  gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
+  try:
+    env = jax_env.LatexBalloonJaxEnv()
+    params = env.default_params
+  finally:
+    gin.clear_config()
+  batch_reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
+  batch_step = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, 0, None)))
+  return env, params, batch_reset, batch_step
+
+
+def _keys(seeds):
+  return jnp.stack([jax.random.PRNGKey(s) for s in seeds])
+
+
+def _flight_dict(flight, i):
+  """Balloon i of a batched FlightState as test_golden's state dict."""
+  f = jax.tree.map(lambda a: np.asarray(a[i], np.float64), flight)
+  return {
+      'x_m': float(f.x_m), 'y_m': float(f.y_m),
+      'altitude_m': float(f.altitude_m),
+      'ascent_rate_mps': float(f.ascent_rate_mps),
+      'helium_mols': float(f.helium_mols), 'sand_kg': float(f.sand_kg),
+      'helium_vented_mols': float(f.helium_vented_mols),
+      'sand_dropped_kg': float(f.sand_dropped_kg),
+      'pending_vent_mols': float(f.pending_vent_mols),
+      'pending_drop_kg': float(f.pending_drop_kg),
+      'time_elapsed_s': float(f.time_s),
+      'latex_status': int(f.status), 'last_decision': int(f.last_decision),
+  }
+
+
+def _fly_golden(source):
+  """All 20 golden seeds of `source`, batched, with the recorded actions."""
+  _, params, batch_reset, batch_step = _setup()
+  golden = test_golden.load_golden(source)
+  actions = np.nan_to_num(golden.arrays['action'], nan=17_500.0)
+  actions[..., 1:] = np.nan_to_num(actions[..., 1:], nan=1.0)
+  keys = _keys(golden.seeds)
+  obs, state = batch_reset(keys, params)
+  states, observations, done = [state.flight], [np.asarray(obs)], []
+  for t in range(actions.shape[1]):
+    obs, state, _, d, _ = batch_step(keys, state,
+                                     jnp.asarray(actions[:, t], jnp.float32),
+                                     params)
+    states.append(state.flight)
+    observations.append(np.asarray(obs))
+    done.append(np.asarray(d))
+  return golden, states, np.stack(observations, 1), np.stack(done, 1)
+
+
+def test_reset_is_the_gym_envs_world():
+  _, params, batch_reset, _ = _setup()
+  seeds = [0, 7, 1_000_003]
+  obs, state = batch_reset(_keys(seeds), params)
+  gym_env = gym.make('LatexBalloon-v0', seed=0).unwrapped
+  for i, seed in enumerate(seeds):
+    expected = gym_env.reset(seed=seed)
+    s = gym_env.arena.get_balloon_state()
+    # Batched (vmap) decoding sums the VAE's products in another order than
+    # BLE's single decode: winds ~1e-4 m/s apart, features ~1e-5.
+    np.testing.assert_allclose(obs[i], expected, atol=5e-5, rtol=0)
+    got = _flight_dict(state.flight, i)
+    assert got['x_m'] == pytest.approx(s.x.meters, abs=0.1)
+    assert got['y_m'] == pytest.approx(s.y.meters, abs=0.1)
+    assert got['altitude_m'] == pytest.approx(s.altitude_m, abs=0.01)
+    assert got['helium_mols'] == pytest.approx(s.helium_mols, rel=1e-6)
+    np.testing.assert_allclose(
+        state.atmosphere.lapse_rates[i],
+        gym_env.arena._atmosphere._lapse_rates, rtol=1e-6)  # pylint: disable=protected-access
+
+
+# Measured (all 40 golden flights): at most 54 m apart in 3 days, no
+# controller decision different, same terminal steps; observations 1.3e-3.
+_TRAJECTORY_TOL_M = 100.0  # [m] (the issue asks 1 km for 18 of 20 seeds)
+
+
+@pytest.mark.parametrize('source', [
+    'random', pytest.param('scripted', marks=pytest.mark.slow)])
+def test_golden_trajectories(source):
+  """All 20 seeds, every step: within 100 m, the same decisions and ends."""
+  golden, states, observations, done = _fly_golden(source)
+  deviations = []
+  for i, seed in enumerate(golden.seeds):
+    episode, n = golden.episode(i), golden.lengths[i]
+    context = f'{source} seed {seed}'
+    flown = [_flight_dict(s, i) for s in states[:n + 1]]
+    simulated = {f'state_{k}': np.array([f[k] for f in flown])
+                 for k in ('x_m', 'y_m', 'altitude_m')}
+    simulated['done'] = done[i, :n]
+    deviations.append(test_golden.max_deviation_m(episode, simulated))
+    assert done[i, n - 1] and not done[i, :n - 1].any(), context
+    np.testing.assert_array_equal(
+        [f['last_decision'] for f in flown[1:]],
+        episode['state_last_decision'][1:n + 1], err_msg=context)
+    np.testing.assert_array_equal(
+        [f['latex_status'] for f in flown[1:]],
+        episode['state_latex_status'][1:n + 1], err_msg=context)
+    np.testing.assert_allclose(observations[i, :n + 1], episode['obs'],
+                               atol=5e-3, rtol=0, err_msg=context)
+  assert max(deviations) <= _TRAJECTORY_TOL_M, deviations
+  within = sum(d <= test_golden.TRAJECTORY_TOL_M for d in deviations)
+  assert within >= test_golden.MIN_SEEDS_WITHIN, deviations
+
+
+def _restored(state, i, before, step):
+  """Balloon i's env state with its flight replaced by a recorded one."""
+  _, params, _, _ = _setup()
+  one = jax.tree.map(lambda a: a[i], state)
+  f = one.flight
+  dtype = f.altitude_m.dtype
+  value = lambda k: jnp.asarray(before[k], dtype)
+  ambient = atmosphere_lib.at_height(one.atmosphere, value('altitude_m'))
+  f = f.replace(
+      x_m=value('x_m'), y_m=value('y_m'), altitude_m=value('altitude_m'),
+      ascent_rate_mps=value('ascent_rate_mps'),
+      pending_vent_mols=value('pending_vent_mols'),
+      pending_drop_kg=value('pending_drop_kg'),
+      helium_vented_mols=value('helium_vented_mols'),
+      sand_dropped_kg=value('sand_dropped_kg'),
+      time_s=value('time_elapsed_s'),
+      status=jnp.asarray(before['latex_status'], jnp.int32),
+      last_decision=jnp.asarray(before['last_decision'], jnp.int32),
+      pressure_pa=ambient.pressure, temperature_k=ambient.temperature)
+  f = state_lib.with_resources(params.flight, f,
+                               helium_mols=before['helium_mols'],
+                               sand_kg=before['sand_kg'])
+  return one.replace(flight=f, steps=jnp.asarray(step, jnp.int32))
+
+
+@pytest.mark.parametrize('source', test_golden.SOURCES)
+def test_single_steps_from_recorded_states(source):
+  """Given the recorded state and action, one step matches the recording."""
+  env, params, batch_reset, _ = _setup()
+  step = jax.jit(env.step_env)
+  golden = test_golden.load_golden(source)
+  _, state = batch_reset(_keys(golden.seeds), params)
+  checked = 0
+  for i in range(0, len(golden.seeds), 4):
+    episode, n = golden.episode(i), golden.lengths[i]
+    for t in sorted({0, 1, n // 4, n // 2, (3 * n) // 4, n - 1}):
+      before = test_golden.state_at(episode, t)
+      action = episode['action'][t]
+      one = _restored(state, i, before, t)
+      _, after, _, done, _ = step(_KEY, one, jnp.asarray(action, jnp.float32),
+                                  params)
+      simulated = _flight_dict(jax.tree.map(lambda a: a[None], after.flight),
+                               0)
+      test_golden.assert_step_matches(
+          before, test_golden.state_at(episode, t + 1), simulated,
+          context=f'{source} seed {golden.seeds[i]} step {t}')
+      assert bool(done) == bool(episode['done'][t])
+      checked += 1
+  assert checked >= 20
+
+
+def test_batched_equals_single_and_auto_reset():
+  env, params, batch_reset, batch_step = _setup()
+  seeds = [3, 4]
+  keys = _keys(seeds)
+  obs, state = batch_reset(keys, params)
+  action = jnp.array([[20_000.0, 1.0, -1.0], [14_000.0, 2.0, -1.0]])
+  b_obs, b_state, b_reward, _, _ = batch_step(keys, state, action, params)
+  for i, seed in enumerate(seeds):
+    o, s = jax.jit(env.reset)(jax.random.PRNGKey(seed), params)
+    # vmap decodes the VAE with batched products (~1e-4 m/s apart).
+    np.testing.assert_allclose(o, obs[i], atol=5e-5, rtol=0)
+    o, s, r, _, _ = jax.jit(env.step_env)(keys[i], s, action[i], params)
+    np.testing.assert_allclose(o, b_obs[i], atol=5e-5)
+    assert float(r) == pytest.approx(float(b_reward[i]), abs=1e-5)
+  # A finished episode is replaced by the flight of the step's key.
+  short = params.replace(episode_steps=1)
+  o, s = jax.jit(env.reset)(keys[0], short)
+  new_key = jax.random.PRNGKey(99)
+  o2, s2, _, done, info = jax.jit(env.step)(new_key, s, action[0], short)
+  assert bool(done) and bool(info['truncated'])
+  fresh_obs, fresh = jax.jit(env.reset)(new_key, short)
+  np.testing.assert_array_equal(o2, fresh_obs)
+  assert int(s2.steps) == 0
+  assert float(s2.flight.x_m) == float(fresh.flight.x_m)
+
+
+def test_rollout_many_balloons_in_one_call():
+  env, params, _, _ = _setup()
+  n, steps = 64, 6
+  keys = jax.random.split(_KEY, n)
+  actions = jnp.tile(jnp.array([18_000.0, 2.0, -1.0]), (n, 1))
+  obs, rewards, done = jax_env.rollout(env, keys, actions, params, steps)
+  assert obs.shape == (steps + 1, n, 71)
+  assert rewards.shape == done.shape == (steps, n)
+  assert np.all(np.isfinite(obs)) and np.all(np.abs(obs) <= 1.0)
+  assert np.all((rewards <= 1.0) & (rewards >= 0.0))
