@@ -1,0 +1,135 @@
+"""Batched JAX env speed: balloon-steps/s for 1..4096 balloons, side by side.
+
+In one run, each measurement in its own fresh subprocess (own peak RSS):
+- `ble_latex.jax_env.LatexBalloonJaxEnv`, N balloons (N = --batch_sizes): one
+  jitted call resets N balloons and flies them through --steps 20-minute
+  strides (`jax_env.rollout`: ground-truth wind with noise re-queried every
+  <= 3 min, the 71 features and the reward at every stride). Reported: the
+  first call (compile + run), then the best of --repeats timed calls;
+- `LatexBalloon-v0` (gym, one balloon) and BLE's
+  `BalloonLearningEnvironment-v0` (3-minute steps) over the same simulated
+  time, measured by `benchmarks/env_speed.py`'s worker.
+Throughput is compared in simulated balloon-hours per wall second.
+
+  python benchmarks/batch_speed.py --json benchmarks/batch_speed.json
+"""
+
+import argparse
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+import time
+
+_HERE = os.path.dirname(os.path.abspath(__file__))
+STRIDE_H = 20.0 / 60.0  # [h] simulated per latex step
+
+
+def jax_worker(batch: int, steps: int, repeats: int) -> dict:
+  """Times `rollout` of `batch` balloons for `steps` strides."""
+  import gin  # pylint: disable=g-import-not-at-top
+  import jax  # pylint: disable=g-import-not-at-top
+  import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
+  import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
+  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex import jax_env  # pylint: disable=g-import-not-at-top
+
+  gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
+  env = jax_env.LatexBalloonJaxEnv()
+  params = env.default_params
+  low = jnp.asarray(jax_env.ACTION_LOW)
+  high = jnp.asarray(jax_env.ACTION_HIGH)
+
+  def run(seed):
+    key = jax.random.PRNGKey(seed)
+    keys = jax.random.split(key, batch)
+    actions = jax.random.uniform(jax.random.fold_in(key, 1), (steps, batch, 3),
+                                 minval=low, maxval=high)
+    out = jax_env.rollout(env, keys, actions, params, steps)
+    jax.block_until_ready(out)
+    return out
+
+  t = time.perf_counter()
+  obs, _, _ = run(0)
+  first = time.perf_counter() - t
+  times = []
+  for r in range(repeats):
+    t = time.perf_counter()
+    run(r + 1)
+    times.append(time.perf_counter() - t)
+  wall = min(times)
+  return {
+      'env': 'LatexBalloonJaxEnv', 'batch': batch, 'steps': steps,
+      'first_call_s': first, 'wall_s': wall, 'all_wall_s': times,
+      'balloon_steps_per_s': batch * steps / wall,
+      'sim_hours_per_wall_s': batch * steps * STRIDE_H / wall,
+      'finite_obs': bool(jnp.all(jnp.isfinite(obs))),
+      'peak_rss_mb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+      'device': str(jax.devices()[0]),
+  }
+
+
+def _child(args) -> dict:
+  out = subprocess.run([sys.executable, *args], capture_output=True,
+                       text=True, check=False)
+  if out.returncode:
+    raise RuntimeError(f'{args} failed:\n{out.stderr[-3000:]}')
+  return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+  parser.add_argument('--batch_sizes', default='1,16,256,1024,4096')
+  parser.add_argument('--steps', type=int, default=216,
+                      help='strides per rollout (216 = one 3-day episode)')
+  parser.add_argument('--repeats', type=int, default=2)
+  parser.add_argument('--gym_episodes', type=float, default=1.0,
+                      help='LatexBalloon-v0 episodes; BLE flies the same '
+                           'simulated time in 3-minute steps')
+  parser.add_argument('--json', help='also write the results here')
+  parser.add_argument('--worker', type=int, help=argparse.SUPPRESS)
+  args = parser.parse_args()
+  if args.worker is not None:
+    print(json.dumps(jax_worker(args.worker, args.steps, args.repeats)))
+    return
+
+  load_before = os.getloadavg()
+  results = {'jax': [], 'gym': {}}
+  for batch in (int(b) for b in args.batch_sizes.split(',')):
+    r = _child([__file__, '--worker', str(batch), '--steps', str(args.steps),
+                '--repeats', str(args.repeats)])
+    results['jax'].append(r)
+    print(f'jax N={batch:5d}: {r["balloon_steps_per_s"]:12.0f} balloon-steps/s'
+          f'  first call {r["first_call_s"]:6.1f} s  best {r["wall_s"]:7.2f} s'
+          f'  peak RSS {r["peak_rss_mb"]:6.0f} MB', flush=True)
+  latex_steps = int(args.gym_episodes * 216)
+  env_speed = os.path.join(_HERE, 'env_speed.py')
+  for name, steps in (('latex', latex_steps),
+                      ('ble', int(latex_steps * 20 / 3))):
+    r = _child([env_speed, '--worker', name, '--steps', str(steps)])
+    results['gym'][name] = r
+    print(f'{r["env"]}: {r["steps_per_s"]:.1f} steps/s, '
+          f'{r["sim_hours_per_wall_s"]:.2f} simulated h/s, '
+          f'{r["wall_s_per_3_days"]:.2f} s per 3 days, '
+          f'peak RSS {r["peak_rss_mb"]:.0f} MB', flush=True)
+  best = max(results['jax'], key=lambda r: r['sim_hours_per_wall_s'])
+  for name in ('latex', 'ble'):
+    ratio = best['sim_hours_per_wall_s'] / results['gym'][name][
+        'sim_hours_per_wall_s']
+    results[f'ratio_sim_time_vs_{name}'] = ratio
+    print(f'simulated-time throughput, JAX N={best["batch"]} / '
+          f'{results["gym"][name]["env"]}: {ratio:.0f}x')
+  results['machine'] = {
+      'cpus': os.cpu_count(), 'platform': platform.platform(),
+      'loadavg_before': load_before, 'loadavg_after': os.getloadavg(),
+      'command': ' '.join(sys.argv)}
+  print(f'load average before/after: {load_before} / {os.getloadavg()}')
+  if args.json:
+    with open(args.json, 'w') as f:
+      json.dump(results, f, indent=1)
+
+
+if __name__ == '__main__':
+  main()
