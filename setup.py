@@ -22,6 +22,7 @@ _INSTALL_REQUIRES = [
     'tensorflow-probability',
     'tensorboard',
     'gym==0.25.2',
+    'gymnasium>=1.0',
     'gin-config',
     'opensimplex',
     'scipy>=1.14',
@@ -50,7 +51,9 @@ setuptools.setup(
                   'ble_latex.agents': ['policies/*.msgpack']},
     install_requires=_INSTALL_REQUIRES,
     extras_require={
-        'test': ['pytest', 'pytest-timeout', 'hypothesis'],
+        # SB3 and the CPU torch for tests/test_gymnasium_env.py and examples/.
+        'test': ['pytest', 'pytest-timeout', 'hypothesis',
+                 'stable-baselines3', 'torch'],
     },
     entry_points={
         'gym.envs': [

@@ -25,6 +25,12 @@ in `GLOBAL_CHANGES` (and in README).
 | 8 | jax.tree_map removed (dopamine agents, BLE)        | `_jax_tree_map` (add)       |
 | 9 | jax_threefry_partitionable default flipped         | `_jax_threefry` (global)    |
 |10 | gym's RandomNumberGenerator uncopyable on NumPy 2  | `_gym_rng_copy` (gym class) |
+
+The same hook also runs three integration steps that are not fixes:
+`gymnasium_register` (the `ble_latex/...` ids, after `import gymnasium`),
+`gin_latex_configurables` (a gin finalize hook that imports
+`GIN_CONFIGURABLE_MODULES` before BLE's `bind_gin_variables` locks the config)
+and `quiet_import` (ble_latex.env imports inside `quiet.third_party_noise`).
 """
 
 import contextlib
@@ -325,6 +331,47 @@ def _flax_optim_shim() -> types.ModuleType:
 
 
 # ---------------------------------------------------------------------------
+# Integration hooks (not fixes): gymnasium ids, gin configurables, quiet start.
+# ---------------------------------------------------------------------------
+# Modules whose import declares every gin configurable a latex env needs.
+GIN_CONFIGURABLE_MODULES = ('ble_latex.env',)
+
+
+def _register_gymnasium_envs(unused_gymnasium: types.ModuleType) -> None:
+  """Registers the `ble_latex/...` ids once gymnasium is imported.
+
+  Gymnasium 1.x has no plugin entry points; this keeps `import ble_latex`
+  from importing gymnasium itself (~0.2 s).
+  """
+  from ble_latex import gymnasium_registration  # pylint: disable=g-import-not-at-top
+  gymnasium_registration.register_envs()
+
+
+def _import_latex_configurables(unused_config: Any) -> None:
+  """gin finalize hook: declare ble_latex's configurables before the lock.
+
+  BLE's order (`run_helpers.bind_gin_variables`, which finalizes and locks
+  gin's config, then `gym.make('LatexBalloonDiscrete-v0')`) would otherwise
+  import ble_latex.env after the lock, and its `@gin.configurable`s raise
+  "Attempted to add a new configurable after the config was locked".
+  """
+  import importlib  # pylint: disable=g-import-not-at-top
+  for name in GIN_CONFIGURABLE_MODULES:
+    importlib.import_module(name)
+
+
+def _gin_finalize_hook(gin_config: types.ModuleType) -> None:
+  if _import_latex_configurables not in gin_config._FINALIZE_HOOKS:  # pylint: disable=protected-access
+    gin_config.register_finalize_hook(_import_latex_configurables)
+
+
+def _quiet_import() -> contextlib.AbstractContextManager:
+  """Known gym/BLE/TensorFlow start-up notices are dropped (ble_latex.quiet)."""
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  return quiet.third_party_noise()
+
+
+# ---------------------------------------------------------------------------
 # The import hook.
 # ---------------------------------------------------------------------------
 # module name -> (fix name, context manager around its execution, fix after).
@@ -338,6 +385,10 @@ _HOOKS: Dict[str, Tuple[str, _Around, _After]] = {
     f'{_BLE}.env.wind_gp': ('wind_gp_std', None, _wind_gp_std),
     'gym.utils.passive_env_checker': ('gym_bool8', None, _gym_checker_bool8),
     'gym.utils.seeding': ('gym_rng_copy', None, _gym_rng_copy),
+    # Integration hooks.
+    'gymnasium': ('gymnasium_register', None, _register_gymnasium_envs),
+    'gin.config': ('gin_latex_configurables', None, _gin_finalize_hook),
+    'ble_latex.env': ('quiet_import', _quiet_import, None),
 }
 # Top-level packages whose (non-trivial) import first applies the jax fixes.
 _JAX_USERS = (f'{_BLE}.', 'dopamine.', 'tensorflow_probability.substrates')
@@ -407,6 +458,8 @@ def install() -> None:
     if module is None or name in disabled() or applied.get(name):
       continue
     if around is not None:
+      if module_name.startswith('ble_latex.'):
+        continue  # Integration hooks only; nothing to fix.
       raise ImportError(
           f'{module_name} was imported before ble_latex and is broken on this '
           'stack; import ble_latex (or gym) before any '

@@ -1,0 +1,438 @@
+"""ble_latex/LatexBalloon-v0 and ble_latex/LatexBalloonDiscrete-v0: gymnasium API."""
+
+import json
+import logging
+import os
+import subprocess
+import sys
+import warnings
+
+import gym
+import gymnasium
+from gymnasium.utils import env_checker as gymnasium_checker
+import numpy as np
+import pytest
+
+from ble_latex import gymnasium_env
+from ble_latex import gymnasium_registration
+from ble_latex import quiet
+
+ID = 'ble_latex/LatexBalloon-v0'
+DISCRETE_ID = 'ble_latex/LatexBalloonDiscrete-v0'
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _python(code: str, timeout: float = 300, **env_changes):
+  env = dict(os.environ)
+  for key, value in env_changes.items():
+    if value is None:
+      env.pop(key, None)
+    else:
+      env[key] = value
+  return subprocess.run([sys.executable, '-c', code], env=env, cwd=REPO,
+                        capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.fixture(scope='module')
+def env():
+  e = gymnasium.make(ID)
+  yield e
+  e.close()
+
+
+@pytest.fixture(scope='module')
+def discrete_env():
+  e = gymnasium.make(DISCRETE_ID)
+  yield e
+  e.close()
+
+
+# -- Registration. ------------------------------------------------------------
+@pytest.mark.parametrize('order', ['ble_latex first', 'gymnasium first'])
+def test_import_registers_ids_cheaply(order):
+  imports = ('import ble_latex, sys\n'
+             "assert 'gymnasium' not in sys.modules, 'imported gymnasium'\n"
+             'import gymnasium\n' if order == 'ble_latex first' else
+             'import gymnasium, ble_latex, sys\n')
+  code = imports + (
+      "print(sorted(k for k in gymnasium.registry if k.startswith('ble_latex/'"
+      ')))\n'
+      "heavy = [m for m in ('gym', 'jax', 'tensorflow', 'balloon_learning_"
+      "environment') if m in sys.modules]\n"
+      "assert not heavy, heavy\n"
+      'gymnasium.register_envs(ble_latex)\n')
+  result = _python(code, timeout=60)
+  assert result.returncode == 0, result.stderr
+  assert result.stdout.strip() == str(sorted(gymnasium_registration.ENV_IDS))
+
+
+def test_make_gives_gymnasium_envs(env, discrete_env):
+  assert isinstance(env.unwrapped, gymnasium_env.LatexBalloonGymnasiumEnv)
+  assert isinstance(discrete_env.unwrapped,
+                    gymnasium_env.LatexBalloonDiscreteGymnasiumEnv)
+  assert isinstance(env.unwrapped.gym_env, gym.Env)  # The shared simulation.
+  assert env.action_space == gymnasium.spaces.Box(
+      np.array([14000, 1, -1], np.float32), np.array([21000, 5, 1], np.float32))
+  assert env.observation_space == gymnasium.spaces.Box(-1, 1, (71,),
+                                                       np.float32)
+  assert discrete_env.action_space == gymnasium.spaces.Discrete(3)
+  assert discrete_env.observation_space.shape == (1099,)
+
+
+# -- reset / step. ------------------------------------------------------------
+def test_reset_and_step_follow_gymnasium_api(env):
+  obs, info = env.reset(seed=5)
+  assert obs.shape == (71,) and obs.dtype == np.float32
+  assert env.observation_space.contains(obs)
+  assert {'distance_km', 'altitude_m', 'terminal_reason'} <= set(info)
+  out = env.step(np.array([18000.0, 2.0, -1.0], np.float32))
+  assert len(out) == 5
+  obs, reward, terminated, truncated, info = out
+  assert env.observation_space.contains(obs)
+  assert isinstance(reward, float)
+  assert terminated is False and truncated is False
+  assert 'TimeLimit.truncated' not in info
+
+
+def test_same_flight_as_the_gym_env(env):
+  """Seed s flies the same balloon as gym's LatexBalloon-v0 (and eval) seed s."""
+  gym_env = gym.make('LatexBalloon-v0').unwrapped
+  actions = [np.array([15000.0, 1.0, -1.0]), np.array([20000.0, 3.0, -1.0]),
+             np.array([17000.0, 1.0, 1.0])]
+  obs, _ = env.reset(seed=11)
+  np.testing.assert_array_equal(obs, gym_env.reset(seed=11))
+  for action in actions:
+    obs, reward, *_ = env.step(action)
+    gym_obs, gym_reward, _, _ = gym_env.step(action)
+    np.testing.assert_array_equal(obs, gym_obs)
+    assert reward == gym_reward
+
+
+def test_seeding_np_random_and_unseeded_resets(env):
+  """reset(seed) seeds np_random; later unseeded resets are reproducible."""
+  def episode_starts():
+    first, _ = env.reset(seed=3)
+    state = env.unwrapped.np_random.bit_generator.state
+    return [first] + [env.reset()[0] for _ in range(2)], state
+
+  starts1, rng1 = episode_starts()
+  starts2, rng2 = episode_starts()
+  assert rng1 == rng2
+  for a, b in zip(starts1, starts2):
+    np.testing.assert_array_equal(a, b)
+  assert not np.array_equal(starts1[1], starts1[2])
+  # The derived seeds are training seeds, never held-out eval seeds.
+  env.unwrapped.np_random = np.random.default_rng(0)
+  drawn = env.unwrapped.np_random.integers(1_000_000, size=1)
+  env.unwrapped.np_random = np.random.default_rng(0)
+  obs, _ = env.reset()
+  np.testing.assert_array_equal(obs, env.reset(seed=int(drawn[0]))[0])
+
+
+@pytest.mark.parametrize('seed', [-1, 2**32, 1.5, 'a'])
+def test_bad_seed_is_refused(env, seed):
+  with pytest.raises(ValueError, match='seed'):
+    env.reset(seed=seed)
+
+
+def test_reset_refuses_options(env):
+  env.reset(seed=0, options={})  # Empty is fine (gymnasium's checker).
+  with pytest.raises(ValueError, match='options'):
+    env.reset(seed=0, options={'start_altitude': 1})
+
+
+def test_time_limit_is_truncation():
+  env = gymnasium.make(ID, episode_steps=2)
+  env.reset(seed=1)
+  action = np.array([17000.0, 1.0, 1.0])
+  assert env.step(action)[2:4] == (False, False)
+  *_, terminated, truncated, info = env.step(action)
+  assert (terminated, truncated) == (False, True)
+  assert info['time_limit']
+  # A shorter TimeLimit from make() works too.
+  env = gymnasium.make(ID, max_episode_steps=1)
+  env.reset(seed=1)
+  assert env.step(action)[2:4] == (False, True)
+
+
+class _ScriptedGymEnv:
+  """Stands in for the gym env: returns scripted (done, info) pairs."""
+
+  observation_space = gym.spaces.Box(-1, 1, (2,), np.float32)
+  action_space = gym.spaces.Discrete(3)
+  outcomes = []
+
+  def __init__(self, **unused_kwargs):
+    self.radius = None
+
+  def reset(self, seed=None, return_info=False):
+    del seed, return_info
+    return np.zeros(2, np.float32), {}
+
+  def step(self, action):
+    del action
+    done, info = self.outcomes.pop(0)
+    return np.zeros(2, np.float32), 1.0, done, info
+
+  def close(self):
+    pass
+
+
+class _ScriptedEnv(gymnasium_env.LatexBalloonGymnasiumEnv):
+  _GYM_ENV_CLASS = _ScriptedGymEnv
+
+  def _flight_point(self):
+    return (0.0, 0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize('done, info, expected', [
+    (False, {}, (False, False)),
+    (True, {'terminal_reason': 'out_of_sand'}, (True, False)),
+    (True, {'time_limit': True, 'TimeLimit.truncated': True}, (False, True)),
+    # Out of sand on the last step: a real end, not a truncation.
+    (True, {'time_limit': True, 'terminal_reason': 'out_of_sand'},
+     (True, False)),
+])
+def test_done_maps_to_terminated_or_truncated(done, info, expected):
+  _ScriptedGymEnv.outcomes = [(done, info)]
+  env = _ScriptedEnv()
+  env.reset(seed=0)
+  _, _, terminated, truncated, out_info = env.step(0)
+  assert (terminated, truncated) == expected
+  assert 'TimeLimit.truncated' not in out_info
+
+
+# -- normalize_actions. -------------------------------------------------------
+def test_normalize_actions_maps_unit_cube_onto_the_box():
+  env = gymnasium.make(ID, normalize_actions=True)
+  raw = gymnasium.make(ID)
+  box = raw.action_space
+  assert env.action_space == gymnasium.spaces.Box(-1, 1, (3,), np.float32)
+  base = env.unwrapped
+  np.testing.assert_allclose(base.box_action(-np.ones(3)), box.low)
+  np.testing.assert_allclose(base.box_action(np.ones(3)), box.high)
+  np.testing.assert_allclose(base.box_action(np.zeros(3)),
+                             (box.low + box.high) / 2, rtol=1e-6)
+  obs, _ = env.reset(seed=2)
+  np.testing.assert_array_equal(obs, raw.reset(seed=2)[0])
+  for a in (np.array([0.5, -1.0, -0.2]), np.array([1.0, 1.0, 1.0])):
+    np.testing.assert_array_equal(env.step(a)[0],
+                                  raw.step(base.box_action(a))[0])
+  for bad in (np.array([1.01, 0.0, 0.0]), np.array([np.nan, 0, 0]),
+              np.zeros(2)):
+    with pytest.raises(ValueError, match='normalize_actions'):
+      env.step(bad)
+  with pytest.raises(ValueError, match='Discrete'):
+    gymnasium.make(DISCRETE_ID, normalize_actions=True)
+
+
+# -- Rendering. ---------------------------------------------------------------
+def test_render_rgb_array_draws_the_flight():
+  env = gymnasium.make(ID, render_mode='rgb_array')
+  env.reset(seed=4)
+  first = env.render()
+  assert first.dtype == np.uint8 and first.shape == (320, 640, 3)
+  for _ in range(3):
+    env.step(np.array([20000.0, 1.0, -1.0]))
+  later = env.render()
+  assert later.shape == first.shape
+  assert np.any(later != first)  # The path and altitude curve grew.
+  assert len(env.unwrapped._flight) == 4  # pylint: disable=protected-access
+  env.close()
+
+
+def test_render_modes(env):
+  assert env.render() is None  # No render_mode.
+  with pytest.raises(ValueError, match='render_mode'):
+    gymnasium_env.LatexBalloonGymnasiumEnv(render_mode='human')
+
+
+# -- Checkers. ----------------------------------------------------------------
+# The only warnings allowed: the raw Box is not [-1, 1] (that is what
+# normalize_actions is for), and BLE's Perciatelli features declare some
+# unbounded (inf) observations.
+_EXPECTED = {
+    (ID, False): ('symmetric and normalized',),
+    (ID, True): (),
+    (DISCRETE_ID, False): ('maximum value is infinity',),
+}
+
+
+@pytest.mark.parametrize('env_id, normalize', list(_EXPECTED))
+def test_gymnasium_and_sb3_env_checkers(env_id, normalize):
+  from stable_baselines3.common import env_checker as sb3_checker  # pylint: disable=g-import-not-at-top
+  kwargs = {'normalize_actions': True} if normalize else {}
+  env = gymnasium.make(env_id, **kwargs)
+  with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter('always')
+    gymnasium_checker.check_env(env.unwrapped, skip_render_check=False)
+    sb3_checker.check_env(env, warn=True)
+  messages = [str(w.message) for w in caught]
+  unexpected = [m for m in messages
+                if not any(e in m for e in _EXPECTED[(env_id, normalize)])]
+  assert not unexpected
+
+
+# -- Vector envs. -------------------------------------------------------------
+def test_make_vec_steps_all_balloons():
+  envs = gymnasium.make_vec(ID, num_envs=3, normalize_actions=True)
+  assert envs.num_envs == 3
+  assert envs.single_action_space == gymnasium.spaces.Box(-1, 1, (3,),
+                                                          np.float32)
+  obs, info = envs.reset(seed=7)
+  assert obs.shape == (3, 71)
+  single = gymnasium.make(ID, normalize_actions=True)
+  np.testing.assert_array_equal(obs[2], single.reset(seed=9)[0])  # seed + i
+  actions = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 1.0]],
+                     np.float32)
+  obs, reward, terminated, truncated, _ = envs.step(actions)
+  assert obs.shape == (3, 71) and reward.shape == (3,)
+  assert not terminated.any() and not truncated.any()
+  np.testing.assert_array_equal(obs[2], single.step(actions[2])[0])
+  envs.close()
+
+
+def test_forked_worker_fails_loudly_instead_of_hanging(monkeypatch):
+  jax = pytest.importorskip('jax')
+  jax.numpy.zeros(1).block_until_ready()  # JAX has started here.
+  monkeypatch.setattr(gymnasium_env, '_forked_after_jax', False)
+  gymnasium_env._note_fork_in_child()  # pylint: disable=protected-access
+  assert gymnasium_env._forked_after_jax  # pylint: disable=protected-access
+  with pytest.raises(RuntimeError, match="spawn"):
+    gymnasium.make(ID)
+
+
+_ASYNC = '''
+import numpy as np
+import ble_latex, gymnasium
+
+if __name__ == '__main__':
+  envs = gymnasium.make_vec('{id}', num_envs=2, {how})
+  obs, _ = envs.reset(seed=3)
+  obs, reward, *_ = envs.step(np.zeros((2, 3), np.float32))
+  print(type(envs).__name__, obs.shape, reward.shape)
+  envs.close()
+'''
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('how', [
+    'normalize_actions=True, asynchronous=True',
+    "normalize_actions=True, vectorization_mode='async', "
+    "vector_kwargs={'context': 'spawn'}",
+])
+def test_async_vector_env_with_spawn(tmp_path, how):
+  script = tmp_path / 'run_async.py'  # spawn re-imports __main__: a file.
+  script.write_text(_ASYNC.format(id=ID, how=how))
+  result = subprocess.run([sys.executable, str(script)], cwd=REPO,
+                          capture_output=True, text=True, timeout=400)
+  assert result.returncode == 0, result.stderr[-3000:]
+  assert result.stdout.split() == ['AsyncVectorEnv', '(2,', '71)', '(2,)']
+
+
+# -- BLE's order, quiet start, feature warning. -------------------------------
+_BLE_ORDER = '''
+import gym
+from balloon_learning_environment.utils import run_helpers
+run_helpers.bind_gin_variables({agent!r})
+import gin
+assert gin.config_is_locked()
+for name in ('LatexBalloonDiscrete-v0', 'LatexBalloon-v0'):
+  gym.make(name).reset(seed=0)
+import ble_latex, gymnasium
+for name in ('ble_latex/LatexBalloonDiscrete-v0', 'ble_latex/LatexBalloon-v0'):
+  gymnasium.make(name).reset(seed=0)
+print('ok')
+'''
+
+
+@pytest.mark.parametrize('agent', [
+    'perciatelli44', 'dqn', pytest.param('quantile', marks=pytest.mark.slow)])
+def test_ble_gin_order_then_make(agent):
+  """BLE binds the agent's gin (locking the config) before making the env."""
+  result = _python(_BLE_ORDER.format(agent=agent))
+  assert result.returncode == 0, result.stderr[-3000:]
+  assert result.stdout.strip().endswith('ok')
+
+
+def test_first_make_is_quiet():
+  """A normal run prints nothing to stderr: no gym/BLE/TF start-up noise."""
+  code = ('import time; t = time.perf_counter()\n'
+          'import ble_latex, gymnasium\n'
+          "env = gymnasium.make('ble_latex/LatexBalloon-v0')\n"
+          "print(f'{time.perf_counter() - t:.1f}')\n"
+          'env.reset(seed=0)\n'
+          'env.step(env.action_space.sample())\n')
+  result = _python(code, TF_CPP_MIN_LOG_LEVEL=None, JAX_PLATFORMS=None)
+  assert result.returncode == 0, result.stderr
+  assert result.stderr == ''
+  print('time to first gymnasium.make [s]:', result.stdout.strip())
+
+
+def test_quiet_passes_other_output_through(capfd):
+  with quiet.third_party_noise():
+    warnings.warn('ours', UserWarning)
+    warnings.warn('Please import `interp1d` from the `scipy.interpolate` '
+                  'namespace', DeprecationWarning)
+    sys.stderr.write('an error of ours\n')
+    os.write(2, b'I0000 00:00:1795331363.160793   18478 cudart_stub.cc:31] '
+             b'Could not find cuda drivers on your machine, GPU will not be '
+             b'used.\nE0000 native error\n')
+  err = capfd.readouterr().err
+  assert 'ours' in err and 'an error of ours' in err
+  assert 'E0000 native error' in err
+  assert 'interp1d' not in err and 'cuda drivers' not in err
+
+
+def test_feature_range_warning_at_most_once_per_episode(discrete_env, caplog):
+  """BLE warns at every step outside the feature range; we, once an episode."""
+  base = discrete_env.unwrapped
+  outside_steps = []
+  with caplog.at_level(logging.WARNING, logger='absl'):
+    for episode in range(2):
+      caplog.clear()
+      discrete_env.reset(seed=3)
+      outside = 0
+      for i in range(30):
+        discrete_env.step(i % 3)
+        constructor = base.arena.feature_constructor
+        pressure = base.arena.get_balloon_state().pressure
+        outside += not (constructor.min_pressure <= pressure <=
+                        constructor.max_pressure)
+      outside_steps.append(outside)
+      warned = [r for r in caplog.records
+                if 'not fully represented' in r.getMessage()]
+      assert len(warned) == 1, (episode, outside, len(warned))
+  assert min(outside_steps) >= 2  # BLE alone would have warned more often.
+
+
+# -- SB3 SAC (examples/sb3_sac.py). ------------------------------------------
+def test_sb3_sac_trains_and_evaluates_with_eval_json(tmp_path, capsys):
+  """SB3 SAC, a few hundred steps on ble_latex/LatexBalloon-v0, then eval."""
+  import importlib.util  # pylint: disable=g-import-not-at-top
+  from ble_latex import plots  # pylint: disable=g-import-not-at-top
+  spec = importlib.util.spec_from_file_location(
+      'sb3_sac', os.path.join(REPO, 'examples', 'sb3_sac.py'))
+  example = importlib.util.module_from_spec(spec)
+  spec.loader.exec_module(example)
+  threads = example.torch.get_num_threads()
+  try:
+    code = example.main([
+        '--total_timesteps=300', '--learning_starts=100', '--batch_size=64',
+        '--max_episode_length=20', '--num_eval_seeds=2', '--suite=latex_tiny',
+        f'--output_dir={tmp_path}', f'--model_out={tmp_path / "sac.zip"}'])
+  finally:
+    example.torch.set_num_threads(threads)  # The example sets 1.
+  assert code == 0
+  path = tmp_path / 'latex_tiny' / 'sb3_sac.json'
+  summary = json.loads(capsys.readouterr().out.splitlines()[-1])
+  assert summary['output'] == str(path) and summary['episodes'] == 2
+  records = plots.load_eval(str(path))  # ble-latex-eval's schema, checked.
+  assert [r['seed'] for r in records] == [1_000_000, 1_000_001]
+  assert all(r['steps'] == 20 and len(r['flight_path']) == 21
+             for r in records)
+  assert (tmp_path / 'sac.zip').is_file()
+  with pytest.raises(SystemExit) as exit_info:
+    example.main(['--suite=nope'])
+  assert exit_info.value.code == 2
+  assert 'latex_tiny' in capsys.readouterr().err
