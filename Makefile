@@ -39,7 +39,7 @@ clean:
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.eval --suite=latex_small --output_dir=$(RESULTS)
 
-.PHONY: baselines results env-speed sac-step train-sac select-sac
+.PHONY: baselines results env-speed batch-speed sac-step train-sac select-sac
 baselines: venv
 	$(EVAL) --agent=latex_random
 	$(EVAL) --agent=latex_station_seeker
@@ -52,6 +52,9 @@ results: baselines
 
 env-speed: venv
 	$(PY) benchmarks/env_speed.py --episodes 3 --repeats 3 --profile --json benchmarks/env_speed.json
+
+batch-speed: venv
+	$(PY) benchmarks/batch_speed.py --json benchmarks/batch_speed.json
 
 sac-step: venv
 	$(PY) benchmarks/sac_step.py --steps 200 --rounds 3 --json benchmarks/sac_step.json

@@ -1,6 +1,9 @@
 """Batched JAX env speed: balloon-steps/s for 1..4096 balloons, side by side.
 
 In one run, each measurement in its own fresh subprocess (own peak RSS):
+- a profile of one batched stride (--profile_batch balloons): the whole
+  `step_env` and its parts jitted alone (flight core, wind queries,
+  observation), to show where the time goes;
 - `ble_latex.jax_env.LatexBalloonJaxEnv`, N balloons (N = --batch_sizes): one
   jitted call resets N balloons and flies them through --steps 20-minute
   strides (`jax_env.rollout`: ground-truth wind with noise re-queried every
@@ -71,6 +74,65 @@ def jax_worker(batch: int, steps: int, repeats: int) -> dict:
   }
 
 
+def profile_worker(batch: int, repeats: int) -> dict:
+  """Where a batched stride's time goes: its parts, each jitted alone.
+
+  For `batch` balloons after reset: the whole `step_env`; the flight core's
+  stride with a constant wind (no wind queries); the ground-truth wind at
+  the 7 sub-step queries of a stride (VAE forecast + 2 x 5 simplex
+  harmonics each); the observation (25-level forecast column + features).
+  """
+  import gin  # pylint: disable=g-import-not-at-top
+  import jax  # pylint: disable=g-import-not-at-top
+  import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
+  import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
+  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.flight import dynamics  # pylint: disable=g-import-not-at-top
+
+  gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
+  env = jax_env.LatexBalloonJaxEnv()
+  params = env.default_params
+  keys = jax.random.split(jax.random.PRNGKey(0), batch)
+  _, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)
+  action = jnp.tile(jnp.array([18_000.0, 2.0, -1.0]), (batch, 1))
+  subs = 7  # ceil(20 min / 3 min) wind queries per stride
+
+  def whole(s):
+    return jax.vmap(env.step_env, in_axes=(0, 0, 0, None))(keys, s, action,
+                                                            params)[1]
+
+  def flight_only(s):
+    calm = lambda x, y, p, t: (jnp.zeros_like(x), jnp.zeros_like(x))
+    return jax.vmap(lambda f, a, atm: dynamics.step(
+        params.flight, atm, f, a, calm, params.stride_s))(
+            s.flight, action, s.atmosphere)
+
+  def wind_only(s):
+    def one(st):
+      f = st.flight
+      t = f.time_s + jnp.arange(subs) * 171.4
+      return jax_env.ground_truth_wind(st, f.x_m, f.y_m, f.pressure_pa, t)
+    return jax.vmap(one)(s)
+
+  def obs_only(s):
+    return jax.vmap(jax_env.observation, in_axes=(0, None))(s, params)
+
+  result = {'batch': batch}
+  for name, fn in (('step_env', whole), ('flight_core_calm_wind', flight_only),
+                   ('ground_truth_wind_7_queries', wind_only),
+                   ('observation', obs_only)):
+    fn = jax.jit(fn)
+    jax.block_until_ready(fn(state))
+    times = []
+    for _ in range(repeats):
+      t = time.perf_counter()
+      jax.block_until_ready(fn(state))
+      times.append(time.perf_counter() - t)
+    result[name + '_ms'] = 1e3 * min(times)
+  return result
+
+
 def _child(args) -> dict:
   out = subprocess.run([sys.executable, *args], capture_output=True,
                        text=True, check=False)
@@ -89,10 +151,17 @@ def main() -> None:
                       help='LatexBalloon-v0 episodes; BLE flies the same '
                            'simulated time in 3-minute steps')
   parser.add_argument('--json', help='also write the results here')
+  parser.add_argument('--profile_batch', type=int, default=1024,
+                      help='batch size of the per-part profile (0: none)')
   parser.add_argument('--worker', type=int, help=argparse.SUPPRESS)
+  parser.add_argument('--profile_worker', type=int, help=argparse.SUPPRESS)
   args = parser.parse_args()
   if args.worker is not None:
     print(json.dumps(jax_worker(args.worker, args.steps, args.repeats)))
+    return
+  if args.profile_worker is not None:
+    print(json.dumps(profile_worker(args.profile_worker, max(args.repeats,
+                                                             3))))
     return
 
   load_before = os.getloadavg()
@@ -121,6 +190,13 @@ def main() -> None:
     results[f'ratio_sim_time_vs_{name}'] = ratio
     print(f'simulated-time throughput, JAX N={best["batch"]} / '
           f'{results["gym"][name]["env"]}: {ratio:.0f}x')
+  if args.profile_batch:
+    r = _child([__file__, '--profile_worker', str(args.profile_batch),
+                '--repeats', str(args.repeats)])
+    results['profile'] = r
+    print(f'one stride of {args.profile_batch} balloons, parts jitted alone: '
+          + ', '.join(f'{k[:-3]} {v:.1f} ms' for k, v in r.items()
+                      if k.endswith('_ms')), flush=True)
   results['machine'] = {
       'cpus': os.cpu_count(), 'platform': platform.platform(),
       'loadavg_before': load_before, 'loadavg_after': os.getloadavg(),
