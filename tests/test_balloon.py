@@ -229,7 +229,7 @@ def _bad_calls():
       (dict(action=[17_500.0, float('inf'), -1.0]), 'a1'),
       (dict(action=[25_000.0, 1.0, -1.0]), 'a0'),
       (dict(action=[17_500.0, 1.0, 2.0]), 'a2'),
-      (dict(action=[17_500.0, 1.0]), '3 components'),
+      (dict(action=[17_500.0, 1.0]), r'shape \(3,\)'),
       (dict(action=good, time_delta=dt.timedelta(0)), 'time_delta'),
       (dict(action=good, time_delta=1200), 'time_delta'),
       (dict(action=good, stride=dt.timedelta(seconds=-1)), 'stride'),

@@ -64,10 +64,11 @@ def test_validate_action_accepts_in_range(action):
     ([17_000, 0.5, 0], 'a1'),
     ([17_000, 5.1, 0], 'a1'),
     ([17_000, 1, 1.5], 'a2'),
-    ([17_000, 1], '3 components'),
-    ([[17_000, 1, 0, 0]], '3 components'),
+    ([17_000, 1], r'shape \(3,\)'),
+    ([[17_000, 1, 0, 0]], r'shape \(3,\)'),
+    ([[17_000, 1, 0]], r'shape \(3,\)'),
     ('abc', '3 numbers'),
-    (None, '3 components'),
+    (None, '3 numbers'),
 ])
 def test_validate_action_rejects_bad(action, match):
   with pytest.raises(ValueError, match=match):
