@@ -20,15 +20,21 @@ import sys
 from typing import Optional, Sequence
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
-import gym
+from ble_latex import cli
+from ble_latex import quiet
 
-from ble_latex import eval_lib
-from ble_latex import metrics
-from ble_latex import plot
-from ble_latex import runner
-from ble_latex import suites
-from ble_latex import train_lib
-from ble_latex import validate
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  import gym
+
+  from ble_latex import eval_lib
+  from ble_latex import metrics
+  from ble_latex import plot
+  from ble_latex import runner
+  from ble_latex import suites
+  from ble_latex import train_lib
+  from ble_latex import validate
+  # pylint: enable=g-import-not-at-top
 
 _SAC = 'ble_latex.agents.sac.SACAgent'
 
@@ -85,6 +91,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
   parser.add_argument('--episodes_per_iteration', type=int, default=5)
   parser.add_argument('--suite', default='latex_tiny')
   args = parser.parse_args(argv)
+  try:
+    cli.check_suite(args.suite)
+  except cli.CommandUsageError as e:
+    cli.usage_error('ble-latex-demo', str(e))
   run(args.output_dir, args.iterations, args.episodes_per_iteration,
       args.suite)
   return 0

@@ -27,10 +27,15 @@ import os
 import sys
 from typing import Any, List, Optional, Sequence, Tuple
 
-import numpy as np
-import xarray as xr
+from ble_latex import quiet
 
-from ble_latex import era5
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  import numpy as np
+  import xarray as xr
+
+  from ble_latex import era5
+  # pylint: enable=g-import-not-at-top
 
 
 def monthly_path(output: str, month: str) -> str:

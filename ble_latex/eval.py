@@ -20,13 +20,19 @@ from absl import app
 from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
-from balloon_learning_environment.eval import suites as ble_suites
-import gym
+from ble_latex import cli
+from ble_latex import quiet
 
-from ble_latex import eval_lib
-from ble_latex import metrics
-from ble_latex import runner
-from ble_latex import suites
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  from balloon_learning_environment.eval import suites as ble_suites
+  import gym
+
+  from ble_latex import eval_lib
+  from ble_latex import metrics
+  from ble_latex import runner
+  from ble_latex import suites
+  # pylint: enable=g-import-not-at-top
 
 flags.DEFINE_string('agent', 'sac', 'The name of the agent to create.')
 flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Environment to evaluate.')
@@ -60,7 +66,8 @@ def main(argv: Sequence[str]) -> None:
                   FLAGS.gin_bindings)
   suite = ble_suites.get_eval_suite(FLAGS.suite)
   seeds = eval_lib.shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)
-  env = gym.make(FLAGS.env_name).unwrapped
+  with quiet.third_party_noise():
+    env = gym.make(FLAGS.env_name).unwrapped
   agent = runner.create_agent(FLAGS.agent, env, seed=FLAGS.seed)
   if (FLAGS.checkpoint_dir is None) != (FLAGS.checkpoint_idx is None):
     raise app.UsageError('--checkpoint_dir and --checkpoint_idx go together.')
@@ -78,10 +85,18 @@ def main(argv: Sequence[str]) -> None:
   print(json.dumps({'output': path, **metrics.summarize(results)}))
 
 
+def check() -> None:
+  """Unknown agent, suite, env or gin file: one line, exit status 2."""
+  cli.check_agent(FLAGS.agent)
+  cli.check_suite(FLAGS.suite)
+  cli.check_env_name(FLAGS.env_name)
+  cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
+
+
 def run(argv: Optional[Sequence[str]] = None) -> None:
-  """Console-script entry point."""
-  app.run(main, argv=[sys.argv[0], *(argv or sys.argv[1:])])
+  """Console-script entry point (see `cli.run_absl`)."""
+  cli.run_absl(main, 'ble-latex-eval', argv, doc=__doc__, check=check)
 
 
 if __name__ == '__main__':
-  app.run(main)
+  run()

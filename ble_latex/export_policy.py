@@ -18,7 +18,11 @@ from typing import Optional, Sequence
 from absl import app
 from absl import flags
 
-from ble_latex.agents import pretrained
+from ble_latex import cli
+from ble_latex import quiet
+
+with quiet.third_party_noise():
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
 
 flags.DEFINE_string('checkpoint', None, 'SAC checkpoint to export '
                     '(checkpoint_NNNNN.msgpack), or a policy file to convert.')
@@ -52,9 +56,9 @@ def main(argv: Sequence[str]) -> None:
 
 
 def run(argv: Optional[Sequence[str]] = None) -> None:
-  """Console-script entry point."""
-  app.run(main, argv=[sys.argv[0], *(argv or sys.argv[1:])])
+  """Console-script entry point (see `cli.run_absl`)."""
+  cli.run_absl(main, 'ble-latex-export-policy', argv, doc=__doc__)
 
 
 if __name__ == '__main__':
-  app.run(main)
+  run()

@@ -8,11 +8,30 @@ registered by string entry points and only built on `gym.make`.
 
 import contextlib
 
-# env id -> entry point.
+# env id -> entry point: builds ble_latex.env's LatexBalloonEnv /
+# LatexBalloonDiscreteEnv (the env classes are unchanged; the factories only
+# keep the known gym/BLE/TF start-up notices quiet, `ble_latex.quiet`).
 ENV_IDS = {
-    'LatexBalloon-v0': 'ble_latex.env:LatexBalloonEnv',
-    'LatexBalloonDiscrete-v0': 'ble_latex.env:LatexBalloonDiscreteEnv',
+    'LatexBalloon-v0': 'ble_latex.gym_registration:make_latex_balloon',
+    'LatexBalloonDiscrete-v0':
+        'ble_latex.gym_registration:make_latex_balloon_discrete',
 }
+
+
+def make_latex_balloon(**kwargs):
+  """`ble_latex.env.LatexBalloonEnv(**kwargs)`, built quietly."""
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise():
+    from ble_latex import env  # pylint: disable=g-import-not-at-top
+    return env.LatexBalloonEnv(**kwargs)
+
+
+def make_latex_balloon_discrete(**kwargs):
+  """`ble_latex.env.LatexBalloonDiscreteEnv(**kwargs)`, built quietly."""
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise():
+    from ble_latex import env  # pylint: disable=g-import-not-at-top
+    return env.LatexBalloonDiscreteEnv(**kwargs)
 
 
 def register_env() -> None:

@@ -43,9 +43,15 @@ from absl import flags
 import numpy as np
 
 import ble_latex  # pylint: disable=unused-import  # Fixes before BLE imports.
-from ble_latex import episode_log
-from ble_latex import metrics
-from ble_latex import plots
+from ble_latex import cli
+from ble_latex import quiet
+
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import episode_log
+  from ble_latex import metrics
+  from ble_latex import plots
+  # pylint: enable=g-import-not-at-top
 
 TRAINING_CURVES = 'training_curves.png'
 TERMINAL_CONDITIONS = 'terminal_conditions.png'
@@ -155,9 +161,12 @@ def wind_rows(seeds: Sequence[int], pressures_pa: Sequence[float], *,
   Raises:
     flags.ValidationError: `env_name` is not a registered balloon env.
   """
-  import gym  # pylint: disable=g-import-not-at-top
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise():
+    import gym  # pylint: disable=g-import-not-at-top
   try:
-    env = gym.make(env_name)
+    with quiet.third_party_noise():
+      env = gym.make(env_name)
   except gym.error.Error as e:
     raise flags.ValidationError(f'--env_name={env_name}: {e}') from e
   try:
@@ -238,7 +247,7 @@ def _parse_gin(gin_files: Sequence[str], gin_bindings: Sequence[str]) -> None:
   from ble_latex import configs  # pylint: disable=g-import-not-at-top
   try:
     # Train/eval in the same process (the demo) leave gin's config locked.
-    with gin.unlock_config():
+    with gin.unlock_config(), quiet.third_party_noise():
       gin.parse_config_files_and_bindings(
           [*configs.env_gin_files(), *gin_files], gin_bindings)
   except (OSError, ValueError):
@@ -352,11 +361,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
           file=sys.stderr)
     return 2
   try:
+    cli.check_gin_files(_FLAGS.gin_files)
     written = run(_FLAGS)
-  except flags.Error as e:
+  except (flags.Error, cli.CommandUsageError) as e:
     print(f'ble-latex-plot: {e}', file=sys.stderr)
     return 2
   except (OSError, ValueError) as e:
+    gin_message = (cli.gin_usage_message(e) if isinstance(e, ValueError)
+                   else None)
+    if gin_message is not None:
+      print(f'ble-latex-plot: {gin_message}', file=sys.stderr)
+      return 2
     print(f'ble-latex-plot: error: {e}', file=sys.stderr)
     return 1
   for path in written:

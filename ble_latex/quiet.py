@@ -11,7 +11,8 @@ ble_latex imports and builds an env (it is not a process-wide filter):
 
 - Python warnings matching `KNOWN_WARNINGS` (message and category);
 - the exact texts of `known_stderr()` written to `sys.stderr` (gym's notice);
-- lines written to file descriptor 2 matching `KNOWN_NATIVE_LINES`.
+- lines written to file descriptor 2 matching `KNOWN_NATIVE_LINES`;
+- log records (absl's and the root logger) starting with `KNOWN_LOG_MESSAGES`.
 
 Everything else written to stderr meanwhile (our own warnings, errors and
 tracebacks included) is passed on unchanged when the block ends.
@@ -19,6 +20,7 @@ tracebacks included) is passed on unchanged when the block ends.
 
 import contextlib
 import io
+import logging
 import os
 import re
 import sys
@@ -37,6 +39,10 @@ KNOWN_WARNINGS: Tuple[Tuple[str, Type[Warning]], ...] = (
     # tensorflow_probability 0.25 at import, and its jax substrate.
     (r'distutils Version classes are deprecated', DeprecationWarning),
     (r'jax\.core\.pytype_aval_mappings is deprecated', DeprecationWarning),
+    # gym 0.25.2: gym.make's wrappers and its passive checker on BLE's
+    # (old step API) envs, which BLE's agents need.
+    (r'.*Initializing (wrapper|environment) in old step API', DeprecationWarning),
+    (r'.*Core environment is written in old step API', DeprecationWarning),
     # gym 0.25.2, from BLE's own gym plugin (env/gym.py) at `import gym`.
     (r'.*The `registry.env_specs` property along with `EnvSpecTree` is '
      r'deprecated', UserWarning),
@@ -54,6 +60,17 @@ KNOWN_NATIVE_LINES: Tuple[str, ...] = (
     r'operations\.',
     r'To enable the following instructions: .*, in other operations, rebuild '
     r'TensorFlow with the appropriate compiler flags\.',
+    # TF probing for a GPU on a machine without CUDA driver or device (when
+    # dopamine's SAC module hides GPUs from TF at import).
+    r'E\d{4} [\d:.]+ +\d+ cuda_platform\.cc:\d+\] failed call to cuInit: '
+    r'INTERNAL: CUDA error: Failed call to cuInit: UNKNOWN ERROR \(303\)',
+)
+# Python log records (absl logger) third-party modules emit at import.
+KNOWN_LOG_MESSAGES: Tuple[str, ...] = (
+    # dopamine 4.0.9, jax/agents/sac/sac_agent.py module code.
+    'Setting tf to CPU only, to avoid OOM.',
+    # jax (INFO) when it first starts its backends on a machine without TPU.
+    "Unable to initialize backend 'tpu'",
 )
 _NATIVE = re.compile('|'.join(f'(?:{p})' for p in KNOWN_NATIVE_LINES))
 
@@ -113,6 +130,38 @@ def _flush(stream: Optional[io.IOBase]) -> None:
     pass
 
 
+class _DropKnownRecords(logging.Filter):
+
+  def filter(self, record: logging.LogRecord) -> bool:
+    try:
+      message = record.getMessage()
+    except Exception:  # pylint: disable=broad-except
+      return True
+    return not message.startswith(KNOWN_LOG_MESSAGES)
+
+
+@contextlib.contextmanager
+def _known_log_records_dropped() -> Iterator[None]:
+  """Drops known records at the handlers that would print them.
+
+  Records of child loggers (e.g. jax's) propagate to the root logger's
+  handlers without passing the root logger's own filters, so the filter goes
+  on the handlers (absl's is on the root logger) and on logging.lastResort.
+  """
+  drop = _DropKnownRecords()
+  targets = [logging.getLogger('absl'), logging.lastResort,
+             *logging.getLogger().handlers,
+             *logging.getLogger('absl').handlers]
+  targets = [t for t in targets if t is not None]
+  for target in targets:
+    target.addFilter(drop)
+  try:
+    yield
+  finally:
+    for target in targets:
+      target.removeFilter(drop)
+
+
 def is_known_warning(message: Warning, category: Type[Warning]) -> bool:
   return any(issubclass(category, known) and re.match(pattern, str(message))
              for pattern, known in KNOWN_WARNINGS)
@@ -147,7 +196,8 @@ def third_party_noise() -> Iterator[None]:
       captured = io.StringIO()
       original = sys.stderr
       try:
-        with _capture_fd2(), contextlib.redirect_stderr(captured):
+        with _capture_fd2(), contextlib.redirect_stderr(captured), \
+            _known_log_records_dropped():
           yield
       finally:
         text = filter_python_stderr(captured.getvalue())

@@ -22,11 +22,16 @@ from absl import app
 from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex import cli
+from ble_latex import quiet
 
-from ble_latex import metrics
-from ble_latex import runner
-from ble_latex import suites
-from ble_latex import train_lib
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import metrics
+  from ble_latex import runner
+  from ble_latex import suites
+  from ble_latex import train_lib
+  # pylint: enable=g-import-not-at-top
 
 flags.DEFINE_string('agent', 'sac', 'Type of agent to create.')
 flags.DEFINE_string('env_name', 'LatexBalloon-v0',
@@ -70,10 +75,21 @@ def main(argv: Sequence[str]) -> None:
         policy_snapshot_period=FLAGS.policy_snapshot_period)
 
 
+def check() -> None:
+  """Unknown agent, env, collector or gin file: one line, exit status 2."""
+  cli.check_agent(FLAGS.agent)
+  cli.check_env_name(FLAGS.env_name)
+  for name in FLAGS.collectors:
+    if name not in metrics.AVAILABLE_COLLECTORS:
+      raise cli.CommandUsageError(cli.unknown(
+          'collector', name, metrics.AVAILABLE_COLLECTORS))
+  cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
+
+
 def run(argv: Optional[Sequence[str]] = None) -> None:
-  """Console-script entry point."""
-  app.run(main, argv=[sys.argv[0], *(argv or sys.argv[1:])])
+  """Console-script entry point (see `cli.run_absl`)."""
+  cli.run_absl(main, 'ble-latex-train', argv, doc=__doc__, check=check)
 
 
 if __name__ == '__main__':
-  app.run(main)
+  run()

@@ -28,17 +28,23 @@ import os
 import sys
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
-from balloon_learning_environment.env import wind_field
-from balloon_learning_environment.env.balloon import standard_atmosphere
-from balloon_learning_environment.utils import units
-import gin
-import jax
-import numpy as np
-import s2sphere as s2
+from ble_latex import cli
+from ble_latex import quiet
 
-from ble_latex import balloon as balloon_lib
-from ble_latex import controller as controller_lib
-from ble_latex import physics
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  from balloon_learning_environment.env import wind_field
+  from balloon_learning_environment.env.balloon import standard_atmosphere
+  from balloon_learning_environment.utils import units
+  import gin
+  import jax
+  import numpy as np
+  import s2sphere as s2
+
+  from ble_latex import balloon as balloon_lib
+  from ble_latex import controller as controller_lib
+  from ble_latex import physics
+  # pylint: enable=g-import-not-at-top
 
 # (a0 desired altitude [m], a1 time factor, a2 float flag), one per 20 min,
 # starting neutrally buoyant at 17 km: float, ballast up, float, vent down,
@@ -255,7 +261,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
   """Console entry point; returns the exit status."""
   args = _parse(sys.argv[1:] if argv is None else argv)
   if args.gin_files or args.gin_bindings:
-    gin.parse_config_files_and_bindings(args.gin_files, args.gin_bindings)
+    try:
+      cli.check_gin_files(args.gin_files)
+      gin.parse_config_files_and_bindings(args.gin_files, args.gin_bindings)
+    except cli.CommandUsageError as e:
+      cli.usage_error('ble-latex-validate', str(e))
+    except ValueError as e:
+      message = cli.gin_usage_message(e)
+      if message is None:
+        raise
+      cli.usage_error('ble-latex-validate', message)
   os.makedirs(args.output_dir, exist_ok=True)
   result = run_validation(seed=args.seed, reference=not args.no_reference)
   path = os.path.join(args.output_dir, OUTPUT_FILENAME)

@@ -1,0 +1,145 @@
+"""Command-line contract: --help lists flags and exits 0; usage errors are one
+line naming the valid choices, with exit status 2 (README "Commands")."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from ble_latex import cli
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _python(code: str, timeout: float = 300) -> subprocess.CompletedProcess:
+  return subprocess.run([sys.executable, '-c', code], cwd=REPO,
+                        capture_output=True, text=True, timeout=timeout)
+
+
+def test_unknown_names_one_line_with_guess():
+  message = cli.unknown('suite', 'latex_tinyy', ['latex_tiny', 'micro_eval'])
+  assert message == ("unknown suite 'latex_tinyy' (did you mean 'latex_tiny'?)"
+                     '; valid: latex_tiny, micro_eval')
+  assert '\n' not in message
+
+
+def test_gin_usage_message():
+  assert cli.gin_usage_message(ValueError(
+      "No configurable matching 'nope'.\n  In bindings string line 1")
+                              ).startswith("unknown gin configurable 'nope'")
+  assert cli.gin_usage_message(ValueError('other')) is None
+
+
+# One process per absl command (its flags are process-global); each case is
+# run with run(argv) and reported as "CASE <i> EXIT <code>" on stdout, its
+# stderr between "CASE <i>" markers.
+_ABSL_CASES = '''
+import sys
+from ble_latex import {module} as command
+for i, argv in enumerate({cases!r}):
+  print(f'CASE {{i}}', file=sys.stderr, flush=True)
+  try:
+    command.run(argv)
+    code = 0
+  except SystemExit as e:
+    code = e.code
+  print(f'CASE {{i}} EXIT {{code}}', flush=True)
+'''
+
+
+def _absl_cases(module: str, cases):
+  result = _python(_ABSL_CASES.format(module=module, cases=cases))
+  assert result.returncode == 0, result.stderr[-3000:]
+  codes = [int(line.rsplit(' ', 1)[1]) for line in result.stdout.splitlines()
+           if line.startswith('CASE ')]
+  errors = [part.split('\n', 1)[1] if '\n' in part else ''
+            for part in result.stderr.split('CASE ')[1:]]
+  return codes, errors, result.stdout
+
+
+def test_eval_help_and_usage_errors():
+  cases = [['--help'], ['--agent=nope'],
+           ['--agent=latex_random', '--suite=latex_tinyy'],
+           ['--agent=latex_random', '--gin_file=nope.gin'],
+           ['--agent=latex_random', '--gin_bindings=nope.x = 1'],
+           ['--agent=latex_random', '--env_name=Nope-v0'],
+           ['--nope'],
+           ['--agent=latex_random', '--checkpoint_idx=3']]
+  codes, errors, stdout = _absl_cases('eval', cases)
+  assert codes == [0, 2, 2, 2, 2, 2, 2, 2]
+  for flag in ('--agent', '--suite', '--output_dir', '--checkpoint_dir',
+               '--gin_bindings', '--max_episode_length'):
+    assert flag in stdout
+  for error in errors[1:]:
+    assert error.startswith('ble-latex-eval: ') and error.count('\n') == 1, (
+        error)
+  assert 'latex_station_seeker' in errors[1] and 'sac' in errors[1]
+  assert "did you mean 'latex_tiny'" in errors[2]
+  assert 'sac.gin' in errors[3]
+  assert 'LatexBalloonEnv' in errors[4]
+  assert 'LatexBalloonDiscrete-v0' in errors[5]
+  assert "'nope'" in errors[6]
+  assert '--checkpoint_dir and --checkpoint_idx' in errors[7]
+
+
+@pytest.mark.slow
+def test_train_and_export_policy_help_and_usage_errors():
+  codes, errors, stdout = _absl_cases(
+      'train', [['--help'], ['--agent=sac'],
+                ['--base_dir=/tmp/x', '--agent=nope'],
+                ['--base_dir=/tmp/x', '--collectors=nope']])
+  assert codes == [0, 2, 2, 2]
+  assert '--base_dir' in stdout and '--episodes_per_iteration' in stdout
+  assert 'base_dir' in errors[1] and 'dqn' in errors[2]
+  assert 'episodes' in errors[3]
+  assert all(e.count('\n') == 1 for e in errors[1:])
+  codes, errors, stdout = _absl_cases('export_policy', [['--help'], []])
+  assert codes == [0, 2]
+  assert '--checkpoint' in stdout and '--output' in stdout
+  assert errors[1].startswith('ble-latex-export-policy: ')
+
+
+@pytest.mark.parametrize('module, flag', [
+    ('validate', '--max_error_percent'),
+    ('download_era5', '--dry_run'),
+])
+def test_argparse_commands_help(module, flag, capsys):
+  command = __import__(f'ble_latex.{module}', fromlist=['main'])
+  with pytest.raises(SystemExit) as exit_info:
+    command.main(['--help'])
+  assert exit_info.value.code == 0
+  assert flag in capsys.readouterr().out
+
+
+def test_plot_and_ble_help(capsys):
+  from ble_latex import ble_commands  # pylint: disable=g-import-not-at-top
+  from ble_latex import plot  # pylint: disable=g-import-not-at-top
+  assert plot.main(['--help']) == 0
+  assert '--eval_json' in capsys.readouterr().out
+  assert ble_commands.main(['--help']) == 0
+  assert 'train' in capsys.readouterr().out
+
+
+def test_gin_usage_errors_of_validate_and_plot(capsys, tmp_path):
+  from ble_latex import plot  # pylint: disable=g-import-not-at-top
+  from ble_latex import validate  # pylint: disable=g-import-not-at-top
+  with pytest.raises(SystemExit) as exit_info:
+    validate.main(['--gin_files', 'nope.gin'])
+  assert exit_info.value.code == 2
+  err = capsys.readouterr().err
+  assert err.count('\n') == 1 and 'latex_physics.gin' in err
+  assert plot.main([f'--output_dir={tmp_path}', '--wind_seed=1',
+                    '--gin_files=nope.gin']) == 2
+  err = capsys.readouterr().err
+  assert err.count('\n') == 1 and 'paper_era5.gin' in err
+
+
+@pytest.mark.slow
+def test_demo_unknown_suite(capsys):
+  from ble_latex import demo  # pylint: disable=g-import-not-at-top
+  with pytest.raises(SystemExit) as exit_info:
+    demo.main(['--suite=nope'])
+  assert exit_info.value.code == 2
+  err = capsys.readouterr().err
+  assert err.count('\n') == 1 and 'latex_tiny' in err
