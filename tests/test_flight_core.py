@@ -19,7 +19,7 @@ from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
 import gin
-from hypothesis import assume
+from hypothesis import HealthCheck, assume
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
@@ -457,7 +457,9 @@ def test_relax_is_finite_with_finite_gradients_at_singular_points():
 
 
 @PRECISIONS
-@_FEW
+# Most random (helium, sand) pairs leave the balloon far from neutral, so
+# many draws climb out of the atmosphere and are filtered out by `assume`.
+@settings(_FEW, suppress_health_check=[HealthCheck.filter_too_much])
 @given(k=KEY, h=ALTITUDE, v=RATE, n=HELIUM, s=SAND,
        duration=_f32(1.0, 1200.0))
 def test_integrate_vertical_matches_numpy(x64, k, h, v, n, s, duration):

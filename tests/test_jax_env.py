@@ -153,7 +153,8 @@ def _restored(state, i, before, step):
   return one.replace(flight=f, steps=jnp.asarray(step, jnp.int32))
 
 
-@pytest.mark.parametrize('source', test_golden.SOURCES)
+@pytest.mark.parametrize('source', [
+    'random', pytest.param('scripted', marks=pytest.mark.slow)])
 def test_single_steps_from_recorded_states(source):
   """Given the recorded state and action, one step matches the recording."""
   env, params, batch_reset, _ = _setup()
