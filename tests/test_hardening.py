@@ -18,6 +18,7 @@ import gym
 import jax
 import numpy as np
 import pytest
+from test_pretrained import _train_a_little  # pylint: disable=g-bad-import-order
 
 _LOW = np.array([14000.0, 1.0, -1.0], dtype=np.float32)
 _HIGH = np.array([21000.0, 5.0, 1.0], dtype=np.float32)
@@ -41,14 +42,6 @@ def _sac(seed=0, **kwargs):
             **kwargs}
   return sac.SACAgent(3, (71,), action_low=_LOW, action_high=_HIGH, seed=seed,
                       **kwargs)
-
-
-def _train_a_little(agent):
-  rng = np.random.default_rng(0)
-  agent.begin_episode(rng.uniform(-1, 1, 71).astype(np.float32))
-  for _ in range(20):
-    agent.step(float(rng.uniform()), rng.uniform(-1, 1, 71).astype(np.float32))
-  agent.end_episode(0.5, False)
 
 
 def _eval_actions(agent, n=4):
