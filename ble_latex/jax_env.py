@@ -38,7 +38,7 @@ supported (ERA5 files are not, yet); everything runs in the default float32
 
 import functools
 import math
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Callable, Dict, NamedTuple, Optional, Tuple
 
 import flax
 import jax
@@ -146,11 +146,37 @@ def ground_truth_wind(state: EnvState, x_m: Array, y_m: Array,
                                  hours))
 
 
-def observation(state: EnvState, params: EnvParams) -> Array:
+def forecast_column(state: EnvState, x_m: Array, y_m: Array,
+                    pressures_pa: Array, t_s: Array) -> Tuple[Array, Array]:
+  """BLE's `WindField.get_forecast_column` of this flight's forecast. # [m/s]"""
+  return generative.forecast_column(state.forecast, x_m, y_m, pressures_pa,
+                                    t_s)
+
+
+class Wind(NamedTuple):
+  """Where the winds come from: two functions of the env state (static).
+
+  Attributes:
+    ground_truth: (state, x [m], y [m], pressure [Pa], t [s]) -> (u, v):
+      the wind the balloon flies in (BLE's `get_ground_truth`). # [m/s]
+    forecast_column: (state, x [m], y [m], pressures [Pa], t [s]) -> (u, v)
+      columns: the forecast the features read (BLE's
+      `get_forecast_column`). # [m/s]
+  """
+  ground_truth: Callable[..., Tuple[Array, Array]]
+  forecast_column: Callable[..., Tuple[Array, Array]]
+
+
+# BLE's generative field (VAE forecast + simplex noise), drawn at reset.
+GENERATIVE_WIND = Wind(ground_truth_wind, forecast_column)
+
+
+def observation(state: EnvState, params: EnvParams,
+                wind: Wind = GENERATIVE_WIND) -> Array:
   """The 71 features of `state` (`ble_latex.features` order), float32."""
   f = state.flight
-  column_u, column_v = generative.forecast_column(
-      state.forecast, f.x_m, f.y_m,
+  column_u, column_v = wind.forecast_column(
+      state, f.x_m, f.y_m,
       jnp.asarray(jax_features.PRESSURE_LEVELS, f.x_m.dtype), f.time_s)
   return jax_features.features(
       column_u, column_v, f.x_m, f.y_m, f.altitude_m, f.ascent_rate_mps,
@@ -159,19 +185,56 @@ def observation(state: EnvState, params: EnvParams) -> Array:
       state.history)
 
 
-def _measure(state: EnvState) -> EnvState:
+def measure(state: EnvState, wind: Wind = GENERATIVE_WIND) -> EnvState:
   """The arena's measurement: the ground-truth wind at the balloon."""
   f = state.flight
-  u, v = ground_truth_wind(state, f.x_m, f.y_m, f.pressure_pa, f.time_s)
+  u, v = wind.ground_truth(state, f.x_m, f.y_m, f.pressure_pa, f.time_s)
   return state.replace(wind_u=u, wind_v=v)
 
 
+def step_info(state: EnvState, params: EnvParams) -> Dict[str, Array]:
+  """The numbers behind the gym env's `info` after a step (arrays).
+
+  Keys: `distance_km` [km], `altitude_m` [m], `ascent_rate_mps` [m/s],
+  `helium_mols` [mol], `sand_kg` [kg], `helium_vented_mols` [mol],
+  `sand_dropped_kg` [kg], `decision` (`flight.state.DecisionCode`),
+  `status` (`flight.state.FlightStatus`), `time_s` [s], `steps`,
+  `time_limit` (steps reached `episode_steps`), `truncated` (time limit
+  without a terminal status).
+  """
+  f = state.flight
+  terminal = f.status != state_lib.FlightStatus.OK
+  time_limit = state.steps >= params.episode_steps
+  return {'distance_km': jax_features.distance_km(f.x_m, f.y_m),
+          'altitude_m': f.altitude_m, 'ascent_rate_mps': f.ascent_rate_mps,
+          'helium_mols': f.helium_mols, 'sand_kg': f.sand_kg,
+          'helium_vented_mols': f.helium_vented_mols,
+          'sand_dropped_kg': f.sand_dropped_kg,
+          'decision': f.last_decision, 'status': f.status,
+          'time_s': f.time_s, 'steps': state.steps,
+          'time_limit': time_limit, 'truncated': time_limit & ~terminal}
+
+
+def arena_key(key: Array) -> Array:
+  """The arena's key of the env key (BLE's `BalloonEnv.reset` split)."""
+  return jax.random.split(key)[1]
+
+
 class LatexBalloonJaxEnv:
-  """Functional `LatexBalloon-v0`: `reset`/`step` are pure and vmappable."""
+  """Functional `LatexBalloon-v0`: `reset`/`step` are pure and vmappable.
+
+  Args:
+    wind: Where the winds come from (static). Default: BLE's generative
+      field drawn from the reset key (`GENERATIVE_WIND`). The gym env passes
+      host callbacks to any BLE `WindField` (e.g. ERA5) here.
+  """
 
   action_low = ACTION_LOW
   action_high = ACTION_HIGH
   num_features = jax_features.NUM_FEATURES
+
+  def __init__(self, wind: Wind = GENERATIVE_WIND):
+    self.wind = wind
 
   @property
   def default_params(self) -> EnvParams:
@@ -192,11 +255,28 @@ class LatexBalloonJaxEnv:
     Returns:
       (observation [71] float32, state).
     """
-    _, arena_key = jax.random.split(key)                 # BalloonEnv.reset
-    rng, atmosphere_key, time_key = jax.random.split(arena_key, 3)
+    state, _ = self.draw(arena_key(key), params)
+    state = measure(state, self.wind)
+    return observation(state, params, self.wind), state
+
+  def draw(self, key: Array, params: EnvParams
+           ) -> Tuple[EnvState, Dict[str, Array]]:
+    """The world and balloon of BLE's `arena.reset(key)`, not yet measured.
+
+    Args:
+      key: The arena's key (`arena_key(env_key)`).
+      params: The env parameters.
+
+    Returns:
+      (state with zero measured wind, keys): `keys['wind']` is the key
+      BLE's arena gives `WindField.reset`, `keys['location']` the key of
+      BLE's `sampling.sample_location` (the station's lat/lng).
+    """
+    rng, atmosphere_key, time_key = jax.random.split(key, 3)
     atmosphere = atmosphere_lib.reset(atmosphere_key)
     start_time = jax.random.choice(time_key, _START_TIME_RANGE_S, ())
-    rng, distance_key, angle_key, _, altitude_key = jax.random.split(rng, 5)
+    rng, distance_key, angle_key, location_key, altitude_key = (
+        jax.random.split(rng, 5))
     radius_km = params.max_start_distance_km * jax.random.beta(
         distance_key, *_START_BETA)
     theta = jax.random.uniform(angle_key, (), minval=0.0,
@@ -222,8 +302,47 @@ class LatexBalloonJaxEnv:
         wind_u=jnp.zeros_like(altitude), wind_v=jnp.zeros_like(altitude),
         start_time_offset_s=start_time.astype(jnp.int32),
         steps=jnp.zeros((), jnp.int32))
-    state = _measure(state)
-    return observation(state, params), state
+    return state, {'wind': wind_key, 'location': location_key}
+
+  def advance(self, state: EnvState, action: Array, params: EnvParams
+              ) -> Tuple[EnvState, Array, Array, Dict[str, Array]]:
+    """One 20-minute controller action, without the observation.
+
+    Args:
+      state: The env state; a finished flight stays as it is.
+      action: (a0 desired altitude [m], a1 time factor, a2 float flag),
+        clipped into the Box.
+      params: The env parameters.
+
+    Returns:
+      (state, reward, done, info) with `info = step_info(state, params)`.
+    """
+    action = jnp.clip(jnp.asarray(action, state.flight.altitude_m.dtype),
+                      ACTION_LOW, ACTION_HIGH)
+    before = state.flight
+
+    def wind_fn(x_m, y_m, pressure_pa, t_s):
+      return self.wind.ground_truth(state, x_m, y_m, pressure_pa, t_s)
+
+    flight = dynamics.step(params.flight, state.atmosphere, before, action,
+                           wind_fn, params.stride_s)
+    state = state.replace(
+        flight=flight,
+        # As `ble_latex.features` today: the state after the step (BLE's live
+        # state object) becomes history slot t-1 (see jax_features).
+        history=jax_features.push_history(state.history, flight.altitude_m,
+                                          flight.ascent_rate_mps, action[2]),
+        steps=state.steps + 1)
+    state = measure(state, self.wind)
+    info = step_info(state, params)
+    reward = jax_features.reward(
+        info['distance_km'], params.radius_km, params.reward_dropoff,
+        params.reward_halflife_km,
+        flight.helium_vented_mols - before.helium_vented_mols,
+        flight.sand_dropped_kg - before.sand_dropped_kg,
+        params.helium_penalty_per_mol, params.sand_penalty_per_kg)
+    done = (flight.status != state_lib.FlightStatus.OK) | info['time_limit']
+    return state, reward, done, info
 
   def step_env(self, key: Array, state: EnvState, action: Array,
                params: EnvParams
@@ -238,42 +357,11 @@ class LatexBalloonJaxEnv:
       params: The env parameters.
 
     Returns:
-      (observation, state, reward, done, info); info holds `distance_km`,
-      `status` (`flight.state.FlightStatus` code), `time_limit`,
-      `truncated` (time limit without a terminal status), `steps`.
+      (observation, state, reward, done, info); info is `step_info`.
     """
     del key
-    action = jnp.clip(jnp.asarray(action, state.flight.altitude_m.dtype),
-                      ACTION_LOW, ACTION_HIGH)
-    before = state.flight
-
-    def wind_fn(x_m, y_m, pressure_pa, t_s):
-      return ground_truth_wind(state, x_m, y_m, pressure_pa, t_s)
-
-    flight = dynamics.step(params.flight, state.atmosphere, before, action,
-                           wind_fn, params.stride_s)
-    state = state.replace(
-        flight=flight,
-        # As `ble_latex.features` today: the state after the step (BLE's live
-        # state object) becomes history slot t-1 (see jax_features).
-        history=jax_features.push_history(state.history, flight.altitude_m,
-                                          flight.ascent_rate_mps, action[2]),
-        steps=state.steps + 1)
-    state = _measure(state)
-    distance = jax_features.distance_km(flight.x_m, flight.y_m)
-    reward = jax_features.reward(
-        distance, params.radius_km, params.reward_dropoff,
-        params.reward_halflife_km,
-        flight.helium_vented_mols - before.helium_vented_mols,
-        flight.sand_dropped_kg - before.sand_dropped_kg,
-        params.helium_penalty_per_mol, params.sand_penalty_per_kg)
-    terminal = flight.status != state_lib.FlightStatus.OK
-    time_limit = state.steps >= params.episode_steps
-    done = terminal | time_limit
-    info = {'distance_km': distance, 'status': flight.status,
-            'time_limit': time_limit, 'truncated': time_limit & ~terminal,
-            'steps': state.steps}
-    return observation(state, params), state, reward, done, info
+    state, reward, done, info = self.advance(state, action, params)
+    return observation(state, params, self.wind), state, reward, done, info
 
   def step(self, key: Array, state: EnvState, action: Array,
            params: EnvParams
