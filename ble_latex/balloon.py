@@ -1,29 +1,34 @@
 # coding=utf-8
-"""A latex balloon that vents helium and drops sand, steppable by BLE's arena.
+"""The latex balloon as BLE objects: a thin adapter over the flight core.
 
-`LatexBalloonState` subclasses BLE's `balloon.BalloonState` (so BLE's arena,
-features, renderers and `SimulatorState` accept it) and adds the latex
-balloon's vertical state and resources. `LatexBalloon` keeps BLE's
-`simulate_step(wind_vector, atmosphere, action, time_delta, stride=...)`
-interface: the action is the paper's (a0, a1, a2); the altitude controller
-(`ble_latex.controller.AltitudeController`) acts once at the start of the step
-(the 20-min action), then the physics runs in sub-steps of at most 3 simulated
-minutes, each re-querying the wind at the balloon's new altitude, with the
-vertical motion integrated from Eq. fullN2L by `physics.relax` (exact for a
-frozen drag factor, k re-evaluated every `vertical_step`).
+`LatexBalloonState` subclasses BLE's `balloon.BalloonState` (so BLE's arena
+interface, features, renderers and `SimulatorState` accept it) and adds the
+latex balloon's vertical state and resources. It is a view: the flight core
+(`ble_latex.flight`) computes, `write_flight` copies a core `FlightState`
+into it (BLE's fields are written there and nowhere else).
 
-Terminal statuses (`LatexBalloonStatus`, field `latex_status`): out of sand
-(sand aboard < m_s_min), out of helium (n (M_air - M_He) < m_p: cannot float
-even with all sand gone), envelope burst (V > burst volume; BLE's `status`
-becomes BURST too) and grounded (h <= 0). BLE's `status` stays OK otherwise.
+`LatexBalloon` keeps BLE's `simulate_step(wind_vector, atmosphere, action,
+time_delta)` interface for code that drives one balloon object (the paper's
+(a0, a1, a2) action): it runs the core's `flight.dynamics.step` (controller
+once per action, sub-steps of at most 3 simulated minutes re-querying the
+wind, the exact vertical relax of Eq. fullN2L, finite-rate releases, the
+in-stride band guard) and writes the result back. The envs do not use it:
+they fly `ble_latex.host_env.FlightDriver` (the same core) through
+`ble_latex.arena`.
+
+Terminal statuses (`LatexBalloonStatus` = the core's `FlightStatus`, field
+`latex_status`): out of sand (sand aboard < m_s_min), out of helium
+(n (M_air - M_He) < m_p: cannot float even with all sand gone), envelope
+burst (V > burst volume; BLE's `status` becomes BURST too) and grounded
+(h <= 0). BLE's `status` stays OK otherwise.
 """
 
 import dataclasses
 import datetime as dt
-import enum
+import functools
 import math
 import numbers
-from typing import Any, Callable, List, NamedTuple, Optional, Tuple, Union
+from typing import Any, Callable, Mapping, Optional, Tuple, Union
 
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import balloon
@@ -31,10 +36,17 @@ from balloon_learning_environment.env.balloon import control
 from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
 import gin
+import jax
+import jax.numpy as jnp
+import numpy as np
 import s2sphere as s2
 
 from ble_latex import controller as controller_lib
-from ble_latex import physics
+from ble_latex.flight import atmosphere as atmosphere_lib
+from ble_latex.flight import dynamics
+from ble_latex.flight import params as params_lib
+from ble_latex.flight import physics as core_physics
+from ble_latex.flight import state as state_lib
 
 # Default flight system (README, "Physics and altitude controller").
 DEFAULT_PAYLOAD_KG = 2.2  # [kg] 1.2 kg TA-1200-class envelope + 1.0 kg avionics
@@ -46,23 +58,12 @@ DEFAULT_ALTITUDE_M = 17_000.0  # [m]
 # BLE's standard atmosphere is defined on [-610 m, 85 km).
 _ATMOSPHERE_MIN_M = -600.0  # [m]
 _ATMOSPHERE_MAX_M = 84_000.0  # [m]
-# Free lift below this counts as neutral for the in-stride guard. # [kg]
-_NEUTRAL_LIFT_KG = 1e-9
 
 WindSource = Union[wind_field.WindVector,
                    Callable[[units.Distance, units.Distance, float,
                              dt.timedelta], wind_field.WindVector]]
 
-
-class LatexBalloonStatus(enum.Enum):
-  """Status of the latex balloon (BLE's BalloonStatus cannot be extended)."""
-  OK = 0
-  OUT_OF_SAND = 1
-  OUT_OF_HELIUM = 2
-  BURST = 3
-  GROUNDED = 4
-
-
+LatexBalloonStatus = state_lib.FlightStatus
 OUT_OF_RESOURCES = frozenset(
     {LatexBalloonStatus.OUT_OF_SAND, LatexBalloonStatus.OUT_OF_HELIUM})
 
@@ -123,7 +124,7 @@ class LatexBalloonState(balloon.BalloonState):
     super().__post_init__()
     if self.helium_mols is None:
       self.helium_mols = float(
-          physics.neutral_helium_mols(self.payload_kg, self.sand_kg))
+          core_physics.neutral_helium_mols(self.payload_kg, self.sand_kg))
     self.validate()
     self.mols_lift_gas = self.helium_mols
     self.mols_air = 0.0
@@ -162,14 +163,14 @@ class LatexBalloonState(balloon.BalloonState):
   @property
   def total_mass_kg(self) -> float:
     """m_p + m_s + n M_He. # [kg]"""
-    return float(physics.total_mass(self.payload_kg, self.sand_kg,
-                                    self.helium_mols))
+    return float(core_physics.total_mass(self.payload_kg, self.sand_kg,
+                                         self.helium_mols))
 
   @property
   def free_lift_kg(self) -> float:
     """n (M_air - M_He) - m_p - m_s. # [kg]"""
-    return float(physics.free_lift(self.helium_mols, self.payload_kg,
-                                   self.sand_kg))
+    return float(core_physics.free_lift(self.helium_mols, self.payload_kg,
+                                        self.sand_kg))
 
   def sync_ambient(self, atmosphere: standard_atmosphere.Atmosphere) -> None:
     """Sets pressure, temperatures and envelope volume from the altitude."""
@@ -178,9 +179,70 @@ class LatexBalloonState(balloon.BalloonState):
     self.ambient_temperature = float(ambient.temperature)
     self.internal_temperature = float(ambient.temperature)
     self.envelope_volume = float(
-        physics.volume(self.helium_mols, ambient.temperature,
-                       ambient.pressure))
+        core_physics.volume(self.helium_mols, float(ambient.temperature),
+                            float(ambient.pressure)))
     self.mols_lift_gas = self.helium_mols
+
+
+def write_flight(state: LatexBalloonState, flight: Mapping[str, Any], *,
+                 start_date_time: dt.datetime,
+                 volume_m3: Optional[float] = None) -> None:
+  """Copies a core `FlightState` (host values) into the BLE state view.
+
+  The one place BLE's fields are written: position, date and time elapsed,
+  `pressure` / temperatures (the core's ambient at the balloon),
+  `mols_lift_gas`, `envelope_volume`, BLE's `status` (BURST on a burst).
+
+  Args:
+    state: The view to update (in place).
+    flight: `FlightState` fields as host scalars (`FlightDriver.flight()`).
+    start_date_time: Date and time of the flight's start.
+    volume_m3: Envelope volume nRT/P; computed by the core if None. # [m^3]
+  """
+  get = lambda name: float(np.asarray(flight[name]))  # pylint: disable=unnecessary-lambda-assignment
+  status = LatexBalloonStatus(int(np.asarray(flight['status'])))
+  elapsed = dt.timedelta(seconds=get('time_s'))
+  s = state
+  s.x = units.Distance(m=get('x_m'))
+  s.y = units.Distance(m=get('y_m'))
+  s.altitude_m = get('altitude_m')
+  s.ascent_rate_mps = get('ascent_rate_mps')
+  s.helium_mols = get('helium_mols')
+  s.sand_kg = get('sand_kg')
+  s.helium_vented_mols = get('helium_vented_mols')
+  s.sand_dropped_kg = get('sand_dropped_kg')
+  s.pending_vent_mols = get('pending_vent_mols')
+  s.pending_drop_kg = get('pending_drop_kg')
+  s.date_time = start_date_time + elapsed
+  s.time_elapsed = elapsed
+  s.latex_status = status
+  s.status = (balloon.BalloonStatus.BURST if
+              status == LatexBalloonStatus.BURST else balloon.BalloonStatus.OK)
+  s.last_decision = controller_lib.decision(np.asarray(flight['last_decision']))
+  action = np.asarray(flight['last_action'], np.float64)
+  s.last_action = tuple(float(v) for v in action)
+  s.last_float_action = float(action[2])
+  s.desired_ascent_rate_mps = get('desired_ascent_rate_mps')
+  s.guard_engaged = bool(np.asarray(flight['guard_engaged']))
+  s.last_command = control.AltitudeControlCommand.STAY
+  s.pressure = get('pressure_pa')
+  s.ambient_temperature = get('temperature_k')
+  s.internal_temperature = s.ambient_temperature
+  s.mols_lift_gas = s.helium_mols
+  s.envelope_volume = (float(volume_m3) if volume_m3 is not None else float(
+      core_physics.volume(s.helium_mols, s.ambient_temperature, s.pressure)))
+
+
+def atmosphere_params(
+    atmosphere: standard_atmosphere.Atmosphere
+) -> atmosphere_lib.AtmosphereParams:
+  """The core's atmosphere of a BLE `Atmosphere` (its lapse-rate blend)."""
+  lapse = np.asarray(atmosphere._lapse_rates, np.float64)  # pylint: disable=protected-access
+  low = np.asarray(atmosphere_lib.LAPSE_RATES_LOW, np.float64)
+  high = np.asarray(atmosphere_lib.LAPSE_RATES_HIGH, np.float64)
+  i = int(np.argmax(np.abs(high - low)))
+  return atmosphere_lib.params_from_alpha((lapse[i] - low[i]) /
+                                          (high[i] - low[i]))
 
 
 @gin.configurable
@@ -233,58 +295,57 @@ def create_state(
   return state
 
 
-class TrajectoryPoint(NamedTuple):
-  """One sample of the vertical state inside a step (for plots/validation)."""
-  time_s: float  # [s] since the start of the step
-  altitude_m: float  # [m]
-  ascent_rate_mps: float  # [m/s]
-  helium_mols: float  # [mol]
-  sand_kg: float  # [kg]
+def flight_state(state: LatexBalloonState, params: params_lib.FlightParams,
+                 atm: atmosphere_lib.AtmosphereParams
+                 ) -> state_lib.FlightState:
+  """The core's `FlightState` of a BLE state view (inverse of write_flight)."""
+  f = state_lib.initial_state(
+      params, state.altitude_m, state.x.meters, state.y.meters,
+      atm_params=atm, ascent_rate_mps=state.ascent_rate_mps,
+      sand_kg=state.sand_kg, helium_mols=state.helium_mols,
+      time_s=state.time_elapsed.total_seconds())
+  f = f.replace(
+      pending_vent_mols=jnp.asarray(state.pending_vent_mols, f.x_m.dtype),
+      pending_drop_kg=jnp.asarray(state.pending_drop_kg, f.x_m.dtype),
+      helium_vented_mols=jnp.asarray(state.helium_vented_mols, f.x_m.dtype),
+      sand_dropped_kg=jnp.asarray(state.sand_dropped_kg, f.x_m.dtype),
+      status=jnp.asarray(int(state.latex_status), jnp.int32),
+      last_action=jnp.asarray(state.last_action, f.x_m.dtype),
+      desired_ascent_rate_mps=jnp.asarray(state.desired_ascent_rate_mps,
+                                          f.x_m.dtype))
+  return state_lib.with_resources(params, f)
 
 
-class _StepAtmosphere:
-  """The atmosphere during one step, remembering `at_height` answers.
+@functools.lru_cache(maxsize=64)
+def _jitted_step(wind: Any, time_delta_s: float) -> Callable[..., Any]:
+  """The core step with a constant wind (u, v) or a host-callback wind."""
+  if isinstance(wind, tuple):
+    u, v = wind
 
-  The physics asks for the ambient at the same altitude several times (the end
-  of one vertical step is the start of the next, the burst check and the next
-  wind query); each distinct altitude is computed once by BLE's atmosphere.
-  Only valid while the atmosphere does not change (one `simulate_step`).
-  """
+    def wind_fn(x, y, p, t):
+      del y, p, t
+      return jnp.full_like(x, u), jnp.full_like(x, v)
+  else:
+    def host(x, y, p, t):
+      w = wind(units.Distance(m=float(x)), units.Distance(m=float(y)),
+               float(p), dt.timedelta(seconds=float(t)))
+      out = np.array([w.u.meters_per_second, w.v.meters_per_second],
+                     np.asarray(x).dtype)
+      if not np.all(np.isfinite(out)):
+        raise ValueError(f'wind must be finite, got u={out[0]}, v={out[1]} '
+                         '[m/s]')
+      return out
 
-  def __init__(self, atmosphere: standard_atmosphere.Atmosphere):
-    self._atmosphere = atmosphere
-    self._known = {}
-
-  def at_height(
-      self, height: units.Distance) -> standard_atmosphere.AtmosphericValues:
-    h = height.meters
-    key = (h, type(h))
-    ambient = self._known.get(key)
-    if ambient is None:
-      ambient = self._known[key] = self._atmosphere.at_height(height)
-    return ambient
-
-
-@dataclasses.dataclass
-class _Flight:
-  """Mutable working copy of the state during a step (committed at the end)."""
-  h: float  # [m]
-  v: float  # [m/s]
-  n: float  # [mol]
-  sand: float  # [kg]
-  x_m: float  # [m]
-  y_m: float  # [m]
-  pending_vent: float  # [mol]
-  pending_drop: float  # [kg]
-  vented: float  # [mol]
-  dropped: float  # [kg]
-  status: LatexBalloonStatus = LatexBalloonStatus.OK
-  guard_engaged: bool = False
+    def wind_fn(x, y, p, t):
+      uv = jax.pure_callback(host, jax.ShapeDtypeStruct((2,), x.dtype),
+                             x, y, p, t)
+      return uv[0], uv[1]
+  return dynamics.make_step(wind_fn, time_delta_s)
 
 
 @gin.configurable
 class LatexBalloon:
-  """Equations of motion of the vent/ballast latex balloon (BLE interface)."""
+  """One latex balloon object stepped by the flight core (BLE interface)."""
 
   def __init__(
       self,
@@ -300,9 +361,8 @@ class LatexBalloon:
     """Constructor.
 
     Args:
-      balloon_state: The state to step (mutated in place by simulate_step).
-      controller: The altitude controller; a (gin-configured) default one if
-        None.
+      balloon_state: The state to step (updated in place by simulate_step).
+      controller: The controller settings; the gin-configured ones if None.
       max_substep: Longest physics sub-step; the wind is re-queried at the
         balloon's position and altitude at every sub-step.
       vertical_step: Longest step with the drag factor k(h) frozen (evaluated
@@ -323,27 +383,34 @@ class LatexBalloon:
     if not isinstance(balloon_state, LatexBalloonState):
       raise ValueError('LatexBalloon needs a LatexBalloonState, got '
                        f'{type(balloon_state).__name__}')
-    for name, value in (('max_substep', max_substep),
-                        ('vertical_step', vertical_step),
-                        ('actuation_chunk', actuation_chunk)):
-      if not isinstance(value, dt.timedelta) or value.total_seconds() <= 0:
-        raise ValueError(f'{name} must be a positive timedelta, got {value!r}')
-    for name, value in (('valve_flow_mols_per_s', valve_flow_mols_per_s),
-                        ('ballast_rate_kg_per_s', ballast_rate_kg_per_s)):
-      if value is not None and (not math.isfinite(value) or value <= 0):
-        raise ValueError(f'{name} must be None or a finite rate > 0, got '
-                         f'{value}')
     self.state = balloon_state
     self.controller = (controller if controller is not None else
                        controller_lib.AltitudeController())
+    # Validates every option (ValueError naming it).
+    self._settings = dict(
+        max_substep=max_substep, vertical_step=vertical_step,
+        valve_flow_mols_per_s=valve_flow_mols_per_s,
+        ballast_rate_kg_per_s=ballast_rate_kg_per_s,
+        actuation_chunk=actuation_chunk,
+        guard_within_stride=guard_within_stride,
+        **self.controller.flight_params_kwargs())
+    for name in ('max_substep', 'vertical_step', 'actuation_chunk'):
+      value = self._settings[name]
+      if not isinstance(value, dt.timedelta) or value.total_seconds() <= 0:
+        raise ValueError(f'{name} must be a positive timedelta, got {value!r}')
+    self.params()
     self.max_substep = max_substep
-    self.vertical_step_s = vertical_step.total_seconds()
     self.valve_flow_mols_per_s = valve_flow_mols_per_s
     self.ballast_rate_kg_per_s = ballast_rate_kg_per_s
-    self.actuation_chunk_s = actuation_chunk.total_seconds()
     self.guard_within_stride = guard_within_stride
-    # Samples of the last step (vertical steps), for plots and validation.
-    self.last_trajectory: List[TrajectoryPoint] = []
+
+  def params(self) -> params_lib.FlightParams:
+    """The core's `FlightParams` of this balloon and its settings."""
+    s = self.state
+    return params_lib.make_flight_params(
+        payload_kg=s.payload_kg, sand_kg=s.sand_kg,
+        drag_coefficient=s.drag_coefficient,
+        burst_volume_m3=s.burst_volume_m3, **self._settings)
 
   def simulate_step(
       self,
@@ -377,213 +444,26 @@ class LatexBalloon:
     for name, value in (('time_delta', time_delta), ('stride', stride)):
       if not isinstance(value, dt.timedelta) or value.total_seconds() <= 0:
         raise ValueError(f'{name} must be a positive timedelta, got {value!r}')
-    if not (isinstance(wind_vector, wind_field.WindVector) or
-            callable(wind_vector)):
+    if isinstance(wind_vector, wind_field.WindVector):
+      wind = (wind_vector.u.meters_per_second, wind_vector.v.meters_per_second)
+      if not all(math.isfinite(w) for w in wind):
+        raise ValueError(f'wind must be finite, got u={wind[0]}, v={wind[1]} '
+                         '[m/s]')
+    elif callable(wind_vector):
+      wind = wind_vector
+    else:
       raise ValueError('wind_vector must be a WindVector or a callable '
                        f'(x, y, pressure, time_elapsed), got {wind_vector!r}')
     s.validate()
-
-    atmosphere = _StepAtmosphere(atmosphere)
-    ambient = atmosphere.at_height(units.Distance(m=s.altitude_m))
-    actuation = self.controller.decide(
-        a, altitude_m=s.altitude_m, ascent_rate_mps=s.ascent_rate_mps,
-        helium_mols=s.helium_mols, sand_kg=s.sand_kg, payload_kg=s.payload_kg,
-        drag_coefficient=s.drag_coefficient,
-        temperature=float(ambient.temperature),
-        pressure=float(ambient.pressure))
-
-    f = _Flight(h=s.altitude_m, v=s.ascent_rate_mps, n=s.helium_mols,
-                sand=s.sand_kg, x_m=s.x.meters, y_m=s.y.meters,
-                pending_vent=s.pending_vent_mols,
-                pending_drop=s.pending_drop_kg, vented=s.helium_vented_mols,
-                dropped=s.sand_dropped_kg, guard_engaged=actuation.guarded)
-    self._actuate(f, actuation)
-    trajectory = [TrajectoryPoint(0.0, f.h, f.v, f.n, f.sand)]
-
-    sub = min(stride, self.max_substep)
-    n_sub = max(1, math.ceil(time_delta / sub - 1e-9))
-    elapsed = dt.timedelta()
-    for i in range(1, n_sub + 1):
-      boundary = time_delta * i / n_sub
-      step = boundary - elapsed
-      pressure = float(
-          atmosphere.at_height(units.Distance(m=self._clamp(f.h))).pressure)
-      wind = self._wind(wind_vector, f, pressure, s.time_elapsed + elapsed)
-      t0 = elapsed.total_seconds()
-      self._advance_vertical(f, step.total_seconds(), atmosphere, s,
-                             trajectory, t0)
-      f.x_m += wind.u.meters_per_second * step.total_seconds()
-      f.y_m += wind.v.meters_per_second * step.total_seconds()
-      elapsed = boundary
-      if f.status != LatexBalloonStatus.OK:
-        break
-
-    if f.status == LatexBalloonStatus.OK:
-      f.status = self._resource_status(f, s.payload_kg)
-    self._commit(f, a, actuation, elapsed, atmosphere)
-    self.last_trajectory = trajectory
-
-  # --- internals -------------------------------------------------------------
-
-  @staticmethod
-  def _clamp(h: float) -> float:
-    return min(max(h, _ATMOSPHERE_MIN_M), _ATMOSPHERE_MAX_M)
-
-  @staticmethod
-  def _wind(wind_vector: WindSource, f: _Flight, pressure: float,
-            time_elapsed: dt.timedelta) -> wind_field.WindVector:
-    if isinstance(wind_vector, wind_field.WindVector):
-      wind = wind_vector
-    else:
-      wind = wind_vector(units.Distance(m=f.x_m), units.Distance(m=f.y_m),
-                         pressure, time_elapsed)
-    u, v = wind.u.meters_per_second, wind.v.meters_per_second
-    if not (math.isfinite(u) and math.isfinite(v)):
-      raise ValueError(f'wind must be finite, got u={u}, v={v} [m/s]')
-    return wind
-
-  def _actuate(self, f: _Flight, actuation: controller_lib.Actuation) -> None:
-    """Replaces the pending release by this actuation (instant if no rate)."""
-    f.pending_vent = min(actuation.vent_mols, f.n)
-    f.pending_drop = min(actuation.drop_kg, f.sand)
-    if self.valve_flow_mols_per_s is None:
-      self._release(f, vent=f.pending_vent, drop=0.0)
-    if self.ballast_rate_kg_per_s is None:
-      self._release(f, vent=0.0, drop=f.pending_drop)
-
-  @staticmethod
-  def _release(f: _Flight, *, vent: float, drop: float) -> None:
-    """Vents / drops (capped at the pending amount and what is aboard)."""
-    vent = max(0.0, min(vent, f.pending_vent, f.n))
-    drop = max(0.0, min(drop, f.pending_drop, f.sand))
-    f.n -= vent
-    f.vented += vent
-    f.pending_vent = max(0.0, f.pending_vent - vent)
-    f.sand -= drop
-    f.dropped += drop
-    f.pending_drop = max(0.0, f.pending_drop - drop)
-
-  def _advance_vertical(self, f: _Flight, duration: float,
-                        atmosphere: standard_atmosphere.Atmosphere,
-                        s: LatexBalloonState,
-                        trajectory: List[TrajectoryPoint],
-                        t0: float) -> None:
-    """Integrates Eq. fullN2L over `duration` s (with any pending release)."""
-    c_d = s.drag_coefficient
-
-    def drag_k_at(h: float) -> float:
-      ambient = atmosphere.at_height(units.Distance(m=self._clamp(h)))
-      return float(physics.drag_factor(f.n, c_d, ambient.temperature,
-                                       ambient.pressure))
-
-    def integrate(dt_s: float) -> None:
-      lift = float(physics.free_lift(f.n, s.payload_kg, f.sand)) * (
-          physics.GRAVITY)  # [N]
-      mass = float(physics.total_mass(s.payload_kg, f.sand, f.n))  # [kg]
-      f.h, f.v = physics.integrate_vertical(
-          f.h, f.v, dt_s, lift_force=lift, mass=mass, drag_k_at=drag_k_at,
-          max_step=self.vertical_step_s)
-
-    done = 0.0
-    while duration - done > 1e-9:
-      chunk = min(self.vertical_step_s, duration - done)
-      releasing = self._releasing(f)
-      if releasing:
-        chunk = min(chunk, self.actuation_chunk_s, self._time_to_release(f))
-        integrate(0.5 * chunk)
-        self._release(
-            f, vent=(self.valve_flow_mols_per_s or 0.0) * chunk,
-            drop=(self.ballast_rate_kg_per_s or 0.0) * chunk)
-        integrate(0.5 * chunk)
-      else:
-        integrate(chunk)
-      done += chunk
-      trajectory.append(TrajectoryPoint(t0 + done, f.h, f.v, f.n, f.sand))
-      if self._check_envelope(f, atmosphere, s.burst_volume_m3):
-        return
-      if self.guard_within_stride and self._heading_out_of_band(
-          f, s.payload_kg):
-        guard = self.controller.float_actuation(
-            helium_mols=f.n, sand_kg=f.sand, payload_kg=s.payload_kg,
-            guarded=True)
-        if guard.vent_mols > 0.0 or guard.drop_kg > 0.0:
-          f.guard_engaged = True
-          self._actuate(f, guard)
-
-  def _heading_out_of_band(self, f: _Flight, payload_kg: float) -> bool:
-    """Outside the band with the steady motion pointing further out.
-
-    The direction is that of the free lift (the terminal velocity), or of the
-    current velocity when the balloon is neutral, so a balloon that is still
-    decelerating after a command back into the band is not floated.
-    """
-    lift = float(physics.free_lift(f.n, payload_kg, f.sand))  # [kg]
-    if f.pending_vent > 0.0 or f.pending_drop > 0.0:
-      return False  # A (finite-rate) actuation is still under way.
-    direction = lift if abs(lift) > _NEUTRAL_LIFT_KG else f.v
-    return self.controller.outside_band_moving_out(f.h, direction)
-
-  def _releasing(self, f: _Flight) -> bool:
-    return ((f.pending_vent > 0.0 and
-             self.valve_flow_mols_per_s is not None) or
-            (f.pending_drop > 0.0 and
-             self.ballast_rate_kg_per_s is not None))
-
-  def _time_to_release(self, f: _Flight) -> float:
-    """Seconds until the pending release that finishes last is done."""
-    times = []
-    if f.pending_vent > 0.0 and self.valve_flow_mols_per_s:
-      times.append(f.pending_vent / self.valve_flow_mols_per_s)
-    if f.pending_drop > 0.0 and self.ballast_rate_kg_per_s:
-      times.append(f.pending_drop / self.ballast_rate_kg_per_s)
-    return max(max(times), 1e-6)
-
-  @staticmethod
-  def _check_envelope(f: _Flight, atmosphere: standard_atmosphere.Atmosphere,
-                      burst_volume_m3: float) -> bool:
-    """Sets BURST / GROUNDED; returns True when the flight ended."""
-    if f.h <= 0.0:
-      f.status = LatexBalloonStatus.GROUNDED
-      return True
-    ambient = atmosphere.at_height(units.Distance(m=LatexBalloon._clamp(f.h)))
-    if physics.volume(f.n, ambient.temperature,
-                      ambient.pressure) > burst_volume_m3:
-      f.status = LatexBalloonStatus.BURST
-      return True
-    return False
-
-  def _resource_status(self, f: _Flight,
-                       payload_kg: float) -> LatexBalloonStatus:
-    if f.n * physics.LIFT_PER_MOL < payload_kg:
-      return LatexBalloonStatus.OUT_OF_HELIUM
-    if f.sand + 1e-12 < self.controller.min_drop_kg:
-      return LatexBalloonStatus.OUT_OF_SAND
-    return LatexBalloonStatus.OK
-
-  def _commit(self, f: _Flight, action: Any,
-              actuation: controller_lib.Actuation, elapsed: dt.timedelta,
-              atmosphere: standard_atmosphere.Atmosphere) -> None:
-    """Writes the step's result into the state (only after it succeeded)."""
-    s = self.state
-    s.altitude_m = float(f.h)
-    s.ascent_rate_mps = float(f.v)
-    s.helium_mols = float(f.n)
-    s.sand_kg = float(max(f.sand, 0.0))
-    s.helium_vented_mols = float(f.vented)
-    s.sand_dropped_kg = float(f.dropped)
-    s.pending_vent_mols = float(f.pending_vent)
-    s.pending_drop_kg = float(f.pending_drop)
-    s.x = units.Distance(m=f.x_m)
-    s.y = units.Distance(m=f.y_m)
-    s.date_time = s.date_time + elapsed
-    s.time_elapsed = s.time_elapsed + elapsed
-    s.latex_status = f.status
-    if f.status == LatexBalloonStatus.BURST:
-      s.status = balloon.BalloonStatus.BURST
-    s.last_decision = actuation.decision
-    s.last_action = tuple(float(v) for v in action)
-    s.last_float_action = float(action[2])
-    s.desired_ascent_rate_mps = float(actuation.desired_ascent_rate)
-    s.guard_engaged = bool(f.guard_engaged)
-    s.last_command = control.AltitudeControlCommand.STAY
-    s.sync_ambient(atmosphere)
+    params = self.params().replace(
+        initial_sand_kg=s.sand_kg)
+    params = dataclasses.replace(params, max_substep_s=min(
+        params.max_substep_s, stride.total_seconds()))
+    atm = atmosphere_params(atmosphere)
+    start = s.date_time - s.time_elapsed
+    new = _jitted_step(wind, time_delta.total_seconds())(
+        params, atm, flight_state(s, params, atm), jnp.asarray(a, jnp.float32))
+    new = jax.device_get(new)
+    write_flight(s, {f.name: getattr(new, f.name)
+                     for f in dataclasses.fields(new)},
+                 start_date_time=start)

@@ -1,39 +1,36 @@
 # coding=utf-8
-"""Vent/ballast altitude controller (Eq. fullcontroller).
+"""The altitude controller's settings and the action contract (gym side).
 
-Paper section "Altitude Controller".
+The controller itself (Eq. hdot_des, Eq. float, Eq. ballast, Eq. vent and
+the altitude-band guard of Eq. fullcontroller) is the flight core's
+`ble_latex.flight.controller`, run once per action by
+`ble_latex.flight.dynamics.step`. This module keeps what the envs and gin
+files see:
 
-The agent's action is (a0 desired altitude [m], a1 time factor [.], a2 float
-flag [.]). Every stride (20 min) the controller turns it into an amount of
-helium to vent or sand to drop:
-
-  hdot_des = (a0 - h) / (a1 * stride)                       (Eq. hdot_des)
-
-  Float      if a2 > 0                     -> neutral buoyancy (Eq. float)
-  Do nothing if vent < n_min or drop < m_s_min
-  Ballast    if hdot_des > hdot            -> sand from Eq. ballast
-  Vent       if hdot_des < hdot            -> helium from Eq. vent
-
-plus the altitude-band guard: outside [band_low_m, band_high_m] the
-controller floats unless its decision moves the balloon back into the band.
-Float takes precedence and is exact (no thresholds), as in the paper's case
-order. Amounts never exceed what is aboard.
+- `ACTION_LOW` / `ACTION_HIGH`: the Box of (a0 desired altitude [m], a1 time
+  factor [.], a2 float flag [.]), and `validate_action`, the one check of an
+  action at the env boundary;
+- `AltitudeController`: the gin configurable whose bindings
+  (`AltitudeController.min_vent_mols`, `.min_drop_kg`, `.band_low_m`,
+  `.band_high_m`, `.stride`) set the core's `FlightParams`
+  (`flight.params.flight_params_from_gin`);
+- `Decision`: the controller's decision as the strings of `info`.
 """
 
-import dataclasses
 import datetime as dt
 import enum
 import math
-from typing import Any
+from typing import Any, Dict
 
 import gin
 import numpy as np
 
-from ble_latex import physics
+from ble_latex.flight import controller as core_controller
+from ble_latex.flight import state as state_lib
 
-# Action bounds (a0 [m], a1 [.], a2 [.]), paper "Method".
-ACTION_LOW = np.array([14_000.0, 1.0, -1.0], dtype=np.float32)
-ACTION_HIGH = np.array([21_000.0, 5.0, 1.0], dtype=np.float32)
+# Action bounds (a0 [m], a1 [.], a2 [.]), paper "Method"; the core's.
+ACTION_LOW = core_controller.ACTION_LOW
+ACTION_HIGH = core_controller.ACTION_HIGH
 # Controller stride Delta t between actions.
 STRIDE = dt.timedelta(minutes=20)
 
@@ -49,24 +46,6 @@ class Decision(enum.Enum):
   FLOAT = 'float'
   VENT = 'vent'
   BALLAST = 'ballast'
-
-
-@dataclasses.dataclass(frozen=True)
-class Actuation:
-  """The controller's output for one action.
-
-  Attributes:
-    decision: Float / vent / ballast / nothing.
-    desired_ascent_rate: hdot_des (0 for float). # [m/s]
-    vent_mols: Helium to vent, 0 <= vent_mols <= helium aboard. # [mol]
-    drop_kg: Sand to drop, 0 <= drop_kg <= sand aboard. # [kg]
-    guarded: True when the altitude-band guard replaced the decision by float.
-  """
-  decision: Decision
-  desired_ascent_rate: float
-  vent_mols: float = 0.0
-  drop_kg: float = 0.0
-  guarded: bool = False
 
 
 def validate_action(action: Any) -> np.ndarray:
@@ -106,7 +85,7 @@ def validate_action(action: Any) -> np.ndarray:
 
 @gin.configurable
 class AltitudeController:
-  """Eq. fullcontroller: maps (a0, a1, a2) to a vent or ballast amount."""
+  """The controller's settings (gin); the controller is the flight core's."""
 
   def __init__(self,
                *,
@@ -144,106 +123,13 @@ class AltitudeController:
     self.band_low_m = float(band_low_m)
     self.band_high_m = float(band_high_m)
 
-  def desired_ascent_rate(self, altitude_m: float, a0: float,
-                          a1: float) -> float:
-    """Implements Eq. hdot_des = (a0 - h) / (a1 Delta t). # [m/s]"""
-    return (a0 - altitude_m) / (a1 * self.stride.total_seconds())
+  def flight_params_kwargs(self) -> Dict[str, Any]:
+    """These settings as `flight.params.make_flight_params` arguments."""
+    return {'stride': self.stride, 'min_vent_mols': self.min_vent_mols,
+            'min_drop_kg': self.min_drop_kg, 'band_low_m': self.band_low_m,
+            'band_high_m': self.band_high_m}
 
-  def float_actuation(self, *, helium_mols: float, sand_kg: float,
-                      payload_kg: float, guarded: bool = False) -> Actuation:
-    """Implements Eq. float: vent or drop to neutral buoyancy (drag 0).
 
-    If the buoyancy exceeds the weight, vents n - (m_p + m_s)/(M_air - M_He);
-    otherwise drops m_s - (n (M_air - M_He) - m_p), capped at the sand aboard.
-    """
-    lift = physics.free_lift(helium_mols, payload_kg, sand_kg)  # [kg]
-    vent, drop = 0.0, 0.0
-    if lift > 0.0:
-      vent = min(helium_mols - physics.neutral_helium_mols(payload_kg, sand_kg),
-                 helium_mols)
-    elif lift < 0.0:
-      drop = min(sand_kg - physics.neutral_sand_kg(helium_mols, payload_kg),
-                 sand_kg)
-    return Actuation(Decision.FLOAT, 0.0, max(vent, 0.0), max(drop, 0.0),
-                     guarded)
-
-  def decide(self, action: Any, *, altitude_m: float, ascent_rate_mps: float,
-             helium_mols: float, sand_kg: float, payload_kg: float,
-             drag_coefficient: float, temperature: float,
-             pressure: float) -> Actuation:
-    """Implements Eq. fullcontroller for one action.
-
-    Args:
-      action: (a0, a1, a2); validated by `validate_action`.
-      altitude_m: Current altitude h_t. # [m]
-      ascent_rate_mps: Current ascent rate hdot_t. # [m/s]
-      helium_mols: Helium aboard n. # [mol]
-      sand_kg: Sand aboard m_s. # [kg]
-      payload_kg: m_p, including the envelope. # [kg]
-      drag_coefficient: c_d. # [.]
-      temperature: Ambient T at the balloon. # [K]
-      pressure: Ambient P at the balloon. # [Pa]
-
-    Returns:
-      The actuation (amounts already capped at what is aboard).
-
-    Raises:
-      ValueError: for a bad action or non-finite / non-physical state.
-    """
-    a0, a1, a2 = validate_action(action)
-    values = dict(altitude_m=altitude_m, ascent_rate_mps=ascent_rate_mps,
-                  helium_mols=helium_mols, sand_kg=sand_kg,
-                  payload_kg=payload_kg, drag_coefficient=drag_coefficient,
-                  temperature=temperature, pressure=pressure)
-    for name, value in values.items():
-      if not math.isfinite(value):
-        raise ValueError(f'{name} must be finite, got {value}')
-    for name in ('helium_mols', 'sand_kg', 'payload_kg'):
-      if values[name] < 0:
-        raise ValueError(f'{name} must be >= 0, got {values[name]}')
-    for name in ('drag_coefficient', 'temperature', 'pressure'):
-      if values[name] <= 0:
-        raise ValueError(f'{name} must be > 0, got {values[name]}')
-
-    if a2 > 0.0:
-      return self.float_actuation(helium_mols=helium_mols, sand_kg=sand_kg,
-                                  payload_kg=payload_kg)
-
-    rate = self.desired_ascent_rate(altitude_m, a0, a1)
-    actuation = Actuation(Decision.NOTHING, rate)
-    if rate > ascent_rate_mps:
-      target = physics.ballast_target_sand(helium_mols, payload_kg, rate,
-                                           drag_coefficient, temperature,
-                                           pressure)
-      drop = min(sand_kg - target, sand_kg)
-      if drop >= self.min_drop_kg and drop > 0.0:
-        actuation = Actuation(Decision.BALLAST, rate, drop_kg=drop)
-    elif rate < ascent_rate_mps:
-      target = physics.vent_target_mols(payload_kg, sand_kg, rate,
-                                        drag_coefficient, temperature,
-                                        pressure)
-      vent = min(helium_mols - target, helium_mols)
-      if vent >= self.min_vent_mols and vent > 0.0:
-        actuation = Actuation(Decision.VENT, rate, vent_mols=vent)
-
-    if not self._moves_into_band(altitude_m, actuation, ascent_rate_mps):
-      return self.float_actuation(helium_mols=helium_mols, sand_kg=sand_kg,
-                                  payload_kg=payload_kg, guarded=True)
-    return actuation
-
-  def outside_band_moving_out(self, altitude_m: float,
-                              ascent_rate_mps: float) -> bool:
-    """True when h is outside the band and hdot does not point back in."""
-    return ((altitude_m < self.band_low_m and ascent_rate_mps <= 0.0) or
-            (altitude_m > self.band_high_m and ascent_rate_mps >= 0.0))
-
-  def _moves_into_band(self, altitude_m: float, actuation: Actuation,
-                       ascent_rate_mps: float) -> bool:
-    """Altitude-band guard: may this decision stand at this altitude?"""
-    if self.band_low_m <= altitude_m <= self.band_high_m:
-      return True
-    if actuation.decision == Decision.NOTHING:
-      resulting_rate = ascent_rate_mps
-    else:
-      resulting_rate = actuation.desired_ascent_rate
-    return not self.outside_band_moving_out(altitude_m, resulting_rate)
+def decision(code: int) -> Decision:
+  """The `Decision` of a core `flight.state.DecisionCode`."""
+  return Decision[state_lib.DecisionCode(int(code)).name]

@@ -30,16 +30,14 @@ import numpy as np
 from ble_latex import arena as arena_lib
 from ble_latex import balloon as balloon_lib
 from ble_latex import controller as controller_lib
-from ble_latex import fast_wind
 from ble_latex import features as latex_features
+from ble_latex import host_env
 from ble_latex import perciatelli_features
 from ble_latex import reward as reward_lib
+from ble_latex.wind import ble_field
 
 # Info keys at every step (see README, "Environment contract").
-INFO_KEYS = ('distance_km', 'altitude_m', 'ascent_rate_mps', 'helium_mols',
-             'sand_kg', 'helium_vented_mols', 'sand_dropped_kg',
-             'controller_decision', 'out_of_resources', 'envelope_burst',
-             'time_limit', 'time_elapsed')
+INFO_KEYS = host_env.INFO_KEYS
 
 
 MAX_SEED = 2**32  # Exclusive; BLE's PRNGKey(seed) aliases larger seeds.
@@ -90,7 +88,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
           features.FeatureConstructor] = (
               latex_features.LatexFeatureConstructor),
       wind_field_factory: Callable[
-          [], wind_field.WindField] = fast_wind.FastGenerativeWindField,
+          [], wind_field.WindField] = ble_field.CoreGenerativeWindField,
       episode_steps: int = 216,
       seed: Optional[int] = None,
       renderer: Optional[renderer_lib.Renderer] = None):
@@ -104,9 +102,10 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
       reward_function: (simulator_state, vented_mols, dropped_kg) -> reward.
       feature_constructor_factory: Builds the observation features.
       wind_field_factory: Builds the wind field: by default BLE's generative
-        VAE field with BLE's noise, queried fast
-        (`ble_latex.fast_wind.FastGenerativeWindField`, identical values);
-        `ble_latex.era5.Era5WindField` for ERA5 data.
+        VAE field with BLE's noise, drawn and flown inside the flight core
+        (`ble_latex.wind.ble_field.CoreGenerativeWindField`);
+        `ble_latex.era5.Era5WindField` for ERA5 data (any BLE `WindField`
+        is flown through host callbacks).
       episode_steps: Steps per episode; 216 x 20 min = 3 days. The episode is
         cut there (`info['time_limit']`, `info['TimeLimit.truncated']`).
       seed: PRNG seed in [0, 2**32); the same seed gives the identical
@@ -124,7 +123,8 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
     self._steps = 0
     if arena is None:
       arena = arena_lib.LatexBalloonArena(feature_constructor_factory,
-                                          wind_field_factory())
+                                          wind_field_factory(),
+                                          episode_steps=episode_steps)
     super().__init__(
         station_keeping_radius_km=station_keeping_radius_km,
         arena=arena,
@@ -188,15 +188,16 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
     state = simulator_state.balloon_state
     if self._renderer is not None:
       self._renderer.step(simulator_state)
-    reward = self._reward_fn(simulator_state,
-                             state.helium_vented_mols - vented0,
-                             state.sand_dropped_kg - dropped0)
+    if self._reward_fn is reward_lib.latex_reward:
+      reward = self.arena.driver.reward  # The core's (same equation).
+    else:
+      reward = self._reward_fn(simulator_state,
+                               state.helium_vented_mols - vented0,
+                               state.sand_dropped_kg - dropped0)
     self._steps += 1
     self._global_iteration += 1
     info = self._get_info(state)
     done = self._is_terminal(state) or info['time_limit']
-    if info['time_limit'] and not self._is_terminal(state):
-      info['TimeLimit.truncated'] = True
     return observation, reward, done, info
 
   @staticmethod
@@ -204,26 +205,13 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
     return state.latex_status != balloon_lib.LatexBalloonStatus.OK
 
   def _get_info(self, balloon_state: Any) -> Dict[str, Any]:
-    s = balloon_state
-    status = s.latex_status
-    return {
-        'distance_km': units.relative_distance(s.x, s.y).kilometers,
-        'altitude_m': s.altitude_m,
-        'ascent_rate_mps': s.ascent_rate_mps,
-        'helium_mols': s.helium_mols,
-        'sand_kg': s.sand_kg,
-        'helium_vented_mols': s.helium_vented_mols,
-        'sand_dropped_kg': s.sand_dropped_kg,
-        'controller_decision': s.last_decision.value,
-        'out_of_resources': status in balloon_lib.OUT_OF_RESOURCES,
-        'envelope_burst': status == balloon_lib.LatexBalloonStatus.BURST,
-        'time_limit': self._steps >= self._episode_steps,
-        'time_elapsed': s.time_elapsed,
-        'terminal_reason': status.name.lower(),
-        # BLE's eval_lib reads these two.
-        'out_of_power': False,
-        'zeropressure': False,
-    }
+    """The core's info of the last step (`host_env.info_dict`)."""
+    info = dict(self.arena.driver.info)
+    info['time_limit'] = self._steps >= self._episode_steps
+    info.pop('TimeLimit.truncated', None)
+    if info['time_limit'] and not self._is_terminal(balloon_state):
+      info['TimeLimit.truncated'] = True
+    return info
 
   def __str__(self) -> str:
     return 'LatexBalloonEnv'

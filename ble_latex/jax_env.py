@@ -47,6 +47,7 @@ import numpy as np
 
 from ble_latex import jax_features
 from ble_latex.flight import atmosphere as atmosphere_lib
+from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import dynamics
 from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import state as state_lib
@@ -54,8 +55,8 @@ from ble_latex.wind import generative
 from ble_latex.wind import simplex
 
 Array = jax.Array
-ACTION_LOW = np.array([14_000.0, 1.0, -1.0], dtype=np.float32)
-ACTION_HIGH = np.array([21_000.0, 5.0, 1.0], dtype=np.float32)
+ACTION_LOW = controller_lib.ACTION_LOW  # The core's action Box.
+ACTION_HIGH = controller_lib.ACTION_HIGH
 # BLE's arena (balloon_arena.BalloonArena): start distance ~ Beta(1.2, 2).
 _START_BETA = (1.2, 2.0)
 # BLE's sampling.sample_time range: 2011-01-01 .. 2014-12-31, in seconds.
@@ -199,6 +200,7 @@ def step_info(state: EnvState, params: EnvParams) -> Dict[str, Array]:
   `helium_mols` [mol], `sand_kg` [kg], `helium_vented_mols` [mol],
   `sand_dropped_kg` [kg], `decision` (`flight.state.DecisionCode`),
   `status` (`flight.state.FlightStatus`), `time_s` [s], `steps`,
+  `volume_m3` (envelope volume [m^3]),
   `time_limit` (steps reached `episode_steps`), `truncated` (time limit
   without a terminal status).
   """
@@ -212,6 +214,7 @@ def step_info(state: EnvState, params: EnvParams) -> Dict[str, Array]:
           'sand_dropped_kg': f.sand_dropped_kg,
           'decision': f.last_decision, 'status': f.status,
           'time_s': f.time_s, 'steps': state.steps,
+          'volume_m3': f.volume_m3(),
           'time_limit': time_limit, 'truncated': time_limit & ~terminal}
 
 
@@ -270,7 +273,8 @@ class LatexBalloonJaxEnv:
     Returns:
       (state with zero measured wind, keys): `keys['wind']` is the key
       BLE's arena gives `WindField.reset`, `keys['location']` the key of
-      BLE's `sampling.sample_location` (the station's lat/lng).
+      BLE's `sampling.sample_location` (the station's lat/lng),
+      `keys['atmosphere']` the key of BLE's `Atmosphere.reset`.
     """
     rng, atmosphere_key, time_key = jax.random.split(key, 3)
     atmosphere = atmosphere_lib.reset(atmosphere_key)
@@ -302,7 +306,8 @@ class LatexBalloonJaxEnv:
         wind_u=jnp.zeros_like(altitude), wind_v=jnp.zeros_like(altitude),
         start_time_offset_s=start_time.astype(jnp.int32),
         steps=jnp.zeros((), jnp.int32))
-    return state, {'wind': wind_key, 'location': location_key}
+    return state, {'wind': wind_key, 'location': location_key,
+                   'atmosphere': atmosphere_key}
 
   def advance(self, state: EnvState, action: Array, params: EnvParams
               ) -> Tuple[EnvState, Array, Array, Dict[str, Array]]:
