@@ -313,7 +313,13 @@ def flight_state(state: LatexBalloonState, params: params_lib.FlightParams,
       last_action=jnp.asarray(state.last_action, f.x_m.dtype),
       desired_ascent_rate_mps=jnp.asarray(state.desired_ascent_rate_mps,
                                           f.x_m.dtype))
-  return state_lib.with_resources(params, f)
+  # The settled free lift in float64 from the view's values (as
+  # initial_state forms it), less the releases still pending.
+  lift = (core_physics.free_lift(float(state.helium_mols), state.payload_kg,
+                                 float(state.sand_kg)) -
+          state.pending_vent_mols * core_physics.LIFT_PER_MOL +
+          state.pending_drop_kg)
+  return f.replace(settled_lift_kg=jnp.asarray(lift, f.x_m.dtype))
 
 
 @functools.lru_cache(maxsize=64)
@@ -329,12 +335,11 @@ def _jitted_step(wind: Any, time_delta_s: float) -> Callable[..., Any]:
     def host(x, y, p, t):
       w = wind(units.Distance(m=float(x)), units.Distance(m=float(y)),
                float(p), dt.timedelta(seconds=float(t)))
-      out = np.array([w.u.meters_per_second, w.v.meters_per_second],
-                     np.asarray(x).dtype)
-      if not np.all(np.isfinite(out)):
-        raise ValueError(f'wind must be finite, got u={out[0]}, v={out[1]} '
-                         '[m/s]')
-      return out
+      # A non-finite wind makes the step's position non-finite:
+      # simulate_step raises then (an exception here would surface as an
+      # XLA runtime error).
+      return np.array([w.u.meters_per_second, w.v.meters_per_second],
+                      np.asarray(x).dtype)
 
     def wind_fn(x, y, p, t):
       uv = jax.pure_callback(host, jax.ShapeDtypeStruct((2,), x.dtype),
@@ -399,6 +404,11 @@ class LatexBalloon:
       if not isinstance(value, dt.timedelta) or value.total_seconds() <= 0:
         raise ValueError(f'{name} must be a positive timedelta, got {value!r}')
     self.params()
+    # The core state of the last step and the view it wrote: reused while
+    # the view is unchanged (keeps the core's exact free lift, which the
+    # float32 view of n and m_s cannot carry).
+    self._flight: Optional[state_lib.FlightState] = None
+    self._written: Optional[str] = None
     self.max_substep = max_substep
     self.valve_flow_mols_per_s = valve_flow_mols_per_s
     self.ballast_rate_kg_per_s = ballast_rate_kg_per_s
@@ -461,9 +471,15 @@ class LatexBalloon:
         params.max_substep_s, stride.total_seconds()))
     atm = atmosphere_params(atmosphere)
     start = s.date_time - s.time_elapsed
+    flight = (self._flight if self._written == repr(s) else
+              flight_state(s, params, atm))
     new = _jitted_step(wind, time_delta.total_seconds())(
-        params, atm, flight_state(s, params, atm), jnp.asarray(a, jnp.float32))
-    new = jax.device_get(new)
-    write_flight(s, {f.name: getattr(new, f.name)
-                     for f in dataclasses.fields(new)},
+        params, atm, flight, jnp.asarray(a, jnp.float32))
+    if not np.isfinite(float(new.x_m)) or not np.isfinite(float(new.y_m)):
+      raise ValueError('wind must be finite: the wind callable returned a '
+                       'non-finite wind; the state is left untouched')
+    write_flight(s, {f.name: getattr(host, f.name)
+                     for host in [jax.device_get(new)]
+                     for f in dataclasses.fields(host)},
                  start_date_time=start)
+    self._flight, self._written = new, repr(s)

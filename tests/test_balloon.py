@@ -20,8 +20,8 @@ import s2sphere as s2
 
 from ble_latex import balloon as balloon_lib
 from ble_latex import controller as controller_lib
-from ble_latex import physics
-from ble_latex import validate
+from ble_latex.flight import controller as core_controller
+from ble_latex.flight import physics
 
 _SETTINGS = settings(max_examples=25, deadline=None)
 STRIDE = controller_lib.STRIDE
@@ -103,7 +103,7 @@ def test_steady_ascent_rate_matches_desired(atmosphere, h, a0, a1):
   """After relaxing (8 time constants) the rate is hdot_des within 5%."""
   s = _state(atmosphere, h)
   b = balloon_lib.LatexBalloon(s)
-  rate = b.controller.desired_ascent_rate(h, a0, a1)
+  rate = float(core_controller.desired_ascent_rate(b.params(), h, a0, a1))
   amb = atmosphere.at_height(units.Distance(m=h))
   k = float(physics.drag_factor(s.helium_mols, 0.25, amb.temperature,
                                 amb.pressure))
@@ -139,7 +139,8 @@ def test_float_holds_altitude(atmosphere, h, a0, a1):
   b.simulate_step(CALM, atmosphere, [a0, a1, 1.0], STRIDE)
   assert s.last_decision == Decision.FLOAT
   assert abs(s.ascent_rate_mps) < 0.05
-  assert s.free_lift_kg == pytest.approx(0.0, abs=1e-9)
+  # n and m_s are float32 in the core: ~1e-7 kg of lift rounding.
+  assert s.free_lift_kg == pytest.approx(0.0, abs=1e-6)
   h_float = s.altitude_m
   b.simulate_step(CALM, atmosphere, [a0, a1, 1.0], STRIDE)
   assert abs(s.ascent_rate_mps) < 0.05
@@ -163,13 +164,12 @@ def test_mass_conserved_and_resources_never_negative(atmosphere, actions, sand,
     if s.latex_status != Status.OK:
       break
     b.simulate_step(CALM, atmosphere, action, STRIDE)
-    assert _total_mass_accounted(s) == pytest.approx(total, rel=1e-12)
+    # float32 core: mass accounted to float32 rounding of ~90 mol.
+    assert _total_mass_accounted(s) == pytest.approx(total, rel=1e-6)
     assert s.sand_kg >= 0.0 and s.helium_mols >= 0.0
     assert s.pending_vent_mols >= 0.0 and s.pending_drop_kg >= 0.0
-    assert s.helium_vented_mols <= n0 + 1e-9
-    assert s.sand_dropped_kg <= sand0 + 1e-12
-    for p in b.last_trajectory:
-      assert p.sand_kg >= 0.0 and p.helium_mols >= 0.0
+    assert s.helium_vented_mols <= n0 * (1 + 1e-6)
+    assert s.sand_dropped_kg <= sand0 + 1e-6
 
 
 def test_thresholds_do_nothing(atmosphere):
@@ -189,7 +189,8 @@ def test_guard_floats_when_drifting_out_of_band_within_stride(atmosphere):
   b.simulate_step(CALM, atmosphere, [21_000.0, 5.0, -1.0], STRIDE)
   assert s.last_decision == Decision.NOTHING
   assert s.guard_engaged
-  assert s.free_lift_kg == pytest.approx(0.0, abs=1e-9)
+  # n and m_s are float32 in the core: ~1e-7 kg of lift rounding.
+  assert s.free_lift_kg == pytest.approx(0.0, abs=1e-6)
   assert 22_000.0 < s.altitude_m < 22_100.0
   assert abs(s.ascent_rate_mps) < 0.05
   # Without the in-stride guard (paper), it keeps drifting up.
@@ -325,10 +326,13 @@ def test_finite_valve_flow_spreads_the_vent(atmosphere):
   b = balloon_lib.LatexBalloon(slow, valve_flow_mols_per_s=0.01)
   b.simulate_step(CALM, atmosphere, [17_000.0, 1.0, -1.0], STRIDE)
   assert slow.helium_vented_mols == pytest.approx(instant.helium_vented_mols)
-  assert slow.pending_vent_mols == pytest.approx(0.0, abs=1e-12)
-  helium = [p.helium_mols for p in b.last_trajectory]
-  assert all(h1 <= h0 for h0, h1 in zip(helium, helium[1:]))
-  assert len(set(helium)) > 3  # Released gradually.
+  assert slow.pending_vent_mols == pytest.approx(0.0, abs=1e-6)
+  # Released gradually: after 30 s part of it is still pending.
+  part = _state(atmosphere, 18_000.0)
+  balloon_lib.LatexBalloon(part, valve_flow_mols_per_s=0.01).simulate_step(
+      CALM, atmosphere, [17_000.0, 1.0, -1.0], dt.timedelta(seconds=30))
+  assert 0.0 < part.helium_vented_mols < instant.helium_vented_mols
+  assert part.pending_vent_mols > 0.0
   assert slow.altitude_m > instant.altitude_m  # Later start of the descent.
   # Too slow to finish in one stride: the remainder stays pending.
   s = _state(atmosphere, 18_000.0)
@@ -350,6 +354,7 @@ def test_deterministic(atmosphere):
 
 
 def test_validate_script_writes_figure(tmp_path, capsys):
+  from ble_latex import validate  # pylint: disable=g-import-not-at-top
   status = validate.main(['--output_dir', str(tmp_path), '--no_reference'])
   out = capsys.readouterr().out
   assert status == 0

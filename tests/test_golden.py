@@ -9,16 +9,17 @@ check it reproduces the recording:
   position within 5 m, helium / sand (aboard, released, pending) within 1e-6
   of the flight's launch inventory, the same controller decision and the same
   terminal status (`assert_step_matches`);
-- whole trajectories from the same seed: every step as above, the same
-  episode length and done flags, and (today's env only) the observation and
-  reward to 1e-6 (`assert_episode_matches`); and the looser criterion a new
-  implementation must meet: within 1 km at every step for at least 18 of the
+- whole trajectories from the same seed: the same episode length, done
+  flags, terminal reason, decisions and statuses at every step, every state
+  within 100 m, observations within 5e-3 (`assert_episode_matches`); and
+  the issue's criterion, within 1 km at every step for at least 18 of the
   20 seeds (`max_deviation_m`, `MIN_SEEDS_WITHIN`).
 
-The simulator is plugged in at one place: `SIMULATE(seed, actions)` flies a
-whole episode, `STEP(seed, step, before, action)` one step from a recorded
-state. Today they drive `LatexBalloon-v0`; a refactor (e.g. the JAX core)
-replaces them with functions returning the same dicts (keys as in the npz:
+The recording was made by the NumPy float64 model the flight core replaced
+(before any change); the env under test is today's `LatexBalloon-v0`, which
+flies the core. The simulator is plugged in at one place:
+`SIMULATE(seed, actions)` flies a whole episode, `STEP(seed, step, before,
+action)` one step from a recorded state (keys as in the npz:
 `state_<field>`, `reward`, `done`, ... see `simulate_env` / `step_env`).
 """
 
@@ -32,13 +33,12 @@ import json
 import pathlib
 from typing import Any, Callable, Dict, List, Mapping, Sequence
 
-from balloon_learning_environment.env.balloon import balloon as ble_balloon
-from balloon_learning_environment.utils import units
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from ble_latex import balloon as balloon_lib
-from ble_latex import controller as controller_lib
+from ble_latex.flight import atmosphere as atmosphere_lib
+from ble_latex.flight import state as state_lib
 
 DATA = pathlib.Path(__file__).resolve().parent / 'data'
 SOURCES = ('random', 'scripted')
@@ -51,8 +51,9 @@ TIME_TOL_S = 1e-6  # [s]
 TRAJECTORY_TOL_M = 1000.0  # [m] whole trajectories, every step
 MIN_SEEDS_WITHIN = 18  # of 20 seeds per file
 # Today's env reproduces itself (these are only float noise margins).
-OBS_ATOL = 1e-6
-REWARD_ATOL = 1e-6
+REPLAY_TOL_M = 100.0  # [m] whole episodes, every step (3-D)
+OBS_ATOL = 5e-3
+REWARD_ATOL = 1e-3
 
 HELIUM_FIELDS = ('helium_mols', 'helium_vented_mols', 'pending_vent_mols')
 SAND_FIELDS = ('sand_kg', 'sand_dropped_kg', 'pending_drop_kg')
@@ -192,15 +193,22 @@ def assert_step_matches(recorded_before: State, recorded_after: State,
 def assert_episode_matches(golden: Episode, simulated: Episode, *,
                            context: str = '',
                            check_observations: bool = True) -> None:
-  """Checks a whole simulated episode against the recording, step by step.
+  """Checks a whole episode of the flight core against the recording.
+
+  The recording's NumPy float64 model and the core (float32) drift apart
+  slowly (tens of metres over 3 days, see README), so whole episodes are
+  held to: the same length, done flags, terminal reason, controller
+  decision and status at every step, every state within REPLAY_TOL_M (3-D)
+  of the recorded one, and (optionally) observations within OBS_ATOL and
+  rewards within REWARD_ATOL. One step from a recorded state is held to the
+  tight tolerances of `assert_step_matches`.
 
   Args:
     golden: A recorded episode (`Golden.episode`).
     simulated: The simulator's episode from the same seed and actions (at
       least the `state_<field>` arrays, `done` and `terminal_reason`).
     context: Prefix for failure messages.
-    check_observations: Also compare observations and rewards (OBS_ATOL,
-      REWARD_ATOL).
+    check_observations: Also compare observations and rewards.
   """
   n_golden, n_sim = len(golden['done']), len(simulated['done'])
   assert n_sim == n_golden, (
@@ -212,15 +220,17 @@ def assert_episode_matches(golden: Episode, simulated: Episode, *,
   np.testing.assert_array_equal(simulated['terminal_reason'],
                                 golden['terminal_reason'],
                                 err_msg=f'{context}: terminal_reason')
+  for name in CODE_FIELDS:
+    np.testing.assert_array_equal(simulated[f'state_{name}'],
+                                  golden[f'state_{name}'],
+                                  err_msg=f'{context}: {name}')
   first = state_at(golden, 0)
   assert_state_matches(
       first, state_at(simulated, 0),
       helium_scale=_inventory(first, HELIUM_FIELDS),
       sand_scale=_inventory(first, SAND_FIELDS), context=f'{context} reset')
-  for t in range(n_golden):
-    assert_step_matches(state_at(golden, t), state_at(golden, t + 1),
-                        state_at(simulated, t + 1),
-                        context=f'{context} step {t}')
+  deviation = max_deviation_m(golden, simulated)
+  assert deviation <= REPLAY_TOL_M, f'{context}: {deviation:.1f} m apart'
   if check_observations:
     np.testing.assert_allclose(simulated['obs'], golden['obs'], rtol=0,
                                atol=OBS_ATOL, err_msg=f'{context}: obs')
@@ -266,43 +276,44 @@ def simulate_env(seed: int, actions: np.ndarray) -> Episode:
 def restore_state(env: Any, seed: int, step: int, before: State) -> None:
   """Resets `env` with `seed` (wind, atmosphere) and sets a recorded state.
 
-  The recording is enough to rebuild the state exactly: every dynamic field
-  is recorded; pressure, temperatures and volume follow from the altitude.
-  x and y are Python floats after reset and np.float64 after a step (BLE's
-  noise arithmetic depends on that type through float32 offsets), so they are
-  restored with the same type.
+  The env flies the flight core (`arena.driver`): its `FlightState` is
+  rebuilt from the recording (pressure and temperature from the altitude,
+  the free lift from helium and sand) and the BLE view re-written.
   """
   env.reset(seed=seed)
   unwrapped = env.unwrapped
-  s = unwrapped.arena.get_balloon_state()
-  number = float if step == 0 else np.float64
-  start = s.date_time - s.time_elapsed
-  s.x = units.Distance(m=number(before['x_m']))
-  s.y = units.Distance(m=number(before['y_m']))
-  for name in ('altitude_m', 'ascent_rate_mps', 'helium_mols', 'sand_kg',
-               'helium_vented_mols', 'sand_dropped_kg', 'pending_vent_mols',
-               'pending_drop_kg', 'last_float_action',
-               'desired_ascent_rate_mps'):
-    setattr(s, name, float(before[name]))
-  s.time_elapsed = dt.timedelta(seconds=before['time_elapsed_s'])
-  s.date_time = start + s.time_elapsed
-  s.last_action = (float(before['last_action_a0_m']),
-                   float(before['last_action_a1']),
-                   float(before['last_action_a2']))
-  s.guard_engaged = bool(before['guard_engaged'])
-  s.latex_status = balloon_lib.LatexBalloonStatus[
-      make_golden.STATUS_NAMES[int(before['latex_status'])].upper()]
-  s.last_decision = controller_lib.Decision(
-      make_golden.DECISION_NAMES[int(before['last_decision'])])
-  s.status = ble_balloon.BalloonStatus[
-      make_golden.BLE_STATUS_NAMES[int(before['status'])].upper()]
-  s.sync_ambient(unwrapped.arena._atmosphere)
-  unwrapped._steps = step
+  driver = unwrapped.arena.driver
+  f = driver.state.flight
+  dtype = f.altitude_m.dtype
+  value = lambda k: jnp.asarray(before[k], dtype)  # pylint: disable=unnecessary-lambda-assignment
+  ambient = atmosphere_lib.at_height(driver.state.atmosphere,
+                                     value('altitude_m'))
+  f = f.replace(
+      x_m=value('x_m'), y_m=value('y_m'), altitude_m=value('altitude_m'),
+      ascent_rate_mps=value('ascent_rate_mps'),
+      pending_vent_mols=value('pending_vent_mols'),
+      pending_drop_kg=value('pending_drop_kg'),
+      helium_vented_mols=value('helium_vented_mols'),
+      sand_dropped_kg=value('sand_dropped_kg'),
+      time_s=value('time_elapsed_s'),
+      last_action=jnp.asarray([before['last_action_a0_m'],
+                               before['last_action_a1'],
+                               before['last_action_a2']], dtype),
+      status=jnp.asarray(before['latex_status'], jnp.int32),
+      last_decision=jnp.asarray(before['last_decision'], jnp.int32),
+      pressure_pa=ambient.pressure, temperature_k=ambient.temperature)
+  f = state_lib.with_resources(driver.params.flight, f,
+                               helium_mols=before['helium_mols'],
+                               sand_kg=before['sand_kg'])
+  driver.state = driver.state.replace(flight=f,
+                                      steps=jnp.asarray(step, jnp.int32))
+  unwrapped.arena._write_view()  # pylint: disable=protected-access
+  unwrapped._steps = step  # pylint: disable=protected-access
 
 
 def step_env(seed: int, step: int, before: State,
              action: np.ndarray) -> Dict[str, Any]:
-  """One step of today's env from a recorded state.
+  """One step of the env from a recorded state.
 
   Args:
     seed: The flight's seed (selects atmosphere and wind field).
@@ -393,12 +404,8 @@ def test_single_step_from_recorded_state(source):
       simulated = STEP(golden.seeds[i], t, before, episode['action'][t])
       assert_step_matches(before, after, simulated, context=context)
       assert simulated['done'] == episode['done'][t], context
-      if STEP is step_env:
-        # Today's env: the restored state is the recorded one, exactly, and
-        # so is the step.
-        assert simulated['restored'] == before, context
-        assert {k: simulated[k] for k in after} == after, context
-        assert simulated['reward'] == episode['reward'][t], context
+      assert simulated['reward'] == pytest.approx(episode['reward'][t],
+                                                  abs=REWARD_ATOL), context
 
 
 def test_assert_step_matches_catches_deviations():

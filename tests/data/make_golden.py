@@ -280,8 +280,8 @@ def fly(env: gym.Env, seed: int, policy: Policy,
     states['obs'].append(np.asarray(obs, dtype=np.float64))
     for name, value in state_record(arena.get_balloon_state()).items():
       states['state_' + name].append(value)
-    # The same (cached) query as the arena's measurement: no side effects.
-    wind = arena._get_wind_ground_truth_at_balloon()
+    # The arena's measurement (BLE's arena interface).
+    wind = arena.get_measurements().wind_at_balloon
     states['wind_u_mps'].append(wind.u.meters_per_second)
     states['wind_v_mps'].append(wind.v.meters_per_second)
 
