@@ -13,7 +13,6 @@ import math
 from balloon_learning_environment.env import simplex_wind_noise
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.utils import units
-from ble_latex import fast_wind
 from ble_latex.wind import simplex
 from hypothesis import example
 from hypothesis import given
@@ -263,11 +262,8 @@ def test_wind_noise_matches_ble(key_seeds, which, points):
   float64: BLE's formula to 1e-9; BLE's own values (float32) to 1e-4 m/s.
   """
   components = []
-  for i, key_seed in enumerate(key_seeds):
-    # BLE's component and its fast subclass hold the same state.
-    component_class = (simplex_wind_noise.NoisyWindComponent if i % 2 else
-                       fast_wind.FastNoisyWindComponent)
-    components.append(component_class(which))
+  for key_seed in key_seeds:
+    components.append(simplex_wind_noise.NoisyWindComponent(which))
     components[-1].reset(jax.random.PRNGKey(key_seed))
   params = jax.tree_util.tree_map(
       lambda *leaves: jnp.stack(leaves),
