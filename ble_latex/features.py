@@ -41,6 +41,7 @@ from balloon_learning_environment.env import simulator_data
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
+import gin
 import gym
 import jax.numpy as jnp
 import numpy as np
@@ -52,12 +53,36 @@ NUM_FEATURES = jax_features.NUM_FEATURES
 HISTORY = jax_features.HISTORY
 
 
+@gin.configurable(denylist=['forecast', 'atmosphere'])
 class LatexFeatureConstructor(features.FeatureConstructor):
   """The paper's wind-column + ambient + history + resource features."""
 
   def __init__(self,
                forecast: wind_field.WindField,
-               atmosphere: standard_atmosphere.Atmosphere):
+               atmosphere: standard_atmosphere.Atmosphere,
+               *,
+               min_pressure: float = 5000.0,  # [Pa]
+               max_pressure: float = 14000.0):  # [Pa]
+    """Constructor.
+
+    Args:
+      forecast: The wind field whose forecast column the features read.
+      atmosphere: BLE's atmosphere (ambient temperature and pressure).
+      min_pressure: Lowest column level; the core's is fixed. # [Pa]
+      max_pressure: Highest column level; the core's is fixed. # [Pa]
+
+    Raises:
+      ValueError: If a level differs from the flight core's
+        (`jax_features.PRESSURE_LEVELS`, 25 levels 5000..14000 Pa).
+    """
+    levels = jax_features.PRESSURE_LEVELS
+    for name, value, core in (('min_pressure', min_pressure, levels[0]),
+                              ('max_pressure', max_pressure, levels[-1])):
+      if value != core:
+        raise ValueError(
+            f'LatexFeatureConstructor.{name} must be {core} (the flight '
+            f"core's feature levels are fixed), got {value!r}")
+    self.pressure_levels = np.asarray(levels)
     self._forecast = forecast
     self._atmosphere = atmosphere
     self._observation: Optional[simulator_data.SimulatorObservation] = None
@@ -82,7 +107,7 @@ class LatexFeatureConstructor(features.FeatureConstructor):
     s = self._observation.balloon_observation
     wind = self._observation.wind_at_balloon
     column = self._forecast.get_forecast_column(
-        s.x, s.y, np.asarray(jax_features.PRESSURE_LEVELS), s.time_elapsed)
+        s.x, s.y, self.pressure_levels, s.time_elapsed)
     ambient = self._atmosphere.at_height(units.Distance(m=s.altitude_m))
     return np.asarray(jax_features.features(
         jnp.asarray([w.u.meters_per_second for w in column]),

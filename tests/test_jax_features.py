@@ -1,4 +1,9 @@
-"""ble_latex.jax_features reproduces ble_latex.features and the reward."""
+"""ble_latex.jax_features: the 71 features and the reward.
+
+References: the observations recorded from the NumPy features before the
+refactor (tests/data golden files), BLE's reward function, and the test's
+own bearing-error oracle.
+"""
 
 # pylint: disable=protected-access
 
@@ -21,6 +26,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+
+import test_golden
 
 # Measured (float32 JAX vs float64 numpy): features <= ~1e-6 (the float32
 # output's own rounding is 6e-8), reward <= ~1e-7.
@@ -66,6 +73,21 @@ def _random_state(rng, i):
       last_float_action=float(rng.uniform(-1.0, 1.0)))
 
 
+def _bearing_error_reference(u, v, x_m, y_m):
+  """The angle between the wind and the direction to the target (float64).
+
+  The test's own oracle: |atan2(cross, dot)| of the wind (u, v) and the
+  vector (-x, -y) from the balloon to the station; 0 at the station
+  (closer than 1e-5 m), pi in calm air (slower than 1e-5 m/s). # [rad]
+  """
+  u, v, x_m, y_m = (float(a) for a in (u, v, x_m, y_m))
+  if math.hypot(x_m, y_m) < 1e-5:
+    return 0.0
+  if math.hypot(u, v) < 1e-5:
+    return math.pi
+  return abs(math.atan2(u * -y_m - v * -x_m, u * -x_m + v * -y_m))
+
+
 def test_bearing_errors_match():
   rng = np.random.default_rng(0)
   u, v = rng.normal(0.0, 10.0, (2, 500))
@@ -82,14 +104,13 @@ def test_bearing_errors_match():
       x32 = y32 = np.float32(0.0)
     ours = jax_features.bearing_errors(np.float32(u[i]), np.float32(v[i]),
                                        x32, y32)
-    reference = features_lib.bearing_errors(
-        np.array([np.float32(u[i])], np.float64),
-        np.array([np.float32(v[i])], np.float64), float(x32), float(y32))[0]
+    reference = _bearing_error_reference(np.float32(u[i]), np.float32(v[i]),
+                                         x32, y32)
     assert abs(float(ours) - reference) <= 1e-6, (i, float(ours), reference)
 
 
-def test_features_match_the_constructor():
-  """Random states (incl. clipping) through LatexFeatureConstructor."""
+def test_constructor_is_the_core_features():
+  """`features.LatexFeatureConstructor` (BLE interface) = jax_features."""
   rng = np.random.default_rng(1)
   forecast = _ColumnForecast()
   atmosphere = standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
@@ -97,38 +118,32 @@ def test_features_match_the_constructor():
   np.testing.assert_array_equal(constructor.pressure_levels,
                                 jax_features.PRESSURE_LEVELS)
   features = jax.jit(jax_features.features)
-  history = initial = previous = None
-  worst = 0.0
-  for i in range(25):
+  history = initial = None
+  for i in range(6):
     state = _random_state(rng, i)
     wind_u, wind_v = rng.normal(0.0, 15.0, 2)
     forecast.u, forecast.v = rng.normal(0.0, 15.0, (2, 25))
-    if i == 7:  # Calm column levels and wind.
-      forecast.u[:5] = forecast.v[:5] = wind_u = wind_v = 0.0
-    # A new state object per observation: the constructor pushes the
-    # previous observation's altitude and ascent rate (documented t-1).
     constructor.observe(_observation(state, wind_u, wind_v))
     if i == 0:
       initial = jax_features.initial_resources(
           state.payload_kg, state.sand_kg, state.helium_mols)
       history = jax_features.init_history(state.altitude_m,
                                           state.ascent_rate_mps)
-    else:
+    else:  # The observed (post-step) state becomes t-1.
       history = jax_features.push_history(
-          history, previous.altitude_m, previous.ascent_rate_mps,
+          history, state.altitude_m, state.ascent_rate_mps,
           state.last_float_action)
-    previous = state
     ambient = atmosphere.at_height(units.Distance(m=state.altitude_m))
     ours = features(
         forecast.u, forecast.v, state.x.meters, state.y.meters,
         state.altitude_m, state.ascent_rate_mps, wind_u, wind_v,
         state.helium_mols, state.sand_kg, state.payload_kg,
         ambient.temperature, ambient.pressure, initial, history)
-    reference = constructor.get_features()
-    assert ours.dtype == jnp.float32 and ours.shape == (71,)
-    worst = max(worst, np.abs(np.asarray(ours) - reference).max())
-    np.testing.assert_allclose(ours, reference, rtol=0, atol=_ATOL_FEATURES)
-  assert worst <= _ATOL_FEATURES, worst
+    np.testing.assert_allclose(constructor.get_features(), ours, rtol=0,
+                               atol=1e-6)
+  with pytest.raises(ValueError, match='min_pressure'):
+    features_lib.LatexFeatureConstructor(forecast, atmosphere,
+                                         min_pressure=4000.0)
 
 
 def _forecast_key(seed: int) -> jnp.ndarray:
@@ -141,76 +156,46 @@ def _forecast_key(seed: int) -> jnp.ndarray:
   return generative.split_wind_key(wind_key)[1]
 
 
-@pytest.fixture(scope='module')
-def env():
-  return gym.make('LatexBalloon-v0')
+@pytest.mark.parametrize('source', ['random', 'scripted'])
+def test_features_of_recorded_states_are_the_recorded_observations(source):
+  """Golden data (recorded from the NumPy features before the refactor).
 
-
-def test_features_and_reward_match_the_env(env):
-  """The env's observations / rewards from its state, with the JAX field."""
-  seed = 5
-  observation = env.reset(seed=seed)
-  arena = env.unwrapped.arena
-  wind = arena._wind_field
-  field = generative.reset_forecast(_forecast_key(seed),
-                                    generative.decoder_params())
-  np.testing.assert_allclose(np.asarray(field.grid), wind.field, rtol=0,
-                             atol=1e-5)
-  levels = jax_features.PRESSURE_LEVELS.astype(np.float32)
+  The recorded states, measured winds and ambient values, with the forecast
+  column of the seed's field, give the recorded observations: the 71
+  features are the ones `ble_latex.features` computed.
+  """
+  golden = test_golden.load_golden(source)
   features = jax.jit(jax_features.features)
   column = jax.jit(generative.forecast_column)
-  point = jax.jit(generative.forecast)
-  reward = jax.jit(jax_features.reward)
-
-  state = arena.get_balloon_state()
-  initial = jax_features.initial_resources(state.payload_kg, state.sand_kg,
-                                           state.helium_mols)
-  history = jax_features.init_history(state.altitude_m, state.ascent_rate_mps)
-  actions = [(17_000.0, 2.0, 0.0), (19_500.0, 1.0, -1.0),
-             (15_500.0, 3.0, 1.0), (18_000.0, 5.0, 0.3), (16_000.0, 1.5, 0.0)]
-  for step in range(len(actions) + 1):
-    if step:
-      observation, r, _, info = env.step(np.array(actions[step - 1],
-                                                  np.float32))
-      state = arena.get_balloon_state()
-      # BLE's arena hands the feature constructor its live state object,
-      # already updated by the step: ble_latex.features pushes the
-      # post-step altitude and ascent rate as t-1 (see push_history).
-      history = jax_features.push_history(
-          history, state.altitude_m, state.ascent_rate_mps,
-          state.last_float_action)
-      ours_r = reward(np.float32(info['distance_km']))
-      assert abs(float(ours_r) - r) <= _ATOL_REWARD, (float(ours_r), r)
-      ours_r = reward(jax_features.distance_km(np.float32(state.x.meters),
-                                               np.float32(state.y.meters)))
-      assert abs(float(ours_r) - r) <= _ATOL_REWARD, (float(ours_r), r)
-    constructor = arena.feature_constructor
-    for theirs, ours in ((constructor._altitudes, history.altitude_m),
-                         (constructor._ascent_rates, history.ascent_rate_mps),
-                         (constructor._float_actions, history.float_action)):
-      np.testing.assert_array_equal(np.float32(theirs), ours)
-    t_s = state.time_elapsed.total_seconds()
-    x, y = np.float32(state.x.meters), np.float32(state.y.meters)
-    u, v = column(field, x, y, levels, np.float32(t_s))
-    # The forecast at the balloon equals the env's wind field's forecast.
-    ours_uv = point(field, x, y, np.float32(state.pressure), np.float32(t_s))
-    theirs = wind.get_forecast(state.x, state.y, state.pressure,
-                               state.time_elapsed)
-    np.testing.assert_allclose(
-        ours_uv, (theirs.u.meters_per_second, theirs.v.meters_per_second),
-        rtol=0, atol=2e-5)
-    measured = constructor._wind_at_balloon
-    ambient = arena._atmosphere.at_height(units.Distance(m=state.altitude_m))
-    ours = features(
-        u, v, x, y, np.float32(state.altitude_m),
-        np.float32(state.ascent_rate_mps),
-        np.float32(measured.u.meters_per_second),
-        np.float32(measured.v.meters_per_second),
-        np.float32(state.helium_mols), np.float32(state.sand_kg),
-        np.float32(state.payload_kg), np.float32(ambient.temperature),
-        np.float32(ambient.pressure), initial, history)
-    np.testing.assert_allclose(ours, observation, rtol=0,
-                               atol=_ATOL_FEATURES)
+  levels = jax_features.PRESSURE_LEVELS.astype(np.float32)
+  worst = 0.0
+  for i in (0, 9):
+    episode, n = golden.episode(i), golden.lengths[i]
+    field = generative.reset_forecast(_forecast_key(golden.seeds[i]),
+                                      generative.decoder_params())
+    s = lambda name, t: np.float32(episode['state_' + name][t])  # pylint: disable=unnecessary-lambda-assignment,cell-var-from-loop
+    initial = jax_features.initial_resources(
+        np.float32(2.2), s('sand_kg', 0), s('helium_mols', 0))
+    history = jax_features.init_history(s('altitude_m', 0),
+                                        s('ascent_rate_mps', 0))
+    for t in range(0, n + 1, 7):
+      if t:
+        for k in range(t - 6, t + 1):
+          history = jax_features.push_history(
+              history, s('altitude_m', k), s('ascent_rate_mps', k),
+              s('last_float_action', k))
+      u, v = column(field, s('x_m', t), s('y_m', t), levels,
+                    s('time_elapsed_s', t))
+      ours = features(
+          u, v, s('x_m', t), s('y_m', t), s('altitude_m', t),
+          s('ascent_rate_mps', t), np.float32(episode['wind_u_mps'][t]),
+          np.float32(episode['wind_v_mps'][t]), s('helium_mols', t),
+          s('sand_kg', t), np.float32(2.2), s('ambient_temperature_k', t),
+          s('pressure_pa', t), initial, history)
+      err = np.abs(np.asarray(ours) - episode['obs'][t]).max()
+      worst = max(worst, err)
+      assert err <= _ATOL_FEATURES, (golden.seeds[i], t, err)
+  assert worst > 0.0  # float32 vs the recorded float64: not bit-identical.
 
 
 def test_reward_matches_ble():
