@@ -385,21 +385,66 @@ class LatexBalloonJaxEnv:
 
 
 def params_from_gin() -> EnvParams:
-  """`EnvParams` from the gin bindings the gym env reads (defaults else)."""
-  # Imported here: reading the bindings registers BLE's configurables.
-  from ble_latex import arena as arena_lib  # pylint: disable=g-import-not-at-top
-  from ble_latex import env as env_lib  # pylint: disable=g-import-not-at-top
-  from ble_latex import reward as reward_lib  # pylint: disable=g-import-not-at-top
-  from balloon_learning_environment.env import balloon_env  # pylint: disable=g-import-not-at-top
+  """`EnvParams` from the gin bindings the gym env reads (defaults else).
 
-  reward_lib.check_config()
-  ble = reward_lib.effective_bindings(balloon_env.perciatelli_reward_function)
-  latex = reward_lib.effective_bindings(reward_lib.latex_reward)
-  arena = reward_lib.effective_bindings(arena_lib.LatexBalloonArena)
-  env = reward_lib.effective_bindings(env_lib.LatexBalloonEnv)
+  The gin names are the gym env's: `LatexBalloonEnv.episode_steps`,
+  `LatexBalloonArena.start_altitude_range_m` / `.max_start_distance_km` /
+  `.stride`, `balloon_env.perciatelli_reward_function.*`, `latex_reward.*`
+  and the flight system's (`flight.params.flight_params_from_gin`). Nothing
+  is imported to read them: gin only holds bindings of configurables whose
+  module is imported, so a configurable whose module is not in `sys.modules`
+  is read as its defaults (`ble_latex.gin_values`). This keeps the JAX env
+  and the Gymnasium envs free of BLE's balloon/env modules and TensorFlow.
+
+  Raises:
+    ValueError: A reward binding outside the reward's range (as
+      `reward.check_config`).
+  """
+  # pylint: disable=g-import-not-at-top
+  import dataclasses
+  import datetime as dt
+  import sys
+  from ble_latex import gin_values
+  # pylint: enable=g-import-not-at-top
+
+  d = {f.name: f.default for f in dataclasses.fields(EnvParams)
+       if f.default is not dataclasses.MISSING}
+  ble = gin_values.imported_bindings(
+      'balloon_learning_environment.env.balloon_env',
+      'perciatelli_reward_function',
+      {'station_keeping_radius_km': d['radius_km'],
+       'reward_dropoff': d['reward_dropoff'],
+       'reward_halflife': d['reward_halflife_km']})
+  latex = gin_values.imported_bindings(
+      'ble_latex.reward', 'latex_reward',
+      {'helium_penalty_per_mol': d['helium_penalty_per_mol'],
+       'sand_penalty_per_kg': d['sand_penalty_per_kg']})
+  arena = gin_values.imported_bindings(
+      'ble_latex.arena', 'LatexBalloonArena',
+      {'start_altitude_range_m': (d['start_altitude_low_m'],
+                                  d['start_altitude_high_m']),
+       'max_start_distance_km': d['max_start_distance_km'],
+       'stride': dt.timedelta(seconds=d['stride_s'])})
+  env = gin_values.imported_bindings('ble_latex.env', 'LatexBalloonEnv',
+                                     {'episode_steps': d['episode_steps']})
+  gin_values.check_reward_values(latex, ble)
+  if 'ble_latex.balloon' in sys.modules:
+    flight = flight_params_lib.flight_params_from_gin()
+  else:
+    # flight_params_from_gin imports ble_latex.balloon (BLE's balloon,
+    # TensorFlow) to register create_state / LatexBalloon; unimported, they
+    # have no bindings. AltitudeController (ble_latex.controller, light) may.
+    # TODO(flight/params.py): gin_overrides skipping unregistered
+    # configurables instead of importing them makes this branch the call.
+    overrides = {}
+    for configurable, names in flight_params_lib._GIN_NAMES.items():  # pylint: disable=protected-access
+      bindings = gin_values.registered_bindings(configurable)
+      overrides.update({arg: bindings[name] for name, arg in names.items()
+                        if name in bindings})
+    flight = flight_params_lib.make_flight_params(**overrides)
   low, high = arena['start_altitude_range_m']
   return EnvParams(
-      flight=flight_params_lib.flight_params_from_gin(),
+      flight=flight,
       decoder=generative.decoder_params(),
       radius_km=float(ble['station_keeping_radius_km']),
       reward_dropoff=float(ble['reward_dropoff']),

@@ -16,14 +16,12 @@ This module adds only the optional resource penalty (default off, as in the
 paper).
 """
 
-import inspect
-import math
-from typing import Any, Callable, Dict
-
 from balloon_learning_environment.env import balloon_env
 from balloon_learning_environment.env import simulator_data
 from balloon_learning_environment.env.balloon import control
 import gin
+
+from ble_latex import gin_values
 
 
 @gin.configurable
@@ -56,32 +54,10 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
           sand_penalty_per_kg * sand_dropped_kg)
 
 
-def effective_bindings(function: Callable[..., Any]) -> Dict[str, Any]:
-  """A gin configurable's keyword defaults overridden by its gin bindings."""
-  target = inspect.unwrap(function)
-  values = {name: p.default for name, p in
-            inspect.signature(target).parameters.items()
-            if p.default is not inspect.Parameter.empty}
-  values.update(gin.get_bindings(function))
-  return values
-
-
-def _require(ok: bool, binding: str, requirement: str, value: Any) -> None:
-  if not ok:
-    raise ValueError(f'gin binding {binding} must be {requirement}, got '
-                     f'{value!r}: the reward would leave its declared range '
-                     '(-inf, 1]')
-
-
-def _is_number(value: Any) -> bool:
-  return (isinstance(value, (int, float)) and not isinstance(value, bool) and
-          math.isfinite(value))
-
-
-def _check_penalties(**penalties: Any) -> None:
-  for name, value in penalties.items():
-    _require(_is_number(value) and value >= 0, f'latex_reward.{name}',
-             'a finite number >= 0', value)
+# The gin-reading helpers live in the light `ble_latex.gin_values` (the JAX
+# env reads these bindings without importing this module); kept here by name.
+effective_bindings = gin_values.effective_bindings
+_check_penalties = gin_values.check_penalties
 
 
 def check_config() -> None:
@@ -94,16 +70,6 @@ def check_config() -> None:
   Raises:
     ValueError: Naming the first gin binding that breaks the contract.
   """
-  _check_penalties(**{k: v for k, v in effective_bindings(latex_reward).items()
-                      if k.endswith('_penalty_per_mol') or
-                      k.endswith('_penalty_per_kg')})
-  ble = effective_bindings(balloon_env.perciatelli_reward_function)
-  prefix = 'perciatelli_reward_function.'
-  for name in ('station_keeping_radius_km', 'reward_halflife'):
-    if name in ble:
-      _require(_is_number(ble[name]) and ble[name] > 0, prefix + name,
-               'a finite number > 0', ble[name])
-  if 'reward_dropoff' in ble:
-    value = ble['reward_dropoff']
-    _require(_is_number(value) and 0 <= value <= 1, prefix + 'reward_dropoff',
-             'in [0, 1]', value)
+  gin_values.check_reward_values(
+      effective_bindings(latex_reward),
+      effective_bindings(balloon_env.perciatelli_reward_function))

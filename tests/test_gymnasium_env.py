@@ -15,6 +15,7 @@ import pytest
 
 from ble_latex import gymnasium_env
 from ble_latex import gymnasium_registration
+from ble_latex import host_env
 from ble_latex import quiet
 
 ID = 'ble_latex/LatexBalloon-v0'
@@ -70,7 +71,10 @@ def test_make_gives_gymnasium_envs(env, discrete_env):
   assert isinstance(env.unwrapped, gymnasium_env.LatexBalloonGymnasiumEnv)
   assert isinstance(discrete_env.unwrapped,
                     gymnasium_env.LatexBalloonDiscreteGymnasiumEnv)
-  assert isinstance(env.unwrapped.gym_env, gym.Env)  # The shared simulation.
+  # The continuous env flies the core's driver (as the gym env's arena does);
+  # the discrete one owns BLE's gym env.
+  assert isinstance(env.unwrapped.driver, host_env.FlightDriver)
+  assert isinstance(discrete_env.unwrapped.gym_env, gym.Env)
   assert env.action_space == gymnasium.spaces.Box(
       np.array([14000, 1, -1], np.float32), np.array([21000, 5, 1], np.float32))
   assert env.observation_space == gymnasium.spaces.Box(-1, 1, (71,),
@@ -155,36 +159,6 @@ def test_time_limit_is_truncation():
   assert env.step(action)[2:4] == (False, True)
 
 
-class _ScriptedGymEnv:
-  """Stands in for the gym env: returns scripted (done, info) pairs."""
-
-  observation_space = gym.spaces.Box(-1, 1, (2,), np.float32)
-  action_space = gym.spaces.Discrete(3)
-  outcomes = []
-
-  def __init__(self, **unused_kwargs):
-    self.radius = None
-
-  def reset(self, seed=None, return_info=False):
-    del seed, return_info
-    return np.zeros(2, np.float32), {}
-
-  def step(self, action):
-    del action
-    done, info = self.outcomes.pop(0)
-    return np.zeros(2, np.float32), 1.0, done, info
-
-  def close(self):
-    pass
-
-
-class _ScriptedEnv(gymnasium_env.LatexBalloonGymnasiumEnv):
-  _GYM_ENV_CLASS = _ScriptedGymEnv
-
-  def _flight_point(self):
-    return (0.0, 0.0, 0.0, 0.0)
-
-
 @pytest.mark.parametrize('done, info, expected', [
     (False, {}, (False, False)),
     (True, {'terminal_reason': 'out_of_sand'}, (True, False)),
@@ -194,12 +168,21 @@ class _ScriptedEnv(gymnasium_env.LatexBalloonGymnasiumEnv):
      (True, False)),
 ])
 def test_done_maps_to_terminated_or_truncated(done, info, expected):
-  _ScriptedGymEnv.outcomes = [(done, info)]
-  env = _ScriptedEnv()
-  env.reset(seed=0)
-  _, _, terminated, truncated, out_info = env.step(0)
+  terminated, truncated, out_info = gymnasium_env._split_done(done, info)  # pylint: disable=protected-access
   assert (terminated, truncated) == expected
   assert 'TimeLimit.truncated' not in out_info
+
+
+def test_step_after_the_end_raises():
+  env = gymnasium.make(ID, episode_steps=2)
+  env.reset(seed=1)
+  action = np.array([17000.0, 1.0, 1.0])
+  env.step(action)
+  assert env.step(action)[3]
+  with pytest.raises(RuntimeError, match='reset'):
+    env.step(action)
+  with pytest.raises(ValueError, match='a0'):  # Checked as the gym env does.
+    env.step(np.array([30000.0, 1.0, 1.0]))
 
 
 # -- normalize_actions. -------------------------------------------------------
@@ -274,22 +257,25 @@ def test_gymnasium_and_sb3_env_checkers(env_id, normalize):
 
 
 # -- Vector envs. -------------------------------------------------------------
-def test_make_vec_steps_all_balloons():
+def test_make_vec_is_the_batched_core_and_discrete_is_sync():
+  """make_vec's default: one batched env (ID), SyncVectorEnv (DISCRETE_ID)."""
+  from ble_latex import gymnasium_vector  # pylint: disable=g-import-not-at-top
   envs = gymnasium.make_vec(ID, num_envs=3, normalize_actions=True)
+  assert isinstance(envs, gymnasium_vector.LatexBalloonVectorEnv)
   assert envs.num_envs == 3
   assert envs.single_action_space == gymnasium.spaces.Box(-1, 1, (3,),
                                                           np.float32)
-  obs, info = envs.reset(seed=7)
-  assert obs.shape == (3, 71)
-  single = gymnasium.make(ID, normalize_actions=True)
-  np.testing.assert_array_equal(obs[2], single.reset(seed=9)[0])  # seed + i
-  actions = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 1.0]],
-                     np.float32)
-  obs, reward, terminated, truncated, _ = envs.step(actions)
-  assert obs.shape == (3, 71) and reward.shape == (3,)
-  assert not terminated.any() and not truncated.any()
-  np.testing.assert_array_equal(obs[2], single.step(actions[2])[0])
+  assert envs.action_space.shape == (3, 3)
+  assert envs.observation_space.shape == (3, 71)
   envs.close()
+  with pytest.raises(gymnasium.error.Error, match='vector_kwargs'):
+    gymnasium.make_vec(ID, num_envs=2, vector_kwargs={'copy': False})
+  sync = gymnasium.make_vec(ID, num_envs=2, vectorization_mode='sync')
+  assert isinstance(sync, gymnasium.vector.SyncVectorEnv)
+  sync.close()
+  discrete = gymnasium.make_vec(DISCRETE_ID, num_envs=1)
+  assert isinstance(discrete, gymnasium.vector.SyncVectorEnv)
+  discrete.close()
 
 
 def test_forked_worker_fails_loudly_instead_of_hanging(monkeypatch):
@@ -362,11 +348,27 @@ def test_first_make_is_quiet():
           "env = gymnasium.make('ble_latex/LatexBalloon-v0')\n"
           "print(f'{time.perf_counter() - t:.1f}')\n"
           'env.reset(seed=0)\n'
-          'env.step(env.action_space.sample())\n')
+          'env.step(env.action_space.sample())\n'
+          "import sys; print('tensorflow' in sys.modules)\n")
   result = _python(code, TF_CPP_MIN_LOG_LEVEL=None, JAX_PLATFORMS=None)
   assert result.returncode == 0, result.stderr
   assert result.stderr == ''
-  print('time to first gymnasium.make [s]:', result.stdout.strip())
+  made_s, tensorflow = result.stdout.split()
+  assert tensorflow == 'False'  # Not needed by the continuous env.
+  print('time to first gymnasium.make [s]:', made_s)
+
+
+def test_make_and_make_vec_import_no_tensorflow():
+  """The continuous env and its vector env need neither BLE's env nor TF."""
+  code = ('import sys, ble_latex, gymnasium\n'
+          f'gymnasium.make({ID!r}, normalize_actions=True)\n'
+          f'gymnasium.make_vec({ID!r}, num_envs=2)\n'
+          "heavy = [m for m in ('tensorflow', 'ble_latex.env', 'ble_latex."
+          "balloon', 'balloon_learning_environment.env.balloon_env') "
+          'if m in sys.modules]\n'
+          'assert not heavy, heavy\n')
+  result = _python(code, timeout=120)
+  assert result.returncode == 0, result.stderr[-3000:]
 
 
 def test_quiet_passes_other_output_through(capfd):

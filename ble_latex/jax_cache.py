@@ -1,0 +1,66 @@
+# coding=utf-8
+"""JAX's persistent compilation cache for the latex envs: a fast second start.
+
+The env's jitted functions (one balloon's draw/measure/observation/step and
+the batched vector env's) take 20-60 s to compile on a small CPU, every
+process. `enable()` points JAX's own persistent compilation cache
+(`jax_compilation_cache_dir`, keyed by the compiled program, JAX version,
+backend and flags) at a per-user directory, so a new process loads them from
+disk instead (it still traces them, ~2-5 s).
+
+Process-wide: once set, every jit compilation of the process that takes
+longer than `jax_persistent_cache_min_compile_time_secs` (1 s) is cached
+there. It is left alone when the process already chose a cache directory
+(`jax.config.update('jax_compilation_cache_dir', ...)` or
+$JAX_COMPILATION_CACHE_DIR). $BLE_LATEX_JAX_CACHE=0 turns it off;
+$BLE_LATEX_JAX_CACHE_DIR sets the directory (default
+$XDG_CACHE_HOME/ble_latex/jax or ~/.cache/ble_latex/jax, mode 0700: JAX
+trusts what it loads from there).
+"""
+
+import importlib.util
+import os
+from typing import Optional
+
+ENV_SWITCH = 'BLE_LATEX_JAX_CACHE'
+ENV_DIR = 'BLE_LATEX_JAX_CACHE_DIR'
+# Size bound of the directory we create (JAX evicts least recently used
+# entries, and locks the directory while reading and writing, so concurrent
+# processes never read a half-written entry).
+MAX_SIZE_BYTES = 2 * 1024**3
+
+
+def default_dir() -> str:
+  base = os.environ.get('XDG_CACHE_HOME') or os.path.join(
+      os.path.expanduser('~'), '.cache')
+  return os.path.join(base, 'ble_latex', 'jax')
+
+
+def enabled_by_env() -> bool:
+  return os.environ.get(ENV_SWITCH, '1').strip().lower() not in (
+      '0', 'false', 'no', 'off')
+
+
+def enable() -> Optional[str]:
+  """Turns on JAX's persistent compilation cache unless chosen already.
+
+  Returns:
+    The cache directory in use (the process's own if it set one), or None
+    when switched off or the directory cannot be created.
+  """
+  import jax  # pylint: disable=g-import-not-at-top
+  current = jax.config.jax_compilation_cache_dir
+  if current:
+    return current
+  if not enabled_by_env():
+    return None
+  path = os.environ.get(ENV_DIR) or default_dir()
+  try:
+    os.makedirs(path, mode=0o700, exist_ok=True)
+  except OSError:
+    return None
+  jax.config.update('jax_compilation_cache_dir', path)
+  if (jax.config.jax_compilation_cache_max_size == -1 and
+      importlib.util.find_spec('filelock') is not None):
+    jax.config.update('jax_compilation_cache_max_size', MAX_SIZE_BYTES)
+  return path

@@ -1,0 +1,218 @@
+"""make_vec('ble_latex/LatexBalloon-v0'): N balloons in one batched core call."""
+
+import datetime as dt
+
+import gymnasium
+from gymnasium.utils import seeding
+from gymnasium.vector.vector_env import AutoresetMode
+import jax
+import numpy as np
+import pytest
+
+from ble_latex import gymnasium_vector
+from ble_latex import host_env
+from ble_latex.flight import state as state_lib
+
+ID = 'ble_latex/LatexBalloon-v0'
+N = 3
+STEPS = 2  # Short episodes: the time limit ends them at the second step.
+ACTIONS = np.array([[17000.0, 1.0, 1.0], [15000.0, 1.0, -1.0],
+                    [20000.0, 3.0, -1.0]])
+TOL = dict(rtol=1e-5, atol=1e-5)
+
+
+@pytest.fixture(scope='module')
+def single():
+  """The single env (default params: shares the other tests' compilations)."""
+  e = gymnasium.make(ID)
+  yield e
+  e.close()
+
+
+@pytest.fixture(scope='module')
+def envs():
+  e = gymnasium.make_vec(ID, num_envs=N, episode_steps=STEPS)
+  yield e
+  e.close()
+
+
+def _flight(single, seed, steps):
+  """obs/reward/info of the single env's flight of `seed` (per balloon)."""
+  obs, info = single.reset(seed=int(seed))
+  out = [(obs, None, info)]
+  for action in ACTIONS[:steps]:
+    obs, reward, _, _, info = single.step(action)
+    out.append((obs, reward, info))
+  return out
+
+
+def _check_info(vector_info, i, info, mask_key=True):
+  for key, value in info.items():
+    assert vector_info[f'_{key}'][i] == mask_key, key
+    got = vector_info[key][i]
+    if isinstance(value, float):
+      np.testing.assert_allclose(got, value, err_msg=key, **TOL)
+    else:
+      assert got == value, (key, got, value)
+
+
+def test_equals_per_balloon_flights_and_autoresets(envs, single):
+  """Balloon i flies seed s + i as the single env; time limit -> new flight."""
+  assert isinstance(envs, gymnasium_vector.LatexBalloonVectorEnv)
+  assert envs.metadata['autoreset_mode'] == AutoresetMode.SAME_STEP
+  obs0, info0 = envs.reset(seed=7)
+  assert obs0.shape == (N, 71) and obs0.dtype == np.float32
+  assert envs.observation_space.contains(obs0)
+  outs = []
+  for _ in range(STEPS):
+    outs.append(envs.step(ACTIONS))
+  # Same action per balloon at both steps (row i of ACTIONS).
+  for i in range(N):
+    ref_obs, ref_info = single.reset(seed=7 + i)
+    np.testing.assert_allclose(obs0[i], ref_obs, **TOL)
+    _check_info(info0, i, ref_info)
+    for step, (obs, reward, terminated, truncated, info) in enumerate(outs):
+      ref_obs, ref_reward, ref_term, _, ref_info = single.step(ACTIONS[i])
+      assert reward.dtype == np.float64 and reward.shape == (N,)
+      np.testing.assert_allclose(reward[i], ref_reward, **TOL)
+      assert not terminated[i] and not ref_term
+      if step < STEPS - 1:
+        np.testing.assert_allclose(obs[i], ref_obs, **TOL)
+        _check_info(info, i, ref_info)
+        assert not truncated[i] and 'final_obs' not in info
+      else:  # Time limit: truncated, the new flight is in obs and info.
+        assert truncated[i]
+        assert info['_final_obs'][i] and info['_final_info'][i]
+        np.testing.assert_allclose(info['final_obs'][i], ref_obs, **TOL)
+        ref_info = dict(ref_info, time_limit=True)  # Core limit (2), not 216.
+        _check_info(info['final_info'], i, ref_info)
+  # The new flights' seeds come from np_random (seeded by reset(seed=7)) among
+  # the training seeds, as the single env's unseeded resets.
+  drawn = seeding.np_random(7)[0].integers(1_000_000, size=N)
+  np.testing.assert_array_equal(envs.unwrapped.episode_seeds, drawn)
+  obs, info = outs[-1][0], outs[-1][4]
+  for i in range(N):
+    ref_obs, ref_info = single.reset(seed=int(drawn[i]))
+    np.testing.assert_allclose(obs[i], ref_obs, **TOL)
+    _check_info(info, i, ref_info)
+  # One compilation of the batched step (no retrace on the new state).
+  assert envs.unwrapped._core.step._cache_size() == 1  # pylint: disable=protected-access
+
+
+def test_unseeded_resets_are_reproducible_training_seeds(envs):
+  def starts():
+    first, _ = envs.reset(seed=3)
+    seeds = [envs.unwrapped.episode_seeds.copy()]
+    envs.reset()
+    seeds.append(envs.unwrapped.episode_seeds.copy())
+    return first, seeds
+  first, seeds1 = starts()
+  again, seeds2 = starts()
+  np.testing.assert_array_equal(first, again)
+  np.testing.assert_array_equal(seeds1[0], [3, 4, 5])
+  np.testing.assert_array_equal(seeds1[1], seeds2[1])
+  assert np.all((seeds1[1] >= 0) & (seeds1[1] < 1_000_000))
+
+
+@pytest.mark.parametrize('bad, match', [
+    (np.zeros((N - 1, 3)), r'shape \(3, 3\)'),
+    (np.zeros(3), r'shape \(3, 3\)'),
+    (np.full((N, 3), 'a'), 'numbers'),
+    (ACTIONS + [[0, 0, 0], [0, np.nan, 0], [0, 0, 0]],
+     r'actions\[1\] a1 \(time factor\) must be finite'),
+    (ACTIONS + [[0, 0, 0], [0, 0, 0], [2000, 0, 0]],
+     r'actions\[2\] a0 \(desired altitude \[m\]\) must be in \[14000, 21000\]'),
+])
+def test_bad_actions_raise_and_change_nothing(envs, bad, match):
+  envs.reset(seed=0)
+  state = envs.unwrapped.state
+  elapsed = envs.unwrapped._elapsed.copy()  # pylint: disable=protected-access
+  with pytest.raises(ValueError, match=match):
+    envs.step(bad)
+  assert envs.unwrapped.state is state
+  np.testing.assert_array_equal(envs.unwrapped._elapsed, elapsed)  # pylint: disable=protected-access
+
+
+def test_normalize_actions_maps_like_the_single_env(single):
+  norm = gymnasium_vector.LatexBalloonVectorEnv(N, normalize_actions=True)
+  one = gymnasium.make(ID, normalize_actions=True).unwrapped
+  a = np.array([[0.5, -1.0, -0.2], [1.0, 1.0, 1.0], [-1.0, 0.0, 0.0]])
+  np.testing.assert_allclose(norm.box_actions(a),
+                             np.stack([one.box_action(x) for x in a]))
+  with pytest.raises(ValueError, match=r'normalize_actions=True.*1\.5'):
+    norm.box_actions(a * 1.5)
+  del single
+
+
+def test_reset_refuses_bad_seeds_and_options(envs):
+  for seed in (-1, 1.5, 'a', 2**32 - 2):  # 2**32 - 2 + i overflows for i = 2.
+    with pytest.raises(ValueError, match='seed'):
+      envs.reset(seed=seed)
+  with pytest.raises(ValueError, match='options'):
+    envs.reset(seed=0, options={'x': 1})
+  with pytest.raises(ValueError, match='render'):
+    gymnasium_vector.LatexBalloonVectorEnv(2, render_mode='rgb_array')
+
+
+def test_keys_of_large_seeds_match_the_host_keys():
+  """reset derives PRNGKey(seed) inside jit from uint32 seeds: same keys."""
+  seeds = np.array([0, 7, 2**31 + 5, 2**32 - 1], np.uint32)
+  traced = jax.jit(jax.vmap(jax.random.PRNGKey))(seeds)
+  host = np.stack([np.asarray(jax.random.PRNGKey(int(s))) for s in seeds])
+  np.testing.assert_array_equal(np.asarray(traced), host)
+
+
+def _random_raw(rng, n):
+  """Plausible step_info numbers of n balloons (every status and decision)."""
+  statuses = [int(s) for s in state_lib.FlightStatus]
+  decisions = [int(d) for d in state_lib.DecisionCode]
+  status = rng.choice(statuses, n).astype(np.int32)
+  time_limit = rng.random(n) < 0.3
+  raw = {k: rng.random(n).astype(np.float32) * 100 for k in (
+      'distance_km', 'altitude_m', 'ascent_rate_mps', 'helium_mols', 'sand_kg',
+      'helium_vented_mols', 'sand_dropped_kg', 'volume_m3')}
+  raw.update(status=status, decision=rng.choice(decisions, n).astype(np.int32),
+             time_s=(rng.integers(0, 3, n) * 1200.0).astype(np.float32),
+             steps=rng.integers(0, 3, n).astype(np.int32),
+             time_limit=time_limit, truncated=time_limit & (status == 0))
+  return raw
+
+
+def test_info_arrays_are_info_dict_per_balloon():
+  """The batched info is host_env.info_dict of every balloon (one source)."""
+  rng = np.random.default_rng(0)
+  raw = _random_raw(rng, 64)
+  mask = rng.random(64) < 0.5
+  out = gymnasium_vector.info_arrays(raw, mask)
+  for i in range(64):
+    expected = host_env.info_dict({k: v[i] for k, v in raw.items()})
+    expected.pop('TimeLimit.truncated', None)
+    assert {k for k in out if not k.startswith('_')} == set(expected)
+    for key, value in expected.items():
+      assert out[f'_{key}'][i] == mask[i]
+      assert out[key][i] == value, (key, i)
+      assert type(out[key][i]) in (type(value), np.float64, np.bool_)
+  assert out['distance_km'].dtype == np.float64
+  assert out['time_limit'].dtype == bool
+  assert isinstance(out['time_elapsed'][0], dt.timedelta)
+
+
+@pytest.mark.slow
+def test_partial_resets_chunked_and_selected(monkeypatch, single):
+  """Only the ended balloons get new flights (both reset paths)."""
+  envs = gymnasium_vector.LatexBalloonVectorEnv(N, episode_steps=STEPS)
+  for chunk in (N, 2):  # N: whole batch + select; 2: padded chunk + scatter.
+    monkeypatch.setattr(gymnasium_vector, 'RESET_CHUNK', chunk)
+    before, _ = envs.reset(seed=20)
+    ended = np.array([False, True, False])
+    obs, raw = envs._reset_some(ended, np.array([42]))  # pylint: disable=protected-access
+    np.testing.assert_allclose(obs[0], single.reset(seed=42)[0], **TOL)
+    assert raw['steps'].shape == (1,)
+    state = jax.device_get(envs.state)
+    start_x = np.asarray(state.flight.x_m)
+    for i, seed in ((0, 20), (1, 42), (2, 22)):
+      single.reset(seed=seed)
+      np.testing.assert_allclose(
+          start_x[i], float(single.unwrapped.driver.state.flight.x_m),
+          rtol=1e-6)
+    del before
