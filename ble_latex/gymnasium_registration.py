@@ -10,7 +10,10 @@ gymnasium is imported, or at once if gymnasium already is. So both orders work:
   gymnasium.register_envs(ble_latex)      # optional; keeps linters quiet
   env = gymnasium.make('ble_latex/LatexBalloon-v0')
 
-String entry points: the env modules (BLE, TensorFlow, JAX) load on `make`.
+String entry points: the env modules load on `make` (JAX and the flight core;
+BLE's env modules and TensorFlow only for the discrete id). `make_vec` of the
+continuous id is one batched env (`gymnasium_vector.LatexBalloonVectorEnv`),
+of the discrete id a `SyncVectorEnv`.
 """
 
 NAMESPACE = 'ble_latex'
@@ -21,7 +24,8 @@ ENV_IDS = {
     f'{NAMESPACE}/LatexBalloonDiscrete-v0':
         f'{_MODULE}:LatexBalloonDiscreteGymnasiumEnv',
 }
-# env id -> vector entry point (`gymnasium.make_vec`'s default mode).
+# env id -> vector entry point (`gymnasium.make_vec`'s default mode): the
+# batched core for the continuous id, a SyncVectorEnv for the discrete one.
 VECTOR_ENTRY_POINTS = {
     f'{NAMESPACE}/LatexBalloon-v0': f'{_MODULE}:make_vector_latex_balloon',
     f'{NAMESPACE}/LatexBalloonDiscrete-v0':

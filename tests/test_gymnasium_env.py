@@ -438,3 +438,54 @@ def test_sb3_sac_trains_and_evaluates_with_eval_json(tmp_path, capsys):
     example.main(['--suite=nope'])
   assert exit_info.value.code == 2
   assert 'latex_tiny' in capsys.readouterr().err
+
+
+_PARAMS_FROM_GIN = '''
+import sys
+import ble_latex, gin, jax, numpy as np
+from ble_latex import jax_env
+
+def same(a, b):
+  leaves = jax.tree.map(lambda x, y: bool(np.array_equal(x, y)), a, b)
+  return (jax.tree.structure(a) == jax.tree.structure(b) and
+          all(jax.tree.leaves(leaves)))
+
+light = jax_env.params_from_gin()
+# AltitudeController (light module) can be bound without ble_latex.balloon.
+import ble_latex.controller
+gin.parse_config('AltitudeController.min_vent_mols = 0.3')
+assert float(jax_env.params_from_gin().flight.min_vent_mols) == np.float32(0.3)
+heavy = [m for m in ('tensorflow', 'ble_latex.env', 'ble_latex.balloon')
+         if m in sys.modules]
+assert not heavy, heavy
+gin.clear_config()
+import ble_latex.env  # Registers every configurable (and imports BLE, TF).
+assert same(light, jax_env.params_from_gin()), 'defaults differ'
+gin.parse_config([
+    'LatexBalloonEnv.episode_steps = 7',
+    'LatexBalloonArena.start_altitude_range_m = (16000.0, 17000.0)',
+    'LatexBalloonArena.max_start_distance_km = 100.0',
+    'create_state.payload_kg = 2.5',
+    'latex_reward.sand_penalty_per_kg = 0.5',
+    'balloon_env.perciatelli_reward_function.reward_dropoff = 0.3',
+])
+p = jax_env.params_from_gin()
+print(p.episode_steps, p.start_altitude_low_m, p.start_altitude_high_m,
+      p.max_start_distance_km, float(p.flight.payload_kg),
+      p.sand_penalty_per_kg, p.reward_dropoff)
+gin.parse_config('latex_reward.sand_penalty_per_kg = -1.0')
+try:
+  jax_env.params_from_gin()
+except ValueError as e:
+  print('refused:', 'latex_reward.sand_penalty_per_kg' in str(e))
+'''
+
+
+def test_params_from_gin_without_the_gym_modules():
+  """Unimported configurables read as defaults; imported ones as bound."""
+  result = _python(_PARAMS_FROM_GIN, timeout=300)
+  assert result.returncode == 0, result.stderr[-3000:]
+  lines = result.stdout.strip().splitlines()
+  assert lines[-2].split() == ['7', '16000.0', '17000.0', '100.0', '2.5',
+                               '0.5', '0.3']
+  assert lines[-1] == 'refused: True'
