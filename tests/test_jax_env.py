@@ -76,7 +76,7 @@ def _fly_golden(source):
 
 def test_gym_env_is_the_batched_env():
   """`gym.make('LatexBalloon-v0')` flies the core: same world, same steps."""
-  _, params, batch_reset, batch_step = _setup()
+  env, params, batch_reset, batch_step = _setup()
   seeds = [0, 7, 1_000_003]
   keys = _keys(seeds)
   obs, state = batch_reset(keys, params)
@@ -100,11 +100,23 @@ def test_gym_env_is_the_batched_env():
       gym_obs[i].append(o)
       gym_rewards[i].append(r)
   batch_obs = np.stack(batch_obs, 1)
-  # The same jitted code; vmapped vs one balloon may round differently
-  # (XLA fuses them differently): float32 rounding, no more.
-  np.testing.assert_allclose(np.array(gym_obs), batch_obs, atol=2e-6, rtol=0)
+  # The same code. Batched, XLA decodes the VAE forecasts with
+  # matrix-matrix kernels (another float32 summation order, <= ~2e-4 m/s
+  # of wind, see wind.generative), so features differ by <= ~1e-4.
+  np.testing.assert_allclose(np.array(gym_obs), batch_obs, atol=1e-4, rtol=0)
   np.testing.assert_allclose(np.array(gym_rewards),
-                             np.stack(batch_rewards, 1), atol=2e-6, rtol=0)
+                             np.stack(batch_rewards, 1), atol=1e-5, rtol=0)
+  # One balloon of the functional env, jitted alone: the gym env's numbers.
+  reset, step = jax.jit(env.reset), jax.jit(env.step_env)
+  for i, seed in enumerate(seeds):
+    obs, one = reset(jax.random.PRNGKey(seed), params)
+    single = [np.asarray(obs)]
+    for t in range(4):
+      obs, one, _, _, _ = step(keys[i], one, np.roll(actions, t, axis=0)[i],
+                               params)
+      single.append(np.asarray(obs))
+    np.testing.assert_allclose(np.array(gym_obs[i]), np.array(single),
+                               atol=1e-6, rtol=0, err_msg=f'seed {seed}')
   s = gym_env.arena.get_balloon_state()
   assert s.x.meters == pytest.approx(float(state.flight.x_m[2]), abs=0.05)
 
