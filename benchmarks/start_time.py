@@ -1,0 +1,109 @@
+"""Time to the first `gymnasium.make('ble_latex/LatexBalloon-v0')` + `reset`.
+
+Each measurement is a fresh Python process (`python -c`, nothing imported
+before) timing `import ble_latex, gymnasium`, `gymnasium.make(ID)` and the
+first `env.reset(seed=0)` (the reset compiles, or loads from JAX's persistent
+compilation cache, the env's jitted functions), and recording whether
+TensorFlow was imported. Three cases, in this order:
+
+- cold: an empty compilation cache directory (the very first start);
+- warm: the same directory again (every later start), `--repeats` times;
+- vector: `gymnasium.make_vec(ID, num_envs=--num_envs)` + `reset`, warm.
+
+The machine's load average (`os.getloadavg`) is recorded before and after
+each run: on a shared machine it explains most of the spread.
+
+  python benchmarks/start_time.py --repeats 5 --json benchmarks/start_time.json
+"""
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+
+ID = 'ble_latex/LatexBalloon-v0'
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+_CHILD = '''
+import time
+t0 = time.perf_counter()
+import ble_latex, gymnasium
+t1 = time.perf_counter()
+if {num_envs}:
+  env = gymnasium.make_vec({id!r}, num_envs={num_envs})
+else:
+  env = gymnasium.make({id!r})
+t2 = time.perf_counter()
+env.reset(seed=0)
+t3 = time.perf_counter()
+import json, sys
+print(json.dumps({{'import_s': t1 - t0, 'make_s': t2 - t1, 'reset_s': t3 - t2,
+                  'total_s': t3 - t0,
+                  'tensorflow_imported': 'tensorflow' in sys.modules}}))
+'''
+
+
+def run_once(cache_dir: str, num_envs: int = 0) -> dict:
+  env = dict(os.environ, BLE_LATEX_JAX_CACHE_DIR=cache_dir)
+  env.pop('JAX_COMPILATION_CACHE_DIR', None)
+  load_before = os.getloadavg()
+  start = time.perf_counter()
+  result = subprocess.run(
+      [sys.executable, '-c', _CHILD.format(id=ID, num_envs=num_envs)],
+      env=env, cwd=REPO, capture_output=True, text=True, timeout=1200)
+  wall = time.perf_counter() - start
+  if result.returncode != 0:
+    raise RuntimeError(result.stderr[-3000:])
+  out = json.loads(result.stdout.strip().splitlines()[-1])
+  out.update(process_wall_s=wall, stderr_empty=result.stderr == '',
+             load_before=load_before[0], load_after=os.getloadavg()[0])
+  return out
+
+
+def main(argv=None) -> int:
+  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+  parser.add_argument('--repeats', type=int, default=5)
+  parser.add_argument('--num_envs', type=int, default=16)
+  parser.add_argument('--json', default='')
+  args = parser.parse_args(argv)
+  with tempfile.TemporaryDirectory(prefix='ble_latex_jax_cache_') as cache:
+    runs = {'cold': [run_once(cache)], 'warm': [], 'vector_warm': []}
+    print('cold', runs['cold'][0], flush=True)
+    for i in range(args.repeats):
+      runs['warm'].append(run_once(cache))
+      print('warm', i, runs['warm'][-1], flush=True)
+    run_once(cache, args.num_envs)  # Fills the cache for the vector env.
+    for i in range(max(1, args.repeats // 2)):
+      runs['vector_warm'].append(run_once(cache, args.num_envs))
+      print('vector warm', i, runs['vector_warm'][-1], flush=True)
+
+  def summary(rows):
+    totals = sorted(r['total_s'] for r in rows)
+    return {'min_s': totals[0], 'median_s': totals[len(totals) // 2],
+            'max_s': totals[-1], 'n': len(totals),
+            'tensorflow_imported': any(r['tensorflow_imported'] for r in rows),
+            'stderr_empty': all(r['stderr_empty'] for r in rows)}
+
+  report = {
+      'what': ('fresh process: import ble_latex, gymnasium; gymnasium.make('
+               f'{ID!r}); env.reset(seed=0)'),
+      'num_envs_vector': args.num_envs,
+      'machine': {'cpus': os.cpu_count(), 'platform': platform.platform(),
+                  'python': platform.python_version()},
+      'summary': {k: summary(v) for k, v in runs.items()},
+      'runs': runs,
+  }
+  print(json.dumps(report['summary'], indent=1))
+  if args.json:
+    with open(args.json, 'w') as f:
+      json.dump(report, f, indent=1)
+      f.write('\n')
+  return 0
+
+
+if __name__ == '__main__':
+  sys.exit(main())
