@@ -124,17 +124,100 @@ def callback_wind(wind_field: Any) -> jax_env.Wind:
   return jax_env.Wind(ground_truth, forecast_column)
 
 
+# The parts of `EnvState` a step changes (the world is fixed at reset).
+_STEP_PARTS = ('flight', 'history', 'wind_u', 'wind_v', 'steps')
+
+
+def _strong(tree: Any) -> Any:
+  """The same values without JAX weak types (one jit signature per step)."""
+  return jax.tree.map(lambda a: jnp.asarray(a, jnp.asarray(a).dtype), tree)
+
+
+class _Packed:
+  """What the host reads after a step, packed into one array (one copy).
+
+  Copying each of ~40 small arrays to the host costs more than the step
+  itself; the values are packed (losslessly: float32 values, and ints and
+  bools below 2**24) into one vector inside the jitted function and split
+  on the host.
+  """
+
+  def __init__(self, example: Any):
+    leaves, self.treedef = jax.tree.flatten(example)
+    self.shapes = [np.shape(leaf) for leaf in leaves]
+    self.dtypes = [np.dtype(leaf.dtype) for leaf in leaves]
+    floats = [d for d in self.dtypes if d.kind == 'f']
+    self.dtype = max(floats, key=lambda d: d.itemsize) if floats else (
+        np.dtype(np.float32))
+    self.ends = np.cumsum([int(np.prod(shape)) for shape in self.shapes])
+
+  def pack(self, tree: Any) -> jax.Array:
+    return jnp.concatenate([jnp.ravel(leaf).astype(self.dtype)
+                            for leaf in jax.tree.leaves(tree)])
+
+  def unpack(self, packed: Any) -> Any:
+    flat = np.asarray(packed)
+    parts = np.split(flat, self.ends[:-1])
+    return jax.tree.unflatten(self.treedef, [
+        part.reshape(shape).astype(dtype)
+        for part, shape, dtype in zip(parts, self.shapes, self.dtypes)])
+
+
 class _Jitted:
-  """The jitted functions of one `LatexBalloonJaxEnv` (one balloon)."""
+  """The jitted functions of one `LatexBalloonJaxEnv` (one balloon).
+
+  `step` returns only the state's changing parts (not a copy of the
+  forecast grid and noise tables) and, packed in one array, what the host
+  reads: observation, reward, done, `step_info`, the flight.
+  """
 
   def __init__(self, env: jax_env.LatexBalloonJaxEnv):
     self.env = env
     self.draw = jax.jit(env.draw)
-    self.measure = jax.jit(functools.partial(jax_env.measure, wind=env.wind))
-    self.observation = jax.jit(
-        functools.partial(jax_env.observation, wind=env.wind))
-    self.advance = jax.jit(env.advance)
-    self.step_info = jax.jit(jax_env.step_info)
+    self._start_jit = jax.jit(self._start)
+    self._step_jit = jax.jit(self._step)
+    self._packers: Dict[Any, _Packed] = {}
+
+  def _packer(self, name: str, fn, *args) -> _Packed:
+    key = (name, jax.tree.structure(args))
+    if key not in self._packers:
+      self._packers[key] = _Packed(jax.eval_shape(fn, *args)[1])
+    return self._packers[key]
+
+  def _start_host(self, state, params):
+    state = _strong(jax_env.measure(state, self.env.wind))
+    return state, (jax_env.observation(state, params, self.env.wind),
+                   jax_env.step_info(state, params), state.flight)
+
+  def _start(self, state: jax_env.EnvState, params: jax_env.EnvParams):
+    state, host = self._start_host(state, params)
+    return state, self._packer('start', self._start_host, state,
+                               params).pack(host)
+
+  def _step_host(self, state, action, params):
+    state, reward, done, info = self.env.advance(state, action, params)
+    parts = _strong({k: getattr(state, k) for k in _STEP_PARTS})
+    return parts, (jax_env.observation(state, params, self.env.wind), reward,
+                   done, info, state.flight)
+
+  def _step(self, state: jax_env.EnvState, action: jax.Array,
+            params: jax_env.EnvParams):
+    parts, host = self._step_host(state, action, params)
+    return parts, self._packer('step', self._step_host, state, action,
+                               params).pack(host)
+
+  def start(self, state: jax_env.EnvState, params: jax_env.EnvParams):
+    """(measured state, (observation, step_info, flight) on the host)."""
+    state, packed = self._start_jit(state, params)
+    return state, self._packer('start', self._start_host, state,
+                               params).unpack(packed)
+
+  def step(self, state: jax_env.EnvState, action: np.ndarray,
+           params: jax_env.EnvParams):
+    """(changed state parts, (obs, reward, done, info, flight) on host)."""
+    parts, packed = self._step_jit(state, action, params)
+    return parts, self._packer('step', self._step_host, state, action,
+                               params).unpack(packed)
 
 
 @functools.lru_cache(maxsize=1)
@@ -165,6 +248,10 @@ class FlightDriver:
     self.observation: Optional[np.ndarray] = None
     self.info: Dict[str, Any] = {}
     self.reward = float('nan')  # Reward of the last step.
+    # Host copy of the flight after the last reset/step, and the device
+    # state it was copied from.
+    self._flight: Any = None
+    self._flight_of: Any = None
     self.volume_m3 = float('nan')  # Envelope volume after the last step. # [m^3]
 
   def reset(self, arena_key: jax.Array) -> np.ndarray:
@@ -183,10 +270,11 @@ class FlightDriver:
       start = getattr(self.wind_field, 'start_date_time', None) or start
     self.start_date_time = start
     self.location_key = keys['location']
-    self.state = self._fns.measure(state)
-    self.observation = np.asarray(
-        self._fns.observation(self.state, self.params))
-    self._set_info(self._fns.step_info(self.state, self.params))
+    self.state, (obs, info, self._flight) = self._fns.start(state,
+                                                            self.params)
+    self._flight_of = self.state.flight
+    self.observation = np.asarray(obs)
+    self._set_info(info)
     return self.observation
 
   def step(self, action: np.ndarray) -> Tuple[np.ndarray, float, bool,
@@ -199,24 +287,24 @@ class FlightDriver:
     """
     if self.state is None:
       raise RuntimeError('reset() must be called before step()')
-    action = jnp.asarray(np.asarray(action, np.float32))
-    state, reward, done, info = self._fns.advance(self.state, action,
-                                                  self.params)
-    self.state = state
+    parts, (obs, reward, done, info, self._flight) = self._fns.step(
+        self.state, np.asarray(action, np.float32), self.params)
+    self.state = self.state.replace(**parts)
+    self._flight_of = self.state.flight
     self.reward = float(reward)
-    self.observation = np.asarray(
-        self._fns.observation(state, self.params))
+    self.observation = np.asarray(obs)
     self._set_info(info)
-    return self.observation, float(reward), bool(done), self.info
+    return self.observation, self.reward, bool(done), self.info
 
-  def _set_info(self, info: Mapping[str, jax.Array]) -> None:
-    raw = jax.device_get(info)
-    self.info = info_dict(raw)
-    self.volume_m3 = float(raw['volume_m3'])
+  def _set_info(self, info: Mapping[str, np.ndarray]) -> None:
+    self.info = info_dict(info)
+    self.volume_m3 = float(info['volume_m3'])
 
   def flight(self) -> Dict[str, Any]:
     """The balloon's `FlightState` as NumPy values (host copy)."""
-    flight = jax.device_get(self.state.flight)
+    flight = self._flight
+    if flight is None or self.state.flight is not self._flight_of:
+      flight = jax.device_get(self.state.flight)  # Set from outside.
     return {f.name: np.asarray(getattr(flight, f.name))
             for f in dataclasses.fields(flight)}
 

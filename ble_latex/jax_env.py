@@ -78,7 +78,8 @@ class EnvParams:
     start_altitude_low_m: Start altitude band, low edge. # [m]
     start_altitude_high_m: Start altitude band, high edge. # [m]
     max_start_distance_km: Scale of the Beta start distance. # [km]
-    episode_steps: Strides per episode (216 = 3 days). Static.
+    episode_steps: Strides per episode (216 = 3 days); traced, so a new
+      length does not recompile.
     stride_s: Simulated time per action (the arena's stride). Static. # [s]
   """
   flight: flight_params_lib.FlightParams
@@ -91,7 +92,7 @@ class EnvParams:
   start_altitude_low_m: float = 15_000.0
   start_altitude_high_m: float = 20_000.0
   max_start_distance_km: float = 200.0
-  episode_steps: int = flax.struct.field(pytree_node=False, default=216)
+  episode_steps: int = 216
   stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
 
 
