@@ -22,7 +22,6 @@ from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import control
 from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.env.rendering import renderer as renderer_lib
-from balloon_learning_environment.utils import units
 import gin
 import gym
 import numpy as np

@@ -29,21 +29,20 @@ ground-truth wind (forecast + noise) re-queried every <= 3 simulated minutes.
 Observations are the 71 features (`jax_features`), the reward BLE's
 Perciatelli reward minus the optional resource penalties.
 
-Differences from the gym env (which validates at its boundary): actions are
-clipped into the Box instead of raising; only BLE's generative wind field is
-supported (ERA5 files are not, yet); everything runs in the default float32
-(positions and winds agree with the float64 gym env to centimetres and
-~1e-5 m/s per query; see README).
+The gym envs (`ble_latex.env`, through `ble_latex.host_env.FlightDriver`)
+and the Gymnasium envs fly one balloon of these same functions. Differences
+from them: actions are clipped into the Box instead of raising (they
+validate at their boundary); the winds are `GENERATIVE_WIND` unless a
+`Wind` is given (the gym envs pass host callbacks to other BLE wind fields,
+e.g. ERA5); everything runs in JAX's default float32 (see README).
 """
 
 import functools
-import math
-from typing import Any, Callable, Dict, NamedTuple, Optional, Tuple
+from typing import Any, Callable, Dict, NamedTuple, Tuple
 
 import flax
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from ble_latex import jax_features
 from ble_latex.flight import atmosphere as atmosphere_lib

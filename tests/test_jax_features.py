@@ -21,7 +21,6 @@ from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import control
 from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
-import gym
 import jax
 import jax.numpy as jnp
 import numpy as np
