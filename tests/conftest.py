@@ -1,8 +1,23 @@
-"""Shared pytest setup: ble_latex is imported first so its BLE fixes apply."""
+"""Shared pytest setup: ble_latex is imported first so its BLE fixes apply.
 
+The test session shares one JAX persistent compilation cache (a fresh
+temporary directory, through $JAX_COMPILATION_CACHE_DIR, which JAX reads at
+import and the commands the tests start inherit): the flight core takes
+tens of seconds to compile on 2 cores, and the train/eval commands run as
+subprocesses would otherwise compile it again each time. Only this test
+session uses the directory; the package itself never turns the cache on.
+"""
+
+import atexit
 import os
+import shutil
+import tempfile
 
 os.environ.setdefault('TF_CPP_MIN_LOG_LEVEL', '3')
 os.environ.setdefault('JAX_PLATFORMS', 'cpu')
+if 'JAX_COMPILATION_CACHE_DIR' not in os.environ:
+  _CACHE = tempfile.mkdtemp(prefix='ble_latex_test_jax_cache_')
+  os.environ['JAX_COMPILATION_CACHE_DIR'] = _CACHE
+  atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 
 import ble_latex  # noqa: E402,F401  pylint: disable=g-import-not-at-top,unused-import
