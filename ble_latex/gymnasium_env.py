@@ -183,8 +183,8 @@ class _FlightDrawing:
 def _flight_point(driver: host_env.FlightDriver
                   ) -> Tuple[float, float, float, float]:
   """t [h], x [km], y [km], altitude [km] of the driver's balloon now."""
-  f = driver.state.flight
-  t, x, y, alt = jax.device_get((f.time_s, f.x_m, f.y_m, f.altitude_m))
+  f = driver.flight()  # The driver's host copy.
+  t, x, y, alt = f['time_s'], f['x_m'], f['y_m'], f['altitude_m']
   return (float(t) / 3600.0, float(x) / 1000.0, float(y) / 1000.0,
           float(alt) / 1000.0)
 
