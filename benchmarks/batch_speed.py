@@ -9,9 +9,13 @@ In one run, each measurement in its own fresh subprocess (own peak RSS):
   strides (`jax_env.rollout`: ground-truth wind with noise re-queried every
   <= 3 min, the 71 features and the reward at every stride). Reported: the
   first call (compile + run), then the best of --repeats timed calls;
-- `LatexBalloon-v0` (gym, one balloon) and BLE's
+- `LatexBalloon-v0` (gym, one balloon; it flies the same core) and BLE's
   `BalloonLearningEnvironment-v0` (3-minute steps) over the same simulated
-  time, measured by `benchmarks/env_speed.py`'s worker.
+  time, measured by `benchmarks/env_speed.py`'s worker;
+- `LatexBalloon-v0` before the flight core (--before_ref, the commit with
+  the NumPy model): checked out into a temporary `git worktree` and timed by
+  that commit's own `env_speed.py` worker with the same interpreter, so the
+  single-env speed-up is measured side by side too.
 Throughput is compared in simulated balloon-hours per wall second.
 
   python benchmarks/batch_speed.py --json benchmarks/batch_speed.json
@@ -24,6 +28,7 @@ import platform
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
@@ -133,12 +138,41 @@ def profile_worker(batch: int, repeats: int) -> dict:
   return result
 
 
-def _child(args) -> dict:
+def _child(args, env=None) -> dict:
   out = subprocess.run([sys.executable, *args], capture_output=True,
-                       text=True, check=False)
+                       text=True, check=False, env=env)
   if out.returncode:
     raise RuntimeError(f'{args} failed:\n{out.stderr[-3000:]}')
   return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _before_env_speed(ref: str, steps: int) -> dict:
+  """`env_speed.py --worker latex` of commit `ref`, from a temp worktree."""
+  repo = os.path.dirname(_HERE)
+  with tempfile.TemporaryDirectory() as tmp:
+    tree = os.path.join(tmp, 'before')
+    subprocess.run(['git', '-C', repo, 'worktree', 'add', '--detach', tree,
+                    ref], check=True, capture_output=True)
+    try:
+      # The editable install's import finder would find today's ble_latex
+      # first: drop it, then run the old worker with the old tree first on
+      # the path.
+      bootstrap = (
+          'import runpy, sys; '
+          'sys.meta_path[:] = [f for f in sys.meta_path '
+          'if "__editable__" not in repr(f)]; '
+          f'sys.path.insert(0, {tree!r}); '
+          'import ble_latex; '
+          f'assert ble_latex.__file__.startswith({tree!r}), ble_latex.__file__; '
+          f'sys.argv = [{os.path.join(tree, "benchmarks", "env_speed.py")!r}, '
+          f'"--worker", "latex", "--steps", "{steps}"]; '
+          'runpy.run_path(sys.argv[0], run_name="__main__")')
+      r = _child(['-c', bootstrap])
+      r['ref'] = ref
+      return r
+    finally:
+      subprocess.run(['git', '-C', repo, 'worktree', 'remove', '--force',
+                      tree], check=False, capture_output=True)
 
 
 def main() -> None:
@@ -150,6 +184,10 @@ def main() -> None:
   parser.add_argument('--gym_episodes', type=float, default=1.0,
                       help='LatexBalloon-v0 episodes; BLE flies the same '
                            'simulated time in 3-minute steps')
+  parser.add_argument('--before_ref', default='dcfa0e1',
+                      help='git commit of LatexBalloon-v0 before the flight '
+                           'core (NumPy model), timed side by side; empty: '
+                           'skip')
   parser.add_argument('--json', help='also write the results here')
   parser.add_argument('--profile_batch', type=int, default=1024,
                       help='batch size of the per-part profile (0: none)')
@@ -183,6 +221,16 @@ def main() -> None:
           f'{r["sim_hours_per_wall_s"]:.2f} simulated h/s, '
           f'{r["wall_s_per_3_days"]:.2f} s per 3 days, '
           f'peak RSS {r["peak_rss_mb"]:.0f} MB', flush=True)
+  if args.before_ref:
+    r = _before_env_speed(args.before_ref, latex_steps)
+    results['gym']['latex_before'] = r
+    ratio = (results['gym']['latex']['sim_hours_per_wall_s'] /
+             r['sim_hours_per_wall_s'])
+    results['ratio_single_env_vs_before'] = ratio
+    print(f'{r["env"]} at {args.before_ref} (NumPy model): '
+          f'{r["steps_per_s"]:.1f} steps/s, {r["wall_s_per_3_days"]:.2f} s '
+          f'per 3 days; the core-backed env is {ratio:.1f}x faster',
+          flush=True)
   best = max(results['jax'], key=lambda r: r['sim_hours_per_wall_s'])
   for name in ('latex', 'ble'):
     ratio = best['sim_hours_per_wall_s'] / results['gym'][name][
