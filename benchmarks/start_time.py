@@ -48,7 +48,8 @@ print(json.dumps({{'import_s': t1 - t0, 'make_s': t2 - t1, 'reset_s': t3 - t2,
 
 
 def run_once(cache_dir: str, num_envs: int = 0) -> dict:
-  env = dict(os.environ, BLE_LATEX_JAX_CACHE_DIR=cache_dir)
+  env = dict(os.environ, BLE_LATEX_JAX_CACHE='1',
+             BLE_LATEX_JAX_CACHE_DIR=cache_dir)
   env.pop('JAX_COMPILATION_CACHE_DIR', None)
   load_before = os.getloadavg()
   start = time.perf_counter()

@@ -61,9 +61,10 @@ with quiet.third_party_noise():
   from ble_latex import jax_env
   # pylint: enable=g-import-not-at-top
 
-# The envs' compiled functions are loaded from disk after the first process
-# (process-wide; see ble_latex.jax_cache, $BLE_LATEX_JAX_CACHE=0 turns it off).
-jax_cache.enable()
+# With $BLE_LATEX_JAX_CACHE=1 the envs' compiled functions are loaded from
+# disk after the first process (process-wide, so only on request; see
+# ble_latex.jax_cache).
+jax_cache.enable_if_requested()
 
 
 # Set in a child forked from a process whose JAX had started (see

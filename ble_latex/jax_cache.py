@@ -1,5 +1,5 @@
 # coding=utf-8
-"""JAX's persistent compilation cache for the latex envs: a fast second start.
+"""JAX's persistent compilation cache for the latex envs, on request.
 
 The env's jitted functions (one balloon's draw/measure/observation/step and
 the batched vector env's) take 20-60 s to compile on a small CPU, every
@@ -8,14 +8,15 @@ process. `enable()` points JAX's own persistent compilation cache
 backend and flags) at a per-user directory, so a new process loads them from
 disk instead (it still traces them, ~2-5 s).
 
-Process-wide: once set, every jit compilation of the process that takes
-longer than `jax_persistent_cache_min_compile_time_secs` (1 s) is cached
-there. It is left alone when the process already chose a cache directory
+Opt-in, because it is process-wide (every jit compilation of the process
+longer than `jax_persistent_cache_min_compile_time_secs`, 1 s, is cached
+there) and JAX runs what it loads from that directory: the envs call
+`enable()` only when $BLE_LATEX_JAX_CACHE=1; a program may call it itself.
+It is left alone when the process already chose a cache directory
 (`jax.config.update('jax_compilation_cache_dir', ...)` or
-$JAX_COMPILATION_CACHE_DIR). $BLE_LATEX_JAX_CACHE=0 turns it off;
-$BLE_LATEX_JAX_CACHE_DIR sets the directory (default
-$XDG_CACHE_HOME/ble_latex/jax or ~/.cache/ble_latex/jax, mode 0700: JAX
-trusts what it loads from there).
+$JAX_COMPILATION_CACHE_DIR). $BLE_LATEX_JAX_CACHE_DIR sets the directory
+(default $XDG_CACHE_HOME/ble_latex/jax or ~/.cache/ble_latex/jax, mode
+0700).
 """
 
 import importlib.util
@@ -37,8 +38,18 @@ def default_dir() -> str:
 
 
 def enabled_by_env() -> bool:
-  return os.environ.get(ENV_SWITCH, '1').strip().lower() not in (
-      '0', 'false', 'no', 'off')
+  """Whether the user asked for the cache ($BLE_LATEX_JAX_CACHE=1)."""
+  return os.environ.get(ENV_SWITCH, '0').strip().lower() in (
+      '1', 'true', 'yes', 'on')
+
+
+def enable_if_requested() -> Optional[str]:
+  """`enable()` when $BLE_LATEX_JAX_CACHE=1, else nothing (the envs' call).
+
+  Returns:
+    As `enable()`; None when not requested.
+  """
+  return enable() if enabled_by_env() else None
 
 
 def enable() -> Optional[str]:
@@ -46,14 +57,12 @@ def enable() -> Optional[str]:
 
   Returns:
     The cache directory in use (the process's own if it set one), or None
-    when switched off or the directory cannot be created.
+    when the directory cannot be created.
   """
   import jax  # pylint: disable=g-import-not-at-top
   current = jax.config.jax_compilation_cache_dir
   if current:
     return current
-  if not enabled_by_env():
-    return None
   path = os.environ.get(ENV_DIR) or default_dir()
   try:
     os.makedirs(path, mode=0o700, exist_ok=True)
