@@ -33,29 +33,16 @@ from ble_latex import features as latex_features
 from ble_latex import host_env
 from ble_latex import perciatelli_features
 from ble_latex import reward as reward_lib
+from ble_latex import seeds
 from ble_latex.wind import ble_field
 
 # Info keys at every step (see README, "Environment contract").
 INFO_KEYS = host_env.INFO_KEYS
 
 
-MAX_SEED = 2**32  # Exclusive; BLE's PRNGKey(seed) aliases larger seeds.
-
-
-def validate_seed(seed: Any) -> None:
-  """Raises ValueError unless `seed` is None or an int in [0, 2**32).
-
-  `jax.random.PRNGKey` takes seeds modulo 2**32 (so 2**32 + s would silently
-  fly seed s) and overflows at 2**64; gym's seeding refuses negative seeds.
-  """
-  if seed is None:
-    return
-  if isinstance(seed, (bool, np.bool_)) or not isinstance(
-      seed, (int, np.integer)):
-    raise ValueError(f'seed must be None or an int in [0, 2**32), got '
-                     f'{seed!r} ({type(seed).__name__})')
-  if not 0 <= int(seed) < MAX_SEED:
-    raise ValueError(f'seed must be in [0, 2**32), got {seed}')
+# One seed check for every env (`ble_latex.seeds`).
+MAX_SEED = seeds.MAX_SEED
+validate_seed = seeds.validate_seed
 
 
 def validate_discrete_action(action: Any) -> int:

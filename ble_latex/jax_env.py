@@ -428,20 +428,7 @@ def params_from_gin() -> EnvParams:
   env = gin_values.imported_bindings('ble_latex.env', 'LatexBalloonEnv',
                                      {'episode_steps': d['episode_steps']})
   gin_values.check_reward_values(latex, ble)
-  if 'ble_latex.balloon' in sys.modules:
-    flight = flight_params_lib.flight_params_from_gin()
-  else:
-    # flight_params_from_gin imports ble_latex.balloon (BLE's balloon,
-    # TensorFlow) to register create_state / LatexBalloon; unimported, they
-    # have no bindings. AltitudeController (ble_latex.controller, light) may.
-    # TODO(flight/params.py): gin_overrides skipping unregistered
-    # configurables instead of importing them makes this branch the call.
-    overrides = {}
-    for configurable, names in flight_params_lib._GIN_NAMES.items():  # pylint: disable=protected-access
-      bindings = gin_values.registered_bindings(configurable)
-      overrides.update({arg: bindings[name] for name, arg in names.items()
-                        if name in bindings})
-    flight = flight_params_lib.make_flight_params(**overrides)
+  flight = flight_params_lib.flight_params_from_gin()
   low, high = arena['start_altitude_range_m']
   return EnvParams(
       flight=flight,

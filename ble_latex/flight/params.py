@@ -196,19 +196,18 @@ def gin_overrides() -> Dict[str, Any]:
   """The flight-system values bound in gin, as `make_flight_params` kwargs.
 
   Reads the bindings of `create_state`, `AltitudeController` and
-  `LatexBalloon` (importing `ble_latex.balloon` and `ble_latex.controller`
-  registers them).
+  `LatexBalloon` that are registered (their modules, `ble_latex.balloon` and
+  `ble_latex.controller`, imported): gin refuses to parse a binding of an
+  unregistered name, so an unregistered one has none. Imports nothing.
   """
-  # Imported here: they pull in BLE; the flight core itself does not need it.
-  # pylint: disable=g-import-not-at-top,unused-import
-  from ble_latex import balloon
-  from ble_latex import controller
-  import gin
-  # pylint: enable=g-import-not-at-top,unused-import
+  import gin  # pylint: disable=g-import-not-at-top
 
   overrides = {}
   for configurable, names in _GIN_NAMES.items():
-    bindings = gin.get_bindings(configurable)
+    try:
+      bindings = gin.get_bindings(configurable)
+    except ValueError:  # Not registered: nothing can be bound to it.
+      continue
     for gin_name, arg in names.items():
       if gin_name in bindings:
         overrides[arg] = bindings[gin_name]
