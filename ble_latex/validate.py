@@ -23,7 +23,7 @@ Exit status 0 when the max ascent-rate error is below --max_error_percent.
 """
 
 import argparse
-import datetime as dt
+import functools
 import os
 import sys
 from typing import Any, Dict, List, Optional, Sequence, Tuple
@@ -33,17 +33,16 @@ from ble_latex import quiet
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
-  from balloon_learning_environment.env import wind_field
-  from balloon_learning_environment.env.balloon import standard_atmosphere
-  from balloon_learning_environment.utils import units
   import gin
   import jax
+  import jax.numpy as jnp
   import numpy as np
-  import s2sphere as s2
 
-  from ble_latex import balloon as balloon_lib
-  from ble_latex import controller as controller_lib
-  from ble_latex import physics
+  from ble_latex.flight import atmosphere as atmosphere_lib
+  from ble_latex.flight import dynamics
+  from ble_latex.flight import params as params_lib
+  from ble_latex.flight import physics
+  from ble_latex.flight import state as state_lib
   # pylint: enable=g-import-not-at-top
 
 # (a0 desired altitude [m], a1 time factor, a2 float flag), one per 20 min,
@@ -90,57 +89,69 @@ def run_validation(
     'max_rate_error' (fraction), 'max_rk4_altitude_error_m' and
     'max_rk4_rate_error' (fraction; NaN without reference).
   """
-  atmosphere = standard_atmosphere.Atmosphere(jax.random.PRNGKey(seed))
-  state = balloon_lib.create_state(
-      center_latlng=s2.LatLng.from_degrees(1.0, -113.0),
-      date_time=dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc),
-      atmosphere=atmosphere,
-      altitude_m=start_altitude_m)
-  balloon = balloon_lib.LatexBalloon(state)
-  stride = balloon.controller.stride
-  calm = wind_field.WindVector(units.Velocity(mps=0.0),
-                               units.Velocity(mps=0.0))
+  # BLE's Atmosphere(PRNGKey(seed)): the same lapse-rate blend.
+  atm = atmosphere_lib.reset(jax.random.PRNGKey(seed))
+  params = params_lib.flight_params_from_gin()
+  state = state_lib.initial_state(params, start_altitude_m, atm_params=atm)
+  stride_s = params.stride_s
+
+  def calm(x_m, y_m, pressure_pa, t_s):
+    del y_m, pressure_pa, t_s
+    return jnp.zeros_like(x_m), jnp.zeros_like(x_m)
+
+  fly = jax.jit(functools.partial(dynamics.step_with_trajectory,
+                                  wind_fn=calm, time_delta_s=stride_s))
+  host = lambda tree: jax.tree.map(np.asarray, jax.device_get(tree))  # pylint: disable=unnecessary-lambda-assignment
+  finite_rates = params.finite_valve or params.finite_ballast
 
   times: List[float] = [0.0]
-  altitude = [state.altitude_m]
-  rate = [state.ascent_rate_mps]
-  helium = [state.helium_mols]
-  sand = [state.sand_kg]
+  altitude = [float(state.altitude_m)]
+  rate = [float(state.ascent_rate_mps)]
+  helium = [float(state.helium_mols)]
+  sand = [float(state.sand_kg)]
   strides: List[Dict[str, Any]] = []
   rk4_h_errors: List[float] = []
   rk4_v_errors: List[float] = []
   for i, command in enumerate(commands):
-    if state.latex_status != balloon_lib.LatexBalloonStatus.OK:
+    if int(state.status) != state_lib.FlightStatus.OK:
       break
-    t0 = i * stride.total_seconds()
-    h0 = state.altitude_m
-    balloon.simulate_step(calm, atmosphere, np.array(command), stride)
-    traj = balloon.last_trajectory
-    for p in traj:
-      times.append(t0 + p.time_s)
-      altitude.append(p.altitude_m)
-      rate.append(p.ascent_rate_mps)
-      helium.append(p.helium_mols)
-      sand.append(p.sand_kg)
+    t0 = i * stride_s
+    h0 = float(state.altitude_m)
+    state, actuated, samples = fly(params, atm, state,
+                                   jnp.asarray(command, jnp.float32))
+    samples = host(samples)
+    n_sub = len(samples.time_s)
+    # Right after the actuation (an instantaneous release), then the end of
+    # each sub-step k at (k + 1) / n of the stride.
+    times.append(t0)
+    altitude.append(float(actuated.altitude_m))
+    rate.append(float(actuated.ascent_rate_mps))
+    helium.append(float(actuated.helium_mols))
+    sand.append(float(actuated.sand_kg))
+    for k in range(n_sub):
+      times.append(t0 + stride_s * (k + 1) / n_sub)
+      altitude.append(float(samples.altitude_m[k]))
+      rate.append(float(samples.ascent_rate_mps[k]))
+      helium.append(float(samples.helium_mols[k]))
+      sand.append(float(samples.sand_kg[k]))
+    decision = state_lib.DecisionCode(int(state.last_decision))
+    desired = float(state.desired_ascent_rate_mps)
+    end_rate = float(state.ascent_rate_mps)
+    guard = bool(state.guard_engaged)
     record = {
         'command': tuple(command),
-        'decision': state.last_decision.value,
+        'decision': decision.name.lower(),
         'start_altitude_m': h0,
-        'end_altitude_m': state.altitude_m,
-        'desired_rate': state.desired_ascent_rate_mps,
-        'end_rate': state.ascent_rate_mps,
-        'guard': state.guard_engaged,
+        'end_altitude_m': float(state.altitude_m),
+        'desired_rate': desired,
+        'end_rate': end_rate,
+        'guard': guard,
     }
-    if state.last_decision in (controller_lib.Decision.VENT,
-                               controller_lib.Decision.BALLAST):
-      record['rate_error'] = abs(state.ascent_rate_mps -
-                                 state.desired_ascent_rate_mps) / abs(
-                                     state.desired_ascent_rate_mps)
-    if (reference and not state.guard_engaged and
-        balloon.valve_flow_mols_per_s is None and
-        balloon.ballast_rate_kg_per_s is None):
-      h_err, v_err = _rk4_errors(traj, state, atmosphere,
-                                 stride.total_seconds())
+    if decision in (state_lib.DecisionCode.VENT,
+                    state_lib.DecisionCode.BALLAST):
+      record['rate_error'] = abs(end_rate - desired) / abs(desired)
+    if reference and not guard and not finite_rates:
+      h_err, v_err = _rk4_errors(params, atm, actuated, state, stride_s)
       record['rk4_altitude_error_m'] = h_err
       record['rk4_rate_error'] = v_err
       rk4_h_errors.append(h_err)
@@ -155,7 +166,7 @@ def run_validation(
       'ascent_rate': np.array(rate),
       'helium': np.array(helium),
       'sand': np.array(sand),
-      'stride_s': stride.total_seconds(),
+      'stride_s': stride_s,
       'max_rate_error': max(errors) if errors else float('nan'),
       'max_rk4_altitude_error_m': (max(rk4_h_errors) if rk4_h_errors else
                                    float('nan')),
@@ -164,28 +175,64 @@ def run_validation(
   }
 
 
-def _rk4_errors(traj: Sequence[balloon_lib.TrajectoryPoint],
-                state: balloon_lib.LatexBalloonState,
-                atmosphere: standard_atmosphere.Atmosphere,
-                duration: float) -> Tuple[float, float]:
+RK4_DT_S = 0.05  # [s] the reference's fixed step
+
+
+def rk4_reference(params, atm, start, duration_s: float,
+                  dt_s: float = RK4_DT_S):
+  """Eq. fullN2L integrated by classical RK4 with a fine fixed step.
+
+  The reference the core's closed-form integrator is checked against
+  (not the model): m h'' = L g - k(h) |h'| h' with k(h) = 1/2 rho c_d A at
+  the altitude, helium and sand fixed (as after an instantaneous release).
+  Runs in float64 inside a local `jax.enable_x64` scope (nothing global).
+
+  Args:
+    params: The flight system.
+    atm: The atmosphere.
+    start: The state right after the actuation.
+    duration_s: Time to integrate. # [s]
+    dt_s: RK4 step. # [s]
+
+  Returns:
+    (altitude [m], ascent rate [m/s]) at the end.
+  """
+  with jax.enable_x64(True):
+    f64 = lambda v: jnp.asarray(np.float64(v))  # pylint: disable=unnecessary-lambda-assignment
+    n, m_s = f64(start.helium_mols), f64(start.sand_kg)
+    payload, c_d = f64(params.payload_kg), f64(params.drag_coefficient)
+    atm64 = atmosphere_lib.params_from_alpha(f64(atm.alpha))
+    lift = physics.free_lift(n, payload, m_s) * physics.GRAVITY  # [N]
+    mass = physics.total_mass(payload, m_s, n)  # [kg]
+
+    def acc(h, v):
+      ambient = atmosphere_lib.at_height(atm64, h)
+      k = physics.drag_factor(n, c_d, ambient.temperature, ambient.pressure)
+      return (lift - k * jnp.abs(v) * v) / mass
+
+    def body(_, hv):
+      h, v = hv
+      k1h, k1v = v, acc(h, v)
+      k2h, k2v = v + 0.5 * dt_s * k1v, acc(h + 0.5 * dt_s * k1h,
+                                           v + 0.5 * dt_s * k1v)
+      k3h, k3v = v + 0.5 * dt_s * k2v, acc(h + 0.5 * dt_s * k2h,
+                                           v + 0.5 * dt_s * k2v)
+      k4h, k4v = v + dt_s * k3v, acc(h + dt_s * k3h, v + dt_s * k3v)
+      return (h + dt_s / 6.0 * (k1h + 2 * k2h + 2 * k3h + k4h),
+              v + dt_s / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v))
+
+    steps = int(round(duration_s / dt_s))
+    h, v = jax.jit(lambda hv: jax.lax.fori_loop(0, steps, body, hv))(
+        (f64(start.altitude_m), f64(start.ascent_rate_mps)))
+    return float(h), float(v)
+
+
+def _rk4_errors(params, atm, actuated, end, duration: float
+                ) -> Tuple[float, float]:
   """(|h - h_ref| [m], |v - v_ref| / max(|v_ref|, 0.05 m/s)) at stride end."""
-  start = traj[0]  # After the (instantaneous) actuation.
-  n, m_s = start.helium_mols, start.sand_kg
-
-  def drag_k_at(h: float) -> float:
-    a = atmosphere.at_height(units.Distance(m=h))
-    return float(physics.drag_factor(n, state.drag_coefficient,
-                                     a.temperature, a.pressure))
-
-  _, hs, vs = physics.rk4_vertical(
-      start.altitude_m, start.ascent_rate_mps, duration,
-      lift_force=float(physics.free_lift(n, state.payload_kg, m_s)) *
-      physics.GRAVITY,
-      mass=float(physics.total_mass(state.payload_kg, m_s, n)),
-      drag_k_at=drag_k_at, dt=0.05)
-  end = traj[-1]
-  return (abs(end.altitude_m - hs[-1]),
-          abs(end.ascent_rate_mps - vs[-1]) / max(abs(vs[-1]), 0.05))
+  h_ref, v_ref = rk4_reference(params, atm, actuated, duration)
+  return (abs(float(end.altitude_m) - h_ref),
+          abs(float(end.ascent_rate_mps) - v_ref) / max(abs(v_ref), 0.05))
 
 
 def plot(result: Dict[str, Any], path: str) -> None:

@@ -13,8 +13,10 @@ import jax
 import numpy as np
 import pytest
 
-from ble_latex import controller as controller_lib
-from ble_latex import physics
+from ble_latex import controller as package_controller
+# The retired NumPy controller, the oracle of tests/test_flight_core.py.
+from reference import numpy_controller as controller_lib
+from reference import numpy_physics as physics
 
 _SETTINGS = settings(max_examples=40, deadline=None)
 PAYLOAD = 2.2  # [kg]
@@ -51,7 +53,7 @@ def _apply(state, act):
     [14_000, 1, -1], [21_000, 5, 1], (17_500.0, 2.5, 0.0),
     np.array([15_000, 3, 0.3], dtype=np.float32)])
 def test_validate_action_accepts_in_range(action):
-  a = controller_lib.validate_action(action)
+  a = package_controller.validate_action(action)
   assert a.dtype == np.float64 and a.shape == (3,)
 
 
@@ -72,12 +74,12 @@ def test_validate_action_accepts_in_range(action):
 ])
 def test_validate_action_rejects_bad(action, match):
   with pytest.raises(ValueError, match=match):
-    controller_lib.validate_action(action)
+    package_controller.validate_action(action)
 
 
 def test_action_bounds_match_paper():
-  np.testing.assert_array_equal(controller_lib.ACTION_LOW, [14_000, 1, -1])
-  np.testing.assert_array_equal(controller_lib.ACTION_HIGH, [21_000, 5, 1])
+  np.testing.assert_array_equal(package_controller.ACTION_LOW, [14_000, 1, -1])
+  np.testing.assert_array_equal(package_controller.ACTION_HIGH, [21_000, 5, 1])
   assert controller_lib.STRIDE == dt.timedelta(minutes=20)
 
 

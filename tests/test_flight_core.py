@@ -1,9 +1,10 @@
 # coding=utf-8
-"""Tests for ble_latex.flight: the JAX flight core against the NumPy reference.
+"""Tests for ble_latex.flight: the JAX flight core against the NumPy oracle.
 
-Each JAX function is compared with its NumPy twin (ble_latex.physics,
-ble_latex.controller, ble_latex.balloon.LatexBalloon.simulate_step and BLE's
-standard atmosphere) over hypothesis-generated states in realistic ranges, in
+Each JAX function is compared with its twin in the retired NumPy float64
+model the core replaced (tests/reference: numpy_physics, numpy_controller,
+numpy_balloon.LatexBalloon.simulate_step) and with BLE's standard
+atmosphere over hypothesis-generated states in realistic ranges, in
 JAX's default float32 and in float64 inside a local `jax.enable_x64(True)`
 scope. Inputs are drawn float32-representable so both sides see the same
 numbers. BLE atmospheres are always built outside the x64 scope (BLE draws
@@ -29,16 +30,17 @@ import numpy as np
 import pytest
 import s2sphere as s2
 
-from ble_latex import balloon as balloon_lib
 from ble_latex import configs
-from ble_latex import controller as controller_lib
-from ble_latex import physics as np_physics
 from ble_latex.flight import atmosphere
 from ble_latex.flight import controller
 from ble_latex.flight import dynamics
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
+# The retired NumPy float64 model as the oracle.
+from reference import numpy_balloon as balloon_lib
+from reference import numpy_controller as controller_lib
+from reference import numpy_physics as np_physics
 
 _SETTINGS = settings(max_examples=30, deadline=None, derandomize=True)
 _FEW = settings(max_examples=15, deadline=None, derandomize=True)

@@ -12,7 +12,8 @@ import jax
 import numpy as np
 import pytest
 
-from ble_latex import physics
+# The retired NumPy model, the oracle of tests/test_flight_core.py.
+from reference import numpy_physics as physics
 
 _SETTINGS = settings(max_examples=40, deadline=None)
 PAYLOAD = 2.2  # [kg]

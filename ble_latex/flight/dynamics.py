@@ -321,12 +321,38 @@ def step(params: params_lib.FlightParams,
   Returns:
     The state after the stride.
   """
+  return _step(params, atm_params, state, action, wind_fn, time_delta_s,
+               record=False)[0]
+
+
+def step_with_trajectory(
+    params: params_lib.FlightParams,
+    atm_params: atmosphere_lib.AtmosphereParams,
+    state: FlightState,
+    action: Array,
+    wind_fn: WindFn,
+    time_delta_s: float = DEFAULT_TIME_DELTA_S
+) -> Tuple[FlightState, FlightState, FlightState]:
+  """`step`, also returning the states inside the stride (plots, checks).
+
+  Returns:
+    (state after the stride, state right after the controller's actuation,
+    states after each physics sub-step stacked on a leading axis).
+  """
+  return _step(params, atm_params, state, action, wind_fn, time_delta_s,
+               record=True)
+
+
+def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
+          record: bool):
+  """`step`'s body; `record` also returns the actuated and sub-step states."""
   action = _keep(controller_lib.clip_action(action), state.last_action)
   ambient = atmosphere_lib.at_height(atm_params, _clamp(state.altitude_m))
   actuation = controller_lib.decide(params, state, action,
                                     ambient.temperature, ambient.pressure)
   f = actuate(params, state.replace(guard_engaged=actuation.guarded),
               actuation)
+  actuated = f
 
   starts, durations, ends, chunks = schedule(
       time_delta_s, params.max_substep_s, params.vertical_step_s)
@@ -346,10 +372,12 @@ def step(params: params_lib.FlightParams,
     else:
       g = _chunks_static(params, atm_params, f, chunk_row)
     g = g.replace(x_m=g.x_m + u * duration, y_m=g.y_m + v * duration)
-    return (_select(active, g, f),
-            jnp.where(active, end, elapsed).astype(elapsed.dtype)), None
+    g = _select(active, g, f)
+    return (g, jnp.where(active, end, elapsed).astype(elapsed.dtype)), (
+        g if record else None)
 
-  (f, elapsed), _ = jax.lax.scan(substep, (f, jnp.zeros((), dtype)), xs)
+  (f, elapsed), samples = jax.lax.scan(substep, (f, jnp.zeros((), dtype)),
+                                       xs)
 
   status = jnp.where(f.status == FlightStatus.OK,
                      resource_status(params, f), f.status)
@@ -363,7 +391,8 @@ def step(params: params_lib.FlightParams,
       desired_ascent_rate_mps=actuation.desired_ascent_rate,
       pressure_pa=ambient.pressure,
       temperature_k=ambient.temperature)
-  return _select(state.status == FlightStatus.OK, _keep(new, state), state)
+  return (_select(state.status == FlightStatus.OK, _keep(new, state), state),
+          actuated, samples)
 
 
 def make_step(wind_fn: WindFn,
