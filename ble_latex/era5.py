@@ -49,7 +49,6 @@ import s2sphere as s2
 import scipy.interpolate
 import xarray as xr
 
-from ble_latex import fast_wind
 
 # Dimension names accepted in the files, new CDS layout first.
 TIME_DIMS = ('valid_time', 'time')
@@ -716,9 +715,7 @@ class Era5WindField(wind_field.WindField):
       ValueError: bad file (see `load`), target outside the file's area,
         non-finite arguments, or data shorter than `episode_hours`.
     """
-    super().__init__()
-    # BLE's simplex noise, same values, less per-query overhead.
-    self._noise_model = fast_wind.FastSimplexWindNoise()
+    super().__init__()  # BLE's simplex noise (`SimplexWindNoise`).
     for name, value in (('center_lat', center_lat),
                         ('center_lon', center_lon),
                         ('episode_hours', episode_hours)):

@@ -32,7 +32,7 @@ from typing import Any, NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from ble_latex import physics
+from ble_latex.flight import physics
 
 N_LEVELS = 25
 NUM_FEATURES = 2 * N_LEVELS + 21

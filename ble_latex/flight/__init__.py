@@ -1,9 +1,9 @@
 # coding=utf-8
 """The latex balloon's flight core in JAX: pure, jittable, vmappable.
 
-A functional re-implementation of `ble_latex.physics`, `ble_latex.controller`
-and `ble_latex.balloon.LatexBalloon.simulate_step` (the NumPy reference) in
-the style of gymnax: parameters and state are `flax.struct` pytrees and every
+The one implementation of the latex balloon's physics and controller (it
+replaced a NumPy model, now kept only as a test oracle in tests/reference),
+in the style of gymnax: parameters and state are `flax.struct` pytrees and every
 transition is a pure function, so a batch of balloons (and atmospheres) can
 be stepped with `jax.vmap` inside one `jax.jit`.
 

@@ -1,11 +1,11 @@
 # coding=utf-8
 """Vertical physics of a zero-superpressure latex balloon, in JAX.
 
-Paper section "Equations of Motion". The JAX twin of `ble_latex.physics`
-(the NumPy reference, which documents the derivations): the same equations,
-written branch-free (`jnp.where` on safe operands, so neither values nor
-gradients of an unused branch can leak NaN/inf), jittable, vmappable and
-working in float32 or, in a caller's `jax.enable_x64(True)` scope, float64.
+Paper section "Equations of Motion" (README, "Physics and altitude
+controller", has the derivations). The equations are written branch-free
+(`jnp.where` on safe operands, so neither values nor gradients of an unused
+branch can leak NaN/inf), jittable, vmappable and working in float32 or, in
+a caller's `jax.enable_x64(True)` scope, float64.
 
 | paper equation                          | function                          |
 |-----------------------------------------|-----------------------------------|
