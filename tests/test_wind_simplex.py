@@ -143,15 +143,24 @@ def test_noise4d_float64_bulk_matches_opensimplex():
 @given(seed=_BLE_SEED,
        point=st.lists(st.floats(-300, 300, width=32), min_size=4, max_size=4))
 @example(seed=1187, point=[-300.0, -300.0, -300.0, -300.0])
+@example(seed=0, point=[1.6875, 7.25, -1.0530077677872729e-11, 242.0])
+@example(seed=0, point=[1.625, 1.9999998807907104, 0.0, 168.5])
 def test_noise4d_float32_close_to_opensimplex(seed, point):
-  """float32 (JAX's default): error ~ eps32 x coordinate magnitudes."""
+  """float32 (JAX's default): error ~ eps32 x coordinate magnitudes.
+
+  The bound is 2e-6 + 1e-6 x sum |c|: the skewed coordinates are sums of
+  all four inputs, rounded to float32 (~1.2e-7 relative), and the noise's
+  slope is a few units per unit of coordinate (hypothesis found 4.3e-7 x
+  sum |c| at seed 0, (1.625, 2 - 1e-7, 0, 168.5)). A wrong kernel is off by
+  ~0.1.
+  """
   # (Broadcast to the bulk test's shape: one compilation for both tests.)
   values = _noise4d(simplex.permutation(seed),
                     *(jnp.full(_BULK, c, jnp.float32) for c in point))
   assert values.dtype == jnp.float32
   value = values[0]
   expected = opensimplex.OpenSimplex(seed).noise4d(*point)
-  tolerance = 2e-6 + 1e-7 * sum(abs(c) for c in point)
+  tolerance = 2e-6 + 1e-6 * sum(abs(c) for c in point)
   assert abs(float(value) - expected) <= tolerance
 
 
