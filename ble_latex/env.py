@@ -126,6 +126,11 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
                           high=controller_lib.ACTION_HIGH, dtype=np.float32)
 
   @property
+  def episode_steps(self) -> int:
+    """Steps per episode (the time limit; the window of `tw50_window`)."""
+    return self._episode_steps
+
+  @property
   def reward_range(self) -> Tuple[float, float]:
     return (-float('inf'), 1.0)
 

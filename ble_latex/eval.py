@@ -8,7 +8,7 @@ the latex env and suites:
       --checkpoint_dir=/tmp/latex/sac/checkpoints --checkpoint_idx=49
 
 Writes OUTPUT_DIR/SUITE/NAME.json: one object per seed with seed, reward,
-tw50, steps, helium_vented_mols, sand_dropped_kg, terminal_reason,
+tw50, tw50_window, window_steps, steps, helium_vented_mols, sand_dropped_kg, terminal_reason,
 final_distance_km and flight_path (README, "Eval output").
 """
 

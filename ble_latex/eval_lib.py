@@ -2,7 +2,7 @@
 """Evaluation on held-out seeds (BLE's `eval_lib.eval_agent` for the latex envs).
 
 Used by `ble-latex-eval` and the demo. Records per seed: seed, reward, tw50,
-steps, helium_vented_mols, sand_dropped_kg, terminal_reason,
+tw50_window, window_steps, steps, helium_vented_mols, sand_dropped_kg, terminal_reason,
 final_distance_km and flight_path (README, "Training and evaluation").
 """
 
@@ -45,7 +45,8 @@ def evaluate(agent: base_agent.Agent, env: gym.Env, seeds: Sequence[int],
     record['flight_path'] = flight
     results.append(record)
     stats = metrics.summarize(results)
-    bar.set_postfix(tw50=f'{stats["tw50_mean"]:.3f}',
+    bar.set_postfix(tw50_window=f'{stats["tw50_window_mean"]:.3f}',
+                    tw50=f'{stats["tw50_mean"]:.3f}',
                     reward=f'{stats["reward_mean"]:.1f}')
   return results
 

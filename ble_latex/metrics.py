@@ -4,7 +4,8 @@
 BLE's collector machinery (`collector.Collector`, `CollectorDispatcher`,
 `PickleCollector`, `TensorboardCollector`) is reused; what is new:
 - `LatexStatistics`: BLE's `StatisticsInstance` plus the env's `info` and, at
-  episode end, the `EpisodeSummary` (TW50, resources, terminal reason);
+  episode end, the `EpisodeSummary` (TW50 two ways, resources, terminal
+  reason);
 - `EpisodeLogCollector`: writes RUN/episodes.jsonl (`episode_log`), which a
   resumed run truncates back to its checkpoint so no episode is lost or
   repeated;
@@ -24,6 +25,7 @@ from balloon_learning_environment.metrics import collector
 from balloon_learning_environment.metrics import pickle_collector
 from balloon_learning_environment.metrics import statistics_instance
 from balloon_learning_environment.metrics import tensorboard_collector
+import numpy as np
 import tqdm
 
 from ble_latex import episode_log
@@ -34,11 +36,22 @@ TERMINAL_REASONS = ('time_limit', 'out_of_sand', 'out_of_helium', 'burst',
 
 @dataclasses.dataclass
 class EpisodeSummary:
-  """What one episode achieved (a line of episodes.jsonl)."""
+  """What one episode achieved (a line of episodes.jsonl).
+
+  Two station-keeping fractions are kept:
+  - `tw50`: steps within the radius / steps flown (BLE's `eval_lib`). A flight
+    that ends early (out of sand or helium, burst) is scored only on the part
+    it flew.
+  - `tw50_window`: steps within the radius / `window_steps`, the episode's
+    length (216 strides = 3 days): a flight that ends early counts as outside
+    for the rest of the window. The project's targets use this one.
+  """
   episode: int
   seed: int
   reward: float
-  tw50: float  # Fraction of steps within the station-keeping radius.
+  tw50: float  # Fraction of flown steps within the radius.
+  tw50_window: float  # Fraction of the episode window within the radius.
+  window_steps: int  # Steps in the episode window (time limit).
   steps: int
   helium_vented_mols: float  # [mol]
   sand_dropped_kg: float  # [kg]
@@ -66,11 +79,44 @@ def terminal_reason(info: Mapping[str, Any], done: bool) -> str:
   return 'max_episode_length'
 
 
-class EpisodeTracker:
-  """Accumulates one episode's steps into an EpisodeSummary."""
+def tw50_fractions(within_steps: int, steps: int,
+                   window_steps: int) -> Dict[str, float]:
+  """TW50 over the steps flown and over the episode window.
 
-  def __init__(self, episode: int, seed: int, radius_km: float = 50.0):
+  Args:
+    within_steps: Steps that ended within the station-keeping radius.
+    steps: Steps flown.
+    window_steps: Steps in the episode window (the env's time limit, 216).
+
+  Returns:
+    {'tw50': within / steps, 'tw50_window': within / window_steps}.
+
+  Raises:
+    ValueError: Counts that are negative or inconsistent.
+  """
+  if not 0 <= within_steps <= steps <= window_steps or window_steps < 1:
+    raise ValueError(
+        'need 0 <= within_steps <= steps <= window_steps and window_steps >= '
+        f'1, got {within_steps}, {steps}, {window_steps}')
+  return {'tw50': within_steps / max(steps, 1),
+          'tw50_window': within_steps / window_steps}
+
+
+class EpisodeTracker:
+  """Accumulates one episode's steps into an EpisodeSummary.
+
+  Args:
+    episode: Episode number.
+    seed: The episode's env seed.
+    radius_km: Station-keeping radius. # [km]
+    window_steps: Steps of the episode window for `tw50_window` (the env's
+      time limit, or the step cap if that is shorter).
+  """
+
+  def __init__(self, episode: int, seed: int, radius_km: float = 50.0,
+               window_steps: int = 216):
     self.episode, self.seed, self._radius_km = episode, seed, radius_km
+    self.window_steps = int(window_steps)
     self.reward, self.steps, self._within = 0.0, 0, 0
     self.info: Mapping[str, Any] = {}
     self._start = time.monotonic()
@@ -87,7 +133,8 @@ class EpisodeTracker:
         episode=self.episode,
         seed=self.seed,
         reward=self.reward,
-        tw50=self._within / max(self.steps, 1),
+        **tw50_fractions(self._within, self.steps, self.window_steps),
+        window_steps=self.window_steps,
         steps=self.steps,
         helium_vented_mols=float(info.get('helium_vented_mols', 0.0)),
         sand_dropped_kg=float(info.get('sand_dropped_kg', 0.0)),
@@ -144,6 +191,7 @@ class LatexTensorboardCollector(tensorboard_collector.TensorboardCollector):
     s = statistics.summary
     w = self.summary_writer
     w.scalar('Train/TW50', s.tw50, episode)
+    w.scalar('Train/TW50Window', s.tw50_window, episode)
     w.scalar('Train/HeliumVentedMols', s.helium_vented_mols, episode)
     w.scalar('Train/SandDroppedKg', s.sand_dropped_kg, episode)
     w.scalar('Train/FinalDistanceKm', s.final_distance_km, episode)
@@ -172,7 +220,8 @@ class ProgressCollector(_EpisodeCollector):
     self._recent = (self._recent + [s])[-50:]
     n = len(self._recent)
     self._bar.set_postfix(
-        tw50=f'{s.tw50:.2f}', tw50_50=f'{sum(r.tw50 for r in self._recent) / n:.2f}',
+        tw50=f'{s.tw50:.2f}', tw50_window=f'{s.tw50_window:.2f}',
+        tw50_window_50=f'{sum(r.tw50_window for r in self._recent) / n:.2f}',
         reward=f'{s.reward:.1f}', sand=f'{s.sand_dropped_kg:.2f}kg',
         helium=f'{s.helium_vented_mols:.1f}mol', end=s.terminal_reason)
     self._bar.update(1)
@@ -191,15 +240,27 @@ AVAILABLE_COLLECTORS = {
 }
 
 
+SUMMARY_KEYS = ('tw50', 'tw50_window', 'reward', 'helium_vented_mols',
+                'sand_dropped_kg')
+
+
 def summarize(records: Sequence[Mapping[str, Any]]) -> Dict[str, float]:
-  """Mean/std of TW50, reward, resources and % out of resources."""
-  import numpy as np  # pylint: disable=g-import-not-at-top
+  """Mean/std of both TW50s, reward, resources and % out of resources.
+
+  Raises:
+    ValueError: A record lacks a summary key (e.g. `tw50_window` in a file
+      written before it existed: re-run the eval).
+  """
   if not records:
     return {}
+  for i, r in enumerate(records):
+    missing = [k for k in (*SUMMARY_KEYS, 'terminal_reason') if k not in r]
+    if missing:
+      raise ValueError(f'record {i} (seed {r.get("seed")}) lacks {missing}')
   def col(key):
     return np.array([float(r[key]) for r in records])
   out = {'episodes': len(records)}
-  for key in ('tw50', 'reward', 'helium_vented_mols', 'sand_dropped_kg'):
+  for key in SUMMARY_KEYS:
     out[f'{key}_mean'] = float(col(key).mean())
     out[f'{key}_std'] = float(col(key).std())
   out['out_of_resources_pct'] = 100.0 * float(np.mean(

@@ -208,7 +208,9 @@ def format_summary(summary: Dict[str, Dict[str, float]]) -> str:
   for path, s in summary.items():
     lines.append(
         f'{path}: {s["episodes"]} seeds, '
-        f'TW50 {100 * s["tw50_mean"]:.1f} +- {100 * s["tw50_std"]:.1f}%, '
+        f'TW50 (window) {100 * s["tw50_window_mean"]:.1f} +- '
+        f'{100 * s["tw50_window_std"]:.1f}%, '
+        f'TW50 (flown) {100 * s["tw50_mean"]:.1f} +- {100 * s["tw50_std"]:.1f}%, '
         f'reward {s["reward_mean"]:.1f} +- {s["reward_std"]:.1f}, '
         f'helium vented {s["helium_vented_mols_mean"]:.1f} +- '
         f'{s["helium_vented_mols_std"]:.1f} mol, '

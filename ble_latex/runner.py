@@ -75,7 +75,8 @@ def run_episode(
   if dispatcher is not None:
     dispatcher.begin_episode()
   tracker = metrics.EpisodeTracker(
-      episode, seed, env.unwrapped.radius.kilometers)
+      episode, seed, env.unwrapped.radius.kilometers,
+      window_steps=min(env.unwrapped.episode_steps, max_steps))
   obs = env.reset(seed=seed)
   flight = [flight_point(env)] if record_flight else []
   action = agent.begin_episode(obs)

@@ -20,7 +20,8 @@ _REASONS = ('out_of_sand', 'time_limit', 'time_limit', 'out_of_helium')
 
 def _episode(i: int) -> Dict[str, Any]:
   return {'episode': i, 'seed': 1000 + i, 'reward': 0.9 * i - 20.0,
-          'tw50': (i % 10) / 10.0, 'steps': 216,
+          'tw50': (i % 10) / 10.0, 'tw50_window': (i % 10) / 10.0,
+          'window_steps': 216, 'steps': 216,
           'helium_vented_mols': 1.0 * (i % 7), 'sand_dropped_kg': 0.1 * (i % 5),
           'terminal_reason': _REASONS[i % 4], 'final_distance_km': 30.0 + i,
           'wall_time_s': 2.5}
@@ -48,6 +49,7 @@ def _eval_records(seeds=(3, 5, 7), drift_km: float = 6.0
                'decision': 'float', 'helium_mols': 168.0, 'sand_kg': 2.0}
               for k in range(10)]
     records.append({'seed': seed, 'reward': 5.0 + seed, 'tw50': seed / 10.0,
+                    'tw50_window': seed / 20.0, 'window_steps': 18,
                     'steps': 9, 'helium_vented_mols': 1.5,
                     'sand_dropped_kg': 0.25,
                     'terminal_reason': ('out_of_sand' if seed == 3 else
@@ -401,10 +403,12 @@ def test_main_training_and_eval_figures(tmp_path, capsys):
   s = summary[str(trained)]
   assert s['episodes'] == 3
   assert s['tw50_mean'] == pytest.approx(0.5)
+  assert s['tw50_window_mean'] == pytest.approx(0.25)
   assert s['reward_mean'] == pytest.approx(10.0)
   assert s['out_of_resources_pct'] == pytest.approx(100.0 / 3.0)
   assert summary[str(baseline)]['episodes'] == 2
-  assert f'{trained}: 3 seeds, TW50 50.0 +- ' in stdout
+  assert (f'{trained}: 3 seeds, TW50 (window) 25.0 +- 8.2%, TW50 (flown) '
+          '50.0 +- ') in stdout
 
 
 def test_main_only_given_inputs(tmp_path):

@@ -104,6 +104,8 @@ def test_shipped_policy_reproduces_its_results_row():
   records = eval_lib.evaluate(agent, env, suite.seeds,
                               suite.max_episode_length)
   tw50 = np.array([r['tw50'] for r in records])
+  tw50_window = np.array([r['tw50_window'] for r in records])
+  assert tw50_window.mean() == pytest.approx(row['tw50_window'][0], abs=1e-12)
   rewards = np.array([r['reward'] for r in records])
   assert len(records) == row['episodes'] == 100
   assert tw50.mean() == pytest.approx(row['tw50'][0], abs=1e-12)

@@ -1,0 +1,84 @@
+"""The episode metrics: BLE's TW50 over the steps flown and over the window."""
+
+import json
+import pathlib
+import subprocess
+import sys
+
+from hypothesis import given
+from hypothesis import strategies as st
+import pytest
+
+from ble_latex import metrics
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def _fly(tracker, distances_km):
+  for d in distances_km:
+    tracker.step(1.0, {'distance_km': d})
+
+
+def test_early_end_counts_as_outside_for_the_rest_of_the_window():
+  tracker = metrics.EpisodeTracker(0, 7, radius_km=50.0, window_steps=216)
+  _fly(tracker, [10.0] * 54)  # Within for 54 steps, then out of sand.
+  s = tracker.summary(done=True)
+  assert s.tw50 == 1.0
+  assert s.tw50_window == pytest.approx(54 / 216)
+  assert s.window_steps == 216 and s.steps == 54
+
+
+def test_full_flight_scores_the_same_both_ways():
+  tracker = metrics.EpisodeTracker(0, 7, radius_km=50.0, window_steps=4)
+  _fly(tracker, [10.0, 60.0, 50.0, 51.0])  # 50 km counts as within.
+  s = tracker.summary(done=True)
+  assert s.tw50 == s.tw50_window == 0.5
+
+
+@given(st.integers(1, 500), st.data())
+def test_window_fraction_never_exceeds_flown_fraction(window, data):
+  steps = data.draw(st.integers(0, window))
+  within = data.draw(st.integers(0, steps))
+  f = metrics.tw50_fractions(within, steps, window)
+  assert 0.0 <= f['tw50_window'] <= f['tw50'] <= 1.0
+  assert f['tw50_window'] * window == pytest.approx(within)
+  if steps == window:
+    assert f['tw50_window'] == f['tw50']
+
+
+@pytest.mark.parametrize('counts', [(-1, 3, 5), (4, 3, 5), (1, 6, 5),
+                                    (0, 0, 0)])
+def test_inconsistent_counts_are_rejected(counts):
+  with pytest.raises(ValueError, match='within_steps <= steps <= window'):
+    metrics.tw50_fractions(*counts)
+
+
+def test_summary_has_both_and_names_a_record_without_the_window():
+  records = [{'seed': 1, 'reward': 1.0, 'tw50': 1.0, 'tw50_window': 0.25,
+              'helium_vented_mols': 0.0, 'sand_dropped_kg': 0.0,
+              'terminal_reason': 'out_of_sand'},
+             {'seed': 2, 'reward': 3.0, 'tw50': 0.5, 'tw50_window': 0.5,
+              'helium_vented_mols': 0.0, 'sand_dropped_kg': 0.0,
+              'terminal_reason': 'time_limit'}]
+  s = metrics.summarize(records)
+  assert s['tw50_mean'] == 0.75 and s['tw50_window_mean'] == 0.375
+  assert s['out_of_resources_pct'] == 50.0
+  del records[1]['tw50_window']
+  with pytest.raises(ValueError, match=r"record 1 \(seed 2\) lacks \['tw50_window'\]"):
+    metrics.summarize(records)
+
+
+def test_upgrade_script_derives_what_the_tracker_writes(tmp_path):
+  tracker = metrics.EpisodeTracker(3, 11, radius_km=50.0, window_steps=216)
+  _fly(tracker, [10.0] * 30 + [80.0] * 20)
+  new = tracker.summary(done=True).to_json()
+  old = {k: v for k, v in new.items() if k not in ('tw50_window',
+                                                   'window_steps')}
+  path = tmp_path / 'episodes.jsonl'
+  path.write_text(json.dumps(old) + '\n' + json.dumps(new) + '\n')
+  subprocess.run([sys.executable, str(ROOT / 'benchmarks' /
+                                      'add_tw50_window.py'), str(path)],
+                 check=True, capture_output=True)
+  upgraded = [json.loads(l) for l in path.read_text().splitlines()]
+  assert upgraded == [new, new]
+  assert list(upgraded[0]) == list(new)  # Same key order as the writer.
