@@ -1,0 +1,595 @@
+# coding=utf-8
+r"""Jitted Soft Actor-Critic on the batched env (purejaxrl / rejax style).
+
+`ble-latex-train --trainer=jax` flies `num_envs` balloons of the functional
+env (`ble_latex.jax_env`) in parallel and runs the SAC updates inside one
+`jax.lax.scan` per round: no Python per step, no host copies of transitions.
+
+  ble-latex-train --trainer=jax --base_dir=/tmp/latex/jax \
+      --num_iterations=40 --seeds=0,1,2,3,4
+
+The SAC itself is not written again: the update is `sac.update` (Dopamine's
+`sac_agent.train` computed on the whole batch at once; the update
+`sac.SACAgent` runs too), the network Dopamine's
+`continuous_networks.SACNetwork` (`sac.make_network`), the optimizers and the
+soft target update those of `sac.SACAgent` (`sac.make_optimizers`,
+`sac._polyak_update`).
+What this module adds is the loop, as pure functions of a `TrainState`:
+
+- One round (an iteration) flies `num_envs` new episodes of
+  `episode_steps` strides (216 = 3 days). Episode e of a training seed flies
+  env seed `suites.train_seed(e)`, as `ble-latex-train` does, so the
+  episodes are those of the gym env with the same seeds. A balloon whose
+  flight ends early (out of sand or helium, burst) is masked for the rest of
+  the round: it adds no transitions.
+- Every vector step stores the step's transitions in a replay buffer on the
+  device (a ring of arrays) and then runs `updates_per_step` SAC updates on
+  uniform batches, once `min_replay_history` transitions are stored (actions
+  are uniform random before that, as in Dopamine). The update-to-data ratio
+  is `updates_per_step / num_envs`.
+- A transition cut by the time limit is bootstrapped (not terminal); out of
+  resources and burst are terminal.
+
+A run directory holds what `ble-latex-train` writes: `episodes.jsonl` (with
+env seeds and both TW50s), tensorboard scalars, `checkpoints/` (msgpack,
+`safe_io`; the whole `TrainState` including the replay and the PRNG key, so a
+killed run resumes after its last checkpoint with no episode lost or
+repeated), `policies/policy_NNNNN.msgpack` snapshots that
+`ble-latex-eval --gin_bindings='SACPretrainedAgent.policy_path="..."'` and
+`sac_pretrained` load, `run.json` and `operative_config.gin`.
+"""
+
+import dataclasses
+import functools
+import json
+import os
+import time
+from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
+
+from absl import logging
+from balloon_learning_environment.metrics import collector_dispatcher
+from dopamine.jax import continuous_networks
+import flax
+import gin
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from ble_latex import episode_log
+from ble_latex import host_env
+from ble_latex import jax_env
+from ble_latex import metrics
+from ble_latex import safe_io
+from ble_latex import suites
+from ble_latex import train_lib
+from ble_latex.agents import pretrained
+from ble_latex.agents import sac
+
+Array = jax.Array
+CHECKPOINT_FORMAT = 'ble_latex.sac_trainer/1'  # msgpack (`safe_io`).
+RUN_INFO = 'run.json'
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainerConfig:
+  """The jitted trainer's settings (gin: `sac_trainer_config`).
+
+  Attributes:
+    num_envs: Balloons flown in parallel; one round is one episode of each.
+    updates_per_step: SAC updates after each step of all `num_envs`
+      balloons (update-to-data ratio `updates_per_step / num_envs`).
+    batch_size: Transitions per SAC update.
+    replay_capacity: Replay ring size in transitions.
+    min_replay_history: Transitions of uniform random actions before the
+      first update.
+    gamma: Discount factor.
+    actor_learning_rate: Adam learning rate of the actor.
+    critic_learning_rate: Adam learning rate of the twin critics.
+    alpha_learning_rate: Adam learning rate of log(temperature).
+    target_smoothing_coefficient: Polyak factor tau of the target critics.
+    target_entropy: Target entropy [nats] of the [-1, 1]^d action.
+    reward_scale_factor: Rewards are multiplied by this in the TD target.
+    num_layers: Hidden layers of the actor and of each critic.
+    hidden_units: Units per hidden layer.
+  """
+  num_envs: int = 16
+  updates_per_step: int = 4
+  batch_size: int = 256
+  replay_capacity: int = 1_000_000
+  min_replay_history: int = 1000
+  gamma: float = 0.99
+  actor_learning_rate: float = 3e-4
+  critic_learning_rate: float = 3e-4
+  alpha_learning_rate: float = 3e-4
+  target_smoothing_coefficient: float = 0.005
+  target_entropy: float = 0.0
+  reward_scale_factor: float = 1.0
+  num_layers: int = 2
+  hidden_units: int = 256
+
+  def __post_init__(self):
+    fields = dataclasses.asdict(self)
+    sac.check_hyperparameters(
+        'sac_trainer_config',
+        **{k: v for k, v in fields.items()
+           if k not in ('num_envs', 'updates_per_step')})
+    for name in ('num_envs', 'updates_per_step'):
+      value = fields[name]
+      if (isinstance(value, bool) or not isinstance(value, (int, np.integer))
+          or value < 1):
+        raise ValueError(f'sac_trainer_config.{name} must be an integer >= 1, '
+                         f'got {value!r}')
+
+
+@gin.configurable
+def sac_trainer_config(
+    *,
+    num_envs: int = 16,
+    updates_per_step: int = 4,
+    batch_size: int = 256,
+    replay_capacity: int = 1_000_000,
+    min_replay_history: int = 1000,
+    gamma: float = 0.99,
+    actor_learning_rate: float = 3e-4,
+    critic_learning_rate: float = 3e-4,
+    alpha_learning_rate: float = 3e-4,
+    target_smoothing_coefficient: float = 0.005,
+    target_entropy: float = 0.0,
+    reward_scale_factor: float = 1.0,
+    num_layers: int = 2,
+    hidden_units: int = 256) -> TrainerConfig:
+  """The trainer's settings from gin (see `TrainerConfig` for each)."""
+  return TrainerConfig(**{k: v for k, v in locals().items()})
+
+
+@flax.struct.dataclass
+class Replay:
+  """A ring of transitions on the device.
+
+  Attributes:
+    obs: Observations [capacity, 71].
+    action: Actions in the normalised box [capacity, 3].
+    reward: Rewards [capacity].
+    next_obs: Next observations [capacity, 71].
+    terminal: 1.0 where the flight ended (not by the time limit) [capacity].
+    size: Transitions stored (at most capacity).
+    cursor: Next slot to write.
+  """
+  obs: Array
+  action: Array
+  reward: Array
+  next_obs: Array
+  terminal: Array
+  size: Array
+  cursor: Array
+
+
+@flax.struct.dataclass
+class TrainState:
+  """Everything a run carries from round to round (one frozen pytree)."""
+  network_params: Any
+  target_params: Any
+  optimizer_state: Any
+  log_alpha: Array
+  alpha_optimizer_state: Any
+  replay: Replay
+  key: Array
+  updates: Array  # SAC updates done.
+  env_steps: Array  # Transitions stored in total.
+
+
+class RoundOutput(NamedTuple):
+  """Per-balloon results of one round, and the round's mean losses."""
+  reward: Array  # [N] episode return.
+  within_steps: Array  # [N] steps ending within the radius.
+  steps: Array  # [N] steps flown.
+  info: Dict[str, Array]  # `jax_env.step_info` of the last flown step, [N].
+  losses: Dict[str, Array]  # Mean over the round's updates.
+
+
+class Learner(NamedTuple):
+  """The static parts: network, optimizers, config (hashable, for jit)."""
+  network_def: continuous_networks.SACNetwork
+  optimizer: optax.GradientTransformation
+  alpha_optimizer: optax.GradientTransformation
+  config: TrainerConfig
+
+
+_LOSS_KEYS = ('Losses/Critic', 'Losses/Actor', 'Losses/Alpha',
+              'Values/CriticValues1', 'Values/Alpha')
+
+
+def make_learner(config: TrainerConfig, key: Array
+                 ) -> Tuple[Learner, TrainState]:
+  """The network, optimizers and a fresh `TrainState` from `key`."""
+  num_actions = len(jax_env.ACTION_LOW)
+  network_def = sac.make_network(num_actions, config.num_layers,
+                                 config.hidden_units)
+  key, init_key = jax.random.split(key)
+  obs = jnp.zeros((jax_env.LatexBalloonJaxEnv.num_features,), jnp.float32)
+  params = network_def.init(init_key, obs, init_key)
+  optimizer, alpha_optimizer = sac.make_optimizers(
+      params, config.actor_learning_rate, config.critic_learning_rate,
+      config.alpha_learning_rate)
+  log_alpha = jnp.zeros(1)  # Temperature 1, as `sac.SACAgent`.
+  c, d = config.replay_capacity, obs.shape[0]
+  replay = Replay(
+      obs=jnp.zeros((c, d), jnp.float32),
+      action=jnp.zeros((c, num_actions), jnp.float32),
+      reward=jnp.zeros((c,), jnp.float32),
+      next_obs=jnp.zeros((c, d), jnp.float32),
+      terminal=jnp.zeros((c,), jnp.float32),
+      size=jnp.zeros((), jnp.int32), cursor=jnp.zeros((), jnp.int32))
+  state = TrainState(
+      network_params=params, target_params=params,
+      optimizer_state=optimizer.init(params), log_alpha=log_alpha,
+      alpha_optimizer_state=alpha_optimizer.init(log_alpha), replay=replay,
+      key=key, updates=jnp.zeros((), jnp.int32),
+      env_steps=jnp.zeros((), jnp.int32))
+  return Learner(network_def, optimizer, alpha_optimizer, config), state
+
+
+def to_box(normalized: Array) -> Array:
+  """[-1, 1]^3 actions onto the env's Box (as `sac.SACAgent._to_box`)."""
+  low = jnp.asarray(jax_env.ACTION_LOW, jnp.float32)
+  high = jnp.asarray(jax_env.ACTION_HIGH, jnp.float32)
+  u = jnp.clip(normalized, -1.0, 1.0)
+  return jnp.clip(low + 0.5 * (u + 1.0) * (high - low), low, high)
+
+
+def _add(replay: Replay, obs: Array, action: Array, reward: Array,
+         next_obs: Array, terminal: Array, valid: Array) -> Replay:
+  """Writes the valid rows of a [N] batch of transitions into the ring."""
+  capacity = replay.reward.shape[0]
+  offset = jnp.cumsum(valid.astype(jnp.int32)) - 1
+  slots = jnp.where(valid, (replay.cursor + offset) % capacity, capacity)
+  put = lambda a, x: a.at[slots].set(x.astype(a.dtype), mode='drop')
+  added = jnp.sum(valid.astype(jnp.int32))
+  return replay.replace(
+      obs=put(replay.obs, obs), action=put(replay.action, action),
+      reward=put(replay.reward, reward),
+      next_obs=put(replay.next_obs, next_obs),
+      terminal=put(replay.terminal, terminal),
+      size=jnp.minimum(replay.size + added, capacity),
+      cursor=(replay.cursor + added) % capacity)
+
+
+def _update(learner: Learner, state: TrainState, key: Array
+            ) -> Tuple[TrainState, Dict[str, Array]]:
+  """One SAC update (`sac.update`) on a uniform batch of the replay."""
+  c = learner.config
+  sample_key, train_key = jax.random.split(key)
+  idx = jax.random.randint(sample_key, (c.batch_size,), 0,
+                           jnp.maximum(state.replay.size, 1))
+  r = state.replay
+  out = sac.update(
+      learner.network_def, learner.optimizer, learner.alpha_optimizer,
+      state.optimizer_state, state.alpha_optimizer_state,
+      state.network_params, state.target_params, state.log_alpha, train_key,
+      r.obs[idx], r.action[idx], r.next_obs[idx], r.reward[idx],
+      r.terminal[idx], c.gamma, c.target_entropy, c.reward_scale_factor)
+  target = sac._polyak_update(out['network_params'], state.target_params,  # pylint: disable=protected-access
+                              c.target_smoothing_coefficient)
+  state = state.replace(
+      network_params=out['network_params'], target_params=target,
+      optimizer_state=out['optimizer_state'], log_alpha=out['log_alpha'],
+      alpha_optimizer_state=out['alpha_optimizer_state'],
+      updates=state.updates + 1)
+  return state, {k: jnp.mean(out[k]) for k in _LOSS_KEYS}
+
+
+def _act(learner: Learner, state: TrainState, obs: Array, key: Array
+         ) -> Array:
+  """Normalised actions: policy samples, or uniform before learning starts."""
+  n, d = obs.shape[0], len(jax_env.ACTION_LOW)
+  policy_key, uniform_key = jax.random.split(key)
+  sampled = jax.vmap(
+      lambda o, k: learner.network_def.apply(
+          state.network_params, o, k,
+          method=learner.network_def.actor).sampled_action)(
+              obs, jax.random.split(policy_key, n))
+  uniform = jax.random.uniform(uniform_key, (n, d), minval=-1.0, maxval=1.0)
+  learning = state.replay.size >= learner.config.min_replay_history
+  return jnp.where(learning, sampled, uniform)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1, 4))
+def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
+                state: TrainState, seeds: Array, num_steps: int,
+                params: jax_env.EnvParams) -> Tuple[TrainState, RoundOutput]:
+  """Flies one episode on each of N balloons while learning (one XLA call).
+
+  Args:
+    learner: Network, optimizers and config (static).
+    env: The functional env (static).
+    state: The trainer's state.
+    seeds: [N] env seeds of the round's episodes (gym seeds).
+    num_steps: Strides per episode (static; `params.episode_steps`).
+    params: Env parameters.
+
+  Returns:
+    The new state and the round's per-balloon results.
+  """
+  c = learner.config
+  obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(
+      jax.vmap(jax.random.PRNGKey)(seeds), params)
+  n = seeds.shape[0]
+  zeros = jnp.zeros((n,), jnp.float32)
+  info0 = jax.vmap(jax_env.step_info, in_axes=(0, None))(env_state, params)
+
+  def one_step(carry, _):
+    state, env_state, obs, active, ep_reward, within, steps, last = carry
+    key, act_key, update_key = jax.random.split(state.key, 3)
+    state = state.replace(key=key)
+    action = _act(learner, state, obs, act_key)
+    next_obs, env_state, reward, done, info = jax.vmap(
+        env.step_env, in_axes=(None, 0, 0, None))(
+            act_key, env_state, to_box(action), params)
+    terminal = (done & ~info['truncated']).astype(jnp.float32)
+    state = state.replace(
+        replay=_add(state.replay, obs, action, reward, next_obs, terminal,
+                    active),
+        env_steps=state.env_steps + jnp.sum(active.astype(jnp.int32)))
+    ep_reward = ep_reward + jnp.where(active, reward, 0.0)
+    within = within + (active & (info['distance_km'] <= params.radius_km))
+    steps = steps + active
+    last = jax.tree.map(lambda new, old: jnp.where(active, new, old), info,
+                        last)
+    active = active & ~done
+
+    def learn(state):
+      return jax.lax.scan(lambda s, k: _update(learner, s, k), state,
+                          jax.random.split(update_key, c.updates_per_step))
+
+    def wait(state):
+      return state, {k: jnp.zeros((c.updates_per_step,)) for k in _LOSS_KEYS}
+
+    ready = state.replay.size >= jnp.maximum(c.min_replay_history,
+                                             c.batch_size)
+    state, losses = jax.lax.cond(ready, learn, wait, state)
+    losses = {k: v.mean() for k, v in losses.items()}
+    return ((state, env_state, next_obs, active, ep_reward, within, steps,
+             last), (losses, ready))
+
+  carry = (state, env_state, obs, jnp.ones((n,), bool), zeros,
+           jnp.zeros((n,), jnp.int32), jnp.zeros((n,), jnp.int32), info0)
+  carry, (losses, ready) = jax.lax.scan(one_step, carry, None,
+                                        length=num_steps)
+  state, _, _, _, ep_reward, within, steps, last = carry
+  learned = jnp.maximum(jnp.sum(ready), 1)
+  losses = {k: jnp.sum(v) / learned for k, v in losses.items()}
+  return state, RoundOutput(ep_reward, within, steps, last, losses)
+
+
+# --- Host side: records, checkpoints, policies ------------------------------
+
+
+def acting_bundle(learner: Learner, state: TrainState,
+                  iteration: int) -> Dict[str, Any]:
+  """What `sac.SACAgent.acting_bundle` holds, for `pretrained` policies."""
+  c = learner.config
+  config = {
+      'observation_shape': [jax_env.LatexBalloonJaxEnv.num_features],
+      'num_actions': len(jax_env.ACTION_LOW),
+      'action_low': np.asarray(jax_env.ACTION_LOW, np.float64).tolist(),
+      'action_high': np.asarray(jax_env.ACTION_HIGH, np.float64).tolist(),
+      'num_layers': c.num_layers, 'hidden_units': c.hidden_units,
+      'replay_capacity': c.replay_capacity}
+  return {'format': sac.CHECKPOINT_FORMAT, 'iteration': int(iteration),
+          'config': config, 'training_steps': int(state.updates),
+          'network_params': sac._to_numpy(state.network_params),  # pylint: disable=protected-access
+          'log_alpha': np.asarray(state.log_alpha)}
+
+
+def episode_records(out: RoundOutput, seeds: Sequence[int],
+                    first_episode: int, window_steps: int,
+                    wall_time_s: float
+                    ) -> List[Tuple[metrics.EpisodeSummary, Dict[str, Any]]]:
+  """The round's (`EpisodeSummary`, last info) pairs, in balloon order."""
+  out = jax.device_get(out)
+  records = []
+  for i, seed in enumerate(seeds):
+    info = host_env.info_dict({k: v[i] for k, v in out.info.items()})
+    summary = metrics.EpisodeSummary(
+        episode=first_episode + i, seed=int(seed),
+        reward=float(out.reward[i]),
+        **metrics.tw50_fractions(int(out.within_steps[i]), int(out.steps[i]),
+                                 window_steps),
+        window_steps=window_steps, steps=int(out.steps[i]),
+        helium_vented_mols=info['helium_vented_mols'],
+        sand_dropped_kg=info['sand_dropped_kg'],
+        terminal_reason=metrics.terminal_reason(info, done=True),
+        final_distance_km=info['distance_km'],
+        wall_time_s=wall_time_s / len(seeds))
+    records.append((summary, info))
+  return records
+
+
+def checkpoint_path(base_dir: str, iteration: int) -> str:
+  return sac.checkpoint_path(os.path.join(base_dir, 'checkpoints'), iteration)
+
+
+def save_checkpoint(base_dir: str, iteration: int, state: TrainState,
+                    keep: int = 2) -> None:
+  """The whole state (replay cut to its filled part), atomically."""
+  host = jax.device_get(state)
+  filled = int(host.replay.size)
+  replay = {k: np.asarray(getattr(host.replay, k))[:filled]
+            for k in ('obs', 'action', 'reward', 'next_obs', 'terminal')}
+  replay.update(size=int(host.replay.size), cursor=int(host.replay.cursor))
+  leaves = lambda t: [np.asarray(x) for x in jax.tree_util.tree_leaves(t)]
+  tree = {'iteration': int(iteration),
+          'network_params': leaves(host.network_params),
+          'target_params': leaves(host.target_params),
+          'optimizer_state': leaves(host.optimizer_state),
+          'log_alpha': np.asarray(host.log_alpha),
+          'alpha_optimizer_state': leaves(host.alpha_optimizer_state),
+          'replay': replay, 'key': np.asarray(host.key),
+          'updates': int(host.updates), 'env_steps': int(host.env_steps)}
+  path = checkpoint_path(base_dir, iteration)
+  os.makedirs(os.path.dirname(path), exist_ok=True)
+  safe_io.write_tree(path, tree, file_format=CHECKPOINT_FORMAT)
+  folder = os.path.dirname(path)
+  for old in sac.checkpoint_iterations(folder)[:-keep]:
+    os.remove(checkpoint_path(base_dir, old))
+
+
+def load_checkpoint(path: str, template: TrainState) -> TrainState:
+  """A checkpoint's state, checked against `template`'s shapes."""
+  tree = safe_io.read_tree(path, file_format=CHECKPOINT_FORMAT,
+                           what='SAC trainer checkpoint')
+  what = f'{path}'
+  restore = lambda name, t: sac._restore_like(t, tree[name], f'{what}: {name}')  # pylint: disable=protected-access
+  r = tree['replay']
+  capacity = template.replay.reward.shape[0]
+  size = int(r['size'])
+  if not 0 <= size <= capacity or not 0 <= int(r['cursor']) < capacity:
+    raise ValueError(f'{what}: replay size/cursor {size}/{r["cursor"]} do '
+                     f'not fit the capacity {capacity}')
+  arrays = {}
+  for name in ('obs', 'action', 'reward', 'next_obs', 'terminal'):
+    ref = getattr(template.replay, name)
+    value = np.asarray(r[name])
+    if value.shape != (size,) + ref.shape[1:]:
+      raise ValueError(f'{what}: replay {name} has shape {value.shape}, '
+                       f'expected {(size,) + ref.shape[1:]}')
+    arrays[name] = jnp.asarray(ref).at[:size].set(value.astype(ref.dtype))
+  replay = Replay(size=jnp.asarray(size, jnp.int32),
+                  cursor=jnp.asarray(int(r['cursor']), jnp.int32), **arrays)
+  return TrainState(
+      network_params=restore('network_params', template.network_params),
+      target_params=restore('target_params', template.target_params),
+      optimizer_state=restore('optimizer_state', template.optimizer_state),
+      log_alpha=restore('log_alpha', template.log_alpha),
+      alpha_optimizer_state=restore('alpha_optimizer_state',
+                                    template.alpha_optimizer_state),
+      replay=replay, key=restore('key', template.key),
+      updates=jnp.asarray(int(tree['updates']), jnp.int32),
+      env_steps=jnp.asarray(int(tree['env_steps']), jnp.int32))
+
+
+def _check_resume(base_dir: str, run_info: Dict[str, Any],
+                  start_iteration: int, num_envs: int) -> None:
+  """Refuses a resume that would change settings or lose logged episodes."""
+  path = os.path.join(base_dir, RUN_INFO)
+  if os.path.exists(path):
+    try:
+      with open(path, encoding='utf-8') as f:
+        recorded = json.load(f)
+    except (OSError, ValueError) as e:
+      raise ValueError(f'{path} is unreadable ({e}); not resuming') from e
+    for key, value in run_info.items():
+      if key in recorded and recorded[key] != value:
+        raise ValueError(
+            f'{base_dir} was started with {key}={recorded[key]!r}, this run '
+            f'asks for {key}={value!r}; use the same settings or a new '
+            '--base_dir. Nothing was changed.')
+  logged = len(episode_log.read(os.path.join(base_dir,
+                                             episode_log.EPISODE_LOG)))
+  covered = start_iteration * num_envs
+  if logged < covered:
+    raise ValueError(
+        f'{base_dir}/{episode_log.EPISODE_LOG} holds {logged} episodes but '
+        f'the newest checkpoint covers {covered}: episodes would be missing. '
+        'Nothing was changed.')
+
+
+def train(*, base_dir: str, num_iterations: int, seed: int = 0,
+          config: Optional[TrainerConfig] = None,
+          collectors: Sequence[str] = ('progress', 'episodes', 'tensorboard'),
+          policy_snapshot_period: int = 1, checkpoint_period: int = 1,
+          env_params: Optional[jax_env.EnvParams] = None) -> TrainState:
+  """Runs (or resumes) one jitted training run; gin must already be bound.
+
+  Args:
+    base_dir: Run directory.
+    num_iterations: Rounds in total (a resumed run counts the finished ones);
+      each flies `config.num_envs` episodes.
+    seed: Training seed (network init, exploration, replay sampling).
+    config: Trainer settings (default: gin's `sac_trainer_config`).
+    collectors: Names from `metrics.AVAILABLE_COLLECTORS`.
+    policy_snapshot_period: Every this many rounds export the policy to
+      `base_dir/policies/` (0: never).
+    checkpoint_period: Every this many rounds (and after the last) write a
+      checkpoint; a resumed run re-flies the rounds after it.
+    env_params: Env parameters (default: `jax_env.params_from_gin()`).
+
+  Returns:
+    The final `TrainState`.
+  """
+  config = config or sac_trainer_config()
+  for name in collectors:
+    if name not in metrics.AVAILABLE_COLLECTORS:
+      raise ValueError(f'Unknown collector {name!r}; available: '
+                       f'{sorted(metrics.AVAILABLE_COLLECTORS)}')
+  if num_iterations < 1 or checkpoint_period < 1 or policy_snapshot_period < 0:
+    raise ValueError('num_iterations and checkpoint_period must be >= 1, '
+                     'policy_snapshot_period >= 0')
+  env = jax_env.LatexBalloonJaxEnv()
+  params = env_params if env_params is not None else env.default_params
+  window = int(params.episode_steps)
+  learner, state = make_learner(config, jax.random.PRNGKey(seed))
+  folder = os.path.join(base_dir, 'checkpoints')
+  done_iterations = sac.checkpoint_iterations(folder)
+  start = done_iterations[-1] + 1 if done_iterations else 0
+  run_info = {'trainer': 'jax', 'seed': seed,
+              'config': dataclasses.asdict(config),
+              'episode_steps': window}
+  os.makedirs(base_dir, exist_ok=True)
+  _check_resume(base_dir, run_info, start, config.num_envs)
+  if start:
+    state = load_checkpoint(checkpoint_path(base_dir, start - 1), state)
+    logging.info('Resuming after round %d.', start - 1)
+  safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
+                       json.dumps(run_info, indent=1) + '\n')
+  n = config.num_envs
+  total = num_iterations * n
+
+  def make(name):
+    ctor = metrics.AVAILABLE_COLLECTORS[name]
+    if ctor is metrics.ProgressCollector:
+      return lambda d, k, e: ctor(d, k, e, total_episodes=total,
+                                  description=f'train sac (jax, seed {seed})')
+    return ctor
+
+  dispatcher = collector_dispatcher.CollectorDispatcher(
+      base_dir, len(jax_env.ACTION_LOW), [make(c) for c in collectors],
+      start * n)
+  writer = dispatcher.get_summary_writer()
+  dispatcher.pre_training()
+  for iteration in range(start, num_iterations):
+    seeds = [suites.train_seed(iteration * n + i) for i in range(n)]
+    began = time.monotonic()
+    state, out = train_round(learner, env, state,
+                             jnp.asarray(seeds, jnp.int32), window, params)
+    jax.block_until_ready(state.key)
+    wall = time.monotonic() - began
+    for summary, info in episode_records(out, seeds, iteration * n, window,
+                                         wall):
+      dispatcher.begin_episode()
+      dispatcher.end_episode(metrics.LatexStatistics(
+          step=summary.steps, action=[], reward=summary.reward,
+          terminal=summary.terminal_reason != 'time_limit', info=info,
+          summary=summary))
+    if writer is not None:
+      for k, v in jax.device_get(out.losses).items():
+        writer.scalar(k, float(v), int(state.updates))
+      writer.scalar('Train/RoundSeconds', wall, iteration)
+      writer.flush()
+    last = iteration == num_iterations - 1
+    if (iteration + 1) % checkpoint_period == 0 or last:
+      save_checkpoint(base_dir, iteration, state)
+    if policy_snapshot_period and (iteration + 1) % policy_snapshot_period == 0:
+      policy = pretrained.policy_from_bundle(
+          acting_bundle(learner, state, iteration),
+          f'{base_dir} round {iteration}',
+          note=f'sac (jax trainer, seed {seed}) after {(iteration + 1) * n} '
+          'training episodes')
+      pretrained.write_policy(
+          policy, train_lib.policy_snapshot_path(base_dir, iteration))
+  dispatcher.end_training()
+  safe_io.atomic_write(os.path.join(base_dir, 'operative_config.gin'),
+                       gin.operative_config_str())
+  return state
+
