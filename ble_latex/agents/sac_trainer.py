@@ -65,10 +65,12 @@ from ble_latex import suites
 from ble_latex import train_lib
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
+from ble_latex.flight import state as state_lib
 
 Array = jax.Array
 CHECKPOINT_FORMAT = 'ble_latex.sac_trainer/1'  # msgpack (`safe_io`).
 RUN_INFO = 'run.json'
+VALIDATION_LOG = 'validation.jsonl'  # One line per validated snapshot.
 
 
 @dataclasses.dataclass(frozen=True)
@@ -362,6 +364,59 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
   return state, RoundOutput(ep_reward, within, steps, last, losses)
 
 
+@functools.partial(jax.jit, static_argnums=(0, 1, 4))
+def validate(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
+             network_params: Any, seeds: Array, num_steps: int,
+             params: jax_env.EnvParams) -> Dict[str, Array]:
+  """Flies the deterministic policy (tanh of the mean) from each seed.
+
+  The batched counterpart of `ble-latex-eval` for choosing among snapshots
+  while training (the vmapped env matches the gym env to ~1e-4; results are
+  reported with `ble-latex-eval`).
+
+  Returns:
+    [N] arrays: `within_steps`, `steps`, `status` (`FlightStatus`).
+  """
+  obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(
+      jax.vmap(jax.random.PRNGKey)(seeds), params)
+  mean_action = jax.vmap(lambda o: learner.network_def.apply(
+      network_params, o, jax.random.PRNGKey(0),
+      method=learner.network_def.actor).mean_action)
+  n = seeds.shape[0]
+
+  def one_step(carry, _):
+    env_state, obs, active, within, steps = carry
+    obs, env_state, _, done, info = jax.vmap(
+        env.step_env, in_axes=(None, 0, 0, None))(
+            None, env_state, to_box(mean_action(obs)), params)
+    within = within + (active & (info['distance_km'] <= params.radius_km))
+    steps = steps + active
+    return (env_state, obs, active & ~done, within, steps), None
+
+  zeros = jnp.zeros((n,), jnp.int32)
+  (env_state, _, _, within, steps), _ = jax.lax.scan(
+      one_step, (env_state, obs, jnp.ones((n,), bool), zeros, zeros), None,
+      length=num_steps)
+  return {'within_steps': within, 'steps': steps,
+          'status': env_state.flight.status}
+
+
+def validation_summary(result: Dict[str, Array], window_steps: int
+                       ) -> Dict[str, float]:
+  """Mean TW50 (window and flown) and % out of resources of `validate`."""
+  r = jax.device_get(result)
+  fractions = [metrics.tw50_fractions(int(w), int(s), window_steps)
+               for w, s in zip(r['within_steps'], r['steps'])]
+  out_of_resources = [
+      state_lib.FlightStatus(int(x)) in host_env.OUT_OF_RESOURCES
+      for x in r['status']]
+  return {'episodes': len(fractions),
+          'tw50_window_mean': float(np.mean([f['tw50_window']
+                                             for f in fractions])),
+          'tw50_mean': float(np.mean([f['tw50'] for f in fractions])),
+          'out_of_resources_pct': 100.0 * float(np.mean(out_of_resources))}
+
+
 # --- Host side: records, checkpoints, policies ------------------------------
 
 
@@ -411,8 +466,16 @@ def checkpoint_path(base_dir: str, iteration: int) -> str:
 
 
 def save_checkpoint(base_dir: str, iteration: int, state: TrainState,
-                    keep: int = 2) -> None:
-  """The whole state (replay cut to its filled part), atomically."""
+                    elapsed_s: float = 0.0, keep: int = 2) -> None:
+  """The whole state (replay cut to its filled part), atomically.
+
+  Args:
+    base_dir: Run directory.
+    iteration: The round just finished.
+    state: The trainer's state.
+    elapsed_s: Training wall time so far, resumes included. # [s]
+    keep: Checkpoints kept (the newest ones).
+  """
   host = jax.device_get(state)
   filled = int(host.replay.size)
   replay = {k: np.asarray(getattr(host.replay, k))[:filled]
@@ -426,7 +489,8 @@ def save_checkpoint(base_dir: str, iteration: int, state: TrainState,
           'log_alpha': np.asarray(host.log_alpha),
           'alpha_optimizer_state': leaves(host.alpha_optimizer_state),
           'replay': replay, 'key': np.asarray(host.key),
-          'updates': int(host.updates), 'env_steps': int(host.env_steps)}
+          'updates': int(host.updates), 'env_steps': int(host.env_steps),
+          'elapsed_s': float(elapsed_s)}
   path = checkpoint_path(base_dir, iteration)
   os.makedirs(os.path.dirname(path), exist_ok=True)
   safe_io.write_tree(path, tree, file_format=CHECKPOINT_FORMAT)
@@ -435,8 +499,9 @@ def save_checkpoint(base_dir: str, iteration: int, state: TrainState,
     os.remove(checkpoint_path(base_dir, old))
 
 
-def load_checkpoint(path: str, template: TrainState) -> TrainState:
-  """A checkpoint's state, checked against `template`'s shapes."""
+def load_checkpoint(path: str, template: TrainState
+                    ) -> Tuple[TrainState, float]:
+  """A checkpoint's state (checked against `template`) and elapsed [s]."""
   tree = safe_io.read_tree(path, file_format=CHECKPOINT_FORMAT,
                            what='SAC trainer checkpoint')
   what = f'{path}'
@@ -466,7 +531,8 @@ def load_checkpoint(path: str, template: TrainState) -> TrainState:
                                     template.alpha_optimizer_state),
       replay=replay, key=restore('key', template.key),
       updates=jnp.asarray(int(tree['updates']), jnp.int32),
-      env_steps=jnp.asarray(int(tree['env_steps']), jnp.int32))
+      env_steps=jnp.asarray(int(tree['env_steps']), jnp.int32)), float(
+          tree.get('elapsed_s', 0.0))
 
 
 def _check_resume(base_dir: str, run_info: Dict[str, Any],
@@ -499,6 +565,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
           config: Optional[TrainerConfig] = None,
           collectors: Sequence[str] = ('progress', 'episodes', 'tensorboard'),
           policy_snapshot_period: int = 1, checkpoint_period: int = 1,
+          validation_seeds: Sequence[int] = (),
           env_params: Optional[jax_env.EnvParams] = None) -> TrainState:
   """Runs (or resumes) one jitted training run; gin must already be bound.
 
@@ -513,6 +580,10 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
       `base_dir/policies/` (0: never).
     checkpoint_period: Every this many rounds (and after the last) write a
       checkpoint; a resumed run re-flies the rounds after it.
+    validation_seeds: If given, each policy snapshot is also flown
+      deterministically from these env seeds in one batched call
+      (`validate`); the results go to `base_dir/validation.jsonl` (with the
+      training wall time so far) and tensorboard (`Validation/*`).
     env_params: Env parameters (default: `jax_env.params_from_gin()`).
 
   Returns:
@@ -538,9 +609,17 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
               'episode_steps': window}
   os.makedirs(base_dir, exist_ok=True)
   _check_resume(base_dir, run_info, start, config.num_envs)
+  elapsed = 0.0
   if start:
-    state = load_checkpoint(checkpoint_path(base_dir, start - 1), state)
+    state, elapsed = load_checkpoint(checkpoint_path(base_dir, start - 1),
+                                     state)
     logging.info('Resuming after round %d.', start - 1)
+  validation_path = os.path.join(base_dir, VALIDATION_LOG)
+  validated = [r for r in episode_log.read(validation_path)
+               if r['iteration'] < start]
+  safe_io.atomic_write(validation_path,
+                       ''.join(json.dumps(r) + '\n' for r in validated))
+  val_seeds = jnp.asarray(list(validation_seeds), jnp.int32)
   safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
                        json.dumps(run_info, indent=1) + '\n')
   n = config.num_envs
@@ -565,6 +644,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
                              jnp.asarray(seeds, jnp.int32), window, params)
     jax.block_until_ready(state.key)
     wall = time.monotonic() - began
+    elapsed += wall
     for summary, info in episode_records(out, seeds, iteration * n, window,
                                          wall):
       dispatcher.begin_episode()
@@ -578,9 +658,27 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
       writer.scalar('Train/RoundSeconds', wall, iteration)
       writer.flush()
     last = iteration == num_iterations - 1
+    snapshot = bool(policy_snapshot_period and
+                    (iteration + 1) % policy_snapshot_period == 0)
+    if snapshot and len(validation_seeds):
+      began = time.monotonic()
+      result = validation_summary(
+          validate(learner, env, state.network_params, val_seeds, window,
+                   params), window)
+      elapsed += time.monotonic() - began
+      record = {'iteration': iteration, 'training_episodes': (iteration + 1) * n,
+                'updates': int(state.updates), 'elapsed_s': elapsed,
+                'seeds': [int(validation_seeds[0]),
+                          int(validation_seeds[-1])], **result}
+      with open(validation_path, 'a', encoding='utf-8') as f:
+        f.write(json.dumps(record) + '\n')
+      if writer is not None:
+        for k in ('tw50_window_mean', 'tw50_mean', 'out_of_resources_pct'):
+          writer.scalar(f'Validation/{k}', record[k], (iteration + 1) * n)
+        writer.flush()
     if (iteration + 1) % checkpoint_period == 0 or last:
-      save_checkpoint(base_dir, iteration, state)
-    if policy_snapshot_period and (iteration + 1) % policy_snapshot_period == 0:
+      save_checkpoint(base_dir, iteration, state, elapsed)
+    if snapshot:
       policy = pretrained.policy_from_bundle(
           acting_bundle(learner, state, iteration),
           f'{base_dir} round {iteration}',
