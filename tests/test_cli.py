@@ -94,6 +94,20 @@ def test_train_and_export_policy_help_and_usage_errors():
   assert 'base_dir' in errors[1] and 'dqn' in errors[2]
   assert 'episodes' in errors[3]
   assert all(e.count('\n') == 1 for e in errors[1:])
+  codes, errors, stdout = _absl_cases(
+      'train', [['--base_dir=/tmp/x', '--trainer=jax',
+                 '--episodes_per_iteration=3'],
+                ['--base_dir=/tmp/x', '--trainer=jax', '--agent=latex_random'],
+                ['--base_dir=/tmp/x', '--seeds=0,x'],
+                ['--base_dir=/tmp/x', '--seeds=1,1'],
+                ['--base_dir=/tmp/x', '--trainer=jax',
+                 '--validation_episodes=101'],
+                ['--base_dir=/tmp/x', '--trainer=nope']])
+  assert codes == [2] * 6
+  assert 'episodes_per_iteration is not used by --trainer=jax' in errors[0]
+  assert '--agent=sac' in errors[1]
+  assert 'integers' in errors[2] and 'distinct' in errors[3]
+  assert 'validation_episodes' in errors[4] and 'trainer' in errors[5]
   codes, errors, stdout = _absl_cases('export_policy', [['--help'], []])
   assert codes == [0, 2]
   assert '--checkpoint' in stdout and '--output' in stdout

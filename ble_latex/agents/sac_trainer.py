@@ -202,18 +202,32 @@ _LOSS_KEYS = ('Losses/Critic', 'Losses/Actor', 'Losses/Alpha',
               'Values/CriticValues1', 'Values/Alpha')
 
 
-def make_learner(config: TrainerConfig, key: Array
-                 ) -> Tuple[Learner, TrainState]:
-  """The network, optimizers and a fresh `TrainState` from `key`."""
+@functools.lru_cache(maxsize=8)
+def learner_for(config: TrainerConfig) -> Learner:
+  """The network and optimizers of `config`, one object per config.
+
+  `train_round` and `validate` take the learner as a static argument, so
+  equal configs (e.g. the seeds of one command) share their compiled code.
+  """
   num_actions = len(jax_env.ACTION_LOW)
   network_def = sac.make_network(num_actions, config.num_layers,
                                  config.hidden_units)
+  obs = jnp.zeros((jax_env.LatexBalloonJaxEnv.num_features,), jnp.float32)
+  key = jax.random.PRNGKey(0)  # Only the parameters' structure is used.
+  optimizer, alpha_optimizer = sac.make_optimizers(
+      network_def.init(key, obs, key), config.actor_learning_rate,
+      config.critic_learning_rate, config.alpha_learning_rate)
+  return Learner(network_def, optimizer, alpha_optimizer, config)
+
+
+def make_learner(config: TrainerConfig, key: Array
+                 ) -> Tuple[Learner, TrainState]:
+  """The learner of `config` and a fresh `TrainState` from `key`."""
+  learner = learner_for(config)
+  num_actions = len(jax_env.ACTION_LOW)
   key, init_key = jax.random.split(key)
   obs = jnp.zeros((jax_env.LatexBalloonJaxEnv.num_features,), jnp.float32)
-  params = network_def.init(init_key, obs, init_key)
-  optimizer, alpha_optimizer = sac.make_optimizers(
-      params, config.actor_learning_rate, config.critic_learning_rate,
-      config.alpha_learning_rate)
+  params = learner.network_def.init(init_key, obs, init_key)
   log_alpha = jnp.zeros(1)  # Temperature 1, as `sac.SACAgent`.
   c, d = config.replay_capacity, obs.shape[0]
   replay = Replay(
@@ -225,11 +239,11 @@ def make_learner(config: TrainerConfig, key: Array
       size=jnp.zeros((), jnp.int32), cursor=jnp.zeros((), jnp.int32))
   state = TrainState(
       network_params=params, target_params=params,
-      optimizer_state=optimizer.init(params), log_alpha=log_alpha,
-      alpha_optimizer_state=alpha_optimizer.init(log_alpha), replay=replay,
-      key=key, updates=jnp.zeros((), jnp.int32),
+      optimizer_state=learner.optimizer.init(params), log_alpha=log_alpha,
+      alpha_optimizer_state=learner.alpha_optimizer.init(log_alpha),
+      replay=replay, key=key, updates=jnp.zeros((), jnp.int32),
       env_steps=jnp.zeros((), jnp.int32))
-  return Learner(network_def, optimizer, alpha_optimizer, config), state
+  return learner, state
 
 
 def to_box(normalized: Array) -> Array:

@@ -1,0 +1,174 @@
+"""The jitted SAC trainer (ble_latex/agents/sac_trainer.py)."""
+
+import json
+import os
+
+import ble_latex  # noqa: F401  pylint: disable=unused-import
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from ble_latex import episode_log
+from ble_latex import jax_env
+from ble_latex import safe_io
+from ble_latex import suites
+from ble_latex.agents import sac_trainer
+
+# Small enough to compile and run in seconds; the capacity makes the replay
+# ring wrap within three rounds (3 balloons x 8 steps per round).
+CONFIG = sac_trainer.TrainerConfig(
+    num_envs=3, updates_per_step=2, batch_size=16, min_replay_history=8,
+    replay_capacity=40, hidden_units=16)
+STEPS = 8
+VALIDATION = range(suites.VALIDATION_SEED_OFFSET,
+                   suites.VALIDATION_SEED_OFFSET + 2)
+
+
+def _params():
+  return jax_env.LatexBalloonJaxEnv().default_params.replace(
+      episode_steps=STEPS)
+
+
+def _train(base_dir, iterations, **kwargs):
+  kwargs = {'seed': 5, 'config': CONFIG, 'collectors': ['episodes'],
+            'validation_seeds': VALIDATION, 'env_params': _params(),
+            **kwargs}
+  return sac_trainer.train(base_dir=str(base_dir), num_iterations=iterations,
+                           **kwargs)
+
+
+def _lines(path, drop):
+  return [{k: v for k, v in r.items() if k not in drop}
+          for r in episode_log.read(str(path))]
+
+
+@pytest.fixture(scope='module')
+def runs(tmp_path_factory):
+  """One run of 3 rounds straight, one killed after 2 and resumed."""
+  straight = tmp_path_factory.mktemp('straight')
+  final = _train(straight, 3)
+  resumed = tmp_path_factory.mktemp('resumed')
+  _train(resumed, 2)
+  # A killed run may have logged a round after its last checkpoint.
+  log = resumed / episode_log.EPISODE_LOG
+  extra = _lines(log, ())[-3:]
+  with open(log, 'a', encoding='utf-8') as f:
+    for i, r in enumerate(extra):
+      f.write(json.dumps({**r, 'episode': 6 + i}) + '\n')
+  os.remove(resumed / 'checkpoints' / 'checkpoint_00001.msgpack')
+  resumed_final = _train(resumed, 3)
+  return straight, final, resumed, resumed_final
+
+
+def test_resumed_run_equals_straight_run(runs):
+  straight, final, resumed, resumed_final = runs
+  drop = ('wall_time_s',)
+  episodes = _lines(straight / episode_log.EPISODE_LOG, drop)
+  assert episodes == _lines(resumed / episode_log.EPISODE_LOG, drop)
+  assert [e['episode'] for e in episodes] == list(range(9))
+  assert [e['seed'] for e in episodes] == [suites.train_seed(i)
+                                           for i in range(9)]
+  assert all(e['window_steps'] == STEPS for e in episodes)
+  assert _lines(straight / sac_trainer.VALIDATION_LOG, ('elapsed_s',)) == (
+      _lines(resumed / sac_trainer.VALIDATION_LOG, ('elapsed_s',)))
+  for a, b in zip(jax.tree_util.tree_leaves(final),
+                  jax.tree_util.tree_leaves(resumed_final)):
+    np.testing.assert_array_equal(a, b)
+  # Learning happened, and the ring wrapped around.
+  assert int(final.updates) > 0
+  assert int(final.env_steps) == 3 * 3 * STEPS > CONFIG.replay_capacity
+  assert int(final.replay.size) == CONFIG.replay_capacity
+  # The two newest checkpoints are kept.
+  assert sorted(os.listdir(straight / 'checkpoints')) == [
+      'checkpoint_00001.msgpack', 'checkpoint_00002.msgpack']
+
+
+def test_snapshot_flies_in_the_gym_env_as_validated(runs):
+  """The exported policy, loaded by `sac_pretrained`, flies the gym env."""
+  import gym  # pylint: disable=g-import-not-at-top
+  from ble_latex import eval_lib  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  straight, final, _, _ = runs
+  path = straight / 'policies' / 'policy_00002.msgpack'
+  env = gym.make('LatexBalloon-v0').unwrapped
+  space = env.action_space
+  agent = pretrained.SACPretrainedAgent(
+      3, env.observation_space.shape, action_low=space.low,
+      action_high=space.high, policy_path=str(path))
+  for a, b in zip(jax.tree_util.tree_leaves(agent.network_params),
+                  jax.tree_util.tree_leaves(final.network_params)):
+    np.testing.assert_array_equal(a, b)
+  records = eval_lib.evaluate(agent, env, list(VALIDATION), STEPS)
+  learner = sac_trainer.learner_for(CONFIG)
+  result = jax.device_get(sac_trainer.validate(
+      learner, jax_env.LatexBalloonJaxEnv(), final.network_params,
+      jnp.asarray(list(VALIDATION), jnp.int32), STEPS, _params()))
+  assert [r['steps'] for r in records] == result['steps'].tolist()
+  assert [round(r['tw50'] * r['steps']) for r in records] == (
+      result['within_steps'].tolist())
+  logged = episode_log.read(str(straight / sac_trainer.VALIDATION_LOG))
+  assert logged[-1]['tw50_window_mean'] == pytest.approx(
+      np.mean([r['tw50_window'] for r in records]))
+
+
+def test_resume_with_other_settings_is_refused(runs, tmp_path):
+  straight = runs[0]
+  before = (straight / episode_log.EPISODE_LOG).read_text()
+  other = sac_trainer.TrainerConfig(**{**CONFIG.__dict__, 'num_envs': 4})
+  with pytest.raises(ValueError, match='num_envs'):
+    _train(straight, 4, config=other)
+  assert (straight / episode_log.EPISODE_LOG).read_text() == before
+
+
+def test_corrupt_checkpoint_is_named(runs, tmp_path):
+  learner, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
+  del learner
+  path = runs[0] / 'checkpoints' / 'checkpoint_00002.msgpack'
+  bad = tmp_path / 'checkpoint_00002.msgpack'
+  bad.write_bytes(path.read_bytes()[:1000])
+  with pytest.raises(ValueError, match='checkpoint_00002'):
+    sac_trainer.load_checkpoint(str(bad), template)
+  wrong = sac_trainer.TrainerConfig(**{**CONFIG.__dict__, 'hidden_units': 8})
+  _, small = sac_trainer.make_learner(wrong, jax.random.PRNGKey(0))
+  with pytest.raises(ValueError, match='network_params'):
+    sac_trainer.load_checkpoint(str(path), small)
+
+
+@pytest.mark.parametrize('name,value', [('num_envs', 0),
+                                        ('updates_per_step', 1.5),
+                                        ('batch_size', 0), ('gamma', 2.0),
+                                        ('actor_learning_rate', float('nan'))])
+def test_bad_settings_name_the_gin_binding(name, value):
+  with pytest.raises(ValueError, match=f'sac_trainer_config.{name} must'):
+    sac_trainer.TrainerConfig(**{name: value})
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.lists(st.booleans(), min_size=4, max_size=4), min_size=1,
+                max_size=6))
+def test_replay_ring_keeps_the_valid_rows_in_order(masks):
+  capacity = 7
+  replay = sac_trainer.Replay(
+      obs=jnp.zeros((capacity, 2)), action=jnp.zeros((capacity, 3)),
+      reward=jnp.zeros((capacity,)), next_obs=jnp.zeros((capacity, 2)),
+      terminal=jnp.zeros((capacity,)), size=jnp.int32(0),
+      cursor=jnp.int32(0))
+  expected, counter = [], 0
+  for mask in masks:
+    rewards = jnp.arange(counter, counter + 4, dtype=jnp.float32)
+    counter += 4
+    replay = sac_trainer._add(  # pylint: disable=protected-access
+        replay, jnp.zeros((4, 2)), jnp.zeros((4, 3)), rewards,
+        jnp.zeros((4, 2)), jnp.zeros(4), jnp.asarray(mask))
+    expected += [float(r) for r, m in zip(rewards, mask) if m]
+  kept = expected[-capacity:]
+  assert int(replay.size) == len(kept)
+  assert int(replay.cursor) == len(expected) % capacity
+  ring = np.asarray(replay.reward)
+  stored = [ring[(len(expected) - len(kept) + i) % capacity]
+            for i in range(len(kept))]
+  assert stored == kept
