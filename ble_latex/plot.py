@@ -12,6 +12,10 @@ Writes into --output_dir, each only when its inputs are given:
   training_curves.png      --run_dir: reward and TW50 per episode with the
                            50-episode rolling mean (paper Fig. 2).
   terminal_conditions.png  --run_dir: cumulative terminal reasons (Fig. 5).
+  seed_curves.png          --seed_run_dirs (2 or more): TW50 over the window
+                           and reward, rolling means of each training run,
+                           their mean and min-max band (e.g. the seeds of
+                           `ble-latex-train --seeds`).
   trajectories.png         --eval_json (the first one): bird's-eye paths of up
                            to --max_trajectories seeds, 50 km circle (Fig. 4).
   trajectory_3d.png        --eval_json and --baseline_eval_json: the same seed
@@ -58,6 +62,7 @@ TERMINAL_CONDITIONS = 'terminal_conditions.png'
 TRAJECTORIES = 'trajectories.png'
 TRAJECTORY_3D = 'trajectory_3d.png'
 WIND_FIELD = 'wind_field.png'
+SEED_CURVES = 'seed_curves.png'
 SUMMARY = 'summary.json'
 DEFAULT_PRESSURES_PA = ('14000', '10000', '7000', '5000')  # [Pa] ~14-21 km.
 
@@ -69,6 +74,10 @@ flags.DEFINE_string('output_dir', None, 'Folder for the PNGs and summary.json.',
 flags.DEFINE_string('run_dir', None,
                     'Training run folder (ble-latex-train --base_dir) holding '
                     'episodes.jsonl.', flag_values=_FLAGS)
+flags.DEFINE_multi_string('seed_run_dirs', [],
+                          'Training run folders drawn together in '
+                          f'{SEED_CURVES} (e.g. BASE_DIR/seed_0 ...).',
+                          flag_values=_FLAGS)
 flags.DEFINE_multi_string('eval_json', [],
                           'ble-latex-eval result file(s) OUT/SUITE/AGENT.json; '
                           'the first one is plotted, all are summarized.',
@@ -288,6 +297,11 @@ def run(f: flags.FlagValues) -> List[str]:
   if f.run_dir:
     episodes = plots.load_episodes(
         os.path.join(f.run_dir, episode_log.EPISODE_LOG))
+  if len(f.seed_run_dirs) == 1:
+    raise flags.ValidationError('--seed_run_dirs needs 2 or more runs (one '
+                                'run: --run_dir)')
+  seed_runs = {d: plots.load_episodes(os.path.join(d, episode_log.EPISODE_LOG))
+               for d in f.seed_run_dirs}
   evals = {p: plots.load_eval(p) for p in f.eval_json}
   baseline = (plots.load_eval(f.baseline_eval_json)
               if f.baseline_eval_json else None)
@@ -318,6 +332,11 @@ def run(f: flags.FlagValues) -> List[str]:
         window=f.rolling_window, paper_reference=f.paper_reference))
     written.append(plots.plot_terminal_conditions(
         episodes, os.path.join(out, TERMINAL_CONDITIONS)))
+  if seed_runs:
+    written.append(plots.plot_seed_curves(
+        {os.path.basename(os.path.normpath(d)): e
+         for d, e in seed_runs.items()},
+        os.path.join(out, SEED_CURVES), window=f.rolling_window))
   if first is not None:
     written.append(plots.plot_trajectories(
         first, os.path.join(out, TRAJECTORIES),
@@ -356,9 +375,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
   except flags.Error as e:
     print(f'ble-latex-plot: {e}\nTry --help.', file=sys.stderr)
     return 2
-  if not (_FLAGS.run_dir or _FLAGS.eval_json or _FLAGS.baseline_eval_json or
+  if not (_FLAGS.run_dir or _FLAGS.seed_run_dirs or _FLAGS.eval_json or
+          _FLAGS.baseline_eval_json or
           _FLAGS.wind_seed is not None or _FLAGS.wind_seeds):
-    print('ble-latex-plot: nothing to plot; give --run_dir, --eval_json, '
+    print('ble-latex-plot: nothing to plot; give --run_dir, --seed_run_dirs, --eval_json, '
           '--baseline_eval_json or --wind_seed(s). Try --help.',
           file=sys.stderr)
     return 2

@@ -497,6 +497,59 @@ def plot_training_curves(episodes: Sequence[Mapping[str, Any]], path: str, *,
   return _save(fig, path)
 
 
+def seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]], key: str,
+                window: int = ROLLING_WINDOW) -> np.ndarray:
+  """[runs, episodes] rolling means of `key` over the episodes all runs have.
+
+  Raises:
+    ValueError: No runs, or a run without episodes.
+  """
+  if not runs or any(not episodes for episodes in runs.values()):
+    raise ValueError('need at least one run, each with episodes')
+  n = min(len(episodes) for episodes in runs.values())
+  return np.array([rolling_mean([float(e[key]) for e in episodes[:n]], window)
+                   for episodes in runs.values()])
+
+
+def plot_seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]],
+                     path: str, *, window: int = ROLLING_WINDOW) -> str:
+  """Training curves of several seeds in one figure: mean and band.
+
+  Top: the `window`-episode rolling mean of `tw50_window` of each run (thin),
+  their mean over runs (thick) and the min-max band, over the episodes all
+  runs have. Bottom: the same for the episode reward.
+
+  Args:
+    runs: episodes.jsonl records of each run, by label (e.g. 'seed 0').
+    path: Output PNG.
+    window: Rolling-mean window [episodes].
+
+  Returns:
+    `path`.
+  """
+  n = seed_curves(runs, 'reward', window).shape[1]
+  fig = mpl_figure.Figure(figsize=(9, 6.5), layout='constrained')
+  axes = fig.subplots(2, 1, sharex=True)
+  ep = np.arange(n)
+  for ax, key, label, scale in (
+      (axes[0], 'tw50_window', 'TW50 over the 3-day window [%]', 100.0),
+      (axes[1], 'reward', 'episode reward', 1.0)):
+    curves = scale * seed_curves(runs, key, window)
+    for name, curve in zip(runs, curves):
+      ax.plot(ep, curve, lw=0.7, alpha=0.6, label=name)
+    ax.fill_between(ep, curves.min(axis=0), curves.max(axis=0),
+                    color='0.6', alpha=0.25, label='min-max over runs')
+    ax.plot(ep, curves.mean(axis=0), color='k', lw=2.2,
+            label=f'mean of {len(runs)} runs')
+    ax.set_ylabel(label)
+    ax.grid(alpha=0.3)
+  axes[0].legend(loc='lower right', fontsize=8, ncol=2)
+  axes[1].set_xlabel('episode')
+  fig.suptitle(f'{len(runs)} training runs, {window}-episode rolling means '
+               f'over their first {n} episodes')
+  return _save(fig, path)
+
+
 def plot_terminal_conditions(episodes: Sequence[Mapping[str, Any]],
                              path: str) -> str:
   """Paper Fig. 5: cumulative count of each terminal reason vs episode.

@@ -512,3 +512,26 @@ def test_main_wind_field_real_env(tmp_path, capsys):
   assert status == 0
   _assert_png(out / plot.WIND_FIELD)
   assert f'wrote {out / plot.WIND_FIELD}' in capsys.readouterr().out
+
+
+def test_seed_curves_mean_and_band(tmp_path):
+  runs = {}
+  for seed in range(3):
+    episodes = [dict(_episode(i), tw50_window=0.1 * seed, reward=float(seed))
+                for i in range(60 + 10 * seed)]
+    runs[f'seed_{seed}'] = episodes
+    _write_episodes(tmp_path / f'seed_{seed}' / 'episodes.jsonl', 0)
+    (tmp_path / f'seed_{seed}' / 'episodes.jsonl').write_text(
+        ''.join(json.dumps(e) + '\n' for e in episodes))
+  curves = plots.seed_curves(runs, 'tw50_window', window=10)
+  assert curves.shape == (3, 60)  # The episodes all runs have.
+  np.testing.assert_allclose(curves[:, -1], [0.0, 0.1, 0.2])
+  with pytest.raises(ValueError, match='each with episodes'):
+    plots.seed_curves({'a': []}, 'reward')
+  out = tmp_path / 'out'
+  code = plot.main(['--output_dir', str(out), '--rolling_window=10',
+                    *[f'--seed_run_dirs={tmp_path / s}' for s in runs]])
+  assert code == 0
+  _assert_png(out / plot.SEED_CURVES)
+  assert plot.main(['--output_dir', str(out),
+                    f'--seed_run_dirs={tmp_path / "seed_0"}']) == 2
