@@ -1,4 +1,6 @@
-"""SAC training-step time: Dopamine's replay sampling and target update vs ours.
+"""SAC cost: today's agent, Dopamine's update and the jitted trainer, one run.
+
+Part 1 (`train_step`): Dopamine's replay sampling and target update vs ours.
 
 One `ble_latex.agents.sac.SACAgent` (the paper's 2 x 256 networks, batch 256,
 71 features, 3 actions) with a replay buffer of --transitions random
@@ -12,12 +14,26 @@ in two configurations, alternating in the same process for --rounds rounds:
 - ble_latex: `VectorReplayBuffer` (array indexing, same batches) and the one
   jitted `optax.incremental_update`.
 
+Part 2 (`update`): one SAC update on the same batch of 256: Dopamine's
+`sac_agent.train` (per-transition gradients, averaged) vs `sac.update` (the
+gradient of the batch mean; the update both the agent and the trainer run),
+each jitted, --steps calls per round.
+
+Part 3 (`per_env_step`): what one environment step of training costs.
+- agent: `LatexBalloon-v0` (gym, one balloon) stepped with `SACAgent.step`
+  in train mode (one update per step), --env_steps steps per round;
+- jax trainer: `sac_trainer.train_round` with gin sac_jax.gin's 16 balloons
+  and 8 updates per step, timed for one 216-step round without updates
+  (min_replay_history above the round) and one with, so per balloon-step
+  and per update costs are separated.
+
   python benchmarks/sac_step.py --steps 200 --rounds 3 --json benchmarks/sac_step.json
 """
 
 import argparse
 import functools
 import json
+import os
 import statistics
 import sys
 import time
@@ -29,6 +45,10 @@ def main() -> int:
                       help='training steps timed per round and config')
   parser.add_argument('--rounds', type=int, default=3)
   parser.add_argument('--transitions', type=int, default=20_000)
+  parser.add_argument('--env_steps', type=int, default=216,
+                      help='gym env steps of the agent timed per round')
+  parser.add_argument('--num_envs', type=int, default=16)
+  parser.add_argument('--updates_per_step', type=int, default=8)
   parser.add_argument('--json', help='also write the numbers here')
   args = parser.parse_args()
   if min(args.steps, args.rounds) < 1 or args.transitions < 2000:
@@ -94,10 +114,117 @@ def main() -> int:
   for k, v in best.items():
     print(f'| {k} | {v:.2f} |')
   print(f'speed-up: {result["speedup_best"]:.2f}x')
+  result['update'] = _time_updates(agent, args.steps, args.rounds)
+  result['per_env_step'] = _time_env_steps(args)
+  result['load_average'] = os.getloadavg()
+  print(json.dumps({k: result[k] for k in ('update', 'per_env_step',
+                                           'load_average')}, indent=1))
   if args.json:
     with open(args.json, 'w') as f:
       json.dump(result, f, indent=2)
   return 0
+
+
+def _time_updates(agent, steps: int, rounds: int) -> dict:
+  """ms per SAC update: Dopamine's `sac_agent.train` vs `sac.update`."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import sac
+  from dopamine.jax.agents.sac import sac_agent
+  import jax
+  # pylint: enable=g-import-not-at-top
+  agent._sample_from_replay_buffer()  # pylint: disable=protected-access
+  e = agent.replay_elements
+
+  def args(key):
+    return (agent.network_def, agent.network_optimizer, agent.alpha_optimizer,
+            agent.optimizer_state, agent.alpha_optimizer_state,
+            agent.network_params, agent.target_params, agent.log_alpha, key,
+            e['state'], e['action'], e['next_state'], e['reward'],
+            e['terminal'], agent.cumulative_gamma, agent.target_entropy,
+            agent.reward_scale_factor)
+
+  times = {'dopamine_train': [], 'ble_latex_update': []}
+  fns = {'dopamine_train': sac_agent.train, 'ble_latex_update': sac.update}
+  key = jax.random.PRNGKey(0)
+  for name, fn in fns.items():
+    jax.block_until_ready(fn(*args(key))['network_params'])  # Compile.
+  for _ in range(rounds):
+    for name, fn in fns.items():
+      start = time.perf_counter()
+      for _ in range(steps):
+        out = fn(*args(key))
+      jax.block_until_ready(out['network_params'])
+      times[name].append((time.perf_counter() - start) / steps * 1e3)
+  best = {k: min(v) for k, v in times.items()}
+  return {'ms_per_update_best': best,
+          'speedup_best': best['dopamine_train'] / best['ble_latex_update']}
+
+
+def _time_env_steps(args) -> dict:
+  """ms per env step of the agent's loop and of the jitted trainer."""
+  # pylint: disable=g-import-not-at-top
+  import gym
+  from ble_latex import jax_env
+  from ble_latex import runner
+  from ble_latex.agents import sac_trainer
+  import jax
+  import jax.numpy as jnp
+  # pylint: enable=g-import-not-at-top
+  runner.bind_gin('sac', None, [], [])
+  env = gym.make('LatexBalloon-v0').unwrapped
+  agent = runner.create_agent('sac', env, seed=0)
+  obs = env.reset(seed=0)
+  action = agent.begin_episode(obs)
+  agent_ms = []
+  steps_done = 0
+  for r in range(args.rounds + 1):
+    start = time.perf_counter()
+    for _ in range(args.env_steps):
+      obs, reward, done, _ = env.step(action)
+      steps_done += 1
+      if done:
+        agent.end_episode(reward, True)
+        action = agent.begin_episode(env.reset(seed=steps_done))
+      else:
+        action = agent.step(reward, obs)
+    if r:  # The first round fills min_replay_history and compiles.
+      agent_ms.append((time.perf_counter() - start) / args.env_steps * 1e3)
+
+  env_j = jax_env.LatexBalloonJaxEnv()
+  params = env_j.default_params
+  steps = int(params.episode_steps)
+  n, k = args.num_envs, args.updates_per_step
+  timed = {}
+  for name, min_history in (('env_only', 10 * n * steps), ('learning', 1000)):
+    config = sac_trainer.TrainerConfig(
+        num_envs=n, updates_per_step=k, min_replay_history=min_history,
+        replay_capacity=(args.rounds + 2) * n * steps)
+    learner, state = sac_trainer.make_learner(config, jax.random.PRNGKey(0))
+    times = []
+    for r in range(args.rounds + 1):
+      seeds = jnp.arange(r * n, (r + 1) * n, dtype=jnp.int32)
+      start = time.perf_counter()
+      state, _ = sac_trainer.train_round(learner, env_j, state, seeds, steps,
+                                         params)
+      jax.block_until_ready(state.key)
+      if r:  # Round 0 compiles (and, learning, fills the replay).
+        times.append(time.perf_counter() - start)
+    timed[name] = min(times)
+  balloon_steps = n * steps
+  updates = k * steps
+  env_ms = timed['env_only'] / balloon_steps * 1e3
+  update_ms = (timed['learning'] - timed['env_only']) / updates * 1e3
+  return {
+      'agent_ms_per_env_step_best': min(agent_ms),
+      'agent_updates_per_env_step': 1,
+      'jax_trainer_round_s_best': timed,
+      'jax_trainer_ms_per_balloon_step_env_only': env_ms,
+      'jax_trainer_ms_per_update': update_ms,
+      'jax_trainer_ms_per_balloon_step_learning':
+          timed['learning'] / balloon_steps * 1e3,
+      'jax_trainer_updates_per_balloon_step': k / n,
+      'num_envs': n, 'updates_per_step': k,
+  }
 
 
 if __name__ == '__main__':

@@ -68,12 +68,13 @@ def candidates(base_dir: str, every: int, include_newest: bool) -> List[str]:
 
 def best(results: Dict[str, Dict[str, Any]],
          max_oor_pct: float) -> Optional[str]:
-  """Name with the highest validation TW50 among those within the OOR cap."""
+  """Name with the highest validation TW50 (window) within the OOR cap."""
   ok = {k: v for k, v in results.items()
         if v['out_of_resources_pct'] <= max_oor_pct}
   if not ok:
     return None
-  return max(ok, key=lambda k: (ok[k]['tw50_mean'], ok[k]['reward_mean']))
+  return max(ok, key=lambda k: (ok[k]['tw50_window_mean'],
+                                ok[k]['reward_mean']))
 
 
 def select(base_dir: str, every: int, include_newest: bool,
@@ -97,8 +98,10 @@ def select(base_dir: str, every: int, include_newest: bool,
   results: Dict[str, Dict[str, Any]] = {}
   if os.path.exists(results_path):
     with open(results_path) as f:
+      # Results of older versions lack the window TW50: flown again.
       results = {k: v for k, v in json.load(f).items()
-                 if v.get('seeds') == [seeds[0], seeds[-1]]}
+                 if v.get('seeds') == [seeds[0], seeds[-1]] and
+                 'tw50_window_mean' in v}
   runner.bind_gin('sac_pretrained', None, [], [])
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
@@ -119,11 +122,13 @@ def select(base_dir: str, every: int, include_newest: bool,
     results[name] = summary
     eval_lib.write_results(results_path, results, pretty=True)
 
-  print('| policy | note | validation TW50 | reward | out of resources |')
-  print('|---|---|---|---|---|')
+  print('| policy | note | validation TW50 window | TW50 flown | reward | '
+        'out of resources |')
+  print('|---|---|---|---|---|---|')
   for name in sorted(results):
     r = results[name]
-    print(f'| {name} | {r["note"]} | {100 * r["tw50_mean"]:.1f} % | '
+    print(f'| {name} | {r["note"]} | {100 * r["tw50_window_mean"]:.1f} % | '
+          f'{100 * r["tw50_mean"]:.1f} % | '
           f'{r["reward_mean"]:.1f} | {r["out_of_resources_pct"]:.0f} % |')
   chosen = best(results, max_oor_pct)
   if chosen is None:
@@ -131,14 +136,14 @@ def select(base_dir: str, every: int, include_newest: bool,
           file=sys.stderr)
     return 1
   r = results[chosen]
-  print(f'best: {chosen} ({r["note"]}), validation TW50 '
-        f'{100 * r["tw50_mean"]:.1f} % on {validation_episodes} seeds')
+  print(f'best: {chosen} ({r["note"]}), validation TW50 (window) '
+        f'{100 * r["tw50_window_mean"]:.1f} % on {validation_episodes} seeds')
   if output:
     policy = pretrained.load_policy(os.path.join(base_dir, 'policies', chosen))
     policy['note'] = (
         f'{r["note"]}; chosen among {len(results)} exported policies by TW50 '
-        f'on latex_validation seeds {seeds[0]}..{seeds[-1]} '
-        f'({100 * r["tw50_mean"]:.1f} %, <= {max_oor_pct:g} % out of '
+        f'(window) on latex_validation seeds {seeds[0]}..{seeds[-1]} '
+        f'({100 * r["tw50_window_mean"]:.1f} %, <= {max_oor_pct:g} % out of '
         'resources)')
     pretrained.write_policy(policy, output)
     print(f'wrote {output}')

@@ -81,6 +81,9 @@ def test_eval_writes_per_episode_json_with_flight_path(tmp_path):
   assert record['terminal_reason'] == 'max_episode_length'
   assert set(record) >= {'reward', 'tw50', 'helium_vented_mols',
                          'sand_dropped_kg', 'final_distance_km'}
+  # The window is the step cap when it is shorter than the episode.
+  assert record['window_steps'] == 6
+  assert record['tw50_window'] == record['tw50']
   assert set(record['flight_path'][0]) == {
       't_s', 'x_km', 'y_km', 'altitude_m', 'ascent_rate_mps', 'decision',
       'helium_mols', 'sand_kg'}
@@ -174,7 +177,7 @@ def test_policy_snapshots_and_validation_selection(tmp_path):
   assert sorted(results) == ['policy_00000.msgpack', 'policy_00001.msgpack']
   assert all(r['seeds'] == [suites.VALIDATION_SEED_OFFSET] * 2
              for r in results.values())
-  chosen = max(results, key=lambda k: (results[k]['tw50_mean'],
+  chosen = max(results, key=lambda k: (results[k]['tw50_window_mean'],
                                        results[k]['reward_mean']))
   assert f'best: {chosen}' in out.stdout
   best = pretrained.load_policy(str(output))
@@ -218,7 +221,7 @@ def test_train_sac_candidates_and_best(tmp_path):
       'policy_00001.msgpack', 'policy_00003.msgpack', 'policy_00004.msgpack']
 
   def r(tw50, oor, reward=0.0):
-    return {'tw50_mean': tw50, 'out_of_resources_pct': oor,
+    return {'tw50_window_mean': tw50, 'out_of_resources_pct': oor,
             'reward_mean': reward}
   results = {'a': r(0.5, 20.0), 'b': r(0.3, 10.0), 'c': r(0.3, 0.0, 5.0),
              'd': r(0.1, 0.0)}

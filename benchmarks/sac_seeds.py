@@ -1,0 +1,208 @@
+"""Several SAC training seeds with the jitted trainer, chosen and reported.
+
+Two steps, both resumable (re-run the same command after a kill):
+
+  # 1. Train each seed (`ble-latex-train --trainer=jax`, gin sac_jax.gin),
+  #    one after another in BASE_DIR/seed_<s>; every --snapshot_period rounds
+  #    the policy is exported and flown on the 100 latex_validation seeds
+  #    (batched, into seed_<s>/validation.jsonl with the training time so far).
+  python benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/k8 \
+      --seeds=0,1,2,3,4 --num_iterations=135
+
+  # 2. For each seed, choose the snapshot with the best validation TW50 over
+  #    the window among those with at most --max_oor_pct % out of resources
+  #    (validation seeds only: nothing held out is looked at), copy it to
+  #    seed_<s>/chosen_policy.msgpack, fly it on the held-out latex_small
+  #    seeds with the gym env (`ble-latex-eval`'s code) and write
+  #    BASE_DIR/report.{md,json}: per seed and mean +- std. --ship also
+  #    writes the seed with the best *validation* score as the shipped
+  #    policy.
+  python benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/k8 \
+      --seeds=0,1,2,3,4 [--ship=ble_latex/agents/policies/sac_latex.msgpack]
+"""
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+from typing import Any, Dict, List, Optional
+
+HELD_OUT_SUITE = 'latex_small'
+
+
+def train(base_dir: str, seeds: List[int], num_iterations: int,
+          snapshot_period: int, checkpoint_period: int,
+          gin_bindings: List[str]) -> None:
+  """Runs (or resumes) `ble-latex-train --trainer=jax --seeds=...`."""
+  command = [sys.executable, '-m', 'ble_latex.train', '--trainer=jax',
+             f'--base_dir={base_dir}',
+             f'--seeds={",".join(str(s) for s in seeds)}',
+             f'--num_iterations={num_iterations}',
+             f'--policy_snapshot_period={snapshot_period}',
+             f'--checkpoint_period={checkpoint_period}',
+             '--collectors=progress', '--collectors=episodes',
+             '--collectors=tensorboard',
+             *[f'--gin_bindings={b}' for b in gin_bindings]]
+  print(' '.join(command), flush=True)
+  subprocess.run(command, check=True)
+
+
+def choose(validation: List[Dict[str, Any]],
+           max_oor_pct: float) -> Optional[Dict[str, Any]]:
+  """The validated snapshot with the best TW50 (window) within the cap."""
+  ok = [r for r in validation if r['out_of_resources_pct'] <= max_oor_pct]
+  if not ok:
+    return None
+  return max(ok, key=lambda r: (r['tw50_window_mean'], -r['iteration']))
+
+
+def _held_out(policy_path: str, output: str) -> Dict[str, float]:
+  """Flies a policy on the held-out suite in the gym env; its summary."""
+  # pylint: disable=g-import-not-at-top
+  import gym
+  from balloon_learning_environment.eval import suites as ble_suites
+  from ble_latex import eval_lib
+  from ble_latex import metrics
+  from ble_latex import runner
+  from ble_latex.agents import pretrained
+  # pylint: enable=g-import-not-at-top
+  runner.bind_gin('sac_pretrained', None, [], [])
+  suite = ble_suites.get_eval_suite(HELD_OUT_SUITE)
+  env = gym.make('LatexBalloon-v0').unwrapped
+  space = env.action_space
+  agent = pretrained.SACPretrainedAgent(
+      space.shape[0], env.observation_space.shape, action_low=space.low,
+      action_high=space.high, policy_path=policy_path)
+  records = eval_lib.evaluate(agent, env, suite.seeds,
+                              suite.max_episode_length,
+                              description=f'held-out {policy_path}')
+  eval_lib.write_results(output, records)
+  return metrics.summarize(records)
+
+
+def report(base_dir: str, seeds: List[int], max_oor_pct: float,
+           results_dir: str, ship: Optional[str]) -> int:
+  """Chooses, evaluates and tabulates each seed; returns the exit status."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import episode_log
+  from ble_latex import train_lib
+  from ble_latex.agents import pretrained
+  from ble_latex.agents import sac_trainer
+  # pylint: enable=g-import-not-at-top
+  rows = []
+  for seed in seeds:
+    run = os.path.join(base_dir, f'seed_{seed}')
+    validation = episode_log.read(os.path.join(run,
+                                               sac_trainer.VALIDATION_LOG))
+    chosen = choose(validation, max_oor_pct)
+    if chosen is None:
+      print(f'seed {seed}: no validated snapshot with <= {max_oor_pct} % out '
+            'of resources', file=sys.stderr)
+      return 1
+    source = train_lib.policy_snapshot_path(run, chosen['iteration'])
+    policy_path = os.path.join(run, 'chosen_policy.msgpack')
+    policy = pretrained.load_policy(source)
+    policy['note'] += (
+        f'; chosen among {len(validation)} snapshots by TW50 (window) on '
+        f'latex_validation seeds {chosen["seeds"][0]}..{chosen["seeds"][1]} '
+        f'({100 * chosen["tw50_window_mean"]:.1f} %, <= {max_oor_pct:g} % '
+        'out of resources)')
+    pretrained.write_policy(policy, policy_path)
+    output = os.path.join(results_dir, HELD_OUT_SUITE,
+                          f'sac_jax_{os.path.basename(base_dir)}_seed_{seed}'
+                          '.json')
+    held_out = _held_out(policy_path, output)
+    rows.append({
+        'seed': seed, 'iteration': chosen['iteration'],
+        'training_episodes': chosen['training_episodes'],
+        'updates': chosen['updates'],
+        'training_minutes': chosen['elapsed_s'] / 60.0,
+        'validation_tw50_window': chosen['tw50_window_mean'],
+        'validation_out_of_resources_pct': chosen['out_of_resources_pct'],
+        'held_out_tw50_window': held_out['tw50_window_mean'],
+        'held_out_tw50': held_out['tw50_mean'],
+        'held_out_out_of_resources_pct': held_out['out_of_resources_pct'],
+        'held_out_file': output, 'policy': policy_path})
+  window = [r['held_out_tw50_window'] for r in rows]
+  oor = [r['held_out_out_of_resources_pct'] for r in rows]
+  summary = {
+      'seeds': seeds, 'max_oor_pct': max_oor_pct,
+      'held_out_tw50_window_mean': statistics.mean(window),
+      'held_out_tw50_window_std': (statistics.stdev(window) if len(window) > 1
+                                   else 0.0),
+      'held_out_out_of_resources_pct_mean': statistics.mean(oor),
+      'held_out_out_of_resources_pct_max': max(oor), 'rows': rows}
+  lines = [
+      f'Held-out `{HELD_OUT_SUITE}` (100 seeds), each seed\'s policy chosen on '
+      '`latex_validation` only.', '',
+      '| seed | chosen round | episodes | updates | training time [min] | '
+      'validation TW50 window | held-out TW50 window | held-out TW50 flown | '
+      'held-out out of resources |', '|---|---|---|---|---|---|---|---|---|']
+  for r in rows:
+    lines.append(
+        f'| {r["seed"]} | {r["iteration"]} | {r["training_episodes"]} | '
+        f'{r["updates"]} | {r["training_minutes"]:.1f} | '
+        f'{100 * r["validation_tw50_window"]:.1f} % | '
+        f'{100 * r["held_out_tw50_window"]:.1f} % | '
+        f'{100 * r["held_out_tw50"]:.1f} % | '
+        f'{r["held_out_out_of_resources_pct"]:.0f} % |')
+  lines += ['', f'Mean ± std over {len(rows)} seeds: held-out TW50 window '
+            f'{100 * summary["held_out_tw50_window_mean"]:.1f} % ± '
+            f'{100 * summary["held_out_tw50_window_std"]:.1f}; out of '
+            f'resources {summary["held_out_out_of_resources_pct_mean"]:.1f} % '
+            f'(worst seed {summary["held_out_out_of_resources_pct_max"]:.0f} '
+            '%).']
+  if ship:
+    best = max(rows, key=lambda r: r['validation_tw50_window'])
+    shutil.copyfile(best['policy'], ship)
+    summary['shipped_seed'] = best['seed']
+    lines.append(f'Shipped: seed {best["seed"]} (best validation TW50 '
+                 f'window, {100 * best["validation_tw50_window"]:.1f} %) to '
+                 f'`{ship}`.')
+  text = '\n'.join(lines) + '\n'
+  print(text)
+  with open(os.path.join(base_dir, 'report.md'), 'w', encoding='utf-8') as f:
+    f.write(text)
+  with open(os.path.join(base_dir, 'report.json'), 'w',
+            encoding='utf-8') as f:
+    json.dump(summary, f, indent=1)
+  return 0
+
+
+def main() -> int:
+  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+  sub = parser.add_subparsers(dest='command', required=True)
+  for name in ('train', 'report'):
+    p = sub.add_parser(name)
+    p.add_argument('--base_dir', required=True)
+    p.add_argument('--seeds', default='0,1,2,3,4',
+                   help='comma-separated training seeds')
+    if name == 'train':
+      p.add_argument('--num_iterations', type=int, default=135,
+                     help='rounds per seed (16 episodes each)')
+      p.add_argument('--snapshot_period', type=int, default=5)
+      p.add_argument('--checkpoint_period', type=int, default=10)
+      p.add_argument('--gin_bindings', action='append', default=[])
+    else:
+      p.add_argument('--max_oor_pct', type=float, default=5.0)
+      p.add_argument('--results_dir', default='benchmarks/results')
+      p.add_argument('--ship', help='also write the best-validated seed\'s '
+                     'policy here')
+  args = parser.parse_args()
+  try:
+    seeds = [int(s) for s in args.seeds.split(',')]
+  except ValueError:
+    parser.error(f'--seeds takes integers, got {args.seeds!r}')
+  if args.command == 'train':
+    train(args.base_dir, seeds, args.num_iterations, args.snapshot_period,
+          args.checkpoint_period, args.gin_bindings)
+    return 0
+  return report(args.base_dir, seeds, args.max_oor_pct, args.results_dir,
+                args.ship)
+
+
+if __name__ == '__main__':
+  sys.exit(main())
