@@ -50,10 +50,17 @@ def train(base_dir: str, seeds: List[int], num_iterations: int,
   subprocess.run(command, check=True)
 
 
-def choose(validation: List[Dict[str, Any]],
-           max_oor_pct: float) -> Optional[Dict[str, Any]]:
-  """The validated snapshot with the best TW50 (window) within the cap."""
-  ok = [r for r in validation if r['out_of_resources_pct'] <= max_oor_pct]
+def choose(validation: List[Dict[str, Any]], max_oor_pct: float,
+           max_minutes: Optional[float] = None) -> Optional[Dict[str, Any]]:
+  """The validated snapshot with the best TW50 (window) within the caps.
+
+  Args:
+    validation: validation.jsonl records.
+    max_oor_pct: Most % of validation episodes out of resources.
+    max_minutes: Only snapshots taken within this much training time.
+  """
+  ok = [r for r in validation if r['out_of_resources_pct'] <= max_oor_pct and
+        (max_minutes is None or r['elapsed_s'] <= 60.0 * max_minutes)]
   if not ok:
     return None
   return max(ok, key=lambda r: (r['tw50_window_mean'], -r['iteration']))
@@ -84,7 +91,8 @@ def _held_out(policy_path: str, output: str) -> Dict[str, float]:
 
 
 def report(base_dir: str, seeds: List[int], max_oor_pct: float,
-           results_dir: str, ship: Optional[str]) -> int:
+           max_minutes: Optional[float], results_dir: str,
+           ship: Optional[str]) -> int:
   """Chooses, evaluates and tabulates each seed; returns the exit status."""
   # pylint: disable=g-import-not-at-top
   from ble_latex import episode_log
@@ -97,10 +105,11 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
     run = os.path.join(base_dir, f'seed_{seed}')
     validation = episode_log.read(os.path.join(run,
                                                sac_trainer.VALIDATION_LOG))
-    chosen = choose(validation, max_oor_pct)
+    chosen = choose(validation, max_oor_pct, max_minutes)
     if chosen is None:
       print(f'seed {seed}: no validated snapshot with <= {max_oor_pct} % out '
-            'of resources', file=sys.stderr)
+            f'of resources within {max_minutes} training minutes',
+            file=sys.stderr)
       return 1
     source = train_lib.policy_snapshot_path(run, chosen['iteration'])
     policy_path = os.path.join(run, 'chosen_policy.msgpack')
@@ -129,7 +138,7 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
   window = [r['held_out_tw50_window'] for r in rows]
   oor = [r['held_out_out_of_resources_pct'] for r in rows]
   summary = {
-      'seeds': seeds, 'max_oor_pct': max_oor_pct,
+      'seeds': seeds, 'max_oor_pct': max_oor_pct, 'max_minutes': max_minutes,
       'held_out_tw50_window_mean': statistics.mean(window),
       'held_out_tw50_window_std': (statistics.stdev(window) if len(window) > 1
                                    else 0.0),
@@ -137,7 +146,9 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
       'held_out_out_of_resources_pct_max': max(oor), 'rows': rows}
   lines = [
       f'Held-out `{HELD_OUT_SUITE}` (100 seeds), each seed\'s policy chosen on '
-      '`latex_validation` only.', '',
+      '`latex_validation` only'
+      + (f', among snapshots within {max_minutes:g} training minutes'
+         if max_minutes else '') + '.', '',
       '| seed | chosen round | episodes | updates | training time [min] | '
       'validation TW50 window | held-out TW50 window | held-out TW50 flown | '
       'held-out out of resources |', '|---|---|---|---|---|---|---|---|---|']
@@ -188,6 +199,9 @@ def main() -> int:
       p.add_argument('--gin_bindings', action='append', default=[])
     else:
       p.add_argument('--max_oor_pct', type=float, default=5.0)
+      p.add_argument('--max_minutes', type=float,
+                     help='choose only among snapshots taken within this '
+                     'much training time (e.g. 45)')
       p.add_argument('--results_dir', default='benchmarks/results')
       p.add_argument('--ship', help='also write the best-validated seed\'s '
                      'policy here')
@@ -200,8 +214,8 @@ def main() -> int:
     train(args.base_dir, seeds, args.num_iterations, args.snapshot_period,
           args.checkpoint_period, args.gin_bindings)
     return 0
-  return report(args.base_dir, seeds, args.max_oor_pct, args.results_dir,
-                args.ship)
+  return report(args.base_dir, seeds, args.max_oor_pct, args.max_minutes,
+                args.results_dir, args.ship)
 
 
 if __name__ == '__main__':
