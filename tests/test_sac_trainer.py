@@ -172,3 +172,22 @@ def test_replay_ring_keeps_the_valid_rows_in_order(masks):
   stored = [ring[(len(expected) - len(kept) + i) % capacity]
             for i in range(len(kept))]
   assert stored == kept
+
+
+def test_sac_seeds_chooses_on_validation_within_caps():
+  import importlib.util  # pylint: disable=g-import-not-at-top
+  path = os.path.join(os.path.dirname(__file__), '..', 'benchmarks',
+                      'sac_seeds.py')
+  spec = importlib.util.spec_from_file_location('sac_seeds', path)
+  module = importlib.util.module_from_spec(spec)
+  spec.loader.exec_module(module)
+
+  def r(iteration, tw50, oor, minutes):
+    return {'iteration': iteration, 'tw50_window_mean': tw50,
+            'out_of_resources_pct': oor, 'elapsed_s': 60.0 * minutes}
+  log = [r(4, 0.3, 0.0, 10), r(9, 0.5, 8.0, 20), r(14, 0.45, 2.0, 30),
+         r(19, 0.6, 0.0, 50)]
+  assert module.choose(log, 5.0)['iteration'] == 19
+  assert module.choose(log, 5.0, max_minutes=45)['iteration'] == 14
+  assert module.choose(log, 10.0, max_minutes=45)['iteration'] == 9
+  assert module.choose(log, 5.0, max_minutes=5) is None
