@@ -22,6 +22,7 @@ import time
 from typing import Any, Dict, List, Mapping, Optional, Sequence
 
 from balloon_learning_environment.metrics import collector
+from balloon_learning_environment.metrics import collector_dispatcher
 from balloon_learning_environment.metrics import pickle_collector
 from balloon_learning_environment.metrics import statistics_instance
 from balloon_learning_environment.metrics import tensorboard_collector
@@ -242,6 +243,40 @@ AVAILABLE_COLLECTORS = {
 
 SUMMARY_KEYS = ('tw50', 'tw50_window', 'reward', 'helium_vented_mols',
                 'sand_dropped_kg')
+
+
+def check_collectors(names: Sequence[str]) -> None:
+  """Raises ValueError naming an unknown collector."""
+  for name in names:
+    if name not in AVAILABLE_COLLECTORS:
+      raise ValueError(f'Unknown collector {name!r}; available: '
+                       f'{sorted(AVAILABLE_COLLECTORS)}')
+
+
+def dispatcher(base_dir: str, num_actions: int, names: Sequence[str],
+               start_episode: int, total_episodes: int, description: str
+               ) -> collector_dispatcher.CollectorDispatcher:
+  """BLE's `CollectorDispatcher` over the named collectors of a run.
+
+  Args:
+    base_dir: The run directory.
+    num_actions: Action dimension (BLE's collectors ask for it).
+    names: Names from `AVAILABLE_COLLECTORS`.
+    start_episode: Episodes already done (a resumed run).
+    total_episodes: Episodes the run will have done (the progress bar).
+    description: The progress bar's label.
+  """
+  check_collectors(names)
+
+  def make(name):
+    ctor = AVAILABLE_COLLECTORS[name]
+    if ctor is ProgressCollector:
+      return lambda d, n, e: ctor(d, n, e, total_episodes=total_episodes,
+                                  description=description)
+    return ctor
+
+  return collector_dispatcher.CollectorDispatcher(
+      base_dir, num_actions, [make(name) for name in names], start_episode)
 
 
 def summarize(records: Sequence[Mapping[str, Any]]) -> Dict[str, float]:

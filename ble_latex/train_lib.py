@@ -12,7 +12,6 @@ from typing import Any, Dict, Sequence
 
 from absl import logging
 from balloon_learning_environment.agents import agent as base_agent
-from balloon_learning_environment.metrics import collector_dispatcher
 import gin
 import gym
 
@@ -139,10 +138,7 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
     ResumeError: If `base_dir` holds a run that cannot be resumed without
       losing logged episodes or with these settings (nothing is changed).
   """
-  for name in collectors:
-    if name not in metrics.AVAILABLE_COLLECTORS:
-      raise ValueError(f'Unknown collector {name!r}; available: '
-                       f'{sorted(metrics.AVAILABLE_COLLECTORS)}')
+  metrics.check_collectors(collectors)
   if num_iterations < 1 or episodes_per_iteration < 1 or max_episode_length < 1:
     raise ValueError('num_iterations, episodes_per_iteration and '
                      'max_episode_length must be >= 1')
@@ -167,19 +163,11 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
   if start_iteration:
     logging.info('Resuming after checkpoint %d (episode %d).',
                  start_iteration - 1, start_episode)
-  total = num_iterations * episodes_per_iteration
-
-  def make(name):
-    ctor = metrics.AVAILABLE_COLLECTORS[name]
-    if ctor is metrics.ProgressCollector:
-      return lambda d, n, e: ctor(d, n, e, total_episodes=total,
-                                  description=f'train {agent_name}')
-    return ctor
-
   action_dim = (env.action_space.n if hasattr(env.action_space, 'n') else
                 env.action_space.shape[0])
-  dispatcher = collector_dispatcher.CollectorDispatcher(
-      base_dir, action_dim, [make(c) for c in collectors], start_episode)
+  dispatcher = metrics.dispatcher(
+      base_dir, action_dim, collectors, start_episode,
+      num_iterations * episodes_per_iteration, f'train {agent_name}')
   agent.set_summary_writer(dispatcher.get_summary_writer())
   agent.set_mode(base_agent.AgentMode.TRAIN)
   dispatcher.pre_training()

@@ -13,6 +13,8 @@ import os
 import shutil
 import tempfile
 
+import pytest
+
 os.environ.setdefault('TF_CPP_MIN_LOG_LEVEL', '3')
 os.environ.setdefault('JAX_PLATFORMS', 'cpu')
 if 'JAX_COMPILATION_CACHE_DIR' not in os.environ:
@@ -21,3 +23,18 @@ if 'JAX_COMPILATION_CACHE_DIR' not in os.environ:
   atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 
 import ble_latex  # noqa: E402,F401  pylint: disable=g-import-not-at-top,unused-import
+
+
+@pytest.fixture
+def benchmark_script():
+  """Loads a script of benchmarks/ as a module: `benchmark_script('x.py')`."""
+  import importlib.util  # pylint: disable=g-import-not-at-top
+
+  def load(name):
+    path = os.path.join(os.path.dirname(__file__), '..', 'benchmarks', name)
+    spec = importlib.util.spec_from_file_location(name[:-3], path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+  return load

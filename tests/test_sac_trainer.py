@@ -174,13 +174,8 @@ def test_replay_ring_keeps_the_valid_rows_in_order(masks):
   assert stored == kept
 
 
-def test_sac_seeds_chooses_on_validation_within_caps():
-  import importlib.util  # pylint: disable=g-import-not-at-top
-  path = os.path.join(os.path.dirname(__file__), '..', 'benchmarks',
-                      'sac_seeds.py')
-  spec = importlib.util.spec_from_file_location('sac_seeds', path)
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
+def test_sac_seeds_chooses_on_validation_within_caps(benchmark_script):
+  module = benchmark_script('sac_seeds.py')
 
   def r(iteration, tw50, oor, minutes):
     return {'iteration': iteration, 'tw50_window_mean': tw50,

@@ -195,18 +195,8 @@ def test_policy_snapshots_need_a_sac_agent(tmp_path):
   assert 'policy snapshots need a SAC agent' in out.stderr
 
 
-def _train_sac_script():
-  import importlib.util  # pylint: disable=g-import-not-at-top
-  path = os.path.join(os.path.dirname(__file__), '..', 'benchmarks',
-                      'train_sac.py')
-  spec = importlib.util.spec_from_file_location('train_sac', path)
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
-
-
-def test_train_sac_candidates_and_best(tmp_path):
-  train_sac = _train_sac_script()
+def test_train_sac_candidates_and_best(tmp_path, benchmark_script):
+  train_sac = benchmark_script('train_sac.py')
   with pytest.raises(FileNotFoundError, match='no exported policies'):
     train_sac.candidates(str(tmp_path), 2, False)
   (tmp_path / 'policies').mkdir()

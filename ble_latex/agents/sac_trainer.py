@@ -47,7 +47,6 @@ import time
 from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 from absl import logging
-from balloon_learning_environment.metrics import collector_dispatcher
 from dopamine.jax import continuous_networks
 import flax
 import gin
@@ -73,9 +72,13 @@ RUN_INFO = 'run.json'
 VALIDATION_LOG = 'validation.jsonl'  # One line per validated snapshot.
 
 
-@dataclasses.dataclass(frozen=True)
+@gin.configurable('sac_trainer_config')
+@dataclasses.dataclass(frozen=True, kw_only=True)
 class TrainerConfig:
-  """The jitted trainer's settings (gin: `sac_trainer_config`).
+  """The jitted trainer's settings (gin: `sac_trainer_config.*`).
+
+  Built with no arguments it takes gin's bindings (`gin_configs/sac_jax.gin`);
+  arguments given override them.
 
   Attributes:
     num_envs: Balloons flown in parallel; one round is one episode of each.
@@ -122,27 +125,6 @@ class TrainerConfig:
           or value < 1):
         raise ValueError(f'sac_trainer_config.{name} must be an integer >= 1, '
                          f'got {value!r}')
-
-
-@gin.configurable
-def sac_trainer_config(
-    *,
-    num_envs: int = 16,
-    updates_per_step: int = 4,
-    batch_size: int = 256,
-    replay_capacity: int = 1_000_000,
-    min_replay_history: int = 1000,
-    gamma: float = 0.99,
-    actor_learning_rate: float = 3e-4,
-    critic_learning_rate: float = 3e-4,
-    alpha_learning_rate: float = 3e-4,
-    target_smoothing_coefficient: float = 0.005,
-    target_entropy: float = 0.0,
-    reward_scale_factor: float = 1.0,
-    num_layers: int = 2,
-    hidden_units: int = 256) -> TrainerConfig:
-  """The trainer's settings from gin (see `TrainerConfig` for each)."""
-  return TrainerConfig(**{k: v for k, v in locals().items()})
 
 
 @flax.struct.dataclass
@@ -588,7 +570,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
     num_iterations: Rounds in total (a resumed run counts the finished ones);
       each flies `config.num_envs` episodes.
     seed: Training seed (network init, exploration, replay sampling).
-    config: Trainer settings (default: gin's `sac_trainer_config`).
+    config: Trainer settings (default: gin's `sac_trainer_config.*`).
     collectors: Names from `metrics.AVAILABLE_COLLECTORS`.
     policy_snapshot_period: Every this many rounds export the policy to
       `base_dir/policies/` (0: never).
@@ -603,11 +585,8 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
   Returns:
     The final `TrainState`.
   """
-  config = config or sac_trainer_config()
-  for name in collectors:
-    if name not in metrics.AVAILABLE_COLLECTORS:
-      raise ValueError(f'Unknown collector {name!r}; available: '
-                       f'{sorted(metrics.AVAILABLE_COLLECTORS)}')
+  config = config or TrainerConfig()
+  metrics.check_collectors(collectors)
   if num_iterations < 1 or checkpoint_period < 1 or policy_snapshot_period < 0:
     raise ValueError('num_iterations and checkpoint_period must be >= 1, '
                      'policy_snapshot_period >= 0')
@@ -637,18 +616,9 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
   safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
                        json.dumps(run_info, indent=1) + '\n')
   n = config.num_envs
-  total = num_iterations * n
-
-  def make(name):
-    ctor = metrics.AVAILABLE_COLLECTORS[name]
-    if ctor is metrics.ProgressCollector:
-      return lambda d, k, e: ctor(d, k, e, total_episodes=total,
-                                  description=f'train sac (jax, seed {seed})')
-    return ctor
-
-  dispatcher = collector_dispatcher.CollectorDispatcher(
-      base_dir, len(jax_env.ACTION_LOW), [make(c) for c in collectors],
-      start * n)
+  dispatcher = metrics.dispatcher(
+      base_dir, len(jax_env.ACTION_LOW), collectors, start * n,
+      num_iterations * n, f'train sac (jax, seed {seed})')
   writer = dispatcher.get_summary_writer()
   dispatcher.pre_training()
   for iteration in range(start, num_iterations):
