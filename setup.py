@@ -53,7 +53,9 @@ setuptools.setup(
     extras_require={
         # SB3 and the CPU torch for tests/test_gymnasium_env.py and examples/.
         'test': ['pytest', 'pytest-timeout', 'hypothesis',
-                 'stable-baselines3', 'torch'],
+                 'stable-baselines3', 'torch', 'ray[tune]'],
+        # ble-latex-eval --ray_address and ble-latex-sweep.
+        'ray': ['ray[tune]'],
     },
     entry_points={
         'gym.envs': [
@@ -66,6 +68,7 @@ setuptools.setup(
             'ble-latex-eval = ble_latex.eval:run',
             'ble-latex-download-era5 = ble_latex.download_era5:main',
             'ble-latex-plot = ble_latex.plot:main',
+            'ble-latex-sweep = ble_latex.sweep:run',
             'ble-latex-demo = ble_latex.demo:main',
             'ble-latex-export-policy = ble_latex.export_policy:run',
         ],

@@ -10,6 +10,16 @@ the latex env and suites:
 Writes OUTPUT_DIR/SUITE/NAME.json: one object per seed with seed, reward,
 tw50, tw50_window, window_steps, steps, helium_vented_mols, sand_dropped_kg, terminal_reason,
 final_distance_km and flight_path (README, "Eval output").
+
+With --ray_address the seeds (after --num_shards/--shard_idx) are Ray tasks
+on a local Ray (`local`) or a cluster (`auto`, `HOST:PORT`); the file written
+is the same (`ble_latex.distributed`, README "Scaling out on Ray"):
+
+  ble-latex-eval --agent=station_seeker --env_name=LatexBalloonDiscrete-v0 \
+      --suite=latex_small --ray_address=local --ray_num_cpus=2
+
+If seeds fail on Ray, the others are written to NAME.partial.json and the
+command exits with status 1, listing each failed seed with its error.
 """
 
 import json
@@ -28,6 +38,7 @@ with quiet.third_party_noise():
   from balloon_learning_environment.eval import suites as ble_suites
   import gym
 
+  from ble_latex import distributed
   from ble_latex import eval_lib
   from ble_latex import metrics
   from ble_latex import runner
@@ -56,31 +67,60 @@ flags.DEFINE_string('name_override', None, 'Name of the json output file.')
 flags.DEFINE_integer('max_episode_length', None,
                      'Override the suite\'s episode length.')
 flags.DEFINE_integer('seed', 0, 'Agent seed.')
+flags.DEFINE_string('ray_address', None,
+                    'Fly the seeds as Ray tasks: local (an embedded Ray on '
+                    'this machine), auto (the cluster this machine joined) '
+                    "or HOST:PORT / ray://HOST:PORT. Needs the 'ray' extra.")
+flags.DEFINE_integer('ray_num_cpus', None,
+                     'CPUs of a --ray_address=local Ray (default: all).',
+                     lower_bound=1)
 FLAGS = flags.FLAGS
 
 
 def main(argv: Sequence[str]) -> None:
   if len(argv) > 1:
     raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
-  runner.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
-                  FLAGS.gin_bindings)
-  suite = ble_suites.get_eval_suite(FLAGS.suite)
-  seeds = eval_lib.shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)
-  with quiet.third_party_noise():
-    env = gym.make(FLAGS.env_name).unwrapped
-  agent = runner.create_agent(FLAGS.agent, env, seed=FLAGS.seed)
   if (FLAGS.checkpoint_dir is None) != (FLAGS.checkpoint_idx is None):
     raise app.UsageError('--checkpoint_dir and --checkpoint_idx go together.')
-  if FLAGS.checkpoint_dir is not None:
-    agent.load_checkpoint(FLAGS.checkpoint_dir, FLAGS.checkpoint_idx)
+  spec = eval_lib.EvalSpec(
+      agent=FLAGS.agent, env_name=FLAGS.env_name,
+      agent_gin_file=FLAGS.agent_gin_file, gin_files=tuple(FLAGS.gin_file),
+      gin_bindings=tuple(FLAGS.gin_bindings),
+      checkpoint_dir=FLAGS.checkpoint_dir, checkpoint_idx=FLAGS.checkpoint_idx,
+      seed=FLAGS.seed)
+  if FLAGS.ray_address is not None:
+    # Before JAX starts threads in this process: Ray forks its daemons.
+    try:
+      distributed.connect(FLAGS.ray_address, FLAGS.ray_num_cpus)
+    except distributed.RayUnavailableError as e:
+      raise cli.CommandUsageError(str(e)) from e
+  agent, env = eval_lib.build(spec)  # Checks the spec before Ray work starts.
+  suite = ble_suites.get_eval_suite(FLAGS.suite)
+  seeds = eval_lib.shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)
   max_steps = FLAGS.max_episode_length or suite.max_episode_length
-  results = eval_lib.evaluate(agent, env, seeds, max_steps,
-                     description=f'eval {FLAGS.agent} {FLAGS.suite}')
   name = FLAGS.name_override or (
       f'{FLAGS.agent}_{FLAGS.checkpoint_idx}'
       if FLAGS.checkpoint_idx is not None else FLAGS.agent)
   path = eval_lib.output_path(FLAGS.output_dir, FLAGS.suite, name,
                               FLAGS.num_shards, FLAGS.shard_idx)
+  description = f'eval {FLAGS.agent} {FLAGS.suite}'
+  if FLAGS.ray_address is None:
+    results = eval_lib.evaluate(agent, env, seeds, max_steps,
+                                description=description)
+  else:
+    del agent, env  # Workers build their own.
+    try:
+      results = distributed.evaluate(spec, seeds, max_steps,
+                                     description=description)
+    except distributed.SeedsFailedError as e:
+      partial = path[:-len('.json')] + '.partial.json'
+      eval_lib.write_results(partial, e.completed, FLAGS.pretty_json)
+      print(f'ble-latex-eval: {e}\nThe {len(e.completed)} other records are '
+            f'in {partial}.', file=sys.stderr)
+      sys.exit(1)
+    finally:
+      if FLAGS.ray_address == 'local':
+        distributed.shutdown()
   eval_lib.write_results(path, results, FLAGS.pretty_json)
   print(json.dumps({'output': path, **metrics.summarize(results)}))
 
@@ -91,6 +131,18 @@ def check() -> None:
   cli.check_suite(FLAGS.suite)
   cli.check_env_name(FLAGS.env_name)
   cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
+  if FLAGS.ray_address is not None:
+    try:
+      distributed.check_address(FLAGS.ray_address)
+      distributed.require_ray()
+    except (ValueError, distributed.RayUnavailableError) as e:
+      raise cli.CommandUsageError(str(e)) from e
+    if FLAGS.ray_num_cpus is not None and FLAGS.ray_address != 'local':
+      raise cli.CommandUsageError(
+          '--ray_num_cpus is only for --ray_address=local; a cluster\'s '
+          'nodes declare their CPUs (ray start --num-cpus)')
+  elif FLAGS.ray_num_cpus is not None:
+    raise cli.CommandUsageError('--ray_num_cpus needs --ray_address=local')
 
 
 def run(argv: Optional[Sequence[str]] = None) -> None:

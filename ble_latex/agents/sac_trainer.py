@@ -44,7 +44,7 @@ import functools
 import json
 import os
 import time
-from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 from absl import logging
 from dopamine.jax import continuous_networks
@@ -562,7 +562,9 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
           collectors: Sequence[str] = ('progress', 'episodes', 'tensorboard'),
           policy_snapshot_period: int = 1, checkpoint_period: int = 1,
           validation_seeds: Sequence[int] = (),
-          env_params: Optional[jax_env.EnvParams] = None) -> TrainState:
+          env_params: Optional[jax_env.EnvParams] = None,
+          on_validation: Optional[Callable[[Dict[str, Any]], None]] = None
+          ) -> TrainState:
   """Runs (or resumes) one jitted training run; gin must already be bound.
 
   Args:
@@ -581,6 +583,10 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
       (`validate`); the results go to `base_dir/validation.jsonl` (with the
       training wall time so far) and tensorboard (`Validation/*`).
     env_params: Env parameters (default: `jax_env.params_from_gin()`).
+    on_validation: Called with each `validation.jsonl` record once its round
+      is done (policy snapshot written; the checkpoint too when the periods
+      coincide), e.g. to report it to
+      Ray Tune (`ble_latex.sweep_lib`).
 
   Returns:
     The final `TrainState`.
@@ -644,6 +650,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
     last = iteration == num_iterations - 1
     snapshot = bool(policy_snapshot_period and
                     (iteration + 1) % policy_snapshot_period == 0)
+    record = None
     if snapshot and len(validation_seeds):
       began = time.monotonic()
       result = validation_summary(
@@ -670,6 +677,8 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
           'training episodes')
       pretrained.write_policy(
           policy, train_lib.policy_snapshot_path(base_dir, iteration))
+    if record is not None and on_validation is not None:
+      on_validation(record)
   dispatcher.end_training()
   safe_io.atomic_write(os.path.join(base_dir, 'operative_config.gin'),
                        gin.operative_config_str())

@@ -1,0 +1,77 @@
+"""Serial vs Ray `ble-latex-eval`, side by side in one run.
+
+Runs the same `ble-latex-eval` command twice as subprocesses: in one process
+(the default) and with `--ray_address=local --ray_num_cpus=N` (seeds as Ray
+tasks on an embedded Ray with N worker CPUs). Reports each command's wall
+time (start-up, Ray's and the workers' included), the speed-up, and whether
+the two JSON files are byte-identical. The machine's load average is noted
+before and after each command.
+
+  python benchmarks/ray_eval.py --agent=station_seeker \\
+      --env_name=LatexBalloonDiscrete-v0 --suite=latex_small --num_cpus=2 \\
+      --json benchmarks/ray_eval.json
+"""
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+
+
+def run(command, label):
+  load_before = os.getloadavg()
+  began = time.monotonic()
+  subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+  wall = time.monotonic() - began
+  result = {'command': ' '.join(command), 'wall_s': round(wall, 1),
+            'loadavg_before': [round(x, 2) for x in load_before],
+            'loadavg_after': [round(x, 2) for x in os.getloadavg()]}
+  print(f'{label}: {result["wall_s"]} s', flush=True)
+  return result
+
+
+def main():
+  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+  parser.add_argument('--agent', default='station_seeker')
+  parser.add_argument('--env_name', default='LatexBalloonDiscrete-v0')
+  parser.add_argument('--suite', default='latex_small')
+  parser.add_argument('--num_cpus', type=int, default=2,
+                      help='CPUs of the local Ray.')
+  parser.add_argument('--json', help='Write the results here.')
+  args = parser.parse_args()
+  with tempfile.TemporaryDirectory() as tmp:
+    base = [sys.executable, '-m', 'ble_latex.eval', f'--agent={args.agent}',
+            f'--env_name={args.env_name}', f'--suite={args.suite}',
+            '--name_override=out']
+    serial = run([*base, f'--output_dir={tmp}/serial'], 'serial')
+    ray = run([*base, f'--output_dir={tmp}/ray', '--ray_address=local',
+               f'--ray_num_cpus={args.num_cpus}'],
+              f'ray ({args.num_cpus} CPUs)')
+    paths = [os.path.join(tmp, k, args.suite, 'out.json')
+             for k in ('serial', 'ray')]
+    with open(paths[0], 'rb') as a, open(paths[1], 'rb') as b:
+      identical = a.read() == b.read()
+    with open(paths[0], encoding='utf-8') as f:
+      episodes = len(json.load(f))
+  result = {
+      'agent': args.agent, 'env_name': args.env_name, 'suite': args.suite,
+      'episodes': episodes, 'ray_num_cpus': args.num_cpus,
+      'serial': serial, 'ray': ray,
+      'speedup': round(serial['wall_s'] / ray['wall_s'], 2),
+      'identical_json': identical,
+      'machine': {'cpus': os.cpu_count(), 'platform': platform.platform(),
+                  'python': platform.python_version()},
+  }
+  print(json.dumps({k: result[k] for k in ('speedup', 'identical_json')}))
+  if args.json:
+    with open(args.json, 'w', encoding='utf-8') as f:
+      json.dump(result, f, indent=1)
+      f.write('\n')
+
+
+if __name__ == '__main__':
+  main()
