@@ -153,7 +153,9 @@ def check_env_name(name: str) -> None:
 
 def check_gin_files(paths: Iterable[Optional[str]]) -> None:
   """Each gin file exists as given or under BLE's folder (as gin finds it)."""
-  import balloon_learning_environment  # pylint: disable=g-import-not-at-top
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise():  # BLE's package import registers gym envs.
+    import balloon_learning_environment  # pylint: disable=g-import-not-at-top
   ble_parent = os.path.dirname(
       os.path.dirname(balloon_learning_environment.__file__))
   shipped = [p.name for p in configs.gin_dir().glob('*.gin')]

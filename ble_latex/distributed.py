@@ -87,7 +87,10 @@ def connect(address: str, num_cpus: Optional[int] = None) -> None:
     ValueError: A malformed address.
   """
   ray = require_ray()
-  if ray.is_initialized():
+  check_address(address)
+  if address not in ('local', 'auto'):
+    _probe(address)
+  if ray.is_initialized():  # Already connected in this process: reuse.
     return
   quiet = dict(include_dashboard=False, log_to_driver=False,
                configure_logging=True, logging_level='WARNING')
@@ -97,9 +100,6 @@ def connect(address: str, num_cpus: Optional[int] = None) -> None:
   if num_cpus is not None:
     raise ValueError('num_cpus is only for a local Ray; a cluster\'s nodes '
                      'declare their CPUs (ray start --num-cpus)')
-  check_address(address)
-  if address != 'auto':
-    _probe(address)
   try:
     if address.startswith('ray://'):
       ray.init(address=address, log_to_driver=False)

@@ -14,6 +14,7 @@ import os
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 from balloon_learning_environment.agents import agent as base_agent
+import gin
 import gym
 import tqdm
 
@@ -50,7 +51,12 @@ class EvalSpec:
 
 
 def build(spec: EvalSpec) -> Tuple[base_agent.Agent, gym.Env]:
-  """Binds gin for `spec` and builds its agent (checkpoint loaded) and env."""
+  """Binds gin for `spec` and builds its agent (checkpoint loaded) and env.
+
+  Gin's configuration is process-wide and BLE's binding locks it: what was
+  bound before is cleared first.
+  """
+  gin.clear_config()
   runner.bind_gin(spec.agent, spec.agent_gin_file, spec.gin_files,
                   spec.gin_bindings)
   with quiet.third_party_noise():

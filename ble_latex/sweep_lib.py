@@ -304,10 +304,12 @@ def check_points(settings: SweepSettings) -> None:
     ValueError: A binding gin or the trainer refuses (gin's message names
       it), before any trial starts.
   """
-  from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
-  for index in range(len(settings.points)):
-    bind_trial_gin(settings, index)
-    sac_trainer.TrainerConfig()
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise():  # Binding imports TF, dopamine, BLE.
+    from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
+    for index in range(len(settings.points)):
+      bind_trial_gin(settings, index)
+      sac_trainer.TrainerConfig()
 
 
 def _trial(config: Dict[str, Any], *, settings: Dict[str, Any]) -> None:
@@ -513,9 +515,10 @@ def write_outputs(settings: SweepSettings,
                   key=lambda s: (-s['mean'], s['point']))
   fmt = lambda x: '—' if x is None else f'{100 * x:.1f}'
   lines = [
-      f'Sweep {settings.sweep_dir}: {len(settings.points)} points x seeds '
-      f'{", ".join(map(str, settings.seeds))}, {settings.num_iterations} '
-      f'rounds, validation on {settings.validation_episodes} '
+      f'Sweep {settings.sweep_dir}: {len(settings.points)} point(s) x '
+      f'training seed(s) {", ".join(map(str, settings.seeds))}; '
+      f'{settings.num_iterations} rounds per trial, validation on '
+      f'{settings.validation_episodes} '
       'latex_validation seeds every '
       f'{settings.policy_snapshot_period} rounds.',
       '',

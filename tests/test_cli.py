@@ -83,6 +83,40 @@ def test_eval_help_and_usage_errors():
   assert '--checkpoint_dir and --checkpoint_idx' in errors[7]
 
 
+def test_sweep_and_ray_eval_usage_errors(tmp_path):
+  space = tmp_path / 'space.json'
+  space.write_text('{"bindings": {"sac_trainer_config.gamma": {"normal": 1}}}')
+  d = f'--sweep_dir={tmp_path}/sweep'
+  cases = [['--help'], [d], [d, f'--space={space}'],
+           [d, '--grid=sac_trainer_config.gamma'],
+           [d, '--grid=sac_trainer_config.nope=1,2'],
+           [d, '--grid=sac_trainer_config.gamma=0.9', '--ray_address=nowhere'],
+           [d, '--grid=sac_trainer_config.gamma=0.9', '--seeds=0,0'],
+           [d, '--grid=sac_trainer_config.gamma=0.9',
+            '--ray_address=127.0.0.1:9']]
+  codes, errors, stdout = _absl_cases('sweep', cases)
+  assert codes == [0] + [2] * 7
+  for flag in ('--sweep_dir', '--space', '--grid', '--seeds', '--asha',
+               '--ray_address'):
+    assert flag in stdout
+  for error in errors[1:]:
+    assert error.startswith('ble-latex-sweep: ') and error.count('\n') == 1, (
+        error)
+  assert 'nothing to sweep' in errors[1]
+  assert str(space) in errors[2] and 'normal' in errors[2]
+  assert 'NAME=V1,V2' in errors[3]
+  assert 'nope' in errors[4]  # gin's own message, before Ray starts.
+  assert 'HOST:PORT' in errors[5] and 'distinct' in errors[6]
+  assert 'cannot reach the Ray cluster' in errors[7]
+  codes, errors, _ = _absl_cases('eval', [
+      ['--agent=latex_random', '--ray_address=nowhere'],
+      ['--agent=latex_random', '--ray_num_cpus=2'],
+      ['--agent=latex_random', '--ray_address=127.0.0.1:9']])
+  assert codes == [2, 2, 2]
+  assert 'HOST:PORT' in errors[0] and '--ray_address=local' in errors[1]
+  assert 'cannot reach the Ray cluster' in errors[2]
+
+
 @pytest.mark.slow
 def test_train_and_export_policy_help_and_usage_errors():
   codes, errors, stdout = _absl_cases(
