@@ -39,7 +39,7 @@ clean:
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.eval --suite=latex_small --output_dir=$(RESULTS)
 
-.PHONY: baselines results env-speed batch-speed sac-step train-sac select-sac
+.PHONY: baselines results env-speed batch-speed sac-step ray-eval train-sac select-sac
 baselines: venv
 	$(EVAL) --agent=latex_random
 	$(EVAL) --agent=latex_station_seeker
@@ -58,6 +58,9 @@ batch-speed: venv
 
 sac-step: venv
 	$(PY) benchmarks/sac_step.py --steps 200 --rounds 3 --json benchmarks/sac_step.json
+
+ray-eval: venv
+	$(PY) benchmarks/ray_eval.py --json benchmarks/ray_eval.json
 
 # Issue 6 training: the paper's SAC run (resumable), then the policy chosen on
 # latex_validation is written into the package (see README "Results").

@@ -25,6 +25,16 @@ if 'JAX_COMPILATION_CACHE_DIR' not in os.environ:
 import ble_latex  # noqa: E402,F401  pylint: disable=g-import-not-at-top,unused-import
 
 
+@pytest.fixture(scope='session')
+def atmosphere():
+  """BLE's standard atmosphere (PRNG key 0), shared by the physics tests."""
+  # pylint: disable=g-import-not-at-top
+  from balloon_learning_environment.env.balloon import standard_atmosphere
+  import jax
+  # pylint: enable=g-import-not-at-top
+  return standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
+
+
 @pytest.fixture
 def benchmark_script():
   """Loads a script of benchmarks/ as a module: `benchmark_script('x.py')`."""

@@ -9,12 +9,10 @@ import math
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import balloon as ble_balloon
 from balloon_learning_environment.env.balloon import control
-from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
-import jax
 import pytest
 import s2sphere as s2
 
@@ -28,11 +26,6 @@ STRIDE = controller_lib.STRIDE
 Status = balloon_lib.LatexBalloonStatus
 Decision = controller_lib.Decision
 CALM = wind_field.WindVector(units.Velocity(mps=0.0), units.Velocity(mps=0.0))
-
-
-@pytest.fixture(scope='module')
-def atmosphere():
-  return standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
 
 
 def _state(atmosphere, altitude_m=17_000.0, **kwargs):

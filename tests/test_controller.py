@@ -3,13 +3,11 @@
 
 import datetime as dt
 
-from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
 from hypothesis import assume
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
-import jax
 import numpy as np
 import pytest
 
@@ -23,11 +21,6 @@ PAYLOAD = 2.2  # [kg]
 SAND = 2.0  # [kg]
 C_D = 0.25
 Decision = controller_lib.Decision
-
-
-@pytest.fixture(scope='module')
-def atmosphere():
-  return standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
 
 
 def _ambient(atmosphere, h):

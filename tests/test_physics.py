@@ -3,12 +3,10 @@
 
 import math
 
-from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
-import jax
 import numpy as np
 import pytest
 
@@ -17,11 +15,6 @@ from reference import numpy_physics as physics
 
 _SETTINGS = settings(max_examples=40, deadline=None)
 PAYLOAD = 2.2  # [kg]
-
-
-@pytest.fixture(scope='module')
-def atmosphere():
-  return standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
 
 
 def _ambient(atmosphere, h):
