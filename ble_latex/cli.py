@@ -127,6 +127,24 @@ def quiet_init_callbacks() -> None:
 
 
 # -- Checks shared by train and eval. ----------------------------------------
+def check_ray_flags(address: Optional[str], num_cpus: Optional[int]) -> None:
+  """--ray_address / --ray_num_cpus: Ray installed, address well formed."""
+  from ble_latex import distributed  # pylint: disable=g-import-not-at-top
+  if address is None:
+    if num_cpus is not None:
+      raise CommandUsageError('--ray_num_cpus needs --ray_address=local')
+    return
+  try:
+    distributed.check_address(address)
+    distributed.require_ray()
+  except (ValueError, distributed.RayUnavailableError) as e:
+    raise CommandUsageError(str(e)) from e
+  if num_cpus is not None and address != 'local':
+    raise CommandUsageError(
+        '--ray_num_cpus is only for --ray_address=local; a cluster\'s nodes '
+        'declare their CPUs (ray start --num-cpus)')
+
+
 def check_agent(name: str) -> None:
   from balloon_learning_environment.agents import agent_registry  # pylint: disable=g-import-not-at-top
   from ble_latex import agents  # pylint: disable=g-import-not-at-top

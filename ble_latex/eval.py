@@ -131,18 +131,7 @@ def check() -> None:
   cli.check_suite(FLAGS.suite)
   cli.check_env_name(FLAGS.env_name)
   cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
-  if FLAGS.ray_address is not None:
-    try:
-      distributed.check_address(FLAGS.ray_address)
-      distributed.require_ray()
-    except (ValueError, distributed.RayUnavailableError) as e:
-      raise cli.CommandUsageError(str(e)) from e
-    if FLAGS.ray_num_cpus is not None and FLAGS.ray_address != 'local':
-      raise cli.CommandUsageError(
-          '--ray_num_cpus is only for --ray_address=local; a cluster\'s '
-          'nodes declare their CPUs (ray start --num-cpus)')
-  elif FLAGS.ray_num_cpus is not None:
-    raise cli.CommandUsageError('--ray_num_cpus needs --ray_address=local')
+  cli.check_ray_flags(FLAGS.ray_address, FLAGS.ray_num_cpus)
 
 
 def run(argv: Optional[Sequence[str]] = None) -> None:

@@ -128,14 +128,7 @@ def main(argv: Sequence[str]) -> None:
 
 def check() -> None:
   """Ray missing, bad address or gin file: one line, exit status 2."""
-  try:
-    distributed.check_address(FLAGS.ray_address)
-    distributed.require_ray()
-  except (ValueError, distributed.RayUnavailableError) as e:
-    raise cli.CommandUsageError(str(e)) from e
-  if FLAGS.ray_num_cpus is not None and FLAGS.ray_address != 'local':
-    raise cli.CommandUsageError('--ray_num_cpus is only for '
-                                '--ray_address=local')
+  cli.check_ray_flags(FLAGS.ray_address, FLAGS.ray_num_cpus)
   if FLAGS.num_iterations < FLAGS.policy_snapshot_period:
     raise cli.CommandUsageError(
         '--num_iterations must be >= --policy_snapshot_period (trials '
