@@ -19,7 +19,7 @@ $(STAMP): setup.py constraints.txt
 
 # The main job: a short demo run (see README "Quick start").
 demo: venv
-	$(PY) -m ble_latex.demo --output_dir=$(OUT)
+	$(PY) -m ble_latex.cli.demo --output_dir=$(OUT)
 
 # Default test suite (slow tests excluded; see pytest.ini).
 test: venv
@@ -37,7 +37,7 @@ clean:
 # Issue 6 results: baselines and the shipped policy on the 100 held-out seeds
 # of latex_small, then the table README shows (benchmarks/results.md).
 RESULTS ?= benchmarks/results
-EVAL := $(PY) -m ble_latex.eval --suite=latex_small --output_dir=$(RESULTS)
+EVAL := $(PY) -m ble_latex.cli.eval --suite=latex_small --output_dir=$(RESULTS)
 
 .PHONY: baselines results env-speed batch-speed sac-step ray-eval train-sac select-sac
 baselines: venv

@@ -59,18 +59,18 @@ setuptools.setup(
     },
     entry_points={
         'gym.envs': [
-            '__root__ = ble_latex.gym_registration:register_env',
+            '__root__ = ble_latex.envs.gym_registration:register_env',
         ],
         'console_scripts': [
-            'ble-latex-ble = ble_latex.ble_commands:main',
-            'ble-latex-validate = ble_latex.validate:main',
-            'ble-latex-train = ble_latex.train:run',
-            'ble-latex-eval = ble_latex.eval:run',
-            'ble-latex-download-era5 = ble_latex.download_era5:main',
-            'ble-latex-plot = ble_latex.plot:main',
-            'ble-latex-sweep = ble_latex.sweep:run',
-            'ble-latex-demo = ble_latex.demo:main',
-            'ble-latex-export-policy = ble_latex.export_policy:run',
+            'ble-latex-ble = ble_latex.cli.ble_commands:main',
+            'ble-latex-validate = ble_latex.cli.validate:main',
+            'ble-latex-train = ble_latex.cli.train:run',
+            'ble-latex-eval = ble_latex.cli.eval:run',
+            'ble-latex-download-era5 = ble_latex.cli.download_era5:main',
+            'ble-latex-plot = ble_latex.cli.plot:main',
+            'ble-latex-sweep = ble_latex.cli.sweep:run',
+            'ble-latex-demo = ble_latex.cli.demo:main',
+            'ble-latex-export-policy = ble_latex.cli.export_policy:run',
         ],
     },
 )

@@ -16,7 +16,7 @@ import json
 import sys
 from typing import Any, Dict
 
-from ble_latex import metrics
+from ble_latex.run import metrics
 from ble_latex import safe_io
 
 

@@ -4,7 +4,7 @@ In one run, each measurement in its own fresh subprocess (own peak RSS):
 - a profile of one batched stride (--profile_batch balloons): the whole
   `step_env` and its parts jitted alone (flight core, wind queries,
   observation), to show where the time goes;
-- `ble_latex.jax_env.LatexBalloonJaxEnv`, N balloons (N = --batch_sizes): one
+- `ble_latex.envs.jax_env.LatexBalloonJaxEnv`, N balloons (N = --batch_sizes): one
   jitted call resets N balloons and flies them through --steps 20-minute
   strides (`jax_env.rollout`: ground-truth wind with noise re-queried every
   <= 3 min, the 71 features and the reward at every stride). Reported: the
@@ -42,7 +42,7 @@ def jax_worker(batch: int, steps: int, repeats: int) -> dict:
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
   from ble_latex import configs  # pylint: disable=g-import-not-at-top
-  from ble_latex import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
 
   gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
   env = jax_env.LatexBalloonJaxEnv()
@@ -92,7 +92,7 @@ def profile_worker(batch: int, repeats: int) -> dict:
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
   from ble_latex import configs  # pylint: disable=g-import-not-at-top
-  from ble_latex import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.flight import dynamics  # pylint: disable=g-import-not-at-top
 
   gin.parse_config_files_and_bindings(configs.env_gin_files(), [])

@@ -44,7 +44,7 @@ def main():
   parser.add_argument('--json', help='Write the results here.')
   args = parser.parse_args()
   with tempfile.TemporaryDirectory() as tmp:
-    base = [sys.executable, '-m', 'ble_latex.eval', f'--agent={args.agent}',
+    base = [sys.executable, '-m', 'ble_latex.cli.eval', f'--agent={args.agent}',
             f'--env_name={args.env_name}', f'--suite={args.suite}',
             '--name_override=out']
     serial = run([*base, f'--output_dir={tmp}/serial'], 'serial')

@@ -13,7 +13,7 @@ import json
 import os
 import sys
 
-from ble_latex import metrics
+from ble_latex.run import metrics
 
 
 def row(path: str) -> dict:

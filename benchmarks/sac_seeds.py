@@ -37,7 +37,7 @@ def train(base_dir: str, seeds: List[int], num_iterations: int,
           snapshot_period: int, checkpoint_period: int,
           gin_bindings: List[str]) -> None:
   """Runs (or resumes) `ble-latex-train --trainer=jax --seeds=...`."""
-  command = [sys.executable, '-m', 'ble_latex.train', '--trainer=jax',
+  command = [sys.executable, '-m', 'ble_latex.cli.train', '--trainer=jax',
              f'--base_dir={base_dir}',
              f'--seeds={",".join(str(s) for s in seeds)}',
              f'--num_iterations={num_iterations}',
@@ -70,14 +70,14 @@ def _held_out(policy_path: str, output: str) -> Dict[str, float]:
   """Flies a policy on the held-out suite in the gym env; its summary."""
   # pylint: disable=g-import-not-at-top
   import gym
-  from balloon_learning_environment.eval import suites as ble_suites
-  from ble_latex import eval_lib
-  from ble_latex import metrics
-  from ble_latex import runner
   from ble_latex.agents import pretrained
+  from ble_latex import configs
+  from ble_latex.run import eval_lib
+  from ble_latex.run import metrics
+  from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
-  runner.bind_gin('sac_pretrained', None, [], [])
-  suite = ble_suites.get_eval_suite(HELD_OUT_SUITE)
+  configs.bind_gin('sac_pretrained', None, [], [])
+  suite = suites.get_eval_suite(HELD_OUT_SUITE)
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
   agent = pretrained.SACPretrainedAgent(
@@ -95,10 +95,10 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
            ship: Optional[str]) -> int:
   """Chooses, evaluates and tabulates each seed; returns the exit status."""
   # pylint: disable=g-import-not-at-top
-  from ble_latex import episode_log
-  from ble_latex import train_lib
   from ble_latex.agents import pretrained
   from ble_latex.agents import sac_trainer
+  from ble_latex.run import episode_log
+  from ble_latex.run import train_lib
   # pylint: enable=g-import-not-at-top
   rows = []
   for seed in seeds:

@@ -164,13 +164,14 @@ def _time_env_steps(args) -> dict:
   """ms per env step of the agent's loop and of the jitted trainer."""
   # pylint: disable=g-import-not-at-top
   import gym
-  from ble_latex import jax_env
-  from ble_latex import runner
   from ble_latex.agents import sac_trainer
+  from ble_latex import configs
+  from ble_latex.envs import jax_env
+  from ble_latex.run import runner
   import jax
   import jax.numpy as jnp
   # pylint: enable=g-import-not-at-top
-  runner.bind_gin('sac', None, [], [])
+  configs.bind_gin('sac', None, [], [])
   env = gym.make('LatexBalloon-v0').unwrapped
   agent = runner.create_agent('sac', env, seed=0)
   obs = env.reset(seed=0)

@@ -33,10 +33,10 @@ from typing import Any, Dict, List, Optional
 def train(base_dir: str, episodes: int, episodes_per_iteration: int,
           seed: int, gin_bindings: List[str]) -> None:
   """Runs (or resumes) `ble-latex-train` with policy snapshots."""
-  from ble_latex import runner  # pylint: disable=g-import-not-at-top
-  from ble_latex import suites  # pylint: disable=g-import-not-at-top
-  from ble_latex import train_lib  # pylint: disable=g-import-not-at-top
-  runner.bind_gin('sac', None, [], gin_bindings)
+  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import train_lib  # pylint: disable=g-import-not-at-top
+  configs.bind_gin('sac', None, [], gin_bindings)
   train_lib.train(
       agent_name='sac', env_name='LatexBalloon-v0', base_dir=base_dir,
       num_iterations=math.ceil(episodes / episodes_per_iteration),
@@ -48,7 +48,7 @@ def train(base_dir: str, episodes: int, episodes_per_iteration: int,
 
 def candidates(base_dir: str, every: int, include_newest: bool) -> List[str]:
   """Exported policies of iterations (i + 1) % every == 0 (and the newest)."""
-  from ble_latex import train_lib  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import train_lib  # pylint: disable=g-import-not-at-top
   pattern = train_lib.POLICY_SNAPSHOT_PATTERN
   folder = os.path.join(base_dir, 'policies')
   paths = sorted(os.path.join(folder, name)
@@ -82,14 +82,13 @@ def select(base_dir: str, every: int, include_newest: bool,
            output: Optional[str]) -> int:
   """Evaluates candidate policies on validation seeds; writes the best."""
   import gym  # pylint: disable=g-import-not-at-top
-  from balloon_learning_environment.eval import suites as ble_suites  # pylint: disable=g-import-not-at-top
-  from ble_latex import eval_lib  # pylint: disable=g-import-not-at-top
-  from ble_latex import metrics  # pylint: disable=g-import-not-at-top
-  from ble_latex import runner  # pylint: disable=g-import-not-at-top
-  from ble_latex import suites  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
 
-  suite = ble_suites.get_eval_suite('latex_validation')
+  suite = suites.get_eval_suite('latex_validation')
   if not 1 <= validation_episodes <= len(suite.seeds):
     raise ValueError(f'--validation_episodes must be in [1, '
                      f'{len(suite.seeds)}], got {validation_episodes}')
@@ -102,7 +101,7 @@ def select(base_dir: str, every: int, include_newest: bool,
       results = {k: v for k, v in json.load(f).items()
                  if v.get('seeds') == [seeds[0], seeds[-1]] and
                  'tw50_window_mean' in v}
-  runner.bind_gin('sac_pretrained', None, [], [])
+  configs.bind_gin('sac_pretrained', None, [], [])
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
   for path in candidates(base_dir, every, include_newest):

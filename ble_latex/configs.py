@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Locates the gin files shipped with ble_latex.
+"""The gin files shipped with ble_latex, and the one gin binder of commands.
 
 The top-level `gin_configs/` folder installs as `ble_latex/gin_configs` in a
 regular install; in an editable install from a checkout it stays beside the
@@ -7,6 +7,9 @@ package. `gin_file('sac.gin')` finds it in either place.
 """
 
 import pathlib
+from typing import Optional, Sequence
+
+import gin
 
 _PACKAGE = pathlib.Path(__file__).resolve().parent
 _CANDIDATES = (_PACKAGE / 'gin_configs', _PACKAGE.parent / 'gin_configs')
@@ -37,3 +40,47 @@ def gin_file(name: str) -> str:
     raise FileNotFoundError(
         f'No gin file {name!r} in {gin_dir()}; available: {available}')
   return str(path)
+
+
+def bind_gin(agent: Optional[str], agent_gin_file: Optional[str],
+             gin_files: Sequence[str], gin_bindings: Sequence[str], *,
+             env_defaults: bool = True) -> None:
+  """The gin binding of every command: BLE's, plus the env defaults.
+
+  Parses, in order: the agent's gin file (BLE's `run_helpers.bind_gin_variables`:
+  `agent_gin_file`, else the agent's registered default; none when `agent` is
+  None, for commands that build no agent), ble_latex's env defaults
+  (`ENV_GIN_FILES`, unless `env_defaults` is False: `ble-latex-validate`
+  flies the flight core alone), the user's `gin_files`, then
+  `gin_bindings`.
+  Works in a process whose gin config an earlier run locked (the demo).
+
+  Args:
+    agent: A registered agent name, or None.
+    agent_gin_file: Replaces the agent's default gin file (with `agent`).
+    gin_files: The user's gin files, after the env defaults.
+    gin_bindings: The user's bindings, last.
+    env_defaults: Parse `ENV_GIN_FILES` first.
+
+  Raises:
+    OSError: A gin file cannot be read.
+    ValueError: A binding or gin file is wrong (gin's errors other than
+      OSError/ValueError are re-raised as ValueError('gin: ...')).
+  """
+  files = [*(env_gin_files() if env_defaults else []), *gin_files]
+  try:
+    with gin.unlock_config():
+      if agent is None:
+        gin.parse_config_files_and_bindings(files, gin_bindings)
+      else:
+        # pylint: disable=g-import-not-at-top
+        from balloon_learning_environment.utils import run_helpers
+        from ble_latex import agents
+        # pylint: enable=g-import-not-at-top
+        agents.register()
+        run_helpers.bind_gin_variables(agent, agent_gin_file, gin_bindings,
+                                       additional_gin_files=files)
+  except (OSError, ValueError):
+    raise
+  except Exception as e:  # pylint: disable=broad-except  # gin's own errors.
+    raise ValueError(f'gin: {type(e).__name__}: {e}') from e

@@ -34,9 +34,9 @@ with quiet.third_party_noise():
   import numpy as np
   import stable_baselines3
   import torch
-  from ble_latex import eval_lib
-  from ble_latex import metrics
-  from ble_latex import suites
+  from ble_latex.run import eval_lib
+  from ble_latex.run import metrics
+  from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
 
 ENV_ID = 'ble_latex/LatexBalloon-v0'

@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Tests for ble_latex.balloon (LatexBalloon, its state) and validate."""
+"""Tests for ble_latex.envs.balloon (LatexBalloon, its state) and validate."""
 
 import copy
 import datetime as dt
@@ -16,10 +16,11 @@ from hypothesis import strategies as st
 import pytest
 import s2sphere as s2
 
-from ble_latex import balloon as balloon_lib
-from ble_latex import controller as controller_lib
+from ble_latex.envs import balloon as balloon_lib
+from ble_latex.envs import controller as controller_lib
 from ble_latex.flight import controller as core_controller
 from ble_latex.flight import physics
+from ble_latex.flight import state as state_lib
 
 _SETTINGS = settings(max_examples=25, deadline=None)
 STRIDE = controller_lib.STRIDE
@@ -298,7 +299,7 @@ def test_out_of_sand_is_terminal(atmosphere):
   assert s.last_decision == Decision.BALLAST
   assert s.sand_kg == 0.0 and s.sand_dropped_kg == pytest.approx(0.05)
   assert s.latex_status == Status.OUT_OF_SAND
-  assert s.latex_status in balloon_lib.OUT_OF_RESOURCES
+  assert s.latex_status in state_lib.OUT_OF_RESOURCES
   assert s.status == ble_balloon.BalloonStatus.OK
 
 
@@ -347,7 +348,7 @@ def test_deterministic(atmosphere):
 
 
 def test_validate_script_writes_figure(tmp_path, capsys):
-  from ble_latex import validate  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import validate  # pylint: disable=g-import-not-at-top
   status = validate.main(['--output_dir', str(tmp_path), '--no_reference'])
   out = capsys.readouterr().out
   assert status == 0

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from ble_latex import cli
+from ble_latex.cli import common as cli
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -36,7 +36,7 @@ def test_gin_usage_message():
 # stderr between "CASE <i>" markers.
 _ABSL_CASES = '''
 import sys
-from ble_latex import {module} as command
+from ble_latex.cli import {module} as command
 for i, argv in enumerate({cases!r}):
   print(f'CASE {{i}}', file=sys.stderr, flush=True)
   try:
@@ -153,7 +153,7 @@ def test_train_and_export_policy_help_and_usage_errors():
     ('download_era5', '--dry_run'),
 ])
 def test_argparse_commands_help(module, flag, capsys):
-  command = __import__(f'ble_latex.{module}', fromlist=['main'])
+  command = __import__(f'ble_latex.cli.{module}', fromlist=['main'])
   with pytest.raises(SystemExit) as exit_info:
     command.main(['--help'])
   assert exit_info.value.code == 0
@@ -161,8 +161,8 @@ def test_argparse_commands_help(module, flag, capsys):
 
 
 def test_plot_and_ble_help(capsys):
-  from ble_latex import ble_commands  # pylint: disable=g-import-not-at-top
-  from ble_latex import plot  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import ble_commands  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
   assert plot.main(['--help']) == 0
   assert '--eval_json' in capsys.readouterr().out
   assert ble_commands.main(['--help']) == 0
@@ -170,8 +170,8 @@ def test_plot_and_ble_help(capsys):
 
 
 def test_gin_usage_errors_of_validate_and_plot(capsys, tmp_path):
-  from ble_latex import plot  # pylint: disable=g-import-not-at-top
-  from ble_latex import validate  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import validate  # pylint: disable=g-import-not-at-top
   with pytest.raises(SystemExit) as exit_info:
     validate.main(['--gin_files', 'nope.gin'])
   assert exit_info.value.code == 2
@@ -185,7 +185,7 @@ def test_gin_usage_errors_of_validate_and_plot(capsys, tmp_path):
 
 @pytest.mark.slow
 def test_demo_unknown_suite(capsys):
-  from ble_latex import demo  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import demo  # pylint: disable=g-import-not-at-top
   with pytest.raises(SystemExit) as exit_info:
     demo.main(['--suite=nope'])
   assert exit_info.value.code == 2

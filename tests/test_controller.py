@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Tests for ble_latex.controller (Eq. fullcontroller)."""
+"""Tests for ble_latex.envs.controller (Eq. fullcontroller)."""
 
 import datetime as dt
 
@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-from ble_latex import controller as package_controller
+from ble_latex.envs import controller as package_controller
 # The retired NumPy controller, the oracle of tests/test_flight_core.py.
 from reference import numpy_controller as controller_lib
 from reference import numpy_physics as physics

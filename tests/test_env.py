@@ -1,8 +1,8 @@
 """LatexBalloon-v0 and LatexBalloonDiscrete-v0: the gym contract."""
 
 import ble_latex  # noqa: F401  (fixes first)
-from ble_latex import env as env_lib
-from ble_latex import features as latex_features
+from ble_latex.envs import features as latex_features
+from ble_latex.envs import gym_env as env_lib
 import gym
 from gym.utils import env_checker
 import numpy as np

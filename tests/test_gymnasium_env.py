@@ -13,9 +13,9 @@ from gymnasium.utils import env_checker as gymnasium_checker
 import numpy as np
 import pytest
 
-from ble_latex import gymnasium_env
-from ble_latex import gymnasium_registration
-from ble_latex import host_env
+from ble_latex.envs import gymnasium_env
+from ble_latex.envs import gymnasium_registration
+from ble_latex.envs import host_env
 from ble_latex import quiet
 
 ID = 'ble_latex/LatexBalloon-v0'
@@ -259,7 +259,7 @@ def test_gymnasium_and_sb3_env_checkers(env_id, normalize):
 # -- Vector envs. -------------------------------------------------------------
 def test_make_vec_is_the_batched_core_and_discrete_is_sync():
   """make_vec's default: one batched env (ID), SyncVectorEnv (DISCRETE_ID)."""
-  from ble_latex import gymnasium_vector  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import gymnasium_vector  # pylint: disable=g-import-not-at-top
   envs = gymnasium.make_vec(ID, num_envs=3, normalize_actions=True)
   assert isinstance(envs, gymnasium_vector.LatexBalloonVectorEnv)
   assert envs.num_envs == 3
@@ -363,7 +363,7 @@ def test_make_and_make_vec_import_no_tensorflow():
   code = ('import sys, ble_latex, gymnasium\n'
           f'gymnasium.make({ID!r}, normalize_actions=True)\n'
           f'gymnasium.make_vec({ID!r}, num_envs=2)\n'
-          "heavy = [m for m in ('tensorflow', 'ble_latex.env', 'ble_latex."
+          "heavy = [m for m in ('tensorflow', 'ble_latex.envs.gym_env', 'ble_latex."
           "balloon', 'balloon_learning_environment.env.balloon_env') "
           'if m in sys.modules]\n'
           'assert not heavy, heavy\n')
@@ -412,7 +412,7 @@ def test_feature_range_warning_at_most_once_per_episode(discrete_env, caplog):
 def test_sb3_sac_trains_and_evaluates_with_eval_json(tmp_path, capsys):
   """SB3 SAC, a few hundred steps on ble_latex/LatexBalloon-v0, then eval."""
   import importlib.util  # pylint: disable=g-import-not-at-top
-  from ble_latex import plots  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import records as records_lib  # pylint: disable=g-import-not-at-top
   spec = importlib.util.spec_from_file_location(
       'sb3_sac', os.path.join(REPO, 'examples', 'sb3_sac.py'))
   example = importlib.util.module_from_spec(spec)
@@ -429,7 +429,7 @@ def test_sb3_sac_trains_and_evaluates_with_eval_json(tmp_path, capsys):
   path = tmp_path / 'latex_tiny' / 'sb3_sac.json'
   summary = json.loads(capsys.readouterr().out.splitlines()[-1])
   assert summary['output'] == str(path) and summary['episodes'] == 2
-  records = plots.load_eval(str(path))  # ble-latex-eval's schema, checked.
+  records = records_lib.load_eval(str(path))  # ble-latex-eval's schema, checked.
   assert [r['seed'] for r in records] == [1_000_000, 1_000_001]
   assert all(r['steps'] == 20 and len(r['flight_path']) == 21
              for r in records)
@@ -443,7 +443,7 @@ def test_sb3_sac_trains_and_evaluates_with_eval_json(tmp_path, capsys):
 _PARAMS_FROM_GIN = '''
 import sys
 import ble_latex, gin, jax, numpy as np
-from ble_latex import jax_env
+from ble_latex.envs import jax_env
 
 def same(a, b):
   leaves = jax.tree.map(lambda x, y: bool(np.array_equal(x, y)), a, b)
@@ -451,15 +451,15 @@ def same(a, b):
           all(jax.tree.leaves(leaves)))
 
 light = jax_env.params_from_gin()
-# AltitudeController (light module) can be bound without ble_latex.balloon.
-import ble_latex.controller
+# AltitudeController (light module) can be bound without ble_latex.envs.balloon.
+import ble_latex.envs.controller
 gin.parse_config('AltitudeController.min_vent_mols = 0.3')
 assert float(jax_env.params_from_gin().flight.min_vent_mols) == np.float32(0.3)
-heavy = [m for m in ('tensorflow', 'ble_latex.env', 'ble_latex.balloon')
+heavy = [m for m in ('tensorflow', 'ble_latex.envs.gym_env', 'ble_latex.envs.balloon')
          if m in sys.modules]
 assert not heavy, heavy
 gin.clear_config()
-import ble_latex.env  # Registers every configurable (and imports BLE, TF).
+import ble_latex.envs.gym_env  # Registers every configurable (and imports BLE, TF).
 assert same(light, jax_env.params_from_gin()), 'defaults differ'
 gin.parse_config([
     'LatexBalloonEnv.episode_steps = 7',

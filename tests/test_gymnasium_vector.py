@@ -9,8 +9,8 @@ import jax
 import numpy as np
 import pytest
 
-from ble_latex import gymnasium_vector
-from ble_latex import host_env
+from ble_latex.envs import gymnasium_vector
+from ble_latex.envs import host_env
 from ble_latex.flight import state as state_lib
 
 ID = 'ble_latex/LatexBalloon-v0'

@@ -7,12 +7,12 @@ import subprocess
 import sys
 
 import ble_latex  # noqa: F401
-from ble_latex import env as env_lib
-from ble_latex import episode_log
-from ble_latex import safe_io
-from ble_latex import train_lib
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
+from ble_latex.envs import gym_env as env_lib
+from ble_latex.run import episode_log
+from ble_latex.run import train_lib
+from ble_latex import safe_io
 import gin
 import gym
 import jax
@@ -31,7 +31,7 @@ _TINY = ['--gin_bindings=ble_latex.agents.sac.SACAgent.min_replay_history=30',
 
 def _train(base_dir, iterations, per_iteration=2):
   return subprocess.run(
-      [sys.executable, '-m', 'ble_latex.train', f'--base_dir={base_dir}',
+      [sys.executable, '-m', 'ble_latex.cli.train', f'--base_dir={base_dir}',
        f'--num_iterations={iterations}',
        f'--episodes_per_iteration={per_iteration}', *_TINY],
       env=_ENV, capture_output=True, text=True, timeout=600)

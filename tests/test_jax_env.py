@@ -11,7 +11,7 @@ import pytest
 
 import ble_latex  # noqa: F401
 from ble_latex import configs
-from ble_latex import jax_env
+from ble_latex.envs import jax_env
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import state as state_lib
 import test_golden

@@ -1,4 +1,4 @@
-"""ble_latex.jax_features: the 71 features and the reward.
+"""ble_latex.envs.jax_features: the 71 features and the reward.
 
 References: the observations recorded from the NumPy features before the
 refactor (tests/data golden files), BLE's reward function, and the test's
@@ -12,9 +12,9 @@ import math
 import types
 
 import ble_latex  # noqa: F401  (fixes first)
-from ble_latex import features as features_lib
-from ble_latex import jax_features
-from ble_latex import reward as reward_lib
+from ble_latex.envs import features as features_lib
+from ble_latex.envs import jax_features
+from ble_latex.envs import reward as reward_lib
 from ble_latex.wind import generative
 from balloon_learning_environment.env import balloon_env
 from balloon_learning_environment.env import wind_field
@@ -22,6 +22,9 @@ from balloon_learning_environment.env.balloon import control
 from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
 import jax
+import hypothesis
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -161,7 +164,7 @@ def test_features_of_recorded_states_are_the_recorded_observations(source):
 
   The recorded states, measured winds and ambient values, with the forecast
   column of the seed's field, give the recorded observations: the 71
-  features are the ones `ble_latex.features` computed.
+  features are the ones `ble_latex.envs.features` computed.
   """
   golden = test_golden.load_golden(source)
   features = jax.jit(jax_features.features)
@@ -257,3 +260,43 @@ def test_batched_features():
         jax.tree_util.tree_map(lambda a, i=i: a[i], initial),
         jax.tree_util.tree_map(lambda a, i=i: a[i], history))
     np.testing.assert_allclose(batched[i], one, rtol=0, atol=1e-6)
+
+
+@hypothesis.settings(max_examples=40, deadline=None)
+@hypothesis.given(
+    speeds=hnp.arrays(np.float64, 25, elements=st.floats(0.0, 60.0)),
+    x_km=st.floats(-300.0, 300.0), y_km=st.floats(-300.0, 300.0),
+    altitude_m=st.floats(14_000.0, 21_000.0),
+    ascent_rate_mps=st.floats(-4.9, 4.9),
+    sand_left=st.floats(0.0, 1.0), helium_left=st.floats(0.05, 1.0))
+def test_named_features_decode_what_was_encoded(speeds, x_km, y_km,
+                                                altitude_m, ascent_rate_mps,
+                                                sand_left, helium_left):
+  # Wind blowing east at the given speeds; the decoder undoes the scalings.
+  initial = jax_features.initial_resources(60.0, 10.0, 400.0)
+  history = jax_features.init_history(altitude_m, ascent_rate_mps)
+  f = np.asarray(jax_features.features(
+      speeds, np.zeros(25), x_km * 1000.0, y_km * 1000.0, altitude_m,
+      ascent_rate_mps, 5.0, 0.0, 400.0 * helium_left, 10.0 * sand_left, 60.0,
+      216.0, 7500.0, initial, history))
+  named = features_lib.NamedLatexFeatures(f)
+  # float32 features: ~1e-7 relative, amplified where the squash is steep.
+  np.testing.assert_allclose(named.wind_speeds_mps, speeds, rtol=2e-4,
+                             atol=2e-3)
+  assert named.altitude_m == pytest.approx(altitude_m, abs=0.01)
+  assert named.ascent_rate_mps == pytest.approx(ascent_rate_mps, abs=1e-5)
+  assert named.wind_speed_mps == pytest.approx(5.0, rel=1e-5)
+  assert named.distance_km == pytest.approx(math.hypot(x_km, y_km),
+                                            rel=1e-5, abs=1e-4)
+  np.testing.assert_allclose(named.altitude_history_m, altitude_m, atol=0.01)
+  assert named.sand_fraction == pytest.approx(sand_left, abs=1e-6)
+  assert named.helium_fraction == pytest.approx(helium_left, abs=1e-6)
+  expected_bearing = np.asarray(jax_features.bearing_errors(
+      speeds, np.zeros(25), x_km * 1000.0, y_km * 1000.0), np.float64)
+  np.testing.assert_allclose(named.bearing_errors_rad, expected_bearing,
+                             atol=1e-5)
+
+
+def test_named_features_reject_other_shapes():
+  with pytest.raises(ValueError, match='71 features'):
+    features_lib.NamedLatexFeatures(np.zeros(70))

@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 import pytest
 
-from ble_latex import metrics
+from ble_latex.run import metrics
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 

@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Tests for ble_latex.plots (figures) and ble_latex.plot (`ble-latex-plot`)."""
+"""Tests for ble_latex.plots.figures (figures) and ble_latex.cli.plot (`ble-latex-plot`)."""
 
 import dataclasses
 import json
@@ -11,8 +11,9 @@ import gin
 import numpy as np
 import pytest
 
-from ble_latex import plot
-from ble_latex import plots
+from ble_latex.cli import plot
+from ble_latex.plots import figures as plots
+from ble_latex.run import records as records_lib
 
 _PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
 _REASONS = ('out_of_sand', 'time_limit', 'time_limit', 'out_of_helium')
@@ -120,52 +121,52 @@ def test_wind_direction_deg():
 def test_load_episodes_skips_torn_last_line(tmp_path):
   path = _write_episodes(tmp_path / 'run' / 'episodes.jsonl', n=120,
                          torn_tail=True)
-  with pytest.warns(plots.EpisodeLogWarning, match='torn last line 121'):
-    episodes = plots.load_episodes(str(path))
+  with pytest.warns(records_lib.EpisodeLogWarning, match='torn last line 121'):
+    episodes = records_lib.load_episodes(str(path))
   assert [e['episode'] for e in episodes] == list(range(120))
 
 
 def test_load_episodes_bad_files(tmp_path):
   with pytest.raises(FileNotFoundError, match='missing.jsonl'):
-    plots.load_episodes(str(tmp_path / 'missing.jsonl'))
+    records_lib.load_episodes(str(tmp_path / 'missing.jsonl'))
   lines = [json.dumps(_episode(i)) for i in range(3)]
   corrupt = tmp_path / 'corrupt.jsonl'
   corrupt.write_text('\n'.join([lines[0], '{oops', lines[2]]) + '\n')
   with pytest.raises(ValueError, match=r'corrupt\.jsonl: line 2'):
-    plots.load_episodes(str(corrupt))
+    records_lib.load_episodes(str(corrupt))
   duplicate = tmp_path / 'duplicate.jsonl'
   duplicate.write_text('\n'.join([lines[0], lines[1], lines[1]]))
   with pytest.raises(ValueError,
                      match=r'duplicate.jsonl: record 3 \(episode 1\): '
                      'episode 1 does not follow episode 1'):
-    plots.load_episodes(str(duplicate))
+    records_lib.load_episodes(str(duplicate))
   no_key = tmp_path / 'no_key.jsonl'
   no_key.write_text(json.dumps({'episode': 0, 'reward': 1.0}) + '\n')
   with pytest.raises(ValueError, match=r'no_key.jsonl: record 1 \(episode 0\): '
                      r"missing field\(s\) .*'tw50'"):
-    plots.load_episodes(str(no_key))
+    records_lib.load_episodes(str(no_key))
   empty = tmp_path / 'empty.jsonl'
   empty.write_text('\n')
   with pytest.raises(ValueError, match='empty.jsonl: no episodes'):
-    plots.load_episodes(str(empty))
+    records_lib.load_episodes(str(empty))
 
 
 def test_load_eval_bad_files(tmp_path):
   good = _write_json(tmp_path / 'good.json', _eval_records())
-  assert [r['seed'] for r in plots.load_eval(str(good))] == [3, 5, 7]
+  assert [r['seed'] for r in records_lib.load_eval(str(good))] == [3, 5, 7]
   invalid = tmp_path / 'invalid.json'
   invalid.write_text(good.read_text()[:-40])
   with pytest.raises(ValueError, match='invalid.json: not a valid eval JSON'):
-    plots.load_eval(str(invalid))
+    records_lib.load_eval(str(invalid))
   with pytest.raises(ValueError, match='dict.json: expected a non-empty'):
-    plots.load_eval(str(_write_json(tmp_path / 'dict.json', {'seed': 1})))
+    records_lib.load_eval(str(_write_json(tmp_path / 'dict.json', {'seed': 1})))
   bad_point = _eval_records()
   del bad_point[1]['flight_path'][4]['y_km']
   with pytest.raises(ValueError, match=r"bad_point.json: record 1 \(seed 5\): "
                      r"flight_path\[4\]: missing field\(s\) 'y_km'"):
-    plots.load_eval(str(_write_json(tmp_path / 'bad_point.json', bad_point)))
+    records_lib.load_eval(str(_write_json(tmp_path / 'bad_point.json', bad_point)))
   with pytest.raises(FileNotFoundError, match='nope.json'):
-    plots.load_eval(str(tmp_path / 'nope.json'))
+    records_lib.load_eval(str(tmp_path / 'nope.json'))
 
 
 def _set(record: Dict[str, Any], key: str, value: Any) -> Dict[str, Any]:
@@ -236,7 +237,7 @@ def test_load_episodes_names_file_record_and_field(tmp_path, change, message):
   # json.dumps writes NaN/Infinity tokens, as Python's json writers do.
   path.write_text('\n'.join(json.dumps(r) for r in records) + '\n')
   with pytest.raises(ValueError) as e:
-    plots.load_episodes(str(path))
+    records_lib.load_episodes(str(path))
   assert str(e.value).startswith(f'{path}: {message}'), str(e.value)
 
 
@@ -286,7 +287,7 @@ def test_load_eval_names_file_record_and_field(tmp_path, change, message):
   records[1] = change(records[1])
   path = _write_json(tmp_path / 'bad.json', records)
   with pytest.raises(ValueError) as e:
-    plots.load_eval(str(path))
+    records_lib.load_eval(str(path))
   assert str(e.value).startswith(f'{path}: {message}'), str(e.value)
 
 
@@ -299,7 +300,7 @@ def test_load_eval_names_file_record_and_field(tmp_path, change, message):
 def test_load_eval_top_level_must_be_a_list(tmp_path, top, message):
   path = _write_json(tmp_path / 'top.json', top)
   with pytest.raises(ValueError) as e:
-    plots.load_eval(str(path))
+    records_lib.load_eval(str(path))
   assert str(e.value) == (f'{path}: expected a non-empty JSON list of per-seed '
                           f'records, {message}')
 
@@ -308,26 +309,39 @@ def test_loaders_name_file_on_bad_encoding(tmp_path):
   latin = tmp_path / 'latin.jsonl'
   latin.write_bytes(b'{"x": "\xe9"}\n')
   with pytest.raises(ValueError, match='latin.jsonl: not a UTF-8'):
-    plots.load_episodes(str(latin))
+    records_lib.load_episodes(str(latin))
   latin_eval = tmp_path / 'latin.json'
   latin_eval.write_bytes(b'[{"x": "\xe9"}]')
   with pytest.raises(ValueError, match='latin.json: not a valid eval JSON'):
-    plots.load_eval(str(latin_eval))
+    records_lib.load_eval(str(latin_eval))
 
 
 def test_schemas_match_what_is_written():
   # pylint: disable-next=g-import-not-at-top
-  from ble_latex import controller, metrics
-  assert set(plots.TERMINAL_COLORS) == set(metrics.TERMINAL_REASONS)
-  assert set(plots.DECISIONS) == {d.value for d in controller.Decision}
+  from ble_latex.envs import controller
+  from ble_latex.run import metrics
+  from ble_latex.run import runner
+  assert set(plots.TERMINAL_COLORS) == set(records_lib.TERMINAL_REASONS)
+  assert set(records_lib.DECISIONS) == {d.value for d in controller.Decision}
   fields = {f.name for f in dataclasses.fields(metrics.EpisodeSummary)}
-  assert set(plots.EPISODE_SCHEMA) == fields
-  assert set(plots.EVAL_SCHEMA) == (
+  assert set(records_lib.EPISODE_SCHEMA) == fields
+  assert set(records_lib.EVAL_SCHEMA) == (
       fields - {'episode', 'wall_time_s'}) | {'flight_path'}
   # The run shipped in benchmarks/ passes.
   shipped = (pathlib.Path(__file__).parent.parent / 'benchmarks' /
              'sac_paper_run' / 'episodes.jsonl')
-  assert len(plots.load_episodes(str(shipped))) == 2260
+  assert len(records_lib.load_episodes(str(shipped))) == 2260
+  # What the gym env's flight points and station hold is what is read back.
+  import gym  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import task  # pylint: disable=g-import-not-at-top
+  env = gym.make('LatexBalloon-v0').unwrapped
+  env.reset(seed=1_000_000)
+  point = runner.flight_point(env)
+  assert set(point) == set(records_lib.FLIGHT_POINT_SCHEMA)
+  records_lib.validate_record(point, records_lib.FLIGHT_POINT_SCHEMA, 'point')
+  assert env.radius.kilometers == task.STATION_RADIUS_KM
+  assert plots.STATION_RADIUS_KM == task.STATION_RADIUS_KM
+  assert plots.ALTITUDE_BAND_KM == (14.0, 21.0)
 
 
 # --- figures ---------------------------------------------------------------
@@ -387,7 +401,7 @@ def test_main_training_and_eval_figures(tmp_path, capsys):
   baseline = _write_json(tmp_path / 'eval' / 'tiny' / 'random.json',
                          _eval_records((7, 5), drift_km=12.0))
   out = tmp_path / 'plots'
-  with pytest.warns(plots.EpisodeLogWarning):
+  with pytest.warns(records_lib.EpisodeLogWarning):
     status = plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
                         f'--eval_json={trained}',
                         f'--baseline_eval_json={baseline}',

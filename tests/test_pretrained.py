@@ -2,8 +2,8 @@
 
 import ble_latex  # noqa: F401
 from ble_latex.agents import pretrained
-from ble_latex import safe_io
 from ble_latex.agents import sac
+from ble_latex import safe_io
 import numpy as np
 import pytest
 
@@ -69,7 +69,7 @@ def test_policy_for_other_shapes_is_rejected(tmp_path):
 
 def test_shipped_policy_flies_the_latex_env():
   import gym
-  from ble_latex import runner
+  from ble_latex.run import runner
   env = gym.make('LatexBalloon-v0').unwrapped
   agent = runner.create_agent('sac_pretrained', env)
   assert agent.policy_info['source'].startswith('checkpoint_')
@@ -92,15 +92,15 @@ def test_shipped_policy_reproduces_its_results_row():
   import json
   import pathlib
   import gym
-  from balloon_learning_environment.eval import suites as ble_suites
-  from ble_latex import eval_lib
-  from ble_latex import runner
+  from ble_latex.run import eval_lib
+  from ble_latex.run import runner
+  from ble_latex.run import suites
   root = pathlib.Path(__file__).resolve().parent.parent
   rows = json.loads((root / 'benchmarks' / 'results.json').read_text())
   (row,) = [r for r in rows if r['agent'] == 'sac_pretrained']
   env = gym.make('LatexBalloon-v0').unwrapped
   agent = runner.create_agent('sac_pretrained', env)
-  suite = ble_suites.get_eval_suite('latex_small')
+  suite = suites.get_eval_suite('latex_small')
   records = eval_lib.evaluate(agent, env, suite.seeds,
                               suite.max_episode_length)
   tw50 = np.array([r['tw50'] for r in records])

@@ -16,9 +16,9 @@ import pytest
 
 ray = pytest.importorskip('ray')
 
-from ble_latex import distributed  # noqa: E402
-from ble_latex import eval_lib  # noqa: E402
-from ble_latex import sweep_lib  # noqa: E402
+from ble_latex.run import distributed  # noqa: E402
+from ble_latex.run import eval_lib  # noqa: E402
+from ble_latex.run import sweep_lib  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = list(range(1_000_000, 1_000_010))  # latex_tiny's held-out seeds.
@@ -67,7 +67,7 @@ def test_ray_missing_and_unreachable_cluster_are_named(monkeypatch):
 
 
 def test_eval_command_writes_the_same_file_on_ray(tmp_path):
-  base = [sys.executable, '-m', 'ble_latex.eval',
+  base = [sys.executable, '-m', 'ble_latex.cli.eval',
           '--agent=latex_station_seeker', '--suite=latex_tiny',
           '--num_shards=5', '--shard_idx=3', '--max_episode_length=48']
   for extra in ([f'--output_dir={tmp_path}/serial'],
@@ -154,7 +154,7 @@ _TINY_TRIALS = [
 
 
 def _sweep(sweep_dir, *extra, timeout=900, wait=True):
-  command = [sys.executable, '-m', 'ble_latex.sweep',
+  command = [sys.executable, '-m', 'ble_latex.cli.sweep',
              f'--sweep_dir={sweep_dir}', *_TINY_TRIALS, *extra]
   if not wait:
     return subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL,
@@ -221,9 +221,9 @@ def test_sweep_killed_resumes_and_writes_table_and_best_gin(tmp_path):
   # ble-latex-train's gin binding accepts it: the trainer reads the values.
   check = subprocess.run(
       [sys.executable, '-c',
-       'from ble_latex import configs, runner\n'
+       'from ble_latex import configs\n'
        'from ble_latex.agents import sac_trainer\n'
-       f'runner.bind_gin("sac", configs.gin_file("sac_jax.gin"), '
+       f'configs.bind_gin("sac", configs.gin_file("sac_jax.gin"), '
        f'[{str(sweep_dir / sweep_lib.BEST_GIN)!r}], [])\n'
        'c = sac_trainer.TrainerConfig()\n'
        'print(c.gamma, c.num_envs, c.hidden_units)\n'],

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from ble_latex import agents as latex_agents
-from ble_latex import safe_io
 from ble_latex.agents import sac
+from ble_latex import safe_io
 
 # The latex env's action box: a0 altitude [m], a1 time factor, a2 float flag.
 LOW = np.array([14_000.0, 1.0, -1.0])

@@ -12,11 +12,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from ble_latex import episode_log
-from ble_latex import jax_env
-from ble_latex import safe_io
-from ble_latex import suites
 from ble_latex.agents import sac_trainer
+from ble_latex.envs import jax_env
+from ble_latex.run import episode_log
+from ble_latex.run import suites
+from ble_latex import safe_io
 
 # Small enough to compile and run in seconds; the capacity makes the replay
 # ring wrap within three rounds (3 balloons x 8 steps per round).
@@ -90,8 +90,8 @@ def test_resumed_run_equals_straight_run(runs):
 def test_snapshot_flies_in_the_gym_env_as_validated(runs):
   """The exported policy, loaded by `sac_pretrained`, flies the gym env."""
   import gym  # pylint: disable=g-import-not-at-top
-  from ble_latex import eval_lib  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   straight, final, _, _ = runs
   path = straight / 'policies' / 'policy_00002.msgpack'
   env = gym.make('LatexBalloon-v0').unwrapped

@@ -8,8 +8,8 @@ import sys
 import time
 
 import ble_latex  # noqa: F401
-from ble_latex import episode_log
-from ble_latex import suites
+from ble_latex.run import episode_log
+from ble_latex.run import suites
 import jax
 import numpy as np
 import pytest
@@ -23,7 +23,7 @@ _ENV = dict(os.environ, TF_CPP_MIN_LOG_LEVEL='3', JAX_PLATFORMS='cpu')
 
 
 def _train_cmd(base_dir, iterations):
-  return [sys.executable, '-m', 'ble_latex.train', f'--base_dir={base_dir}',
+  return [sys.executable, '-m', 'ble_latex.cli.train', f'--base_dir={base_dir}',
           f'--num_iterations={iterations}', '--collectors=episodes',
           '--collectors=pickle', '--collectors=tensorboard', *_TINY]
 
@@ -69,7 +69,7 @@ def test_train_killed_and_resumed_equals_uninterrupted_run(tmp_path):
 
 
 def test_eval_writes_per_episode_json_with_flight_path(tmp_path):
-  out = _run([sys.executable, '-m', 'ble_latex.eval',
+  out = _run([sys.executable, '-m', 'ble_latex.cli.eval',
               '--agent=latex_station_seeker', '--suite=latex_micro',
               f'--output_dir={tmp_path}', '--max_episode_length=6'])
   summary = json.loads(out.stdout.strip().splitlines()[-1])
@@ -92,7 +92,7 @@ def test_eval_writes_per_episode_json_with_flight_path(tmp_path):
 def test_eval_loads_a_trained_checkpoint_and_shards(tmp_path):
   run = tmp_path / 'run'
   _run(_train_cmd(run, 1))
-  _run([sys.executable, '-m', 'ble_latex.eval', '--agent=sac',
+  _run([sys.executable, '-m', 'ble_latex.cli.eval', '--agent=sac',
         '--suite=latex_tiny', f'--output_dir={tmp_path}', '--num_shards=5',
         '--shard_idx=1', f'--checkpoint_dir={run / "checkpoints"}',
         '--checkpoint_idx=0', '--max_episode_length=3', *_TINY[:3]])
@@ -103,7 +103,7 @@ def test_eval_loads_a_trained_checkpoint_and_shards(tmp_path):
 
 def test_missing_checkpoint_is_an_error(tmp_path):
   out = subprocess.run(
-      [sys.executable, '-m', 'ble_latex.eval', '--agent=sac',
+      [sys.executable, '-m', 'ble_latex.cli.eval', '--agent=sac',
        '--suite=latex_micro', f'--output_dir={tmp_path}',
        f'--checkpoint_dir={tmp_path}', '--checkpoint_idx=3'],
       env=_ENV, capture_output=True, text=True, timeout=600)
@@ -113,7 +113,7 @@ def test_missing_checkpoint_is_an_error(tmp_path):
 
 def test_discrete_agent_on_box_env_is_a_clear_error(tmp_path):
   out = subprocess.run(
-      [sys.executable, '-m', 'ble_latex.train', '--agent=station_seeker',
+      [sys.executable, '-m', 'ble_latex.cli.train', '--agent=station_seeker',
        f'--base_dir={tmp_path}', '--num_iterations=1'],
       env=_ENV, capture_output=True, text=True, timeout=600)
   assert out.returncode != 0
@@ -121,7 +121,7 @@ def test_discrete_agent_on_box_env_is_a_clear_error(tmp_path):
 
 
 def test_ble_agent_trains_on_discrete_latex_env(tmp_path):
-  _run([sys.executable, '-m', 'ble_latex.train', '--agent=random',
+  _run([sys.executable, '-m', 'ble_latex.cli.train', '--agent=random',
         '--env_name=LatexBalloonDiscrete-v0', f'--base_dir={tmp_path}',
         '--num_iterations=1', '--episodes_per_iteration=1',
         '--max_episode_length=3', '--collectors=episodes'])
@@ -140,16 +140,27 @@ def test_torn_last_line_is_ignored(tmp_path):
 
 
 def test_latex_validation_suite_is_disjoint_from_training_and_held_out():
-  from balloon_learning_environment.eval import suites as ble_suites  # pylint: disable=g-import-not-at-top
-  validation = set(ble_suites.get_eval_suite('latex_validation').seeds)
+  validation = set(suites.get_eval_suite('latex_validation').seeds)
   assert len(validation) == 100
   held_out = set()
   for name in suites.SUITE_SIZES:
-    held_out |= set(ble_suites.get_eval_suite(name).seeds)
+    held_out |= set(suites.get_eval_suite(name).seeds)
   assert not validation & held_out
   assert min(validation) >= suites.EVAL_SEED_OFFSET  # Never a training seed.
   with pytest.raises(ValueError, match='held-out'):
     suites.train_seed(min(validation))
+
+
+def test_suites_are_registered_explicitly_not_at_import():
+  code = (
+      'from balloon_learning_environment.eval import suites as ble\n'
+      'from ble_latex.run import suites\n'
+      'assert "latex_small" not in ble.available_suites()\n'
+      'assert "latex_small" in suites.available_suites()\n'
+      'assert len(ble.get_eval_suite("latex_small").seeds) == 100\n')
+  result = subprocess.run([sys.executable, '-c', code], capture_output=True,
+                          text=True, timeout=300)
+  assert result.returncode == 0, result.stderr[-2000:]
 
 
 def test_policy_snapshots_and_validation_selection(tmp_path):
@@ -187,7 +198,7 @@ def test_policy_snapshots_and_validation_selection(tmp_path):
 
 def test_policy_snapshots_need_a_sac_agent(tmp_path):
   out = subprocess.run(
-      [sys.executable, '-m', 'ble_latex.train', f'--base_dir={tmp_path}',
+      [sys.executable, '-m', 'ble_latex.cli.train', f'--base_dir={tmp_path}',
        '--agent=latex_random', '--num_iterations=1',
        '--policy_snapshot_period=1', '--collectors=episodes'],
       env=_ENV, capture_output=True, text=True, timeout=600)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import ble_latex  # noqa: F401  (compat fixes first)
-from ble_latex import env as env_lib
+from ble_latex.envs import gym_env as env_lib
 from ble_latex.wind import ble_field
 
 _ACTIONS = [np.array([a0, 1.0, a2]) for a0, a2 in (
@@ -72,7 +72,7 @@ def test_core_field_answers_bles_queries_like_bles_field():
 def _wind_key(env):
   """The wind key BLE's arena gives `WindField.reset` for env's flight."""
   import jax  # pylint: disable=g-import-not-at-top
-  from ble_latex import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   key = jax_env.arena_key(jax.random.PRNGKey(4))
   _, keys = jax.jit(jax_env.LatexBalloonJaxEnv().draw)(key, env.arena.params)
   return keys['wind']

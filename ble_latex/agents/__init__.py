@@ -31,10 +31,10 @@ def register() -> None:
   """
   # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.agents import agent_registry
-  from ble_latex import configs
   from ble_latex.agents import baselines
   from ble_latex.agents import pretrained
   from ble_latex.agents import sac
+  from ble_latex import configs
   # pylint: enable=g-import-not-at-top
   agent_registry.REGISTRY['sac'] = (sac.SACAgent,
                                     configs.gin_file(SAC_GIN_FILE))

@@ -9,7 +9,6 @@
 BLE's own `station_seeker` flies `LatexBalloonDiscrete-v0` unchanged.
 """
 
-import math
 from typing import Optional, Sequence
 
 from balloon_learning_environment.agents import agent
@@ -18,7 +17,7 @@ import gin
 import jax
 import numpy as np
 
-from ble_latex import features as latex_features
+from ble_latex.envs import features as latex_features
 
 
 class _BoxAgent(agent.Agent):
@@ -106,12 +105,10 @@ class GeometricStationSeeker(_BoxAgent):
     self._target: Optional[float] = None
 
   def _act(self, observation: np.ndarray) -> np.ndarray:
-    n = latex_features.N_LEVELS
-    squashed = np.clip(observation[:n], 0.0, 1.0 - 1e-6)
-    speeds = -30.0 * np.log1p(-squashed)  # Undo 1 - exp(-|v|/30).
-    bearing = observation[n:2 * n] * math.pi
-    towards = speeds * np.cos(bearing)  # Velocity component to target [m/s].
-    altitude = 17_500.0 + 3_500.0 * float(observation[2 * n])
+    named = latex_features.NamedLatexFeatures(observation)
+    # Velocity component towards the target at each level. # [m/s]
+    towards = named.wind_speeds_mps * np.cos(named.bearing_errors_rad)
+    altitude = named.altitude_m
     reachable = ((self._level_altitudes >= self._low[0]) &
                  (self._level_altitudes <= self._high[0]))
     towards = np.where(reachable, towards, -np.inf)

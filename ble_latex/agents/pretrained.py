@@ -26,8 +26,8 @@ from typing import Any, Dict, Mapping, Optional, Sequence
 import gin
 import jax.numpy as jnp
 
-from ble_latex import safe_io
 from ble_latex.agents import sac
+from ble_latex import safe_io
 
 POLICY_FORMAT = 'ble_latex-sac-policy-v2'  # msgpack (`safe_io`).
 LEGACY_POLICY_FORMAT = 'ble_latex-sac-policy-v1'  # Pickles of ble_latex <= 0.1.

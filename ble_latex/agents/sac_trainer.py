@@ -2,7 +2,7 @@
 r"""Jitted Soft Actor-Critic on the batched env (purejaxrl / rejax style).
 
 `ble-latex-train --trainer=jax` flies `num_envs` balloons of the functional
-env (`ble_latex.jax_env`) in parallel and runs the SAC updates inside one
+env (`ble_latex.envs.jax_env`) in parallel and runs the SAC updates inside one
 `jax.lax.scan` per round: no Python per step, no host copies of transitions.
 
   ble-latex-train --trainer=jax --base_dir=/tmp/latex/jax \
@@ -55,16 +55,16 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from ble_latex import episode_log
-from ble_latex import host_env
-from ble_latex import jax_env
-from ble_latex import metrics
-from ble_latex import safe_io
-from ble_latex import suites
-from ble_latex import train_lib
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
+from ble_latex.envs import host_env
+from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
+from ble_latex.run import episode_log
+from ble_latex.run import metrics
+from ble_latex.run import suites
+from ble_latex.run import train_lib
+from ble_latex import safe_io
 
 Array = jax.Array
 CHECKPOINT_FORMAT = 'ble_latex.sac_trainer/1'  # msgpack (`safe_io`).
@@ -404,7 +404,7 @@ def validation_summary(result: Dict[str, Array], window_steps: int
   fractions = [metrics.tw50_fractions(int(w), int(s), window_steps)
                for w, s in zip(r['within_steps'], r['steps'])]
   out_of_resources = [
-      state_lib.FlightStatus(int(x)) in host_env.OUT_OF_RESOURCES
+      state_lib.FlightStatus(int(x)) in state_lib.OUT_OF_RESOURCES
       for x in r['status']]
   return {'episodes': len(fractions),
           'tw50_window_mean': float(np.mean([f['tw50_window']
@@ -586,7 +586,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
     on_validation: Called with each `validation.jsonl` record once its round
       is done (policy snapshot written; the checkpoint too when the periods
       coincide), e.g. to report it to
-      Ray Tune (`ble_latex.sweep_lib`).
+      Ray Tune (`ble_latex.run.sweep_lib`).
 
   Returns:
     The final `TrainState`.

@@ -2,8 +2,8 @@
 """`FlightParams`: every constant of the latex flight system, in one pytree.
 
 The defaults are today's (`gin_configs/latex_physics.gin`, the defaults of
-`ble_latex.balloon.create_state` / `LatexBalloon` and
-`ble_latex.controller.AltitudeController`). `flight_params_from_gin()` builds
+`ble_latex.envs.balloon.create_state` / `LatexBalloon` and
+`ble_latex.envs.controller.AltitudeController`). `flight_params_from_gin()` builds
 the parameters from the gin bindings of those three configurables, so the
 existing gin files configure the JAX flight core too and no new gin names
 are registered.
@@ -196,8 +196,8 @@ def gin_overrides() -> Dict[str, Any]:
   """The flight-system values bound in gin, as `make_flight_params` kwargs.
 
   Reads the bindings of `create_state`, `AltitudeController` and
-  `LatexBalloon` that are registered (their modules, `ble_latex.balloon` and
-  `ble_latex.controller`, imported): gin refuses to parse a binding of an
+  `LatexBalloon` that are registered (their modules, `ble_latex.envs.balloon` and
+  `ble_latex.envs.controller`, imported): gin refuses to parse a binding of an
   unregistered name, so an unregistered one has none. Imports nothing.
   """
   import gin  # pylint: disable=g-import-not-at-top

@@ -1,7 +1,7 @@
 # coding=utf-8
 """`FlightState`: the latex balloon's state as a frozen pytree.
 
-The JAX counterpart of `ble_latex.balloon.LatexBalloonState` without BLE's
+The JAX counterpart of `ble_latex.envs.balloon.LatexBalloonState` without BLE's
 bookkeeping (lat/lng, date): position, vertical state, resources, pending
 finite-rate releases, cumulative releases, time, status and what the
 controller did at the last action. The flight-system constants (payload,
@@ -32,6 +32,11 @@ class FlightStatus(enum.IntEnum):
   OUT_OF_HELIUM = 2
   BURST = 3
   GROUNDED = 4
+
+
+# The statuses that end a flight for want of sand or helium.
+OUT_OF_RESOURCES = frozenset({FlightStatus.OUT_OF_SAND,
+                              FlightStatus.OUT_OF_HELIUM})
 
 
 class DecisionCode(enum.IntEnum):

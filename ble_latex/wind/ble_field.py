@@ -23,7 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ble_latex import jax_env
+from ble_latex.envs import jax_env
 
 
 @jax.jit

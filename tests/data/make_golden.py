@@ -92,8 +92,8 @@ import gym
 import jax
 import numpy as np
 
-from ble_latex import balloon as balloon_lib
-from ble_latex import controller as controller_lib
+from ble_latex.envs import balloon as balloon_lib
+from ble_latex.envs import controller as controller_lib
 # pylint: enable=g-import-not-at-top,wrong-import-position
 
 ENV_ID = 'LatexBalloon-v0'

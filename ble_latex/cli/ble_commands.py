@@ -1,0 +1,64 @@
+# coding=utf-8
+r"""Runs BLE's own train/eval commands with the compatibility fixes applied.
+
+BLE 1.0.1's `python -m balloon_learning_environment.eval.eval` does not import on
+today's stack by itself; run it through ble_latex instead, with BLE's own flags:
+
+  ble-latex-ble eval --agent=station_seeker --suite=micro_eval \
+      --output_dir=/tmp/ble/eval
+  ble-latex-ble train --agent=random --base_dir=/tmp/ble/train \
+      --num_iterations=1 --episodes_per_iteration=1
+"""
+
+import importlib
+import runpy
+import sys
+from typing import Optional, Sequence
+
+import ble_latex  # pylint: disable=unused-import  # Installs the fixes first.
+from ble_latex.cli import common as cli
+from ble_latex import quiet
+
+COMMANDS = {
+    'train': 'balloon_learning_environment.train',
+    'eval': 'balloon_learning_environment.eval.eval',
+}
+# What each command imports, loaded first inside `quiet.third_party_noise`
+# (the commands themselves define absl flags, so runpy must run them once).
+_DEPENDENCIES = {
+    'train': ('balloon_learning_environment.train_lib',
+              'balloon_learning_environment.utils.run_helpers'),
+    'eval': ('balloon_learning_environment.eval.eval_lib',
+             'balloon_learning_environment.utils.run_helpers'),
+}
+_HELP = ('-h', '--help', '-help', '--helpshort', '--helpfull')
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  argv = list(sys.argv[1:] if argv is None else argv)
+  if argv and argv[0] in ('-h', '--help', 'help'):
+    print(f'usage: ble-latex-ble {{{"|".join(COMMANDS)}}} [BLE flags...]\n'
+          f'{__doc__}\nBLE\'s flags of a command: ble-latex-ble train --help')
+    return 0
+  if not argv or argv[0] not in COMMANDS:
+    print(f'usage: ble-latex-ble {{{"|".join(COMMANDS)}}} [BLE flags...]\n'
+          f'{__doc__}', file=sys.stderr)
+    return 2
+  module = COMMANDS[argv[0]]
+  with quiet.third_party_noise():
+    for name in _DEPENDENCIES[argv[0]]:
+      importlib.import_module(name)
+  sys.argv = [module] + argv[1:]
+  cli.quiet_init_callbacks()
+  try:
+    runpy.run_module(module, run_name='__main__', alter_sys=True)
+  except SystemExit as e:  # absl's app.run exits; pass its code on.
+    code = int(e.code or 0) if not isinstance(e.code, str) else 1
+    if code == 1 and set(argv[1:]) & set(_HELP):
+      return 0  # absl exits 1 after printing --help.
+    return code
+  return 0
+
+
+if __name__ == '__main__':
+  sys.exit(main())

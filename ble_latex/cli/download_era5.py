@@ -1,0 +1,276 @@
+# coding=utf-8
+r"""`ble-latex-download-era5`: fetches the paper's ERA5 winds from the CDS.
+
+Downloads ERA5 u, v on pressure levels (CDS dataset
+`reanalysis-era5-pressure-levels`) around the station-keeping target, one
+request and file per calendar month (`<output stem>_YYYY-MM.nc`, skipped when
+already there), then joins the months into `--output` for
+`Era5WindField.path` (gin_configs/paper_era5.gin). Defaults are the paper's
+data: 1 Nov 2022 - 31 Jan 2023, lat 1, lon -113 +- 5 deg, 0.4 deg grid,
+levels 20-175 hPa, 00/06/12/18 UTC (~16 MB of float32 winds).
+
+Needs a CDS account: put your token in ~/.cdsapirc (or set CDSAPI_URL and
+CDSAPI_KEY), see https://cds.climate.copernicus.eu/how-to-api, and accept the
+ERA5 licence on the dataset's page.
+
+Usage:
+  ble-latex-download-era5 --output era5_paper.nc
+  ble-latex-download-era5 --dry_run          # prints the requests as JSON
+  python -m ble_latex.cli.download_era5 --start_date 2022-12-01 \
+      --end_date 2022-12-31 --output era5_dec.nc
+"""
+
+import argparse
+import datetime as dt
+import json
+import os
+import sys
+from typing import Any, List, Optional, Sequence, Tuple
+
+from ble_latex import quiet
+
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  import numpy as np
+  import xarray as xr
+
+  from ble_latex.wind import era5
+  # pylint: enable=g-import-not-at-top
+
+
+def monthly_path(output: str, month: str) -> str:
+  """Path of one month's file: `<output stem>_YYYY-MM<ext>`."""
+  stem, ext = os.path.splitext(output)
+  return f'{stem}_{month}{ext or ".nc"}'
+
+
+def merge_files(paths: Sequence[str], output: str) -> str:
+  """Joins ERA5 files (e.g. monthly) along time into one NetCDF file.
+
+  The layout (old or new CDS) is kept; times are sorted and duplicates
+  dropped; packing is dropped (months packed with different scale factors
+  would not share one), the winds are written as compressed float32.
+
+  Args:
+    paths: ERA5 files on the same grid.
+    output: The joined file (written atomically).
+
+  Returns:
+    `output`.
+
+  Raises:
+    FileNotFoundError: a file is missing.
+    IsADirectoryError: a path is a directory.
+    OSError: `output` cannot be written (no partial file is left).
+    ValueError: a file is not NetCDF, is truncated or has no time dimension.
+  """
+  datasets = []
+  try:
+    time_dim = None
+    for path in paths:
+      era5.check_file(path)
+      try:
+        dataset = xr.open_dataset(path)
+      except Exception as error:  # pylint: disable=broad-except
+        raise ValueError(f'ERA5 file {path} is not a readable NetCDF file '
+                         f'({type(error).__name__}: {error})') from error
+      datasets.append(dataset)
+      dim = era5.find_time_dim(dataset)
+      if dim is None or (time_dim is not None and dim != time_dim):
+        raise ValueError(
+            f'ERA5 file {path} has no time dimension {time_dim or ""} '
+            f'(expected one of {list(era5.TIME_DIMS)}; found dims '
+            f'{sorted(str(d) for d in dataset.dims)})')
+      time_dim = dim
+    merged = xr.concat(datasets, dim=time_dim, data_vars='minimal',
+                       coords='minimal', compat='override', join='exact')
+    merged = merged.sortby(time_dim).drop_duplicates(time_dim).load()
+  finally:
+    for dataset in datasets:
+      dataset.close()
+  encoding = {}
+  for name in merged.variables:
+    merged[name].encoding = {}
+  for name in merged.data_vars:
+    if np.issubdtype(merged[name].dtype, np.floating):
+      encoding[name] = {'dtype': 'float32', 'zlib': True, 'complevel': 4}
+  partial = output + '.part'
+  try:
+    merged.to_netcdf(partial, encoding=encoding)
+    os.replace(partial, output)
+  except OSError as error:
+    raise OSError(f'could not write {output} ({type(error).__name__}: '
+                  f'{error})') from error
+  finally:
+    _remove_partial(partial)
+  return output
+
+
+def _remove_partial(path: str) -> None:
+  """Removes a partial download or write, if there is one (best effort)."""
+  try:
+    os.remove(path)
+  except OSError:
+    pass
+
+
+def _output_error(output: str,
+                  jobs: Sequence[Tuple[str, Any, str]]) -> Optional[str]:
+  """Why `--output` or a monthly file cannot be written there, or None.
+
+  Args:
+    output: The joined file.
+    jobs: (month, request, monthly file) of each request.
+
+  Returns:
+    A one-line error, or None when the paths are usable.
+  """
+  separators = tuple(s for s in (os.sep, os.altsep, '/') if s)
+  if output.endswith(separators) or os.path.isdir(output):
+    return (f'--output {output} is a directory; give a file name such as '
+            f'{os.path.join(output, "era5_paper.nc")}')
+  parent = os.path.dirname(os.path.abspath(output))
+  while not os.path.exists(parent):  # Created later: check what exists.
+    parent = os.path.dirname(parent)
+  if not os.path.isdir(parent):
+    return f'--output {output}: {parent} is not a directory'
+  for month, _, target in jobs:
+    if os.path.isdir(target):
+      return f'{target} (the file for {month}) is a directory'
+  return None
+
+
+def _credentials_error() -> Optional[str]:
+  """Why cdsapi would have no credentials, or None if it has some."""
+  if os.environ.get('CDSAPI_URL') and os.environ.get('CDSAPI_KEY'):
+    return None
+  rc = os.environ.get('CDSAPI_RC', os.path.expanduser('~/.cdsapirc'))
+  if os.path.isfile(rc):
+    return None
+  return (f'no CDS API credentials: {rc} does not exist and CDSAPI_URL / '
+          'CDSAPI_KEY are not set. Create a CDS account, then write\n'
+          '  url: https://cds.climate.copernicus.eu/api\n'
+          '  key: <your personal access token>\n'
+          f'to {rc} (see https://cds.climate.copernicus.eu/how-to-api) and '
+          'accept the ERA5 licence on the dataset page.')
+
+
+def _date(text: str) -> dt.date:
+  try:
+    return dt.date.fromisoformat(text)
+  except ValueError as error:
+    raise argparse.ArgumentTypeError(
+        f'expected a date YYYY-MM-DD, got {text!r}') from error
+
+
+def _parse(argv: Sequence[str]) -> argparse.Namespace:
+  parser = argparse.ArgumentParser(
+      prog='ble-latex-download-era5',
+      description='Download ERA5 winds (u, v on pressure levels) for '
+      'Era5WindField from the Copernicus Climate Data Store.')
+  parser.add_argument('--output', default='era5_paper.nc',
+                      help='Joined NetCDF file (monthly files go beside it).')
+  parser.add_argument('--center_lat', type=float,
+                      default=era5.PAPER_CENTER_LAT,
+                      help='Target latitude [deg N].')
+  parser.add_argument('--center_lon', type=float,
+                      default=era5.PAPER_CENTER_LON,
+                      help='Target longitude [deg E].')
+  parser.add_argument('--start_date', type=_date,
+                      default=era5.PAPER_START_DATE,
+                      help='First day, YYYY-MM-DD (inclusive).')
+  parser.add_argument('--end_date', type=_date, default=era5.PAPER_END_DATE,
+                      help='Last day, YYYY-MM-DD (inclusive).')
+  parser.add_argument('--half_width_deg', type=float,
+                      default=era5.DEFAULT_HALF_WIDTH_DEG,
+                      help='Area = target +- this [deg].')
+  parser.add_argument('--grid_deg', type=float, default=era5.PAPER_GRID_DEG,
+                      help='Grid spacing [deg].')
+  parser.add_argument('--min_pressure_hpa', type=float,
+                      default=era5.PAPER_MIN_PRESSURE_HPA,
+                      help='Lowest pressure level [hPa].')
+  parser.add_argument('--max_pressure_hpa', type=float,
+                      default=era5.PAPER_MAX_PRESSURE_HPA,
+                      help='Highest pressure level [hPa].')
+  parser.add_argument('--dry_run', action='store_true',
+                      help='Print the CDS requests as JSON; no network.')
+  parser.add_argument('--overwrite', action='store_true',
+                      help='Download months whose file already exists.')
+  parser.add_argument('--no_merge', action='store_true',
+                      help="Keep the monthly files only (use a glob such as "
+                      "'era5_paper_*.nc' as Era5WindField.path).")
+  return parser.parse_args(argv)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """Console entry point; returns the exit status."""
+  args = _parse(sys.argv[1:] if argv is None else argv)
+  try:
+    requests = era5.build_requests(
+        center_lat=args.center_lat, center_lon=args.center_lon,
+        start_date=args.start_date, end_date=args.end_date,
+        half_width_deg=args.half_width_deg, grid_deg=args.grid_deg,
+        min_pressure_hpa=args.min_pressure_hpa,
+        max_pressure_hpa=args.max_pressure_hpa)
+  except ValueError as error:
+    print(f'error: {error}', file=sys.stderr)
+    return 2
+  jobs = [(month, request, monthly_path(args.output, month))
+          for month, request in requests]
+  problem = _output_error(args.output, jobs)
+  if problem:
+    print(f'error: {problem}', file=sys.stderr)
+    return 2
+  if args.dry_run:
+    print(json.dumps({
+        'dataset': era5.DATASET,
+        'output': None if args.no_merge else args.output,
+        'requests': [{'month': month, 'target': target, 'request': request}
+                     for month, request, target in jobs]}, indent=2))
+    return 0
+
+  todo = [job for job in jobs if args.overwrite or not os.path.isfile(job[2])]
+  if todo:
+    problem = _credentials_error()
+    if problem:
+      print(f'error: {problem}', file=sys.stderr)
+      return 2
+    import cdsapi  # pylint: disable=g-import-not-at-top
+    client = cdsapi.Client()
+    for month, request, target in todo:
+      print(f'requesting {era5.DATASET} {month} -> {target}', flush=True)
+      os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
+      partial = target + '.part'
+      try:  # No partial download is left behind, whatever happens.
+        try:
+          client.retrieve(era5.DATASET, request, partial)
+        except Exception as error:  # pylint: disable=broad-except
+          print(f'error: CDS request for {month} failed '
+                f'({type(error).__name__}: {error}). Check your token in '
+                '~/.cdsapirc and that you accepted the ERA5 licence on the '
+                'dataset page.', file=sys.stderr)
+          return 1
+        os.replace(partial, target)
+      finally:
+        _remove_partial(partial)
+  targets: List[str] = [target for _, _, target in jobs]
+  try:
+    if args.no_merge:
+      data = era5.load(targets)
+    else:
+      merge_files(targets, args.output)
+      data = era5.load(args.output)
+  except (OSError, ValueError) as error:
+    print(f'error: {error}', file=sys.stderr)
+    return 1
+  print(f'wrote {args.output if not args.no_merge else targets}: '
+        f'{data.times.size} times {data.start:%Y-%m-%d %H:%M} to '
+        f'{data.end:%Y-%m-%d %H:%M} UTC, pressure {data.pressure.min():.0f}-'
+        f'{data.pressure.max():.0f} Pa, lat {data.latitude[0]:g}..'
+        f'{data.latitude[-1]:g}, lon {data.longitude[0]:g}..'
+        f'{data.longitude[-1]:g}')
+  return 0
+
+
+if __name__ == '__main__':
+  sys.exit(main())

@@ -1,0 +1,142 @@
+# coding=utf-8
+r"""Evaluates an agent on held-out latex seeds (`ble-latex-eval`), BLE-style.
+
+Same flags and meaning as BLE's `balloon_learning_environment.eval.eval`, with
+the latex env and suites:
+
+  ble-latex-eval --agent=sac --suite=latex_tiny --output_dir=/tmp/latex/eval \
+      --checkpoint_dir=/tmp/latex/sac/checkpoints --checkpoint_idx=49
+
+Writes OUTPUT_DIR/SUITE/NAME.json: one object per seed with seed, reward,
+tw50, tw50_window, window_steps, steps, helium_vented_mols, sand_dropped_kg, terminal_reason,
+final_distance_km and flight_path (README, "Eval output").
+
+With --ray_address the seeds (after --num_shards/--shard_idx) are Ray tasks
+on a local Ray (`local`) or a cluster (`auto`, `HOST:PORT`); the file written
+is the same (`ble_latex.run.distributed`, README "Scaling out on Ray"):
+
+  ble-latex-eval --agent=station_seeker --env_name=LatexBalloonDiscrete-v0 \
+      --suite=latex_small --ray_address=local --ray_num_cpus=2
+
+If seeds fail on Ray, the others are written to NAME.partial.json and the
+command exits with status 1, listing each failed seed with its error.
+"""
+
+import json
+import sys
+from typing import Optional, Sequence
+
+from absl import app
+from absl import flags
+
+import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex.cli import common as cli
+from ble_latex import quiet
+
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  import gym
+
+  from ble_latex.run import distributed
+  from ble_latex.run import eval_lib
+  from ble_latex.run import metrics
+  from ble_latex.run import runner
+  from ble_latex.run import suites
+  # pylint: enable=g-import-not-at-top
+
+flags.DEFINE_string('agent', 'sac', 'The name of the agent to create.')
+flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Environment to evaluate.')
+flags.DEFINE_string('suite', 'latex_tiny',
+                    f'Evaluation suite: {sorted(suites.SUITE_SIZES)} (held '
+                    'out), latex_validation (for choosing checkpoints) or '
+                    'any BLE suite.')
+flags.DEFINE_string('agent_gin_file', None, 'Gin file for agent configuration.')
+flags.DEFINE_multi_string('gin_file', [], 'Extra gin files.')
+flags.DEFINE_multi_string('gin_bindings', [],
+                          'Gin bindings to override default values.')
+flags.DEFINE_string('output_dir', '/tmp/ble_latex/eval',
+                    'The directory to output the json summary.')
+flags.DEFINE_integer('num_shards', 1, 'Number of shards to split the suite.',
+                     lower_bound=1)
+flags.DEFINE_integer('shard_idx', 0, 'The index of this shard.', lower_bound=0)
+flags.DEFINE_boolean('pretty_json', False, 'Indent the json output.')
+flags.DEFINE_string('checkpoint_dir', None, 'Directory to load checkpoints.')
+flags.DEFINE_integer('checkpoint_idx', None, 'Checkpoint iteration to load.')
+flags.DEFINE_string('name_override', None, 'Name of the json output file.')
+flags.DEFINE_integer('max_episode_length', None,
+                     'Override the suite\'s episode length.')
+flags.DEFINE_integer('seed', 0, 'Agent seed.')
+flags.DEFINE_string('ray_address', None,
+                    'Fly the seeds as Ray tasks: local (an embedded Ray on '
+                    'this machine), auto (the cluster this machine joined) '
+                    "or HOST:PORT / ray://HOST:PORT. Needs the 'ray' extra.")
+flags.DEFINE_integer('ray_num_cpus', None,
+                     'CPUs of a --ray_address=local Ray (default: all).',
+                     lower_bound=1)
+FLAGS = flags.FLAGS
+
+
+def main(argv: Sequence[str]) -> None:
+  if len(argv) > 1:
+    raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
+  if (FLAGS.checkpoint_dir is None) != (FLAGS.checkpoint_idx is None):
+    raise app.UsageError('--checkpoint_dir and --checkpoint_idx go together.')
+  spec = eval_lib.EvalSpec(
+      agent=FLAGS.agent, env_name=FLAGS.env_name,
+      agent_gin_file=FLAGS.agent_gin_file, gin_files=tuple(FLAGS.gin_file),
+      gin_bindings=tuple(FLAGS.gin_bindings),
+      checkpoint_dir=FLAGS.checkpoint_dir, checkpoint_idx=FLAGS.checkpoint_idx,
+      seed=FLAGS.seed)
+  if FLAGS.ray_address is not None:
+    # Before JAX starts threads in this process: Ray forks its daemons.
+    try:
+      distributed.connect(FLAGS.ray_address, FLAGS.ray_num_cpus)
+    except distributed.RayUnavailableError as e:
+      raise cli.CommandUsageError(str(e)) from e
+  agent, env = eval_lib.build(spec)  # Checks the spec before Ray work starts.
+  suite = suites.get_eval_suite(FLAGS.suite)
+  seeds = eval_lib.shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)
+  max_steps = FLAGS.max_episode_length or suite.max_episode_length
+  name = FLAGS.name_override or (
+      f'{FLAGS.agent}_{FLAGS.checkpoint_idx}'
+      if FLAGS.checkpoint_idx is not None else FLAGS.agent)
+  path = eval_lib.output_path(FLAGS.output_dir, FLAGS.suite, name,
+                              FLAGS.num_shards, FLAGS.shard_idx)
+  description = f'eval {FLAGS.agent} {FLAGS.suite}'
+  if FLAGS.ray_address is None:
+    results = eval_lib.evaluate(agent, env, seeds, max_steps,
+                                description=description)
+  else:
+    del agent, env  # Workers build their own.
+    try:
+      results = distributed.evaluate(spec, seeds, max_steps,
+                                     description=description)
+    except distributed.SeedsFailedError as e:
+      partial = path[:-len('.json')] + '.partial.json'
+      eval_lib.write_results(partial, e.completed, FLAGS.pretty_json)
+      print(f'ble-latex-eval: {e}\nThe {len(e.completed)} other records are '
+            f'in {partial}.', file=sys.stderr)
+      sys.exit(1)
+    finally:
+      if FLAGS.ray_address == 'local':
+        distributed.shutdown()
+  eval_lib.write_results(path, results, FLAGS.pretty_json)
+  print(json.dumps({'output': path, **metrics.summarize(results)}))
+
+
+def check() -> None:
+  """Unknown agent, suite, env or gin file: one line, exit status 2."""
+  cli.check_agent(FLAGS.agent)
+  cli.check_suite(FLAGS.suite)
+  cli.check_env_name(FLAGS.env_name)
+  cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
+  cli.check_ray_flags(FLAGS.ray_address, FLAGS.ray_num_cpus)
+
+
+def run(argv: Optional[Sequence[str]] = None) -> None:
+  """Console-script entry point (see `cli.run_absl`)."""
+  cli.run_absl(main, 'ble-latex-eval', argv, doc=__doc__, check=check)
+
+
+if __name__ == '__main__':
+  run()

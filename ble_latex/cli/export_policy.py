@@ -1,0 +1,64 @@
+# coding=utf-8
+r"""Exports a SAC checkpoint's policy, or converts a policy file.
+
+  ble-latex-export-policy --checkpoint=RUN/checkpoints/checkpoint_00049.msgpack \
+      --output=my_policy.msgpack [--note='...']
+
+The policy (config, network parameters, temperature; ~1 MB) is what
+`SACPretrainedAgent.policy_path` loads. `--checkpoint` may also name a policy
+file, which is then rewritten (e.g. a legacy `.pkl` policy converted to
+msgpack). Legacy pickles are read only with `--trust_legacy_pickle`: unpickling
+can run code, so pass it only for files you made (README "Trusted files").
+"""
+
+import os
+import sys
+from typing import Optional, Sequence
+
+from absl import app
+from absl import flags
+
+from ble_latex.cli import common as cli
+from ble_latex import quiet
+
+with quiet.third_party_noise():
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+
+flags.DEFINE_string('checkpoint', None, 'SAC checkpoint to export '
+                    '(checkpoint_NNNNN.msgpack), or a policy file to convert.')
+flags.DEFINE_string('output', None, 'Policy file to write (.msgpack).')
+flags.DEFINE_string('note', '', 'Free text recorded in the policy.')
+flags.DEFINE_bool('trust_legacy_pickle', False,
+                  'Read a legacy pickle checkpoint or policy (.pkl). Pickles '
+                  'can run code: only for files you made.')
+flags.mark_flags_as_required(['checkpoint', 'output'])
+FLAGS = flags.FLAGS
+
+
+def main(argv: Sequence[str]) -> None:
+  if len(argv) > 1:
+    raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
+  source = FLAGS.checkpoint
+  try:
+    if os.path.basename(source).startswith('checkpoint_'):
+      policy = pretrained.export_policy(source, FLAGS.output, FLAGS.note,
+                                        FLAGS.trust_legacy_pickle)
+    else:
+      policy = pretrained.load_policy(source, FLAGS.trust_legacy_pickle)
+      if FLAGS.note:
+        policy['note'] = FLAGS.note
+      pretrained.write_policy(policy, FLAGS.output)
+  except (OSError, ValueError) as e:
+    print(f'ble-latex-export-policy: {e}', file=sys.stderr)
+    sys.exit(1)
+  print(f'wrote {FLAGS.output} ({os.path.getsize(FLAGS.output) / 1e6:.1f} MB) '
+        f'from {policy["source"]}, iteration {policy["iteration"]}')
+
+
+def run(argv: Optional[Sequence[str]] = None) -> None:
+  """Console-script entry point (see `cli.run_absl`)."""
+  cli.run_absl(main, 'ble-latex-export-policy', argv, doc=__doc__)
+
+
+if __name__ == '__main__':
+  run()

@@ -1,0 +1,394 @@
+# coding=utf-8
+r"""`ble-latex-plot`: the paper's figures from a run, eval files and the wind.
+
+  ble-latex-plot --output_dir=/tmp/latex/plots \
+      --run_dir=/tmp/latex/sac \
+      --eval_json=/tmp/latex/eval/latex_tiny/sac_49.json \
+      --baseline_eval_json=/tmp/latex/eval/latex_tiny/random.json \
+      --wind_seeds=3,11
+
+Writes into --output_dir, each only when its inputs are given:
+
+  training_curves.png      --run_dir: reward and TW50 per episode with the
+                           50-episode rolling mean (paper Fig. 2).
+  terminal_conditions.png  --run_dir: cumulative terminal reasons (Fig. 5).
+  seed_curves.png          --seed_run_dirs (2 or more): TW50 over the window
+                           and reward, rolling means of each training run,
+                           their mean and min-max band (e.g. the seeds of
+                           `ble-latex-train --seeds`).
+  trajectories.png         --eval_json (the first one): bird's-eye paths of up
+                           to --max_trajectories seeds, 50 km circle (Fig. 4).
+  trajectory_3d.png        --eval_json and --baseline_eval_json: the same seed
+                           (--seed, else the first common one) flown by both,
+                           with the station-keeping cylinder (Fig. 6).
+  wind_field.png           --wind_seed or --wind_seeds: forecast wind arrows
+                           coloured by direction at --wind_pressures_pa, one
+                           row per seed (Fig. 3). The env is built after
+                           latex_env.gin, --gin_files and --gin_bindings, so a
+                           binding can select e.g. the ERA5 wind field.
+  summary.json             for every eval file: mean/std of TW50, reward,
+                           helium vented, sand dropped, % out of resources
+                           (also printed).
+
+Every input is read and checked (each record against its schema, see
+`ble_latex.plots.figures`) and the wind sampled before the first figure is drawn, so a
+bad input leaves nothing written. Prints the paths written. Exit status 0 on
+success, 1 on bad input (a message naming the file, record and field), 2 on bad
+flags.
+"""
+
+import datetime as dt
+import json
+import os
+import sys
+from typing import Any, Dict, List, Optional, Sequence
+
+from absl import flags
+import numpy as np
+
+import ble_latex  # pylint: disable=unused-import  # Fixes before BLE imports.
+from ble_latex.cli import common as cli
+from ble_latex import quiet
+
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import configs
+  from ble_latex.plots import figures as plots
+  from ble_latex.run import episode_log
+  from ble_latex.run import metrics
+  from ble_latex.run import records as records_lib
+  # pylint: enable=g-import-not-at-top
+
+TRAINING_CURVES = 'training_curves.png'
+TERMINAL_CONDITIONS = 'terminal_conditions.png'
+TRAJECTORIES = 'trajectories.png'
+TRAJECTORY_3D = 'trajectory_3d.png'
+WIND_FIELD = 'wind_field.png'
+SEED_CURVES = 'seed_curves.png'
+SUMMARY = 'summary.json'
+DEFAULT_PRESSURES_PA = ('14000', '10000', '7000', '5000')  # [Pa] ~14-21 km.
+
+# Own flag registry: the command can be called (and tested) next to other
+# ble_latex commands whose absl flags share names (output_dir, seed, ...).
+_FLAGS = flags.FlagValues()
+flags.DEFINE_string('output_dir', None, 'Folder for the PNGs and summary.json.',
+                    flag_values=_FLAGS)
+flags.DEFINE_string('run_dir', None,
+                    'Training run folder (ble-latex-train --base_dir) holding '
+                    'episodes.jsonl.', flag_values=_FLAGS)
+flags.DEFINE_multi_string('seed_run_dirs', [],
+                          'Training run folders drawn together in '
+                          f'{SEED_CURVES} (e.g. BASE_DIR/seed_0 ...).',
+                          flag_values=_FLAGS)
+flags.DEFINE_multi_string('eval_json', [],
+                          'ble-latex-eval result file(s) OUT/SUITE/AGENT.json; '
+                          'the first one is plotted, all are summarized.',
+                          flag_values=_FLAGS)
+flags.DEFINE_string('baseline_eval_json', None,
+                    'Eval file of the untrained/baseline agent for the 3D '
+                    'comparison (also summarized).', flag_values=_FLAGS)
+flags.DEFINE_integer('max_trajectories', 6, 'Most flight paths in '
+                     f'{TRAJECTORIES}.', lower_bound=1, flag_values=_FLAGS)
+flags.DEFINE_integer('seed', None, f'Seed shown in {TRAJECTORY_3D} (default: '
+                     'the first seed common to both eval files).',
+                     flag_values=_FLAGS)
+flags.DEFINE_integer('rolling_window', plots.ROLLING_WINDOW,
+                     'Episodes in the training-curve rolling mean.',
+                     lower_bound=1, flag_values=_FLAGS)
+flags.DEFINE_boolean('paper_reference', True,
+                     'Draw the paper\'s result in the training curves.',
+                     flag_values=_FLAGS)
+flags.DEFINE_integer('wind_seed', None, 'Env seed (date, location, wind) of '
+                     f'{WIND_FIELD}.', flag_values=_FLAGS)
+flags.DEFINE_list('wind_seeds', [], 'Several env seeds, one row each (e.g. a '
+                  'favourable and an unfavourable day).', flag_values=_FLAGS)
+flags.DEFINE_float('wind_hours', 0.0, 'Forecast time after the reset [h].',
+                   lower_bound=0.0, flag_values=_FLAGS)
+flags.DEFINE_list('wind_pressures_pa', list(DEFAULT_PRESSURES_PA),
+                  'Pressure levels [Pa], one column each.', flag_values=_FLAGS)
+flags.DEFINE_float('wind_extent_km', 300.0, 'Grid half-width [km].',
+                   lower_bound=1.0, flag_values=_FLAGS)
+flags.DEFINE_integer('wind_grid', 21, 'Arrows per grid side.', lower_bound=2,
+                     flag_values=_FLAGS)
+flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Env whose wind is drawn.',
+                    flag_values=_FLAGS)
+flags.DEFINE_multi_string('gin_files', [], 'Extra gin files (after '
+                          'latex_env.gin).', flag_values=_FLAGS)
+flags.DEFINE_alias('gin_file', 'gin_files', flag_values=_FLAGS)
+flags.DEFINE_multi_string('gin_bindings', [],
+                          'Gin bindings, e.g. "LatexBalloonEnv.'
+                          'wind_field_factory = @Era5WindField".',
+                          flag_values=_FLAGS)
+flags.mark_flag_as_required('output_dir', flag_values=_FLAGS)
+
+
+def sample_wind_grid(field: Any, pressures_pa: Sequence[float], *,
+                     extent_km: float, num_points: int,
+                     elapsed: dt.timedelta) -> Dict[str, np.ndarray]:
+  """Forecast wind on a square x-y grid, one column query per grid point.
+
+  Args:
+    field: A reset BLE `wind_field.WindField` (generative, ERA5, ...).
+    pressures_pa: Pressure levels. # [Pa]
+    extent_km: Grid from -extent_km to +extent_km in x and y. # [km]
+    num_points: Grid points per side.
+    elapsed: Time since the field's start.
+
+  Returns:
+    x_km, y_km (num_points,) and u_mps, v_mps (levels, num_points, num_points),
+    indexed [level, y, x].
+  """
+  # pylint: disable-next=g-import-not-at-top
+  from balloon_learning_environment.utils import units
+  axis = np.linspace(-extent_km, extent_km, num_points)  # [km]
+  shape = (len(pressures_pa), num_points, num_points)
+  u, v = np.empty(shape), np.empty(shape)
+  for iy, y in enumerate(axis):
+    for ix, x in enumerate(axis):
+      column = field.get_forecast_column(
+          units.Distance(km=float(x)), units.Distance(km=float(y)),
+          list(pressures_pa), elapsed)
+      u[:, iy, ix] = [w.u.meters_per_second for w in column]
+      v[:, iy, ix] = [w.v.meters_per_second for w in column]
+  return {'x_km': axis, 'y_km': axis, 'u_mps': u, 'v_mps': v}
+
+
+def wind_rows(seeds: Sequence[int], pressures_pa: Sequence[float], *,
+              env_name: str, hours: float, extent_km: float,
+              num_points: int) -> List[plots.WindPanelRow]:
+  """Builds the env (gin already parsed), resets per seed, samples the wind.
+
+  Args:
+    seeds: Env seeds, one row each.
+    pressures_pa: Pressure levels, one column each. # [Pa]
+    env_name: A registered balloon env.
+    hours: Forecast time after the reset. # [h]
+    extent_km: Grid half-width. # [km]
+    num_points: Grid points per side.
+
+  Returns:
+    One `plots.WindPanelRow` per seed.
+
+  Raises:
+    flags.ValidationError: `env_name` is not a registered balloon env.
+  """
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise():
+    import gym  # pylint: disable=g-import-not-at-top
+  try:
+    with quiet.third_party_noise():
+      env = gym.make(env_name)
+  except gym.error.Error as e:
+    raise flags.ValidationError(f'--env_name={env_name}: {e}') from e
+  try:
+    if not hasattr(env.unwrapped, 'arena'):
+      raise flags.ValidationError(f'--env_name={env_name}: not a balloon env '
+                                  '(it has no arena to take the wind from)')
+    return [_wind_row(env, seed, pressures_pa, hours=hours,
+                      extent_km=extent_km, num_points=num_points)
+            for seed in seeds]
+  finally:
+    env.close()
+
+
+def _wind_row(env: Any, seed: int, pressures_pa: Sequence[float], *,
+              hours: float, extent_km: float,
+              num_points: int) -> plots.WindPanelRow:
+  """Resets `env` to `seed` and samples its forecast wind."""
+  env.reset(seed=seed)
+  arena = env.unwrapped.arena
+  field = arena._wind_field  # pylint: disable=protected-access
+  atmosphere = arena._atmosphere  # pylint: disable=protected-access
+  state = arena.get_balloon_state()
+  elapsed = dt.timedelta(hours=hours)
+  grid = sample_wind_grid(field, pressures_pa, extent_km=extent_km,
+                          num_points=num_points, elapsed=elapsed)
+  altitudes = [atmosphere.at_pressure(p).height.kilometers
+               for p in pressures_pa]
+  when = (state.date_time + elapsed).strftime('%Y-%m-%d %H:%M UTC')
+  return plots.WindPanelRow(
+      title=f'seed {seed}, {when}\n{type(field).__name__}',
+      pressures_pa=np.asarray(pressures_pa, dtype=float),
+      altitudes_km=np.asarray(altitudes),
+      balloon_xy_km=(state.x.kilometers, state.y.kilometers), **grid)
+
+
+def format_summary(summary: Dict[str, Dict[str, float]]) -> str:
+  """One line per eval file: mean +- std of TW50, reward, resources."""
+  lines = []
+  for path, s in summary.items():
+    lines.append(
+        f'{path}: {s["episodes"]} seeds, '
+        f'TW50 (window) {100 * s["tw50_window_mean"]:.1f} +- '
+        f'{100 * s["tw50_window_std"]:.1f}%, '
+        f'TW50 (flown) {100 * s["tw50_mean"]:.1f} +- {100 * s["tw50_std"]:.1f}%, '
+        f'reward {s["reward_mean"]:.1f} +- {s["reward_std"]:.1f}, '
+        f'helium vented {s["helium_vented_mols_mean"]:.1f} +- '
+        f'{s["helium_vented_mols_std"]:.1f} mol, '
+        f'sand dropped {s["sand_dropped_kg_mean"]:.2f} +- '
+        f'{s["sand_dropped_kg_std"]:.2f} kg, '
+        f'out of resources {s["out_of_resources_pct"]:.0f}%')
+  return '\n'.join(lines)
+
+
+def _float_list(name: str, values: Sequence[str]) -> List[float]:
+  try:
+    out = [float(v) for v in values]
+  except ValueError as e:
+    raise flags.ValidationError(f'--{name}: {e}') from e
+  if not out or not all(np.isfinite(out)) or min(out) <= 0:
+    raise flags.ValidationError(
+        f'--{name} needs finite positive numbers, got {values}')
+  return out
+
+
+def _wind_seed_list(f: flags.FlagValues) -> List[int]:
+  try:
+    seeds = [int(s) for s in f.wind_seeds]
+  except ValueError as e:
+    raise flags.ValidationError(f'--wind_seeds: {e}') from e
+  if f.wind_seed is not None:
+    seeds = [f.wind_seed] + [s for s in seeds if s != f.wind_seed]
+  if any(s < 0 for s in seeds):
+    raise flags.ValidationError(f'--wind_seed(s) must be >= 0, got {seeds}')
+  return seeds
+
+
+def run(f: flags.FlagValues) -> List[str]:
+  """Makes every figure whose inputs are given; returns the paths written.
+
+  All inputs are loaded and validated (and the wind sampled) first: an error
+  in any of them raises before anything is drawn or written.
+
+  Args:
+    f: The parsed flags.
+
+  Returns:
+    The paths written, in drawing order.
+
+  Raises:
+    flags.ValidationError: bad flag values (exit status 2).
+    OSError, ValueError: a missing or malformed input, naming the file (and
+      record and field).
+  """
+  out = f.output_dir
+  written = []
+  # 1. Flags that need no file.
+  wind_seeds = _wind_seed_list(f)
+  pressures = _float_list('wind_pressures_pa', f.wind_pressures_pa)
+  if f.seed is not None and not (f.eval_json and f.baseline_eval_json):
+    raise flags.ValidationError('--seed needs --eval_json and '
+                                '--baseline_eval_json')
+  # 2. Load (and so validate) every input file.
+  episodes = None
+  if f.run_dir:
+    episodes = records_lib.load_episodes(
+        os.path.join(f.run_dir, episode_log.EPISODE_LOG))
+  if len(f.seed_run_dirs) == 1:
+    raise flags.ValidationError('--seed_run_dirs needs 2 or more runs (one '
+                                'run: --run_dir)')
+  seed_runs = {
+      d: records_lib.load_episodes(os.path.join(d, episode_log.EPISODE_LOG))
+      for d in f.seed_run_dirs}
+  evals = {p: records_lib.load_eval(p) for p in f.eval_json}
+  baseline = (records_lib.load_eval(f.baseline_eval_json)
+              if f.baseline_eval_json else None)
+  first = next(iter(evals.values())) if evals else None
+  seed_3d = None
+  if first and baseline:
+    try:
+      seed_3d = plots.common_seed(first, baseline, f.seed)
+    except ValueError as e:
+      raise ValueError(f'{f.eval_json[0]} and {f.baseline_eval_json}: '
+                       f'{e}') from e
+  # 3. The wind, from the env.
+  rows = None
+  if wind_seeds:
+    with quiet.third_party_noise():
+      configs.bind_gin(None, None, f.gin_files, f.gin_bindings)
+    rows = wind_rows(wind_seeds, pressures, env_name=f.env_name,
+                     hours=f.wind_hours, extent_km=f.wind_extent_km,
+                     num_points=f.wind_grid)
+  elif f.gin_files or f.gin_bindings:
+    print('ble-latex-plot: --gin_files/--gin_bindings only affect '
+          f'{WIND_FIELD} (give --wind_seed); ignored.', file=sys.stderr)
+
+  # 4. Draw.
+  os.makedirs(out, exist_ok=True)
+  if episodes is not None:
+    written.append(plots.plot_training_curves(
+        episodes, os.path.join(out, TRAINING_CURVES),
+        window=f.rolling_window, paper_reference=f.paper_reference))
+    written.append(plots.plot_terminal_conditions(
+        episodes, os.path.join(out, TERMINAL_CONDITIONS)))
+  if seed_runs:
+    written.append(plots.plot_seed_curves(
+        {os.path.basename(os.path.normpath(d)): e
+         for d, e in seed_runs.items()},
+        os.path.join(out, SEED_CURVES), window=f.rolling_window))
+  if first is not None:
+    written.append(plots.plot_trajectories(
+        first, os.path.join(out, TRAJECTORIES),
+        max_trajectories=f.max_trajectories))
+  if seed_3d is not None:
+    by_seed = lambda records: next(r for r in records if r['seed'] == seed_3d)
+    names = (os.path.splitext(os.path.basename(f.eval_json[0]))[0],
+             os.path.splitext(os.path.basename(f.baseline_eval_json))[0])
+    written.append(plots.plot_trajectory_3d(
+        by_seed(first), by_seed(baseline), os.path.join(out, TRAJECTORY_3D),
+        labels=names))
+  if rows is not None:
+    written.append(plots.plot_wind_fields(rows, os.path.join(out, WIND_FIELD)))
+  if baseline is not None:
+    evals[f.baseline_eval_json] = baseline
+  if evals:
+    summary = {path: metrics.summarize(r) for path, r in evals.items()}
+    print(format_summary(summary))
+    path = os.path.join(out, SUMMARY)
+    with open(path, 'w', encoding='utf-8') as fh:
+      json.dump(summary, fh, indent=2)
+    written.append(path)
+  return written
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """Console entry point; returns the exit status."""
+  argv = list(sys.argv[1:] if argv is None else argv)
+  if any(a in ('-h', '--help', '--helpshort', '--helpfull') for a in argv):
+    print(__doc__)
+    print(_FLAGS.get_help())
+    return 0
+  _FLAGS.unparse_flags()
+  try:
+    _FLAGS(['ble-latex-plot', *argv])
+  except flags.Error as e:
+    print(f'ble-latex-plot: {e}\nTry --help.', file=sys.stderr)
+    return 2
+  if not (_FLAGS.run_dir or _FLAGS.seed_run_dirs or _FLAGS.eval_json or
+          _FLAGS.baseline_eval_json or
+          _FLAGS.wind_seed is not None or _FLAGS.wind_seeds):
+    print('ble-latex-plot: nothing to plot; give --run_dir, --seed_run_dirs, --eval_json, '
+          '--baseline_eval_json or --wind_seed(s). Try --help.',
+          file=sys.stderr)
+    return 2
+  try:
+    cli.check_gin_files(_FLAGS.gin_files)
+    written = run(_FLAGS)
+  except (flags.Error, cli.CommandUsageError) as e:
+    print(f'ble-latex-plot: {e}', file=sys.stderr)
+    return 2
+  except (OSError, ValueError) as e:
+    gin_message = (cli.gin_usage_message(e) if isinstance(e, ValueError)
+                   else None)
+    if gin_message is not None:
+      print(f'ble-latex-plot: {gin_message}', file=sys.stderr)
+      return 2
+    print(f'ble-latex-plot: error: {e}', file=sys.stderr)
+    return 1
+  for path in written:
+    print(f'wrote {path}')
+  return 0
+
+
+if __name__ == '__main__':
+  sys.exit(main())

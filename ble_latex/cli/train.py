@@ -1,0 +1,171 @@
+# coding=utf-8
+r"""Trains an agent on the latex balloon (`ble-latex-train`), BLE-style.
+
+Same flags and meaning as BLE's `balloon_learning_environment.train`, with the
+latex env and SAC as defaults:
+
+  ble-latex-train --base_dir=/tmp/latex/sac --num_iterations=50 \
+      --episodes_per_iteration=10
+
+With `--trainer=jax` SAC trains in jitted rounds on the batched env
+(`ble_latex.agents.sac_trainer`, gin `gin_configs/sac_jax.gin`): an iteration
+is one episode on each of `sac_trainer_config.num_envs` balloons in parallel.
+`--seeds` runs several training seeds one after another, each in
+BASE_DIR/seed_<s>:
+
+  ble-latex-train --trainer=jax --base_dir=/tmp/latex/jax \
+      --num_iterations=170 --policy_snapshot_period=5 --seeds=0,1,2,3,4
+
+The run directory holds `checkpoints/` (one per iteration), `episodes.jsonl`
+(one line per episode) and `metrics/` (tensorboard, pickle); the jax trainer
+also writes `validation.jsonl` (each policy snapshot flown on
+`latex_validation`). Killed and
+restarted with the same flags, training resumes after the last checkpoint:
+episodes logged after it are dropped and re-run from their seeds, so no
+episode is lost or repeated. Episode i always flies env seed i (held-out eval
+seeds start at 1,000,000).
+"""
+
+import os
+import sys
+from typing import List, Optional, Sequence, Tuple
+
+from absl import app
+from absl import flags
+
+import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex.cli import common as cli
+from ble_latex import configs
+from ble_latex import quiet
+
+with quiet.third_party_noise():
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import metrics
+  from ble_latex.run import suites
+  from ble_latex.run import train_lib
+  # pylint: enable=g-import-not-at-top
+
+flags.DEFINE_enum('trainer', 'agent', ['agent', 'jax'],
+                  "'agent': the agent's own loop, one balloon at a time "
+                  "(BLE's); 'jax': jitted SAC on the batched env "
+                  '(sac_trainer; --agent=sac, gin sac_trainer_config).')
+flags.DEFINE_string('agent', 'sac', 'Type of agent to create.')
+flags.DEFINE_string('env_name', 'LatexBalloon-v0',
+                    'Name of environment to create.')
+flags.DEFINE_integer('num_iterations', 50, 'Number of iterations to train.')
+flags.DEFINE_integer('episodes_per_iteration', 10,
+                     'Episodes per iteration; a checkpoint is written after '
+                     'each iteration.')
+flags.DEFINE_integer('max_episode_length', suites.EPISODE_STEPS,
+                     'Maximum steps per episode (216 x 20 min = 3 days).')
+flags.DEFINE_string('base_dir', None,
+                    'Directory for checkpoints, episodes.jsonl and metrics.')
+flags.DEFINE_string('agent_gin_file', None,
+                    'Gin file for agent configuration (default: the agent\'s).')
+flags.DEFINE_multi_string('gin_file', [],
+                          'Extra gin files (e.g. gin_configs/paper_era5.gin).')
+flags.DEFINE_multi_string('gin_bindings', [],
+                          'Gin bindings to override default values.')
+flags.DEFINE_multi_string('collectors', ['progress', 'episodes', 'tensorboard'],
+                          f'Collectors: {sorted(metrics.AVAILABLE_COLLECTORS)}.')
+flags.DEFINE_integer('seed', 0, 'Seed of the agent (env seeds are episode '
+                     'indices).')
+flags.DEFINE_list('seeds', None,
+                  'Training seeds, run one after another, each in '
+                  'BASE_DIR/seed_<s> (instead of --seed in BASE_DIR).')
+flags.DEFINE_integer('validation_episodes', 100,
+                     '--trainer=jax: latex_validation seeds each policy '
+                     'snapshot flies (batched) into validation.jsonl; 0: '
+                     'none.')
+flags.DEFINE_integer('checkpoint_period', 1,
+                     '--trainer=jax: iterations between checkpoints (each '
+                     'holds the replay buffer).')
+flags.DEFINE_integer('policy_snapshot_period', 0,
+                     'SAC only: every this many iterations also export the '
+                     'policy (~1 MB) to BASE_DIR/policies/, for choosing one '
+                     'on a validation suite afterwards. 0: never.')
+flags.mark_flag_as_required('base_dir')
+FLAGS = flags.FLAGS
+
+
+def seed_dirs() -> List[Tuple[int, str]]:
+  """(seed, run directory) of each training run this command makes."""
+  if FLAGS.seeds is None:
+    return [(FLAGS.seed, FLAGS.base_dir)]
+  return [(int(s), os.path.join(FLAGS.base_dir, f'seed_{int(s)}'))
+          for s in FLAGS.seeds]
+
+
+def main(argv: Sequence[str]) -> None:
+  if len(argv) > 1:
+    raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
+  jax_trainer = FLAGS.trainer == 'jax'
+  agent_gin_file = FLAGS.agent_gin_file
+  if jax_trainer and agent_gin_file is None:
+    agent_gin_file = configs.gin_file('sac_jax.gin')
+  configs.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
+                  FLAGS.gin_bindings)
+  for seed, base_dir in seed_dirs():
+    if jax_trainer:
+      # pylint: disable=g-import-not-at-top
+      from ble_latex.agents import sac_trainer
+      # pylint: enable=g-import-not-at-top
+      first = suites.VALIDATION_SEED_OFFSET
+      sac_trainer.train(
+          base_dir=base_dir, num_iterations=FLAGS.num_iterations, seed=seed,
+          collectors=FLAGS.collectors,
+          policy_snapshot_period=FLAGS.policy_snapshot_period,
+          checkpoint_period=FLAGS.checkpoint_period,
+          validation_seeds=range(first, first + FLAGS.validation_episodes))
+      continue
+    train_lib.train(agent_name=FLAGS.agent, env_name=FLAGS.env_name,
+          base_dir=base_dir, num_iterations=FLAGS.num_iterations,
+          episodes_per_iteration=FLAGS.episodes_per_iteration,
+          max_episode_length=FLAGS.max_episode_length,
+          collectors=FLAGS.collectors, seed=seed,
+          policy_snapshot_period=FLAGS.policy_snapshot_period)
+
+
+def check() -> None:
+  """Unknown agent, env, collector or gin file: one line, exit status 2."""
+  cli.check_agent(FLAGS.agent)
+  cli.check_env_name(FLAGS.env_name)
+  if FLAGS.seeds is not None:
+    try:
+      seeds = [int(s) for s in FLAGS.seeds]
+    except ValueError as e:
+      raise cli.CommandUsageError(
+          f'--seeds takes integers, got {FLAGS.seeds}') from e
+    if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
+      raise cli.CommandUsageError(
+          f'--seeds takes distinct integers >= 0, got {FLAGS.seeds}')
+  if FLAGS.trainer == 'jax':
+    for name in ('episodes_per_iteration', 'max_episode_length'):
+      if FLAGS[name].present:
+        raise cli.CommandUsageError(
+            f'--{name} is not used by --trainer=jax: an iteration is one '
+            'episode per balloon (gin sac_trainer_config.num_envs), episodes '
+            'last LatexBalloonEnv.episode_steps')
+    if FLAGS.agent != 'sac' or FLAGS.env_name != 'LatexBalloon-v0':
+      raise cli.CommandUsageError(
+          '--trainer=jax trains SAC on LatexBalloon-v0 only (--agent=sac, '
+          '--env_name=LatexBalloon-v0)')
+    if not 0 <= FLAGS.validation_episodes <= 100:
+      raise cli.CommandUsageError('--validation_episodes must be in [0, 100]'
+                                  ' (latex_validation has 100 seeds)')
+    if FLAGS.checkpoint_period < 1:
+      raise cli.CommandUsageError('--checkpoint_period must be >= 1')
+  for name in FLAGS.collectors:
+    if name not in metrics.AVAILABLE_COLLECTORS:
+      raise cli.CommandUsageError(cli.unknown(
+          'collector', name, metrics.AVAILABLE_COLLECTORS))
+  cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
+
+
+def run(argv: Optional[Sequence[str]] = None) -> None:
+  """Console-script entry point (see `cli.run_absl`)."""
+  cli.run_absl(main, 'ble-latex-train', argv, doc=__doc__, check=check)
+
+
+if __name__ == '__main__':
+  run()

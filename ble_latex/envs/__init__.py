@@ -1,0 +1,2 @@
+# coding=utf-8
+"""The latex balloon as environments: gym, gymnasium, batched JAX; features, reward, BLE adapters."""

@@ -1,0 +1,201 @@
+# coding=utf-8
+"""The latex balloon arena: BLE's arena interface over the flight core.
+
+`LatexBalloonArena` implements BLE's `BalloonArenaInterface` (what
+`BalloonEnv`, BLE's `eval_lib` and renderers use) on
+`ble_latex.envs.host_env.FlightDriver`, i.e. on the same jitted core as the
+batched `jax_env`. What it adds for BLE's side:
+
+- the world of BLE's `BalloonArena.reset(key)`: atmosphere, start time,
+  start distance (Beta(1.2, 2) x 200 km) and angle, station location, the
+  latex balloon neutral at an altitude uniform in the start band, and the
+  wind (by default BLE's generative field drawn inside the core,
+  `wind.ble_field.CoreGenerativeWindField`; any other BLE `WindField`, e.g.
+  ERA5, is flown through host callbacks, and one that chooses its own start
+  time sets the flight's date);
+- one step is one 20-minute controller action; the core re-queries the
+  ground-truth wind at every sub-step of at most 3 simulated minutes;
+- BLE objects on demand: the `LatexBalloonState` view (`balloon.write_flight`),
+  BLE's `Atmosphere` (same key), `SimulatorState` and measurements;
+- observations: the core's 71 features for `features.LatexFeatureConstructor`
+  (the continuous env), or any BLE feature constructor fed with BLE's
+  measurements (the discrete env's Perciatelli features).
+
+`set_simulator_state` / `set_balloon_state` are not supported (the core's
+state is not rebuilt from BLE objects); they raise NotImplementedError.
+"""
+
+import datetime as dt
+import secrets
+from typing import Callable, Optional, Tuple, Union
+
+from balloon_learning_environment.env import balloon_arena
+from balloon_learning_environment.env import features
+from balloon_learning_environment.env import simulator_data
+from balloon_learning_environment.env import wind_field
+from balloon_learning_environment.env.balloon import standard_atmosphere
+from balloon_learning_environment.utils import sampling
+from balloon_learning_environment.utils import units
+import gin
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ble_latex.envs import balloon as balloon_lib
+from ble_latex.envs import controller as controller_lib
+from ble_latex.envs import features as latex_features
+from ble_latex.envs import host_env
+from ble_latex.envs import jax_env
+from ble_latex.wind import ble_field
+
+
+@gin.configurable(denylist=['feature_constructor_factory',
+                            'wind_field_instance', 'seed', 'episode_steps'])
+class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
+  """BLE's arena interface over one balloon of the flight core."""
+
+  def __init__(self,
+               feature_constructor_factory: Callable[
+                   [wind_field.WindField, standard_atmosphere.Atmosphere],
+                   features.FeatureConstructor],
+               wind_field_instance: Optional[wind_field.WindField] = None,
+               seed: Optional[int] = None,
+               *,
+               start_altitude_range_m: Tuple[float, float] = (15_000.0,
+                                                              20_000.0),
+               max_start_distance_km: float = 200.0,
+               stride: dt.timedelta = controller_lib.STRIDE,
+               episode_steps: Optional[int] = None):
+    """Constructor.
+
+    Args:
+      feature_constructor_factory: Builds the feature constructor;
+        `features.LatexFeatureConstructor` means the core's 71 features.
+      wind_field_instance: The wind field to fly in; None or a
+        `CoreGenerativeWindField`: BLE's generative field inside the core.
+      seed: Optional seed (BLE semantics).
+      start_altitude_range_m: Start altitude is uniform in this range. # [m]
+      max_start_distance_km: Start distance is BLE's Beta(1.2, 2) times this.
+        # [km]
+      stride: Simulated time per action (paper: 20 minutes).
+      episode_steps: Strides per episode (the env's); None: gin's.
+    """
+    low, high = start_altitude_range_m
+    if not (np.isfinite(low) and np.isfinite(high) and low <= high):
+      raise ValueError(
+          f'start_altitude_range_m must be finite (low, high), got '
+          f'{start_altitude_range_m}')
+    if not max_start_distance_km > 0:
+      raise ValueError('max_start_distance_km must be > 0, got '
+                       f'{max_start_distance_km}')
+    if not isinstance(stride, dt.timedelta) or stride.total_seconds() <= 0:
+      raise ValueError(f'stride must be a positive timedelta, got {stride!r}')
+    params = jax_env.params_from_gin()
+    params = params.replace(
+        start_altitude_low_m=float(low), start_altitude_high_m=float(high),
+        max_start_distance_km=float(max_start_distance_km),
+        stride_s=stride.total_seconds(),
+        episode_steps=(params.episode_steps if episode_steps is None else
+                       int(episode_steps)))
+    if wind_field_instance is None:
+      wind_field_instance = ble_field.CoreGenerativeWindField()
+    core_wind = isinstance(wind_field_instance,
+                           ble_field.CoreGenerativeWindField)
+    self._driver = host_env.FlightDriver(
+        params, None if core_wind else wind_field_instance)
+    if core_wind:
+      wind_field_instance.attach(lambda: self._driver.state)
+    self._wind_field = wind_field_instance
+    self._feature_constructor_factory = feature_constructor_factory
+    self._core_features = (
+        feature_constructor_factory is latex_features.LatexFeatureConstructor)
+    self._atmosphere = standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
+    self._balloon_state: Optional[balloon_lib.LatexBalloonState] = None
+    self.feature_constructor: features.FeatureConstructor
+    self._observation: Optional[np.ndarray] = None
+    self.reset(seed)
+
+  @property
+  def driver(self) -> host_env.FlightDriver:
+    """The core balloon this arena flies."""
+    return self._driver
+
+  @property
+  def params(self) -> jax_env.EnvParams:
+    return self._driver.params
+
+  def reset(self, seed: Union[int, jnp.ndarray, None] = None) -> np.ndarray:
+    """A new flight from BLE's arena key (int seed, key, or None: random)."""
+    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+      key = jax.random.PRNGKey(int(seed))
+    elif isinstance(seed, (np.ndarray, jnp.ndarray)):
+      key = jnp.asarray(seed)
+    else:
+      key = jax.random.PRNGKey(secrets.randbits(32))
+    observation = self._driver.reset(key)
+    self._atmosphere.reset(
+        jax.random.split(key, 3)[1])  # BLE's atmosphere key.
+    flight = self._driver.flight()
+    self._balloon_state = balloon_lib.LatexBalloonState(
+        center_latlng=sampling.sample_location(self._driver.location_key),
+        date_time=self._driver.start_date_time,
+        x=units.Distance(m=0.0), y=units.Distance(m=0.0),
+        altitude_m=float(flight['altitude_m']),
+        payload_kg=self.params.flight.payload_kg,
+        sand_kg=float(flight['sand_kg']),
+        helium_mols=float(flight['helium_mols']),
+        drag_coefficient=self.params.flight.drag_coefficient,
+        burst_volume_m3=self.params.flight.burst_volume_m3)
+    self._write_view()
+    self.feature_constructor = self._feature_constructor_factory(
+        self._wind_field, self._atmosphere)
+    return self._observe(observation)
+
+  def step(self, action: np.ndarray) -> np.ndarray:
+    """Applies one controller action (a0, a1, a2) for one stride.
+
+    The action must already be valid (the env validates it once).
+    """
+    observation, _, _, _ = self._driver.step(action)
+    self._write_view()
+    return self._observe(observation)
+
+  def _write_view(self) -> None:
+    balloon_lib.write_flight(
+        self._balloon_state, self._driver.flight(),
+        start_date_time=self._driver.start_date_time,
+        volume_m3=self._driver.volume_m3)
+
+  def _observe(self, core_observation: np.ndarray) -> np.ndarray:
+    if self._core_features:
+      self._observation = core_observation
+      return core_observation
+    self.feature_constructor.observe(self.get_measurements())
+    self._observation = self.feature_constructor.get_features()
+    return self._observation
+
+  def get_simulator_state(self) -> simulator_data.SimulatorState:
+    return simulator_data.SimulatorState(self._balloon_state,
+                                         self._wind_field, self._atmosphere)
+
+  def set_simulator_state(self,
+                          new_state: simulator_data.SimulatorState) -> None:
+    raise NotImplementedError(
+        'LatexBalloonArena cannot restore a SimulatorState: the flight lives '
+        'in the JAX core (ble_latex.envs.host_env.FlightDriver.state).')
+
+  def get_balloon_state(self) -> balloon_lib.LatexBalloonState:
+    return self._balloon_state
+
+  def set_balloon_state(self, new_state: balloon_lib.LatexBalloonState
+                        ) -> None:
+    raise NotImplementedError(
+        'LatexBalloonArena cannot restore a balloon state: the flight lives '
+        'in the JAX core (ble_latex.envs.host_env.FlightDriver.state).')
+
+  def get_measurements(self) -> simulator_data.SimulatorObservation:
+    u, v = self._driver.measured_wind()
+    return simulator_data.SimulatorObservation(
+        balloon_observation=self._balloon_state,
+        wind_at_balloon=wind_field.WindVector(units.Velocity(mps=u),
+                                              units.Velocity(mps=v)))

@@ -1,0 +1,259 @@
+# coding=utf-8
+"""Gym environments for the latex balloon: `LatexBalloon-v0` and the discrete one.
+
+`LatexBalloonEnv` is BLE's `BalloonEnv` with the paper's continuous action
+(desired altitude a0 [m], time factor a1, float flag a2) driving the vent/ballast
+altitude controller every 20 simulated minutes, 3-day episodes (216 steps),
+the paper's reward and the paper's observation (`ble_latex.envs.features`).
+`LatexBalloonDiscreteEnv` keeps BLE's Discrete(3) `AltitudeControlCommand` and
+Perciatelli features so BLE's own agents fly the latex balloon unchanged.
+
+Both use BLE's old gym API: `reset(seed=...)` returns the observation and
+`step` returns (observation, reward, done, info). See README for the contract.
+"""
+
+import math
+import secrets
+from typing import Any, Callable, Dict, Mapping, Optional, Tuple, Union
+
+from balloon_learning_environment.env import balloon_env
+from balloon_learning_environment.env import features
+from balloon_learning_environment.env import wind_field
+from balloon_learning_environment.env.balloon import control
+from balloon_learning_environment.env.balloon import standard_atmosphere
+from balloon_learning_environment.env.rendering import renderer as renderer_lib
+import gin
+import gym
+import numpy as np
+
+from ble_latex.envs import arena as arena_lib
+from ble_latex.envs import balloon as balloon_lib
+from ble_latex.envs import controller as controller_lib
+from ble_latex.envs import discrete_features
+from ble_latex.envs import features as latex_features
+from ble_latex.envs import host_env
+from ble_latex.envs import reward as reward_lib
+from ble_latex.envs import seeds
+from ble_latex.envs import task
+from ble_latex.wind import ble_field
+
+# Info keys at every step (see README, "Environment contract").
+INFO_KEYS = host_env.INFO_KEYS
+
+
+# One seed check for every env (`ble_latex.envs.seeds`).
+MAX_SEED = seeds.MAX_SEED
+validate_seed = seeds.validate_seed
+
+
+def validate_discrete_action(action: Any) -> int:
+  """An `AltitudeControlCommand` value 0, 1 or 2 as int, else ValueError."""
+  valid = False
+  if action is not None and not isinstance(action, (bool, np.bool_)):
+    a = np.asarray(action)
+    if a.shape == () and a.dtype.kind in 'iuf':
+      value = a.item()
+      valid = math.isfinite(value) and value in (0, 1, 2)
+  if not valid:
+    raise ValueError(f'action must be 0 (DOWN), 1 (STAY) or 2 (UP), got '
+                     f'{action!r}')
+  return int(value)
+
+
+@gin.configurable
+class LatexBalloonEnv(balloon_env.BalloonEnv):
+  """Station-keeping with a vent/ballast latex balloon, continuous actions."""
+
+  def __init__(
+      self,
+      *,
+      station_keeping_radius_km: float = task.STATION_RADIUS_KM,
+      arena: Optional[arena_lib.LatexBalloonArena] = None,
+      reward_function: Callable[..., float] = reward_lib.latex_reward,
+      feature_constructor_factory: Callable[
+          [wind_field.WindField, standard_atmosphere.Atmosphere],
+          features.FeatureConstructor] = (
+              latex_features.LatexFeatureConstructor),
+      wind_field_factory: Callable[
+          [], wind_field.WindField] = ble_field.CoreGenerativeWindField,
+      episode_steps: int = 216,
+      seed: Optional[int] = None,
+      renderer: Optional[renderer_lib.Renderer] = None):
+    """Constructs the environment.
+
+    Args:
+      station_keeping_radius_km: Radius used for `info['distance_km']`-based
+        metrics (TW50). The reward's radius is BLE's
+        `perciatelli_reward_function.station_keeping_radius_km`. # [km]
+      arena: A latex balloon arena; built from the factories if None.
+      reward_function: (simulator_state, vented_mols, dropped_kg) -> reward.
+      feature_constructor_factory: Builds the observation features.
+      wind_field_factory: Builds the wind field: by default BLE's generative
+        VAE field with BLE's noise, drawn and flown inside the flight core
+        (`ble_latex.wind.ble_field.CoreGenerativeWindField`);
+        `ble_latex.wind.era5.Era5WindField` for ERA5 data (any BLE `WindField`
+        is flown through host callbacks).
+      episode_steps: Steps per episode; 216 x 20 min = 3 days. The episode is
+        cut there (`info['time_limit']`, `info['TimeLimit.truncated']`).
+      seed: PRNG seed in [0, 2**32); the same seed gives the identical
+        trajectory. None: a random one.
+      renderer: An optional BLE renderer.
+    """
+    if episode_steps < 1:
+      raise ValueError(f'episode_steps must be >= 1, got {episode_steps}')
+    validate_seed(seed)
+    if seed is None:  # BLE would use time in microseconds, beyond 2**32.
+      seed = secrets.randbits(32)
+    if reward_function is reward_lib.latex_reward:
+      reward_lib.check_config()
+    self._episode_steps = episode_steps
+    self._steps = 0
+    if arena is None:
+      arena = arena_lib.LatexBalloonArena(feature_constructor_factory,
+                                          wind_field_factory(),
+                                          episode_steps=episode_steps)
+    super().__init__(
+        station_keeping_radius_km=station_keeping_radius_km,
+        arena=arena,
+        reward_function=reward_function,
+        feature_constructor_factory=feature_constructor_factory,
+        seed=seed,
+        renderer=renderer)
+
+  @property
+  def action_space(self) -> gym.spaces.Box:
+    """(desired altitude a0 [m], time factor a1 [.], float flag a2 [.])."""
+    return gym.spaces.Box(low=controller_lib.ACTION_LOW,
+                          high=controller_lib.ACTION_HIGH, dtype=np.float32)
+
+  @property
+  def episode_steps(self) -> int:
+    """Steps per episode (the time limit; the window of `tw50_window`)."""
+    return self._episode_steps
+
+  @property
+  def reward_range(self) -> Tuple[float, float]:
+    return (-float('inf'), 1.0)
+
+  def reset(self,
+            *,
+            seed: Optional[int] = None,
+            return_info: bool = False,
+            options: Optional[Mapping[str, Any]] = None
+            ) -> Union[np.ndarray, Tuple[np.ndarray, Mapping[str, Any]]]:
+    """Resets to a new flight; `seed` re-seeds the env first (as BLE).
+
+    The seed seeds BLE's JAX key (which samples the flight: start position,
+    altitude, time, atmosphere and wind) and gym's `np_random`.
+
+    Raises:
+      ValueError: If `seed` is not None or an int in [0, 2**32); the env is
+        left exactly as it was.
+    """
+    del options  # No reset options.
+    validate_seed(seed)  # Before anything changes.
+    seed = None if seed is None else int(seed)  # gym refuses NumPy ints.
+    gym.Env.reset(self, seed=seed)
+    self._steps = 0
+    return super().reset(seed=seed, return_info=return_info)
+
+  def step(
+      self, action: Any) -> Tuple[np.ndarray, float, bool, Dict[str, Any]]:
+    """Applies one 20-minute controller action.
+
+    Args:
+      action: (a0 desired altitude [m], a1 time factor, a2 float flag), inside
+        `action_space`. NaN/inf or out-of-range values raise ValueError and
+        leave the state untouched.
+
+    Returns:
+      (observation, reward, done, info); see README for `info`.
+    """
+    action = controller_lib.validate_action(action)
+    if self._steps >= self._episode_steps or self._is_terminal(
+        self.arena.get_balloon_state()):
+      raise RuntimeError('step() called on a finished episode; call reset().')
+    before = self.arena.get_balloon_state()
+    vented0, dropped0 = before.helium_vented_mols, before.sand_dropped_kg
+    observation = self.arena.step(action)
+    simulator_state = self.arena.get_simulator_state()
+    state = simulator_state.balloon_state
+    if self._renderer is not None:
+      self._renderer.step(simulator_state)
+    if self._reward_fn is reward_lib.latex_reward:
+      reward = self.arena.driver.reward  # The core's (same equation).
+    else:
+      reward = self._reward_fn(simulator_state,
+                               state.helium_vented_mols - vented0,
+                               state.sand_dropped_kg - dropped0)
+    self._steps += 1
+    self._global_iteration += 1
+    info = self._get_info(state)
+    done = self._is_terminal(state) or info['time_limit']
+    return observation, reward, done, info
+
+  @staticmethod
+  def _is_terminal(state: balloon_lib.LatexBalloonState) -> bool:
+    return state.latex_status != balloon_lib.LatexBalloonStatus.OK
+
+  def _get_info(self, balloon_state: Any) -> Dict[str, Any]:
+    """The core's info of the last step (`host_env.info_dict`)."""
+    info = dict(self.arena.driver.info)
+    info['time_limit'] = self._steps >= self._episode_steps
+    info.pop('TimeLimit.truncated', None)
+    if info['time_limit'] and not self._is_terminal(balloon_state):
+      info['TimeLimit.truncated'] = True
+    return info
+
+  def __str__(self) -> str:
+    return 'LatexBalloonEnv'
+
+
+@gin.configurable
+class LatexBalloonDiscreteEnv(LatexBalloonEnv):
+  """BLE's Discrete(3) interface on the latex balloon, for BLE's agents.
+
+  `AltitudeControlCommand` meaning: UP = ballast to a fixed ascent rate,
+  DOWN = vent to a fixed descent rate, STAY = float. Observations are BLE's
+  Perciatelli features (1099 values) with the latex balloon's reachable
+  pressure range, so station_seeker, random_walk, dqn and quantile run as is.
+  """
+
+  def __init__(self,
+               *,
+               ascent_rate_mps: float = 1.0,  # [m/s]
+               feature_constructor_factory: Callable[
+                   [wind_field.WindField, standard_atmosphere.Atmosphere],
+                   features.FeatureConstructor] = (
+                       discrete_features.LatexPerciatelliFeatureConstructor),
+               **kwargs: Any):
+    if not np.isfinite(ascent_rate_mps) or ascent_rate_mps <= 0:
+      raise ValueError(f'ascent_rate_mps must be > 0, got {ascent_rate_mps}')
+    self._ascent_rate_mps = ascent_rate_mps
+    super().__init__(feature_constructor_factory=feature_constructor_factory,
+                     **kwargs)
+
+  @property
+  def action_space(self) -> gym.spaces.Discrete:
+    return gym.spaces.Discrete(3)
+
+  def step(
+      self, action: int) -> Tuple[np.ndarray, float, bool, Dict[str, Any]]:
+    """Applies one BLE command; anything but 0, 1 or 2 raises ValueError."""
+    return super().step(self.continuous_action(validate_discrete_action(
+        action)))
+
+  def continuous_action(self, action: int) -> np.ndarray:
+    """Maps an AltitudeControlCommand to the controller's (a0, a1, a2)."""
+    command = control.AltitudeControlCommand(action)
+    altitude = self.arena.get_balloon_state().altitude_m
+    low, high = controller_lib.ACTION_LOW, controller_lib.ACTION_HIGH
+    if command == control.AltitudeControlCommand.STAY:
+      return np.array([np.clip(altitude, low[0], high[0]), 1.0, 1.0])
+    sign = 1.0 if command == control.AltitudeControlCommand.UP else -1.0
+    target = altitude + sign * self._ascent_rate_mps * (
+        controller_lib.STRIDE.total_seconds())
+    return np.array([np.clip(target, low[0], high[0]), 1.0, -1.0])
+
+  def __str__(self) -> str:
+    return 'LatexBalloonDiscreteEnv'

@@ -1,0 +1,475 @@
+# coding=utf-8
+"""`LatexBalloon-v0` as a functional, batched JAX environment (gymnax style).
+
+  import jax
+  from ble_latex.envs import jax_env
+
+  env = jax_env.LatexBalloonJaxEnv()
+  params = env.default_params                       # gin-bound constants
+  keys = jax.random.split(jax.random.PRNGKey(0), 1024)
+  obs, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+  obs, state, reward, done, info = jax.vmap(
+      env.step, in_axes=(0, 0, 0, None))(keys, state, actions, params)
+
+`reset(key, params) -> (obs, state)` and `step(key, state, action, params) ->
+(obs, state, reward, done, info)` are pure functions: jit them, vmap them over
+balloons, scan them over time (`rollout`). `step` auto-resets a finished
+episode from `key` (gymnax's convention); `step_env` does not.
+
+The world is BLE's, drawn from the key exactly as the gym env draws it from
+`reset(seed=s)` with `key = jax.random.PRNGKey(s)` (BLE's key chain: the
+arena key, then atmosphere and start-time keys, then the balloon's start
+distance (Beta(1.2, 2) x 200 km), angle, location and altitude, then the wind
+key split into noise and forecast): BLE's standard atmosphere with its
+lapse-rate blend (`flight.atmosphere`), the generative VAE forecast
+(`wind.generative`), BLE's simplex noise harmonics on an exact port of
+opensimplex 0.3 (`wind.simplex`). The balloon is the flight core
+(`flight.dynamics.step`): one controller action per 20-minute stride, the
+ground-truth wind (forecast + noise) re-queried every <= 3 simulated minutes.
+Observations are the 71 features (`jax_features`), the reward BLE's
+Perciatelli reward minus the optional resource penalties.
+
+The gym envs (`ble_latex.envs.gym_env`, through `ble_latex.envs.host_env.FlightDriver`)
+and the Gymnasium envs fly one balloon of these same functions. Differences
+from them: actions are clipped into the Box instead of raising (they
+validate at their boundary); the winds are `GENERATIVE_WIND` unless a
+`Wind` is given (the gym envs pass host callbacks to other BLE wind fields,
+e.g. ERA5); everything runs in JAX's default float32 (see README).
+"""
+
+import functools
+from typing import Any, Callable, Dict, NamedTuple, Tuple
+
+import flax
+import jax
+import jax.numpy as jnp
+
+from ble_latex.envs import jax_features
+from ble_latex.envs import task
+from ble_latex.flight import atmosphere as atmosphere_lib
+from ble_latex.flight import controller as controller_lib
+from ble_latex.flight import dynamics
+from ble_latex.flight import params as flight_params_lib
+from ble_latex.flight import state as state_lib
+from ble_latex.wind import generative
+from ble_latex.wind import simplex
+
+Array = jax.Array
+ACTION_LOW = controller_lib.ACTION_LOW  # The core's action Box.
+ACTION_HIGH = controller_lib.ACTION_HIGH
+# BLE's arena (balloon_arena.BalloonArena): start distance ~ Beta(1.2, 2).
+_START_BETA = (1.2, 2.0)
+# BLE's sampling.sample_time range: 2011-01-01 .. 2014-12-31, in seconds.
+_START_TIME_RANGE_S = 126_230_400
+
+
+@flax.struct.dataclass
+class EnvParams:
+  """Everything that configures the env (gymnax's `EnvParams`).
+
+  Attributes:
+    flight: The flight system and controller (`flight.params`).
+    decoder: BLE's VAE decoder variables (`generative.decoder_params()`).
+    radius_km: Station-keeping radius of the reward and TW50. # [km]
+    reward_dropoff: Reward just outside the radius. # [.]
+    reward_halflife_km: Half-life of the reward outside the radius. # [km]
+    helium_penalty_per_mol: Reward penalty per mol vented. # [1/mol]
+    sand_penalty_per_kg: Reward penalty per kg dropped. # [1/kg]
+    start_altitude_low_m: Start altitude band, low edge. # [m]
+    start_altitude_high_m: Start altitude band, high edge. # [m]
+    max_start_distance_km: Scale of the Beta start distance. # [km]
+    episode_steps: Strides per episode (216 = 3 days); traced, so a new
+      length does not recompile.
+    stride_s: Simulated time per action (the arena's stride). Static. # [s]
+  """
+  flight: flight_params_lib.FlightParams
+  decoder: Any
+  radius_km: float = task.STATION_RADIUS_KM
+  reward_dropoff: float = 0.4
+  reward_halflife_km: float = 100.0
+  helium_penalty_per_mol: float = 0.0
+  sand_penalty_per_kg: float = 0.0
+  start_altitude_low_m: float = 15_000.0
+  start_altitude_high_m: float = 20_000.0
+  max_start_distance_km: float = 200.0
+  episode_steps: int = 216
+  stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
+
+
+@flax.struct.dataclass
+class EnvState:
+  """One balloon's world and flight (gymnax's `EnvState`; frozen pytree).
+
+  Attributes:
+    flight: The balloon (`flight.state.FlightState`).
+    atmosphere: This flight's atmosphere.
+    forecast: This flight's forecast wind field.
+    noise_u: Noise of the eastward wind component.
+    noise_v: Noise of the northward wind component.
+    initial: References of the resource features.
+    history: Feature history (altitude, ascent rate, float action).
+    wind_u: Measured (ground-truth) eastward wind at the balloon. # [m/s]
+    wind_v: Measured (ground-truth) northward wind at the balloon. # [m/s]
+    start_time_offset_s: Start time after 2011-01-01 (BLE's date). # [s]
+    steps: Strides flown in this episode.
+  """
+  flight: state_lib.FlightState
+  atmosphere: atmosphere_lib.AtmosphereParams
+  forecast: generative.ForecastField
+  noise_u: simplex.NoiseParams
+  noise_v: simplex.NoiseParams
+  initial: jax_features.InitialResources
+  history: jax_features.History
+  wind_u: Array
+  wind_v: Array
+  start_time_offset_s: Array
+  steps: Array
+
+
+def ground_truth_wind(state: EnvState, x_m: Array, y_m: Array,
+                      pressure_pa: Array, t_s: Array) -> Tuple[Array, Array]:
+  """BLE's `WindField.get_ground_truth`: forecast plus simplex noise. # [m/s]
+
+  Args:
+    state: The env state (its forecast and noise).
+    x_m: East of the station. # [m]
+    y_m: North of the station. # [m]
+    pressure_pa: Pressure. # [Pa]
+    t_s: Time since the start of the flight. # [s]
+
+  Returns:
+    (u, v) eastward and northward wind.
+  """
+  u, v = generative.forecast(state.forecast, x_m, y_m, pressure_pa, t_s)
+  x_km, y_km, hours = x_m / 1000.0, y_m / 1000.0, t_s / 3600.0
+  return (u + simplex.wind_noise(state.noise_u, x_km, y_km, pressure_pa,
+                                 hours),
+          v + simplex.wind_noise(state.noise_v, x_km, y_km, pressure_pa,
+                                 hours))
+
+
+def forecast_column(state: EnvState, x_m: Array, y_m: Array,
+                    pressures_pa: Array, t_s: Array) -> Tuple[Array, Array]:
+  """BLE's `WindField.get_forecast_column` of this flight's forecast. # [m/s]"""
+  return generative.forecast_column(state.forecast, x_m, y_m, pressures_pa,
+                                    t_s)
+
+
+class Wind(NamedTuple):
+  """Where the winds come from: two functions of the env state (static).
+
+  Attributes:
+    ground_truth: (state, x [m], y [m], pressure [Pa], t [s]) -> (u, v):
+      the wind the balloon flies in (BLE's `get_ground_truth`). # [m/s]
+    forecast_column: (state, x [m], y [m], pressures [Pa], t [s]) -> (u, v)
+      columns: the forecast the features read (BLE's
+      `get_forecast_column`). # [m/s]
+  """
+  ground_truth: Callable[..., Tuple[Array, Array]]
+  forecast_column: Callable[..., Tuple[Array, Array]]
+
+
+# BLE's generative field (VAE forecast + simplex noise), drawn at reset.
+GENERATIVE_WIND = Wind(ground_truth_wind, forecast_column)
+
+
+def observation(state: EnvState, params: EnvParams,
+                wind: Wind = GENERATIVE_WIND) -> Array:
+  """The 71 features of `state` (`ble_latex.envs.features` order), float32."""
+  f = state.flight
+  column_u, column_v = wind.forecast_column(
+      state, f.x_m, f.y_m,
+      jnp.asarray(jax_features.PRESSURE_LEVELS, f.x_m.dtype), f.time_s)
+  return jax_features.features(
+      column_u, column_v, f.x_m, f.y_m, f.altitude_m, f.ascent_rate_mps,
+      state.wind_u, state.wind_v, f.helium_mols, f.sand_kg,
+      params.flight.payload_kg, f.temperature_k, f.pressure_pa, state.initial,
+      state.history)
+
+
+def measure(state: EnvState, wind: Wind = GENERATIVE_WIND) -> EnvState:
+  """The arena's measurement: the ground-truth wind at the balloon."""
+  f = state.flight
+  u, v = wind.ground_truth(state, f.x_m, f.y_m, f.pressure_pa, f.time_s)
+  return state.replace(wind_u=u, wind_v=v)
+
+
+def step_info(state: EnvState, params: EnvParams) -> Dict[str, Array]:
+  """The numbers behind the gym env's `info` after a step (arrays).
+
+  Keys: `distance_km` [km], `altitude_m` [m], `ascent_rate_mps` [m/s],
+  `helium_mols` [mol], `sand_kg` [kg], `helium_vented_mols` [mol],
+  `sand_dropped_kg` [kg], `decision` (`flight.state.DecisionCode`),
+  `status` (`flight.state.FlightStatus`), `time_s` [s], `steps`,
+  `volume_m3` (envelope volume [m^3]),
+  `time_limit` (steps reached `episode_steps`), `truncated` (time limit
+  without a terminal status).
+  """
+  f = state.flight
+  terminal = f.status != state_lib.FlightStatus.OK
+  time_limit = state.steps >= params.episode_steps
+  return {'distance_km': jax_features.distance_km(f.x_m, f.y_m),
+          'altitude_m': f.altitude_m, 'ascent_rate_mps': f.ascent_rate_mps,
+          'helium_mols': f.helium_mols, 'sand_kg': f.sand_kg,
+          'helium_vented_mols': f.helium_vented_mols,
+          'sand_dropped_kg': f.sand_dropped_kg,
+          'decision': f.last_decision, 'status': f.status,
+          'time_s': f.time_s, 'steps': state.steps,
+          'volume_m3': f.volume_m3(),
+          'time_limit': time_limit, 'truncated': time_limit & ~terminal}
+
+
+def arena_key(key: Array) -> Array:
+  """The arena's key of the env key (BLE's `BalloonEnv.reset` split)."""
+  return jax.random.split(key)[1]
+
+
+class LatexBalloonJaxEnv:
+  """Functional `LatexBalloon-v0`: `reset`/`step` are pure and vmappable.
+
+  Args:
+    wind: Where the winds come from (static). Default: BLE's generative
+      field drawn from the reset key (`GENERATIVE_WIND`). The gym env passes
+      host callbacks to any BLE `WindField` (e.g. ERA5) here.
+  """
+
+  action_low = ACTION_LOW
+  action_high = ACTION_HIGH
+  num_features = jax_features.NUM_FEATURES
+
+  def __init__(self, wind: Wind = GENERATIVE_WIND):
+    self.wind = wind
+
+  @property
+  def default_params(self) -> EnvParams:
+    """Parameters from the current gin bindings (defaults where unbound).
+
+    Reads the same bindings as the gym env (`latex_physics.gin`,
+    `latex_env.gin`: flight system, controller, reward, start band).
+    """
+    return params_from_gin()
+
+  def reset(self, key: Array, params: EnvParams) -> Tuple[Array, EnvState]:
+    """A new flight drawn from `key` (the gym env's `reset(seed=s)` world).
+
+    Args:
+      key: `jax.random.PRNGKey(s)` gives the world of the gym env's seed s.
+      params: The env parameters.
+
+    Returns:
+      (observation [71] float32, state).
+    """
+    state, _ = self.draw(arena_key(key), params)
+    state = measure(state, self.wind)
+    return observation(state, params, self.wind), state
+
+  def draw(self, key: Array, params: EnvParams
+           ) -> Tuple[EnvState, Dict[str, Array]]:
+    """The world and balloon of BLE's `arena.reset(key)`, not yet measured.
+
+    Args:
+      key: The arena's key (`arena_key(env_key)`).
+      params: The env parameters.
+
+    Returns:
+      (state with zero measured wind, keys): `keys['wind']` is the key
+      BLE's arena gives `WindField.reset`, `keys['location']` the key of
+      BLE's `sampling.sample_location` (the station's lat/lng),
+      `keys['atmosphere']` the key of BLE's `Atmosphere.reset`.
+    """
+    rng, atmosphere_key, time_key = jax.random.split(key, 3)
+    atmosphere = atmosphere_lib.reset(atmosphere_key)
+    start_time = jax.random.choice(time_key, _START_TIME_RANGE_S, ())
+    rng, distance_key, angle_key, location_key, altitude_key = (
+        jax.random.split(rng, 5))
+    radius_km = params.max_start_distance_km * jax.random.beta(
+        distance_key, *_START_BETA)
+    theta = jax.random.uniform(angle_key, (), minval=0.0,
+                               maxval=2.0 * jnp.pi)
+    altitude = jax.random.uniform(
+        altitude_key, (), minval=params.start_altitude_low_m,
+        maxval=params.start_altitude_high_m)
+    _, wind_key = jax.random.split(rng, 2)
+    noise_key, forecast_key = generative.split_wind_key(wind_key)
+    noise_u, noise_v = simplex.reset_uv_noise_params(noise_key)
+    forecast = generative.reset_forecast(forecast_key, params.decoder)
+
+    flight = state_lib.initial_state(
+        params.flight, altitude, jnp.cos(theta) * radius_km * 1000.0,
+        jnp.sin(theta) * radius_km * 1000.0, atm_params=atmosphere)
+    state = EnvState(
+        flight=flight, atmosphere=atmosphere, forecast=forecast,
+        noise_u=noise_u, noise_v=noise_v,
+        initial=jax_features.initial_resources(
+            params.flight.payload_kg, flight.sand_kg, flight.helium_mols),
+        history=jax_features.init_history(flight.altitude_m,
+                                          flight.ascent_rate_mps),
+        wind_u=jnp.zeros_like(altitude), wind_v=jnp.zeros_like(altitude),
+        start_time_offset_s=start_time.astype(jnp.int32),
+        steps=jnp.zeros((), jnp.int32))
+    return state, {'wind': wind_key, 'location': location_key,
+                   'atmosphere': atmosphere_key}
+
+  def advance(self, state: EnvState, action: Array, params: EnvParams
+              ) -> Tuple[EnvState, Array, Array, Dict[str, Array]]:
+    """One 20-minute controller action, without the observation.
+
+    Args:
+      state: The env state; a finished flight stays as it is.
+      action: (a0 desired altitude [m], a1 time factor, a2 float flag),
+        clipped into the Box.
+      params: The env parameters.
+
+    Returns:
+      (state, reward, done, info) with `info = step_info(state, params)`.
+    """
+    action = jnp.clip(jnp.asarray(action, state.flight.altitude_m.dtype),
+                      ACTION_LOW, ACTION_HIGH)
+    before = state.flight
+
+    def wind_fn(x_m, y_m, pressure_pa, t_s):
+      return self.wind.ground_truth(state, x_m, y_m, pressure_pa, t_s)
+
+    flight = dynamics.step(params.flight, state.atmosphere, before, action,
+                           wind_fn, params.stride_s)
+    state = state.replace(
+        flight=flight,
+        # As `ble_latex.envs.features` today: the state after the step (BLE's live
+        # state object) becomes history slot t-1 (see jax_features).
+        history=jax_features.push_history(state.history, flight.altitude_m,
+                                          flight.ascent_rate_mps, action[2]),
+        steps=state.steps + 1)
+    state = measure(state, self.wind)
+    info = step_info(state, params)
+    reward = jax_features.reward(
+        info['distance_km'], params.radius_km, params.reward_dropoff,
+        params.reward_halflife_km,
+        flight.helium_vented_mols - before.helium_vented_mols,
+        flight.sand_dropped_kg - before.sand_dropped_kg,
+        params.helium_penalty_per_mol, params.sand_penalty_per_kg)
+    done = (flight.status != state_lib.FlightStatus.OK) | info['time_limit']
+    return state, reward, done, info
+
+  def step_env(self, key: Array, state: EnvState, action: Array,
+               params: EnvParams
+               ) -> Tuple[Array, EnvState, Array, Array, Dict[str, Array]]:
+    """One 20-minute controller action, without auto-reset.
+
+    Args:
+      key: Unused (the world is fixed at reset); kept for gymnax's API.
+      state: The env state; a finished flight stays as it is.
+      action: (a0 desired altitude [m], a1 time factor, a2 float flag),
+        clipped into the Box.
+      params: The env parameters.
+
+    Returns:
+      (observation, state, reward, done, info); info is `step_info`.
+    """
+    del key
+    state, reward, done, info = self.advance(state, action, params)
+    return observation(state, params, self.wind), state, reward, done, info
+
+  def step(self, key: Array, state: EnvState, action: Array,
+           params: EnvParams
+           ) -> Tuple[Array, EnvState, Array, Array, Dict[str, Array]]:
+    """`step_env`, then a new flight from `key` where the episode ended.
+
+    The returned observation and state are the new flight's when `done`
+    (gymnax's auto-reset); reward, done and info are the finished step's.
+    """
+    obs, state, reward, done, info = self.step_env(key, state, action, params)
+    reset_obs, reset_state = self.reset(key, params)
+    state = jax.tree.map(lambda r, s: jnp.where(done, r, s), reset_state,
+                         state)
+    obs = jnp.where(done, reset_obs, obs)
+    return obs, state, reward, done, info
+
+
+def params_from_gin() -> EnvParams:
+  """`EnvParams` from the gin bindings the gym env reads (defaults else).
+
+  The gin names are the gym env's: `LatexBalloonEnv.episode_steps`,
+  `LatexBalloonArena.start_altitude_range_m` / `.max_start_distance_km` /
+  `.stride`, `balloon_env.perciatelli_reward_function.*`, `latex_reward.*`
+  and the flight system's (`flight.params.flight_params_from_gin`). Nothing
+  is imported to read them: gin only holds bindings of configurables whose
+  module is imported, so a configurable whose module is not in `sys.modules`
+  is read as its defaults (`ble_latex.gin_values`). This keeps the JAX env
+  and the Gymnasium envs free of BLE's balloon/env modules and TensorFlow.
+
+  Raises:
+    ValueError: A reward binding outside the reward's range (as
+      `reward.check_config`).
+  """
+  # pylint: disable=g-import-not-at-top
+  import dataclasses
+  import datetime as dt
+  import sys
+  from ble_latex import gin_values
+  # pylint: enable=g-import-not-at-top
+
+  d = {f.name: f.default for f in dataclasses.fields(EnvParams)
+       if f.default is not dataclasses.MISSING}
+  ble = gin_values.imported_bindings(
+      'balloon_learning_environment.env.balloon_env',
+      'perciatelli_reward_function',
+      {'station_keeping_radius_km': d['radius_km'],
+       'reward_dropoff': d['reward_dropoff'],
+       'reward_halflife': d['reward_halflife_km']})
+  latex = gin_values.imported_bindings(
+      'ble_latex.envs.reward', 'latex_reward',
+      {'helium_penalty_per_mol': d['helium_penalty_per_mol'],
+       'sand_penalty_per_kg': d['sand_penalty_per_kg']})
+  arena = gin_values.imported_bindings(
+      'ble_latex.envs.arena', 'LatexBalloonArena',
+      {'start_altitude_range_m': (d['start_altitude_low_m'],
+                                  d['start_altitude_high_m']),
+       'max_start_distance_km': d['max_start_distance_km'],
+       'stride': dt.timedelta(seconds=d['stride_s'])})
+  env = gin_values.imported_bindings('ble_latex.envs.gym_env', 'LatexBalloonEnv',
+                                     {'episode_steps': d['episode_steps']})
+  gin_values.check_reward_values(latex, ble)
+  flight = flight_params_lib.flight_params_from_gin()
+  low, high = arena['start_altitude_range_m']
+  return EnvParams(
+      flight=flight,
+      decoder=generative.decoder_params(),
+      radius_km=float(ble['station_keeping_radius_km']),
+      reward_dropoff=float(ble['reward_dropoff']),
+      reward_halflife_km=float(ble['reward_halflife']),
+      helium_penalty_per_mol=float(latex['helium_penalty_per_mol']),
+      sand_penalty_per_kg=float(latex['sand_penalty_per_kg']),
+      start_altitude_low_m=float(low), start_altitude_high_m=float(high),
+      max_start_distance_km=float(arena['max_start_distance_km']),
+      episode_steps=int(env['episode_steps']),
+      stride_s=float(arena['stride'].total_seconds()))
+
+
+@functools.partial(jax.jit, static_argnums=(0, 4))
+def rollout(env: LatexBalloonJaxEnv, keys: Array, actions: Array,
+            params: EnvParams, num_steps: int
+            ) -> Tuple[Array, Array, Array]:
+  """Flies N balloons for `num_steps` strides in one jitted call.
+
+  Args:
+    env: The env (static).
+    keys: [N] reset keys (`jax.random.PRNGKey(s)`: the gym env's seed s).
+    actions: [num_steps, N, 3] actions, or [N, 3] held for every step.
+    params: The env parameters.
+    num_steps: Strides to fly (static).
+
+  Returns:
+    (observations [num_steps + 1, N, 71], rewards [num_steps, N], done
+    [num_steps, N]); episodes that end are not reset (`step_env`).
+  """
+  obs0, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+  if actions.ndim == 2:
+    actions = jnp.broadcast_to(actions, (num_steps,) + actions.shape)
+
+  def one(state, action):
+    obs, state, reward, done, _ = jax.vmap(
+        env.step_env, in_axes=(0, 0, 0, None))(keys, state, action, params)
+    return state, (obs, reward, done)
+
+  _, (obs, rewards, done) = jax.lax.scan(one, state, actions)
+  return jnp.concatenate([obs0[None], obs]), rewards, done

@@ -1,0 +1,327 @@
+# coding=utf-8
+"""The latex balloon's 71 observation features and its reward, in JAX.
+
+Pure, jittable and vmappable re-implementations of
+
+- `ble_latex.envs.features.LatexFeatureConstructor.get_features` (`features`, with
+  the history bookkeeping of its `observe` as `init_history` /
+  `push_history` and its reset-time references as `initial_resources`);
+- `ble_latex.envs.features.bearing_errors` (`bearing_errors`);
+- `ble_latex.envs.reward.latex_reward`, i.e. BLE's `perciatelli_reward_function`
+  for a latex balloon plus the optional resource penalty (`reward`).
+
+Every input is a plain array (or a NamedTuple of arrays), so nothing here
+depends on a flight-state class: the caller passes the balloon's position,
+altitude, ascent rate, resources, the ambient temperature and pressure at
+its altitude, the forecast column at `PRESSURE_LEVELS` (for the generative
+field, `ble_latex.wind.generative.forecast_column`) and the measured wind at
+the balloon (BLE's ground truth: forecast at the balloon's pressure + simplex
+noise). See `ble_latex.envs.features` for the index map.
+
+Precision: computed in the floating dtype of the inputs (float32 by default);
+features are returned as float32 like `get_features`, rewards in the input
+dtype. In float32 the features agree with `ble_latex.envs.features` within ~1e-6
+and the reward with BLE's within ~1e-7 (tests/test_jax_features.py). Bearing
+errors are computed as atan2(|cross|, dot), not arccos(cos): the same angle,
+without arccos's loss of precision near 0 and pi.
+"""
+
+import math
+from typing import Any, NamedTuple
+
+import jax.numpy as jnp
+import numpy as np
+
+from ble_latex.envs import task
+from ble_latex.flight import physics
+
+N_LEVELS = 25
+NUM_FEATURES = 2 * N_LEVELS + 21
+HISTORY = 3
+# Pressure levels of the forecast column (LatexFeatureConstructor's
+# defaults: np.linspace(5000, 14000, 25)). # [Pa]
+PRESSURE_LEVELS = np.linspace(5000.0, 14000.0, N_LEVELS)
+_TOLERANCE = 1e-5  # ble_latex.envs.features._TOLERANCE.
+# Feature scales (the index map of `ble_latex.envs.features`; its
+# `NamedLatexFeatures` undoes them).
+SPEED_SQUASH_MPS = 30.0  # [m/s]
+DISTANCE_SQUASH_KM = 250.0  # [km]
+ALTITUDE_CENTER_M = 17_500.0  # [m]
+ALTITUDE_SCALE_M = 3_500.0  # [m]
+ASCENT_RATE_SCALE_MPS = 5.0  # [m/s]
+DRAG_AREA_SCALE_M2 = 25.0  # [m^2]
+VOLUME_SCALE_M3 = 100.0  # [m^3]
+# BLE's perciatelli_reward_function writes ln(2) as this literal.
+_LN2_BLE = 0.69314718056
+
+
+class History(NamedTuple):
+  """The last HISTORY steps of the balloon, newest first (t-1, t-2, t-3).
+
+  Attributes:
+    altitude_m: [..., 3] altitudes. # [m]
+    ascent_rate_mps: [..., 3] ascent rates. # [m/s]
+    float_action: [..., 3] float actions a2. # [.]
+  """
+  altitude_m: jnp.ndarray
+  ascent_rate_mps: jnp.ndarray
+  float_action: jnp.ndarray
+
+
+class InitialResources(NamedTuple):
+  """The references of features 56, 69, 70, fixed at the episode's reset.
+
+  Attributes:
+    mass_kg: Initial total system mass. # [kg]
+    sand_kg: Initial sand, at least 1e-5. # [kg]
+    helium_mols: Initial helium, at least 1e-5. # [mol]
+  """
+  mass_kg: jnp.ndarray
+  sand_kg: jnp.ndarray
+  helium_mols: jnp.ndarray
+
+
+def _float_dtype(*values: Any) -> Any:
+  """The floating dtype of the inputs (the default float for integers)."""
+  dtype = jnp.result_type(*values)
+  if not jnp.issubdtype(dtype, jnp.floating):
+    dtype = jnp.result_type(float)
+  return dtype
+
+
+def initial_resources(payload_kg: Any, sand_kg: Any,
+                      helium_mols: Any) -> InitialResources:
+  """`LatexFeatureConstructor.observe`'s references at the first observation.
+
+  Args:
+    payload_kg: Payload m_p, including the envelope. # [kg]
+    sand_kg: Sand aboard at reset. # [kg]
+    helium_mols: Helium at reset. # [mol]
+
+  Returns:
+    InitialResources(total mass, max(sand, 1e-5), max(helium, 1e-5)).
+  """
+  dtype = _float_dtype(payload_kg, sand_kg, helium_mols)
+  payload_kg, sand_kg, helium_mols = (jnp.asarray(v, dtype) for v in
+                                      (payload_kg, sand_kg, helium_mols))
+  return InitialResources(
+      mass_kg=physics.total_mass(payload_kg, sand_kg, helium_mols),
+      sand_kg=jnp.maximum(sand_kg, _TOLERANCE),
+      helium_mols=jnp.maximum(helium_mols, _TOLERANCE))
+
+
+def init_history(altitude_m: Any, ascent_rate_mps: Any) -> History:
+  """`LatexFeatureConstructor.observe`'s history at the first observation.
+
+  Every slot holds the current altitude and ascent rate; float actions 0.
+
+  Args:
+    altitude_m: Altitude at reset. # [m]
+    ascent_rate_mps: Ascent rate at reset. # [m/s]
+
+  Returns:
+    The History ([..., 3] each).
+  """
+  dtype = _float_dtype(altitude_m, ascent_rate_mps)
+  altitude_m = jnp.asarray(altitude_m, dtype)
+  ascent_rate_mps = jnp.asarray(ascent_rate_mps, dtype)
+  slots = altitude_m.shape + (HISTORY,)
+  return History(
+      altitude_m=jnp.broadcast_to(altitude_m[..., None], slots),
+      ascent_rate_mps=jnp.broadcast_to(ascent_rate_mps[..., None], slots),
+      float_action=jnp.zeros(slots, dtype))
+
+
+def push_history(history: History, altitude_m: Any, ascent_rate_mps: Any,
+                 float_action: Any) -> History:
+  """`LatexFeatureConstructor.observe` after a step: a new slot t-1.
+
+  The deques' `appendleft` with maxlen 3: the given values become slot 0 and
+  the oldest slot is dropped.
+
+  Which altitude and ascent rate to push: the features' documentation says
+  the previous step's (t-1). `ble_latex.envs.features` as of today pushes
+  `self._state.altitude_m` where `self._state` is BLE's live balloon state
+  object, already updated by the step: it pushes the state *after* the step,
+  so slot t-1 equals the current value (features 60 = 50, 63 = 51). Pass the
+  current values to reproduce it, the pre-step values for the documented
+  features. The float action pushed is the one just applied (a2 of the
+  step's action) either way.
+
+  Args:
+    history: The History before the step.
+    altitude_m: Altitude for slot t-1. # [m]
+    ascent_rate_mps: Ascent rate for slot t-1. # [m/s]
+    float_action: a2 of the action just applied. # [.]
+
+  Returns:
+    The History after the step.
+  """
+  def push(slots: jnp.ndarray, value: Any) -> jnp.ndarray:
+    value = jnp.broadcast_to(jnp.asarray(value, slots.dtype),
+                             slots.shape[:-1])
+    return jnp.concatenate([value[..., None], slots[..., :-1]], axis=-1)
+
+  return History(
+      altitude_m=push(history.altitude_m, altitude_m),
+      ascent_rate_mps=push(history.ascent_rate_mps, ascent_rate_mps),
+      float_action=push(history.float_action, float_action))
+
+
+def bearing_errors(u: Any, v: Any, x_m: Any, y_m: Any) -> jnp.ndarray:
+  """`ble_latex.envs.features.bearing_errors`: wind vs direction to the target.
+
+  The angle between the wind (u, v) and the direction from the balloon to
+  the target (-x, -y): 0 when the wind blows straight at the target, pi when
+  straight away; 0 at the target (distance < 1e-5 m), pi in calm air (speed
+  < 1e-5 m/s). Inputs broadcast.
+
+  Args:
+    u: Eastward wind. # [m/s]
+    v: Northward wind. # [m/s]
+    x_m: Balloon x offset from the target. # [m]
+    y_m: Balloon y offset from the target. # [m]
+
+  Returns:
+    Bearing errors in [0, pi]. # [rad]
+  """
+  dtype = _float_dtype(u, v, x_m, y_m)
+  u, v, x_m, y_m = (jnp.asarray(a, dtype) for a in (u, v, x_m, y_m))
+  dot = -x_m * u - y_m * v
+  cross = -x_m * v + y_m * u
+  error = jnp.arctan2(jnp.abs(cross), dot)
+  error = jnp.where(jnp.hypot(u, v) < _TOLERANCE, math.pi, error)
+  return jnp.where(jnp.hypot(x_m, y_m) < _TOLERANCE, 0.0, error)
+
+
+def _squash(value: jnp.ndarray, constant: float) -> jnp.ndarray:
+  """BLE's `transforms.squash_to_unit_interval`: x / (x + c) for x >= 0."""
+  return value / (value + constant)
+
+
+def _scale_altitude(altitude_m: jnp.ndarray) -> jnp.ndarray:
+  return (altitude_m - ALTITUDE_CENTER_M) / ALTITUDE_SCALE_M
+
+
+def features(column_u: Any, column_v: Any, x_m: Any, y_m: Any,
+             altitude_m: Any, ascent_rate_mps: Any, wind_u: Any, wind_v: Any,
+             helium_mols: Any, sand_kg: Any, payload_kg: Any,
+             temperature_k: Any, pressure_pa: Any,
+             initial: InitialResources, history: History) -> jnp.ndarray:
+  """`LatexFeatureConstructor.get_features`: the 71 features, in [-1, 1].
+
+  For one balloon; vmap for a batch. Index map: `ble_latex.envs.features`.
+
+  Args:
+    column_u: [25] forecast eastward wind at PRESSURE_LEVELS. # [m/s]
+    column_v: [25] forecast northward wind at PRESSURE_LEVELS. # [m/s]
+    x_m: Balloon x offset from the target (east). # [m]
+    y_m: Balloon y offset from the target (north). # [m]
+    altitude_m: Altitude h. # [m]
+    ascent_rate_mps: Ascent rate hdot. # [m/s]
+    wind_u: Measured eastward wind at the balloon (ground truth). # [m/s]
+    wind_v: Measured northward wind at the balloon (ground truth). # [m/s]
+    helium_mols: Helium n. # [mol]
+    sand_kg: Sand m_s. # [kg]
+    payload_kg: Payload m_p, including the envelope. # [kg]
+    temperature_k: Ambient temperature at the balloon's altitude
+      (BLE's `atmosphere.at_height(h).temperature`). # [K]
+    pressure_pa: Ambient pressure at the balloon's altitude
+      (BLE's `atmosphere.at_height(h).pressure`). # [Pa]
+    initial: The episode's `initial_resources`.
+    history: The `History` (t-1, t-2, t-3).
+
+  Returns:
+    float32 [71] features, clipped to [-1, 1].
+  """
+  dtype = _float_dtype(column_u, column_v, x_m, y_m, altitude_m,
+                       ascent_rate_mps, wind_u, wind_v, helium_mols, sand_kg,
+                       payload_kg, temperature_k, pressure_pa)
+  (column_u, column_v, x_m, y_m, altitude_m, ascent_rate_mps, wind_u, wind_v,
+   helium_mols, sand_kg, payload_kg, temperature_k, pressure_pa) = (
+       jnp.asarray(a, dtype) for a in (
+           column_u, column_v, x_m, y_m, altitude_m, ascent_rate_mps, wind_u,
+           wind_v, helium_mols, sand_kg, payload_kg, temperature_k,
+           pressure_pa))
+  initial = InitialResources(*(jnp.asarray(a, dtype) for a in initial))
+  history = History(*(jnp.asarray(a, dtype) for a in history))
+
+  speeds = jnp.hypot(column_u, column_v)
+  volume = physics.volume(helium_mols, temperature_k, pressure_pa)
+  distance_km = jnp.hypot(x_m, y_m) / 1000.0
+  heading = jnp.arctan2(-x_m, -y_m)
+  scalars = [
+      _scale_altitude(altitude_m),                                      # 50
+      ascent_rate_mps / ASCENT_RATE_SCALE_MPS,                         # 51
+      _squash(jnp.hypot(wind_u, wind_v), SPEED_SQUASH_MPS),            # 52
+      bearing_errors(wind_u, wind_v, x_m, y_m) / math.pi,               # 53
+      physics.drag_area(volume) / DRAG_AREA_SCALE_M2,                  # 54
+      volume / VOLUME_SCALE_M3,                                        # 55
+      physics.total_mass(payload_kg, sand_kg, helium_mols) /
+      initial.mass_kg,                                                  # 56
+      _squash(distance_km, DISTANCE_SQUASH_KM),                        # 57
+      jnp.sin(heading),                                                 # 58
+      jnp.cos(heading),                                                 # 59
+  ]
+  f = jnp.concatenate([
+      1.0 - jnp.exp(-speeds / SPEED_SQUASH_MPS),                       # 0-24
+      bearing_errors(column_u, column_v, x_m, y_m) / math.pi,           # 25-49
+      jnp.stack(scalars),                                               # 50-59
+      _scale_altitude(history.altitude_m),                              # 60-62
+      history.ascent_rate_mps / ASCENT_RATE_SCALE_MPS,                 # 63-65
+      history.float_action,                                             # 66-68
+      jnp.stack([sand_kg / initial.sand_kg,                             # 69
+                 helium_mols / initial.helium_mols]),                   # 70
+  ])
+  return jnp.clip(f, -1.0, 1.0).astype(jnp.float32)
+
+
+def distance_km(x_m: Any, y_m: Any) -> jnp.ndarray:
+  """BLE's `units.relative_distance(x, y)` in km (the 2-norm). # [km]"""
+  dtype = _float_dtype(x_m, y_m)
+  return jnp.hypot(jnp.asarray(x_m, dtype), jnp.asarray(y_m, dtype)) / 1000.0
+
+
+def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
+           radius_km: Any = task.STATION_RADIUS_KM,
+           dropoff: Any = 0.4,
+           halflife_km: Any = 100.0,
+           vented: Any = 0.0,
+           dropped: Any = 0.0,
+           helium_penalty: Any = 0.0,
+           sand_penalty: Any = 0.0) -> jnp.ndarray:
+  """`ble_latex.envs.reward.latex_reward`: BLE's Perciatelli reward - penalties.
+
+  BLE's `perciatelli_reward_function` for a latex balloon (its power term
+  never applies: no air pump): 1 within the radius, else dropoff *
+  exp(-0.69314718056 / halflife * (d - radius)) (BLE's literal for ln 2),
+  minus helium_penalty * vented and sand_penalty * dropped. The defaults are
+  BLE's and `latex_reward`'s defaults. Inputs broadcast; no gin.
+
+  Args:
+    distance_km: Distance of the balloon from the target (`distance_km`).
+      # [km]
+    radius_km: Station-keeping radius (BLE's station_keeping_radius_km).
+      # [km]
+    dropoff: Reward just outside the radius (BLE's reward_dropoff). # [.]
+    halflife_km: Distance over which it halves (BLE's reward_halflife).
+      # [km]
+    vented: Helium vented during the step. # [mol]
+    dropped: Sand dropped during the step. # [kg]
+    helium_penalty: Penalty per mol of helium vented. # [1/mol]
+    sand_penalty: Penalty per kg of sand dropped. # [1/kg]
+
+  Returns:
+    The step reward, in (-inf, 1].
+  """
+  dtype = _float_dtype(distance_km, radius_km, dropoff, halflife_km, vented,
+                       dropped, helium_penalty, sand_penalty)
+  (distance_km, radius_km, dropoff, halflife_km, vented, dropped,
+   helium_penalty, sand_penalty) = (
+       jnp.asarray(a, dtype) for a in (
+           distance_km, radius_km, dropoff, halflife_km, vented, dropped,
+           helium_penalty, sand_penalty))
+  outside = dropoff * jnp.exp(-_LN2_BLE / halflife_km *
+                              (distance_km - radius_km))
+  base = jnp.where(distance_km <= radius_km, 1.0, outside)
+  return base - helium_penalty * vented - sand_penalty * dropped

@@ -1,0 +1,2 @@
+# coding=utf-8
+"""Running agents: training and evaluation loops, metrics, logs, suites, Ray."""
