@@ -64,13 +64,13 @@ setuptools.setup(
         'console_scripts': [
             'ble-latex-ble = ble_latex.cli.ble_commands:main',
             'ble-latex-validate = ble_latex.cli.validate:main',
-            'ble-latex-train = ble_latex.cli.train:run',
-            'ble-latex-eval = ble_latex.cli.eval:run',
+            'ble-latex-train = ble_latex.cli.train:main',
+            'ble-latex-eval = ble_latex.cli.eval:main',
             'ble-latex-download-era5 = ble_latex.cli.download_era5:main',
             'ble-latex-plot = ble_latex.cli.plot:main',
-            'ble-latex-sweep = ble_latex.cli.sweep:run',
+            'ble-latex-sweep = ble_latex.cli.sweep:main',
             'ble-latex-demo = ble_latex.cli.demo:main',
-            'ble-latex-export-policy = ble_latex.cli.export_policy:run',
+            'ble-latex-export-policy = ble_latex.cli.export_policy:main',
         ],
     },
 )

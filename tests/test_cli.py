@@ -31,19 +31,15 @@ def test_gin_usage_message():
   assert cli.gin_usage_message(ValueError('other')) is None
 
 
-# One process per absl command (its flags are process-global); each case is
-# run with run(argv) and reported as "CASE <i> EXIT <code>" on stdout, its
+# One process per command (a clean start, as from the shell); each case is
+# run with main(argv) and reported as "CASE <i> EXIT <code>" on stdout, its
 # stderr between "CASE <i>" markers.
 _ABSL_CASES = '''
 import sys
 from ble_latex.cli import {module} as command
 for i, argv in enumerate({cases!r}):
   print(f'CASE {{i}}', file=sys.stderr, flush=True)
-  try:
-    command.run(argv)
-    code = 0
-  except SystemExit as e:
-    code = e.code
+  code = command.main(argv)
   print(f'CASE {{i}} EXIT {{code}}', flush=True)
 '''
 
@@ -151,20 +147,25 @@ def test_train_and_export_policy_help_and_usage_errors():
 @pytest.mark.parametrize('module, flag', [
     ('validate', '--max_error_percent'),
     ('download_era5', '--dry_run'),
+    ('plot', '--eval_json'),
+    ('demo', '--train_episodes'),
 ])
-def test_argparse_commands_help(module, flag, capsys):
+def test_in_process_commands_share_the_convention(module, flag, capsys):
+  # Every command's own flags: these import side by side in one process,
+  # though their flags share names (--output_dir, --gin_files, --seed).
   command = __import__(f'ble_latex.cli.{module}', fromlist=['main'])
-  with pytest.raises(SystemExit) as exit_info:
-    command.main(['--help'])
-  assert exit_info.value.code == 0
-  assert flag in capsys.readouterr().out
+  prog = 'ble-latex-' + module.replace('_', '-')
+  assert command.main(['--help']) == 0
+  out = capsys.readouterr().out
+  assert out.startswith(f'usage: {prog} [flags]') and flag in out
+  assert command.main(['--no_such_flag']) == 2
+  err = capsys.readouterr().err
+  assert err.startswith(f'{prog}: ') and err.count('\n') == 1, err
+  assert "'no_such_flag'" in err
 
 
-def test_plot_and_ble_help(capsys):
+def test_ble_commands_help(capsys):
   from ble_latex.cli import ble_commands  # pylint: disable=g-import-not-at-top
-  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
-  assert plot.main(['--help']) == 0
-  assert '--eval_json' in capsys.readouterr().out
   assert ble_commands.main(['--help']) == 0
   assert 'train' in capsys.readouterr().out
 
@@ -172,9 +173,7 @@ def test_plot_and_ble_help(capsys):
 def test_gin_usage_errors_of_validate_and_plot(capsys, tmp_path):
   from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import validate  # pylint: disable=g-import-not-at-top
-  with pytest.raises(SystemExit) as exit_info:
-    validate.main(['--gin_files', 'nope.gin'])
-  assert exit_info.value.code == 2
+  assert validate.main(['--gin_files', 'nope.gin']) == 2
   err = capsys.readouterr().err
   assert err.count('\n') == 1 and 'latex_physics.gin' in err
   assert plot.main([f'--output_dir={tmp_path}', '--wind_seed=1',
@@ -186,8 +185,9 @@ def test_gin_usage_errors_of_validate_and_plot(capsys, tmp_path):
 @pytest.mark.slow
 def test_demo_unknown_suite(capsys):
   from ble_latex.cli import demo  # pylint: disable=g-import-not-at-top
-  with pytest.raises(SystemExit) as exit_info:
-    demo.main(['--suite=nope'])
-  assert exit_info.value.code == 2
+  assert demo.main(['--suite=nope']) == 2
   err = capsys.readouterr().err
   assert err.count('\n') == 1 and 'latex_tiny' in err
+  assert demo.main(['--baseline=station_seeker']) == 2
+  err = capsys.readouterr().err
+  assert err.count('\n') == 1 and 'latex_station_seeker' in err

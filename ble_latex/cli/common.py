@@ -1,29 +1,34 @@
 # coding=utf-8
-"""Shared command-line behaviour of the absl-based commands.
+"""The command-line convention of every `ble-latex-*` command.
 
-`ble-latex-train`, `ble-latex-eval` and `ble-latex-export-policy` use BLE's
-absl flags. absl's own handling prints only "USAGE: ... [flags]" for --help
-and exits 1, and prints its whole usage (or a traceback) for a bad name.
-`run_absl` gives every command the same contract instead:
+Every command is an absl program, as BLE's are: its flags are absl flags,
+defined on the command's own `flags.FlagValues` (`FLAGS` in its module), and
+its entry point is `main(argv=None) -> int`, which hands its absl main to
+`run_absl`. Own flag registries (not absl's process-global `flags.FLAGS`)
+let commands whose flags share names (`--output_dir`, `--gin_bindings`, ...)
+run in one process: the demo calls `ble-latex-plot`, tests and notebooks call
+any of them. `run_absl` gives every command the same contract:
 
-- `--help` / `-h` lists the command's flags (`--helpfull`: all flags, absl's
-  included) and exits 0;
+- `--help` / `-h` / `--helpfull` lists the command's flags and exits 0;
 - a usage error (unknown flag, bad or missing value, unknown agent, suite, env,
   gin file or gin configurable) is one line on stderr,
-  `PROG: what is wrong; valid: a, b, c`, and exit status 2.
+  `PROG: what is wrong; valid: a, b, c`, and exit status 2;
+- otherwise the absl main runs inside absl's `app.run` (absl logging, init
+  callbacks) and its return value is the exit status (None: 0).
 """
 
 import difflib
 import os
 import sys
-from typing import Callable, Iterable, NoReturn, Optional, Sequence
+from typing import Any, Callable, Iterable, NoReturn, Optional, Sequence
 
 from absl import app
 from absl import flags
 
 from ble_latex import configs
 
-HELP_FLAGS = ('-h', '--help', '-help', '--helpshort')
+HELP_FLAGS = ('-h', '--help', '-help', '--helpshort', '--helpfull',
+              '-helpfull')
 EXIT_USAGE = 2
 
 
@@ -45,48 +50,54 @@ def unknown(what: str, name: str, valid: Iterable[str],
   return f'unknown {what} {name!r}{guess}; {label}: {", ".join(valid)}'
 
 
-def help_text(prog: str, doc: Optional[str], module: str,
-              full: bool = False) -> str:
-  fv = flags.FLAGS
-  listing = fv.get_help() if full else fv.module_help(module)
+def help_text(prog: str, doc: Optional[str],
+              flag_values: flags.FlagValues) -> str:
+  """'usage: PROG [flags]', the command's doc, then its flags."""
   parts = [f'usage: {prog} [flags]']
   if doc:
     parts.append(doc.strip())
-  parts.append('flags:' if full else f'flags (all flags: {prog} --helpfull):')
-  parts.append(listing)
+  parts.append('flags:')
+  parts.append(flag_values.get_help())
   return '\n\n'.join(parts)
 
 
+def _exit_status(code: Any) -> int:
+  """`SystemExit.code` as an exit status (None: 0; a message: 1)."""
+  if code is None:
+    return 0
+  return code if isinstance(code, int) else 1
+
+
 def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
+             flag_values: flags.FlagValues,
              argv: Optional[Sequence[str]] = None, doc: Optional[str] = None,
-             check: Optional[Callable[[], None]] = None) -> None:
-  """Parses flags, runs `check` (raising CommandUsageError) then absl's main.
+             check: Optional[Callable[[], None]] = None) -> int:
+  """Parses the command's flags, runs `check`, then `main` in absl's app.run.
 
   Args:
-    main: absl main (gets [prog, *positional args]).
+    main: The absl main; gets [prog, *positional args].
     prog: Command name for messages.
+    flag_values: The command's own flags.
     argv: Arguments without the program name (default sys.argv[1:]).
     doc: Text shown above the flags by --help.
     check: Validates flag values before the work starts; raises
       CommandUsageError with a one-line message.
+
+  Returns:
+    The exit status: 0 (or what `main` returns), 2 for a usage error.
   """
   argv = list(sys.argv[1:] if argv is None else argv)
-  names = {a.split('=', 1)[0] for a in argv}
-  if names & {'--helpfull', '-helpfull'}:
-    print(help_text(prog, doc, main.__module__, full=True))
-    sys.exit(0)
-  if names & set(HELP_FLAGS):
-    print(help_text(prog, doc, main.__module__))
-    sys.exit(0)
-  flags.FLAGS.unparse_flags()
+  if {a.split('=', 1)[0] for a in argv} & set(HELP_FLAGS):
+    print(help_text(prog, doc, flag_values))
+    return 0
+  for name in flag_values:  # Defaults again (a command may run twice).
+    flag_values[name].unparse()
   try:
-    flags.FLAGS([prog, *argv])  # Only to report errors in one line.
+    args = flag_values([prog, *argv])
   except flags.Error as e:
-    usage_error(prog, f'{e} (try --help)')
-  # app.run parses again; multi-value flags would otherwise double up.
-  flags.FLAGS.unparse_flags()
+    return _usage(prog, f'{e} (try --help)')
 
-  def checked_main(args: Sequence[str]) -> Optional[int]:
+  def checked_main(unused_argv: Sequence[str]) -> Optional[int]:
     try:
       if check is not None:
         check()
@@ -100,7 +111,16 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
       usage_error(prog, gin_message)
 
   quiet_init_callbacks()
-  app.run(checked_main, argv=[prog, *argv])
+  try:
+    app.run(checked_main, argv=[prog])
+  except SystemExit as e:
+    return _exit_status(e.code)
+  return 0
+
+
+def _usage(prog: str, message: str) -> int:
+  print(f'{prog}: {message}', file=sys.stderr)
+  return EXIT_USAGE
 
 
 def quiet_init_callbacks() -> None:

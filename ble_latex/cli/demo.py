@@ -1,104 +1,161 @@
 # coding=utf-8
-"""`make demo`: the project's main job, short (a few minutes on 2 CPU cores).
+"""`ble-latex-demo` (`make demo`): what the project can do, in a few minutes.
 
-1. Trains SAC (paper settings, fewer warm-up steps) on LatexBalloon-v0 with
-   BLE's generative wind for --iterations x --episodes_per_iteration episodes;
-2. evaluates the trained and an untrained SAC on the held-out `latex_tiny`
-   suite (10 seeds);
-3. draws the paper's figures (training curves, terminal conditions,
-   trajectories, 3D trained vs untrained, wind fields, and the vent/ballast
-   validation figure) into --output_dir.
+1. Flies the shipped trained SAC policy (`sac_pretrained`) and a baseline
+   (--baseline, default the geometric station seeker) on the held-out seeds
+   of --suite (default `latex_tiny`, 10 seeds) of `LatexBalloon-v0`, writing
+   `ble-latex-eval` files to OUTPUT_DIR/eval/;
+2. draws the paper's figures into OUTPUT_DIR/figures/ with `ble-latex-plot`
+   (flight paths of the trained policy, the same seed flown by both in 3D,
+   forecast wind fields, training curves and terminal conditions of --run_dir)
+   and `ble-latex-validate` (venting and ballasting);
+3. prints both agents' summaries (TW50 over the window, TW50 over the flown
+   steps, helium, sand, % out of resources).
 
-A few episodes are far too few to learn station-keeping (the paper trains
-2500); this shows the whole pipeline working. See README "Results".
+--run_dir defaults to the training run of the shipped policy
+(`benchmarks/sac_paper_run`, in a checkout of the repository). With
+--train_episodes=N the demo first trains SAC (paper settings, learning after
+2 episodes) for N episodes into OUTPUT_DIR/sac_run and draws that run's curves
+instead: the pipeline end to end (a few episodes are far too few to learn
+station-keeping; the shipped policy trained on 2260).
 """
 
-import argparse
 import json
 import os
+import pathlib
 import sys
-from typing import Optional, Sequence
+from typing import Dict, List, Optional, Sequence
+
+from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
-from ble_latex.cli import common as cli
+from ble_latex import agents
+from ble_latex import configs
 from ble_latex import quiet
+from ble_latex.cli import common as cli
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
-  import gym
-
   from ble_latex.cli import plot
   from ble_latex.cli import validate
-  from ble_latex import configs
   from ble_latex.run import eval_lib
   from ble_latex.run import metrics
-  from ble_latex.run import runner
   from ble_latex.run import suites
   from ble_latex.run import train_lib
   # pylint: enable=g-import-not-at-top
 
 _SAC = 'ble_latex.agents.sac.SACAgent'
+TRAINED = 'sac_pretrained'
+# The shipped policy's training run, in a checkout of the repository.
+SHIPPED_RUN = (pathlib.Path(__file__).resolve().parents[2] / 'benchmarks' /
+               'sac_paper_run')
+
+# The command's own flags (`cli.run_absl`).
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('output_dir', 'demo_output',
+                    'Folder for eval/, figures/ (and sac_run/).',
+                    flag_values=FLAGS)
+flags.DEFINE_string('suite', 'latex_tiny', 'Held-out suite the agents fly.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('baseline', 'latex_station_seeker',
+                    'Box agent flown beside the trained policy.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('run_dir', None,
+                    'Training run whose curves are drawn (default: the '
+                    f'shipped policy\'s, {SHIPPED_RUN}, when present).',
+                    flag_values=FLAGS)
+flags.DEFINE_integer('train_episodes', 0,
+                     'Train SAC for this many episodes first and draw that '
+                     'run (0: no training).', lower_bound=0,
+                     flag_values=FLAGS)
 
 
-def run(output_dir: str, iterations: int, episodes_per_iteration: int,
-        suite: str) -> dict:
-  """Runs the demo; returns the eval summaries."""
-  run_dir = os.path.join(output_dir, 'sac_run')
+def _train(run_dir: str, episodes: int) -> None:
+  """A short SAC training run (paper settings, learning after 2 episodes)."""
+  gin_bindings = [f'{_SAC}.min_replay_history = 432']
+  configs.bind_gin('sac', None, [], gin_bindings)
+  train_lib.train(agent_name='sac', env_name='LatexBalloon-v0',
+                  base_dir=run_dir, num_iterations=1,
+                  episodes_per_iteration=episodes,
+                  max_episode_length=suites.EPISODE_STEPS,
+                  collectors=['progress', 'episodes', 'tensorboard'])
+
+
+def _fly(agent: str, seeds: List[int], path: str) -> Dict[str, float]:
+  """Flies `agent` on `seeds`, writes its eval file; returns its summary."""
+  built, env = eval_lib.build(eval_lib.EvalSpec(agent=agent))
+  results = eval_lib.evaluate(built, env, seeds, suites.EPISODE_STEPS,
+                              description=f'eval {agent}')
+  eval_lib.write_results(path, results)
+  return metrics.summarize(results)
+
+
+def run(output_dir: str, suite: str, baseline: str, run_dir: Optional[str],
+        train_episodes: int) -> Dict[str, Dict[str, float]]:
+  """Runs the demo; returns the summaries by agent name.
+
+  Raises:
+    RuntimeError: If `ble-latex-plot` or `ble-latex-validate` fails.
+  """
+  steps = 3 if train_episodes else 2
+  if train_episodes:
+    run_dir = os.path.join(output_dir, 'sac_run')
+    print(f'[1/{steps + 1}] Training SAC for {train_episodes} episodes into '
+          f'{run_dir}', flush=True)
+    _train(run_dir, train_episodes)
+  elif run_dir is None and SHIPPED_RUN.is_dir():
+    run_dir = str(SHIPPED_RUN)
+  seeds = suites.get_eval_suite(suite).seeds
   eval_dir = os.path.join(output_dir, 'eval')
   figures = os.path.join(output_dir, 'figures')
-  configs.bind_gin('sac', None, [], [
-      f'{_SAC}.min_replay_history = 432',  # Learn after 2 episodes.
-  ])
-  print(f'[1/3] Training SAC for {iterations * episodes_per_iteration} '
-        f'episodes into {run_dir}', flush=True)
-  train_lib.train(agent_name='sac', env_name='LatexBalloon-v0', base_dir=run_dir,
-              num_iterations=iterations,
-              episodes_per_iteration=episodes_per_iteration,
-              max_episode_length=suites.EPISODE_STEPS,
-              collectors=['progress', 'episodes', 'tensorboard'])
-
-  print(f'[2/3] Evaluating trained and untrained SAC on {suite}', flush=True)
-  env = gym.make('LatexBalloon-v0').unwrapped
-  seeds = suites.get_eval_suite(suite).seeds
+  step = steps - 1
+  print(f'[{step}/{steps}] Flying {TRAINED} and {baseline} on {suite} '
+        f'({len(seeds)} held-out seeds)', flush=True)
   paths, summaries = {}, {}
-  for name, checkpoint in (('sac', iterations - 1), ('sac_untrained', None)):
-    agent = runner.create_agent('sac', env)
-    if checkpoint is not None:
-      agent.load_checkpoint(os.path.join(run_dir, 'checkpoints'), checkpoint)
-    results = eval_lib.evaluate(agent, env, seeds, suites.EPISODE_STEPS,
-                                description=f'eval {name}')
+  for name in (TRAINED, baseline):
     paths[name] = eval_lib.output_path(eval_dir, suite, name, 1, 0)
-    eval_lib.write_results(paths[name], results)
-    summaries[name] = metrics.summarize(results)
+    summaries[name] = _fly(name, list(seeds), paths[name])
 
-  print(f'[3/3] Figures into {figures}', flush=True)
-  code = plot.main([
-      f'--output_dir={figures}', f'--run_dir={run_dir}',
-      f'--eval_json={paths["sac"]}',
-      f'--baseline_eval_json={paths["sac_untrained"]}',
-      f'--wind_seeds={seeds[0]},{seeds[1]}', '--wind_grid=15'])
-  if code:
-    raise RuntimeError(f'ble-latex-plot exited with status {code}')
-  if validate.main(['--output_dir', figures]):
+  print(f'[{steps}/{steps}] Figures into {figures}', flush=True)
+  argv = [f'--output_dir={figures}', f'--eval_json={paths[TRAINED]}',
+          f'--baseline_eval_json={paths[baseline]}',
+          f'--wind_seeds={seeds[0]},{seeds[1 % len(seeds)]}', '--wind_grid=15']
+  if run_dir is not None:
+    argv.append(f'--run_dir={run_dir}')
+  else:
+    print(f'(no training run at {SHIPPED_RUN}: training figures skipped; '
+          'give --run_dir or --train_episodes)', flush=True)
+  if plot.main(argv):
+    raise RuntimeError('ble-latex-plot failed')
+  if validate.main([f'--output_dir={figures}']):
     raise RuntimeError('ble-latex-validate failed')
   print(json.dumps(summaries, indent=1))
   return summaries
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  parser.add_argument('--output_dir', default='demo_output')
-  parser.add_argument('--iterations', type=int, default=2)
-  parser.add_argument('--episodes_per_iteration', type=int, default=5)
-  parser.add_argument('--suite', default='latex_tiny')
-  args = parser.parse_args(argv)
-  try:
-    cli.check_suite(args.suite)
-  except cli.CommandUsageError as e:
-    cli.usage_error('ble-latex-demo', str(e))
-  run(args.output_dir, args.iterations, args.episodes_per_iteration,
-      args.suite)
+def _check() -> None:
+  cli.check_suite(FLAGS.suite)
+  cli.check_agent(FLAGS.baseline)
+  if FLAGS.baseline not in agents.BOX_AGENTS:
+    raise cli.CommandUsageError(cli.unknown(
+        'Box agent', FLAGS.baseline, agents.BOX_AGENTS - {TRAINED, 'sac'}))
+  if FLAGS.run_dir is not None and FLAGS.train_episodes:
+    raise cli.CommandUsageError('--run_dir and --train_episodes exclude each '
+                                'other (the demo draws the run it trains)')
+
+
+def _main(argv: Sequence[str]) -> int:
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
+  run(FLAGS.output_dir, FLAGS.suite, FLAGS.baseline, FLAGS.run_dir,
+      FLAGS.train_episodes)
   return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """The command (`cli.run_absl`); returns the exit status."""
+  return cli.run_absl(_main, 'ble-latex-demo', FLAGS, argv, doc=__doc__,
+                      check=_check)
 
 
 if __name__ == '__main__':

@@ -20,14 +20,16 @@ Usage:
       --end_date 2022-12-31 --output era5_dec.nc
 """
 
-import argparse
 import datetime as dt
 import json
 import os
 import sys
 from typing import Any, List, Optional, Sequence, Tuple
 
+from absl import flags
+
 from ble_latex import quiet
+from ble_latex.cli import common as cli
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
@@ -155,60 +157,63 @@ def _credentials_error() -> Optional[str]:
           'accept the ERA5 licence on the dataset page.')
 
 
-def _date(text: str) -> dt.date:
+# The command's own flags (`cli.run_absl`).
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('output', 'era5_paper.nc',
+                    'Joined NetCDF file (monthly files go beside it).',
+                    flag_values=FLAGS)
+flags.DEFINE_float('center_lat', era5.PAPER_CENTER_LAT,
+                   'Target latitude [deg N].', flag_values=FLAGS)
+flags.DEFINE_float('center_lon', era5.PAPER_CENTER_LON,
+                   'Target longitude [deg E].', flag_values=FLAGS)
+flags.DEFINE_string('start_date', era5.PAPER_START_DATE.isoformat(),
+                    'First day, YYYY-MM-DD (inclusive).', flag_values=FLAGS)
+flags.DEFINE_string('end_date', era5.PAPER_END_DATE.isoformat(),
+                    'Last day, YYYY-MM-DD (inclusive).', flag_values=FLAGS)
+flags.DEFINE_float('half_width_deg', era5.DEFAULT_HALF_WIDTH_DEG,
+                   'Area = target +- this [deg].', flag_values=FLAGS)
+flags.DEFINE_float('grid_deg', era5.PAPER_GRID_DEG, 'Grid spacing [deg].',
+                   flag_values=FLAGS)
+flags.DEFINE_float('min_pressure_hpa', era5.PAPER_MIN_PRESSURE_HPA,
+                   'Lowest pressure level [hPa].', flag_values=FLAGS)
+flags.DEFINE_float('max_pressure_hpa', era5.PAPER_MAX_PRESSURE_HPA,
+                   'Highest pressure level [hPa].', flag_values=FLAGS)
+flags.DEFINE_boolean('dry_run', False,
+                     'Print the CDS requests as JSON; no network.',
+                     flag_values=FLAGS)
+flags.DEFINE_boolean('overwrite', False,
+                     'Download months whose file already exists.',
+                     flag_values=FLAGS)
+flags.DEFINE_boolean('no_merge', False,
+                     'Keep the monthly files only (use a glob such as '
+                     "'era5_paper_*.nc' as Era5WindField.path).",
+                     flag_values=FLAGS)
+
+
+def _date(name: str) -> dt.date:
+  """The date flag `name`, parsed."""
+  text = FLAGS[name].value
   try:
     return dt.date.fromisoformat(text)
   except ValueError as error:
-    raise argparse.ArgumentTypeError(
-        f'expected a date YYYY-MM-DD, got {text!r}') from error
+    raise cli.CommandUsageError(
+        f'--{name}: expected a date YYYY-MM-DD, got {text!r}') from error
 
 
-def _parse(argv: Sequence[str]) -> argparse.Namespace:
-  parser = argparse.ArgumentParser(
-      prog='ble-latex-download-era5',
-      description='Download ERA5 winds (u, v on pressure levels) for '
-      'Era5WindField from the Copernicus Climate Data Store.')
-  parser.add_argument('--output', default='era5_paper.nc',
-                      help='Joined NetCDF file (monthly files go beside it).')
-  parser.add_argument('--center_lat', type=float,
-                      default=era5.PAPER_CENTER_LAT,
-                      help='Target latitude [deg N].')
-  parser.add_argument('--center_lon', type=float,
-                      default=era5.PAPER_CENTER_LON,
-                      help='Target longitude [deg E].')
-  parser.add_argument('--start_date', type=_date,
-                      default=era5.PAPER_START_DATE,
-                      help='First day, YYYY-MM-DD (inclusive).')
-  parser.add_argument('--end_date', type=_date, default=era5.PAPER_END_DATE,
-                      help='Last day, YYYY-MM-DD (inclusive).')
-  parser.add_argument('--half_width_deg', type=float,
-                      default=era5.DEFAULT_HALF_WIDTH_DEG,
-                      help='Area = target +- this [deg].')
-  parser.add_argument('--grid_deg', type=float, default=era5.PAPER_GRID_DEG,
-                      help='Grid spacing [deg].')
-  parser.add_argument('--min_pressure_hpa', type=float,
-                      default=era5.PAPER_MIN_PRESSURE_HPA,
-                      help='Lowest pressure level [hPa].')
-  parser.add_argument('--max_pressure_hpa', type=float,
-                      default=era5.PAPER_MAX_PRESSURE_HPA,
-                      help='Highest pressure level [hPa].')
-  parser.add_argument('--dry_run', action='store_true',
-                      help='Print the CDS requests as JSON; no network.')
-  parser.add_argument('--overwrite', action='store_true',
-                      help='Download months whose file already exists.')
-  parser.add_argument('--no_merge', action='store_true',
-                      help="Keep the monthly files only (use a glob such as "
-                      "'era5_paper_*.nc' as Era5WindField.path).")
-  return parser.parse_args(argv)
+def _check() -> None:
+  _date('start_date')
+  _date('end_date')
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
-  """Console entry point; returns the exit status."""
-  args = _parse(sys.argv[1:] if argv is None else argv)
+def _main(argv: Sequence[str]) -> int:
+  """Downloads (or, --dry_run, prints) the requests; returns the status."""
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
+  args = FLAGS
   try:
     requests = era5.build_requests(
         center_lat=args.center_lat, center_lon=args.center_lon,
-        start_date=args.start_date, end_date=args.end_date,
+        start_date=_date('start_date'), end_date=_date('end_date'),
         half_width_deg=args.half_width_deg, grid_deg=args.grid_deg,
         min_pressure_hpa=args.min_pressure_hpa,
         max_pressure_hpa=args.max_pressure_hpa)
@@ -270,6 +275,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         f'{data.latitude[-1]:g}, lon {data.longitude[0]:g}..'
         f'{data.longitude[-1]:g}')
   return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """The command (`cli.run_absl`); returns the exit status."""
+  return cli.run_absl(_main, 'ble-latex-download-era5', FLAGS, argv,
+                      doc=__doc__, check=_check)
 
 
 if __name__ == '__main__':

@@ -44,39 +44,51 @@ with quiet.third_party_noise():
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
 
-flags.DEFINE_string('agent', 'sac', 'The name of the agent to create.')
-flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Environment to evaluate.')
+# The command's own flags (`cli.run_absl`).
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('agent', 'sac', 'The name of the agent to create.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Environment to evaluate.',
+                    flag_values=FLAGS)
 flags.DEFINE_string('suite', 'latex_tiny',
                     f'Evaluation suite: {sorted(suites.SUITE_SIZES)} (held '
                     'out), latex_validation (for choosing checkpoints) or '
-                    'any BLE suite.')
-flags.DEFINE_string('agent_gin_file', None, 'Gin file for agent configuration.')
-flags.DEFINE_multi_string('gin_file', [], 'Extra gin files.')
+                    'any BLE suite.', flag_values=FLAGS)
+flags.DEFINE_string('agent_gin_file', None, 'Gin file for agent configuration.',
+                    flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_file', [], 'Extra gin files.', flag_values=FLAGS)
 flags.DEFINE_multi_string('gin_bindings', [],
-                          'Gin bindings to override default values.')
+                          'Gin bindings to override default values.',
+                          flag_values=FLAGS)
 flags.DEFINE_string('output_dir', '/tmp/ble_latex/eval',
-                    'The directory to output the json summary.')
+                    'The directory to output the json summary.',
+                    flag_values=FLAGS)
 flags.DEFINE_integer('num_shards', 1, 'Number of shards to split the suite.',
-                     lower_bound=1)
-flags.DEFINE_integer('shard_idx', 0, 'The index of this shard.', lower_bound=0)
-flags.DEFINE_boolean('pretty_json', False, 'Indent the json output.')
-flags.DEFINE_string('checkpoint_dir', None, 'Directory to load checkpoints.')
-flags.DEFINE_integer('checkpoint_idx', None, 'Checkpoint iteration to load.')
-flags.DEFINE_string('name_override', None, 'Name of the json output file.')
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('shard_idx', 0, 'The index of this shard.', lower_bound=0,
+                     flag_values=FLAGS)
+flags.DEFINE_boolean('pretty_json', False, 'Indent the json output.',
+                     flag_values=FLAGS)
+flags.DEFINE_string('checkpoint_dir', None, 'Directory to load checkpoints.',
+                    flag_values=FLAGS)
+flags.DEFINE_integer('checkpoint_idx', None, 'Checkpoint iteration to load.',
+                     flag_values=FLAGS)
+flags.DEFINE_string('name_override', None, 'Name of the json output file.',
+                    flag_values=FLAGS)
 flags.DEFINE_integer('max_episode_length', None,
-                     'Override the suite\'s episode length.')
-flags.DEFINE_integer('seed', 0, 'Agent seed.')
+                     'Override the suite\'s episode length.', flag_values=FLAGS)
+flags.DEFINE_integer('seed', 0, 'Agent seed.', flag_values=FLAGS)
 flags.DEFINE_string('ray_address', None,
                     'Fly the seeds as Ray tasks: local (an embedded Ray on '
                     'this machine), auto (the cluster this machine joined) '
-                    "or HOST:PORT / ray://HOST:PORT. Needs the 'ray' extra.")
+                    "or HOST:PORT / ray://HOST:PORT. Needs the 'ray' extra.",
+                    flag_values=FLAGS)
 flags.DEFINE_integer('ray_num_cpus', None,
                      'CPUs of a --ray_address=local Ray (default: all).',
-                     lower_bound=1)
-FLAGS = flags.FLAGS
+                     lower_bound=1, flag_values=FLAGS)
 
 
-def main(argv: Sequence[str]) -> None:
+def _main(argv: Sequence[str]) -> None:
   if len(argv) > 1:
     raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
   if (FLAGS.checkpoint_dir is None) != (FLAGS.checkpoint_idx is None):
@@ -133,10 +145,10 @@ def check() -> None:
   cli.check_ray_flags(FLAGS.ray_address, FLAGS.ray_num_cpus)
 
 
-def run(argv: Optional[Sequence[str]] = None) -> None:
-  """Console-script entry point (see `cli.run_absl`)."""
-  cli.run_absl(main, 'ble-latex-eval', argv, doc=__doc__, check=check)
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """The command (`cli.run_absl`); returns the exit status."""
+  return cli.run_absl(_main, 'ble-latex-eval', FLAGS, argv, doc=__doc__, check=check)
 
 
 if __name__ == '__main__':
-  run()
+  sys.exit(main())

@@ -24,18 +24,22 @@ from ble_latex import quiet
 with quiet.third_party_noise():
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
 
+# The command's own flags (`cli.run_absl`).
+FLAGS = flags.FlagValues()
 flags.DEFINE_string('checkpoint', None, 'SAC checkpoint to export '
-                    '(checkpoint_NNNNN.msgpack), or a policy file to convert.')
-flags.DEFINE_string('output', None, 'Policy file to write (.msgpack).')
-flags.DEFINE_string('note', '', 'Free text recorded in the policy.')
+                    '(checkpoint_NNNNN.msgpack), or a policy file to convert.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('output', None, 'Policy file to write (.msgpack).',
+                    flag_values=FLAGS)
+flags.DEFINE_string('note', '', 'Free text recorded in the policy.',
+                    flag_values=FLAGS)
 flags.DEFINE_bool('trust_legacy_pickle', False,
                   'Read a legacy pickle checkpoint or policy (.pkl). Pickles '
-                  'can run code: only for files you made.')
-flags.mark_flags_as_required(['checkpoint', 'output'])
-FLAGS = flags.FLAGS
+                  'can run code: only for files you made.', flag_values=FLAGS)
+flags.mark_flags_as_required(['checkpoint', 'output'], flag_values=FLAGS)
 
 
-def main(argv: Sequence[str]) -> None:
+def _main(argv: Sequence[str]) -> None:
   if len(argv) > 1:
     raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
   source = FLAGS.checkpoint
@@ -55,10 +59,10 @@ def main(argv: Sequence[str]) -> None:
         f'from {policy["source"]}, iteration {policy["iteration"]}')
 
 
-def run(argv: Optional[Sequence[str]] = None) -> None:
-  """Console-script entry point (see `cli.run_absl`)."""
-  cli.run_absl(main, 'ble-latex-export-policy', argv, doc=__doc__)
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """The command (`cli.run_absl`); returns the exit status."""
+  return cli.run_absl(_main, 'ble-latex-export-policy', FLAGS, argv, doc=__doc__)
 
 
 if __name__ == '__main__':
-  run()
+  sys.exit(main())

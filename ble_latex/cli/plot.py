@@ -68,58 +68,57 @@ SEED_CURVES = 'seed_curves.png'
 SUMMARY = 'summary.json'
 DEFAULT_PRESSURES_PA = ('14000', '10000', '7000', '5000')  # [Pa] ~14-21 km.
 
-# Own flag registry: the command can be called (and tested) next to other
-# ble_latex commands whose absl flags share names (output_dir, seed, ...).
-_FLAGS = flags.FlagValues()
+# The command's own flags (`cli.run_absl`).
+FLAGS = flags.FlagValues()
 flags.DEFINE_string('output_dir', None, 'Folder for the PNGs and summary.json.',
-                    flag_values=_FLAGS)
+                    flag_values=FLAGS)
 flags.DEFINE_string('run_dir', None,
                     'Training run folder (ble-latex-train --base_dir) holding '
-                    'episodes.jsonl.', flag_values=_FLAGS)
+                    'episodes.jsonl.', flag_values=FLAGS)
 flags.DEFINE_multi_string('seed_run_dirs', [],
                           'Training run folders drawn together in '
                           f'{SEED_CURVES} (e.g. BASE_DIR/seed_0 ...).',
-                          flag_values=_FLAGS)
+                          flag_values=FLAGS)
 flags.DEFINE_multi_string('eval_json', [],
                           'ble-latex-eval result file(s) OUT/SUITE/AGENT.json; '
                           'the first one is plotted, all are summarized.',
-                          flag_values=_FLAGS)
+                          flag_values=FLAGS)
 flags.DEFINE_string('baseline_eval_json', None,
                     'Eval file of the untrained/baseline agent for the 3D '
-                    'comparison (also summarized).', flag_values=_FLAGS)
+                    'comparison (also summarized).', flag_values=FLAGS)
 flags.DEFINE_integer('max_trajectories', 6, 'Most flight paths in '
-                     f'{TRAJECTORIES}.', lower_bound=1, flag_values=_FLAGS)
+                     f'{TRAJECTORIES}.', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('seed', None, f'Seed shown in {TRAJECTORY_3D} (default: '
                      'the first seed common to both eval files).',
-                     flag_values=_FLAGS)
+                     flag_values=FLAGS)
 flags.DEFINE_integer('rolling_window', plots.ROLLING_WINDOW,
                      'Episodes in the training-curve rolling mean.',
-                     lower_bound=1, flag_values=_FLAGS)
+                     lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_boolean('paper_reference', True,
                      'Draw the paper\'s result in the training curves.',
-                     flag_values=_FLAGS)
+                     flag_values=FLAGS)
 flags.DEFINE_integer('wind_seed', None, 'Env seed (date, location, wind) of '
-                     f'{WIND_FIELD}.', flag_values=_FLAGS)
+                     f'{WIND_FIELD}.', flag_values=FLAGS)
 flags.DEFINE_list('wind_seeds', [], 'Several env seeds, one row each (e.g. a '
-                  'favourable and an unfavourable day).', flag_values=_FLAGS)
+                  'favourable and an unfavourable day).', flag_values=FLAGS)
 flags.DEFINE_float('wind_hours', 0.0, 'Forecast time after the reset [h].',
-                   lower_bound=0.0, flag_values=_FLAGS)
+                   lower_bound=0.0, flag_values=FLAGS)
 flags.DEFINE_list('wind_pressures_pa', list(DEFAULT_PRESSURES_PA),
-                  'Pressure levels [Pa], one column each.', flag_values=_FLAGS)
+                  'Pressure levels [Pa], one column each.', flag_values=FLAGS)
 flags.DEFINE_float('wind_extent_km', 300.0, 'Grid half-width [km].',
-                   lower_bound=1.0, flag_values=_FLAGS)
+                   lower_bound=1.0, flag_values=FLAGS)
 flags.DEFINE_integer('wind_grid', 21, 'Arrows per grid side.', lower_bound=2,
-                     flag_values=_FLAGS)
+                     flag_values=FLAGS)
 flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Env whose wind is drawn.',
-                    flag_values=_FLAGS)
+                    flag_values=FLAGS)
 flags.DEFINE_multi_string('gin_files', [], 'Extra gin files (after '
-                          'latex_env.gin).', flag_values=_FLAGS)
-flags.DEFINE_alias('gin_file', 'gin_files', flag_values=_FLAGS)
+                          'latex_env.gin).', flag_values=FLAGS)
+flags.DEFINE_alias('gin_file', 'gin_files', flag_values=FLAGS)
 flags.DEFINE_multi_string('gin_bindings', [],
                           'Gin bindings, e.g. "LatexBalloonEnv.'
                           'wind_field_factory = @Era5WindField".',
-                          flag_values=_FLAGS)
-flags.mark_flag_as_required('output_dir', flag_values=_FLAGS)
+                          flag_values=FLAGS)
+flags.mark_flag_as_required('output_dir', flag_values=FLAGS)
 
 
 def sample_wind_grid(field: Any, pressures_pa: Sequence[float], *,
@@ -351,43 +350,38 @@ def run(f: flags.FlagValues) -> List[str]:
   return written
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
-  """Console entry point; returns the exit status."""
-  argv = list(sys.argv[1:] if argv is None else argv)
-  if any(a in ('-h', '--help', '--helpshort', '--helpfull') for a in argv):
-    print(__doc__)
-    print(_FLAGS.get_help())
-    return 0
-  _FLAGS.unparse_flags()
+def _check() -> None:
+  if not (FLAGS.run_dir or FLAGS.seed_run_dirs or FLAGS.eval_json or
+          FLAGS.baseline_eval_json or
+          FLAGS.wind_seed is not None or FLAGS.wind_seeds):
+    raise cli.CommandUsageError(
+        'nothing to plot; give --run_dir, --seed_run_dirs, --eval_json, '
+        '--baseline_eval_json or --wind_seed(s). Try --help.')
+  cli.check_gin_files(FLAGS.gin_files)
+
+
+def _main(argv: Sequence[str]) -> int:
+  """Draws what the flags ask for; 1 on bad input (named), else 0."""
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   try:
-    _FLAGS(['ble-latex-plot', *argv])
+    written = run(FLAGS)
   except flags.Error as e:
-    print(f'ble-latex-plot: {e}\nTry --help.', file=sys.stderr)
-    return 2
-  if not (_FLAGS.run_dir or _FLAGS.seed_run_dirs or _FLAGS.eval_json or
-          _FLAGS.baseline_eval_json or
-          _FLAGS.wind_seed is not None or _FLAGS.wind_seeds):
-    print('ble-latex-plot: nothing to plot; give --run_dir, --seed_run_dirs, --eval_json, '
-          '--baseline_eval_json or --wind_seed(s). Try --help.',
-          file=sys.stderr)
-    return 2
-  try:
-    cli.check_gin_files(_FLAGS.gin_files)
-    written = run(_FLAGS)
-  except (flags.Error, cli.CommandUsageError) as e:
-    print(f'ble-latex-plot: {e}', file=sys.stderr)
-    return 2
+    raise cli.CommandUsageError(str(e)) from e
   except (OSError, ValueError) as e:
-    gin_message = (cli.gin_usage_message(e) if isinstance(e, ValueError)
-                   else None)
-    if gin_message is not None:
-      print(f'ble-latex-plot: {gin_message}', file=sys.stderr)
-      return 2
+    if isinstance(e, ValueError) and cli.gin_usage_message(e) is not None:
+      raise
     print(f'ble-latex-plot: error: {e}', file=sys.stderr)
     return 1
   for path in written:
     print(f'wrote {path}')
   return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """The command (`cli.run_absl`); returns the exit status."""
+  return cli.run_absl(_main, 'ble-latex-plot', FLAGS, argv, doc=__doc__,
+                      check=_check)
 
 
 if __name__ == '__main__':

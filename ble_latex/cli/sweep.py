@@ -31,42 +31,52 @@ from ble_latex.cli import common as cli
 from ble_latex.run import distributed
 from ble_latex.run import sweep_lib
 
+# The command's own flags (`cli.run_absl`).
+FLAGS = flags.FlagValues()
 flags.DEFINE_string('sweep_dir', None, 'Directory of the sweep (runs/, tune/, '
-                    'results.csv, results.md, best_config.gin).')
+                    'results.csv, results.md, best_config.gin).',
+                    flag_values=FLAGS)
 flags.DEFINE_string('space', None, 'Space file (.json, .yaml, .yml): '
                     'bindings and how to vary them (grid, choice, uniform, '
-                    'loguniform, randint) and num_samples.')
+                    'loguniform, randint) and num_samples.', flag_values=FLAGS)
 flags.DEFINE_multi_string('grid', [], 'NAME=V1,V2,...: a gin binding to grid '
-                          'over (with or instead of --space).')
-flags.DEFINE_list('seeds', ['0'], 'Training seeds of every point.')
+                          'over (with or instead of --space).',
+                          flag_values=FLAGS)
+flags.DEFINE_list('seeds', ['0'], 'Training seeds of every point.',
+                  flag_values=FLAGS)
 flags.DEFINE_integer('num_samples', None, 'Draws of the sampled bindings '
                      '(default: the space file\'s num_samples, else 1).',
-                     lower_bound=1)
-flags.DEFINE_integer('search_seed', 0, 'Seed of the random draws.')
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('search_seed', 0, 'Seed of the random draws.',
+                     flag_values=FLAGS)
 flags.DEFINE_integer('num_iterations', 100, 'Rounds per trial (each: one '
-                     'episode per balloon).', lower_bound=1)
+                     'episode per balloon).', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('policy_snapshot_period', 5, 'Rounds between policy '
                      'snapshots, validations, reports and checkpoints.',
-                     lower_bound=1)
+                     lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('validation_episodes', 100, 'latex_validation seeds '
-                     'each snapshot flies.', lower_bound=1, upper_bound=100)
+                     'each snapshot flies.', lower_bound=1, upper_bound=100,
+                     flag_values=FLAGS)
 flags.DEFINE_boolean('asha', False, 'Stop weak trials early (Tune\'s ASHA on '
-                     'the validation TW50 over the window).')
+                     'the validation TW50 over the window).', flag_values=FLAGS)
 flags.DEFINE_integer('grace_period', 10, 'With --asha: rounds every trial '
-                     'runs before it may be stopped.', lower_bound=1)
+                     'runs before it may be stopped.', lower_bound=1,
+                     flag_values=FLAGS)
 flags.DEFINE_float('cpus_per_trial', 1.0, 'Ray CPUs each trial reserves.',
-                   lower_bound=0.0)
+                   lower_bound=0.0, flag_values=FLAGS)
 flags.DEFINE_integer('max_concurrent_trials', None, 'Most trials at once '
-                     '(default: as Ray\'s CPUs allow).', lower_bound=1)
+                     '(default: as Ray\'s CPUs allow).', lower_bound=1,
+                     flag_values=FLAGS)
 flags.DEFINE_string('ray_address', 'local', 'local (an embedded Ray on this '
                     'machine), auto (the cluster this machine joined) or '
-                    'HOST:PORT / ray://HOST:PORT.')
+                    'HOST:PORT / ray://HOST:PORT.', flag_values=FLAGS)
 flags.DEFINE_integer('ray_num_cpus', None, 'CPUs of a --ray_address=local '
-                     'Ray (default: all).', lower_bound=1)
-flags.DEFINE_multi_string('gin_file', [], 'Gin files for every trial.')
-flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings for every trial.')
-flags.mark_flag_as_required('sweep_dir')
-FLAGS = flags.FLAGS
+                     'Ray (default: all).', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_file', [], 'Gin files for every trial.',
+                          flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings for every trial.',
+                          flag_values=FLAGS)
+flags.mark_flag_as_required('sweep_dir', flag_values=FLAGS)
 
 
 def settings_from_flags() -> sweep_lib.SweepSettings:
@@ -93,7 +103,7 @@ def settings_from_flags() -> sweep_lib.SweepSettings:
       cpus_per_trial=FLAGS.cpus_per_trial)
 
 
-def main(argv: Sequence[str]) -> None:
+def _main(argv: Sequence[str]) -> None:
   if len(argv) > 1:
     raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
   try:
@@ -136,10 +146,10 @@ def check() -> None:
   cli.check_gin_files(FLAGS.gin_file)
 
 
-def run(argv: Optional[Sequence[str]] = None) -> None:
-  """Console-script entry point (see `cli.run_absl`)."""
-  cli.run_absl(main, 'ble-latex-sweep', argv, doc=__doc__, check=check)
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """The command (`cli.run_absl`); returns the exit status."""
+  return cli.run_absl(_main, 'ble-latex-sweep', FLAGS, argv, doc=__doc__, check=check)
 
 
 if __name__ == '__main__':
-  run()
+  sys.exit(main())

@@ -45,47 +45,59 @@ with quiet.third_party_noise():
   from ble_latex.run import train_lib
   # pylint: enable=g-import-not-at-top
 
+# The command's own flags (`cli.run_absl`).
+FLAGS = flags.FlagValues()
 flags.DEFINE_enum('trainer', 'agent', ['agent', 'jax'],
                   "'agent': the agent's own loop, one balloon at a time "
                   "(BLE's); 'jax': jitted SAC on the batched env "
-                  '(sac_trainer; --agent=sac, gin sac_trainer_config).')
-flags.DEFINE_string('agent', 'sac', 'Type of agent to create.')
+                  '(sac_trainer; --agent=sac, gin sac_trainer_config).',
+                  flag_values=FLAGS)
+flags.DEFINE_string('agent', 'sac', 'Type of agent to create.',
+                    flag_values=FLAGS)
 flags.DEFINE_string('env_name', 'LatexBalloon-v0',
-                    'Name of environment to create.')
-flags.DEFINE_integer('num_iterations', 50, 'Number of iterations to train.')
+                    'Name of environment to create.', flag_values=FLAGS)
+flags.DEFINE_integer('num_iterations', 50, 'Number of iterations to train.',
+                     flag_values=FLAGS)
 flags.DEFINE_integer('episodes_per_iteration', 10,
                      'Episodes per iteration; a checkpoint is written after '
-                     'each iteration.')
+                     'each iteration.', flag_values=FLAGS)
 flags.DEFINE_integer('max_episode_length', suites.EPISODE_STEPS,
-                     'Maximum steps per episode (216 x 20 min = 3 days).')
+                     'Maximum steps per episode (216 x 20 min = 3 days).',
+                     flag_values=FLAGS)
 flags.DEFINE_string('base_dir', None,
-                    'Directory for checkpoints, episodes.jsonl and metrics.')
+                    'Directory for checkpoints, episodes.jsonl and metrics.',
+                    flag_values=FLAGS)
 flags.DEFINE_string('agent_gin_file', None,
-                    'Gin file for agent configuration (default: the agent\'s).')
+                    'Gin file for agent configuration (default: the agent\'s).',
+                    flag_values=FLAGS)
 flags.DEFINE_multi_string('gin_file', [],
-                          'Extra gin files (e.g. gin_configs/paper_era5.gin).')
+                          'Extra gin files (e.g. gin_configs/paper_era5.gin).',
+                          flag_values=FLAGS)
 flags.DEFINE_multi_string('gin_bindings', [],
-                          'Gin bindings to override default values.')
+                          'Gin bindings to override default values.',
+                          flag_values=FLAGS)
 flags.DEFINE_multi_string('collectors', ['progress', 'episodes', 'tensorboard'],
-                          f'Collectors: {sorted(metrics.AVAILABLE_COLLECTORS)}.')
+                          f'Collectors: {sorted(metrics.AVAILABLE_COLLECTORS)}.',
+                          flag_values=FLAGS)
 flags.DEFINE_integer('seed', 0, 'Seed of the agent (env seeds are episode '
-                     'indices).')
+                     'indices).', flag_values=FLAGS)
 flags.DEFINE_list('seeds', None,
                   'Training seeds, run one after another, each in '
-                  'BASE_DIR/seed_<s> (instead of --seed in BASE_DIR).')
+                  'BASE_DIR/seed_<s> (instead of --seed in BASE_DIR).',
+                  flag_values=FLAGS)
 flags.DEFINE_integer('validation_episodes', 100,
                      '--trainer=jax: latex_validation seeds each policy '
                      'snapshot flies (batched) into validation.jsonl; 0: '
-                     'none.')
+                     'none.', flag_values=FLAGS)
 flags.DEFINE_integer('checkpoint_period', 1,
                      '--trainer=jax: iterations between checkpoints (each '
-                     'holds the replay buffer).')
+                     'holds the replay buffer).', flag_values=FLAGS)
 flags.DEFINE_integer('policy_snapshot_period', 0,
                      'SAC only: every this many iterations also export the '
                      'policy (~1 MB) to BASE_DIR/policies/, for choosing one '
-                     'on a validation suite afterwards. 0: never.')
-flags.mark_flag_as_required('base_dir')
-FLAGS = flags.FLAGS
+                     'on a validation suite afterwards. 0: never.',
+                     flag_values=FLAGS)
+flags.mark_flag_as_required('base_dir', flag_values=FLAGS)
 
 
 def seed_dirs() -> List[Tuple[int, str]]:
@@ -96,7 +108,7 @@ def seed_dirs() -> List[Tuple[int, str]]:
           for s in FLAGS.seeds]
 
 
-def main(argv: Sequence[str]) -> None:
+def _main(argv: Sequence[str]) -> None:
   if len(argv) > 1:
     raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
   jax_trainer = FLAGS.trainer == 'jax'
@@ -162,10 +174,10 @@ def check() -> None:
   cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
 
 
-def run(argv: Optional[Sequence[str]] = None) -> None:
-  """Console-script entry point (see `cli.run_absl`)."""
-  cli.run_absl(main, 'ble-latex-train', argv, doc=__doc__, check=check)
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """The command (`cli.run_absl`); returns the exit status."""
+  return cli.run_absl(_main, 'ble-latex-train', FLAGS, argv, doc=__doc__, check=check)
 
 
 if __name__ == '__main__':
-  run()
+  sys.exit(main())

@@ -22,15 +22,16 @@ Usage:
 Exit status 0 when the max ascent-rate error is below --max_error_percent.
 """
 
-import argparse
 import functools
 import os
 import sys
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
-from ble_latex.cli import common as cli
+from absl import flags
+
 from ble_latex import configs
 from ble_latex import quiet
+from ble_latex.cli import common as cli
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
@@ -283,42 +284,36 @@ def plot(result: Dict[str, Any], path: str) -> None:
   plt.close(fig)
 
 
-def _parse(argv: Optional[Sequence[str]]) -> argparse.Namespace:
-  parser = argparse.ArgumentParser(
-      prog='ble-latex-validate',
-      description=('Reproduces the paper\'s Fig. "impact of venting and '
-                   'ballasting" and prints the max ascent-rate error.'))
-  parser.add_argument('--output_dir', default='validation_output',
-                      help='Folder for latex_validation.png.')
-  parser.add_argument('--seed', type=int, default=0,
-                      help='Seed of BLE\'s atmosphere.')
-  parser.add_argument('--max_error_percent', type=float, default=5.0,
-                      help='Exit status 1 above this ascent-rate error.')
-  parser.add_argument('--gin_files', nargs='*', default=[],
-                      help='Gin files (e.g. gin_configs/latex_physics.gin).')
-  parser.add_argument('--gin_bindings', action='append', default=[],
-                      help="Gin bindings, e.g. 'LatexBalloon.vertical_step = "
-                      "...' (repeatable).")
-  parser.add_argument('--no_reference', action='store_true',
-                      help='Skip the RK4 reference comparison.')
-  return parser.parse_args(argv)
+# The command's own flags (`cli.run_absl`).
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('output_dir', 'validation_output',
+                    f'Folder for {OUTPUT_FILENAME}.', flag_values=FLAGS)
+flags.DEFINE_integer('seed', 0, "Seed of BLE's atmosphere.", flag_values=FLAGS)
+flags.DEFINE_float('max_error_percent', 5.0,
+                   'Exit status 1 above this ascent-rate error.',
+                   flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_files', [],
+                          'Gin files (e.g. gin_configs/latex_physics.gin).',
+                          flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_bindings', [],
+                          "Gin bindings, e.g. 'create_state.sand_kg = 3.0'.",
+                          flag_values=FLAGS)
+flags.DEFINE_boolean('no_reference', False,
+                     'Skip the RK4 reference comparison.', flag_values=FLAGS)
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
-  """Console entry point; returns the exit status."""
-  args = _parse(sys.argv[1:] if argv is None else argv)
+def _check() -> None:
+  cli.check_gin_files(FLAGS.gin_files)
+
+
+def _main(argv: Sequence[str]) -> int:
+  """Flies the command sequence, writes the figure; 1 above the error bound."""
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
+  args = FLAGS
   if args.gin_files or args.gin_bindings:
-    try:
-      cli.check_gin_files(args.gin_files)
-      configs.bind_gin(None, None, args.gin_files, args.gin_bindings,
-                       env_defaults=False)
-    except cli.CommandUsageError as e:
-      cli.usage_error('ble-latex-validate', str(e))
-    except ValueError as e:
-      message = cli.gin_usage_message(e)
-      if message is None:
-        raise
-      cli.usage_error('ble-latex-validate', message)
+    configs.bind_gin(None, None, args.gin_files, args.gin_bindings,
+                     env_defaults=False)
   os.makedirs(args.output_dir, exist_ok=True)
   result = run_validation(seed=args.seed, reference=not args.no_reference)
   path = os.path.join(args.output_dir, OUTPUT_FILENAME)
@@ -345,6 +340,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
   print(f'wrote {path}')
   print(f'max ascent-rate error: {100 * result["max_rate_error"]:.2f}%')
   return 0 if 100 * result['max_rate_error'] < args.max_error_percent else 1
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """The command (`cli.run_absl`); returns the exit status."""
+  return cli.run_absl(_main, 'ble-latex-validate', FLAGS, argv, doc=__doc__,
+                      check=_check)
 
 
 if __name__ == '__main__':
