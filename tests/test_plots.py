@@ -347,22 +347,84 @@ def test_schemas_match_what_is_written():
 # --- figures ---------------------------------------------------------------
 
 
+def _visible_axes(fig):
+  return [ax for ax in fig.axes if ax.get_visible() and ax.get_label() !=
+          '<colorbar>']
+
+
 def test_training_figures(tmp_path):
   episodes = [_episode(i) for i in range(120)]
-  _assert_png(plots.plot_training_curves(episodes,
-                                         str(tmp_path / 'curves.png')))
-  _assert_png(plots.plot_terminal_conditions(episodes,
-                                             str(tmp_path / 'term.png')))
+  fig = plots.plot_training_curves(episodes, str(tmp_path / 'curves.png'),
+                                   window=10)
+  _assert_png(tmp_path / 'curves.png')
+  reward_ax, tw50_ax = fig.axes
+  assert reward_ax.get_ylabel() == 'episode reward'
+  assert tw50_ax.get_ylabel() == 'TW50 [%]'
+  assert tw50_ax.get_xlabel() == 'episode'
+  # Reward: per episode and rolling mean; TW50: flown mean, per episode, mean.
+  assert len(reward_ax.get_lines()) == 3 and len(tw50_ax.get_lines()) == 4
+  per_episode = reward_ax.get_lines()[0]
+  np.testing.assert_allclose(per_episode.get_xdata(), np.arange(120))
+  np.testing.assert_allclose(per_episode.get_ydata(),
+                             [e['reward'] for e in episodes])
+  tw50 = [line for line in tw50_ax.get_lines()
+          if line.get_label() == 'per episode'][0]
+  np.testing.assert_allclose(tw50.get_ydata(),
+                             [100 * e['tw50_window'] for e in episodes])
+  paper = [line for line in tw50_ax.get_lines()
+           if line.get_label().startswith('paper')][0]
+  assert paper.get_ydata()[0] == pytest.approx(100 * plots.PAPER_TW50)
+  no_paper = plots.plot_training_curves(
+      episodes, str(tmp_path / 'c2.png'), paper_reference=False)
+  assert len(no_paper.axes[0].get_lines()) == 2
+
+  fig = plots.plot_terminal_conditions(episodes, str(tmp_path / 'term.png'))
+  _assert_png(tmp_path / 'term.png')
+  (ax,) = fig.axes
+  assert ax.get_ylabel() == 'cumulative episodes'
+  finals = {line.get_label().rsplit(' (', 1)[0].replace(' ', '_'):
+            line.get_ydata()[-1] for line in ax.get_lines()}
+  assert finals == {r: 30 * _REASONS.count(r) for r in _REASONS}
   with pytest.raises(ValueError, match='no episodes'):
     plots.plot_training_curves([], str(tmp_path / 'empty.png'))
 
 
 def test_trajectory_figures(tmp_path):
   trained, untrained = _eval_records(drift_km=0.0), _eval_records()
-  _assert_png(plots.plot_trajectories(trained, str(tmp_path / 'traj.png'),
-                                      max_trajectories=2))
-  _assert_png(plots.plot_trajectory_3d(trained[0], untrained[0],
-                                       str(tmp_path / 'sub' / 'traj3d.png')))
+  fig = plots.plot_trajectories(trained, str(tmp_path / 'traj.png'),
+                                max_trajectories=2)
+  _assert_png(tmp_path / 'traj.png')
+  panels = _visible_axes(fig)
+  assert len(panels) == 2  # --max_trajectories of 3 seeds.
+  for ax, record in zip(panels, trained):
+    assert ax.get_title().startswith(f'seed {record["seed"]}:')
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ('x [km]', 'y [km]')
+    (circle,) = ax.patches
+    assert circle.get_radius() == plots.STATION_RADIUS_KM
+    (path,) = ax.collections  # The flight, coloured by time.
+    assert len(path.get_segments()) == len(record['flight_path']) - 1
+    start = [line for line in ax.get_lines() if line.get_label() == 'start']
+    assert tuple(start[0].get_xydata()[0]) == pytest.approx(
+        (record['flight_path'][0]['x_km'], record['flight_path'][0]['y_km']))
+    low, high = ax.get_xlim()
+    assert low <= -plots.STATION_RADIUS_KM and high >= plots.STATION_RADIUS_KM
+
+  fig = plots.plot_trajectory_3d(trained[0], untrained[0],
+                                 str(tmp_path / 'sub' / 'traj3d.png'),
+                                 labels=('sac', 'random'))
+  _assert_png(tmp_path / 'sub' / 'traj3d.png')
+  (ax,) = fig.axes
+  assert ax.get_zlabel() == 'altitude [km]'
+  flights = {line.get_label().split(':')[0]: line for line in ax.get_lines()
+             if line.get_label().startswith(('sac:', 'random:'))}
+  assert set(flights) == {'sac', 'random'}
+  x, _, z = flights['random'].get_data_3d()
+  np.testing.assert_allclose(
+      z, [p['altitude_m'] / 1000 for p in untrained[0]['flight_path']])
+  np.testing.assert_allclose(
+      x, [p['x_km'] for p in untrained[0]['flight_path']])
+  low, high = ax.get_zlim()
+  assert low <= plots.ALTITUDE_BAND_KM[0] and high >= plots.ALTITUDE_BAND_KM[1]
   no_path = dict(trained[0], flight_path=[])
   with pytest.raises(ValueError, match='seed 3: no flight_path'):
     plots.plot_trajectories([no_path], str(tmp_path / 'none.png'))
@@ -378,7 +440,18 @@ def test_wind_figure_from_synthetic_field(tmp_path):
       pressures_pa=np.array([14000.0, 7000.0]),
       altitudes_km=np.array([14.1, 18.5]), u_mps=u, v_mps=v,
       balloon_xy_km=(-80.0, 20.0))
-  _assert_png(plots.plot_wind_fields([row, row], str(tmp_path / 'wind.png')))
+  fig = plots.plot_wind_fields([row, row], str(tmp_path / 'wind.png'))
+  _assert_png(tmp_path / 'wind.png')
+  panels = _visible_axes(fig)
+  assert len(panels) == 4  # 2 rows x 2 pressure levels.
+  assert panels[0].get_title().startswith('14000 Pa')
+  assert panels[1].get_title().startswith('7000 Pa')
+  for ax, level in zip(panels, (0, 1, 0, 1)):
+    (arrows,) = [c for c in ax.collections if hasattr(c, 'U')]
+    np.testing.assert_allclose(arrows.U, u[level].ravel())
+    np.testing.assert_allclose(arrows.V, v[level].ravel())
+    balloon = [line for line in ax.get_lines() if line.get_marker() == '*']
+    assert tuple(balloon[0].get_xydata()[0]) == (-80.0, 20.0)
   with pytest.raises(ValueError, match='u_mps has shape'):
     plots.WindPanelRow(title='bad', x_km=axis, y_km=axis,
                        pressures_pa=np.array([1.0]),

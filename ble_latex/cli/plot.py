@@ -314,30 +314,31 @@ def run(f: flags.FlagValues) -> List[str]:
 
   # 4. Draw.
   os.makedirs(out, exist_ok=True)
+
+  def draw(figure: Any, name: str, *args: Any, **kwargs: Any) -> None:
+    path = os.path.join(out, name)
+    figure(*args, path, **kwargs)
+    written.append(path)
+
   if episodes is not None:
-    written.append(plots.plot_training_curves(
-        episodes, os.path.join(out, TRAINING_CURVES),
-        window=f.rolling_window, paper_reference=f.paper_reference))
-    written.append(plots.plot_terminal_conditions(
-        episodes, os.path.join(out, TERMINAL_CONDITIONS)))
+    draw(plots.plot_training_curves, TRAINING_CURVES, episodes,
+         window=f.rolling_window, paper_reference=f.paper_reference)
+    draw(plots.plot_terminal_conditions, TERMINAL_CONDITIONS, episodes)
   if seed_runs:
-    written.append(plots.plot_seed_curves(
-        {os.path.basename(os.path.normpath(d)): e
-         for d, e in seed_runs.items()},
-        os.path.join(out, SEED_CURVES), window=f.rolling_window))
+    draw(plots.plot_seed_curves, SEED_CURVES,
+         {os.path.basename(os.path.normpath(d)): e
+          for d, e in seed_runs.items()}, window=f.rolling_window)
   if first is not None:
-    written.append(plots.plot_trajectories(
-        first, os.path.join(out, TRAJECTORIES),
-        max_trajectories=f.max_trajectories))
+    draw(plots.plot_trajectories, TRAJECTORIES, first,
+         max_trajectories=f.max_trajectories)
   if seed_3d is not None:
     by_seed = lambda records: next(r for r in records if r['seed'] == seed_3d)
     names = (os.path.splitext(os.path.basename(f.eval_json[0]))[0],
              os.path.splitext(os.path.basename(f.baseline_eval_json))[0])
-    written.append(plots.plot_trajectory_3d(
-        by_seed(first), by_seed(baseline), os.path.join(out, TRAJECTORY_3D),
-        labels=names))
+    draw(plots.plot_trajectory_3d, TRAJECTORY_3D, by_seed(first),
+         by_seed(baseline), labels=names)
   if rows is not None:
-    written.append(plots.plot_wind_fields(rows, os.path.join(out, WIND_FIELD)))
+    draw(plots.plot_wind_fields, WIND_FIELD, rows)
   if baseline is not None:
     evals[f.baseline_eval_json] = baseline
   if evals:

@@ -150,12 +150,13 @@ def _flight_arrays(record: Mapping[str, Any]) -> Dict[str, np.ndarray]:
   }
 
 
-def _save(fig: mpl_figure.Figure, path: str) -> str:
+def _save(fig: mpl_figure.Figure, path: str) -> mpl_figure.Figure:
+  """Writes `fig` to `path` (PNG); returns it, for callers that inspect it."""
   folder = os.path.dirname(os.path.abspath(path))
   os.makedirs(folder, exist_ok=True)
   backend_agg.FigureCanvasAgg(fig)
   fig.savefig(path, dpi=_DPI)
-  return path
+  return fig
 
 
 # ---------------------------------------------------------------------------
@@ -165,7 +166,8 @@ def _save(fig: mpl_figure.Figure, path: str) -> str:
 
 def plot_training_curves(episodes: Sequence[Mapping[str, Any]], path: str, *,
                          window: int = ROLLING_WINDOW,
-                         paper_reference: bool = True) -> str:
+                         paper_reference: bool = True
+                         ) -> mpl_figure.Figure:
   """Paper Fig. 2: episode reward and TW50 per episode with a rolling mean.
 
   The TW50 panel shows `tw50_window` (per episode and rolling mean) and the
@@ -179,7 +181,7 @@ def plot_training_curves(episodes: Sequence[Mapping[str, Any]], path: str, *,
       rolling mean after 2500 episodes) as dashed lines.
 
   Returns:
-    `path`.
+    The figure, written to `path`.
   """
   if not episodes:
     raise ValueError('no episodes to plot')
@@ -231,7 +233,8 @@ def seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]], key: str,
 
 
 def plot_seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]],
-                     path: str, *, window: int = ROLLING_WINDOW) -> str:
+                     path: str, *, window: int = ROLLING_WINDOW
+                     ) -> mpl_figure.Figure:
   """Training curves of several seeds in one figure: mean and band.
 
   Top: the `window`-episode rolling mean of `tw50_window` of each run (thin),
@@ -244,7 +247,7 @@ def plot_seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]],
     window: Rolling-mean window [episodes].
 
   Returns:
-    `path`.
+    The figure, written to `path`.
   """
   n = seed_curves(runs, 'reward', window).shape[1]
   fig = mpl_figure.Figure(figsize=(9, 6.5), layout='constrained')
@@ -270,7 +273,7 @@ def plot_seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]],
 
 
 def plot_terminal_conditions(episodes: Sequence[Mapping[str, Any]],
-                             path: str) -> str:
+                             path: str) -> mpl_figure.Figure:
   """Paper Fig. 5: cumulative count of each terminal reason vs episode.
 
   Args:
@@ -278,7 +281,7 @@ def plot_terminal_conditions(episodes: Sequence[Mapping[str, Any]],
     path: Output PNG.
 
   Returns:
-    `path`.
+    The figure, written to `path`.
   """
   if not episodes:
     raise ValueError('no episodes to plot')
@@ -304,7 +307,8 @@ def _station_circle(radius_km: float, **kwargs: Any) -> mpl_patches.Circle:
 
 def plot_trajectories(records: Sequence[Mapping[str, Any]], path: str, *,
                       max_trajectories: int = 6,
-                      radius_km: float = STATION_RADIUS_KM) -> str:
+                      radius_km: float = STATION_RADIUS_KM
+                      ) -> mpl_figure.Figure:
   """Paper Fig. 4: bird's-eye flight paths with the station-keeping circle.
 
   One panel per episode (the first `max_trajectories` records), the path
@@ -318,7 +322,7 @@ def plot_trajectories(records: Sequence[Mapping[str, Any]], path: str, *,
     radius_km: Station-keeping radius. # [km]
 
   Returns:
-    `path`.
+    The figure, written to `path`.
   """
   if max_trajectories < 1:
     raise ValueError(f'max_trajectories must be >= 1, got {max_trajectories}')
@@ -368,7 +372,7 @@ def plot_trajectory_3d(trained: Mapping[str, Any], untrained: Mapping[str, Any],
                            'trained', 'untrained'),
                        radius_km: float = STATION_RADIUS_KM,
                        altitude_band_km: Tuple[float, float] = ALTITUDE_BAND_KM
-                       ) -> str:
+                       ) -> mpl_figure.Figure:
   """Paper Fig. 6: 3D flight of a trained and an untrained agent, same seed.
 
   Draws the station-keeping cylinder (radius `radius_km`, altitudes
@@ -383,7 +387,7 @@ def plot_trajectory_3d(trained: Mapping[str, Any], untrained: Mapping[str, Any],
     altitude_band_km: Cylinder bottom and top. # [km]
 
   Returns:
-    `path`.
+    The figure, written to `path`.
   """
   flights = [_flight_arrays(trained), _flight_arrays(untrained)]
   fig = mpl_figure.Figure(figsize=(8.5, 7), layout='constrained')
@@ -459,7 +463,8 @@ def wind_direction_deg(u_mps: np.ndarray, v_mps: np.ndarray) -> np.ndarray:
 
 
 def plot_wind_fields(rows: Sequence[WindPanelRow], path: str, *,
-                     radius_km: float = STATION_RADIUS_KM) -> str:
+                     radius_km: float = STATION_RADIUS_KM
+                     ) -> mpl_figure.Figure:
   """Paper Fig. 3: forecast wind arrows coloured by direction.
 
   One row per date/seed (e.g. favourable vs unfavourable), one column per
@@ -473,7 +478,7 @@ def plot_wind_fields(rows: Sequence[WindPanelRow], path: str, *,
     radius_km: Station-keeping radius. # [km]
 
   Returns:
-    `path`.
+    The figure, written to `path`.
   """
   if not rows:
     raise ValueError('no wind fields to plot')
