@@ -29,7 +29,6 @@ from ble_latex import quiet
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.agents import agent as base_agent
-  from balloon_learning_environment.eval import suites as ble_suites
   import gymnasium
   import numpy as np
   import stable_baselines3
@@ -101,7 +100,7 @@ def parse_args(argv: Optional[Sequence[str]]) -> argparse.Namespace:
   parser.add_argument('--model_out', default=None,
                       help='Also save the SB3 model here (a .zip).')
   args = parser.parse_args(argv)
-  available = sorted(ble_suites.available_suites())
+  available = sorted(suites.available_suites())
   if args.suite not in available:
     parser.error(f'unknown suite {args.suite!r}; valid: {", ".join(available)}')
   for name in ('total_timesteps', 'max_episode_length', 'batch_size',
@@ -128,7 +127,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
   if args.model_out:
     model.save(args.model_out)
 
-  suite = ble_suites.get_eval_suite(args.suite)
+  suite = suites.get_eval_suite(args.suite)
   seeds = list(suite.seeds)[:args.num_eval_seeds]
   max_steps = min(args.max_episode_length, suite.max_episode_length)
   results = eval_lib.evaluate(

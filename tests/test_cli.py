@@ -152,7 +152,7 @@ def test_train_and_export_policy_help_and_usage_errors():
 ])
 def test_in_process_commands_share_the_convention(module, flag, capsys):
   # Every command's own flags: these import side by side in one process,
-  # though their flags share names (--output_dir, --gin_files, --seed).
+  # though their flags share names (--output_dir, --gin_file, --seed).
   command = __import__(f'ble_latex.cli.{module}', fromlist=['main'])
   prog = 'ble-latex-' + module.replace('_', '-')
   assert command.main(['--help']) == 0
@@ -173,7 +173,7 @@ def test_ble_commands_help(capsys):
 def test_gin_usage_errors_of_validate_and_plot(capsys, tmp_path):
   from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import validate  # pylint: disable=g-import-not-at-top
-  assert validate.main(['--gin_files', 'nope.gin']) == 2
+  assert validate.main(['--gin_file', 'nope.gin']) == 2
   err = capsys.readouterr().err
   assert err.count('\n') == 1 and 'latex_physics.gin' in err
   assert plot.main([f'--output_dir={tmp_path}', '--wind_seed=1',

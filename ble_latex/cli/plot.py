@@ -24,7 +24,7 @@ Writes into --output_dir, each only when its inputs are given:
   wind_field.png           --wind_seed or --wind_seeds: forecast wind arrows
                            coloured by direction at --wind_pressures_pa, one
                            row per seed (Fig. 3). The env is built after
-                           latex_env.gin, --gin_files and --gin_bindings, so a
+                           latex_env.gin, --gin_file and --gin_bindings, so a
                            binding can select e.g. the ERA5 wind field.
   summary.json             for every eval file: mean/std of TW50, reward,
                            helium vented, sand dropped, % out of resources
@@ -111,9 +111,9 @@ flags.DEFINE_integer('wind_grid', 21, 'Arrows per grid side.', lower_bound=2,
                      flag_values=FLAGS)
 flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Env whose wind is drawn.',
                     flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_files', [], 'Extra gin files (after '
+flags.DEFINE_multi_string('gin_file', [], 'Extra gin files (after '
                           'latex_env.gin).', flag_values=FLAGS)
-flags.DEFINE_alias('gin_file', 'gin_files', flag_values=FLAGS)
+flags.DEFINE_alias('gin_files', 'gin_file', flag_values=FLAGS)  # ble_latex 0.1.
 flags.DEFINE_multi_string('gin_bindings', [],
                           'Gin bindings, e.g. "LatexBalloonEnv.'
                           'wind_field_factory = @Era5WindField".',
@@ -304,12 +304,12 @@ def run(f: flags.FlagValues) -> List[str]:
   rows = None
   if wind_seeds:
     with quiet.third_party_noise():
-      configs.bind_gin(None, None, f.gin_files, f.gin_bindings)
+      configs.bind_gin(None, None, f.gin_file, f.gin_bindings)
     rows = wind_rows(wind_seeds, pressures, env_name=f.env_name,
                      hours=f.wind_hours, extent_km=f.wind_extent_km,
                      num_points=f.wind_grid)
-  elif f.gin_files or f.gin_bindings:
-    print('ble-latex-plot: --gin_files/--gin_bindings only affect '
+  elif f.gin_file or f.gin_bindings:
+    print('ble-latex-plot: --gin_file/--gin_bindings only affect '
           f'{WIND_FIELD} (give --wind_seed); ignored.', file=sys.stderr)
 
   # 4. Draw.
@@ -358,7 +358,7 @@ def _check() -> None:
     raise cli.CommandUsageError(
         'nothing to plot; give --run_dir, --seed_run_dirs, --eval_json, '
         '--baseline_eval_json or --wind_seed(s). Try --help.')
-  cli.check_gin_files(FLAGS.gin_files)
+  cli.check_gin_files(FLAGS.gin_file)
 
 
 def _main(argv: Sequence[str]) -> int:

@@ -292,9 +292,10 @@ flags.DEFINE_integer('seed', 0, "Seed of BLE's atmosphere.", flag_values=FLAGS)
 flags.DEFINE_float('max_error_percent', 5.0,
                    'Exit status 1 above this ascent-rate error.',
                    flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_files', [],
+flags.DEFINE_multi_string('gin_file', [],
                           'Gin files (e.g. gin_configs/latex_physics.gin).',
                           flag_values=FLAGS)
+flags.DEFINE_alias('gin_files', 'gin_file', flag_values=FLAGS)  # ble_latex 0.1.
 flags.DEFINE_multi_string('gin_bindings', [],
                           "Gin bindings, e.g. 'create_state.sand_kg = 3.0'.",
                           flag_values=FLAGS)
@@ -303,7 +304,7 @@ flags.DEFINE_boolean('no_reference', False,
 
 
 def _check() -> None:
-  cli.check_gin_files(FLAGS.gin_files)
+  cli.check_gin_files(FLAGS.gin_file)
 
 
 def _main(argv: Sequence[str]) -> int:
@@ -311,8 +312,8 @@ def _main(argv: Sequence[str]) -> int:
   if len(argv) > 1:
     raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   args = FLAGS
-  if args.gin_files or args.gin_bindings:
-    configs.bind_gin(None, None, args.gin_files, args.gin_bindings,
+  if args.gin_file or args.gin_bindings:
+    configs.bind_gin(None, None, args.gin_file, args.gin_bindings,
                      env_defaults=False)
   os.makedirs(args.output_dir, exist_ok=True)
   result = run_validation(seed=args.seed, reference=not args.no_reference)
