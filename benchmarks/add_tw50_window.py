@@ -11,13 +11,20 @@ writes today for the same flight. Records that already have the field are
 checked against the derivation instead. Files are rewritten atomically.
 """
 
-import argparse
 import json
 import sys
-from typing import Any, Dict
+from typing import Any, Dict, Optional, Sequence
 
-from ble_latex.run import metrics
+from absl import flags
+
 from ble_latex import safe_io
+from ble_latex.cli import common as cli
+from ble_latex.run import metrics
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_integer('window_steps', 216,
+                     'Episode length in steps (216 = 3 days).', lower_bound=1,
+                     flag_values=FLAGS)
 
 
 def upgrade(record: Dict[str, Any], window_steps: int) -> Dict[str, Any]:
@@ -43,14 +50,13 @@ def upgrade(record: Dict[str, Any], window_steps: int) -> Dict[str, Any]:
   return out
 
 
-def main() -> int:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  parser.add_argument('files', nargs='+',
-                      help='episodes.jsonl or ble-latex-eval .json files')
-  parser.add_argument('--window_steps', type=int, default=216,
-                      help='episode length in steps (216 = 3 days)')
-  args = parser.parse_args()
-  for path in args.files:
+def _main(argv: Sequence[str]) -> int:
+  files = argv[1:]
+  if not files:
+    raise cli.CommandUsageError('give episodes.jsonl or ble-latex-eval .json '
+                                'files to upgrade')
+  args = FLAGS
+  for path in files:
     with open(path) as f:
       text = f.read()
     if path.endswith('.jsonl'):
@@ -67,6 +73,11 @@ def main() -> int:
           f'{100 * s["tw50_window_mean"]:.1f} %, flown '
           f'{100 * s["tw50_mean"]:.1f} %')
   return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/add_tw50_window.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':

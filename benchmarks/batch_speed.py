@@ -18,10 +18,9 @@ In one run, each measurement in its own fresh subprocess (own peak RSS):
   single-env speed-up is measured side by side too.
 Throughput is compared in simulated balloon-hours per wall second.
 
-  python benchmarks/batch_speed.py --json benchmarks/batch_speed.json
+  python benchmarks/batch_speed.py --json=benchmarks/batch_speed.json
 """
 
-import argparse
 import json
 import os
 import platform
@@ -30,6 +29,12 @@ import subprocess
 import sys
 import tempfile
 import time
+from typing import Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 STRIDE_H = 20.0 / 60.0  # [h] simulated per latex step
@@ -175,25 +180,33 @@ def _before_env_speed(ref: str, steps: int) -> dict:
                       tree], check=False, capture_output=True)
 
 
-def main() -> None:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  parser.add_argument('--batch_sizes', default='1,16,256,1024,4096')
-  parser.add_argument('--steps', type=int, default=216,
-                      help='strides per rollout (216 = one 3-day episode)')
-  parser.add_argument('--repeats', type=int, default=2)
-  parser.add_argument('--gym_episodes', type=float, default=1.0,
-                      help='LatexBalloon-v0 episodes; BLE flies the same '
-                           'simulated time in 3-minute steps')
-  parser.add_argument('--before_ref', default='dcfa0e1',
-                      help='git commit of LatexBalloon-v0 before the flight '
-                           'core (NumPy model), timed side by side; empty: '
-                           'skip')
-  parser.add_argument('--json', help='also write the results here')
-  parser.add_argument('--profile_batch', type=int, default=1024,
-                      help='batch size of the per-part profile (0: none)')
-  parser.add_argument('--worker', type=int, help=argparse.SUPPRESS)
-  parser.add_argument('--profile_worker', type=int, help=argparse.SUPPRESS)
-  args = parser.parse_args()
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('batch_sizes', '1,16,256,1024,4096',
+                    'Numbers of balloons, comma-separated.', flag_values=FLAGS)
+flags.DEFINE_integer('steps', 216, 'Strides per rollout (216 = one 3-day '
+                     'episode).', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('repeats', 2, 'Timed rollouts per size.', lower_bound=1,
+                     flag_values=FLAGS)
+flags.DEFINE_float('gym_episodes', 1.0, 'LatexBalloon-v0 episodes; BLE flies '
+                   'the same simulated time in 3-minute steps.',
+                   flag_values=FLAGS)
+flags.DEFINE_string('before_ref', 'dcfa0e1', 'Git commit of LatexBalloon-v0 '
+                    'before the flight core (NumPy model), timed side by '
+                    'side; empty: skip.', flag_values=FLAGS)
+flags.DEFINE_string('json', None, 'Also write the results here.',
+                    flag_values=FLAGS)
+flags.DEFINE_integer('profile_batch', 1024, 'Batch size of the per-part '
+                     'profile (0: none).', lower_bound=0, flag_values=FLAGS)
+flags.DEFINE_integer('worker', None, 'Internal: time this batch size here.',
+                     flag_values=FLAGS)
+flags.DEFINE_integer('profile_worker', None, 'Internal: profile this batch '
+                     'size here.', flag_values=FLAGS)
+
+
+def _main(argv: Sequence[str]) -> None:
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
+  args = FLAGS
   if args.worker is not None:
     print(json.dumps(jax_worker(args.worker, args.steps, args.repeats)))
     return
@@ -251,9 +264,13 @@ def main() -> None:
       'command': ' '.join(sys.argv)}
   print(f'load average before/after: {load_before} / {os.getloadavg()}')
   if args.json:
-    with open(args.json, 'w') as f:
-      json.dump(results, f, indent=1)
+    safe_io.atomic_write(args.json, json.dumps(results, indent=1))
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/batch_speed.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':
-  main()
+  sys.exit(main())

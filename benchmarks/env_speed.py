@@ -11,7 +11,6 @@ time) shows where latex step time goes.
   python benchmarks/env_speed.py --episodes 3 --repeats 2 --profile
 """
 
-import argparse
 import cProfile
 import io
 import json
@@ -20,6 +19,12 @@ import resource
 import subprocess
 import sys
 import time
+from typing import Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
 
 ENVS = {
     'latex': ('LatexBalloon-v0', 20.0),  # (env id, minutes per step)
@@ -77,17 +82,27 @@ def worker(name: str, steps: int, profile: bool) -> dict:
   return result
 
 
-def main() -> None:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  parser.add_argument('--episodes', type=float, default=3,
-                      help='latex episodes (x216 steps) per measurement; BLE '
-                           'runs the same simulated time (x1440 steps)')
-  parser.add_argument('--repeats', type=int, default=2)
-  parser.add_argument('--profile', action='store_true')
-  parser.add_argument('--json', help='also write the results here')
-  parser.add_argument('--worker', help=argparse.SUPPRESS)
-  parser.add_argument('--steps', type=int, help=argparse.SUPPRESS)
-  args = parser.parse_args()
+FLAGS = flags.FlagValues()
+flags.DEFINE_float('episodes', 3, 'Latex episodes (x216 steps) per '
+                   'measurement; BLE runs the same simulated time (x1440 '
+                   'steps).', flag_values=FLAGS)
+flags.DEFINE_integer('repeats', 2, 'Measurements of each env.', lower_bound=1,
+                     flag_values=FLAGS)
+flags.DEFINE_boolean('profile', False, 'Profile the first latex repeat.',
+                     flag_values=FLAGS)
+flags.DEFINE_string('json', None, 'Also write the results here.',
+                    flag_values=FLAGS)
+flags.DEFINE_enum('worker', None, list(ENVS),
+                  'Internal: measure this env in this process.',
+                  flag_values=FLAGS)
+flags.DEFINE_integer('steps', None, 'Internal: steps of a --worker.',
+                     flag_values=FLAGS)
+
+
+def _main(argv: Sequence[str]) -> None:
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
+  args = FLAGS
   if args.worker:
     print(json.dumps(worker(args.worker, args.steps, args.profile)))
     return
@@ -126,9 +141,14 @@ def main() -> None:
     for name in ENVS:
       for run in runs[name]:
         run.pop('profile', None)
-    with open(args.json, 'w') as f:
-      json.dump({'runs': runs, 'ratio_sim_time': ratio}, f, indent=1)
+    safe_io.atomic_write(args.json, json.dumps(
+        {'runs': runs, 'ratio_sim_time': ratio}, indent=1))
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/env_speed.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':
-  main()
+  sys.exit(main())

@@ -9,10 +9,9 @@ before and after each command.
 
   python benchmarks/ray_eval.py --agent=station_seeker \\
       --env_name=LatexBalloonDiscrete-v0 --suite=latex_small --num_cpus=2 \\
-      --json benchmarks/ray_eval.json
+      --json=benchmarks/ray_eval.json
 """
 
-import argparse
 import json
 import os
 import platform
@@ -20,6 +19,24 @@ import subprocess
 import sys
 import tempfile
 import time
+from typing import Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('agent', 'station_seeker', 'Agent evaluated.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('env_name', 'LatexBalloonDiscrete-v0', 'Env evaluated.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('suite', 'latex_small', 'Suite evaluated.',
+                    flag_values=FLAGS)
+flags.DEFINE_integer('num_cpus', 2, 'CPUs of the local Ray.', lower_bound=1,
+                     flag_values=FLAGS)
+flags.DEFINE_string('json', None, 'Write the results here.',
+                    flag_values=FLAGS)
 
 
 def run(command, label):
@@ -34,15 +51,10 @@ def run(command, label):
   return result
 
 
-def main():
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  parser.add_argument('--agent', default='station_seeker')
-  parser.add_argument('--env_name', default='LatexBalloonDiscrete-v0')
-  parser.add_argument('--suite', default='latex_small')
-  parser.add_argument('--num_cpus', type=int, default=2,
-                      help='CPUs of the local Ray.')
-  parser.add_argument('--json', help='Write the results here.')
-  args = parser.parse_args()
+def _main(argv: Sequence[str]) -> None:
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
+  args = FLAGS
   with tempfile.TemporaryDirectory() as tmp:
     base = [sys.executable, '-m', 'ble_latex.cli.eval', f'--agent={args.agent}',
             f'--env_name={args.env_name}', f'--suite={args.suite}',
@@ -68,10 +80,13 @@ def main():
   }
   print(json.dumps({k: result[k] for k in ('speedup', 'identical_json')}))
   if args.json:
-    with open(args.json, 'w', encoding='utf-8') as f:
-      json.dump(result, f, indent=1)
-      f.write('\n')
+    safe_io.atomic_write(args.json, json.dumps(result, indent=1) + '\n')
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/ray_eval.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':
-  main()
+  sys.exit(main())

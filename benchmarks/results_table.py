@@ -8,12 +8,20 @@ helium vented, sand dropped, % of episodes out of resources, episodes.
 `make results` runs the evals and this script (see README "Results").
 """
 
-import argparse
 import json
 import os
 import sys
+from typing import Optional, Sequence
 
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
 from ble_latex.run import metrics
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('json', None, 'Also write the rows here.',
+                    flag_values=FLAGS)
 
 
 def row(path: str) -> dict:
@@ -53,21 +61,24 @@ def markdown(rows) -> str:
   return '\n'.join(lines)
 
 
-def main() -> int:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  parser.add_argument('eval_json', nargs='+')
-  parser.add_argument('--json', help='also write the rows here')
-  args = parser.parse_args()
-  rows = [row(p) for p in args.eval_json]
+def _main(argv: Sequence[str]) -> int:
+  if len(argv) < 2:
+    raise cli.CommandUsageError('give ble-latex-eval JSON files')
+  args = FLAGS
+  rows = [row(p) for p in argv[1:]]
   seeds = {r['seeds'] for r in rows}
   if len(seeds) > 1:
     print(f'warning: the files cover different seeds: {sorted(seeds)}',
           file=sys.stderr)
   print(markdown(rows))
   if args.json:
-    with open(args.json, 'w') as f:
-      json.dump(rows, f, indent=1)
+    safe_io.atomic_write(args.json, json.dumps(rows, indent=1))
   return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/results_table.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':

@@ -21,14 +21,43 @@ Two steps, both resumable (re-run the same command after a kill):
       --seeds=0,1,2,3,4 [--ship=ble_latex/agents/policies/sac_latex.msgpack]
 """
 
-import argparse
 import json
 import os
 import shutil
 import statistics
 import subprocess
 import sys
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('base_dir', None, 'Folder of the seeds\' runs.',
+                    flag_values=FLAGS)
+flags.mark_flag_as_required('base_dir', flag_values=FLAGS)
+flags.DEFINE_list('seeds', ['0', '1', '2', '3', '4'], 'Training seeds.',
+                  flag_values=FLAGS)
+flags.DEFINE_integer('num_iterations', 135, 'train: rounds per seed (16 '
+                     'episodes each).', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('snapshot_period', 5, 'train: rounds between policy '
+                     'snapshots.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('checkpoint_period', 10, 'train: rounds between '
+                     'checkpoints.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_bindings', [], 'train: gin bindings.',
+                          flag_values=FLAGS)
+flags.DEFINE_float('max_oor_pct', 5.0, 'report: most % of validation '
+                   'episodes out of resources of a chosen snapshot.',
+                   flag_values=FLAGS)
+flags.DEFINE_float('max_minutes', None, 'report: choose only among snapshots '
+                   'taken within this much training time (e.g. 45).',
+                   flag_values=FLAGS)
+flags.DEFINE_string('results_dir', 'benchmarks/results', 'report: where the '
+                    'held-out eval files go.', flag_values=FLAGS)
+flags.DEFINE_string('ship', None, 'report: also write the best-validated '
+                    'seed\'s policy here.', flag_values=FLAGS)
 
 HELD_OUT_SUITE = 'latex_small'
 
@@ -175,47 +204,32 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
                  f'`{ship}`.')
   text = '\n'.join(lines) + '\n'
   print(text)
-  with open(os.path.join(base_dir, 'report.md'), 'w', encoding='utf-8') as f:
-    f.write(text)
-  with open(os.path.join(base_dir, 'report.json'), 'w',
-            encoding='utf-8') as f:
-    json.dump(summary, f, indent=1)
+  safe_io.atomic_write(os.path.join(base_dir, 'report.md'), text)
+  safe_io.atomic_write(os.path.join(base_dir, 'report.json'),
+                       json.dumps(summary, indent=1))
   return 0
 
 
-def main() -> int:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  sub = parser.add_subparsers(dest='command', required=True)
-  for name in ('train', 'report'):
-    p = sub.add_parser(name)
-    p.add_argument('--base_dir', required=True)
-    p.add_argument('--seeds', default='0,1,2,3,4',
-                   help='comma-separated training seeds')
-    if name == 'train':
-      p.add_argument('--num_iterations', type=int, default=135,
-                     help='rounds per seed (16 episodes each)')
-      p.add_argument('--snapshot_period', type=int, default=5)
-      p.add_argument('--checkpoint_period', type=int, default=10)
-      p.add_argument('--gin_bindings', action='append', default=[])
-    else:
-      p.add_argument('--max_oor_pct', type=float, default=5.0)
-      p.add_argument('--max_minutes', type=float,
-                     help='choose only among snapshots taken within this '
-                     'much training time (e.g. 45)')
-      p.add_argument('--results_dir', default='benchmarks/results')
-      p.add_argument('--ship', help='also write the best-validated seed\'s '
-                     'policy here')
-  args = parser.parse_args()
+def _main(argv: Sequence[str]) -> int:
+  if len(argv) != 2 or argv[1] not in ('train', 'report'):
+    raise cli.CommandUsageError('give one command: train or report')
+  args = FLAGS
   try:
-    seeds = [int(s) for s in args.seeds.split(',')]
-  except ValueError:
-    parser.error(f'--seeds takes integers, got {args.seeds!r}')
-  if args.command == 'train':
+    seeds = [int(s) for s in args.seeds]
+  except ValueError as e:
+    raise cli.CommandUsageError(
+        f'--seeds takes integers, got {",".join(args.seeds)!r}') from e
+  if argv[1] == 'train':
     train(args.base_dir, seeds, args.num_iterations, args.snapshot_period,
           args.checkpoint_period, args.gin_bindings)
     return 0
   return report(args.base_dir, seeds, args.max_oor_pct, args.max_minutes,
                 args.results_dir, args.ship)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/sac_seeds.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':

@@ -27,32 +27,43 @@ Part 3 (`per_env_step`): what one environment step of training costs.
   (min_replay_history above the round) and one with, so per balloon-step
   and per update costs are separated.
 
-  python benchmarks/sac_step.py --steps 200 --rounds 3 --json benchmarks/sac_step.json
+  python benchmarks/sac_step.py --steps=200 --rounds=3 --json=benchmarks/sac_step.json
 """
 
-import argparse
 import functools
 import json
 import os
 import statistics
 import sys
 import time
+from typing import Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_integer('steps', 200, 'Training steps timed per round and '
+                     'config.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('rounds', 3, 'Rounds timed.', lower_bound=1,
+                     flag_values=FLAGS)
+flags.DEFINE_integer('transitions', 20_000, 'Transitions in the replay '
+                     'buffer.', lower_bound=2000, flag_values=FLAGS)
+flags.DEFINE_integer('env_steps', 216, 'Gym env steps of the agent timed per '
+                     'round.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('num_envs', 16, 'Balloons of the jitted trainer.',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('updates_per_step', 8, 'Updates per step of the jitted '
+                     'trainer.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_string('json', None, 'Also write the numbers here.',
+                    flag_values=FLAGS)
 
 
-def main() -> int:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  parser.add_argument('--steps', type=int, default=200,
-                      help='training steps timed per round and config')
-  parser.add_argument('--rounds', type=int, default=3)
-  parser.add_argument('--transitions', type=int, default=20_000)
-  parser.add_argument('--env_steps', type=int, default=216,
-                      help='gym env steps of the agent timed per round')
-  parser.add_argument('--num_envs', type=int, default=16)
-  parser.add_argument('--updates_per_step', type=int, default=8)
-  parser.add_argument('--json', help='also write the numbers here')
-  args = parser.parse_args()
-  if min(args.steps, args.rounds) < 1 or args.transitions < 2000:
-    parser.error('need --steps, --rounds >= 1 and --transitions >= 2000')
+def _main(argv: Sequence[str]) -> int:
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
+  args = FLAGS
 
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
   from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
@@ -120,9 +131,13 @@ def main() -> int:
   print(json.dumps({k: result[k] for k in ('update', 'per_env_step',
                                            'load_average')}, indent=1))
   if args.json:
-    with open(args.json, 'w') as f:
-      json.dump(result, f, indent=2)
+    safe_io.atomic_write(args.json, json.dumps(result, indent=2))
   return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/sac_step.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 def _time_updates(agent, steps: int, rounds: int) -> dict:

@@ -16,7 +16,6 @@ each run: on a shared machine it explains most of the spread.
   python benchmarks/start_time.py --repeats 5 --json benchmarks/start_time.json
 """
 
-import argparse
 import json
 import os
 import platform
@@ -24,6 +23,12 @@ import subprocess
 import sys
 import tempfile
 import time
+from typing import Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
 
 ID = 'ble_latex/LatexBalloon-v0'
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -65,12 +70,19 @@ def run_once(cache_dir: str, num_envs: int = 0) -> dict:
   return out
 
 
-def main(argv=None) -> int:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  parser.add_argument('--repeats', type=int, default=5)
-  parser.add_argument('--num_envs', type=int, default=16)
-  parser.add_argument('--json', default='')
-  args = parser.parse_args(argv)
+FLAGS = flags.FlagValues()
+flags.DEFINE_integer('repeats', 5, 'Warm starts to time.', lower_bound=1,
+                     flag_values=FLAGS)
+flags.DEFINE_integer('num_envs', 16, 'Balloons of the vector env timed.',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_string('json', '', 'Also write the report here.',
+                    flag_values=FLAGS)
+
+
+def _main(argv: Sequence[str]) -> int:
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
+  args = FLAGS
   with tempfile.TemporaryDirectory(prefix='ble_latex_jax_cache_') as cache:
     runs = {'cold': [run_once(cache)], 'warm': [], 'vector_warm': []}
     print('cold', runs['cold'][0], flush=True)
@@ -100,10 +112,13 @@ def main(argv=None) -> int:
   }
   print(json.dumps(report['summary'], indent=1))
   if args.json:
-    with open(args.json, 'w') as f:
-      json.dump(report, f, indent=1)
-      f.write('\n')
+    safe_io.atomic_write(args.json, json.dumps(report, indent=1) + '\n')
   return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/start_time.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':

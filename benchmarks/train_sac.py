@@ -21,12 +21,38 @@ Two steps, both resumable (re-run the same command after a kill):
 files); its results accumulate in RUN/validation.json.
 """
 
-import argparse
 import json
 import math
 import os
 import sys
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Sequence
+
+from absl import flags
+
+from ble_latex.cli import common as cli
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('base_dir', None, 'The training run.', flag_values=FLAGS)
+flags.mark_flag_as_required('base_dir', flag_values=FLAGS)
+flags.DEFINE_integer('episodes', 2500, 'train: episodes in all.',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('episodes_per_iteration', 10, 'train: episodes per '
+                     'iteration (a checkpoint and a policy each).',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('seed', 0, 'train: agent seed.', flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_bindings', [], 'train: gin bindings.',
+                          flag_values=FLAGS)
+flags.DEFINE_integer('every', 10, 'select: evaluate the policy of every this '
+                     'many iterations.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_boolean('include_newest', False, 'select: also evaluate the '
+                     'newest policy (e.g. a run stopped between two '
+                     'multiples of --every).', flag_values=FLAGS)
+flags.DEFINE_integer('validation_episodes', 30, 'select: latex_validation '
+                     'seeds flown per policy.', flag_values=FLAGS)
+flags.DEFINE_float('max_oor_pct', 10.0, 'select: most % of episodes out of '
+                   'resources of the chosen policy.', flag_values=FLAGS)
+flags.DEFINE_string('output', None, 'select: write the chosen policy here.',
+                    flag_values=FLAGS)
 
 
 
@@ -149,37 +175,21 @@ def select(base_dir: str, every: int, include_newest: bool,
   return 0
 
 
-def main(argv: Optional[List[str]] = None) -> int:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  sub = parser.add_subparsers(dest='command', required=True)
-  p = sub.add_parser('train', help='train (or resume) SAC with snapshots')
-  p.add_argument('--base_dir', required=True)
-  p.add_argument('--episodes', type=int, default=2500)
-  p.add_argument('--episodes_per_iteration', type=int, default=10)
-  p.add_argument('--seed', type=int, default=0)
-  p.add_argument('--gin_bindings', action='append', default=[])
-  p = sub.add_parser('select', help='pick a policy on validation seeds')
-  p.add_argument('--base_dir', required=True)
-  p.add_argument('--every', type=int, default=10,
-                 help='evaluate the policy of every this many iterations')
-  p.add_argument('--include_newest', action='store_true',
-                 help='also evaluate the newest policy (e.g. a run stopped '
-                 'between two multiples of --every)')
-  p.add_argument('--validation_episodes', type=int, default=30)
-  p.add_argument('--max_oor_pct', type=float, default=10.0)
-  p.add_argument('--output', help='write the chosen policy here')
-  args = parser.parse_args(argv)
-  import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
-  if args.command == 'train':
-    if args.episodes < 1 or args.episodes_per_iteration < 1:
-      parser.error('--episodes and --episodes_per_iteration must be >= 1')
+def _main(argv: Sequence[str]) -> int:
+  if len(argv) != 2 or argv[1] not in ('train', 'select'):
+    raise cli.CommandUsageError('give one command: train or select')
+  args = FLAGS
+  if argv[1] == 'train':
     train(args.base_dir, args.episodes, args.episodes_per_iteration,
           args.seed, args.gin_bindings)
     return 0
-  if args.every < 1:
-    parser.error('--every must be >= 1')
   return select(args.base_dir, args.every, args.include_newest,
                 args.validation_episodes, args.max_oor_pct, args.output)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/train_sac.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':

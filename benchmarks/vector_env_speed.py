@@ -15,13 +15,18 @@ first reset and first step times, peak RSS, load average.
   python benchmarks/vector_env_speed.py --json benchmarks/vector_env_speed.json
 """
 
-import argparse
 import json
 import os
 import resource
 import subprocess
 import sys
 import time
+from typing import Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
 
 ID = 'ble_latex/LatexBalloon-v0'
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -94,17 +99,27 @@ def run(mode: str, num_envs: int, min_seconds: float, max_steps: int) -> dict:
   return out
 
 
-def main(argv=None) -> int:
-  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-  parser.add_argument('--sizes', default='1,64,1024')
-  parser.add_argument('--modes', default='batched,sync')
-  parser.add_argument('--min_seconds', type=float, default=10.0)
-  parser.add_argument('--max_steps', type=int, default=200)
-  parser.add_argument('--json', default='')
-  parser.add_argument('--worker', default='', help=argparse.SUPPRESS)
-  parser.add_argument('--num_envs', type=int, default=1,
-                      help=argparse.SUPPRESS)
-  args = parser.parse_args(argv)
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('sizes', '1,64,1024', 'Numbers of balloons, comma-separated.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('modes', 'batched,sync',
+                    'Vector env modes, comma-separated.', flag_values=FLAGS)
+flags.DEFINE_float('min_seconds', 10.0, 'Least measuring time per row.',
+                   flag_values=FLAGS)
+flags.DEFINE_integer('max_steps', 200, 'Most steps per row.',
+                     flag_values=FLAGS)
+flags.DEFINE_string('json', '', 'Also write the report here.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('worker', '', 'Internal: measure this mode in this '
+                    'process.', flag_values=FLAGS)
+flags.DEFINE_integer('num_envs', 1, 'Internal: balloons of a --worker.',
+                     flag_values=FLAGS)
+
+
+def _main(argv: Sequence[str]) -> int:
+  if len(argv) > 1:
+    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
+  args = FLAGS
   if args.worker:
     print(json.dumps(worker(args.worker, args.num_envs, args.min_seconds,
                             args.max_steps)))
@@ -126,10 +141,13 @@ def main(argv=None) -> int:
   print(json.dumps({'median_balloon_steps_per_s': table,
                     'batched_over_sync': speedup}, indent=1))
   if args.json:
-    with open(args.json, 'w') as f:
-      json.dump(report, f, indent=1)
-      f.write('\n')
+    safe_io.atomic_write(args.json, json.dumps(report, indent=1) + '\n')
   return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/vector_env_speed.py', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':

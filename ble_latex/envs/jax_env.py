@@ -404,7 +404,6 @@ def params_from_gin() -> EnvParams:
   # pylint: disable=g-import-not-at-top
   import dataclasses
   import datetime as dt
-  import sys
   from ble_latex import gin_values
   # pylint: enable=g-import-not-at-top
 
