@@ -42,14 +42,13 @@ STRIDE_H = 20.0 / 60.0  # [h] simulated per latex step
 
 def jax_worker(batch: int, steps: int, repeats: int) -> dict:
   """Times `rollout` of `batch` balloons for `steps` strides."""
-  import gin  # pylint: disable=g-import-not-at-top
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
   from ble_latex import configs  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
 
-  gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
+  configs.bind_gin(None, None, [], [])
   env = jax_env.LatexBalloonJaxEnv()
   params = env.default_params
   low = jnp.asarray(jax_env.ACTION_LOW)
@@ -92,7 +91,6 @@ def profile_worker(batch: int, repeats: int) -> dict:
   the 7 sub-step queries of a stride (VAE forecast + 2 x 5 simplex
   harmonics each); the observation (25-level forecast column + features).
   """
-  import gin  # pylint: disable=g-import-not-at-top
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
@@ -100,7 +98,7 @@ def profile_worker(batch: int, repeats: int) -> dict:
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.flight import dynamics  # pylint: disable=g-import-not-at-top
 
-  gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
+  configs.bind_gin(None, None, [], [])
   env = jax_env.LatexBalloonJaxEnv()
   params = env.default_params
   keys = jax.random.split(jax.random.PRNGKey(0), batch)

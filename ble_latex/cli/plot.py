@@ -49,6 +49,7 @@ import numpy as np
 import ble_latex  # pylint: disable=unused-import  # Fixes before BLE imports.
 from ble_latex.cli import common as cli
 from ble_latex import quiet
+from ble_latex import safe_io
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
@@ -345,8 +346,7 @@ def run(f: flags.FlagValues) -> List[str]:
     summary = {path: metrics.summarize(r) for path, r in evals.items()}
     print(format_summary(summary))
     path = os.path.join(out, SUMMARY)
-    with open(path, 'w', encoding='utf-8') as fh:
-      json.dump(summary, fh, indent=2)
+    safe_io.atomic_write(path, json.dumps(summary, indent=2))
     written.append(path)
   return written
 
