@@ -179,3 +179,18 @@ def test_bad_gin_binding_is_a_clear_error():
       gin.parse_config('LatexBalloonEnv.no_such_param = 3')
   finally:
     gin.clear_config()
+
+
+def test_old_import_path_of_the_gym_envs_is_kept():
+  # ble_latex 0.1 users: `from ble_latex import env` and gin's
+  # `import ble_latex.env` (README, "Layout").
+  import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex import env as old_env  # pylint: disable=g-import-not-at-top
+  assert old_env.LatexBalloonEnv is env_lib.LatexBalloonEnv
+  assert old_env.LatexBalloonDiscreteEnv is env_lib.LatexBalloonDiscreteEnv
+  try:
+    gin.parse_config('import ble_latex.env\n'
+                     'LatexBalloonEnv.episode_steps = 7')
+    assert gin.query_parameter('LatexBalloonEnv.episode_steps') == 7
+  finally:
+    gin.clear_config()
