@@ -202,8 +202,6 @@ flags.DEFINE_integer('profile_worker', None, 'Internal: profile this batch '
 
 
 def _main(argv: Sequence[str]) -> None:
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   args = FLAGS
   if args.worker is not None:
     print(json.dumps(jax_worker(args.worker, args.steps, args.repeats)))

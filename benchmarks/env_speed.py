@@ -100,8 +100,6 @@ flags.DEFINE_integer('steps', None, 'Internal: steps of a --worker.',
 
 
 def _main(argv: Sequence[str]) -> None:
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   args = FLAGS
   if args.worker:
     print(json.dumps(worker(args.worker, args.steps, args.profile)))

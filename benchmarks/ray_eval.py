@@ -52,8 +52,6 @@ def run(command, label):
 
 
 def _main(argv: Sequence[str]) -> None:
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   args = FLAGS
   with tempfile.TemporaryDirectory() as tmp:
     base = [sys.executable, '-m', 'ble_latex.cli.eval', f'--agent={args.agent}',

@@ -78,7 +78,7 @@ def _main(argv: Sequence[str]) -> int:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
   return cli.run_absl(_main, 'benchmarks/results_table.py', FLAGS, argv,
-                      doc=__doc__)
+                      doc=__doc__, positional=True)
 
 
 if __name__ == '__main__':

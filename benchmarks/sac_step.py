@@ -1,4 +1,4 @@
-"""SAC cost: today's agent, Dopamine's update and the jitted trainer, one run.
+r"""SAC cost: today's agent, Dopamine's update and the jitted trainer, one run.
 
 Part 1 (`train_step`): Dopamine's replay sampling and target update vs ours.
 
@@ -27,7 +27,8 @@ Part 3 (`per_env_step`): what one environment step of training costs.
   (min_replay_history above the round) and one with, so per balloon-step
   and per update costs are separated.
 
-  python benchmarks/sac_step.py --steps=200 --rounds=3 --json=benchmarks/sac_step.json
+  python benchmarks/sac_step.py --steps=200 --rounds=3 \
+      --json=benchmarks/sac_step.json
 """
 
 import functools
@@ -61,8 +62,6 @@ flags.DEFINE_string('json', None, 'Also write the numbers here.',
 
 
 def _main(argv: Sequence[str]) -> int:
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   args = FLAGS
 
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import

@@ -80,8 +80,6 @@ flags.DEFINE_string('json', '', 'Also write the report here.',
 
 
 def _main(argv: Sequence[str]) -> int:
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   args = FLAGS
   with tempfile.TemporaryDirectory(prefix='ble_latex_jax_cache_') as cache:
     runs = {'cold': [run_once(cache)], 'warm': [], 'vector_warm': []}

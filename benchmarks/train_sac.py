@@ -189,7 +189,7 @@ def _main(argv: Sequence[str]) -> int:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
   return cli.run_absl(_main, 'benchmarks/train_sac.py', FLAGS, argv,
-                      doc=__doc__)
+                      doc=__doc__, positional=True)
 
 
 if __name__ == '__main__':

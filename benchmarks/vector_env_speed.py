@@ -100,8 +100,8 @@ def run(mode: str, num_envs: int, min_seconds: float, max_steps: int) -> dict:
 
 
 FLAGS = flags.FlagValues()
-flags.DEFINE_string('sizes', '1,64,1024', 'Numbers of balloons, comma-separated.',
-                    flag_values=FLAGS)
+flags.DEFINE_string('sizes', '1,64,1024',
+                    'Numbers of balloons, comma-separated.', flag_values=FLAGS)
 flags.DEFINE_string('modes', 'batched,sync',
                     'Vector env modes, comma-separated.', flag_values=FLAGS)
 flags.DEFINE_float('min_seconds', 10.0, 'Least measuring time per row.',
@@ -117,8 +117,6 @@ flags.DEFINE_integer('num_envs', 1, 'Internal: balloons of a --worker.',
 
 
 def _main(argv: Sequence[str]) -> int:
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   args = FLAGS
   if args.worker:
     print(json.dumps(worker(args.worker, args.num_envs, args.min_seconds,

@@ -162,6 +162,10 @@ def test_in_process_commands_share_the_convention(module, flag, capsys):
   err = capsys.readouterr().err
   assert err.startswith(f'{prog}: ') and err.count('\n') == 1, err
   assert "'no_such_flag'" in err
+  required = ['--output_dir=unused'] if module == 'plot' else []
+  assert command.main(['stray', *required]) == 2
+  err = capsys.readouterr().err
+  assert err == f"{prog}: unexpected arguments: ['stray']\n", err
 
 
 def test_ble_commands_help(capsys):

@@ -36,9 +36,15 @@ class CommandUsageError(Exception):
   """A usage error found while running: one line, exit status 2."""
 
 
-def usage_error(prog: str, message: str) -> NoReturn:
+def usage(prog: str, message: str) -> int:
+  """Prints the one-line usage error `PROG: message`; returns exit status 2."""
   print(f'{prog}: {message}', file=sys.stderr)
-  sys.exit(EXIT_USAGE)
+  return EXIT_USAGE
+
+
+def usage_error(prog: str, message: str) -> NoReturn:
+  """`usage`, then exits with its status."""
+  sys.exit(usage(prog, message))
 
 
 def unknown(what: str, name: str, valid: Iterable[str],
@@ -71,7 +77,8 @@ def _exit_status(code: Any) -> int:
 def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
              flag_values: flags.FlagValues,
              argv: Optional[Sequence[str]] = None, doc: Optional[str] = None,
-             check: Optional[Callable[[], None]] = None) -> int:
+             check: Optional[Callable[[], None]] = None,
+             positional: bool = False) -> int:
   """Parses the command's flags, runs `check`, then `main` in absl's app.run.
 
   Args:
@@ -82,6 +89,8 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
     doc: Text shown above the flags by --help.
     check: Validates flag values before the work starts; raises
       CommandUsageError with a one-line message.
+    positional: The command takes positional arguments (else they are a
+      usage error).
 
   Returns:
     The exit status: 0 (or what `main` returns), 2 for a usage error.
@@ -95,7 +104,9 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
   try:
     args = flag_values([prog, *argv])
   except flags.Error as e:
-    return _usage(prog, f'{e} (try --help)')
+    return usage(prog, f'{e} (try --help)')
+  if not positional and len(args) > 1:
+    return usage(prog, f'unexpected arguments: {args[1:]}')
 
   def checked_main(unused_argv: Sequence[str]) -> Optional[int]:
     try:
@@ -116,11 +127,6 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
   except SystemExit as e:
     return _exit_status(e.code)
   return 0
-
-
-def _usage(prog: str, message: str) -> int:
-  print(f'{prog}: {message}', file=sys.stderr)
-  return EXIT_USAGE
 
 
 def quiet_init_callbacks() -> None:

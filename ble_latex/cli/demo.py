@@ -100,7 +100,7 @@ def run(output_dir: str, suite: str, baseline: str, run_dir: Optional[str],
   steps = 3 if train_episodes else 2
   if train_episodes:
     run_dir = os.path.join(output_dir, 'sac_run')
-    print(f'[1/{steps + 1}] Training SAC for {train_episodes} episodes into '
+    print(f'[1/{steps}] Training SAC for {train_episodes} episodes into '
           f'{run_dir}', flush=True)
     _train(run_dir, train_episodes)
   elif run_dir is None and SHIPPED_RUN.is_dir():
@@ -108,8 +108,7 @@ def run(output_dir: str, suite: str, baseline: str, run_dir: Optional[str],
   seeds = suites.get_eval_suite(suite).seeds
   eval_dir = os.path.join(output_dir, 'eval')
   figures = os.path.join(output_dir, 'figures')
-  step = steps - 1
-  print(f'[{step}/{steps}] Flying {TRAINED} and {baseline} on {suite} '
+  print(f'[{steps - 1}/{steps}] Flying {TRAINED} and {baseline} on {suite} '
         f'({len(seeds)} held-out seeds)', flush=True)
   paths, summaries = {}, {}
   for name in (TRAINED, baseline):
@@ -145,8 +144,6 @@ def _check() -> None:
 
 
 def _main(argv: Sequence[str]) -> int:
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   run(FLAGS.output_dir, FLAGS.suite, FLAGS.baseline, FLAGS.run_dir,
       FLAGS.train_episodes)
   return 0

@@ -207,8 +207,6 @@ def _check() -> None:
 
 def _main(argv: Sequence[str]) -> int:
   """Downloads (or, --dry_run, prints) the requests; returns the status."""
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   args = FLAGS
   try:
     requests = era5.build_requests(

@@ -35,12 +35,9 @@ from ble_latex import quiet
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
-  import gym
-
   from ble_latex.run import distributed
   from ble_latex.run import eval_lib
   from ble_latex.run import metrics
-  from ble_latex.run import runner
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
 
@@ -89,8 +86,6 @@ flags.DEFINE_integer('ray_num_cpus', None,
 
 
 def _main(argv: Sequence[str]) -> None:
-  if len(argv) > 1:
-    raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
   if (FLAGS.checkpoint_dir is None) != (FLAGS.checkpoint_idx is None):
     raise app.UsageError('--checkpoint_dir and --checkpoint_idx go together.')
   spec = eval_lib.EvalSpec(
@@ -147,7 +142,8 @@ def check() -> None:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
   """The command (`cli.run_absl`); returns the exit status."""
-  return cli.run_absl(_main, 'ble-latex-eval', FLAGS, argv, doc=__doc__, check=check)
+  return cli.run_absl(_main, 'ble-latex-eval', FLAGS, argv, doc=__doc__,
+                      check=check)
 
 
 if __name__ == '__main__':

@@ -15,7 +15,6 @@ import os
 import sys
 from typing import Optional, Sequence
 
-from absl import app
 from absl import flags
 
 from ble_latex.cli import common as cli
@@ -40,8 +39,6 @@ flags.mark_flags_as_required(['checkpoint', 'output'], flag_values=FLAGS)
 
 
 def _main(argv: Sequence[str]) -> None:
-  if len(argv) > 1:
-    raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
   source = FLAGS.checkpoint
   try:
     if os.path.basename(source).startswith('checkpoint_'):
@@ -61,7 +58,8 @@ def _main(argv: Sequence[str]) -> None:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
   """The command (`cli.run_absl`); returns the exit status."""
-  return cli.run_absl(_main, 'ble-latex-export-policy', FLAGS, argv, doc=__doc__)
+  return cli.run_absl(_main, 'ble-latex-export-policy', FLAGS, argv,
+                      doc=__doc__)
 
 
 if __name__ == '__main__':

@@ -31,10 +31,10 @@ Writes into --output_dir, each only when its inputs are given:
                            (also printed).
 
 Every input is read and checked (each record against its schema, see
-`ble_latex.plots.figures`) and the wind sampled before the first figure is drawn, so a
-bad input leaves nothing written. Prints the paths written. Exit status 0 on
-success, 1 on bad input (a message naming the file, record and field), 2 on bad
-flags.
+`ble_latex.run.records`) and the wind sampled before the first figure is
+drawn, so a bad input leaves nothing written. Prints the paths written. Exit
+status 0 on success, 1 on bad input (a message naming the file, record and
+field), 2 on bad flags.
 """
 
 import datetime as dt
@@ -172,7 +172,6 @@ def wind_rows(seeds: Sequence[int], pressures_pa: Sequence[float], *,
   Raises:
     flags.ValidationError: `env_name` is not a registered balloon env.
   """
-  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
     import gym  # pylint: disable=g-import-not-at-top
   try:
@@ -363,8 +362,6 @@ def _check() -> None:
 
 def _main(argv: Sequence[str]) -> int:
   """Draws what the flags ask for; 1 on bad input (named), else 0."""
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   try:
     written = run(FLAGS)
   except flags.Error as e:

@@ -23,7 +23,6 @@ import os
 import sys
 from typing import Optional, Sequence
 
-from absl import app
 from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
@@ -104,8 +103,6 @@ def settings_from_flags() -> sweep_lib.SweepSettings:
 
 
 def _main(argv: Sequence[str]) -> None:
-  if len(argv) > 1:
-    raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
   try:
     settings = settings_from_flags()
   except ValueError as e:  # SpaceError, --seeds.
@@ -148,7 +145,8 @@ def check() -> None:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
   """The command (`cli.run_absl`); returns the exit status."""
-  return cli.run_absl(_main, 'ble-latex-sweep', FLAGS, argv, doc=__doc__, check=check)
+  return cli.run_absl(_main, 'ble-latex-sweep', FLAGS, argv, doc=__doc__,
+                      check=check)
 
 
 if __name__ == '__main__':

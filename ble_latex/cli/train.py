@@ -30,7 +30,6 @@ import os
 import sys
 from typing import List, Optional, Sequence, Tuple
 
-from absl import app
 from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
@@ -109,8 +108,6 @@ def seed_dirs() -> List[Tuple[int, str]]:
 
 
 def _main(argv: Sequence[str]) -> None:
-  if len(argv) > 1:
-    raise app.UsageError(f'Unexpected arguments: {argv[1:]}')
   jax_trainer = FLAGS.trainer == 'jax'
   agent_gin_file = FLAGS.agent_gin_file
   if jax_trainer and agent_gin_file is None:
@@ -176,7 +173,8 @@ def check() -> None:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
   """The command (`cli.run_absl`); returns the exit status."""
-  return cli.run_absl(_main, 'ble-latex-train', FLAGS, argv, doc=__doc__, check=check)
+  return cli.run_absl(_main, 'ble-latex-train', FLAGS, argv, doc=__doc__,
+                      check=check)
 
 
 if __name__ == '__main__':

@@ -309,8 +309,6 @@ def _check() -> None:
 
 def _main(argv: Sequence[str]) -> int:
   """Flies the command sequence, writes the figure; 1 above the error bound."""
-  if len(argv) > 1:
-    raise cli.CommandUsageError(f'unexpected arguments: {argv[1:]}')
   args = FLAGS
   if args.gin_file or args.gin_bindings:
     configs.bind_gin(None, None, args.gin_file, args.gin_bindings,

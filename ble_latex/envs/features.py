@@ -41,6 +41,7 @@ from balloon_learning_environment.env import features
 from balloon_learning_environment.env import simulator_data
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import standard_atmosphere
+from balloon_learning_environment.utils import transforms
 from balloon_learning_environment.utils import units
 import gin
 import gym
@@ -198,6 +199,6 @@ def _altitude_m(scaled: float) -> float:
 
 
 def _unsquash(squashed: float, constant: float) -> float:
-  """Undoes x / (x + c) (BLE's `squash_to_unit_interval`), for x >= 0."""
-  squashed = min(max(squashed, 0.0), 1.0 - 1e-6)
-  return constant * squashed / (1.0 - squashed)
+  """BLE's `undo_squash_to_unit_interval`, the value kept inside [0, 1)."""
+  return transforms.undo_squash_to_unit_interval(
+      min(max(squashed, 0.0), 1.0 - 1e-6), constant)

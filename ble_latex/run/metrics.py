@@ -112,7 +112,8 @@ class EpisodeTracker:
       time limit, or the step cap if that is shorter).
   """
 
-  def __init__(self, episode: int, seed: int, radius_km: float = task.STATION_RADIUS_KM,
+  def __init__(self, episode: int, seed: int,
+               radius_km: float = task.STATION_RADIUS_KM,
                window_steps: int = 216):
     self.episode, self.seed, self._radius_km = episode, seed, radius_km
     self.window_steps = int(window_steps)
