@@ -3,11 +3,15 @@
 Two steps, both resumable (re-run the same command after a kill):
 
   # 1. Train each seed (`ble-latex-train --trainer=jax`, gin sac_jax.gin),
-  #    one after another in BASE_DIR/seed_<s>; every --snapshot_period rounds
+  #    in BASE_DIR/seed_<s>, one after another; every --snapshot_period rounds
   #    the policy is exported and flown on the 100 latex_validation seeds
   #    (batched, into seed_<s>/validation.jsonl with the training time so far).
-  python benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/k8 \
-      --seeds=0,1,2,3,4 --num_iterations=135
+  python benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/n32 \
+      --seeds=0,1,2,3,4 --num_iterations=230 [--parallel=2]
+
+  #    --parallel=2 runs two ble-latex-train processes at once (seeds dealt
+  #    round-robin): on a 2-core CPU two processes fly ~1.6x the rounds per
+  #    hour of one (README, "Jitted SAC trainer").
 
   # 2. For each seed, choose the snapshot with the best validation TW50 over
   #    the window among those with at most --max_oor_pct % out of resources
@@ -16,12 +20,17 @@ Two steps, both resumable (re-run the same command after a kill):
   #    seeds with the gym env (`ble-latex-eval`'s code) and write
   #    BASE_DIR/report.{md,json}: per seed and mean +- std. --ship also
   #    writes the seed with the best *validation* score as the shipped
-  #    policy.
-  python benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/k8 \
-      --seeds=0,1,2,3,4 [--ship=ble_latex/agents/policies/sac_latex.msgpack]
+  #    policy. --max_minutes / --max_iteration cap the snapshots looked at
+  #    (a time budget, or the same number of rounds for every seed);
+  #    --parallel=2 flies two seeds' held-out evals at once.
+  python benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/n32 \
+      --seeds=0,1,2,3,4 [--max_iteration=229] [--parallel=2] \
+      [--ship=ble_latex/agents/policies/sac_latex.msgpack]
 """
 
+from concurrent import futures
 import json
+import multiprocessing
 import os
 import shutil
 import statistics
@@ -40,8 +49,8 @@ flags.DEFINE_string('base_dir', None, 'Folder of the seeds\' runs.',
 flags.mark_flag_as_required('base_dir', flag_values=FLAGS)
 flags.DEFINE_list('seeds', ['0', '1', '2', '3', '4'], 'Training seeds.',
                   flag_values=FLAGS)
-flags.DEFINE_integer('num_iterations', 135, 'train: rounds per seed (16 '
-                     'episodes each).', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('num_iterations', 230, 'train: rounds per seed '
+                     '(sac_trainer_config.num_envs episodes each).', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('snapshot_period', 5, 'train: rounds between policy '
                      'snapshots.', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('checkpoint_period', 10, 'train: rounds between '
@@ -54,48 +63,73 @@ flags.DEFINE_float('max_oor_pct', 5.0, 'report: most % of validation '
 flags.DEFINE_float('max_minutes', None, 'report: choose only among snapshots '
                    'taken within this much training time (e.g. 45).',
                    flag_values=FLAGS)
+flags.DEFINE_integer('max_iteration', None, 'report: choose only among '
+                     'snapshots of rounds up to this one (0-based), e.g. '
+                     'the same training budget for every seed.',
+                     lower_bound=0, flag_values=FLAGS)
+flags.DEFINE_integer('parallel', 1, 'train: ble-latex-train processes at '
+                     'once (seeds dealt round-robin); report: held-out evals '
+                     'at once.', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_string('results_dir', 'benchmarks/results', 'report: where the '
                     'held-out eval files go.', flag_values=FLAGS)
+flags.DEFINE_string('held_out_suite', 'latex_small', 'report: the held-out '
+                    'suite (never used for choosing).', flag_values=FLAGS)
 flags.DEFINE_string('ship', None, 'report: also write the best-validated '
                     'seed\'s policy here.', flag_values=FLAGS)
 
-HELD_OUT_SUITE = 'latex_small'
 
 
 def train(base_dir: str, seeds: List[int], num_iterations: int,
           snapshot_period: int, checkpoint_period: int,
-          gin_bindings: List[str]) -> None:
-  """Runs (or resumes) `ble-latex-train --trainer=jax --seeds=...`."""
-  command = [sys.executable, '-m', 'ble_latex.cli.train', '--trainer=jax',
-             f'--base_dir={base_dir}',
-             f'--seeds={",".join(str(s) for s in seeds)}',
-             f'--num_iterations={num_iterations}',
-             f'--policy_snapshot_period={snapshot_period}',
-             f'--checkpoint_period={checkpoint_period}',
-             '--collectors=progress', '--collectors=episodes',
-             '--collectors=tensorboard',
-             *[f'--gin_bindings={b}' for b in gin_bindings]]
-  print(' '.join(command), flush=True)
-  subprocess.run(command, check=True)
+          gin_bindings: List[str], parallel: int = 1) -> None:
+  """Runs (or resumes) `ble-latex-train --trainer=jax --seeds=...`.
+
+  With `parallel` > 1 the seeds are dealt round-robin to that many
+  `ble-latex-train` processes running at once (each trains its share one
+  after another).
+  """
+  groups = [seeds[i::parallel] for i in range(parallel)]
+  commands = [
+      [sys.executable, '-m', 'ble_latex.cli.train', '--trainer=jax',
+       f'--base_dir={base_dir}',
+       f'--seeds={",".join(str(s) for s in group)}',
+       f'--num_iterations={num_iterations}',
+       f'--policy_snapshot_period={snapshot_period}',
+       f'--checkpoint_period={checkpoint_period}',
+       '--collectors=progress', '--collectors=episodes',
+       '--collectors=tensorboard',
+       *[f'--gin_bindings={b}' for b in gin_bindings]]
+      for group in groups if group]
+  processes = []
+  for command in commands:
+    print(' '.join(command), flush=True)
+    processes.append(subprocess.Popen(command))
+  failed = [p.args for p in processes if p.wait() != 0]
+  if failed:
+    raise RuntimeError(f'training failed: {failed}')
 
 
 def choose(validation: List[Dict[str, Any]], max_oor_pct: float,
-           max_minutes: Optional[float] = None) -> Optional[Dict[str, Any]]:
+           max_minutes: Optional[float] = None,
+           max_iteration: Optional[int] = None) -> Optional[Dict[str, Any]]:
   """The validated snapshot with the best TW50 (window) within the caps.
 
   Args:
     validation: validation.jsonl records.
     max_oor_pct: Most % of validation episodes out of resources.
     max_minutes: Only snapshots taken within this much training time.
+    max_iteration: Only snapshots of rounds up to this one (0-based).
   """
   ok = [r for r in validation if r['out_of_resources_pct'] <= max_oor_pct and
-        (max_minutes is None or r['elapsed_s'] <= 60.0 * max_minutes)]
+        (max_minutes is None or r['elapsed_s'] <= 60.0 * max_minutes) and
+        (max_iteration is None or r['iteration'] <= max_iteration)]
   if not ok:
     return None
   return max(ok, key=lambda r: (r['tw50_window_mean'], -r['iteration']))
 
 
-def _held_out(policy_path: str, output: str) -> Dict[str, float]:
+def _held_out(suite_name: str, policy_path: str,
+              output: str) -> Dict[str, float]:
   """Flies a policy on the held-out suite in the gym env; its summary."""
   # pylint: disable=g-import-not-at-top
   import gym
@@ -106,7 +140,7 @@ def _held_out(policy_path: str, output: str) -> Dict[str, float]:
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
   configs.bind_gin('sac_pretrained', None, [], [])
-  suite = suites.get_eval_suite(HELD_OUT_SUITE)
+  suite = suites.get_eval_suite(suite_name)
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
   agent = pretrained.SACPretrainedAgent(
@@ -119,40 +153,77 @@ def _held_out(policy_path: str, output: str) -> Dict[str, float]:
   return metrics.summarize(records)
 
 
-def report(base_dir: str, seeds: List[int], max_oor_pct: float,
-           max_minutes: Optional[float], results_dir: str,
-           ship: Optional[str]) -> int:
-  """Chooses, evaluates and tabulates each seed; returns the exit status."""
+def _chosen_policy(run: str, seed: int, chosen: Dict[str, Any],
+                   validation: List[Dict[str, Any]],
+                   max_oor_pct: float) -> str:
+  """Writes run/chosen_policy.msgpack from the chosen snapshot; its path.
+
+  Snapshots are not committed (see .gitignore): in a fresh checkout an
+  earlier report's chosen policy is kept when it is that same round.
+  """
   # pylint: disable=g-import-not-at-top
   from ble_latex.agents import pretrained
-  from ble_latex.agents import sac_trainer
-  from ble_latex.run import episode_log
   from ble_latex.run import train_lib
   # pylint: enable=g-import-not-at-top
-  rows = []
+  source = train_lib.policy_snapshot_path(run, chosen['iteration'])
+  policy_path = os.path.join(run, 'chosen_policy.msgpack')
+  if not os.path.exists(source):
+    if os.path.exists(policy_path):
+      kept = pretrained.load_policy(policy_path)
+      if kept.get('iteration') == chosen['iteration']:
+        print(f'seed {seed}: snapshot {source} absent; keeping '
+              f'{policy_path} (same round {chosen["iteration"]})')
+        return policy_path
+    raise FileNotFoundError(
+        f'seed {seed}: the chosen snapshot {source} is missing (and no '
+        f'chosen policy of round {chosen["iteration"]} in {run})')
+  policy = pretrained.load_policy(source)
+  policy['note'] += (
+      f'; chosen among {len(validation)} snapshots by TW50 (window) on '
+      f'latex_validation seeds {chosen["seeds"][0]}..{chosen["seeds"][1]} '
+      f'({100 * chosen["tw50_window_mean"]:.1f} %, <= {max_oor_pct:g} % '
+      'out of resources)')
+  pretrained.write_policy(policy, policy_path)
+  return policy_path
+
+
+def report(base_dir: str, seeds: List[int], max_oor_pct: float,
+           max_minutes: Optional[float], max_iteration: Optional[int],
+           results_dir: str, ship: Optional[str], parallel: int = 1,
+           held_out_suite: str = 'latex_small') -> int:
+  """Chooses, evaluates and tabulates each seed; returns the exit status."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import sac_trainer
+  from ble_latex.run import episode_log
+  # pylint: enable=g-import-not-at-top
+  chosen_rows = []
   for seed in seeds:
     run = os.path.join(base_dir, f'seed_{seed}')
     validation = episode_log.read(os.path.join(run,
                                                sac_trainer.VALIDATION_LOG))
-    chosen = choose(validation, max_oor_pct, max_minutes)
+    chosen = choose(validation, max_oor_pct, max_minutes, max_iteration)
     if chosen is None:
       print(f'seed {seed}: no validated snapshot with <= {max_oor_pct} % out '
-            f'of resources within {max_minutes} training minutes',
-            file=sys.stderr)
+            f'of resources within {max_minutes} training minutes and round '
+            f'{max_iteration}', file=sys.stderr)
       return 1
-    source = train_lib.policy_snapshot_path(run, chosen['iteration'])
-    policy_path = os.path.join(run, 'chosen_policy.msgpack')
-    policy = pretrained.load_policy(source)
-    policy['note'] += (
-        f'; chosen among {len(validation)} snapshots by TW50 (window) on '
-        f'latex_validation seeds {chosen["seeds"][0]}..{chosen["seeds"][1]} '
-        f'({100 * chosen["tw50_window_mean"]:.1f} %, <= {max_oor_pct:g} % '
-        'out of resources)')
-    pretrained.write_policy(policy, policy_path)
-    output = os.path.join(results_dir, HELD_OUT_SUITE,
+    policy_path = _chosen_policy(run, seed, chosen, validation, max_oor_pct)
+    output = os.path.join(results_dir, held_out_suite,
                           f'sac_jax_{os.path.basename(base_dir)}_seed_{seed}'
                           '.json')
-    held_out = _held_out(policy_path, output)
+    chosen_rows.append((seed, chosen, policy_path, output))
+  # Each held-out eval is independent: `parallel` processes (spawned, so no
+  # JAX state is forked) fly them at once.
+  with futures.ProcessPoolExecutor(
+      max_workers=parallel,
+      mp_context=multiprocessing.get_context('spawn')) as pool:
+    held_outs = list(pool.map(_held_out,
+                              [held_out_suite] * len(chosen_rows),
+                              [c[2] for c in chosen_rows],
+                              [c[3] for c in chosen_rows]))
+  rows = []
+  for (seed, chosen, policy_path, output), held_out in zip(chosen_rows,
+                                                           held_outs):
     rows.append({
         'seed': seed, 'iteration': chosen['iteration'],
         'training_episodes': chosen['training_episodes'],
@@ -163,21 +234,26 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
         'held_out_tw50_window': held_out['tw50_window_mean'],
         'held_out_tw50': held_out['tw50_mean'],
         'held_out_out_of_resources_pct': held_out['out_of_resources_pct'],
+        'held_out_episodes': held_out['episodes'],
         'held_out_file': output, 'policy': policy_path})
   window = [r['held_out_tw50_window'] for r in rows]
   oor = [r['held_out_out_of_resources_pct'] for r in rows]
   summary = {
       'seeds': seeds, 'max_oor_pct': max_oor_pct, 'max_minutes': max_minutes,
+      'max_iteration': max_iteration,
       'held_out_tw50_window_mean': statistics.mean(window),
       'held_out_tw50_window_std': (statistics.stdev(window) if len(window) > 1
                                    else 0.0),
       'held_out_out_of_resources_pct_mean': statistics.mean(oor),
-      'held_out_out_of_resources_pct_max': max(oor), 'rows': rows}
+      'held_out_out_of_resources_pct_max': max(oor),
+      'held_out_suite': held_out_suite, 'rows': rows}
   lines = [
-      f'Held-out `{HELD_OUT_SUITE}` (100 seeds), each seed\'s policy chosen on '
-      '`latex_validation` only'
+      f'Held-out `{held_out_suite}` ({rows[0]["held_out_episodes"]} seeds), '
+      'each seed\'s policy chosen on `latex_validation` only'
       + (f', among snapshots within {max_minutes:g} training minutes'
-         if max_minutes else '') + '.', '',
+         if max_minutes else '')
+      + (f', among snapshots of rounds 0..{max_iteration}'
+         if max_iteration is not None else '') + '.', '',
       '| seed | chosen round | episodes | updates | training time [min] | '
       'validation TW50 window | held-out TW50 window | held-out TW50 flown | '
       'held-out out of resources |', '|---|---|---|---|---|---|---|---|---|']
@@ -221,10 +297,11 @@ def _main(argv: Sequence[str]) -> int:
         f'--seeds takes integers, got {",".join(args.seeds)!r}') from e
   if argv[1] == 'train':
     train(args.base_dir, seeds, args.num_iterations, args.snapshot_period,
-          args.checkpoint_period, args.gin_bindings)
+          args.checkpoint_period, args.gin_bindings, args.parallel)
     return 0
   return report(args.base_dir, seeds, args.max_oor_pct, args.max_minutes,
-                args.results_dir, args.ship)
+                args.max_iteration, args.results_dir, args.ship,
+                args.parallel, args.held_out_suite)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

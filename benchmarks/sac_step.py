@@ -22,8 +22,8 @@ each jitted, --steps calls per round.
 Part 3 (`per_env_step`): what one environment step of training costs.
 - agent: `LatexBalloon-v0` (gym, one balloon) stepped with `SACAgent.step`
   in train mode (one update per step), --env_steps steps per round;
-- jax trainer: `sac_trainer.train_round` with gin sac_jax.gin's 16 balloons
-  and 8 updates per step, timed for one 216-step round without updates
+- jax trainer: `sac_trainer.train_round` with --num_envs balloons (16)
+  and --updates_per_step updates per step (8), timed for one 216-step round without updates
   (min_replay_history above the round) and one with, so per balloon-step
   and per update costs are separated.
 

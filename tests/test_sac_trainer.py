@@ -174,6 +174,36 @@ def test_replay_ring_keeps_the_valid_rows_in_order(masks):
   assert stored == kept
 
 
+def test_sac_seeds_trains_seeds_in_parallel_processes(benchmark_script,
+                                                      monkeypatch):
+  module = benchmark_script('sac_seeds.py')
+  started = []
+
+  class FakeProcess:
+
+    def __init__(self, args):
+      self.args = args
+      started.append(args)
+
+    def wait(self):
+      return 1 if '--seeds=1,4' in self.args else 0
+
+  monkeypatch.setattr(module.subprocess, 'Popen', FakeProcess)
+  module.train('runs/x', [0, 1, 2, 3, 4], 7, 5, 10, ['a = 1'], parallel=1)
+  assert [a for a in started[0] if a.startswith('--seeds')] == [
+      '--seeds=0,1,2,3,4']
+  started.clear()
+  with pytest.raises(RuntimeError, match='seeds=1,4'):
+    module.train('runs/x', [0, 1, 2, 3, 4], 7, 5, 10, ['a = 1'], parallel=3)
+  assert [[a for a in c if a.startswith('--seeds')] for c in started] == [
+      ['--seeds=0,3'], ['--seeds=1,4'], ['--seeds=2']]
+  assert all('--gin_bindings=a = 1' in c and '--num_iterations=7' in c
+             for c in started)
+  started.clear()
+  module.train('runs/x', [0], 7, 5, 10, [], parallel=2)  # No empty process.
+  assert len(started) == 1
+
+
 def test_sac_seeds_chooses_on_validation_within_caps(benchmark_script):
   module = benchmark_script('sac_seeds.py')
 
@@ -186,3 +216,6 @@ def test_sac_seeds_chooses_on_validation_within_caps(benchmark_script):
   assert module.choose(log, 5.0, max_minutes=45)['iteration'] == 14
   assert module.choose(log, 10.0, max_minutes=45)['iteration'] == 9
   assert module.choose(log, 5.0, max_minutes=5) is None
+  assert module.choose(log, 5.0, max_iteration=18)['iteration'] == 14
+  assert module.choose(log, 5.0, max_iteration=14)['iteration'] == 14
+  assert module.choose(log, 5.0, max_iteration=3) is None

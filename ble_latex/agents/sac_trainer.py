@@ -98,8 +98,8 @@ class TrainerConfig:
     num_layers: Hidden layers of the actor and of each critic.
     hidden_units: Units per hidden layer.
   """
-  num_envs: int = 16
-  updates_per_step: int = 4
+  num_envs: int = 32
+  updates_per_step: int = 8
   batch_size: int = 256
   replay_capacity: int = 1_000_000
   min_replay_history: int = 1000
