@@ -48,7 +48,7 @@ baselines: venv
 
 results: baselines
 	$(EVAL) --agent=sac_pretrained
-	$(PY) benchmarks/results_table.py $(RESULTS)/latex_small/*.json | tee benchmarks/results.md
+	$(PY) benchmarks/results_table.py --json=benchmarks/results.json $(RESULTS)/latex_small/*.json | tee benchmarks/results.md
 
 env-speed: venv
 	$(PY) benchmarks/env_speed.py --episodes 3 --repeats 3 --profile --json benchmarks/env_speed.json

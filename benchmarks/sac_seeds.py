@@ -193,14 +193,14 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
            held_out_suite: str = 'latex_small') -> int:
   """Chooses, evaluates and tabulates each seed; returns the exit status."""
   # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import sac_trainer
   from ble_latex.run import episode_log
+  from ble_latex.run import records
   # pylint: enable=g-import-not-at-top
   chosen_rows = []
   for seed in seeds:
     run = os.path.join(base_dir, f'seed_{seed}')
-    validation = episode_log.read(os.path.join(run,
-                                               sac_trainer.VALIDATION_LOG))
+    validation = records.load_validation(
+        os.path.join(run, episode_log.VALIDATION_LOG))
     chosen = choose(validation, max_oor_pct, max_minutes, max_iteration)
     if chosen is None:
       print(f'seed {seed}: no validated snapshot with <= {max_oor_pct} % out '

@@ -622,3 +622,85 @@ def test_seed_curves_mean_and_band(tmp_path):
   _assert_png(out / plot.SEED_CURVES)
   assert plot.main(['--output_dir', str(out),
                     f'--seed_run_dirs={tmp_path / "seed_0"}']) == 2
+
+
+def _validation(iteration, tw50_window, n=32):
+  return {'iteration': iteration, 'training_episodes': (iteration + 1) * n,
+          'updates': 8 * iteration, 'elapsed_s': 10.0 * iteration,
+          'seeds': [2000000, 2000099], 'episodes': 100,
+          'tw50_window_mean': tw50_window, 'tw50_mean': tw50_window,
+          'out_of_resources_pct': 0.0}
+
+
+def test_seed_curves_draw_validated_snapshots(tmp_path, capsys):
+  runs, validation = {}, {}
+  for seed in range(2):
+    runs[f'seed_{seed}'] = [dict(_episode(i), tw50_window=0.1, reward=1.0)
+                            for i in range(40)]
+    # seed_1 has one snapshot more: mean and band over the common ones.
+    validation[f'seed_{seed}'] = [_validation(it, 0.2 + 0.1 * seed + 0.01 * k)
+                                  for k, it in enumerate(range(4, 20 + 5 * seed,
+                                                               5))]
+  fig = plots.plot_seed_curves(runs, str(tmp_path / 'a.png'), window=10,
+                               validation=validation)
+  assert len(fig.axes) == 3
+  val = fig.axes[2]
+  assert 'validation TW50 window' in val.get_ylabel()
+  assert '100 seeds' in val.get_ylabel()
+  lines = {l.get_label(): l for l in val.get_lines()}
+  np.testing.assert_allclose(lines['seed_1'].get_xdata(), [160, 320, 480, 640,
+                                                           800])
+  np.testing.assert_allclose(lines['seed_1'].get_ydata(),
+                             [30.0, 31.0, 32.0, 33.0, 34.0])
+  mean = lines['mean of 2 runs']
+  np.testing.assert_allclose(mean.get_xdata(), [160, 320, 480, 640])
+  np.testing.assert_allclose(mean.get_ydata(), [25.0, 26.0, 27.0, 28.0])
+  with pytest.raises(ValueError, match='each run'):
+    plots.plot_seed_curves(runs, str(tmp_path / 'b.png'),
+                           validation={'seed_0': validation['seed_0']})
+  # The command draws them when every run has validation.jsonl, and names a
+  # bad one.
+  for name in runs:
+    run = tmp_path / name
+    run.mkdir()
+    (run / 'episodes.jsonl').write_text(
+        ''.join(json.dumps(e) + '\n' for e in runs[name]))
+    (run / 'validation.jsonl').write_text(
+        ''.join(json.dumps(r) + '\n' for r in validation[name]))
+  out = tmp_path / 'out'
+  args = ['--output_dir', str(out), '--rolling_window=10',
+          *[f'--seed_run_dirs={tmp_path / s}' for s in runs]]
+  assert plot.main(args) == 0
+  _assert_png(out / plot.SEED_CURVES)
+  bad = dict(validation['seed_1'][0], tw50_window_mean=1.5)
+  (tmp_path / 'seed_1' / 'validation.jsonl').write_text(
+      json.dumps(bad) + '\n' + json.dumps(validation['seed_1'][1]) + '\n')
+  assert plot.main(args) == 1
+  assert ("seed_1/validation.jsonl: record 1 (iteration 4): field "
+          "'tw50_window_mean'") in capsys.readouterr().err
+
+
+def test_load_validation_bad_files(tmp_path):
+  with pytest.raises(FileNotFoundError, match='validation log not found'):
+    records_lib.load_validation(str(tmp_path / 'missing.jsonl'))
+  empty = tmp_path / 'empty.jsonl'
+  empty.write_text('')
+  with pytest.raises(ValueError, match='no validated snapshots'):
+    records_lib.load_validation(str(empty))
+  twice = tmp_path / 'twice.jsonl'
+  twice.write_text(json.dumps(_validation(4, 0.1)) + '\n' +
+                   json.dumps(_validation(4, 0.2)) + '\n')
+  with pytest.raises(ValueError, match='record 2 .iteration 4.: iteration 4 '
+                     'does not follow'):
+    records_lib.load_validation(str(twice))
+  missing = tmp_path / 'missing_field.jsonl'
+  record = _validation(4, 0.1)
+  del record['updates']
+  missing.write_text(json.dumps(record) + '\n')
+  with pytest.raises(ValueError, match="missing field.*'updates'"):
+    records_lib.load_validation(str(missing))
+  corrupt = tmp_path / 'corrupt.jsonl'
+  corrupt.write_text('{"iteration": 4\n' + json.dumps(_validation(9, 0.1)) +
+                     '\n')
+  with pytest.raises(ValueError, match='corrupt.jsonl'):
+    records_lib.load_validation(str(corrupt))

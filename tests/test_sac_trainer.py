@@ -15,6 +15,7 @@ import pytest
 from ble_latex.agents import sac_trainer
 from ble_latex.envs import jax_env
 from ble_latex.run import episode_log
+from ble_latex.run import records as records_lib
 from ble_latex.run import suites
 from ble_latex import safe_io
 
@@ -73,8 +74,8 @@ def test_resumed_run_equals_straight_run(runs):
   assert [e['seed'] for e in episodes] == [suites.train_seed(i)
                                            for i in range(9)]
   assert all(e['window_steps'] == STEPS for e in episodes)
-  assert _lines(straight / sac_trainer.VALIDATION_LOG, ('elapsed_s',)) == (
-      _lines(resumed / sac_trainer.VALIDATION_LOG, ('elapsed_s',)))
+  assert _lines(straight / episode_log.VALIDATION_LOG, ('elapsed_s',)) == (
+      _lines(resumed / episode_log.VALIDATION_LOG, ('elapsed_s',)))
   for a, b in zip(jax.tree_util.tree_leaves(final),
                   jax.tree_util.tree_leaves(resumed_final)):
     np.testing.assert_array_equal(a, b)
@@ -110,7 +111,9 @@ def test_snapshot_flies_in_the_gym_env_as_validated(runs):
   assert [r['steps'] for r in records] == result['steps'].tolist()
   assert [round(r['tw50'] * r['steps']) for r in records] == (
       result['within_steps'].tolist())
-  logged = episode_log.read(str(straight / sac_trainer.VALIDATION_LOG))
+  # The trainer's records are those of the validation schema.
+  logged = records_lib.load_validation(
+      str(straight / episode_log.VALIDATION_LOG))
   assert logged[-1]['tw50_window_mean'] == pytest.approx(
       np.mean([r['tw50_window'] for r in records]))
 

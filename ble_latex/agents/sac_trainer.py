@@ -69,7 +69,6 @@ from ble_latex import safe_io
 Array = jax.Array
 CHECKPOINT_FORMAT = 'ble_latex.sac_trainer/1'  # msgpack (`safe_io`).
 RUN_INFO = 'run.json'
-VALIDATION_LOG = 'validation.jsonl'  # One line per validated snapshot.
 
 
 @gin.configurable('sac_trainer_config')
@@ -613,7 +612,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
     state, elapsed = load_checkpoint(checkpoint_path(base_dir, start - 1),
                                      state)
     logging.info('Resuming after round %d.', start - 1)
-  validation_path = os.path.join(base_dir, VALIDATION_LOG)
+  validation_path = os.path.join(base_dir, episode_log.VALIDATION_LOG)
   validated = [r for r in episode_log.read(validation_path)
                if r['iteration'] < start]
   safe_io.atomic_write(validation_path,

@@ -15,7 +15,9 @@ Writes into --output_dir, each only when its inputs are given:
   seed_curves.png          --seed_run_dirs (2 or more): TW50 over the window
                            and reward, rolling means of each training run,
                            their mean and min-max band (e.g. the seeds of
-                           `ble-latex-train --seeds`).
+                           `ble-latex-train --seeds`); with the jitted
+                           trainer's validation.jsonl in every run, also
+                           their validated snapshots.
   trajectories.png         --eval_json (the first one): bird's-eye paths of up
                            to --max_trajectories seeds, 50 km circle (Fig. 4).
   trajectory_3d.png        --eval_json and --baseline_eval_json: the same seed
@@ -289,6 +291,15 @@ def run(f: flags.FlagValues) -> List[str]:
   seed_runs = {
       d: records_lib.load_episodes(os.path.join(d, episode_log.EPISODE_LOG))
       for d in f.seed_run_dirs}
+  # The jitted trainer's runs also log validated snapshots: drawn when every
+  # run has them.
+  validation_logs = [os.path.join(d, episode_log.VALIDATION_LOG)
+                     for d in seed_runs]
+  seed_validation = (
+      {d: records_lib.load_validation(p)
+       for d, p in zip(seed_runs, validation_logs)}
+      if seed_runs and all(os.path.exists(p) for p in validation_logs)
+      else None)
   evals = {p: records_lib.load_eval(p) for p in f.eval_json}
   baseline = (records_lib.load_eval(f.baseline_eval_json)
               if f.baseline_eval_json else None)
@@ -325,9 +336,11 @@ def run(f: flags.FlagValues) -> List[str]:
          window=f.rolling_window, paper_reference=f.paper_reference)
     draw(plots.plot_terminal_conditions, TERMINAL_CONDITIONS, episodes)
   if seed_runs:
+    label = lambda d: os.path.basename(os.path.normpath(d))
     draw(plots.plot_seed_curves, SEED_CURVES,
-         {os.path.basename(os.path.normpath(d)): e
-          for d, e in seed_runs.items()}, window=f.rolling_window)
+         {label(d): e for d, e in seed_runs.items()}, window=f.rolling_window,
+         validation=(None if seed_validation is None else
+                     {label(d): v for d, v in seed_validation.items()}))
   if first is not None:
     draw(plots.plot_trajectories, TRAJECTORIES, first,
          max_trajectories=f.max_trajectories)

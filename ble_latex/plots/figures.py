@@ -233,25 +233,40 @@ def seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]], key: str,
 
 
 def plot_seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]],
-                     path: str, *, window: int = ROLLING_WINDOW
+                     path: str, *, window: int = ROLLING_WINDOW,
+                     validation: Optional[
+                         Mapping[str, Sequence[Mapping[str, Any]]]] = None
                      ) -> mpl_figure.Figure:
   """Training curves of several seeds in one figure: mean and band.
 
   Top: the `window`-episode rolling mean of `tw50_window` of each run (thin),
   their mean over runs (thick) and the min-max band, over the episodes all
-  runs have. Bottom: the same for the episode reward.
+  runs have. Middle: the same for the episode reward. Bottom, with
+  `validation`: each run's validated snapshots (TW50 over the window on the
+  fixed validation seeds, deterministic policy) against training episodes,
+  with mean and band over the snapshots all runs have.
 
   Args:
     runs: episodes.jsonl records of each run, by label (e.g. 'seed 0').
     path: Output PNG.
     window: Rolling-mean window [episodes].
+    validation: validation.jsonl records of each run, by the same labels.
 
   Returns:
     The figure, written to `path`.
+
+  Raises:
+    ValueError: `validation` is not keyed like `runs`, or a run has none.
   """
+  if validation is not None and (
+      set(validation) != set(runs) or
+      any(not records for records in validation.values())):
+    raise ValueError('validation needs records for each run and no other')
   n = seed_curves(runs, 'reward', window).shape[1]
-  fig = mpl_figure.Figure(figsize=(9, 6.5), layout='constrained')
-  axes = fig.subplots(2, 1, sharex=True)
+  fig = mpl_figure.Figure(figsize=(9, 9.5 if validation else 6.5),
+                          layout='constrained')
+  axes = fig.subplots(3 if validation else 2, 1)
+  axes[1].sharex(axes[0])
   ep = np.arange(n)
   for ax, key, label, scale in (
       (axes[0], 'tw50_window', 'TW50 over the 3-day window [%]', 100.0),
@@ -266,7 +281,32 @@ def plot_seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]],
     ax.set_ylabel(label)
     ax.grid(alpha=0.3)
   axes[0].legend(loc='lower right', fontsize=8, ncol=2)
-  axes[1].set_xlabel('episode')
+  axes[1].set_xlabel('training episode')
+  if validation:
+    ax = axes[2]
+    common = sorted(set.intersection(*[
+        {r['training_episodes'] for r in records}
+        for records in validation.values()]))
+    table = []
+    for name in runs:
+      by_episodes = {r['training_episodes']: 100.0 * r['tw50_window_mean']
+                     for r in validation[name]}
+      xs = sorted(by_episodes)
+      ax.plot(xs, [by_episodes[x] for x in xs], lw=0.7, alpha=0.6,
+              marker='.', ms=2, label=name)
+      table.append([by_episodes[x] for x in common])
+    if common:
+      table = np.array(table)
+      ax.fill_between(common, table.min(axis=0), table.max(axis=0),
+                      color='0.6', alpha=0.25, label='min-max over runs')
+      ax.plot(common, table.mean(axis=0), color='k', lw=2.2,
+              label=f'mean of {len(runs)} runs')
+    first = next(iter(validation.values()))[0]
+    ax.set_ylabel(f'validation TW50 window [%]\n({first["episodes"]} seeds, '
+                  'deterministic)')
+    ax.set_xlabel('training episode')
+    ax.grid(alpha=0.3)
+    ax.legend(loc='lower right', fontsize=8, ncol=2)
   fig.suptitle(f'{len(runs)} training runs, {window}-episode rolling means '
                f'over their first {n} episodes')
   return _save(fig, path)

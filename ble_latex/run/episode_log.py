@@ -14,6 +14,8 @@ import warnings
 from ble_latex import safe_io
 
 EPISODE_LOG = 'episodes.jsonl'
+# The jitted trainer's validated policy snapshots (records.VALIDATION_SCHEMA).
+VALIDATION_LOG = 'validation.jsonl'
 
 
 class EpisodeLogWarning(UserWarning):

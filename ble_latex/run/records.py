@@ -117,6 +117,18 @@ EVAL_SCHEMA: Mapping[str, FieldType] = {
        if k not in ('episode', 'wall_time_s')},
     'flight_path': list_of(FLIGHT_POINT_SCHEMA, 'flight points'),
 }
+# One line of RUN/validation.jsonl (the jitted trainer's policy snapshots
+# flown on latex_validation seeds, `sac_trainer.train`).
+VALIDATION_SCHEMA: Mapping[str, FieldType] = {
+    'iteration': COUNT,
+    'training_episodes': COUNT,
+    'updates': COUNT,
+    'elapsed_s': NUMBER,
+    'episodes': COUNT,
+    'tw50_window_mean': FRACTION,
+    'tw50_mean': FRACTION,
+    'out_of_resources_pct': NUMBER,
+}
 # Required keys (the schemas' fields).
 EPISODE_KEYS = tuple(EPISODE_SCHEMA)
 EVAL_KEYS = tuple(EVAL_SCHEMA)
@@ -218,6 +230,29 @@ def validate_episodes(records: Sequence[Any], path: str) -> None:
           f'{records[i - 1]["episode"]} (duplicate or out of order)')
 
 
+def validate_validation(records: Sequence[Any], path: str) -> None:
+  """Checks validation.jsonl records: VALIDATION_SCHEMA, increasing rounds.
+
+  Args:
+    records: The parsed lines, in file order.
+    path: The file, named in errors.
+
+  Raises:
+    ValueError: '{path}: record N (iteration I): ...' (N counts from 1)
+      naming the field, for the first bad record; or if there is no record.
+  """
+  if not records:
+    raise ValueError(f'{path}: no validated snapshots')
+  for i, record in enumerate(records):
+    where = f'{path}: {_record_label(record, i + 1, "iteration", COUNT)}'
+    validate_record(record, VALIDATION_SCHEMA, where)
+    if i and record['iteration'] <= records[i - 1]['iteration']:
+      raise ValueError(
+          f'{where}: iteration {record["iteration"]} does not follow '
+          f'iteration {records[i - 1]["iteration"]} (duplicate or out of '
+          'order)')
+
+
 def validate_eval(records: Any, path: str) -> None:
   """Checks an eval file's content: a non-empty list of EVAL_SCHEMA records.
 
@@ -274,6 +309,31 @@ def load_episodes(path: str) -> List[Dict[str, Any]]:
   except UnicodeDecodeError as e:
     raise ValueError(f'{path}: not a UTF-8 text file: {e}') from e
   validate_episodes(records, path)
+  return records
+
+
+def load_validation(path: str) -> List[Dict[str, Any]]:
+  """Reads and validates a jitted-trainer run's validation.jsonl.
+
+  Args:
+    path: RUN/validation.jsonl, one JSON object per validated snapshot.
+
+  Returns:
+    The records, in file order.
+
+  Raises:
+    FileNotFoundError: if `path` does not exist.
+    ValueError: naming the file and the record if a line other than the last
+      is not valid JSON or UTF-8, or `validate_validation` fails. A torn last
+      line is skipped with an `EpisodeLogWarning`, as in episodes.jsonl.
+  """
+  if not os.path.isfile(path):
+    raise FileNotFoundError(f'validation log not found: {path}')
+  try:
+    records = episode_log.read(path)
+  except UnicodeDecodeError as e:
+    raise ValueError(f'{path}: not a UTF-8 text file: {e}') from e
+  validate_validation(records, path)
   return records
 
 

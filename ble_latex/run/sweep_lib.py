@@ -356,8 +356,8 @@ def tune_metrics(record: Mapping[str, Any]) -> Dict[str, float]:
 
 
 def validation_records(run_dir: str) -> List[Dict[str, Any]]:
-  from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
-  return episode_log.read(os.path.join(run_dir, sac_trainer.VALIDATION_LOG))
+  """A trial's validation.jsonl records ([] before its first snapshot)."""
+  return episode_log.read(os.path.join(run_dir, episode_log.VALIDATION_LOG))
 
 
 def check_resume(settings: SweepSettings) -> None:
