@@ -70,7 +70,7 @@ flags.DEFINE_integer('max_iteration', None, 'report: choose only among '
 flags.DEFINE_integer('parallel', 1, 'train: ble-latex-train processes at '
                      'once (seeds dealt round-robin); report: held-out evals '
                      'at once.', lower_bound=1, flag_values=FLAGS)
-flags.DEFINE_string('results_dir', 'benchmarks/results', 'report: where the '
+flags.DEFINE_string('results_dir', 'benchmarks/results/sac_seeds', 'report: where the '
                     'held-out eval files go.', flag_values=FLAGS)
 flags.DEFINE_string('held_out_suite', 'latex_small', 'report: the held-out '
                     'suite (never used for choosing).', flag_values=FLAGS)

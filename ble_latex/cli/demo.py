@@ -13,7 +13,7 @@
    steps, helium, sand, % out of resources).
 
 --run_dir defaults to the training run of the shipped policy
-(`benchmarks/sac_paper_run`, in a checkout of the repository). With
+(`benchmarks/sac_jax/n32/seed_2`, in a checkout of the repository). With
 --train_episodes=N the demo first trains SAC (paper settings, learning after
 2 episodes) for N episodes into OUTPUT_DIR/sac_run and draws that run's curves
 instead: the pipeline end to end (a few episodes are far too few to learn
@@ -48,7 +48,7 @@ _SAC = 'ble_latex.agents.sac.SACAgent'
 TRAINED = 'sac_pretrained'
 # The shipped policy's training run, in a checkout of the repository.
 SHIPPED_RUN = (pathlib.Path(__file__).resolve().parents[2] / 'benchmarks' /
-               'sac_paper_run')
+               'sac_jax' / 'n32' / 'seed_2')
 
 # The command's own flags (`cli.run_absl`).
 FLAGS = flags.FlagValues()

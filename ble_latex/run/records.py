@@ -208,6 +208,21 @@ def _record_label(record: Any, index: int, key: str,
   return label
 
 
+def _validate_log(records: Sequence[Any], path: str,
+                  schema: Mapping[str, FieldType], key: str,
+                  nothing: str) -> None:
+  """Checks the lines of a .jsonl log: `schema`, `key` strictly increasing."""
+  if not records:
+    raise ValueError(f'{path}: {nothing}')
+  for i, record in enumerate(records):
+    where = f'{path}: {_record_label(record, i + 1, key, COUNT)}'
+    validate_record(record, schema, where)
+    if i and record[key] <= records[i - 1][key]:
+      raise ValueError(
+          f'{where}: {key} {record[key]} does not follow {key} '
+          f'{records[i - 1][key]} (duplicate or out of order)')
+
+
 def validate_episodes(records: Sequence[Any], path: str) -> None:
   """Checks episodes.jsonl records: EPISODE_SCHEMA, increasing episodes.
 
@@ -219,15 +234,7 @@ def validate_episodes(records: Sequence[Any], path: str) -> None:
     ValueError: '{path}: record N (episode E): ...' (N counts from 1) naming
       the field, for the first bad record; or if there is no record.
   """
-  if not records:
-    raise ValueError(f'{path}: no episodes')
-  for i, record in enumerate(records):
-    where = f'{path}: {_record_label(record, i + 1, "episode", COUNT)}'
-    validate_record(record, EPISODE_SCHEMA, where)
-    if i and record['episode'] <= records[i - 1]['episode']:
-      raise ValueError(
-          f'{where}: episode {record["episode"]} does not follow episode '
-          f'{records[i - 1]["episode"]} (duplicate or out of order)')
+  _validate_log(records, path, EPISODE_SCHEMA, 'episode', 'no episodes')
 
 
 def validate_validation(records: Sequence[Any], path: str) -> None:
@@ -241,16 +248,8 @@ def validate_validation(records: Sequence[Any], path: str) -> None:
     ValueError: '{path}: record N (iteration I): ...' (N counts from 1)
       naming the field, for the first bad record; or if there is no record.
   """
-  if not records:
-    raise ValueError(f'{path}: no validated snapshots')
-  for i, record in enumerate(records):
-    where = f'{path}: {_record_label(record, i + 1, "iteration", COUNT)}'
-    validate_record(record, VALIDATION_SCHEMA, where)
-    if i and record['iteration'] <= records[i - 1]['iteration']:
-      raise ValueError(
-          f'{where}: iteration {record["iteration"]} does not follow '
-          f'iteration {records[i - 1]["iteration"]} (duplicate or out of '
-          'order)')
+  _validate_log(records, path, VALIDATION_SCHEMA, 'iteration',
+                'no validated snapshots')
 
 
 def validate_eval(records: Any, path: str) -> None:
