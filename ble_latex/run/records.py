@@ -284,6 +284,20 @@ def validate_eval(records: Any, path: str) -> None:
 # ---------------------------------------------------------------------------
 
 
+def _load_log(path: str, what: str,
+              validate: Callable[[Sequence[Any], str], None]
+              ) -> List[Dict[str, Any]]:
+  """Reads a .jsonl log (`episode_log.read`) and checks it with `validate`."""
+  if not os.path.isfile(path):
+    raise FileNotFoundError(f'{what} not found: {path}')
+  try:
+    records = episode_log.read(path)
+  except UnicodeDecodeError as e:
+    raise ValueError(f'{path}: not a UTF-8 text file: {e}') from e
+  validate(records, path)
+  return records
+
+
 def load_episodes(path: str) -> List[Dict[str, Any]]:
   """Reads and validates a training run's episodes.jsonl.
 
@@ -301,14 +315,7 @@ def load_episodes(path: str) -> List[Dict[str, Any]]:
       increase, there is no episode). A torn last line (a run killed while
       writing) is skipped with an `EpisodeLogWarning` instead.
   """
-  if not os.path.isfile(path):
-    raise FileNotFoundError(f'episode log not found: {path}')
-  try:
-    records = episode_log.read(path)
-  except UnicodeDecodeError as e:
-    raise ValueError(f'{path}: not a UTF-8 text file: {e}') from e
-  validate_episodes(records, path)
-  return records
+  return _load_log(path, 'episode log', validate_episodes)
 
 
 def load_validation(path: str) -> List[Dict[str, Any]]:
@@ -326,14 +333,7 @@ def load_validation(path: str) -> List[Dict[str, Any]]:
       is not valid JSON or UTF-8, or `validate_validation` fails. A torn last
       line is skipped with an `EpisodeLogWarning`, as in episodes.jsonl.
   """
-  if not os.path.isfile(path):
-    raise FileNotFoundError(f'validation log not found: {path}')
-  try:
-    records = episode_log.read(path)
-  except UnicodeDecodeError as e:
-    raise ValueError(f'{path}: not a UTF-8 text file: {e}') from e
-  validate_validation(records, path)
-  return records
+  return _load_log(path, 'validation log', validate_validation)
 
 
 def load_eval(path: str) -> List[Dict[str, Any]]:
