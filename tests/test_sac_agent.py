@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from ble_latex import agents as latex_agents
+from ble_latex.agents import networks
 from ble_latex.agents import sac
 from ble_latex import safe_io
 
@@ -488,7 +489,7 @@ def test_batched_update_equals_dopamines_train(terminal_fraction,
                                                target_entropy):
   """`sac.update` computes Dopamine's `sac_agent.train` (same step, losses)."""
   from dopamine.jax.agents.sac import sac_agent  # pylint: disable=g-import-not-at-top
-  network_def = sac.make_network(3, 2, 32)
+  network_def = networks.make_network(3, 2, 32)
   key = jax.random.PRNGKey(3)
   k = jax.random.split(key, 8)
   batch = 16

@@ -189,12 +189,15 @@ class SACPretrainedAgent(sac.SACAgent):
         raise ValueError(f'SAC policy {policy_path}: config misses {key!r}')
     kwargs.setdefault('num_layers', config['num_layers'])
     kwargs.setdefault('hidden_units', config['hidden_units'])
+    # Policies from before critics were configurable hold Dopamine's MLPs.
+    config = dict(config, critic=config.get('critic', 'mlp'))
+    kwargs.setdefault('critic', config['critic'])
     super().__init__(num_actions, observation_shape, action_low=action_low,
                      action_high=action_high, seed=seed,
                      trust_legacy_pickle=trust_legacy_pickle, **kwargs)
     mine = self._config()
     for key in ('observation_shape', 'num_actions', 'action_low',
-                'action_high', 'num_layers', 'hidden_units'):
+                'action_high', 'num_layers', 'hidden_units', 'critic'):
       if mine[key] != config.get(key):
         raise ValueError(f'policy {policy_path} has {key}={config.get(key)}, '
                          f'this agent {mine[key]}')

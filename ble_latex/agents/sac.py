@@ -45,6 +45,10 @@ What this wrapper changes, and why:
 
 Note that Dopamine's update samples the next action of the TD target from the
 Polyak-averaged (target) actor rather than the online actor; we keep that.
+
+The critics can be changed (`critic`, `ble_latex.agents.networks`):
+Dopamine's MLPs (default), LayerNorm MLPs, or CrossQ's batch-norm critics
+without target networks; the actor is Dopamine's in every case.
 """
 
 import functools
@@ -54,7 +58,6 @@ from typing import Any, Dict, Mapping, Optional, Sequence, Union
 
 from absl import logging
 from balloon_learning_environment.agents import agent
-from dopamine.jax import continuous_networks
 from dopamine.jax.agents.sac import sac_agent
 from dopamine.replay_memory import circular_replay_buffer
 import gin
@@ -63,6 +66,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
+from ble_latex.agents import networks
 from ble_latex import safe_io
 
 CHECKPOINT_FORMAT = 'ble_latex.sac/2'  # msgpack (`safe_io`).
@@ -73,7 +77,7 @@ _STORE_PREFIX = circular_replay_buffer.STORE_FILENAME_PREFIX
 
 
 @functools.partial(jax.jit, static_argnums=0)
-def _mean_action(network_def: continuous_networks.SACNetwork, params: Any,
+def _mean_action(network_def: networks.LatexSACNetwork, params: Any,
                  state: jnp.ndarray) -> jnp.ndarray:
   """Deterministic policy action tanh(mu(s)) in the normalised box."""
   # The actor also draws a sample; its key is irrelevant to the mean.
@@ -203,7 +207,7 @@ def _polyak_update(online_params: Any, target_params: Any,
   return optax.incremental_update(online_params, target_params, tau)
 
 
-def _update_losses(network_def: continuous_networks.SACNetwork, params: Any,
+def _update_losses(network_def: networks.LatexSACNetwork, params: Any,
                    log_alpha: jnp.ndarray, target_params: Any, key: jnp.ndarray,
                    states: jnp.ndarray, actions: jnp.ndarray,
                    next_states: jnp.ndarray, rewards: jnp.ndarray,
@@ -219,6 +223,14 @@ def _update_losses(network_def: continuous_networks.SACNetwork, params: Any,
   with the sampled action's log-probability (Haarnoja et al. 2018, eq. 5),
   the actor loss through critics that are not updated by it (eq. 9), and the
   temperature loss (eq. 18); weights 0.5 / 1 / 1.
+
+  CrossQ critics (`networks.CRITICS`; Bhatt et al. 2024) have no target
+  network: the online actor gives the next action the same way, and the
+  critics see the B current and B next state-action pairs as one batch of
+  2B in training mode, so both are normalised with the same batch
+  statistics; the next-state values are not differentiated. The actor loss
+  reads the critics with their running statistics. The updated running
+  statistics come back in the aux dict as `batch_stats`.
   """
   batch = states.shape[0]
   keys = jax.vmap(lambda k: jax.random.split(k, 2))(
@@ -226,15 +238,31 @@ def _update_losses(network_def: continuous_networks.SACNetwork, params: Any,
   actor_keys, target_keys = keys[:, 1], keys[:, 0]
   critic = lambda p, s, a: network_def.apply(p, s, a,
                                              method=network_def.critic)
-  q1, q2 = jax.vmap(critic, in_axes=(None, 0, 0))(params, states, actions)
-  q1, q2 = q1.reshape(batch), q2.reshape(batch)
-  target_out = jax.vmap(lambda s, k: network_def.apply(
-      target_params, s, k, True))(next_states, target_keys)
-  target_q1, target_q2 = (q.reshape(batch) for q in target_out.critic)
   alpha = jnp.exp(log_alpha)
+  extra = {}
+  if networks.uses_target_network(network_def):
+    q1, q2 = jax.vmap(critic, in_axes=(None, 0, 0))(params, states, actions)
+    target_out = jax.vmap(lambda s, k: network_def.apply(
+        target_params, s, k, True))(next_states, target_keys)
+    target_q1, target_q2 = target_out.critic
+    next_log_prob = target_out.actor.log_probability
+  else:
+    next_actor = jax.vmap(lambda s, k: network_def.apply(
+        params, s, k, method=network_def.actor))(next_states, target_keys)
+    joint, updated = network_def.apply(
+        params, jnp.concatenate([states, next_states]),
+        jnp.concatenate([actions,
+                         jax.lax.stop_gradient(next_actor.mean_action)]),
+        True, method=network_def.critic, mutable=['batch_stats'])
+    q1, target_q1 = jnp.split(joint.q_value1, 2)
+    q2, target_q2 = jnp.split(joint.q_value2, 2)
+    next_log_prob = next_actor.log_probability
+    extra['batch_stats'] = updated['batch_stats']
+  q1, q2 = q1.reshape(batch), q2.reshape(batch)
+  target_q1, target_q2 = target_q1.reshape(batch), target_q2.reshape(batch)
   target = reward_scale_factor * rewards + cumulative_gamma * (
-      jnp.minimum(target_q1, target_q2) -
-      alpha * target_out.actor.log_probability) * (1.0 - terminals)
+      jnp.minimum(target_q1, target_q2) - alpha * next_log_prob) * (
+          1.0 - terminals)
   target = jax.lax.stop_gradient(target)
   critic_loss = jnp.mean((q1 - target) ** 2 + (q2 - target) ** 2)
   mean_action, sampled_action, log_prob = jax.vmap(
@@ -254,11 +282,11 @@ def _update_losses(network_def: continuous_networks.SACNetwork, params: Any,
       'alpha_loss': alpha_loss, 'critic_value_1': jnp.mean(q1),
       'critic_value_2': jnp.mean(q2), 'target_value_1': jnp.mean(target_q1),
       'target_value_2': jnp.mean(target_q2),
-      'mean_action': jnp.mean(mean_action, axis=0)}
+      'mean_action': jnp.mean(mean_action, axis=0), **extra}
 
 
 @functools.partial(jax.jit, static_argnums=(0, 1, 2))
-def update(network_def: continuous_networks.SACNetwork,
+def update(network_def: networks.LatexSACNetwork,
            optimizer: optax.GradientTransformation,
            alpha_optimizer: optax.GradientTransformation,
            optimizer_state: Any, alpha_optimizer_state: Any,
@@ -291,6 +319,8 @@ def update(network_def: continuous_networks.SACNetwork,
   updates, optimizer_state = optimizer.update(
       network_gradient, optimizer_state, params=network_params)
   network_params = optax.apply_updates(network_params, updates)
+  if 'batch_stats' in aux:  # CrossQ: running statistics, not gradients.
+    network_params = {**network_params, 'batch_stats': aux['batch_stats']}
   alpha_updates, alpha_optimizer_state = alpha_optimizer.update(
       alpha_gradient, alpha_optimizer_state, params=log_alpha)
   log_alpha = optax.apply_updates(log_alpha, alpha_updates)
@@ -308,15 +338,6 @@ def update(network_def: continuous_networks.SACNetwork,
   for i, a in enumerate(aux['mean_action']):
     returns[f'Values/MeanActions{i}'] = a
   return returns
-
-
-def make_network(num_actions: int, num_layers: int,
-                 hidden_units: int) -> continuous_networks.SACNetwork:
-  """Dopamine's SAC network acting in the normalised box [-1, 1]^d."""
-  unit = np.ones(num_actions, dtype=np.float32)
-  limits = tuple(tuple(x.reshape(-1)) for x in (-unit, unit))
-  return continuous_networks.SACNetwork((num_actions,), num_layers,
-                                        hidden_units, limits)
 
 
 def make_optimizers(params: Any, actor_learning_rate: float,
@@ -465,6 +486,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       seed: int = 0,
       num_layers: int = 2,
       hidden_units: int = 256,
+      critic: str = 'mlp',
       gamma: float = 0.99,
       actor_learning_rate: float = 3e-4,
       critic_learning_rate: float = 3e-4,
@@ -492,6 +514,8 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         replay sampling, policy sampling in the update).
       num_layers: Hidden layers of the actor and of each critic MLP.
       hidden_units: Units per hidden layer.
+      critic: The twin critics, one of `networks.CRITICS`: 'mlp' (the
+        paper's), 'layernorm' or 'crossq' (batch norm, no target networks).
       gamma: Discount factor.
       actor_learning_rate: Adam learning rate of the actor.
       critic_learning_rate: Adam learning rate of the twin critics.
@@ -544,6 +568,8 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         num_layers=num_layers, hidden_units=hidden_units,
         checkpoint_duration=checkpoint_duration,
         summary_writing_frequency=summary_writing_frequency)
+    networks.check_critic('SACAgent', critic)
+    self._critic = critic
     self._trust_legacy_pickle = bool(trust_legacy_pickle)
     self._action_low = low
     self._action_high = high
@@ -569,7 +595,8 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         observation_dtype=jnp.float32,
         reward_scale_factor=reward_scale_factor,
         stack_size=1,
-        network=continuous_networks.SACNetwork,
+        network=functools.partial(networks.LatexSACNetwork,
+                                  critic_type=critic),
         num_layers=self._num_layers,
         hidden_units=self._hidden_units,
         gamma=gamma,
@@ -829,6 +856,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         'action_high': self._action_high.tolist(),
         'num_layers': self._num_layers,
         'hidden_units': self._hidden_units,
+        'critic': self._critic,
         'replay_capacity': self._replay_capacity,
     }
 
@@ -940,6 +968,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     theirs = dict(config)
     if isinstance(theirs.get('observation_shape'), (tuple, np.ndarray)):
       theirs['observation_shape'] = list(theirs['observation_shape'])
+    theirs.setdefault('critic', 'mlp')  # Files from before critics were set.
     if theirs != mine:
       raise ValueError(f'{what} was written by an agent with config {theirs}, '
                        f'this agent has {mine}')

@@ -10,8 +10,8 @@ env (`ble_latex.envs.jax_env`) in parallel and runs the SAC updates inside one
 
 The SAC itself is not written again: the update is `sac.update` (Dopamine's
 `sac_agent.train` computed on the whole batch at once; the update
-`sac.SACAgent` runs too), the network Dopamine's
-`continuous_networks.SACNetwork` (`sac.make_network`), the optimizers and the
+`sac.SACAgent` runs too), the network Dopamine's `SACNetwork` with the
+critic chosen by `critic` (`networks.make_network`), the optimizers and the
 soft target update those of `sac.SACAgent` (`sac.make_optimizers`,
 `sac._polyak_update`).
 What this module adds is the loop, as pure functions of a `TrainState`:
@@ -47,7 +47,6 @@ import time
 from typing import Any, Callable, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 from absl import logging
-from dopamine.jax import continuous_networks
 import flax
 import gin
 import jax
@@ -55,6 +54,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
+from ble_latex.agents import networks
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.envs import host_env
@@ -96,6 +96,10 @@ class TrainerConfig:
     reward_scale_factor: Rewards are multiplied by this in the TD target.
     num_layers: Hidden layers of the actor and of each critic.
     hidden_units: Units per hidden layer.
+    critic: The twin critics (`networks.CRITICS`): 'mlp' (Dopamine's, the
+      paper's), 'layernorm' (LayerNorm after each hidden layer) or 'crossq'
+      (batch norm, no target networks; `target_smoothing_coefficient` is
+      then unused).
   """
   num_envs: int = 32
   updates_per_step: int = 8
@@ -111,13 +115,15 @@ class TrainerConfig:
   reward_scale_factor: float = 1.0
   num_layers: int = 2
   hidden_units: int = 256
+  critic: str = 'mlp'
 
   def __post_init__(self):
     fields = dataclasses.asdict(self)
+    networks.check_critic('sac_trainer_config', self.critic)
     sac.check_hyperparameters(
         'sac_trainer_config',
         **{k: v for k, v in fields.items()
-           if k not in ('num_envs', 'updates_per_step')})
+           if k not in ('num_envs', 'updates_per_step', 'critic')})
     for name in ('num_envs', 'updates_per_step'):
       value = fields[name]
       if (isinstance(value, bool) or not isinstance(value, (int, np.integer))
@@ -173,7 +179,7 @@ class RoundOutput(NamedTuple):
 
 class Learner(NamedTuple):
   """The static parts: network, optimizers, config (hashable, for jit)."""
-  network_def: continuous_networks.SACNetwork
+  network_def: networks.LatexSACNetwork
   optimizer: optax.GradientTransformation
   alpha_optimizer: optax.GradientTransformation
   config: TrainerConfig
@@ -191,8 +197,8 @@ def learner_for(config: TrainerConfig) -> Learner:
   equal configs (e.g. the seeds of one command) share their compiled code.
   """
   num_actions = len(jax_env.ACTION_LOW)
-  network_def = sac.make_network(num_actions, config.num_layers,
-                                 config.hidden_units)
+  network_def = networks.make_network(num_actions, config.num_layers,
+                                      config.hidden_units, config.critic)
   obs = jnp.zeros((jax_env.LatexBalloonJaxEnv.num_features,), jnp.float32)
   key = jax.random.PRNGKey(0)  # Only the parameters' structure is used.
   optimizer, alpha_optimizer = sac.make_optimizers(
@@ -266,8 +272,11 @@ def _update(learner: Learner, state: TrainState, key: Array
       state.network_params, state.target_params, state.log_alpha, train_key,
       r.obs[idx], r.action[idx], r.next_obs[idx], r.reward[idx],
       r.terminal[idx], c.gamma, c.target_entropy, c.reward_scale_factor)
-  target = sac._polyak_update(out['network_params'], state.target_params,  # pylint: disable=protected-access
-                              c.target_smoothing_coefficient)
+  if networks.uses_target_network(learner.network_def):
+    target = sac._polyak_update(out['network_params'], state.target_params,  # pylint: disable=protected-access
+                                c.target_smoothing_coefficient)
+  else:  # CrossQ: the targets are the online critics (unused by the update).
+    target = out['network_params']
   state = state.replace(
       network_params=out['network_params'], target_params=target,
       optimizer_state=out['optimizer_state'], log_alpha=out['log_alpha'],
@@ -425,7 +434,7 @@ def acting_bundle(learner: Learner, state: TrainState,
       'action_low': np.asarray(jax_env.ACTION_LOW, np.float64).tolist(),
       'action_high': np.asarray(jax_env.ACTION_HIGH, np.float64).tolist(),
       'num_layers': c.num_layers, 'hidden_units': c.hidden_units,
-      'replay_capacity': c.replay_capacity}
+      'critic': c.critic, 'replay_capacity': c.replay_capacity}
   return {'format': sac.CHECKPOINT_FORMAT, 'iteration': int(iteration),
           'config': config, 'training_steps': int(state.updates),
           'network_params': sac._to_numpy(state.network_params),  # pylint: disable=protected-access
@@ -540,6 +549,10 @@ def _check_resume(base_dir: str, run_info: Dict[str, Any],
         recorded = json.load(f)
     except (OSError, ValueError) as e:
       raise ValueError(f'{path} is unreadable ({e}); not resuming') from e
+    if isinstance(recorded.get('config'), dict):
+      # Settings added since the run started count with their defaults.
+      defaults = {f.name: f.default for f in dataclasses.fields(TrainerConfig)}
+      recorded['config'] = {**defaults, **recorded['config']}
     for key, value in run_info.items():
       if key in recorded and recorded[key] != value:
         raise ValueError(
