@@ -11,7 +11,8 @@ Two steps, both resumable (re-run the same command after a kill):
 
   #    --parallel=2 runs two ble-latex-train processes at once (seeds dealt
   #    round-robin): on a 2-core CPU two processes fly ~1.6x the rounds per
-  #    hour of one (README, "Jitted SAC trainer").
+  #    hour of one (README, "Jitted SAC trainer"). --vmap_seeds trains each
+  #    process's seeds together (`ble-latex-train --vmap_seeds`).
 
   # 2. For each seed, choose the snapshot with the best validation TW50 over
   #    the window among those with at most --max_oor_pct % out of resources
@@ -70,6 +71,9 @@ flags.DEFINE_integer('max_iteration', None, 'report: choose only among '
 flags.DEFINE_integer('parallel', 1, 'train: ble-latex-train processes at '
                      'once (seeds dealt round-robin); report: held-out evals '
                      'at once.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_bool('vmap_seeds', False, 'train: each process trains its '
+                  'seeds in one vmapped call per round (ble-latex-train '
+                  '--vmap_seeds).', flag_values=FLAGS)
 flags.DEFINE_string('results_dir', 'benchmarks/results/sac_seeds', 'report: where the '
                     'held-out eval files go.', flag_values=FLAGS)
 flags.DEFINE_string('held_out_suite', 'latex_small', 'report: the held-out '
@@ -81,12 +85,13 @@ flags.DEFINE_string('ship', None, 'report: also write the best-validated '
 
 def train(base_dir: str, seeds: List[int], num_iterations: int,
           snapshot_period: int, checkpoint_period: int,
-          gin_bindings: List[str], parallel: int = 1) -> None:
+          gin_bindings: List[str], parallel: int = 1,
+          vmap_seeds: bool = False) -> None:
   """Runs (or resumes) `ble-latex-train --trainer=jax --seeds=...`.
 
   With `parallel` > 1 the seeds are dealt round-robin to that many
   `ble-latex-train` processes running at once (each trains its share one
-  after another).
+  after another, or vmapped together with `vmap_seeds`).
   """
   groups = [seeds[i::parallel] for i in range(parallel)]
   commands = [
@@ -98,6 +103,7 @@ def train(base_dir: str, seeds: List[int], num_iterations: int,
        f'--checkpoint_period={checkpoint_period}',
        '--collectors=progress', '--collectors=episodes',
        '--collectors=tensorboard',
+       *(['--vmap_seeds'] if vmap_seeds and len(group) > 1 else []),
        *[f'--gin_bindings={b}' for b in gin_bindings]]
       for group in groups if group]
   processes = []
@@ -297,7 +303,8 @@ def _main(argv: Sequence[str]) -> int:
         f'--seeds takes integers, got {",".join(args.seeds)!r}') from e
   if argv[1] == 'train':
     train(args.base_dir, seeds, args.num_iterations, args.snapshot_period,
-          args.checkpoint_period, args.gin_bindings, args.parallel)
+          args.checkpoint_period, args.gin_bindings, args.parallel,
+          args.vmap_seeds)
     return 0
   return report(args.base_dir, seeds, args.max_oor_pct, args.max_minutes,
                 args.max_iteration, args.results_dir, args.ship,

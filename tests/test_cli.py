@@ -132,12 +132,16 @@ def test_train_and_export_policy_help_and_usage_errors():
                 ['--base_dir=/tmp/x', '--seeds=1,1'],
                 ['--base_dir=/tmp/x', '--trainer=jax',
                  '--validation_episodes=101'],
-                ['--base_dir=/tmp/x', '--trainer=nope']])
-  assert codes == [2] * 6
+                ['--base_dir=/tmp/x', '--trainer=nope'],
+                ['--base_dir=/tmp/x', '--trainer=jax', '--vmap_seeds'],
+                ['--base_dir=/tmp/x', '--seeds=0,1', '--vmap_seeds']])
+  assert codes == [2] * 8
   assert 'episodes_per_iteration is not used by --trainer=jax' in errors[0]
   assert '--agent=sac' in errors[1]
   assert 'integers' in errors[2] and 'distinct' in errors[3]
   assert 'validation_episodes' in errors[4] and 'trainer' in errors[5]
+  assert all('--vmap_seeds needs --trainer=jax and --seeds' in e
+             for e in errors[6:])
   codes, errors, stdout = _absl_cases('export_policy', [['--help'], []])
   assert codes == [0, 2]
   assert '--checkpoint' in stdout and '--output' in stdout

@@ -88,6 +88,70 @@ def test_resumed_run_equals_straight_run(runs):
       'checkpoint_00001.msgpack', 'checkpoint_00002.msgpack']
 
 
+def _close_lines(a, b):
+  """Two logs with the same records, numbers equal to float rounding."""
+  assert len(a) == len(b) > 0
+  for x, y in zip(a, b):
+    assert x.keys() == y.keys()
+    for k, v in x.items():
+      if isinstance(v, float):
+        assert y[k] == pytest.approx(v, rel=1e-4, abs=1e-5), k
+      else:
+        assert y[k] == v, k
+
+
+def test_vmapped_seeds_equal_one_after_another(runs, tmp_path, monkeypatch):
+  """`train_seeds(vmap=True)` writes what one run per seed writes.
+
+  Seed 5's straight run is `runs`'; seed 6 runs alone here. Vmapped: seed 5
+  has one round done alone (a run killed early) and seed 6 none, so seed 6
+  first catches up one round alone, then rounds 1-2 run vmapped.
+  """
+  straight, final5, _, _ = runs
+  alone6 = tmp_path / 'alone6'
+  final6 = _train(alone6, 3, seed=6)
+  both5, both6 = tmp_path / 'vmap5', tmp_path / 'vmap6'
+  _train(both5, 1)
+  vmapped_rounds = []
+  vmapped_call = sac_trainer.train_round_seeds
+
+  def counted(*args):
+    vmapped_rounds.append(args[2].updates.shape)
+    return vmapped_call(*args)
+
+  monkeypatch.setattr(sac_trainer, 'train_round_seeds', counted)
+  finals = sac_trainer.train_seeds(
+      runs=[(5, str(both5)), (6, str(both6))], num_iterations=3,
+      config=CONFIG, collectors=['episodes'], validation_seeds=VALIDATION,
+      env_params=_params(), vmap=True)
+  assert vmapped_rounds == [(2,), (2,)]  # Rounds 1 and 2, both seeds.
+  for alone, both, final, vmapped in ((straight, both5, final5, finals[0]),
+                                      (alone6, both6, final6, finals[1])):
+    _close_lines(_lines(alone / episode_log.EPISODE_LOG, ('wall_time_s',)),
+                 _lines(both / episode_log.EPISODE_LOG, ('wall_time_s',)))
+    _close_lines(_lines(alone / episode_log.VALIDATION_LOG, ('elapsed_s',)),
+                 _lines(both / episode_log.VALIDATION_LOG, ('elapsed_s',)))
+    assert int(vmapped.updates) == int(final.updates) > 0
+    for a, b in zip(jax.tree_util.tree_leaves(final),
+                    jax.tree_util.tree_leaves(vmapped)):
+      np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-5)
+    assert sorted(os.listdir(both / 'checkpoints')) == sorted(
+        os.listdir(alone / 'checkpoints'))
+    assert sorted(os.listdir(both / 'policies')) == sorted(
+        os.listdir(alone / 'policies'))
+  # The two seeds learned different things.
+  assert not np.allclose(
+      jax.tree_util.tree_leaves(finals[0].network_params)[0],
+      jax.tree_util.tree_leaves(finals[1].network_params)[0])
+
+
+def test_train_seeds_needs_distinct_seeds(tmp_path):
+  with pytest.raises(ValueError, match='distinct training seeds'):
+    sac_trainer.train_seeds(runs=[(1, str(tmp_path / 'a')),
+                                  (1, str(tmp_path / 'b'))],
+                            num_iterations=1, config=CONFIG)
+
+
 def test_snapshot_flies_in_the_gym_env_as_validated(runs):
   """The exported policy, loaded by `sac_pretrained`, flies the gym env."""
   import gym  # pylint: disable=g-import-not-at-top
@@ -205,6 +269,11 @@ def test_sac_seeds_trains_seeds_in_parallel_processes(benchmark_script,
   started.clear()
   module.train('runs/x', [0], 7, 5, 10, [], parallel=2)  # No empty process.
   assert len(started) == 1
+  assert '--vmap_seeds' not in started[0]
+  started.clear()
+  module.train('runs/x', [0, 1, 2], 7, 5, 10, [], parallel=2,
+               vmap_seeds=True)  # Only where a process has several seeds.
+  assert ['--vmap_seeds' in c for c in started] == [True, False]
 
 
 def test_sac_seeds_chooses_on_validation_within_caps(benchmark_script):

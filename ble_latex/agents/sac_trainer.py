@@ -569,6 +569,145 @@ def _check_resume(base_dir: str, run_info: Dict[str, Any],
         'Nothing was changed.')
 
 
+class _RunDir:
+  """The host side of one training seed: its run directory and logs.
+
+  Opening one checks a resume (same settings, no episode lost), restores the
+  newest checkpoint and cuts `validation.jsonl` back to it; `record` then
+  writes what a round leaves: episodes, tensorboard scalars, the validation
+  record, checkpoint and policy snapshot.
+  """
+
+  def __init__(self, *, base_dir: str, seed: int, learner: Learner,
+               num_iterations: int, collectors: Sequence[str],
+               window: int, validation_seeds: Sequence[int]):
+    config = learner.config
+    self.base_dir, self.seed, self.learner = base_dir, seed, learner
+    _, self.state = make_learner(config, jax.random.PRNGKey(seed))
+    done_iterations = sac.checkpoint_iterations(
+        os.path.join(base_dir, 'checkpoints'))
+    self.start = done_iterations[-1] + 1 if done_iterations else 0
+    run_info = {'trainer': 'jax', 'seed': seed,
+                'config': dataclasses.asdict(config), 'episode_steps': window}
+    os.makedirs(base_dir, exist_ok=True)
+    _check_resume(base_dir, run_info, self.start, config.num_envs)
+    self.elapsed = 0.0
+    if self.start:
+      self.state, self.elapsed = load_checkpoint(
+          checkpoint_path(base_dir, self.start - 1), self.state)
+      logging.info('%s: resuming after round %d.', base_dir, self.start - 1)
+    self.validation_path = os.path.join(base_dir, episode_log.VALIDATION_LOG)
+    validated = [r for r in episode_log.read(self.validation_path)
+                 if r['iteration'] < self.start]
+    safe_io.atomic_write(self.validation_path,
+                         ''.join(json.dumps(r) + '\n' for r in validated))
+    safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
+                         json.dumps(run_info, indent=1) + '\n')
+    self.validation_seeds = list(validation_seeds)
+    n = config.num_envs
+    self.dispatcher = metrics.dispatcher(
+        base_dir, len(jax_env.ACTION_LOW), collectors, self.start * n,
+        num_iterations * n, f'train sac (jax, seed {seed})')
+    self.writer = self.dispatcher.get_summary_writer()
+    self.dispatcher.pre_training()
+
+  def record(self, *, iteration: int, state: TrainState, out: RoundOutput,
+             wall: float, env: jax_env.LatexBalloonJaxEnv,
+             params: jax_env.EnvParams, last: bool,
+             policy_snapshot_period: int, checkpoint_period: int
+             ) -> Optional[Dict[str, Any]]:
+    """Logs a finished round of this seed; returns its validation record.
+
+    Args:
+      iteration: The round.
+      state: This seed's state after the round (its replay may be None
+        when no checkpoint is due).
+      out: This seed's round output.
+      wall: The round's wall time (for vmapped seeds, that of all). # [s]
+      env: The functional env.
+      params: Env parameters.
+      last: Whether this is the run's last round (always checkpointed).
+      policy_snapshot_period: Rounds between policy snapshots (0: never).
+      checkpoint_period: Rounds between checkpoints.
+    """
+    self.elapsed += wall
+    n, window = self.learner.config.num_envs, int(params.episode_steps)
+    seeds = [suites.train_seed(iteration * n + i) for i in range(n)]
+    for summary, info in episode_records(out, seeds, iteration * n, window,
+                                         wall):
+      self.dispatcher.begin_episode()
+      self.dispatcher.end_episode(metrics.LatexStatistics(
+          step=summary.steps, action=[], reward=summary.reward,
+          terminal=summary.terminal_reason != 'time_limit', info=info,
+          summary=summary))
+    if self.writer is not None:
+      for k, v in jax.device_get(out.losses).items():
+        self.writer.scalar(k, float(v), int(state.updates))
+      self.writer.scalar('Train/RoundSeconds', wall, iteration)
+      self.writer.flush()
+    snapshot = bool(policy_snapshot_period and
+                    (iteration + 1) % policy_snapshot_period == 0)
+    record = None
+    if snapshot and self.validation_seeds:
+      began = time.monotonic()
+      result = validation_summary(
+          validate(self.learner, env, state.network_params,
+                   jnp.asarray(self.validation_seeds, jnp.int32), window,
+                   params), window)
+      self.elapsed += time.monotonic() - began
+      record = {'iteration': iteration,
+                'training_episodes': (iteration + 1) * n,
+                'updates': int(state.updates), 'elapsed_s': self.elapsed,
+                'seeds': [int(self.validation_seeds[0]),
+                          int(self.validation_seeds[-1])], **result}
+      with open(self.validation_path, 'a', encoding='utf-8') as f:
+        f.write(json.dumps(record) + '\n')
+      if self.writer is not None:
+        for k in ('tw50_window_mean', 'tw50_mean', 'out_of_resources_pct'):
+          self.writer.scalar(f'Validation/{k}', record[k], (iteration + 1) * n)
+        self.writer.flush()
+    if (iteration + 1) % checkpoint_period == 0 or last:
+      save_checkpoint(self.base_dir, iteration, state, self.elapsed)
+    if snapshot:
+      policy = pretrained.policy_from_bundle(
+          acting_bundle(self.learner, state, iteration),
+          f'{self.base_dir} round {iteration}',
+          note=f'sac (jax trainer, seed {self.seed}) after '
+          f'{(iteration + 1) * n} training episodes')
+      pretrained.write_policy(
+          policy, train_lib.policy_snapshot_path(self.base_dir, iteration))
+    return record
+
+  def close(self) -> None:
+    self.dispatcher.end_training()
+    safe_io.atomic_write(os.path.join(self.base_dir, 'operative_config.gin'),
+                         gin.operative_config_str())
+
+
+def _stack(trees: Sequence[Any]) -> Any:
+  return jax.tree.map(lambda *xs: jnp.stack(xs), *trees)
+
+
+def _unstack(tree: Any, count: int) -> List[Any]:
+  return [jax.tree.map(lambda x, i=i: x[i], tree) for i in range(count)]
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1, 4))
+def train_round_seeds(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
+                      states: TrainState, seeds: Array, num_steps: int,
+                      params: jax_env.EnvParams
+                      ) -> Tuple[TrainState, RoundOutput]:
+  """`train_round` for K training seeds at once (`jax.vmap` over states).
+
+  Every training seed flies the same env seeds (as one after another would);
+  `states` are K `TrainState`s stacked on a leading axis, as are the results.
+  Equal to K `train_round` calls up to float rounding of the batched matrix
+  products (tested).
+  """
+  return jax.vmap(lambda s: train_round(learner, env, s, seeds, num_steps,
+                                        params))(states)
+
+
 def train(*, base_dir: str, num_iterations: int, seed: int = 0,
           config: Optional[TrainerConfig] = None,
           collectors: Sequence[str] = ('progress', 'episodes', 'tensorboard'),
@@ -603,96 +742,112 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
   Returns:
     The final `TrainState`.
   """
+  return train_seeds(
+      runs=[(seed, base_dir)], num_iterations=num_iterations, config=config,
+      collectors=collectors, policy_snapshot_period=policy_snapshot_period,
+      checkpoint_period=checkpoint_period, validation_seeds=validation_seeds,
+      env_params=env_params, on_validation=on_validation)[0]
+
+
+def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
+                config: Optional[TrainerConfig] = None,
+                collectors: Sequence[str] = ('progress', 'episodes',
+                                             'tensorboard'),
+                policy_snapshot_period: int = 1, checkpoint_period: int = 1,
+                validation_seeds: Sequence[int] = (),
+                env_params: Optional[jax_env.EnvParams] = None,
+                on_validation: Optional[Callable[[Dict[str, Any]], None]] = None,
+                vmap: bool = False) -> List[TrainState]:
+  """Runs (or resumes) several training seeds, each in its own directory.
+
+  With `vmap` the seeds' rounds run as one vmapped XLA call
+  (`train_round_seeds`); a seed whose run is behind the others (resumed from
+  an older checkpoint) first catches up alone. Otherwise the seeds run one
+  after another. Either way each directory gets what `train` writes; with
+  `vmap` a round's wall time (`Train/RoundSeconds`, `elapsed_s`) is that of
+  all seeds together.
+
+  Args:
+    runs: (training seed, run directory) pairs, seeds distinct.
+    num_iterations: Rounds per seed in total.
+    config: Trainer settings (default: gin's `sac_trainer_config.*`).
+    collectors: As `train`.
+    policy_snapshot_period: As `train`.
+    checkpoint_period: As `train`.
+    validation_seeds: As `train`.
+    env_params: As `train`.
+    on_validation: As `train`, called with each seed's records.
+    vmap: Train the seeds together with `jax.vmap`.
+
+  Returns:
+    The final `TrainState` of each run, in the order of `runs`.
+  """
   config = config or TrainerConfig()
   metrics.check_collectors(collectors)
   if num_iterations < 1 or checkpoint_period < 1 or policy_snapshot_period < 0:
     raise ValueError('num_iterations and checkpoint_period must be >= 1, '
                      'policy_snapshot_period >= 0')
+  seeds_of_runs = [seed for seed, _ in runs]
+  if not runs or len(set(seeds_of_runs)) != len(seeds_of_runs):
+    raise ValueError(f'runs need distinct training seeds, got {seeds_of_runs}')
   env = jax_env.LatexBalloonJaxEnv()
   params = env_params if env_params is not None else env.default_params
   window = int(params.episode_steps)
-  learner, state = make_learner(config, jax.random.PRNGKey(seed))
-  folder = os.path.join(base_dir, 'checkpoints')
-  done_iterations = sac.checkpoint_iterations(folder)
-  start = done_iterations[-1] + 1 if done_iterations else 0
-  run_info = {'trainer': 'jax', 'seed': seed,
-              'config': dataclasses.asdict(config),
-              'episode_steps': window}
-  os.makedirs(base_dir, exist_ok=True)
-  _check_resume(base_dir, run_info, start, config.num_envs)
-  elapsed = 0.0
-  if start:
-    state, elapsed = load_checkpoint(checkpoint_path(base_dir, start - 1),
-                                     state)
-    logging.info('Resuming after round %d.', start - 1)
-  validation_path = os.path.join(base_dir, episode_log.VALIDATION_LOG)
-  validated = [r for r in episode_log.read(validation_path)
-               if r['iteration'] < start]
-  safe_io.atomic_write(validation_path,
-                       ''.join(json.dumps(r) + '\n' for r in validated))
-  val_seeds = jnp.asarray(list(validation_seeds), jnp.int32)
-  safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
-                       json.dumps(run_info, indent=1) + '\n')
+  learner = learner_for(config)
   n = config.num_envs
-  dispatcher = metrics.dispatcher(
-      base_dir, len(jax_env.ACTION_LOW), collectors, start * n,
-      num_iterations * n, f'train sac (jax, seed {seed})')
-  writer = dispatcher.get_summary_writer()
-  dispatcher.pre_training()
-  for iteration in range(start, num_iterations):
-    seeds = [suites.train_seed(iteration * n + i) for i in range(n)]
-    began = time.monotonic()
-    state, out = train_round(learner, env, state,
-                             jnp.asarray(seeds, jnp.int32), window, params)
-    jax.block_until_ready(state.key)
-    wall = time.monotonic() - began
-    elapsed += wall
-    for summary, info in episode_records(out, seeds, iteration * n, window,
-                                         wall):
-      dispatcher.begin_episode()
-      dispatcher.end_episode(metrics.LatexStatistics(
-          step=summary.steps, action=[], reward=summary.reward,
-          terminal=summary.terminal_reason != 'time_limit', info=info,
-          summary=summary))
-    if writer is not None:
-      for k, v in jax.device_get(out.losses).items():
-        writer.scalar(k, float(v), int(state.updates))
-      writer.scalar('Train/RoundSeconds', wall, iteration)
-      writer.flush()
-    last = iteration == num_iterations - 1
-    snapshot = bool(policy_snapshot_period and
-                    (iteration + 1) % policy_snapshot_period == 0)
-    record = None
-    if snapshot and len(validation_seeds):
-      began = time.monotonic()
-      result = validation_summary(
-          validate(learner, env, state.network_params, val_seeds, window,
-                   params), window)
-      elapsed += time.monotonic() - began
-      record = {'iteration': iteration, 'training_episodes': (iteration + 1) * n,
-                'updates': int(state.updates), 'elapsed_s': elapsed,
-                'seeds': [int(validation_seeds[0]),
-                          int(validation_seeds[-1])], **result}
-      with open(validation_path, 'a', encoding='utf-8') as f:
-        f.write(json.dumps(record) + '\n')
-      if writer is not None:
-        for k in ('tw50_window_mean', 'tw50_mean', 'out_of_resources_pct'):
-          writer.scalar(f'Validation/{k}', record[k], (iteration + 1) * n)
-        writer.flush()
-    if (iteration + 1) % checkpoint_period == 0 or last:
-      save_checkpoint(base_dir, iteration, state, elapsed)
-    if snapshot:
-      policy = pretrained.policy_from_bundle(
-          acting_bundle(learner, state, iteration),
-          f'{base_dir} round {iteration}',
-          note=f'sac (jax trainer, seed {seed}) after {(iteration + 1) * n} '
-          'training episodes')
-      pretrained.write_policy(
-          policy, train_lib.policy_snapshot_path(base_dir, iteration))
-    if record is not None and on_validation is not None:
-      on_validation(record)
-  dispatcher.end_training()
-  safe_io.atomic_write(os.path.join(base_dir, 'operative_config.gin'),
-                       gin.operative_config_str())
-  return state
 
+  def env_seeds(iteration):
+    return jnp.asarray([suites.train_seed(iteration * n + i)
+                        for i in range(n)], jnp.int32)
+
+  def record(run, iteration, state, out, wall):
+    result = run.record(
+        iteration=iteration, state=state, out=out, wall=wall, env=env,
+        params=params, last=iteration == num_iterations - 1,
+        policy_snapshot_period=policy_snapshot_period,
+        checkpoint_period=checkpoint_period)
+    if result is not None and on_validation is not None:
+      on_validation(result)
+
+  def alone(run, stop):
+    state = run.state
+    for iteration in range(run.start, stop):
+      began = time.monotonic()
+      state, out = train_round(learner, env, state, env_seeds(iteration),
+                               window, params)
+      jax.block_until_ready(state.key)
+      record(run, iteration, state, out, time.monotonic() - began)
+    run.state = state
+    return state
+
+  opened = []
+  for seed, base_dir in runs:
+    opened.append(_RunDir(
+        base_dir=base_dir, seed=seed, learner=learner,
+        num_iterations=num_iterations, collectors=collectors, window=window,
+        validation_seeds=validation_seeds))
+    if not vmap or len(runs) == 1:
+      alone(opened[-1], num_iterations)
+      opened[-1].close()
+  if not vmap or len(runs) == 1:
+    return [run.state for run in opened]
+  common = min(max(run.start for run in opened), num_iterations)
+  states = _stack([alone(run, common) for run in opened])
+  for run in opened:
+    run.state = None  # Only the stacked copy stays (each holds a replay).
+  k = len(opened)
+  for iteration in range(common, num_iterations):
+    began = time.monotonic()
+    states, outs = train_round_seeds(learner, env, states,
+                                     env_seeds(iteration), window, params)
+    jax.block_until_ready(states.key)
+    wall = time.monotonic() - began
+    due = ((iteration + 1) % checkpoint_period == 0 or
+           iteration == num_iterations - 1)
+    # Slicing the replays out costs a copy each: only for checkpoints.
+    sliced = _unstack(states if due else states.replace(replay=None), k)
+    for run, state, out in zip(opened, sliced, _unstack(outs, k)):
+      record(run, iteration, state, out, wall)
+  for run in opened:
+    run.close()
+  return _unstack(states, k)

@@ -10,11 +10,14 @@ latex env and SAC as defaults:
 With `--trainer=jax` SAC trains in jitted rounds on the batched env
 (`ble_latex.agents.sac_trainer`, gin `gin_configs/sac_jax.gin`): an iteration
 is one episode on each of `sac_trainer_config.num_envs` balloons in parallel.
-`--seeds` runs several training seeds one after another, each in
-BASE_DIR/seed_<s>:
+`--seeds` runs several training seeds, each in BASE_DIR/seed_<s>: one after
+another, or with `--vmap_seeds` (jax trainer) all in one vmapped XLA call
+per round, which gains where the hardware has room for more than one
+seed's work (README, "Jitted SAC trainer", for measurements):
 
   ble-latex-train --trainer=jax --base_dir=/tmp/latex/jax \
-      --num_iterations=170 --policy_snapshot_period=5 --seeds=0,1,2,3,4
+      --num_iterations=170 --policy_snapshot_period=5 --seeds=0,1,2,3,4 \
+      [--vmap_seeds]
 
 The run directory holds `checkpoints/` (one per iteration), `episodes.jsonl`
 (one line per episode) and `metrics/` (tensorboard, pickle); the jax trainer
@@ -84,6 +87,10 @@ flags.DEFINE_list('seeds', None,
                   'Training seeds, run one after another, each in '
                   'BASE_DIR/seed_<s> (instead of --seed in BASE_DIR).',
                   flag_values=FLAGS)
+flags.DEFINE_bool('vmap_seeds', False,
+                  '--trainer=jax with --seeds: train the seeds together, '
+                  'one jax.vmap-ed round for all (instead of one after '
+                  'another).', flag_values=FLAGS)
 flags.DEFINE_integer('validation_episodes', 100,
                      '--trainer=jax: latex_validation seeds each policy '
                      'snapshot flies (batched) into validation.jsonl; 0: '
@@ -114,19 +121,20 @@ def _main(argv: Sequence[str]) -> None:
     agent_gin_file = configs.gin_file('sac_jax.gin')
   configs.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                   FLAGS.gin_bindings)
+  if jax_trainer:
+    # pylint: disable=g-import-not-at-top
+    from ble_latex.agents import sac_trainer
+    # pylint: enable=g-import-not-at-top
+    first = suites.VALIDATION_SEED_OFFSET
+    sac_trainer.train_seeds(
+        runs=seed_dirs(), num_iterations=FLAGS.num_iterations,
+        collectors=FLAGS.collectors,
+        policy_snapshot_period=FLAGS.policy_snapshot_period,
+        checkpoint_period=FLAGS.checkpoint_period,
+        validation_seeds=range(first, first + FLAGS.validation_episodes),
+        vmap=FLAGS.vmap_seeds)
+    return
   for seed, base_dir in seed_dirs():
-    if jax_trainer:
-      # pylint: disable=g-import-not-at-top
-      from ble_latex.agents import sac_trainer
-      # pylint: enable=g-import-not-at-top
-      first = suites.VALIDATION_SEED_OFFSET
-      sac_trainer.train(
-          base_dir=base_dir, num_iterations=FLAGS.num_iterations, seed=seed,
-          collectors=FLAGS.collectors,
-          policy_snapshot_period=FLAGS.policy_snapshot_period,
-          checkpoint_period=FLAGS.checkpoint_period,
-          validation_seeds=range(first, first + FLAGS.validation_episodes))
-      continue
     train_lib.train(agent_name=FLAGS.agent, env_name=FLAGS.env_name,
           base_dir=base_dir, num_iterations=FLAGS.num_iterations,
           episodes_per_iteration=FLAGS.episodes_per_iteration,
@@ -148,6 +156,8 @@ def check() -> None:
     if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
       raise cli.CommandUsageError(
           f'--seeds takes distinct integers >= 0, got {FLAGS.seeds}')
+  if FLAGS.vmap_seeds and (FLAGS.trainer != 'jax' or FLAGS.seeds is None):
+    raise cli.CommandUsageError('--vmap_seeds needs --trainer=jax and --seeds')
   if FLAGS.trainer == 'jax':
     for name in ('episodes_per_iteration', 'max_episode_length'):
       if FLAGS[name].present:
