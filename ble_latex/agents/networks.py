@@ -59,7 +59,7 @@ class NormalizedCritic(nn.Module):
   @nn.compact
   def __call__(self, state: jax.Array, action: jax.Array,
                train: bool = False) -> jax.Array:
-    """Q(state, action): [..., 1] for state [..., d] and action [..., k].
+    """Q(state, action): [..., 1] for action [..., k] and state [..., d].
 
     Args:
       state: Observation(s).
@@ -71,6 +71,9 @@ class NormalizedCritic(nn.Module):
     kernel_init = jax.nn.initializers.glorot_uniform()
     batch_norm = lambda x: nn.BatchNorm(
         use_running_average=not train, momentum=BATCH_NORM_MOMENTUM)(x)
+    # One example's state may come stacked ([d, 1], Dopamine's agent): the
+    # action's leading axes are the batch axes.
+    state = state.reshape(action.shape[:-1] + (-1,))
     x = jnp.concatenate([state.astype(jnp.float32),
                          action.astype(jnp.float32)], axis=-1)
     if self.norm == 'batchnorm':
