@@ -17,7 +17,8 @@ in two configurations, alternating in the same process for --rounds rounds:
 Part 2 (`update`): one SAC update on the same batch of 256: Dopamine's
 `sac_agent.train` (per-transition gradients, averaged) vs `sac.update` (the
 gradient of the batch mean; the update both the agent and the trainer run),
-each jitted, --steps calls per round.
+each jitted, --steps calls per round; also `sac.update` with the LayerNorm
+and the CrossQ critics (`networks.CRITICS`, same sizes).
 
 Part 3 (`per_env_step`): what one environment step of training costs.
 - agent: `LatexBalloon-v0` (gym, one balloon) stepped with `SACAgent.step`
@@ -142,6 +143,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 def _time_updates(agent, steps: int, rounds: int) -> dict:
   """ms per SAC update: Dopamine's `sac_agent.train` vs `sac.update`."""
   # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import networks
   from ble_latex.agents import sac
   from dopamine.jax.agents.sac import sac_agent
   import jax
@@ -157,16 +159,35 @@ def _time_updates(agent, steps: int, rounds: int) -> dict:
             e['terminal'], agent.cumulative_gamma, agent.target_entropy,
             agent.reward_scale_factor)
 
-  times = {'dopamine_train': [], 'ble_latex_update': []}
-  fns = {'dopamine_train': sac_agent.train, 'ble_latex_update': sac.update}
+  # The same update with the other critics (`networks.CRITICS`), same sizes.
+  critics = {}
+  for critic in ('layernorm', 'crossq'):
+    net = networks.make_network(3, agent._num_layers, agent._hidden_units,  # pylint: disable=protected-access
+                                critic)
+    init_key = jax.random.PRNGKey(1)
+    params = net.init(init_key, e['state'][0], init_key)
+    opt, alpha_opt = sac.make_optimizers(params, 3e-4, 3e-4, 3e-4)
+    critics[f'ble_latex_update_{critic}'] = (
+        net, opt, alpha_opt, opt.init(params),
+        alpha_opt.init(agent.log_alpha), params, params)
+
+  def call(name, key):
+    if name == 'dopamine_train':
+      return sac_agent.train(*args(key))
+    if name == 'ble_latex_update':
+      return sac.update(*args(key))
+    return sac.update(*critics[name], *args(key)[7:])
+
+  times = {name: [] for name in ('dopamine_train', 'ble_latex_update',
+                                 *critics)}
   key = jax.random.PRNGKey(0)
-  for name, fn in fns.items():
-    jax.block_until_ready(fn(*args(key))['network_params'])  # Compile.
+  for name in times:
+    jax.block_until_ready(call(name, key)['network_params'])  # Compile.
   for _ in range(rounds):
-    for name, fn in fns.items():
+    for name in times:
       start = time.perf_counter()
       for _ in range(steps):
-        out = fn(*args(key))
+        out = call(name, key)
       jax.block_until_ready(out['network_params'])
       times[name].append((time.perf_counter() - start) / steps * 1e3)
   best = {k: min(v) for k, v in times.items()}

@@ -1,7 +1,5 @@
 """SAC critics (ble_latex/agents/networks.py) in the update, agent and trainer."""
 
-import json
-
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 from dopamine.jax import continuous_networks
 import jax
@@ -175,26 +173,3 @@ def test_crossq_trainer_snapshot_loads_in_sac_pretrained(tmp_path):
       final.network_params, jnp.asarray(obs), jax.random.PRNGKey(0),
       method=learner.network_def.actor).mean_action)
   np.testing.assert_allclose(agent.begin_episode(obs), expected, rtol=1e-5)
-
-
-def test_run_started_before_critics_resumes_and_other_critic_is_refused(
-    tmp_path):
-  config = sac_trainer.TrainerConfig(
-      num_envs=2, updates_per_step=1, batch_size=8, min_replay_history=8,
-      replay_capacity=64, hidden_units=16)
-  params = jax_env.LatexBalloonJaxEnv().default_params.replace(
-      episode_steps=4)
-  kwargs = dict(base_dir=str(tmp_path), seed=0, collectors=['episodes'],
-                env_params=params, policy_snapshot_period=0)
-  sac_trainer.train(num_iterations=1, config=config, **kwargs)
-  # run.json as written before `critic` existed.
-  path = tmp_path / sac_trainer.RUN_INFO
-  info = json.loads(path.read_text())
-  del info['config']['critic']
-  path.write_text(json.dumps(info))
-  sac_trainer.train(num_iterations=2, config=config, **kwargs)
-  assert json.loads(path.read_text())['config']['critic'] == 'mlp'
-  other = sac_trainer.TrainerConfig(**{**config.__dict__,
-                                       'critic': 'layernorm'})
-  with pytest.raises(ValueError, match='config'):
-    sac_trainer.train(num_iterations=3, config=other, **kwargs)

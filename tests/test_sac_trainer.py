@@ -191,6 +191,22 @@ def test_resume_with_other_settings_is_refused(runs, tmp_path):
   assert (straight / episode_log.EPISODE_LOG).read_text() == before
 
 
+def test_run_started_before_critics_resumes_and_other_critic_is_refused(
+    tmp_path):
+  _train(tmp_path, 1)
+  # run.json as written before `critic` existed: resumes as 'mlp'.
+  path = tmp_path / sac_trainer.RUN_INFO
+  info = json.loads(path.read_text())
+  del info['config']['critic']
+  path.write_text(json.dumps(info))
+  _train(tmp_path, 2)
+  assert json.loads(path.read_text())['config']['critic'] == 'mlp'
+  other = sac_trainer.TrainerConfig(**{**CONFIG.__dict__,
+                                       'critic': 'layernorm'})
+  with pytest.raises(ValueError, match="critic': 'layernorm'"):
+    _train(tmp_path, 3, config=other)
+
+
 def test_corrupt_checkpoint_is_named(runs, tmp_path):
   learner, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
   del learner
