@@ -39,7 +39,7 @@ clean:
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.cli.eval --suite=latex_small --output_dir=$(RESULTS)
 
-.PHONY: baselines results env-speed batch-speed sac-step ray-eval train-sac select-sac
+.PHONY: baselines results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac
 baselines: venv
 	$(EVAL) --agent=latex_random
 	$(EVAL) --agent=latex_station_seeker
@@ -58,6 +58,9 @@ batch-speed: venv
 
 sac-step: venv
 	$(PY) benchmarks/sac_step.py --steps 200 --rounds 3 --json benchmarks/sac_step.json
+
+seed-parallel: venv
+	$(PY) benchmarks/seed_parallel.py --num_seeds 2 --rounds 5 --json benchmarks/seed_parallel.json
 
 ray-eval: venv
 	$(PY) benchmarks/ray_eval.py --json benchmarks/ray_eval.json
