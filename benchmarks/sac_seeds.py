@@ -27,6 +27,12 @@ Two steps, both resumable (re-run the same command after a kill):
   python benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/n32 \
       --seeds=0,1,2,3,4 [--max_iteration=229] [--parallel=2] \
       [--ship=ble_latex/agents/policies/sac_latex.msgpack]
+
+  # 3. Compare runs of different settings on validation only (no flights):
+  #    per run directory, the chosen snapshot as in `report` and the mean of
+  #    the last five validations, within the same caps.
+  python benchmarks/sac_seeds.py compare --max_iteration=99 \
+      --run_dirs=benchmarks/sac_jax/n32/seed_0,benchmarks/sac_jax/critic_crossq/seed_0
 """
 
 from concurrent import futures
@@ -47,7 +53,6 @@ from ble_latex.cli import common as cli
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('base_dir', None, 'Folder of the seeds\' runs.',
                     flag_values=FLAGS)
-flags.mark_flag_as_required('base_dir', flag_values=FLAGS)
 flags.DEFINE_list('seeds', ['0', '1', '2', '3', '4'], 'Training seeds.',
                   flag_values=FLAGS)
 flags.DEFINE_integer('num_iterations', 230, 'train: rounds per seed '
@@ -71,6 +76,10 @@ flags.DEFINE_integer('max_iteration', None, 'report: choose only among '
 flags.DEFINE_integer('parallel', 1, 'train: ble-latex-train processes at '
                      'once (seeds dealt round-robin); report: held-out evals '
                      'at once.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_list('run_dirs', [], 'compare: run directories.',
+                  flag_values=FLAGS)
+flags.DEFINE_string('json', None, 'compare: also write the rows here.',
+                    flag_values=FLAGS)
 flags.DEFINE_bool('vmap_seeds', False, 'train: each process trains its '
                   'seeds in one vmapped call per round (ble-latex-train '
                   '--vmap_seeds).', flag_values=FLAGS)
@@ -132,6 +141,55 @@ def choose(validation: List[Dict[str, Any]], max_oor_pct: float,
   if not ok:
     return None
   return max(ok, key=lambda r: (r['tw50_window_mean'], -r['iteration']))
+
+
+def compare(run_dirs: Sequence[str], max_oor_pct: float,
+            max_iteration: Optional[int], max_minutes: Optional[float]
+            ) -> List[Dict[str, Any]]:
+  """Validation-only summary of each run (settings that differ shown)."""
+  # pylint: disable=g-import-not-at-top
+  import dataclasses
+  from ble_latex.agents import sac_trainer
+  from ble_latex.run import records
+  # pylint: enable=g-import-not-at-top
+  # Settings added after a run started count with their defaults.
+  defaults = {f.name: f.default
+              for f in dataclasses.fields(sac_trainer.TrainerConfig)}
+  rows = []
+  for run in run_dirs:
+    with open(os.path.join(run, 'run.json'), encoding='utf-8') as f:
+      info = json.load(f)
+    validation = [r for r in records.load_validation(
+        os.path.join(run, 'validation.jsonl'))
+                  if max_iteration is None or r['iteration'] <= max_iteration]
+    chosen = choose(validation, max_oor_pct, max_minutes, max_iteration)
+    last = validation[-5:]
+    rows.append({
+        'run': run, 'config': {**defaults, **info['config']},
+        'validated_rounds': [r['iteration'] for r in validation][-1:],
+        'chosen': chosen,
+        'last5_tw50_window_mean': (statistics.mean(
+            r['tw50_window_mean'] for r in last) if last else None),
+        'last5_oor_pct': (statistics.mean(
+            r['out_of_resources_pct'] for r in last) if last else None)})
+  configs = [r['config'] for r in rows]
+  differ = sorted({k for c in configs for k in c
+                   if any(d.get(k) != c.get(k) for d in configs)})
+  print(f'| run | {" | ".join(differ)} | last round | chosen round | '
+        'validation TW50 window (chosen) | OOR % (chosen) | mean of last 5 '
+        '| OOR % (last 5) |')
+  print('|---' * (len(differ) + 7) + '|')
+  for r in rows:
+    c = r['chosen'] or {}
+    pct = lambda x: '—' if x is None else f'{100 * x:.1f} %'
+    print(f'| {r["run"]} | '
+          + ' | '.join(str(r['config'].get(k, '—')) for k in differ)
+          + f' | {(r["validated_rounds"] or ["—"])[0]} | '
+          f'{c.get("iteration", "—")} | {pct(c.get("tw50_window_mean"))} | '
+          f'{c.get("out_of_resources_pct", "—")} | '
+          f'{pct(r["last5_tw50_window_mean"])} | '
+          f'{"—" if r["last5_oor_pct"] is None else round(r["last5_oor_pct"], 1)} |')
+  return rows
 
 
 def _held_out(suite_name: str, policy_path: str,
@@ -293,14 +351,24 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
 
 
 def _main(argv: Sequence[str]) -> int:
-  if len(argv) != 2 or argv[1] not in ('train', 'report'):
-    raise cli.CommandUsageError('give one command: train or report')
+  if len(argv) != 2 or argv[1] not in ('train', 'report', 'compare'):
+    raise cli.CommandUsageError('give one command: train, report or compare')
   args = FLAGS
   try:
     seeds = [int(s) for s in args.seeds]
   except ValueError as e:
     raise cli.CommandUsageError(
         f'--seeds takes integers, got {",".join(args.seeds)!r}') from e
+  if argv[1] == 'compare':
+    if not args.run_dirs:
+      raise cli.CommandUsageError('compare needs --run_dirs')
+    rows = compare(args.run_dirs, args.max_oor_pct, args.max_iteration,
+                   args.max_minutes)
+    if args.json:
+      safe_io.atomic_write(args.json, json.dumps(rows, indent=1) + '\n')
+    return 0
+  if not args.base_dir:
+    raise cli.CommandUsageError(f'{argv[1]} needs --base_dir')
   if argv[1] == 'train':
     train(args.base_dir, seeds, args.num_iterations, args.snapshot_period,
           args.checkpoint_period, args.gin_bindings, args.parallel,

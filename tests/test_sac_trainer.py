@@ -307,3 +307,33 @@ def test_sac_seeds_chooses_on_validation_within_caps(benchmark_script):
   assert module.choose(log, 5.0, max_iteration=18)['iteration'] == 14
   assert module.choose(log, 5.0, max_iteration=14)['iteration'] == 14
   assert module.choose(log, 5.0, max_iteration=3) is None
+
+
+def test_sac_seeds_compares_runs_on_validation(benchmark_script, tmp_path,
+                                               capsys):
+  module = benchmark_script('sac_seeds.py')
+  runs = []
+  for name, critic, scores in (('old', None, [0.3, 0.5, 0.4, 0.6]),
+                               ('ln', 'layernorm', [0.2, 0.45, 0.1, 0.7])):
+    run = tmp_path / name
+    run.mkdir()
+    config = {'num_envs': 32}
+    if critic:
+      config['critic'] = critic
+    (run / 'run.json').write_text(json.dumps({'config': config}))
+    with open(run / episode_log.VALIDATION_LOG, 'w', encoding='utf-8') as f:
+      for i, score in enumerate(scores):
+        f.write(json.dumps({
+            'iteration': i, 'training_episodes': 32 * (i + 1), 'updates': i,
+            'elapsed_s': 1.0 + i, 'seeds': [0, 99], 'episodes': 100,
+            'tw50_window_mean': score, 'tw50_mean': score,
+            'out_of_resources_pct': 10.0 if i == 1 else 0.0}) + '\n')
+    runs.append(str(run))
+  rows = module.compare(runs, max_oor_pct=5.0, max_iteration=2,
+                        max_minutes=None)
+  # Round 1 is out (10 % OOR), round 3 beyond the cap.
+  assert [r['chosen']['iteration'] for r in rows] == [2, 0]
+  assert rows[0]['config']['critic'] == 'mlp'  # Run from before critics.
+  assert rows[1]['last5_tw50_window_mean'] == pytest.approx(0.25)
+  table = capsys.readouterr().out
+  assert '| run | critic |' in table and '| layernorm |' in table
