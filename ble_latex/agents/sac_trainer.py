@@ -30,6 +30,11 @@ What this module adds is the loop, as pure functions of a `TrainState`:
 - A transition cut by the time limit is bootstrapped (not terminal); out of
   resources and burst are terminal.
 
+Several training seeds (`train_seeds`, `ble-latex-train --seeds`) run one
+after another, or with `vmap=True` (`--vmap_seeds`) as one `jax.vmap` of
+the round over their stacked `TrainState`s (`train_round_seeds`); each seed
+keeps its own run directory either way.
+
 A run directory holds what `ble-latex-train` writes: `episodes.jsonl` (with
 env seeds and both TW50s), tensorboard scalars, `checkpoints/` (msgpack,
 `safe_io`; the whole `TrainState` including the replay and the PRNG key, so a
@@ -780,7 +785,8 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
     vmap: Train the seeds together with `jax.vmap`.
 
   Returns:
-    The final `TrainState` of each run, in the order of `runs`.
+    The final `TrainState` of each run, in the order of `runs` (each with
+    its replay: K seeds hold K replays in memory, vmapped or not).
   """
   config = config or TrainerConfig()
   metrics.check_collectors(collectors)
