@@ -25,6 +25,22 @@ if 'JAX_COMPILATION_CACHE_DIR' not in os.environ:
 import ble_latex  # noqa: E402,F401  pylint: disable=g-import-not-at-top,unused-import
 
 
+@pytest.fixture(autouse=True, scope='module')
+def _free_compiled_code():
+  """Drops JAX's in-memory compiled programs after each test module.
+
+  Every XLA:CPU executable keeps its machine code in memory mappings of its
+  own; the whole suite in one process compiles enough of them to exhaust
+  the process's mappings ('LLVM ERROR: Unable to allocate section memory',
+  seen at ~520 tests). Recompiling in a later module mostly reads the
+  session's persistent cache (above).
+  """
+  yield
+  import sys  # pylint: disable=g-import-not-at-top
+  if 'jax' in sys.modules:
+    sys.modules['jax'].clear_caches()
+
+
 @pytest.fixture(scope='session')
 def atmosphere():
   """BLE's standard atmosphere (PRNG key 0), shared by the physics tests."""
