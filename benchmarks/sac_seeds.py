@@ -148,13 +148,9 @@ def compare(run_dirs: Sequence[str], max_oor_pct: float,
             ) -> List[Dict[str, Any]]:
   """Validation-only summary of each run (settings that differ shown)."""
   # pylint: disable=g-import-not-at-top
-  import dataclasses
   from ble_latex.agents import sac_trainer
   from ble_latex.run import records
   # pylint: enable=g-import-not-at-top
-  # Settings added after a run started count with their defaults.
-  defaults = {f.name: f.default
-              for f in dataclasses.fields(sac_trainer.TrainerConfig)}
   rows = []
   for run in run_dirs:
     with open(os.path.join(run, 'run.json'), encoding='utf-8') as f:
@@ -165,7 +161,7 @@ def compare(run_dirs: Sequence[str], max_oor_pct: float,
     chosen = choose(validation, max_oor_pct, max_minutes, max_iteration)
     last = validation[-5:]
     rows.append({
-        'run': run, 'config': {**defaults, **info['config']},
+        'run': run, 'config': sac_trainer.recorded_config(info['config']),
         'validated_rounds': [r['iteration'] for r in validation][-1:],
         'chosen': chosen,
         'last5_tw50_window_mean': (statistics.mean(

@@ -23,6 +23,7 @@ it). The load average before and after is recorded: this machine is shared.
       --json=benchmarks/seed_parallel.json
 """
 
+import json
 import multiprocessing
 import os
 import sys
@@ -183,7 +184,6 @@ def _main(argv: Sequence[str]) -> None:
   if bad:
     raise cli.CommandUsageError(f'--ways: unknown {bad}; choose from '
                                 f'{list(WAYS)}')
-  import json  # pylint: disable=g-import-not-at-top
   out = run(FLAGS.num_seeds, FLAGS.rounds, FLAGS.num_envs,
             FLAGS.updates_per_step, ways)
   text = json.dumps(out, indent=2) + '\n'

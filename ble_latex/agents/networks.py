@@ -39,9 +39,9 @@ def check_critic(owner: str, critic: Any) -> None:
                      f'{critic!r}')
 
 
-def uses_target_network(network_def: nn.Module) -> bool:
+def uses_target_network(network_def: 'LatexSACNetwork') -> bool:
   """False for CrossQ critics, which bootstrap from the online critics."""
-  return getattr(network_def, 'critic_type', 'mlp') != 'crossq'
+  return network_def.critic_type != 'crossq'
 
 
 class NormalizedCritic(nn.Module):

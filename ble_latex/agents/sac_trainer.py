@@ -49,7 +49,7 @@ import functools
 import json
 import os
 import time
-from typing import Any, Callable, Dict, List, NamedTuple, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, NamedTuple, Optional, Sequence, Tuple
 
 from absl import logging
 import flax
@@ -544,6 +544,22 @@ def load_checkpoint(path: str, template: TrainState
           tree.get('elapsed_s', 0.0))
 
 
+def recorded_config(config: Mapping[str, Any]) -> Dict[str, Any]:
+  """A `run.json` config with the settings added since it was written.
+
+  Settings added since a run started count with their defaults (e.g.
+  `critic`: 'mlp').
+  """
+  defaults = {f.name: f.default for f in dataclasses.fields(TrainerConfig)}
+  return {**defaults, **config}
+
+
+def round_seeds(iteration: int, num_envs: int) -> List[int]:
+  """Env seeds of a round's episodes: episode e flies `train_seed(e)`."""
+  return [suites.train_seed(iteration * num_envs + i)
+          for i in range(num_envs)]
+
+
 def _check_resume(base_dir: str, run_info: Dict[str, Any],
                   start_iteration: int, num_envs: int) -> None:
   """Refuses a resume that would change settings or lose logged episodes."""
@@ -555,9 +571,7 @@ def _check_resume(base_dir: str, run_info: Dict[str, Any],
     except (OSError, ValueError) as e:
       raise ValueError(f'{path} is unreadable ({e}); not resuming') from e
     if isinstance(recorded.get('config'), dict):
-      # Settings added since the run started count with their defaults.
-      defaults = {f.name: f.default for f in dataclasses.fields(TrainerConfig)}
-      recorded['config'] = {**defaults, **recorded['config']}
+      recorded['config'] = recorded_config(recorded['config'])
     for key, value in run_info.items():
       if key in recorded and recorded[key] != value:
         raise ValueError(
@@ -609,6 +623,7 @@ class _RunDir:
     safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
                          json.dumps(run_info, indent=1) + '\n')
     self.validation_seeds = list(validation_seeds)
+    self._validation_seeds = jnp.asarray(self.validation_seeds, jnp.int32)
     n = config.num_envs
     self.dispatcher = metrics.dispatcher(
         base_dir, len(jax_env.ACTION_LOW), collectors, self.start * n,
@@ -618,27 +633,25 @@ class _RunDir:
 
   def record(self, *, iteration: int, state: TrainState, out: RoundOutput,
              wall: float, env: jax_env.LatexBalloonJaxEnv,
-             params: jax_env.EnvParams, last: bool,
-             policy_snapshot_period: int, checkpoint_period: int
-             ) -> Optional[Dict[str, Any]]:
+             params: jax_env.EnvParams, checkpoint: bool,
+             policy_snapshot_period: int) -> Optional[Dict[str, Any]]:
     """Logs a finished round of this seed; returns its validation record.
 
     Args:
       iteration: The round.
       state: This seed's state after the round (its replay may be None
-        when no checkpoint is due).
+        without `checkpoint`).
       out: This seed's round output.
       wall: The round's wall time (for vmapped seeds, that of all). # [s]
       env: The functional env.
       params: Env parameters.
-      last: Whether this is the run's last round (always checkpointed).
+      checkpoint: Whether to write a checkpoint after this round.
       policy_snapshot_period: Rounds between policy snapshots (0: never).
-      checkpoint_period: Rounds between checkpoints.
     """
     self.elapsed += wall
     n, window = self.learner.config.num_envs, int(params.episode_steps)
-    seeds = [suites.train_seed(iteration * n + i) for i in range(n)]
-    for summary, info in episode_records(out, seeds, iteration * n, window,
+    for summary, info in episode_records(out, round_seeds(iteration, n),
+                                         iteration * n, window,
                                          wall):
       self.dispatcher.begin_episode()
       self.dispatcher.end_episode(metrics.LatexStatistics(
@@ -657,8 +670,7 @@ class _RunDir:
       began = time.monotonic()
       result = validation_summary(
           validate(self.learner, env, state.network_params,
-                   jnp.asarray(self.validation_seeds, jnp.int32), window,
-                   params), window)
+                   self._validation_seeds, window, params), window)
       self.elapsed += time.monotonic() - began
       record = {'iteration': iteration,
                 'training_episodes': (iteration + 1) * n,
@@ -671,7 +683,7 @@ class _RunDir:
         for k in ('tw50_window_mean', 'tw50_mean', 'out_of_resources_pct'):
           self.writer.scalar(f'Validation/{k}', record[k], (iteration + 1) * n)
         self.writer.flush()
-    if (iteration + 1) % checkpoint_period == 0 or last:
+    if checkpoint:
       save_checkpoint(self.base_dir, iteration, state, self.elapsed)
     if snapshot:
       policy = pretrained.policy_from_bundle(
@@ -803,15 +815,17 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
   n = config.num_envs
 
   def env_seeds(iteration):
-    return jnp.asarray([suites.train_seed(iteration * n + i)
-                        for i in range(n)], jnp.int32)
+    return jnp.asarray(round_seeds(iteration, n), jnp.int32)
+
+  def checkpoint_due(iteration):
+    return ((iteration + 1) % checkpoint_period == 0 or
+            iteration == num_iterations - 1)
 
   def record(run, iteration, state, out, wall):
     result = run.record(
         iteration=iteration, state=state, out=out, wall=wall, env=env,
-        params=params, last=iteration == num_iterations - 1,
-        policy_snapshot_period=policy_snapshot_period,
-        checkpoint_period=checkpoint_period)
+        params=params, checkpoint=checkpoint_due(iteration),
+        policy_snapshot_period=policy_snapshot_period)
     if result is not None and on_validation is not None:
       on_validation(result)
 
@@ -826,16 +840,17 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
     run.state = state
     return state
 
+  together = vmap and len(runs) > 1
   opened = []
   for seed, base_dir in runs:
     opened.append(_RunDir(
         base_dir=base_dir, seed=seed, learner=learner,
         num_iterations=num_iterations, collectors=collectors, window=window,
         validation_seeds=validation_seeds))
-    if not vmap or len(runs) == 1:
+    if not together:
       alone(opened[-1], num_iterations)
       opened[-1].close()
-  if not vmap or len(runs) == 1:
+  if not together:
     return [run.state for run in opened]
   common = min(max(run.start for run in opened), num_iterations)
   states = _stack([alone(run, common) for run in opened])
@@ -848,10 +863,9 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
                                      env_seeds(iteration), window, params)
     jax.block_until_ready(states.key)
     wall = time.monotonic() - began
-    due = ((iteration + 1) % checkpoint_period == 0 or
-           iteration == num_iterations - 1)
     # Slicing the replays out costs a copy each: only for checkpoints.
-    sliced = _unstack(states if due else states.replace(replay=None), k)
+    sliced = _unstack(states if checkpoint_due(iteration)
+                      else states.replace(replay=None), k)
     for run, state, out in zip(opened, sliced, _unstack(outs, k)):
       record(run, iteration, state, out, wall)
   for run in opened:
