@@ -42,6 +42,25 @@ setuptools.setup(
                  "Google's Balloon Learning Environment, with SAC."),
     long_description=(_HERE / 'README.md').read_text(encoding='utf-8'),
     long_description_content_type='text/markdown',
+    author='The ble_latex developers',
+    license='Apache-2.0',
+    license_files=['LICENSE'],
+    project_urls={
+        'Paper': 'https://arxiv.org/abs/2303.01173',
+        'Balloon Learning Environment':
+            'https://github.com/google/balloon-learning-environment',
+    },
+    keywords=['reinforcement learning', 'high-altitude balloon',
+              'station-keeping', 'soft actor-critic', 'jax', 'gymnasium'],
+    classifiers=[
+        'Development Status :: 4 - Beta',
+        'Intended Audience :: Science/Research',
+        'Operating System :: POSIX :: Linux',
+        'Programming Language :: Python :: 3',
+        'Programming Language :: Python :: 3.11',
+        'Topic :: Scientific/Engineering :: Artificial Intelligence',
+        'Topic :: Scientific/Engineering :: Atmospheric Science',
+    ],
     python_requires='>=3.11',
     packages=(setuptools.find_packages(include=['ble_latex', 'ble_latex.*']) +
               ['ble_latex.gin_configs']),
