@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Files that cannot run code: atomic writes and msgpack state files.
+"""Files that cannot run code: atomic writes, msgpack state files, locks.
 
 Checkpoints and policies are trees of dicts, lists, strings, numbers and NumPy
 arrays, written with flax's msgpack serialisation
@@ -13,21 +13,42 @@ code, so `read_legacy_pickle` reads one only when the caller passes
 `trust=True` (an explicit user opt-in, see README "Trusted files"), and even
 then only through an unpickler that accepts NumPy arrays and optax's
 optimiser-state tuples and refuses any other class.
+
+A run directory (or sweep directory, or eval output) has one writer at a
+time: `locked_dir` / `locked_file` hold an exclusive `fcntl.flock` on a lock
+file for as long as the writer works. The kernel drops the lock when its
+process ends, however it ends, so the lock file a killed process leaves
+behind blocks nobody; while the lock is held the file names the holder
+(pid, host, start time) for the message a second writer gets.
 """
 
+import contextlib
+import datetime
+import fcntl
+import json
 import os
 import pickle
 import secrets
-from typing import Any, Union
+import socket
+import time
+from typing import Any, Dict, Iterator, Union
 
 import numpy as np
 
 FORMAT_KEY = 'format'
 TMP_PREFIX = '.tmp-'
+LOCK_FILE = '.lock'  # In a locked directory.
+_LOCK_POLL_S = 0.5  # [s] Between tries while waiting for a lock.
+# Lock file descriptors this process holds -> the pid that took them.
+_HELD_LOCKS: Dict[int, int] = {}
 
 
 class UntrustedFileError(ValueError):
   """A pickle file was given without the explicit opt-in to trust it."""
+
+
+class InUseError(RuntimeError):
+  """Another writer (another process, or this one) holds a lock."""
 
 
 def atomic_write(path: str, data: Union[bytes, str]) -> None:
@@ -77,6 +98,123 @@ def remove_stale_temporaries(folder: str, prefix: str) -> None:
   for name in os.listdir(folder):
     if name.startswith(TMP_PREFIX + prefix):
       os.remove(os.path.join(folder, name))
+
+
+def _forget_locks_in_child() -> None:
+  """After a fork: the child closes its copies of the parent's lock files.
+
+  A flock belongs to the open file, which a fork shares: without this, a
+  child that outlives a killed parent would keep the parent's directory
+  locked. Closing the child's copy leaves the parent's lock as it is.
+  """
+  for fd in list(_HELD_LOCKS):
+    try:
+      os.close(fd)
+    except OSError:
+      pass
+  _HELD_LOCKS.clear()
+
+
+os.register_at_fork(after_in_child=_forget_locks_in_child)
+
+
+def _holder(fd: int) -> str:
+  """'pid P on host H (since T)' from a lock file, or a vaguer phrase."""
+  try:
+    info = json.loads(os.pread(fd, 4096, 0).decode('utf-8'))
+    pid, host, since = int(info['pid']), str(info['host']), str(info['since'])
+  except (OSError, ValueError, KeyError, TypeError):
+    return 'another process'  # It has not written its name yet.
+  mine = ' (this process)' if (pid == os.getpid() and
+                               host == socket.gethostname()) else ''
+  return f'pid {pid} on host {host} (since {since}){mine}'
+
+
+@contextlib.contextmanager
+def _hold(lock_path: str, target: str, what: str,
+          wait_s: float) -> Iterator[None]:
+  """Holds an exclusive flock on `lock_path` (see `locked_dir`)."""
+  fd = os.open(lock_path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
+  deadline = time.monotonic() + wait_s
+  try:
+    while True:
+      try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        break
+      except BlockingIOError:
+        if time.monotonic() >= deadline:
+          waited = f' (waited {wait_s:g} s)' if wait_s > 0 else ''
+          raise InUseError(
+              f'{what} {target} is in use by {_holder(fd)}{waited}; one '
+              f'writer per {what}') from None
+        time.sleep(_LOCK_POLL_S)
+  except BaseException:
+    os.close(fd)
+    raise
+  owner = os.getpid()
+  _HELD_LOCKS[fd] = owner
+  try:
+    since = datetime.datetime.now(datetime.timezone.utc).strftime(
+        '%Y-%m-%dT%H:%M:%SZ')
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, (json.dumps({'pid': owner, 'host': socket.gethostname(),
+                               'since': since}) + '\n').encode('utf-8'), 0)
+    yield
+  finally:
+    # A forked child that runs this has already closed its copy (and must
+    # not unlock the parent's lock, which the open file shares).
+    if _HELD_LOCKS.get(fd) == owner == os.getpid():
+      del _HELD_LOCKS[fd]
+      try:
+        os.ftruncate(fd, 0)  # Names nobody once released.
+      finally:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        os.close(fd)
+
+
+def locked_dir(directory: str, *, what: str = 'run directory',
+               wait_s: float = 0.0) -> contextlib.AbstractContextManager:
+  """Context manager: this process is the one writer of `directory`.
+
+  Takes an exclusive `fcntl.flock` on `directory/LOCK_FILE` (the directory
+  is created if missing) and writes this process's pid, host and start time
+  into it. The lock is released when the block ends, normally or by an
+  exception (KeyboardInterrupt included), and by the kernel when the
+  process dies: a lock file left by a killed process blocks nobody. It is
+  not inherited: the file is closed on exec, and a forked child closes its
+  copy. A second lock on the same directory conflicts, also within one
+  process.
+
+  Args:
+    directory: The directory to lock.
+    what: What it is, for the message (e.g. 'sweep directory').
+    wait_s: How long to wait for another holder to finish (e.g. a killed
+      sweep's worker that is still exiting); 0: refuse at once. # [s]
+
+  Returns:
+    The context manager.
+
+  Raises:
+    InUseError: On entering, if another writer holds the lock:
+      '<what> <directory> is in use by pid P on host H (since T); one writer
+      per <what>'.
+  """
+  directory = os.path.abspath(directory)
+  os.makedirs(directory, exist_ok=True)
+  return _hold(os.path.join(directory, LOCK_FILE), directory, what, wait_s)
+
+
+def locked_file(path: str, *, what: str = 'output file',
+                wait_s: float = 0.0) -> contextlib.AbstractContextManager:
+  """`locked_dir` for one file: locks `.<name>.lock` beside `path`.
+
+  For outputs that several writers put into one folder under different
+  names (e.g. eval shards), so that only writers of the same file conflict.
+  """
+  path = os.path.abspath(path)
+  folder, name = os.path.split(path)
+  os.makedirs(folder, exist_ok=True)
+  return _hold(os.path.join(folder, f'.{name}.lock'), path, what, wait_s)
 
 
 def _check_tree(tree: Any, where: str) -> None:

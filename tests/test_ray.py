@@ -19,6 +19,7 @@ ray = pytest.importorskip('ray')
 from ble_latex.run import distributed  # noqa: E402
 from ble_latex.run import eval_lib  # noqa: E402
 from ble_latex.run import sweep_lib  # noqa: E402
+from ble_latex import safe_io  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = list(range(1_000_000, 1_000_010))  # latex_tiny's held-out seeds.
@@ -172,6 +173,29 @@ def _rows(sweep_dir):
 def _episode_seeds(run_dir):
   with open(os.path.join(run_dir, 'episodes.jsonl'), encoding='utf-8') as f:
     return [json.loads(line)['seed'] for line in f]
+
+
+def test_sweep_directory_has_one_driver(tmp_path):
+  """A sweep directory another driver holds: `run` and `ble-latex-sweep`
+  refuse it (exit status 1, one line naming the holder), before Ray starts
+  and before sweep.json is written."""
+  sweep_dir = tmp_path / 'sweep'
+  settings = sweep_lib.SweepSettings(
+      sweep_dir=str(sweep_dir), points=({},), seeds=(0,), num_iterations=2,
+      policy_snapshot_period=1, validation_episodes=2)
+  message = (f'sweep directory {sweep_dir} is in use by pid {os.getpid()} '
+             'on host ')
+  with sweep_lib.lock(settings):
+    with pytest.raises(safe_io.InUseError, match=message):
+      sweep_lib.run(settings)
+    result = _sweep(sweep_dir, '--grid=sac_trainer_config.gamma=0.9',
+                    '--num_iterations=2', timeout=600)
+  assert result.returncode == 1, result.stderr[-3000:]
+  last = result.stderr.splitlines()[-1]
+  assert last.startswith(f'ble-latex-sweep: {message}'), result.stderr[-3000:]
+  assert last.endswith('; one writer per sweep directory')
+  assert 'Traceback' not in result.stderr
+  assert os.listdir(sweep_dir) == [safe_io.LOCK_FILE]
 
 
 def test_sweep_killed_resumes_and_writes_table_and_best_gin(tmp_path):

@@ -2,6 +2,11 @@
 
 import json
 import os
+import signal
+import socket
+import subprocess
+import sys
+import time
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 from hypothesis import given
@@ -150,6 +155,93 @@ def test_train_seeds_needs_distinct_seeds(tmp_path):
     sac_trainer.train_seeds(runs=[(1, str(tmp_path / 'a')),
                                   (1, str(tmp_path / 'b'))],
                             num_iterations=1, config=CONFIG)
+
+
+def test_one_run_directory_twice_in_one_process_is_refused(tmp_path):
+  """Two runs of one `train_seeds` call (or two trainers in one process)
+  on one directory: refused before any training."""
+  with pytest.raises(safe_io.InUseError,
+                     match=f'run directory {tmp_path} is in use by pid '
+                     f'{os.getpid()} .*this process'):
+    sac_trainer.train_seeds(runs=[(1, str(tmp_path)), (2, str(tmp_path))],
+                            num_iterations=1, config=CONFIG,
+                            env_params=_params())
+  assert not (tmp_path / episode_log.EPISODE_LOG).exists()
+  with safe_io.locked_dir(tmp_path):  # Released.
+    pass
+
+
+def test_stale_temporary_files_are_removed_at_start(tmp_path):
+  """What a killed checkpoint or policy write left (up to ~0.6 GB each) is
+  removed when the trainer starts; other files stay."""
+  stale = [tmp_path / 'checkpoints' / '.tmp-checkpoint_00007.msgpack-41-ab12',
+           tmp_path / 'policies' / '.tmp-policy_00007.msgpack-41-cd34']
+  kept = [tmp_path / 'policies' / 'notes.txt',
+          tmp_path / 'checkpoints' / '.tmp-other']
+  for path in stale + kept:
+    path.parent.mkdir(exist_ok=True)
+    path.write_bytes(b'partial')
+  _train(tmp_path, 1, policy_snapshot_period=0, validation_seeds=())
+  assert not any(path.exists() for path in stale)
+  assert all(path.exists() for path in kept)
+
+
+# The jitted trainer's command, as cheap as it gets: 2 balloons x 4 steps,
+# a 1x16 network, 1 validation seed.
+_JAX_TRAIN = [
+    '-m', 'ble_latex.cli.train', '--trainer=jax', '--num_iterations=2',
+    '--policy_snapshot_period=1', '--validation_episodes=1',
+    '--collectors=episodes',
+    '--gin_bindings=LatexBalloonEnv.episode_steps = 4',
+    '--gin_bindings=sac_trainer_config.num_envs = 2',
+    '--gin_bindings=sac_trainer_config.num_layers = 1',
+    '--gin_bindings=sac_trainer_config.hidden_units = 16',
+    '--gin_bindings=sac_trainer_config.batch_size = 8',
+    '--gin_bindings=sac_trainer_config.min_replay_history = 8',
+    '--gin_bindings=sac_trainer_config.updates_per_step = 1']
+_ENV = dict(os.environ, TF_CPP_MIN_LOG_LEVEL='3', JAX_PLATFORMS='cpu')
+
+
+def test_second_trainer_process_on_a_run_directory_is_refused(tmp_path):
+  """Two `ble-latex-train --trainer=jax` on one --base_dir: the second exits
+  with status 1 and one line naming the first, whose logs stay whole."""
+  run = tmp_path / 'run'
+  command = [sys.executable, *_JAX_TRAIN, f'--base_dir={run}']
+  with open(tmp_path / 'first.err', 'w', encoding='utf-8') as err:
+    first = subprocess.Popen(command, env=_ENV, stdout=subprocess.DEVNULL,
+                             stderr=err)
+  try:
+    deadline = time.monotonic() + 300
+    lock = run / safe_io.LOCK_FILE
+    while not (lock.exists() and f'"pid": {first.pid},' in lock.read_text()):
+      assert first.poll() is None, (tmp_path / 'first.err').read_text()[-3000:]
+      assert time.monotonic() < deadline
+      time.sleep(0.05)
+    first.send_signal(signal.SIGSTOP)  # Holds the lock while the second runs.
+    try:
+      second = subprocess.run(command, env=_ENV, capture_output=True,
+                              text=True, timeout=600)
+    finally:
+      first.send_signal(signal.SIGCONT)
+    assert first.wait(timeout=600) == 0, (
+        (tmp_path / 'first.err').read_text()[-3000:])
+  finally:
+    if first.poll() is None:
+      first.kill()
+      first.wait()
+  assert second.returncode == 1, second.stderr[-3000:]
+  lines = second.stderr.splitlines()
+  assert len(lines) == 1 and lines[-1].startswith(
+      f'ble-latex-train: run directory {run} is in use by pid {first.pid} on '
+      f'host {socket.gethostname()} (since '), second.stderr[-3000:]
+  assert lines[-1].endswith('; one writer per run directory')
+  assert 'Traceback' not in second.stderr
+  episodes = episode_log.read(str(run / episode_log.EPISODE_LOG))
+  assert [e['episode'] for e in episodes] == list(range(4))
+  assert [e['seed'] for e in episodes] == [suites.train_seed(i)
+                                           for i in range(4)]
+  assert [r['iteration'] for r in episode_log.read(
+      str(run / episode_log.VALIDATION_LOG))] == [0, 1]
 
 
 def test_snapshot_flies_in_the_gym_env_as_validated(runs):

@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -9,7 +10,9 @@ import time
 
 import ble_latex  # noqa: F401
 from ble_latex.run import episode_log
+from ble_latex.run import eval_lib
 from ble_latex.run import suites
+from ble_latex import safe_io
 import jax
 import numpy as np
 import pytest
@@ -66,6 +69,35 @@ def test_train_killed_and_resumed_equals_uninterrupted_run(tmp_path):
   assert _comparable(resumed) == _comparable(reference)
   assert sorted(os.listdir(killed / 'metrics')) == ['episodes', 'pickle',
                                                     'tensorboard']
+
+
+def test_train_and_eval_refuse_what_another_process_writes(tmp_path):
+  """The agent loop's run directory and an eval's output file, held by this
+  process: `ble-latex-train` and `ble-latex-eval` exit with status 1 and one
+  line naming the holder, and write nothing."""
+  run, output_dir = tmp_path / 'run', tmp_path / 'eval'
+  path = eval_lib.output_path(str(output_dir), 'latex_tiny', 'latex_random',
+                              1, 0)
+  code = (
+      'from ble_latex.cli import eval as eval_command\n'
+      'from ble_latex.cli import train\n'
+      f'print(train.main(["--base_dir={run}", "--num_iterations=1"]))\n'
+      'print(eval_command.main(["--agent=latex_random", '
+      f'"--output_dir={output_dir}"]))\n')
+  with safe_io.locked_dir(run), eval_lib.lock_output(path):
+    out = subprocess.run([sys.executable, '-c', code], env=_ENV,
+                         capture_output=True, text=True, timeout=600)
+  assert out.stdout.split() == ['1', '1'], out.stderr[-3000:]
+  holder = (rf'is in use by pid {os.getpid()} on host \S+ \(since '
+            r'[0-9T:-]+Z\); one writer per')
+  lines = out.stderr.splitlines()
+  assert len(lines) == 2, out.stderr[-3000:]
+  assert re.fullmatch(rf'ble-latex-train: run directory {re.escape(str(run))} '
+                      rf'{holder} run directory', lines[0])
+  assert re.fullmatch(rf'ble-latex-eval: eval output {re.escape(path)} '
+                      rf'{holder} eval output', lines[1])
+  assert os.listdir(run) == [safe_io.LOCK_FILE]
+  assert os.listdir(os.path.dirname(path)) == ['.latex_random.json.lock']
 
 
 def test_eval_writes_per_episode_json_with_flight_path(tmp_path):

@@ -44,6 +44,7 @@ repeated), `policies/policy_NNNNN.msgpack` snapshots that
 `sac_pretrained` load, `run.json` and `operative_config.gin`.
 """
 
+import contextlib
 import dataclasses
 import functools
 import json
@@ -731,8 +732,8 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
           policy_snapshot_period: int = 1, checkpoint_period: int = 1,
           validation_seeds: Sequence[int] = (),
           env_params: Optional[jax_env.EnvParams] = None,
-          on_validation: Optional[Callable[[Dict[str, Any]], None]] = None
-          ) -> TrainState:
+          on_validation: Optional[Callable[[Dict[str, Any]], None]] = None,
+          lock_wait_s: float = 0.0) -> TrainState:
   """Runs (or resumes) one jitted training run; gin must already be bound.
 
   Args:
@@ -755,15 +756,25 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
       is done (policy snapshot written; the checkpoint too when the periods
       coincide), e.g. to report it to
       Ray Tune (`ble_latex.run.sweep_lib`).
+    lock_wait_s: How long to wait for another writer of `base_dir` to end
+      before giving up (a sweep's trial waits out the worker of a killed
+      sweep); 0: refuse at once. # [s]
 
   Returns:
     The final `TrainState`.
+
+  Raises:
+    safe_io.InUseError: If another process (or another run in this one)
+      trains in `base_dir` (`safe_io.locked_dir`, held for the whole run).
+      Stale temporary files of killed writes in checkpoints/ and policies/
+      are removed once the lock is held.
   """
   return train_seeds(
       runs=[(seed, base_dir)], num_iterations=num_iterations, config=config,
       collectors=collectors, policy_snapshot_period=policy_snapshot_period,
       checkpoint_period=checkpoint_period, validation_seeds=validation_seeds,
-      env_params=env_params, on_validation=on_validation)[0]
+      env_params=env_params, on_validation=on_validation,
+      lock_wait_s=lock_wait_s)[0]
 
 
 def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
@@ -774,7 +785,8 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
                 validation_seeds: Sequence[int] = (),
                 env_params: Optional[jax_env.EnvParams] = None,
                 on_validation: Optional[Callable[[Dict[str, Any]], None]] = None,
-                vmap: bool = False) -> List[TrainState]:
+                vmap: bool = False, lock_wait_s: float = 0.0
+                ) -> List[TrainState]:
   """Runs (or resumes) several training seeds, each in its own directory.
 
   With `vmap` the seeds' rounds run as one vmapped XLA call
@@ -795,10 +807,15 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
     env_params: As `train`.
     on_validation: As `train`, called with each seed's records.
     vmap: Train the seeds together with `jax.vmap`.
+    lock_wait_s: As `train`.
 
   Returns:
     The final `TrainState` of each run, in the order of `runs` (each with
     its replay: K seeds hold K replays in memory, vmapped or not).
+
+  Raises:
+    safe_io.InUseError: As `train`, for any of the directories (all are
+      locked before any training starts, and held until all are done).
   """
   config = config or TrainerConfig()
   metrics.check_collectors(collectors)
@@ -808,66 +825,70 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
   seeds_of_runs = [seed for seed, _ in runs]
   if not runs or len(set(seeds_of_runs)) != len(seeds_of_runs):
     raise ValueError(f'runs need distinct training seeds, got {seeds_of_runs}')
-  env = jax_env.LatexBalloonJaxEnv()
-  params = env_params if env_params is not None else env.default_params
-  window = int(params.episode_steps)
-  learner = learner_for(config)
-  n = config.num_envs
+  with contextlib.ExitStack() as locks:  # One writer per run directory.
+    for _, base_dir in runs:
+      locks.enter_context(safe_io.locked_dir(base_dir, wait_s=lock_wait_s))
+      train_lib.remove_stale_temporaries(base_dir)
+    env = jax_env.LatexBalloonJaxEnv()
+    params = env_params if env_params is not None else env.default_params
+    window = int(params.episode_steps)
+    learner = learner_for(config)
+    n = config.num_envs
 
-  def env_seeds(iteration):
-    return jnp.asarray(round_seeds(iteration, n), jnp.int32)
+    def env_seeds(iteration):
+      return jnp.asarray(round_seeds(iteration, n), jnp.int32)
 
-  def checkpoint_due(iteration):
-    return ((iteration + 1) % checkpoint_period == 0 or
-            iteration == num_iterations - 1)
+    def checkpoint_due(iteration):
+      return ((iteration + 1) % checkpoint_period == 0 or
+              iteration == num_iterations - 1)
 
-  def record(run, iteration, state, out, wall):
-    result = run.record(
-        iteration=iteration, state=state, out=out, wall=wall, env=env,
-        params=params, checkpoint=checkpoint_due(iteration),
-        policy_snapshot_period=policy_snapshot_period)
-    if result is not None and on_validation is not None:
-      on_validation(result)
+    def record(run, iteration, state, out, wall):
+      result = run.record(
+          iteration=iteration, state=state, out=out, wall=wall, env=env,
+          params=params, checkpoint=checkpoint_due(iteration),
+          policy_snapshot_period=policy_snapshot_period)
+      if result is not None and on_validation is not None:
+        on_validation(result)
 
-  def alone(run, stop):
-    state = run.state
-    for iteration in range(run.start, stop):
-      began = time.monotonic()
-      state, out = train_round(learner, env, state, env_seeds(iteration),
-                               window, params)
-      jax.block_until_ready(state.key)
-      record(run, iteration, state, out, time.monotonic() - began)
-    run.state = state
-    return state
+    def alone(run, stop):
+      state = run.state
+      for iteration in range(run.start, stop):
+        began = time.monotonic()
+        state, out = train_round(learner, env, state, env_seeds(iteration),
+                                 window, params)
+        jax.block_until_ready(state.key)
+        record(run, iteration, state, out, time.monotonic() - began)
+      run.state = state
+      return state
 
-  together = vmap and len(runs) > 1
-  opened = []
-  for seed, base_dir in runs:
-    opened.append(_RunDir(
-        base_dir=base_dir, seed=seed, learner=learner,
-        num_iterations=num_iterations, collectors=collectors, window=window,
-        validation_seeds=validation_seeds))
+    together = vmap and len(runs) > 1
+    opened = []
+    for seed, base_dir in runs:
+      opened.append(_RunDir(
+          base_dir=base_dir, seed=seed, learner=learner,
+          num_iterations=num_iterations, collectors=collectors, window=window,
+          validation_seeds=validation_seeds))
+      if not together:
+        alone(opened[-1], num_iterations)
+        opened[-1].close()
     if not together:
-      alone(opened[-1], num_iterations)
-      opened[-1].close()
-  if not together:
-    return [run.state for run in opened]
-  common = min(max(run.start for run in opened), num_iterations)
-  states = _stack([alone(run, common) for run in opened])
-  for run in opened:
-    run.state = None  # Only the stacked copy stays (each holds a replay).
-  k = len(opened)
-  for iteration in range(common, num_iterations):
-    began = time.monotonic()
-    states, outs = train_round_seeds(learner, env, states,
-                                     env_seeds(iteration), window, params)
-    jax.block_until_ready(states.key)
-    wall = time.monotonic() - began
-    # Slicing the replays out costs a copy each: only for checkpoints.
-    sliced = _unstack(states if checkpoint_due(iteration)
-                      else states.replace(replay=None), k)
-    for run, state, out in zip(opened, sliced, _unstack(outs, k)):
-      record(run, iteration, state, out, wall)
-  for run in opened:
-    run.close()
-  return _unstack(states, k)
+      return [run.state for run in opened]
+    common = min(max(run.start for run in opened), num_iterations)
+    states = _stack([alone(run, common) for run in opened])
+    for run in opened:
+      run.state = None  # Only the stacked copy stays (each holds a replay).
+    k = len(opened)
+    for iteration in range(common, num_iterations):
+      began = time.monotonic()
+      states, outs = train_round_seeds(learner, env, states,
+                                       env_seeds(iteration), window, params)
+      jax.block_until_ready(states.key)
+      wall = time.monotonic() - began
+      # Slicing the replays out costs a copy each: only for checkpoints.
+      sliced = _unstack(states if checkpoint_due(iteration)
+                        else states.replace(replay=None), k)
+      for run, state, out in zip(opened, sliced, _unstack(outs, k)):
+        record(run, iteration, state, out, wall)
+    for run in opened:
+      run.close()
+    return _unstack(states, k)

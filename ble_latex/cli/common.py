@@ -13,6 +13,9 @@ any of them. `run_absl` gives every command the same contract:
 - a usage error (unknown flag, bad or missing value, unknown agent, suite, env,
   gin file or gin configurable) is one line on stderr,
   `PROG: what is wrong; valid: a, b, c`, and exit status 2;
+- a directory (or output file) another writer holds (`safe_io.InUseError`)
+  is one line on stderr, `PROG: ... is in use by pid P on host H ...`, and
+  exit status 1;
 - otherwise the absl main runs inside absl's `app.run` (absl logging, init
   callbacks) and its return value is the exit status (None: 0).
 """
@@ -26,10 +29,12 @@ from absl import app
 from absl import flags
 
 from ble_latex import configs
+from ble_latex import safe_io
 
 HELP_FLAGS = ('-h', '--help', '-help', '--helpshort', '--helpfull',
               '-helpfull')
 EXIT_USAGE = 2
+EXIT_FAILURE = 1
 
 
 class CommandUsageError(Exception):
@@ -115,6 +120,9 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
       return main(args)
     except (app.UsageError, CommandUsageError) as e:
       usage_error(prog, str(e))
+    except safe_io.InUseError as e:
+      print(f'{prog}: {e}', file=sys.stderr)
+      sys.exit(EXIT_FAILURE)
     except ValueError as e:
       gin_message = gin_usage_message(e)
       if gin_message is None:

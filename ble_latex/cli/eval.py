@@ -20,6 +20,10 @@ is the same (`ble_latex.run.distributed`, README "Scaling out on Ray"):
 
 If seeds fail on Ray, the others are written to NAME.partial.json and the
 command exits with status 1, listing each failed seed with its error.
+
+One writer per output file: while an eval writes OUTPUT_DIR/SUITE/NAME.json,
+another eval of the same file exits with status 1, naming the first's pid
+and host (shards, other agents and names write alongside).
 """
 
 import json
@@ -94,6 +98,17 @@ def _main(argv: Sequence[str]) -> None:
       gin_bindings=tuple(FLAGS.gin_bindings),
       checkpoint_dir=FLAGS.checkpoint_dir, checkpoint_idx=FLAGS.checkpoint_idx,
       seed=FLAGS.seed)
+  name = FLAGS.name_override or (
+      f'{FLAGS.agent}_{FLAGS.checkpoint_idx}'
+      if FLAGS.checkpoint_idx is not None else FLAGS.agent)
+  path = eval_lib.output_path(FLAGS.output_dir, FLAGS.suite, name,
+                              FLAGS.num_shards, FLAGS.shard_idx)
+  with eval_lib.lock_output(path):  # Refused before Ray or the agent start.
+    _evaluate(spec, path)
+
+
+def _evaluate(spec: eval_lib.EvalSpec, path: str) -> None:
+  """Flies the suite's seeds (here or on Ray) and writes `path`."""
   if FLAGS.ray_address is not None:
     # Before JAX starts threads in this process: Ray forks its daemons.
     try:
@@ -104,11 +119,6 @@ def _main(argv: Sequence[str]) -> None:
   suite = suites.get_eval_suite(FLAGS.suite)
   seeds = eval_lib.shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)
   max_steps = FLAGS.max_episode_length or suite.max_episode_length
-  name = FLAGS.name_override or (
-      f'{FLAGS.agent}_{FLAGS.checkpoint_idx}'
-      if FLAGS.checkpoint_idx is not None else FLAGS.agent)
-  path = eval_lib.output_path(FLAGS.output_dir, FLAGS.suite, name,
-                              FLAGS.num_shards, FLAGS.shard_idx)
   description = f'eval {FLAGS.agent} {FLAGS.suite}'
   if FLAGS.ray_address is None:
     results = eval_lib.evaluate(agent, env, seeds, max_steps,

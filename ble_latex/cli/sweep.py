@@ -109,7 +109,8 @@ def _main(argv: Sequence[str]) -> None:
     raise cli.CommandUsageError(str(e)) from e
   sweep_lib.check_points(settings)  # Gin errors name the binding, here.
   try:
-    sweep_lib.check_resume(settings)
+    with sweep_lib.lock(settings):  # Refuses a busy sweep dir before Ray.
+      sweep_lib.check_resume(settings)
   except ValueError as e:
     raise cli.CommandUsageError(str(e)) from e
   try:

@@ -8,6 +8,7 @@ terminal_reason, final_distance_km and flight_path (README, "Training and
 evaluation").
 """
 
+import contextlib
 import dataclasses
 import json
 import os
@@ -114,6 +115,19 @@ def output_path(output_dir: str, suite: str, name: str, num_shards: int,
   if num_shards > 1:
     name = f'{name}_{shard_idx}'
   return os.path.join(output_dir, suite, f'{name}.json')
+
+
+def lock_output(path: str) -> contextlib.AbstractContextManager:
+  """Context manager: this process is the one writer of the eval file `path`.
+
+  Locks the file, not its folder, so shards and other agents' evals write
+  side by side (`safe_io.locked_file`, which also covers its
+  `.partial.json`).
+
+  Raises:
+    safe_io.InUseError: On entering, if another eval writes `path`.
+  """
+  return safe_io.locked_file(path, what='eval output')
 
 
 def write_results(path: str, results: List[Dict[str, Any]],

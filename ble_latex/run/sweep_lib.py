@@ -31,7 +31,8 @@ booleans, strings).
 Killed and re-run with the same command, Tune restores the sweep
 (`Tuner.restore`): finished trials stay finished, unfinished and errored ones
 start again and their trainer resumes from its own last checkpoint. A sweep
-directory is for one sweep: other settings are refused.
+directory is for one sweep: other settings are refused, and one driver at a
+time runs it (`lock`); each trial locks its own run directory.
 
 Outputs: SWEEP_DIR/results.csv (one row per trial), results.md (one row per
 point: mean +- std over seeds of each seed's best validation TW50 over the
@@ -39,6 +40,7 @@ window) and best_config.gin (the best point's bindings, for
 `ble-latex-train --trainer=jax --gin_file=...`).
 """
 
+import contextlib
 import csv
 import dataclasses
 import io
@@ -63,6 +65,9 @@ METRIC = 'tw50_window'
 RESULTS_CSV = 'results.csv'
 RESULTS_MD = 'results.md'
 BEST_GIN = 'best_config.gin'
+# [s] A trial waits this long for its run directory's lock: after a killed
+# sweep, the old trial's worker may still be exiting when Tune restarts it.
+TRIAL_LOCK_WAIT_S = 60.0
 
 
 class SpaceError(ValueError):
@@ -338,7 +343,7 @@ def _trial(config: Dict[str, Any], *, settings: Dict[str, Any]) -> None:
       seed=seed, collectors=('episodes', 'tensorboard'),
       policy_snapshot_period=period, checkpoint_period=period,
       validation_seeds=range(first, first + sweep.validation_episodes),
-      on_validation=report)
+      on_validation=report, lock_wait_s=TRIAL_LOCK_WAIT_S)
   if not reported:  # Finished before a kill that Tune did not see.
     done = validation_records(sweep.run_dir(index, seed))
     if done:
@@ -360,8 +365,22 @@ def validation_records(run_dir: str) -> List[Dict[str, Any]]:
   return episode_log.read(os.path.join(run_dir, episode_log.VALIDATION_LOG))
 
 
+def lock(settings: SweepSettings) -> contextlib.AbstractContextManager:
+  """Context manager: this process is the sweep directory's one driver.
+
+  Locks SWEEP_DIR itself (`safe_io.locked_dir`), not the trials' run
+  directories below it, which the trials lock.
+
+  Raises:
+    safe_io.InUseError: On entering, if another driver holds it.
+  """
+  return safe_io.locked_dir(settings.sweep_dir, what='sweep directory')
+
+
 def check_resume(settings: SweepSettings) -> None:
   """Records the sweep in SWEEP_DIR/sweep.json, or checks it is the same one.
+
+  Call it holding `lock(settings)`.
 
   Raises:
     ValueError: The directory holds another sweep.
@@ -396,15 +415,26 @@ def run(settings: SweepSettings, max_concurrent_trials: Optional[int] = None,
   Returns:
     `table_rows` of the finished sweep (also written as CSV, markdown and the
     best gin file into the sweep dir).
+
+  Raises:
+    safe_io.InUseError: If another driver runs this sweep directory (`lock`,
+      held until the outputs are written).
   """
+  distributed.require_ray()
+  if not os.path.isabs(settings.sweep_dir):
+    raise ValueError('settings.sweep_dir must be absolute (Tune storage)')
+  with lock(settings):  # Creates the sweep dir.
+    return _run_locked(settings, max_concurrent_trials, verbose)
+
+
+def _run_locked(settings: SweepSettings,
+                max_concurrent_trials: Optional[int],
+                verbose: int) -> List[Dict[str, Any]]:
+  """`run`, holding the sweep directory's lock."""
   # pylint: disable=g-import-not-at-top
   from ray import tune
   from ray.tune import schedulers
   # pylint: enable=g-import-not-at-top
-  distributed.require_ray()
-  if not os.path.isabs(settings.sweep_dir):
-    raise ValueError('settings.sweep_dir must be absolute (Tune storage)')
-  os.makedirs(settings.sweep_dir, exist_ok=True)
   check_resume(settings)
   trainable = tune.with_resources(
       tune.with_parameters(_trial, settings=settings.to_json()),

@@ -39,6 +39,18 @@ def policy_snapshot_path(base_dir: str, iteration: int) -> str:
   return os.path.join(base_dir, 'policies', f'policy_{iteration:05d}.msgpack')
 
 
+def remove_stale_temporaries(base_dir: str) -> None:
+  """Removes the temporary files killed writes left in checkpoints/, policies/.
+
+  Call it holding the run directory's lock (`safe_io.locked_dir`): then no
+  temporary file there belongs to a live writer.
+  """
+  safe_io.remove_stale_temporaries(os.path.join(base_dir, 'checkpoints'),
+                                   'checkpoint_')
+  safe_io.remove_stale_temporaries(os.path.join(base_dir, 'policies'),
+                                   'policy_')
+
+
 def _reload_latest(agent: base_agent.Agent, checkpoint_dir: str) -> int:
   """Loads the newest numbered checkpoint; returns its iteration or -1.
 
@@ -137,6 +149,8 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
       snapshots asked of an agent that is not SAC.
     ResumeError: If `base_dir` holds a run that cannot be resumed without
       losing logged episodes or with these settings (nothing is changed).
+    safe_io.InUseError: If another process (or another run in this one)
+      trains in `base_dir` (`safe_io.locked_dir`, held for the whole run).
   """
   metrics.check_collectors(collectors)
   if num_iterations < 1 or episodes_per_iteration < 1 or max_episode_length < 1:
@@ -145,48 +159,54 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
   if policy_snapshot_period < 0:
     raise ValueError('policy_snapshot_period must be >= 0, got '
                      f'{policy_snapshot_period}')
-  os.makedirs(base_dir, exist_ok=True)
-  env = gym.make(env_name).unwrapped
-  agent = runner.create_agent(agent_name, env, seed=seed)
-  if policy_snapshot_period and not isinstance(agent, sac.SACAgent):
-    raise ValueError(f'policy snapshots need a SAC agent, not {agent_name!r}')
-  checkpoint_dir = os.path.join(base_dir, 'checkpoints')
-  start_iteration = _reload_latest(agent, checkpoint_dir) + 1
-  run_info = {'agent': agent_name, 'env_name': env_name, 'seed': seed,
-              'episodes_per_iteration': episodes_per_iteration,
-              'max_episode_length': max_episode_length}
-  _check_resume(base_dir, run_info, start_iteration,
-                log_episodes='episodes' in collectors)
-  safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
-                       json.dumps(run_info, indent=1) + '\n')
-  start_episode = start_iteration * episodes_per_iteration
-  if start_iteration:
-    logging.info('Resuming after checkpoint %d (episode %d).',
-                 start_iteration - 1, start_episode)
-  action_dim = (env.action_space.n if hasattr(env.action_space, 'n') else
-                env.action_space.shape[0])
-  dispatcher = metrics.dispatcher(
-      base_dir, action_dim, collectors, start_episode,
-      num_iterations * episodes_per_iteration, f'train {agent_name}')
-  agent.set_summary_writer(dispatcher.get_summary_writer())
-  agent.set_mode(base_agent.AgentMode.TRAIN)
-  dispatcher.pre_training()
-  for iteration in range(start_iteration, num_iterations):
-    for i in range(episodes_per_iteration):
-      episode = iteration * episodes_per_iteration + i
-      runner.run_episode(env, agent, episode=episode,
-                         seed=suites.train_seed(episode),
-                         max_steps=max_episode_length, dispatcher=dispatcher)
-    agent.save_checkpoint(checkpoint_dir, iteration)
-    if policy_snapshot_period and (iteration + 1) % policy_snapshot_period == 0:
-      # From the agent in memory: reading the checkpoint back would load the
-      # replay buffer (~150 MB late in a 2500-episode run) every iteration.
-      policy = pretrained.policy_from_bundle(
-          agent.acting_bundle(iteration),
-          os.path.basename(sac.checkpoint_path(checkpoint_dir, iteration)),
-          note=f'{agent_name} after {(iteration + 1) * episodes_per_iteration} '
-          'training episodes')
-      pretrained.write_policy(policy, policy_snapshot_path(base_dir, iteration))
-  dispatcher.end_training()
-  safe_io.atomic_write(os.path.join(base_dir, 'operative_config.gin'),
-                       gin.operative_config_str())
+  with safe_io.locked_dir(base_dir):  # Creates it.
+    remove_stale_temporaries(base_dir)
+    env = gym.make(env_name).unwrapped
+    agent = runner.create_agent(agent_name, env, seed=seed)
+    if policy_snapshot_period and not isinstance(agent, sac.SACAgent):
+      raise ValueError(
+          f'policy snapshots need a SAC agent, not {agent_name!r}')
+    checkpoint_dir = os.path.join(base_dir, 'checkpoints')
+    start_iteration = _reload_latest(agent, checkpoint_dir) + 1
+    run_info = {'agent': agent_name, 'env_name': env_name, 'seed': seed,
+                'episodes_per_iteration': episodes_per_iteration,
+                'max_episode_length': max_episode_length}
+    _check_resume(base_dir, run_info, start_iteration,
+                  log_episodes='episodes' in collectors)
+    safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
+                         json.dumps(run_info, indent=1) + '\n')
+    start_episode = start_iteration * episodes_per_iteration
+    if start_iteration:
+      logging.info('Resuming after checkpoint %d (episode %d).',
+                   start_iteration - 1, start_episode)
+    action_dim = (env.action_space.n if hasattr(env.action_space, 'n') else
+                  env.action_space.shape[0])
+    dispatcher = metrics.dispatcher(
+        base_dir, action_dim, collectors, start_episode,
+        num_iterations * episodes_per_iteration, f'train {agent_name}')
+    agent.set_summary_writer(dispatcher.get_summary_writer())
+    agent.set_mode(base_agent.AgentMode.TRAIN)
+    dispatcher.pre_training()
+    for iteration in range(start_iteration, num_iterations):
+      for i in range(episodes_per_iteration):
+        episode = iteration * episodes_per_iteration + i
+        runner.run_episode(env, agent, episode=episode,
+                           seed=suites.train_seed(episode),
+                           max_steps=max_episode_length,
+                           dispatcher=dispatcher)
+      agent.save_checkpoint(checkpoint_dir, iteration)
+      if (policy_snapshot_period and
+          (iteration + 1) % policy_snapshot_period == 0):
+        # From the agent in memory: reading the checkpoint back would load
+        # the replay buffer (~150 MB late in a 2500-episode run) every
+        # iteration.
+        policy = pretrained.policy_from_bundle(
+            agent.acting_bundle(iteration),
+            os.path.basename(sac.checkpoint_path(checkpoint_dir, iteration)),
+            note=f'{agent_name} after '
+            f'{(iteration + 1) * episodes_per_iteration} training episodes')
+        pretrained.write_policy(policy,
+                                policy_snapshot_path(base_dir, iteration))
+    dispatcher.end_training()
+    safe_io.atomic_write(os.path.join(base_dir, 'operative_config.gin'),
+                         gin.operative_config_str())
