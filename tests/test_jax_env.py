@@ -278,7 +278,8 @@ def test_nan_actions_fly_the_float_action(kinds):
   np.testing.assert_array_equal(obs, want_obs)
   np.testing.assert_array_equal(reward, want_reward)
   jax.tree.map(np.testing.assert_array_equal, s, want)
-  assert np.all(np.isfinite(obs)) and np.all(np.isfinite(s.history.float_action))
+  assert np.all(np.isfinite(obs))
+  assert np.all(np.isfinite(s.history.float_action))
   np.testing.assert_array_equal(info['invalid_action'],
                                 ['nan' in b for b in kinds])
   assert not np.any(want_info['invalid_action'])
@@ -352,7 +353,8 @@ def test_check_params_keeps_valid_values(low, width, steps, distance):
   checked = jax_env.check_params(params)
   assert checked.start_altitude_low_m == low
   assert checked.start_altitude_high_m == low + width
-  assert checked.episode_steps == steps and type(checked.episode_steps) is int  # pylint: disable=unidiomatic-typecheck
+  assert checked.episode_steps == steps
+  assert isinstance(checked.episode_steps, int)
   assert checked.max_start_distance_km == distance
 
 

@@ -230,8 +230,8 @@ class LatexBalloonDiscreteEnv(LatexBalloonEnv):
                    features.FeatureConstructor] = (
                        discrete_features.LatexPerciatelliFeatureConstructor),
                **kwargs: Any):
-    if not np.isfinite(ascent_rate_mps) or ascent_rate_mps <= 0:
-      raise ValueError(f'ascent_rate_mps must be > 0, got {ascent_rate_mps}')
+    gin_values.check_number('LatexBalloonDiscreteEnv.ascent_rate_mps',
+                            ascent_rate_mps, above=0.0)
     self._ascent_rate_mps = ascent_rate_mps
     super().__init__(feature_constructor_factory=feature_constructor_factory,
                      **kwargs)

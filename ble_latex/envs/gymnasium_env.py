@@ -230,10 +230,8 @@ class LatexBalloonGymnasiumEnv(_FlightDrawing, gymnasium.Env):
     _check_render_mode(self, render_mode)
     self.render_mode = render_mode
     _check_not_forked_after_jax()
-    if episode_steps is not None and (
-        isinstance(episode_steps, bool) or
-        not isinstance(episode_steps, (int, np.integer)) or episode_steps < 1):
-      raise ValueError(f'episode_steps must be >= 1, got {episode_steps!r}')
+    if episode_steps is not None:
+      gin_values.check_int('episode_steps', episode_steps, minimum=1)
     gym_bound = gin_values.bound('ble_latex.envs.gym_env', 'LatexBalloonEnv')
     self._gym_kwargs = {k: v for k, v in (
         ('episode_steps', episode_steps),

@@ -40,6 +40,7 @@ from jax import lax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import gin_values
 from ble_latex.envs import host_env
 from ble_latex.envs import jax_env
 from ble_latex.envs import seeds as seeds_lib
@@ -275,9 +276,8 @@ class LatexBalloonVectorEnv(gymnasium.vector.VectorEnv):
           "render_mode='rgb_array') for per-balloon frames")
     for name, value in (('episode_steps', episode_steps),
                         ('max_episode_steps', max_episode_steps)):
-      if value is not None and (isinstance(value, bool) or not isinstance(
-          value, (int, np.integer)) or value < 1):
-        raise ValueError(f'{name} must be None or an int >= 1, got {value!r}')
+      if value is not None:
+        gin_values.check_int(name, value, minimum=1)
     self.num_envs = int(num_envs)
     params = params if params is not None else jax_env.params_from_gin()
     if episode_steps is not None:

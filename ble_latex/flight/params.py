@@ -91,7 +91,8 @@ def seconds(value: Any, name: str) -> float:
 
   Args:
     value: A `datetime.timedelta` or a number of seconds.
-    name: What it is in the message (e.g. 'gin binding LatexBalloon.max_substep').
+    name: What it is in the message, e.g. 'gin binding
+      LatexBalloon.max_substep'.
 
   Returns:
     The duration in seconds.
