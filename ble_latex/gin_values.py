@@ -11,15 +11,21 @@ JAX env (`jax_env.params_from_gin`) read the gym env's gin names
 `balloon_env.perciatelli_reward_function.*`) without importing BLE's
 balloon/env modules and TensorFlow behind them.
 
-Light on purpose: only gin, inspect and sys.
+It is also the one home of the checks of configured numbers (`require`,
+`check_number`, `check_int`, `check_bool`): every env, physics and reward
+value is checked with them, naming the gin binding that set it.
+
+Light on purpose: only gin, NumPy and the standard library.
 """
 
 import inspect
 import math
+import numbers
 import sys
 from typing import Any, Callable, Dict, Mapping, Optional
 
 import gin
+import numpy as np
 
 
 def effective_bindings(function: Callable[..., Any]) -> Dict[str, Any]:
@@ -67,19 +73,102 @@ def bound(module: str, name: str) -> Dict[str, Any]:
   return {} if loaded is None else gin.get_bindings(getattr(loaded, name))
 
 
-# -- The reward's declared range (-inf, 1]: checks of its bindings. ----------
-def _require(ok: bool, binding: str, requirement: str, value: Any) -> None:
+# -- Checks of configured numbers (one home for every env/physics value). --
+def require(ok: bool, name: str, requirement: str, value: Any,
+            why: str = '') -> None:
+  """Raises `ValueError('{name} must be {requirement}, got {value!r}{why}')`.
+
+  Args:
+    ok: Whether the value meets the requirement.
+    name: What the value is, e.g. 'gin binding create_state.sand_kg'.
+    requirement: e.g. 'a finite number >= 0'.
+    value: The value as given.
+    why: Appended to the message (the consequence), e.g. ': ...'.
+  """
   if not ok:
-    raise ValueError(f'gin binding {binding} must be {requirement}, got '
-                     f'{value!r}: the reward would leave its declared range '
-                     '(-inf, 1]')
+    raise ValueError(f'{name} must be {requirement}, got {value!r}{why}')
+
+
+def _require(ok: bool, binding: str, requirement: str, value: Any) -> None:
+  require(ok, f'gin binding {binding}', requirement, value,
+          ': the reward would leave its declared range (-inf, 1]')
+
+
+def is_real(value: Any) -> bool:
+  """A real number: Python/NumPy int or float, or a 0-d numeric array.
+
+  bool (also NumPy's), strings, None and anything else are not.
+  """
+  if isinstance(value, (bool, np.bool_)):
+    return False
+  if isinstance(value, numbers.Real):
+    return True
+  shape, dtype = getattr(value, 'shape', None), getattr(value, 'dtype', None)
+  return shape == () and dtype is not None and np.dtype(dtype).kind in 'iuf'
 
 
 def is_number(value: Any) -> bool:
-  return (isinstance(value, (int, float)) and not isinstance(value, bool) and
-          math.isfinite(value))
+  """A finite real number (`is_real`)."""
+  return is_real(value) and math.isfinite(float(value))
 
 
+def check_number(name: str, value: Any, *, minimum: Optional[float] = None,
+                 above: Optional[float] = None,
+                 maximum: Optional[float] = None,
+                 below: Optional[float] = None, why: str = '') -> float:
+  """A finite real number within the given bounds, as float.
+
+  Args:
+    name: What the value is (in the message), e.g. 'gin binding
+      create_state.payload_kg'.
+    value: The value.
+    minimum: value >= minimum.
+    above: value > above.
+    maximum: value <= maximum.
+    below: value < below.
+    why: Appended to the message.
+
+  Returns:
+    float(value).
+
+  Raises:
+    ValueError: Naming `name`, the requirement and the value (a bool, a
+      string or None is not a number).
+  """
+  parts = [f'{op} {bound:g}' for op, bound in (
+      ('>=', minimum), ('>', above), ('<=', maximum), ('<', below))
+           if bound is not None]
+  requirement = 'a finite number' + (' ' + ' and '.join(parts) if parts
+                                     else '')
+  ok = is_number(value)
+  if ok:
+    x = float(value)
+    ok = ((minimum is None or x >= minimum) and (above is None or x > above)
+          and (maximum is None or x <= maximum) and
+          (below is None or x < below))
+  require(ok, name, requirement, value, why)
+  return float(value)
+
+
+def check_int(name: str, value: Any, *, minimum: int,
+              maximum: int = 2**31 - 1) -> int:
+  """An int (Python or NumPy, not bool) in [minimum, maximum], as int."""
+  integer = (isinstance(value, (int, np.integer)) or (
+      getattr(value, 'shape', None) == () and
+      np.dtype(getattr(value, 'dtype', object)).kind in 'iu'))
+  ok = (integer and not isinstance(value, (bool, np.bool_)) and
+        minimum <= int(value) <= maximum)
+  require(ok, name, f'an int in [{minimum}, {maximum}]', value)
+  return int(value)
+
+
+def check_bool(name: str, value: Any) -> bool:
+  """A bool (Python or NumPy), as bool."""
+  require(isinstance(value, (bool, np.bool_)), name, 'True or False', value)
+  return bool(value)
+
+
+# -- The reward's declared range (-inf, 1]: checks of its bindings. ----------
 def check_penalties(**penalties: Any) -> None:
   """Resource penalties (`latex_reward.*`) must be finite and >= 0."""
   for name, value in penalties.items():

@@ -324,6 +324,100 @@ def test_make_flight_params_validates():
   assert p.stride_s == 600.0 and p.finite_ballast
 
 
+_BAD_FLIGHT_VALUES = [
+    ('sand_kg', True, 'create_state.sand_kg'),
+    ('sand_kg', 'abc', 'create_state.sand_kg'),
+    ('payload_kg', None, 'create_state.payload_kg'),
+    ('payload_kg', 'abc', 'create_state.payload_kg'),
+    ('drag_coefficient', float('inf'), 'create_state.drag_coefficient'),
+    ('burst_volume_m3', -1.0, 'create_state.burst_volume_m3'),
+    ('helium_mols', 0.0, 'create_state.helium_mols'),
+    ('helium_mols', False, 'create_state.helium_mols'),
+    ('min_vent_mols', None, 'AltitudeController.min_vent_mols'),
+    ('min_drop_kg', float('nan'), 'AltitudeController.min_drop_kg'),
+    ('band_low_m', 'low', 'AltitudeController.band_low_m'),
+    ('stride', 0.5, 'AltitudeController.stride'),
+    ('max_substep', 1e-9, 'LatexBalloon.max_substep'),
+    ('max_substep', dt.timedelta(microseconds=1), 'LatexBalloon.max_substep'),
+    ('vertical_step', None, 'LatexBalloon.vertical_step'),
+    ('actuation_chunk', -10.0, 'LatexBalloon.actuation_chunk'),
+    ('valve_flow_mols_per_s', 'fast', 'LatexBalloon.valve_flow_mols_per_s'),
+    ('ballast_rate_kg_per_s', True, 'LatexBalloon.ballast_rate_kg_per_s'),
+    ('guard_within_stride', 'yes', 'LatexBalloon.guard_within_stride'),
+]
+
+
+@pytest.mark.parametrize('arg, value, binding', _BAD_FLIGHT_VALUES)
+def test_make_flight_params_refuses_non_numbers_naming_the_binding(
+    arg, value, binding):
+  """bool/str/None/out of range: a ValueError naming the gin binding."""
+  with pytest.raises(ValueError, match=f'^gin binding {binding} must be '):
+    params_lib.make_flight_params(**{arg: value})
+  # The same check for params built as they are (FlightParams directly).
+  field = {'sand_kg': 'initial_sand_kg', 'helium_mols': 'initial_helium_mols',
+           'stride': 'stride_s', 'max_substep': 'max_substep_s',
+           'vertical_step': 'vertical_step_s',
+           'actuation_chunk': 'actuation_chunk_s'}.get(arg, arg)
+  if isinstance(value, dt.timedelta):
+    value = value.total_seconds()
+  flags = {'valve_flow_mols_per_s': {'finite_valve': True},
+           'ballast_rate_kg_per_s': {'finite_ballast': True}}.get(arg, {})
+  with pytest.raises(ValueError, match=f'^gin binding {binding} must be '):
+    params_lib.check_flight_params(params_lib.FlightParams(
+        **{field: value}, **flags))
+
+
+def test_flight_params_from_gin_names_the_binding():
+  """A gin-bound 'abc' or None is a ValueError naming it, not a TypeError."""
+  import ble_latex.envs.balloon  # pylint: disable=g-import-not-at-top,unused-import
+  gin.clear_config()
+  try:
+    for binding, value in (('create_state.sand_kg', 'True'),
+                           ('create_state.payload_kg', "'abc'"),
+                           ('create_state.drag_coefficient', 'None')):
+      gin.clear_config()
+      gin.parse_config(f'{binding} = {value}')
+      with pytest.raises(ValueError, match=f'gin binding {binding} must be'):
+        params_lib.flight_params_from_gin()
+  finally:
+    gin.clear_config()
+
+
+def test_make_flight_params_valid_values_unchanged():
+  """Valid values (NumPy scalars too) give the same Python floats."""
+  p = params_lib.make_flight_params(
+      payload_kg=np.float32(2.5), sand_kg=np.float64(1.5), helium_mols=170,
+      max_substep=dt.timedelta(minutes=3), vertical_step=1.0)
+  assert p.payload_kg == 2.5 and p.initial_sand_kg == 1.5
+  assert p.initial_helium_mols == 170.0 and p.vertical_step_s == 1.0
+  assert all(type(v) is float for v in jax.tree.leaves(p))  # pylint: disable=unidiomatic-typecheck
+  assert params_lib.make_flight_params() == params_lib.FlightParams()
+
+
+_KINDS = st.sampled_from(['finite', 'nan', 'inf', '-inf'])
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(kinds=st.tuples(_KINDS, _KINDS, _KINDS), action=ACTION,
+       h=_f32(0.0, 40_000.0))
+def test_float_if_nan_replaces_an_action_with_any_nan(kinds, action, h):
+  """Any NaN component: the whole action is the float action (clip(h), 1,
+  1); +-inf and finite values pass unchanged (clipped later)."""
+  a = np.array(action, np.float32)
+  for i, kind in enumerate(kinds):
+    a[i] = {'finite': a[i], 'nan': np.nan, 'inf': np.inf,
+            '-inf': -np.inf}[kind]
+  out, invalid = controller.float_if_nan(jnp.asarray(a), jnp.float32(h))
+  out = np.asarray(out)
+  if 'nan' in kinds:
+    assert bool(invalid)
+    np.testing.assert_array_equal(
+        out, [np.clip(np.float32(h), 14_000.0, 21_000.0), 1.0, 1.0])
+  else:
+    assert not bool(invalid)
+    np.testing.assert_array_equal(out, a)
+
+
 # --- atmosphere --------------------------------------------------------------
 
 

@@ -278,6 +278,60 @@ def test_make_vec_is_the_batched_core_and_discrete_is_sync():
   discrete.close()
 
 
+def test_discrete_make_vec_checks_every_action_before_stepping_any():
+  """A bad action for balloon 1 leaves balloon 0 unstepped (was stepped)."""
+  envs = gymnasium.make_vec(DISCRETE_ID, num_envs=2)
+  try:
+    envs.reset(seed=0)
+    inner = [e.unwrapped.gym_env for e in envs.envs]
+    states = [e.arena.driver.state for e in inner]
+    for bad in ([1, 5], [1, 1.5], [None, 1]):
+      with pytest.raises(ValueError, match=r'^actions\[\d\]: action must be 0'):
+        envs.step(np.array(bad, dtype=object) if None in bad else
+                  np.array(bad))
+      assert [e._steps for e in inner] == [0, 0]  # pylint: disable=protected-access
+      assert all(e.arena.driver.state is s for e, s in zip(inner, states))
+    envs.step(np.array([1, 2]))
+    assert [e._steps for e in inner] == [1, 1]  # pylint: disable=protected-access
+  finally:
+    envs.close()
+
+
+@pytest.mark.parametrize('radius', [-1.0, float('nan'), 0.0, 'abc', True])
+def test_station_radius_must_be_a_positive_number(radius):
+  """Refused before the env is built, naming the keyword."""
+  with pytest.raises(ValueError, match='^station_keeping_radius_km must be'):
+    gymnasium.make(ID, station_keeping_radius_km=radius)
+
+
+def test_gin_bound_station_radius_is_checked():
+  import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import gym_env  # pylint: disable=g-import-not-at-top,unused-import
+  gin.clear_config()
+  try:
+    gin.parse_config('LatexBalloonEnv.station_keeping_radius_km = -5.0')
+    with pytest.raises(ValueError, match='^gin binding LatexBalloonEnv.'
+                       'station_keeping_radius_km must be a finite number > 0'):
+      gymnasium.make(ID)
+  finally:
+    gin.clear_config()
+
+
+@pytest.mark.parametrize('change, binding', [
+    (dict(radius_km=float('nan')),
+     'perciatelli_reward_function.station_keeping_radius_km'),
+    (dict(start_altitude_low_m=-10.0),
+     'LatexBalloonArena.start_altitude_range_m'),
+    (dict(start_altitude_high_m=95_000.0),
+     'LatexBalloonArena.start_altitude_range_m'),
+])
+def test_given_params_are_checked(env, change, binding):
+  """params= goes through the one check (`jax_env.check_params`)."""
+  bad = env.unwrapped.params.replace(**change)
+  with pytest.raises(ValueError, match=f'^gin binding {binding} must be'):
+    gymnasium.make(ID, params=bad)
+
+
 def test_forked_worker_fails_loudly_instead_of_hanging(monkeypatch):
   jax = pytest.importorskip('jax')
   jax.numpy.zeros(1).block_until_ready()  # JAX has started here.

@@ -216,3 +216,61 @@ def test_partial_resets_chunked_and_selected(monkeypatch, single):
           start_x[i], float(single.unwrapped.driver.state.flight.x_m),
           rtol=1e-6)
     del before
+
+
+class _CountingEnv(gymnasium.Env):
+  """A tiny env with the ble_latex envs' `check_action` (for atomicity)."""
+
+  observation_space = gymnasium.spaces.Box(-1.0, 1.0, (1,), np.float32)
+  action_space = gymnasium.spaces.Discrete(3)
+
+  def __init__(self):
+    self.steps = 0
+
+  def check_action(self, action):
+    if action not in (0, 1, 2):
+      raise ValueError(f'action must be 0, 1 or 2, got {action!r}')
+
+  def reset(self, *, seed=None, options=None):
+    super().reset(seed=seed)
+    return np.zeros(1, np.float32), {}
+
+  def step(self, action):
+    self.check_action(action)
+    self.steps += 1
+    return np.zeros(1, np.float32), 0.0, False, False, {}
+
+
+@pytest.mark.parametrize('bad, match', [
+    ([1, 5, 0], r'^actions\[1\]: action must be 0, 1 or 2, got .*5'),
+    ([0, 1, -1], r'^actions\[2\]: '),
+    ([0, 1], r'one action per balloon \(3\)'),
+    (1, r'one action per balloon \(3\)'),
+])
+def test_checked_sync_vector_env_steps_no_balloon_on_a_bad_action(bad, match):
+  """gymnasium's SyncVectorEnv would have stepped balloon 0 already."""
+  envs = gymnasium_vector.CheckedSyncVectorEnv([_CountingEnv] * 3)
+  envs.reset(seed=0)
+  with pytest.raises(ValueError, match=match):
+    envs.step(np.asarray(bad))
+  assert [e.steps for e in envs.envs] == [0, 0, 0]
+  envs.step(np.array([0, 1, 2]))
+  assert [e.steps for e in envs.envs] == [1, 1, 1]
+
+
+@pytest.mark.parametrize('change, binding', [
+    (dict(radius_km=float('nan')),
+     'perciatelli_reward_function.station_keeping_radius_km'),
+    (dict(radius_km=-1.0),
+     'perciatelli_reward_function.station_keeping_radius_km'),
+    (dict(start_altitude_high_m=1e7),
+     'LatexBalloonArena.start_altitude_range_m'),
+    (dict(episode_steps=0), 'LatexBalloonEnv.episode_steps'),
+])
+def test_given_params_are_checked(change, binding):
+  """params= is checked like gin's (`jax_env.check_params`), before jit."""
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  params = jax_env.EnvParams(
+      flight=jax_env.flight_params_lib.FlightParams(), decoder=None)
+  with pytest.raises(ValueError, match=f'^gin binding {binding} must be'):
+    gymnasium_vector.LatexBalloonVectorEnv(2, params=params.replace(**change))

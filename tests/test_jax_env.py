@@ -4,6 +4,9 @@ import functools
 
 import gin
 import gym
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -240,3 +243,129 @@ def test_rollout_many_balloons_in_one_call():
   assert rewards.shape == done.shape == (steps, n)
   assert np.all(np.isfinite(obs)) and np.all(np.abs(obs) <= 1.0)
   assert np.all((rewards <= 1.0) & (rewards >= 0.0))
+
+
+# -- NaN actions: the float action, flagged (issue 24). ------------------------
+_KINDS = ('finite', 'nan', 'inf', '-inf')
+
+
+@settings(max_examples=8, deadline=None, derandomize=True)
+@given(kinds=st.lists(st.tuples(*[st.sampled_from(_KINDS)] * 3), min_size=2,
+                      max_size=2))
+def test_nan_actions_fly_the_float_action(kinds):
+  """Any NaN component: the step flies (clip(h), 1, +1) and says so in
+  info['invalid_action']; +-inf clip onto the Box; never NaN in the state
+  or the features (batch of 2: test_batched_equals_single's compilation)."""
+  _, params, batch_reset, batch_step = _setup()
+  keys = _keys([3, 4])
+  _, state = batch_reset(keys, params)
+  base = np.array([[20_000.0, 2.0, -1.0], [15_000.0, 3.0, 0.5]], np.float32)
+  action = base.copy()
+  expected = base.copy()
+  h = np.asarray(state.flight.altitude_m)
+  for i, balloon in enumerate(kinds):
+    for j, kind in enumerate(balloon):
+      if kind != 'finite':
+        action[i, j] = {'nan': np.nan, 'inf': np.inf, '-inf': -np.inf}[kind]
+        expected[i, j] = np.clip(action[i, j], jax_env.ACTION_LOW[j],
+                                 jax_env.ACTION_HIGH[j])
+    if 'nan' in balloon:
+      expected[i] = [np.clip(h[i], 14_000.0, 21_000.0), 1.0, 1.0]
+  obs, s, reward, _, info = batch_step(keys, state, jnp.asarray(action),
+                                       params)
+  want_obs, want, want_reward, _, want_info = batch_step(
+      keys, state, jnp.asarray(expected), params)
+  np.testing.assert_array_equal(obs, want_obs)
+  np.testing.assert_array_equal(reward, want_reward)
+  jax.tree.map(np.testing.assert_array_equal, s, want)
+  assert np.all(np.isfinite(obs))
+  assert np.all(np.isfinite(s.history.float_action))
+  np.testing.assert_array_equal(info['invalid_action'],
+                                ['nan' in b for b in kinds])
+  assert not np.any(want_info['invalid_action'])
+
+
+# -- One check of every env value, naming the gin binding (issue 24). ----------
+_BAD_BINDINGS = [
+    ('LatexBalloonArena.start_altitude_range_m', '(15000.0, 1e7)',
+     'must be'),
+    ('LatexBalloonArena.start_altitude_range_m', '(-100.0, 20000.0)',
+     'above the ground'),
+    ('LatexBalloonArena.start_altitude_range_m', '(20000.0, 15000.0)',
+     'low <= high'),
+    ('LatexBalloonArena.start_altitude_range_m', '17000.0', r'\(low, high\)'),
+    ('LatexBalloonArena.start_altitude_range_m', '(15000.0, 40000.0)',
+     r'would start at 17\d\d m\^3 at 40000 m, above '
+     r'create_state.burst_volume_m3 = 336.5'),
+    ('create_state.helium_mols', '1e6',
+     r'= 1000000.0: the balloon would start at .* m\^3 at 20000 m, above '
+     r'create_state.burst_volume_m3 = 336.5'),
+    ('LatexBalloonEnv.episode_steps', '0', 'an int in'),
+    ('LatexBalloonEnv.episode_steps', '-5', 'an int in'),
+    ('LatexBalloonEnv.episode_steps', 'True', 'an int in'),
+    ('LatexBalloonEnv.episode_steps', '2.5', 'an int in'),
+    ('LatexBalloonArena.max_start_distance_km', '-1.0', '> 0'),
+    ('LatexBalloonArena.max_start_distance_km', "'far'", '> 0'),
+    ('LatexBalloonArena.stride', '0.1', '>= 1 s'),
+    ('LatexBalloonArena.stride', 'None', '>= 1 s'),
+    ('LatexBalloon.max_substep', '1e-9', '>= 1 s'),
+    ('LatexBalloon.actuation_chunk', '5000.0',
+     'cannot be longer than LatexBalloonArena.stride'),
+    ('create_state.sand_kg', 'True', 'a finite number >= 0'),
+    ('create_state.payload_kg', "'abc'", 'a finite number > 0'),
+    ('create_state.payload_kg', 'None', 'a finite number > 0'),
+    ('balloon_env.perciatelli_reward_function.station_keeping_radius_km',
+     '-1.0', '> 0'),
+    ('latex_reward.sand_penalty_per_kg', 'None', '>= 0'),
+]
+
+
+@pytest.fixture
+def all_configurables():
+  """Every configurable registered (gym env, arena, balloon); gin cleared."""
+  import ble_latex.envs.gym_env  # pylint: disable=g-import-not-at-top,unused-import
+  gin.clear_config()
+  yield
+  gin.clear_config()
+
+
+@pytest.mark.parametrize('binding, value, match', _BAD_BINDINGS)
+def test_params_from_gin_refuses_bad_values_naming_the_binding(
+    all_configurables, binding, value, match):
+  """Checked on the host before anything compiles (fast)."""
+  del all_configurables
+  gin.parse_config(f'{binding} = {value}')
+  name = binding.split('.', 1)[1] if binding.startswith('balloon_env.') else (
+      binding)
+  with pytest.raises(ValueError, match=f'^gin binding {name}.*{match}'):
+    jax_env.params_from_gin()
+
+
+@settings(max_examples=10, deadline=None, derandomize=True)
+@given(low=st.floats(1_000.0, 25_000.0), width=st.floats(0.0, 5_000.0),
+       steps=st.integers(1, 10_000), distance=st.floats(1.0, 1_000.0))
+def test_check_params_keeps_valid_values(low, width, steps, distance):
+  """Valid values pass unchanged (as Python floats / int)."""
+  params = jax_env.EnvParams(
+      flight=jax_env.flight_params_lib.FlightParams(), decoder=None,
+      start_altitude_low_m=low, start_altitude_high_m=low + width,
+      episode_steps=np.int64(steps), max_start_distance_km=distance)
+  checked = jax_env.check_params(params)
+  assert checked.start_altitude_low_m == low
+  assert checked.start_altitude_high_m == low + width
+  assert checked.episode_steps == steps
+  assert isinstance(checked.episode_steps, int)
+  assert checked.max_start_distance_km == distance
+
+
+def test_valid_gin_config_unchanged():
+  """The shipped env gin files give the defaults, checked (as before)."""
+  gin.clear_config()
+  gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
+  try:
+    params = jax_env.params_from_gin()
+  finally:
+    gin.clear_config()
+  default = jax_env.EnvParams(flight=params.flight, decoder=params.decoder)
+  assert params == default
+  assert params.flight == jax_env.flight_params_lib.FlightParams()

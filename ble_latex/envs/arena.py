@@ -80,23 +80,16 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
       stride: Simulated time per action (paper: 20 minutes).
       episode_steps: Strides per episode (the env's); None: gin's.
     """
-    low, high = start_altitude_range_m
-    if not (np.isfinite(low) and np.isfinite(high) and low <= high):
-      raise ValueError(
-          f'start_altitude_range_m must be finite (low, high), got '
-          f'{start_altitude_range_m}')
-    if not max_start_distance_km > 0:
-      raise ValueError('max_start_distance_km must be > 0, got '
-                       f'{max_start_distance_km}')
-    if not isinstance(stride, dt.timedelta) or stride.total_seconds() <= 0:
-      raise ValueError(f'stride must be a positive timedelta, got {stride!r}')
+    # Checked with every other value by the driver (`jax_env.check_params`,
+    # the one validator of the env's values).
+    low, high = jax_env.start_band(start_altitude_range_m)
     params = jax_env.params_from_gin()
     params = params.replace(
-        start_altitude_low_m=float(low), start_altitude_high_m=float(high),
-        max_start_distance_km=float(max_start_distance_km),
-        stride_s=stride.total_seconds(),
+        start_altitude_low_m=low, start_altitude_high_m=high,
+        max_start_distance_km=max_start_distance_km,
+        stride_s=jax_env.stride_seconds(stride),
         episode_steps=(params.episode_steps if episode_steps is None else
-                       int(episode_steps)))
+                       episode_steps))
     if wind_field_instance is None:
       wind_field_instance = ble_field.CoreGenerativeWindField()
     core_wind = isinstance(wind_field_instance,

@@ -25,7 +25,9 @@ from typing import Any, Dict
 import gin
 import numpy as np
 
+from ble_latex import gin_values
 from ble_latex.flight import controller as core_controller
+from ble_latex.flight import params as params_lib
 from ble_latex.flight import state as state_lib
 
 # Action bounds (a0 [m], a1 [.], a2 [.]), paper "Method"; the core's.
@@ -105,18 +107,16 @@ class AltitudeController:
       band_high_m: Upper edge of the allowed altitude band. # [m]
 
     Raises:
-      ValueError: for non-finite, negative or inconsistent values.
+      ValueError: for non-finite, negative or inconsistent values, naming
+        the gin binding (`flight.params.check_flight_params`, the one check
+        of the flight system's values).
     """
-    if not isinstance(stride, dt.timedelta) or stride.total_seconds() <= 0:
-      raise ValueError(f'stride must be a positive timedelta, got {stride!r}')
-    for name, value in (('min_vent_mols', min_vent_mols),
-                        ('min_drop_kg', min_drop_kg)):
-      if not math.isfinite(value) or value < 0:
-        raise ValueError(f'{name} must be finite and >= 0, got {value}')
-    if not (math.isfinite(band_low_m) and math.isfinite(band_high_m) and
-            band_low_m < band_high_m):
-      raise ValueError(f'band must satisfy band_low_m < band_high_m (finite), '
-                       f'got [{band_low_m}, {band_high_m}]')
+    gin_values.require(isinstance(stride, dt.timedelta),
+                       'gin binding AltitudeController.stride',
+                       'a datetime.timedelta', stride)
+    params_lib.make_flight_params(
+        stride=stride, min_vent_mols=min_vent_mols, min_drop_kg=min_drop_kg,
+        band_low_m=band_low_m, band_high_m=band_high_m)
     self.stride = stride
     self.min_vent_mols = float(min_vent_mols)
     self.min_drop_kg = float(min_drop_kg)

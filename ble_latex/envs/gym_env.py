@@ -26,6 +26,7 @@ import gin
 import gym
 import numpy as np
 
+from ble_latex import gin_values
 from ble_latex.envs import arena as arena_lib
 from ble_latex.envs import balloon as balloon_lib
 from ble_latex.envs import controller as controller_lib
@@ -99,8 +100,10 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
         trajectory. None: a random one.
       renderer: An optional BLE renderer.
     """
-    if episode_steps < 1:
-      raise ValueError(f'episode_steps must be >= 1, got {episode_steps}')
+    gin_values.check_int('LatexBalloonEnv.episode_steps', episode_steps,
+                         minimum=1)
+    gin_values.check_number('LatexBalloonEnv.station_keeping_radius_km',
+                            station_keeping_radius_km, above=0.0)
     validate_seed(seed)
     if seed is None:  # BLE would use time in microseconds, beyond 2**32.
       seed = secrets.randbits(32)
@@ -227,8 +230,8 @@ class LatexBalloonDiscreteEnv(LatexBalloonEnv):
                    features.FeatureConstructor] = (
                        discrete_features.LatexPerciatelliFeatureConstructor),
                **kwargs: Any):
-    if not np.isfinite(ascent_rate_mps) or ascent_rate_mps <= 0:
-      raise ValueError(f'ascent_rate_mps must be > 0, got {ascent_rate_mps}')
+    gin_values.check_number('LatexBalloonDiscreteEnv.ascent_rate_mps',
+                            ascent_rate_mps, above=0.0)
     self._ascent_rate_mps = ascent_rate_mps
     super().__init__(feature_constructor_factory=feature_constructor_factory,
                      **kwargs)

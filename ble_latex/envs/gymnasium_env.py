@@ -230,19 +230,21 @@ class LatexBalloonGymnasiumEnv(_FlightDrawing, gymnasium.Env):
     _check_render_mode(self, render_mode)
     self.render_mode = render_mode
     _check_not_forked_after_jax()
-    if episode_steps is not None and (
-        isinstance(episode_steps, bool) or
-        not isinstance(episode_steps, (int, np.integer)) or episode_steps < 1):
-      raise ValueError(f'episode_steps must be >= 1, got {episode_steps!r}')
+    if episode_steps is not None:
+      gin_values.check_int('episode_steps', episode_steps, minimum=1)
     gym_bound = gin_values.bound('ble_latex.envs.gym_env', 'LatexBalloonEnv')
     self._gym_kwargs = {k: v for k, v in (
         ('episode_steps', episode_steps),
         ('station_keeping_radius_km', station_keeping_radius_km),
         ('wind_field_factory', wind_field_factory)) if v is not None}
-    self._station_keeping_radius_km = float(
-        station_keeping_radius_km if station_keeping_radius_km is not None
-        else gym_bound.get('station_keeping_radius_km',
-                            task.STATION_RADIUS_KM))
+    if station_keeping_radius_km is not None:
+      radius_name = 'station_keeping_radius_km'
+    else:
+      radius_name = 'gin binding LatexBalloonEnv.station_keeping_radius_km'
+      station_keeping_radius_km = gym_bound.get('station_keeping_radius_km',
+                                                task.STATION_RADIUS_KM)
+    self._station_keeping_radius_km = gin_values.check_number(
+        radius_name, station_keeping_radius_km, above=0.0)
     factory = (wind_field_factory if wind_field_factory is not None else
                gym_bound.get('wind_field_factory'))
     with quiet.third_party_noise():
@@ -313,6 +315,10 @@ class LatexBalloonGymnasiumEnv(_FlightDrawing, gymnasium.Env):
     box = self._box_action_space
     return np.clip(self._from_normalized(a.astype(box.dtype)), box.low,
                    box.high)
+
+  def check_action(self, action: Any) -> None:
+    """Raises the ValueError `step` would raise for `action` (`box_action`)."""
+    self.box_action(action)
 
   # -- gymnasium API. --------------------------------------------------------
   def reset(self, *, seed: Optional[int] = None,
@@ -409,6 +415,11 @@ class LatexBalloonDiscreteGymnasiumEnv(_FlightDrawing, gymnasium.Env):
     """Station-keeping radius (a BLE `units.Distance`)."""
     return self._env.radius
 
+  def check_action(self, action: Any) -> None:
+    """Raises the ValueError `step` would raise for `action` (0, 1 or 2)."""
+    from ble_latex.envs import gym_env as gym_env_lib  # pylint: disable=g-import-not-at-top
+    gym_env_lib.validate_discrete_action(action)
+
   def reset(self, *, seed: Optional[int] = None,
             options: Optional[Mapping[str, Any]] = None
             ) -> Tuple[np.ndarray, Dict[str, Any]]:
@@ -453,8 +464,10 @@ def make_vector_env(env_id: str, num_envs: int = 1, *,
                     **env_kwargs: Any) -> gymnasium.vector.VectorEnv:
   """N balloons of `env_id` as one vector env of N independent envs.
 
-  `SyncVectorEnv` (or with `asynchronous=True` an `AsyncVectorEnv`, one
-  process per balloon). `gymnasium.make_vec('ble_latex/LatexBalloonDiscrete-v0',
+  `gymnasium_vector.CheckedSyncVectorEnv` (a `SyncVectorEnv` that checks
+  every balloon's action before stepping any; or with `asynchronous=True`
+  an `AsyncVectorEnv`, one process per balloon, where each worker checks
+  its own). `gymnasium.make_vec('ble_latex/LatexBalloonDiscrete-v0',
   num_envs=N)` lands here; the continuous id's default is the batched
   `gymnasium_vector.LatexBalloonVectorEnv` (`make_vector_latex_balloon`).
 
@@ -479,7 +492,7 @@ def make_vector_env(env_id: str, num_envs: int = 1, *,
   if asynchronous:
     return gymnasium.vector.AsyncVectorEnv([env_fn] * num_envs,
                                            context=context)
-  return gymnasium.vector.SyncVectorEnv([env_fn] * num_envs)
+  return gymnasium_vector.CheckedSyncVectorEnv([env_fn] * num_envs)
 
 
 def make_vector_latex_balloon(num_envs: int = 1, *, asynchronous: bool = False,

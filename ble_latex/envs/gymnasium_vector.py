@@ -29,7 +29,7 @@ with gymnasium's conventions:
 """
 
 import functools
-from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Tuple
 
 import gymnasium
 from gymnasium.vector import utils as vector_utils
@@ -40,6 +40,7 @@ from jax import lax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import gin_values
 from ble_latex.envs import host_env
 from ble_latex.envs import jax_env
 from ble_latex.envs import seeds as seeds_lib
@@ -193,6 +194,55 @@ def validate_actions(actions: Any, num_envs: int, low: np.ndarray,
   return a
 
 
+def validate_each(actions: Any,
+                  checks: Sequence[Callable[[Any], Any]]) -> None:
+  """Checks every balloon's action before any balloon is stepped.
+
+  For vector envs of independent single envs (`CheckedSyncVectorEnv`):
+  balloon i's action goes through `checks[i]`, the single env's own check
+  (the one the env's `step` applies), so a bad action for one balloon
+  leaves every balloon unstepped.
+
+  Args:
+    actions: One action per balloon (a sequence or an array with a leading
+      balloon axis).
+    checks: Per balloon, a function that raises ValueError for a bad action.
+
+  Raises:
+    ValueError: Not one action per balloon, or `actions[i]: <the single
+      env's message>` for the first bad one.
+  """
+  n = len(checks)
+  try:
+    count = len(actions)
+  except TypeError:
+    count = None
+  if count != n or isinstance(actions, (str, bytes)):
+    raise ValueError(f'actions must hold one action per balloon ({n}), got '
+                     f'{actions!r}')
+  for i, (action, check) in enumerate(zip(actions, checks)):
+    try:
+      check(action)
+    except ValueError as e:
+      raise ValueError(f'actions[{i}]: {e}') from None
+
+
+class CheckedSyncVectorEnv(gymnasium.vector.SyncVectorEnv):
+  """`SyncVectorEnv` whose `step` checks all actions before stepping any.
+
+  gymnasium's `SyncVectorEnv` steps balloon 0 before balloon 1's action is
+  looked at; here every balloon's action is checked first with its env's
+  `check_action` (`validate_each`): a bad action raises a ValueError naming
+  the balloon, and no balloon has moved.
+  """
+
+  def step(self, actions: Any) -> Tuple[Any, np.ndarray, np.ndarray,
+                                        np.ndarray, Dict[str, Any]]:
+    validate_each(actions,
+                  [env.unwrapped.check_action for env in self.envs])
+    return super().step(actions)
+
+
 class LatexBalloonVectorEnv(gymnasium.vector.VectorEnv):
   """N latex balloons on the batched core (`make_vec`'s default).
 
@@ -204,7 +254,8 @@ class LatexBalloonVectorEnv(gymnasium.vector.VectorEnv):
       None: gin's `LatexBalloonEnv.episode_steps` (216).
     max_episode_steps: An extra limit, as gymnasium's `TimeLimit` on the
       single env (`truncated` once a balloon has flown that many steps).
-    params: `jax_env.EnvParams` to fly; `jax_env.params_from_gin()` if None.
+    params: `jax_env.EnvParams` to fly (checked, `jax_env.check_params`);
+      `jax_env.params_from_gin()` if None.
     render_mode: Only None (use vectorization_mode='sync' to render).
   """
 
@@ -225,14 +276,13 @@ class LatexBalloonVectorEnv(gymnasium.vector.VectorEnv):
           "render_mode='rgb_array') for per-balloon frames")
     for name, value in (('episode_steps', episode_steps),
                         ('max_episode_steps', max_episode_steps)):
-      if value is not None and (isinstance(value, bool) or not isinstance(
-          value, (int, np.integer)) or value < 1):
-        raise ValueError(f'{name} must be None or an int >= 1, got {value!r}')
+      if value is not None:
+        gin_values.check_int(name, value, minimum=1)
     self.num_envs = int(num_envs)
     params = params if params is not None else jax_env.params_from_gin()
     if episode_steps is not None:
       params = params.replace(episode_steps=int(episode_steps))
-    self.params = params
+    self.params = jax_env.check_params(params)
     self.max_episode_steps = (None if max_episode_steps is None else
                               int(max_episode_steps))
     self.render_mode = None

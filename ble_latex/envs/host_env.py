@@ -228,14 +228,16 @@ class FlightDriver:
   """One balloon of the core, stepped from Python.
 
   Args:
-    params: The env parameters; `jax_env.params_from_gin()` if None.
+    params: The env parameters (checked, `jax_env.check_params`);
+      `jax_env.params_from_gin()` if None.
     wind_field: None for BLE's generative field drawn from the reset key
       (in JAX), or any BLE `WindField` object (host callbacks).
   """
 
   def __init__(self, params: Optional[jax_env.EnvParams] = None,
                wind_field: Any = None):
-    self.params = params if params is not None else jax_env.params_from_gin()
+    self.params = (jax_env.params_from_gin() if params is None else
+                   jax_env.check_params(params))
     self.wind_field = wind_field
     self._fns = (_generative() if wind_field is None else
                  _Jitted(jax_env.LatexBalloonJaxEnv(

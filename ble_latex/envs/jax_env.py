@@ -32,7 +32,11 @@ Perciatelli reward minus the optional resource penalties.
 The gym envs (`ble_latex.envs.gym_env`, through `ble_latex.envs.host_env.FlightDriver`)
 and the Gymnasium envs fly one balloon of these same functions. Differences
 from them: actions are clipped into the Box instead of raising (they
-validate at their boundary); the winds are `GENERATIVE_WIND` unless a
+validate at their boundary; +-inf clip onto the Box's edges), and an action
+with any NaN component, which no clipping can place, is flown as the float
+(hold) action (clip(h), 1, +1) (`flight.controller.float_if_nan`), flagged
+by `info['invalid_action']`, so NaN never reaches the state or the
+features; the winds are `GENERATIVE_WIND` unless a
 `Wind` is given (the gym envs pass host callbacks to other BLE wind fields,
 e.g. ERA5); everything runs in JAX's default float32 (see README).
 """
@@ -194,7 +198,8 @@ def measure(state: EnvState, wind: Wind = GENERATIVE_WIND) -> EnvState:
   return state.replace(wind_u=u, wind_v=v)
 
 
-def step_info(state: EnvState, params: EnvParams) -> Dict[str, Array]:
+def step_info(state: EnvState, params: EnvParams,
+              invalid_action: Any = False) -> Dict[str, Array]:
   """The numbers behind the gym env's `info` after a step (arrays).
 
   Keys: `distance_km` [km], `altitude_m` [m], `ascent_rate_mps` [m/s],
@@ -203,7 +208,8 @@ def step_info(state: EnvState, params: EnvParams) -> Dict[str, Array]:
   `status` (`flight.state.FlightStatus`), `time_s` [s], `steps`,
   `volume_m3` (envelope volume [m^3]),
   `time_limit` (steps reached `episode_steps`), `truncated` (time limit
-  without a terminal status).
+  without a terminal status), `invalid_action` (the step's action had a NaN
+  component and was flown as the float action; False after a reset).
   """
   f = state.flight
   terminal = f.status != state_lib.FlightStatus.OK
@@ -216,7 +222,9 @@ def step_info(state: EnvState, params: EnvParams) -> Dict[str, Array]:
           'decision': f.last_decision, 'status': f.status,
           'time_s': f.time_s, 'steps': state.steps,
           'volume_m3': f.volume_m3(),
-          'time_limit': time_limit, 'truncated': time_limit & ~terminal}
+          'time_limit': time_limit, 'truncated': time_limit & ~terminal,
+          'invalid_action': jnp.broadcast_to(
+              jnp.asarray(invalid_action, bool), state.steps.shape)}
 
 
 def arena_key(key: Array) -> Array:
@@ -317,15 +325,17 @@ class LatexBalloonJaxEnv:
     Args:
       state: The env state; a finished flight stays as it is.
       action: (a0 desired altitude [m], a1 time factor, a2 float flag),
-        clipped into the Box.
+        clipped into the Box; an action with a NaN component is flown as
+        the float action (`info['invalid_action']`).
       params: The env parameters.
 
     Returns:
-      (state, reward, done, info) with `info = step_info(state, params)`.
+      (state, reward, done, info) with `info = step_info(...)`.
     """
-    action = jnp.clip(jnp.asarray(action, state.flight.altitude_m.dtype),
-                      ACTION_LOW, ACTION_HIGH)
     before = state.flight
+    action, invalid = controller_lib.float_if_nan(
+        jnp.asarray(action, before.altitude_m.dtype), before.altitude_m)
+    action = jnp.clip(action, ACTION_LOW, ACTION_HIGH)
 
     def wind_fn(x_m, y_m, pressure_pa, t_s):
       return self.wind.ground_truth(state, x_m, y_m, pressure_pa, t_s)
@@ -340,7 +350,7 @@ class LatexBalloonJaxEnv:
                                           flight.ascent_rate_mps, action[2]),
         steps=state.steps + 1)
     state = measure(state, self.wind)
-    info = step_info(state, params)
+    info = step_info(state, params, invalid_action=invalid)
     reward = jax_features.reward(
         info['distance_km'], params.radius_km, params.reward_dropoff,
         params.reward_halflife_km,
@@ -359,7 +369,7 @@ class LatexBalloonJaxEnv:
       key: Unused (the world is fixed at reset); kept for gymnax's API.
       state: The env state; a finished flight stays as it is.
       action: (a0 desired altitude [m], a1 time factor, a2 float flag),
-        clipped into the Box.
+        clipped into the Box (NaN: see `advance`).
       params: The env parameters.
 
     Returns:
@@ -385,6 +395,147 @@ class LatexBalloonJaxEnv:
     return obs, state, reward, done, info
 
 
+# The gin binding of each `EnvParams` value (the flight system's are in
+# `flight.params`), for messages.
+_BINDINGS = {
+    'radius_km': 'perciatelli_reward_function.station_keeping_radius_km',
+    'reward_dropoff': 'perciatelli_reward_function.reward_dropoff',
+    'reward_halflife_km': 'perciatelli_reward_function.reward_halflife',
+    'helium_penalty_per_mol': 'latex_reward.helium_penalty_per_mol',
+    'sand_penalty_per_kg': 'latex_reward.sand_penalty_per_kg',
+    'start_altitude_low_m': 'LatexBalloonArena.start_altitude_range_m',
+    'start_altitude_high_m': 'LatexBalloonArena.start_altitude_range_m',
+    'max_start_distance_km': 'LatexBalloonArena.max_start_distance_km',
+    'stride_s': 'LatexBalloonArena.stride',
+    'episode_steps': 'LatexBalloonEnv.episode_steps',
+}
+# Start altitudes must lie in (0, top of the atmosphere model): 0 m is the
+# ground (`GROUNDED`), and BLE's standard atmosphere is defined below 85 km
+# (its last layer boundary; BLE asserts above). The burst check
+# (`start_volume_m3`) bounds the band far lower for a real balloon (~31 km
+# with the default helium). # [m]
+START_ALTITUDE_MAX_M = atmosphere_lib.HEIGHT_TRANSITIONS_M[-1]
+# Atmosphere blends alpha at which the start volume is checked (BLE draws
+# alpha uniform in [0, 1)).
+_CHECK_ALPHAS = (0.0, 0.25, 0.5, 0.75, 1.0)
+
+
+def start_volume_m3(flight: flight_params_lib.FlightParams,
+                    altitude_m: float) -> float:
+  """The largest envelope volume of a new balloon at `altitude_m`. # [m^3]
+
+  V = nRT/P (`physics.volume`) of the launch helium (`initial_helium_mols`,
+  or neutral buoyancy) in BLE's atmosphere at that height, the largest over
+  the atmosphere blends `_CHECK_ALPHAS`. Runs eagerly on the host (no
+  compilation of the env).
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.flight import physics
+  import numpy as np
+  # pylint: enable=g-import-not-at-top
+  helium = flight.initial_helium_mols
+  if helium is None:
+    helium = physics.neutral_helium_mols(flight.payload_kg,
+                                         flight.initial_sand_kg)
+  ambient = jax.vmap(lambda alpha: atmosphere_lib.at_height(
+      atmosphere_lib.params_from_alpha(alpha), float(altitude_m)))(
+          jnp.asarray(_CHECK_ALPHAS))
+  volume = physics.volume(float(helium), ambient.temperature,
+                          ambient.pressure)
+  return float(np.max(np.asarray(volume)))
+
+
+def start_band(value: Any) -> Tuple[Any, Any]:
+  """`LatexBalloonArena.start_altitude_range_m` as a (low, high) pair.
+
+  Raises:
+    ValueError: Not a pair (its values are checked by `check_params`).
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import gin_values
+  # pylint: enable=g-import-not-at-top
+  gin_values.require(
+      isinstance(value, (tuple, list)) and len(value) == 2,
+      f'gin binding {_BINDINGS["start_altitude_low_m"]}',
+      '(low, high) start altitudes [m]', value)
+  return value[0], value[1]
+
+
+def check_params(params: EnvParams) -> EnvParams:
+  """Checks every value of `EnvParams` (one validator for every path).
+
+  Called where `EnvParams` is built (`params_from_gin`) and where params are
+  given as they are (`host_env.FlightDriver`, hence the gym arena and the
+  Gymnasium env, and the Gymnasium vector env). On the host, before any
+  compilation: the flight system (`flight.params.check_flight_params`), the
+  reward (`gin_values.check_reward_values`), the start band (finite, low <=
+  high, inside (0, `START_ALTITUDE_MAX_M`)), `max_start_distance_km` (> 0),
+  `episode_steps` (an int >= 1), the stride (>= 1 s; the physics sub-step,
+  vertical step and release chunk no longer than it), and the launch volume
+  below the burst volume anywhere in the start band (`start_volume_m3`).
+
+  Returns:
+    The params with Python floats (and an int `episode_steps`).
+
+  Raises:
+    ValueError: Naming the gin binding of the first bad value, e.g.
+      "gin binding create_state.helium_mols = 1000000.0: the balloon would
+      start at 329000 m^3 at 20000 m, above create_state.burst_volume_m3 =
+      336.5".
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import gin_values
+  # pylint: enable=g-import-not-at-top
+  def name(field: str) -> str:
+    return f'gin binding {_BINDINGS[field]}'
+
+  p = params
+  flight_params_lib.check_flight_params(p.flight)
+  gin_values.check_reward_values(
+      {'helium_penalty_per_mol': p.helium_penalty_per_mol,
+       'sand_penalty_per_kg': p.sand_penalty_per_kg},
+      {'station_keeping_radius_km': p.radius_km,
+       'reward_dropoff': p.reward_dropoff,
+       'reward_halflife': p.reward_halflife_km})
+  band = (p.start_altitude_low_m, p.start_altitude_high_m)
+  within = f'in (0, {START_ALTITUDE_MAX_M:g}) m (above the ground, inside '
+  within += 'the atmosphere model)'
+  gin_values.require(
+      all(gin_values.is_number(h) and 0.0 < float(h) < START_ALTITUDE_MAX_M
+          for h in band) and float(band[0]) <= float(band[1]),
+      name('start_altitude_low_m'), f'(low, high) with low <= high, both '
+      + within, band)
+  gin_values.check_number(name('max_start_distance_km'),
+                          p.max_start_distance_km, above=0.0)
+  gin_values.check_int(name('episode_steps'), p.episode_steps, minimum=1)
+  stride = flight_params_lib.seconds(p.stride_s, name('stride_s'))
+  for field in ('max_substep_s', 'vertical_step_s', 'actuation_chunk_s'):
+    gin_values.check_number(
+        flight_params_lib.binding(field), getattr(p.flight, field),
+        minimum=flight_params_lib.MIN_DURATION_S, maximum=stride,
+        why=f': a step cannot be longer than {_BINDINGS["stride_s"]} '
+        f'({stride:g} s)')
+  top = float(band[1])
+  volume = start_volume_m3(p.flight, top)
+  burst = float(p.flight.burst_volume_m3)
+  if not volume < burst:
+    helium = p.flight.initial_helium_mols
+    what = (f'{flight_params_lib.binding("initial_helium_mols")} = {helium!r}'
+            if helium is not None else
+            f'{name("start_altitude_high_m")} = {tuple(band)!r} (helium '
+            'neutrally buoyant)')
+    raise ValueError(
+        f'{what}: the balloon would start at {volume:.4g} m^3 at {top:g} m, '
+        f'above {flight_params_lib.gin_name("burst_volume_m3")} = '
+        f'{burst:g} (it would burst at once)')
+  floats = ('radius_km', 'reward_dropoff', 'reward_halflife_km',
+            'helium_penalty_per_mol', 'sand_penalty_per_kg',
+            'start_altitude_low_m', 'start_altitude_high_m',
+            'max_start_distance_km')
+  return p.replace(episode_steps=int(p.episode_steps), stride_s=stride,
+                   **{f: float(getattr(p, f)) for f in floats})
+
+
 def params_from_gin() -> EnvParams:
   """`EnvParams` from the gin bindings the gym env reads (defaults else).
 
@@ -398,8 +549,7 @@ def params_from_gin() -> EnvParams:
   and the Gymnasium envs free of BLE's balloon/env modules and TensorFlow.
 
   Raises:
-    ValueError: A reward binding outside the reward's range (as
-      `reward.check_config`).
+    ValueError: A bad bound value, naming its gin binding (`check_params`).
   """
   # pylint: disable=g-import-not-at-top
   import dataclasses
@@ -428,20 +578,26 @@ def params_from_gin() -> EnvParams:
   env = gin_values.imported_bindings('ble_latex.envs.gym_env', 'LatexBalloonEnv',
                                      {'episode_steps': d['episode_steps']})
   gin_values.check_reward_values(latex, ble)
-  flight = flight_params_lib.flight_params_from_gin()
-  low, high = arena['start_altitude_range_m']
-  return EnvParams(
-      flight=flight,
-      decoder=generative.decoder_params(),
-      radius_km=float(ble['station_keeping_radius_km']),
-      reward_dropoff=float(ble['reward_dropoff']),
-      reward_halflife_km=float(ble['reward_halflife']),
-      helium_penalty_per_mol=float(latex['helium_penalty_per_mol']),
-      sand_penalty_per_kg=float(latex['sand_penalty_per_kg']),
-      start_altitude_low_m=float(low), start_altitude_high_m=float(high),
-      max_start_distance_km=float(arena['max_start_distance_km']),
-      episode_steps=int(env['episode_steps']),
-      stride_s=float(arena['stride'].total_seconds()))
+  band = start_band(arena['start_altitude_range_m'])
+  params = check_params(EnvParams(
+      flight=flight_params_lib.flight_params_from_gin(),
+      decoder=None,
+      radius_km=ble['station_keeping_radius_km'],
+      reward_dropoff=ble['reward_dropoff'],
+      reward_halflife_km=ble['reward_halflife'],
+      helium_penalty_per_mol=latex['helium_penalty_per_mol'],
+      sand_penalty_per_kg=latex['sand_penalty_per_kg'],
+      start_altitude_low_m=band[0], start_altitude_high_m=band[1],
+      max_start_distance_km=arena['max_start_distance_km'],
+      episode_steps=env['episode_steps'],
+      stride_s=stride_seconds(arena['stride'])))
+  return params.replace(decoder=generative.decoder_params())
+
+
+def stride_seconds(value: Any) -> float:
+  """`LatexBalloonArena.stride` (timedelta or seconds) in seconds, checked."""
+  return flight_params_lib.seconds(value,
+                                   f'gin binding {_BINDINGS["stride_s"]}')
 
 
 @functools.partial(jax.jit, static_argnums=(0, 4))

@@ -22,8 +22,11 @@ the NumPy controller's n - n_calc and m_s - m_s_calc without their float32
 cancellation; the target lift itself is returned (`lift_after_kg`) so that
 the state reaches it exactly. Nothing is validated (no exceptions under
 jit): actions are expected inside `ACTION_LOW`..`ACTION_HIGH` (see
-`clip_action`).
+`clip_action`); an action with a NaN component cannot be clipped and is
+replaced as a whole by the float action (`float_if_nan`).
 """
+
+from typing import Tuple
 
 from flax import struct
 import jax
@@ -77,6 +80,33 @@ def clip_action(action: Array) -> Array:
   action = jnp.asarray(action)
   return jnp.clip(action, ACTION_LOW.astype(action.dtype),
                   ACTION_HIGH.astype(action.dtype))
+
+
+def float_if_nan(action: Array, altitude_m: Array) -> Tuple[Array, Array]:
+  """The action, or the float action where any of its components is NaN.
+
+  A NaN component has no place in the Box (clipping keeps NaN), so such an
+  action is replaced as a whole by the float (hold) action (clip(h) [m], 1,
+  +1): Eq. float, what the discrete env's STAY does; a0 and a1 do not
+  matter when a2 > 0. +-inf are not replaced (they clip onto the Box's
+  edges). Finite actions pass unchanged, bit for bit.
+
+  Args:
+    action: (a0 [m], a1 [.], a2 [.]), shape (..., 3).
+    altitude_m: The balloon's altitude h, shape (...). # [m]
+
+  Returns:
+    (action, invalid): the action to apply and whether it was replaced
+    (bool, shape (...)).
+  """
+  action = jnp.asarray(action)
+  invalid = jnp.any(jnp.isnan(action), axis=-1)
+  dtype = action.dtype
+  a0 = jnp.clip(jnp.asarray(altitude_m, dtype), ACTION_LOW[0].astype(dtype),
+                ACTION_HIGH[0].astype(dtype))
+  one = jnp.ones_like(a0)
+  hold = jnp.stack([a0, one, one], axis=-1)
+  return jnp.where(invalid[..., None], hold, action), invalid
 
 
 def desired_ascent_rate(params: params_lib.FlightParams, altitude_m: Array,

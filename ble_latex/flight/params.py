@@ -16,7 +16,6 @@ the jit cache key.
 """
 
 import datetime as dt
-import math
 from typing import Any, Dict, Optional
 
 from flax import struct
@@ -81,14 +80,85 @@ class FlightParams:
                                         default=60.0)  # [s]
 
 
-def _seconds(value: Any, name: str) -> float:
-  """A timedelta or a number of seconds as positive finite seconds."""
+# Shortest duration of a stride, sub-step, vertical step or release chunk:
+# shorter ones only multiply the work (a 20-minute stride in 1 s sub-steps is
+# already 1200 wind queries) and 1e-9 s would never finish. # [s]
+MIN_DURATION_S = 1.0
+
+
+def seconds(value: Any, name: str) -> float:
+  """A duration (timedelta or number of seconds) >= `MIN_DURATION_S`.
+
+  Args:
+    value: A `datetime.timedelta` or a number of seconds.
+    name: What it is in the message, e.g. 'gin binding
+      LatexBalloon.max_substep'.
+
+  Returns:
+    The duration in seconds.
+
+  Raises:
+    ValueError: Naming `name` (not a duration, non-finite or too short).
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import gin_values
+  # pylint: enable=g-import-not-at-top
   if isinstance(value, dt.timedelta):
     value = value.total_seconds()
-  value = float(value)
-  if not math.isfinite(value) or value <= 0.0:
-    raise ValueError(f'{name} must be a positive duration, got {value}')
-  return value
+  gin_values.require(
+      gin_values.is_number(value) and float(value) >= MIN_DURATION_S, name,
+      f'a duration (timedelta or seconds) >= {MIN_DURATION_S:g} s', value)
+  return float(value)
+
+
+def gin_name(field: str) -> str:
+  """The gin name that sets a `FlightParams` field ('create_state.sand_kg')."""
+  return _FIELD_BINDINGS[field]
+
+
+def binding(field: str) -> str:
+  """'gin binding <gin_name(field)>', how messages name a field."""
+  return f'gin binding {gin_name(field)}'
+
+
+def check_flight_params(params: FlightParams) -> None:
+  """Checks every value of a `FlightParams` (types and ranges).
+
+  The one check of the flight system's values, whoever built them
+  (`make_flight_params`, `jax_env.check_params` for params given as is).
+
+  Raises:
+    ValueError: Naming the gin binding of the first bad value (a bool,
+      string or None where a number belongs, a non-finite, non-positive or
+      inconsistent value).
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import gin_values
+  # pylint: enable=g-import-not-at-top
+  p = params
+  for field in ('payload_kg', 'drag_coefficient', 'burst_volume_m3'):
+    gin_values.check_number(binding(field), getattr(p, field), above=0.0)
+  for field in ('initial_sand_kg', 'min_vent_mols', 'min_drop_kg'):
+    gin_values.check_number(binding(field), getattr(p, field), minimum=0.0)
+  if p.initial_helium_mols is not None:
+    gin_values.check_number(binding('initial_helium_mols'),
+                            p.initial_helium_mols, above=0.0,
+                            why=' (or None: neutrally buoyant)')
+  low = gin_values.check_number(binding('band_low_m'), p.band_low_m)
+  gin_values.check_number(
+      binding('band_high_m'), p.band_high_m, above=low,
+      why=f': the band must end above {gin_name("band_low_m")}')
+  for field, flag in (('valve_flow_mols_per_s', 'finite_valve'),
+                      ('ballast_rate_kg_per_s', 'finite_ballast')):
+    gin_values.check_bool(f'FlightParams.{flag}', getattr(p, flag))
+    if getattr(p, flag):
+      gin_values.check_number(binding(field), getattr(p, field), above=0.0,
+                              why=' (or None: instantaneous)')
+  gin_values.check_bool(binding('guard_within_stride'),
+                        p.guard_within_stride)
+  for field in ('stride_s', 'actuation_chunk_s', 'max_substep_s',
+                'vertical_step_s'):
+    seconds(getattr(p, field), binding(field))
 
 
 def make_flight_params(
@@ -111,56 +181,50 @@ def make_flight_params(
     vertical_step: Any = 60.0) -> FlightParams:
   """Validated `FlightParams` from the NumPy code's argument names.
 
-  Durations may be numbers of seconds or `datetime.timedelta`s; a rate of
-  None means instantaneous (static flag off).
+  Durations may be numbers of seconds or `datetime.timedelta`s (at least
+  `MIN_DURATION_S`); a rate of None means instantaneous (static flag off).
 
   Returns:
     The parameters (Python floats, so they follow JAX's default precision).
 
   Raises:
-    ValueError: for non-finite, non-positive or inconsistent values.
+    ValueError: for a value that is not a number (bool, string, None),
+      non-finite, non-positive or inconsistent, naming its gin binding
+      (`check_flight_params`).
   """
-  for name, value in (('payload_kg', payload_kg),
-                      ('drag_coefficient', drag_coefficient),
-                      ('burst_volume_m3', burst_volume_m3)):
-    if not math.isfinite(value) or value <= 0.0:
-      raise ValueError(f'{name} must be finite and > 0, got {value}')
-  for name, value in (('sand_kg', sand_kg), ('min_vent_mols', min_vent_mols),
-                      ('min_drop_kg', min_drop_kg)):
-    if not math.isfinite(value) or value < 0.0:
-      raise ValueError(f'{name} must be finite and >= 0, got {value}')
-  if helium_mols is not None and (not math.isfinite(helium_mols) or
-                                  helium_mols <= 0.0):
-    raise ValueError(f'helium_mols must be None or > 0, got {helium_mols}')
-  if not (math.isfinite(band_low_m) and math.isfinite(band_high_m) and
-          band_low_m < band_high_m):
-    raise ValueError('band must satisfy band_low_m < band_high_m (finite), '
-                     f'got [{band_low_m}, {band_high_m}]')
-  for name, value in (('valve_flow_mols_per_s', valve_flow_mols_per_s),
-                      ('ballast_rate_kg_per_s', ballast_rate_kg_per_s)):
-    if value is not None and (not math.isfinite(value) or value <= 0.0):
-      raise ValueError(f'{name} must be None or a finite rate > 0, got '
-                       f'{value}')
-  return FlightParams(
-      payload_kg=float(payload_kg),
-      initial_sand_kg=float(sand_kg),
-      drag_coefficient=float(drag_coefficient),
-      burst_volume_m3=float(burst_volume_m3),
-      min_vent_mols=float(min_vent_mols),
-      min_drop_kg=float(min_drop_kg),
-      band_low_m=float(band_low_m),
-      band_high_m=float(band_high_m),
-      stride_s=_seconds(stride, 'stride'),
-      valve_flow_mols_per_s=float(valve_flow_mols_per_s or 0.0),
-      ballast_rate_kg_per_s=float(ballast_rate_kg_per_s or 0.0),
-      actuation_chunk_s=_seconds(actuation_chunk, 'actuation_chunk'),
-      initial_helium_mols=(None if helium_mols is None else
-                           float(helium_mols)),
+  def duration(value: Any, field: str) -> Any:
+    return seconds(value, binding(field))
+
+  raw = FlightParams(
+      payload_kg=payload_kg,
+      initial_sand_kg=sand_kg,
+      drag_coefficient=drag_coefficient,
+      burst_volume_m3=burst_volume_m3,
+      min_vent_mols=min_vent_mols,
+      min_drop_kg=min_drop_kg,
+      band_low_m=band_low_m,
+      band_high_m=band_high_m,
+      stride_s=duration(stride, 'stride_s'),
+      valve_flow_mols_per_s=(0.0 if valve_flow_mols_per_s is None else
+                             valve_flow_mols_per_s),
+      ballast_rate_kg_per_s=(0.0 if ballast_rate_kg_per_s is None else
+                             ballast_rate_kg_per_s),
+      actuation_chunk_s=duration(actuation_chunk, 'actuation_chunk_s'),
+      initial_helium_mols=helium_mols,
       finite_valve=valve_flow_mols_per_s is not None,
       finite_ballast=ballast_rate_kg_per_s is not None,
+      guard_within_stride=guard_within_stride,
+      max_substep_s=duration(max_substep, 'max_substep_s'),
+      vertical_step_s=duration(vertical_step, 'vertical_step_s'))
+  check_flight_params(raw)
+  return raw.replace(
+      initial_helium_mols=(None if helium_mols is None else
+                           float(helium_mols)),
       guard_within_stride=bool(guard_within_stride),
-      max_substep_s=_seconds(max_substep, 'max_substep'),
-      vertical_step_s=_seconds(vertical_step, 'vertical_step'))
+      **{f: float(getattr(raw, f)) for f in (
+          'payload_kg', 'initial_sand_kg', 'drag_coefficient',
+          'burst_volume_m3', 'min_vent_mols', 'min_drop_kg', 'band_low_m',
+          'band_high_m', 'valve_flow_mols_per_s', 'ballast_rate_kg_per_s')})
 
 
 # gin parameter -> make_flight_params argument, per configurable. Other
@@ -190,6 +254,19 @@ _GIN_NAMES = {
         'guard_within_stride': 'guard_within_stride',
     },
 }
+
+
+# make_flight_params argument -> FlightParams field (where they differ).
+_ARG_FIELDS = {'sand_kg': 'initial_sand_kg',
+               'helium_mols': 'initial_helium_mols', 'stride': 'stride_s',
+               'actuation_chunk': 'actuation_chunk_s',
+               'max_substep': 'max_substep_s',
+               'vertical_step': 'vertical_step_s'}
+# FlightParams field -> the gin binding that sets it, e.g.
+# 'initial_sand_kg' -> 'create_state.sand_kg'.
+_FIELD_BINDINGS = {_ARG_FIELDS.get(arg, arg): f'{configurable}.{gin_name}'
+                   for configurable, names in _GIN_NAMES.items()
+                   for gin_name, arg in names.items()}
 
 
 def gin_overrides() -> Dict[str, Any]:
