@@ -32,6 +32,9 @@ _permutations = jax.jit(jax.vmap(simplex.permutation))
 _wind_noise_over_components = jax.jit(
     jax.vmap(simplex.wind_noise, in_axes=(0, None, None, None, None)))
 _reset = jax.jit(simplex.reset_noise_params, static_argnames='which')
+_reset_uv = jax.jit(simplex.reset_uv_noise_params)
+_wind_noise = jax.jit(simplex.wind_noise)
+_wind_noise_uv = jax.jit(simplex.wind_noise_uv)
 
 _BULK = 1024  # points per bulk comparison (one compiled shape)
 
@@ -137,6 +140,77 @@ def test_noise4d_float64_bulk_matches_opensimplex():
   in_sum = (stretched - np.floor(stretched)).sum(axis=1)
   regions = np.digitize(in_sum, [1, 2, 3], right=True)
   assert set(regions) == {0, 1, 2, 3}
+
+
+def _unstretch(stretched):
+  """Noise coordinates whose stretched coordinates are ~`stretched` [..., 4].
+
+  opensimplex stretches by x + S sum(x) (S = STRETCH_CONSTANT_4D); the
+  inverse is xs + Q sum(xs) (Q = SQUISH_CONSTANT_4D). Rounded in float64,
+  so the in-cell coordinates opensimplex sees are within a few ulps of the
+  chosen ones: on either side of a region boundary or a tie.
+  """
+  stretched = np.asarray(stretched, np.float64)
+  return stretched + stretched.sum(axis=-1, keepdims=True) * (
+      simplex.SQUISH_CONSTANT_4D)
+
+
+# A cell origin and in-cell coordinates on an eighth grid whose sum is a
+# region boundary (1, 2 or 3) or ties each other: adversarial near-ties.
+_NEAR_TIE = st.tuples(
+    st.lists(st.integers(-300, 300), min_size=4, max_size=4),
+    st.lists(st.integers(0, 8), min_size=3, max_size=3),
+    st.sampled_from([1, 2, 3])).filter(
+        lambda t: 0 <= 8 * t[2] - sum(t[1]) <= 8).map(
+            lambda t: _unstretch(np.array(t[0]) + np.array(
+                [*t[1], 8 * t[2] - sum(t[1])]) / 8))
+
+
+@settings(max_examples=150, deadline=None)
+@given(seed=_BLE_SEED, point=_NEAR_TIE)
+@example(seed=0, point=_unstretch([0.25, 0.25, 0.25, 0.25]))  # in_sum 1
+@example(seed=0, point=_unstretch([0.5, 0.5, 0.5, 0.5]))  # in_sum 2
+@example(seed=0, point=_unstretch([0.75, 0.75, 0.75, 0.75]))  # in_sum 3
+@example(seed=5, point=_unstretch([3.5, -2.5, 0.5, 7.5]))
+@example(seed=5, point=np.array([0.5, 0.5, 0.5, 0.5]))
+def test_noise4d_float64_matches_opensimplex_near_region_boundaries(seed,
+                                                                    point):
+  """Points within ulps of the region boundaries in_sum = 1, 2, 3, ties.
+
+  The kernel reads the vertex set from a table of opensimplex's decisions,
+  taking the upper regions' decisions on negated scores: these points check
+  that every decision, ties included, is opensimplex's.
+  """
+  expected = opensimplex.OpenSimplex(seed).noise4d(*map(float, point))
+  with jax.enable_x64(True):
+    value = _noise4d(simplex.permutation(seed), *map(jnp.float64, point))
+  assert abs(float(value) - expected) <= 1e-12
+
+
+def test_noise4d_float64_bulk_near_region_boundaries():
+  """Thousands of near-tie points in every region, against opensimplex."""
+  rng = np.random.default_rng(3)
+  origins = rng.integers(-300, 300, (_BULK, 4))
+  families = {}
+  for boundary in (1, 2, 3):  # in-cell sums on the boundary, eighth grid
+    fractions = rng.integers(0, 9, (8 * _BULK, 3))
+    last = 8 * boundary - fractions.sum(axis=1, keepdims=True)
+    fractions = np.concatenate([fractions, last], axis=1)
+    fractions = fractions[(0 <= last[:, 0]) & (last[:, 0] <= 8)][:_BULK]
+    fractions = rng.permuted(fractions, axis=1)  # the derived one anywhere
+    families[f'in_sum_{boundary}'] = _unstretch(origins + fractions / 8)
+  # Ties between in-cell coordinates and pair sums, any region.
+  families['quarter_ties'] = _unstretch(
+      origins + rng.integers(0, 4, (_BULK, 4)) / 4)
+  families['halves'] = np.round(rng.uniform(-20, 20, (_BULK, 4)) * 2) / 2
+  for seed in (0, 1634753848):
+    perm = simplex.permutation(seed)
+    for name, points in families.items():
+      assert points.shape == (_BULK, 4), name
+      with jax.enable_x64(True):
+        values = np.asarray(_noise4d(perm, *_columns(points, jnp.float64)))
+      error = np.abs(values - _opensimplex_noise(seed, points)).max()
+      assert error <= 1e-12, (seed, name, error)
 
 
 @settings(max_examples=100, deadline=None)
@@ -293,6 +367,28 @@ def test_wind_noise_matches_ble(key_seeds, which, points):
   # BLE computes in float32 (NumPy 2 promotes with its float32 offsets).
   np.testing.assert_allclose(noise64, ble, rtol=0, atol=1e-4)
   np.testing.assert_allclose(noise32, ble, rtol=0, atol=1e-4)
+
+
+@settings(max_examples=4, deadline=None)
+@given(key_seed=st.integers(0, 2**31 - 1),
+       points=st.lists(_BLE_POINT, min_size=16, max_size=16))
+def test_wind_noise_uv_equals_two_wind_noise_calls(key_seed, points):
+  """One vectorised call over the 10 harmonics: the same u and v values."""
+  u_params, v_params = _reset_uv(jax.random.PRNGKey(key_seed))
+  points = np.array(points, dtype=np.float64)
+  for dtype in (jnp.float64, jnp.float32):
+    with jax.enable_x64(dtype == jnp.float64):
+      columns = _columns(points, dtype)
+      u, v = map(np.asarray, _wind_noise_uv(u_params, v_params, *columns))
+      u_alone = np.asarray(_wind_noise(u_params, *columns))
+      v_alone = np.asarray(_wind_noise(v_params, *columns))
+    assert u.dtype == v.dtype == u_alone.dtype == np.dtype(dtype)
+    if dtype == jnp.float64:
+      np.testing.assert_array_equal(u, u_alone)
+      np.testing.assert_array_equal(v, v_alone)
+    else:  # float32: the compiler may round the two programs differently
+      np.testing.assert_allclose(u, u_alone, rtol=0, atol=1e-5)
+      np.testing.assert_allclose(v, v_alone, rtol=0, atol=1e-5)
 
 
 def test_errors():

@@ -146,10 +146,9 @@ def ground_truth_wind(state: EnvState, x_m: Array, y_m: Array,
   """
   u, v = generative.forecast(state.forecast, x_m, y_m, pressure_pa, t_s)
   x_km, y_km, hours = x_m / 1000.0, y_m / 1000.0, t_s / 3600.0
-  return (u + simplex.wind_noise(state.noise_u, x_km, y_km, pressure_pa,
-                                 hours),
-          v + simplex.wind_noise(state.noise_v, x_km, y_km, pressure_pa,
-                                 hours))
+  noise_u, noise_v = simplex.wind_noise_uv(state.noise_u, state.noise_v, x_km,
+                                           y_km, pressure_pa, hours)
+  return u + noise_u, v + noise_v
 
 
 def forecast_column(state: EnvState, x_m: Array, y_m: Array,

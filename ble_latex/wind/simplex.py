@@ -15,15 +15,18 @@ Reproduces, as jittable and vmappable JAX functions:
   chosen by a cascade of score comparisons, and it misses vertices whose
   attenuation is still positive for about 12 % of points (the legacy 4-D
   noise is slightly discontinuous). Summing a superset of vertices would thus
-  differ from opensimplex by up to ~5e-6; instead every branch of the
-  original is evaluated with `jnp.where` and the same vertex set is used.
-  The comparisons are made on the same float64 operations in the same order
-  as the Python original, so ties are broken identically.
+  differ from opensimplex by up to ~5e-6; instead the original's decisions
+  are taken with `jnp.where` (the upper two regions as the mirror images of
+  the lower two) and the same vertex set is read from a table of
+  opensimplex's vertex rules: 13 vertex slots per point. The comparisons are
+  made on the same float64 operations in the same order as the Python
+  original, so ties are broken identically.
 - `wind_noise`: BLE 1.0.1's `simplex_wind_noise.NoisyWindComponent.get_noise`
   (five harmonics of noise4d, weighted and variance-normalised), with its
   state in a pytree `NoiseParams` that `reset_noise_params` draws from a JAX
   key exactly as BLE's `reset` does, or `noise_params_from_ble` reads from a
-  reset BLE component.
+  reset BLE component; `wind_noise_uv`: the u and v components at once (their
+  10 harmonics in one vectorised noise4d).
 
 Precision: every function computes in the floating dtype of its coordinate
 inputs (float32 by default in JAX). In float64 `noise4d` agrees with
@@ -206,8 +209,144 @@ def permutation(seed: Any) -> jnp.ndarray:
 
 
 # ---------------------------------------------------------------------------
-# noise4d: the three extra vertices of each region, branch-free.
-# Points are 4-bit masks (bit 0 = x, ..., bit 3 = w) as in opensimplex.
+# noise4d: which vertices, as a table of opensimplex's rules.
+#
+# Points are 4-bit masks (bit 0 = x, ..., bit 3 = w) as in opensimplex. The
+# kernel takes opensimplex's decisions on the point's in-cell coordinates
+# (float comparisons, in the same order on the same values) and packs them
+# into a small integer; a table built here once, by applying opensimplex's
+# vertex rules in NumPy to every possible decision, gives the region's cube
+# vertices and its 3 extra vertices for that integer.
+#
+# The pentachoron at (1,1,1,1) and the second dispentachoron (in_sum > 2)
+# mirror the pentachoron at (0,0,0,0) and the first dispentachoron under
+# v -> 1 - v: opensimplex's code for them is the lower regions' code with
+# every point complemented, every vertex v replaced by 1 - v, and every
+# comparison reversed (< for >, <= for >=, base 3 - in_sum or 4 - in_sum for
+# 2 - in_sum or 1 - in_sum). A reversed comparison of scores is the forward
+# comparison of their negatives, and negation is exact in IEEE arithmetic
+# (-a - b == -(a + b), in_sum - 3 == -(3 - in_sum), bit for bit), so the
+# lower regions' decisions taken on the negated scores are opensimplex's
+# upper-region decisions, ties included; the table mirrors the vertices.
+
+_PENTACHORON_CODES = 32  # (origin among the closest two) * 16 + a point
+_DISPENTACHORON_CODES = 1024  # a + 16 b + 256 a_big + 512 b_big
+_MIRROR_CODE = _PENTACHORON_CODES + _DISPENTACHORON_CODES
+_SLOTS = 13  # 10 cube vertices (5 used in a pentachoron), 3 extra ones
+
+
+def _np_bits(c: np.ndarray) -> Tuple[np.ndarray, ...]:
+  """(x, y, z, w) bits of points c as booleans, and c & 3."""
+  return (c & 1) != 0, (c & 2) != 0, (c & 4) != 0, (c & 8) != 0, c & 3
+
+
+def _np_vertex(*axes: Any) -> np.ndarray:
+  """Vertex coordinates (4 arrays or ints) -> int32 [..., 4]."""
+  return np.stack(np.broadcast_arrays(*axes), axis=-1).astype(np.int32)
+
+
+def _np_minus_one_pair(c: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+  """Two vertices: point c with each 0 replaced by -1, in two ways."""
+  x, y, z, w, low = _np_bits(c)
+  return (_np_vertex(np.where(x, 1, -1), np.where(y, 1, np.where(x, -1, 0)),
+                     np.where(z, 1, np.where(low == 3, -1, 0)),
+                     np.where(w, 1, 0)),
+          _np_vertex(np.where(x, 1, 0), np.where(y, 1, np.where(x, 0, -1)),
+                     np.where(z, 1, np.where(low == 3, 0, -1)),
+                     np.where(w, 1, -1)))
+
+
+def _np_point(c: np.ndarray, scale: int = 1, zero: int = 0) -> np.ndarray:
+  """The vertex with `scale` where c's bits are set, else `zero`."""
+  return _np_vertex(*(np.where(b, scale, zero) for b in _np_bits(c)[:4]))
+
+
+def _np_first_set(c: np.ndarray) -> np.ndarray:
+  """Point with only the first set bit of c among x, y, z, else w."""
+  x, y, z, _, _ = _np_bits(c)
+  return np.where(x, 1, np.where(y, 2, np.where(z, 4, 8)))
+
+
+def _pentachoron_extras(code: np.ndarray) -> np.ndarray:
+  """opensimplex's 3 extra vertices in the pentachoron at (0,0,0,0).
+
+  Args:
+    code: 16 + the closest point other than the origin where the origin is
+      one of the closest two, else the union of the closest two points.
+
+  Returns:
+    int32 [..., 3, 4].
+  """
+  origin_closest, c = code >= 16, code % 16
+  x, y, z, w, low = _np_bits(c)
+  near = (_np_minus_one_pair(c)[0],
+          _np_vertex(np.where(x, 1, 0), np.where(y, 1, np.where(x, 0, -1)),
+                     np.where(z, 1, np.where((low != 0) & (low != 3), -1, 0)),
+                     np.where(w, 1, 0)),
+          _np_vertex(np.where(x, 1, 0), np.where(y, 1, 0),
+                     np.where(z, 1, np.where(low == 0, -1, 0)),
+                     np.where(w, 1, -1)))
+  # Otherwise the extras follow from the union of the closest two.
+  far = (_np_point(c), *_np_minus_one_pair(c))
+  return np.where(origin_closest[..., None, None], np.stack(near, axis=-2),
+                  np.stack(far, axis=-2))
+
+
+def _dispentachoron_extras(code: np.ndarray) -> np.ndarray:
+  """opensimplex's 3 extra vertices in the first dispentachoron.
+
+  Args:
+    code: a + 16 b + 256 a_big + 512 b_big: the closest two points a and b
+      and whether each is a two-axis point (the bigger side).
+
+  Returns:
+    int32 [..., 3, 4].
+  """
+  a, b = code % 16, code // 16 % 16
+  a_big, b_big = (code // 256 % 2) == 1, (code // 512) == 1
+  union = a | b
+  both_big = (_np_point(union), _np_point(union, 1, -1),
+              _np_point(_np_first_set(a & b), 2))
+  both_small = (*_np_minus_one_pair(union), np.zeros(a.shape + (4,), np.int32))
+  big = np.where(a_big, a, b)
+  small = np.where(a_big, b, a)
+  one_each = (*_np_minus_one_pair(big), _np_point(_np_first_set(small), 2))
+  same = np.where(a_big[..., None, None], np.stack(both_big, axis=-2),
+                  np.stack(both_small, axis=-2))
+  return np.where((a_big == b_big)[..., None, None], same,
+                  np.stack(one_each, axis=-2))
+
+
+def _vertex_table() -> np.ndarray:
+  """The 13 vertex slots of every decision code, packed: int32 [codes, 5].
+
+  Code: _MIRROR_CODE where in_sum > 2, plus the pentachoron's code, or
+  _PENTACHORON_CODES + the dispentachoron's code. Word k < 4 holds axis k of
+  slot j in bits 2j, 2j + 1 as the coordinate + 1 (-1 to 2); word 4 has bit
+  j set where slot j is one of the region's vertices.
+  """
+  singles = _CUBE[_CUBE_ONES == 1]  # in both lower regions
+  pairs = _CUBE[_CUBE_ONES == 2]  # in the dispentachoron; (0,0,0,0) else
+  codes = np.arange(_PENTACHORON_CODES + _DISPENTACHORON_CODES)
+  middle = codes >= _PENTACHORON_CODES
+  extras = np.where(middle[:, None, None],
+                    _dispentachoron_extras(codes - _PENTACHORON_CODES),
+                    _pentachoron_extras(codes % _PENTACHORON_CODES))
+  six = np.where(middle[:, None, None], pairs, 0 * pairs)
+  vertices = np.concatenate(
+      [np.broadcast_to(singles, (len(codes),) + singles.shape), six, extras],
+      axis=1)  # [code, slot, axis]
+  vertices = np.concatenate([vertices, 1 - vertices])  # mirrored
+  used = np.concatenate([np.ones(4, bool), np.arange(6) == 0,
+                         np.ones(3, bool)])
+  used = np.where(np.concatenate([middle, middle])[:, None], True, used)
+  shifts = 2 * np.arange(_SLOTS)
+  words = [((vertices[..., k] + 1) << shifts).sum(axis=1) for k in range(4)]
+  words.append((used << np.arange(_SLOTS)).sum(axis=1))
+  return np.stack(words, axis=1).astype(np.int32)
+
+
+_VERTEX_TABLE = _vertex_table()
 
 
 def _sel(cond: jnp.ndarray, a: Any, b: Any) -> jnp.ndarray:
@@ -215,57 +354,21 @@ def _sel(cond: jnp.ndarray, a: Any, b: Any) -> jnp.ndarray:
   return jnp.where(cond, a, b).astype(jnp.int32)
 
 
-def _bits(c: jnp.ndarray) -> Tuple[jnp.ndarray, ...]:
-  """(x, y, z, w) bits of c as booleans, and c & 3."""
-  return (c & 1) != 0, (c & 2) != 0, (c & 4) != 0, (c & 8) != 0, c & 3
-
-
-def _first_set(c: jnp.ndarray) -> Tuple[jnp.ndarray, ...]:
-  """One-hot (x, y, z, w) of the first set bit of c among x, y, z, else w."""
-  x, y, z, _, _ = _bits(c)
-  return (_sel(x, 1, 0), _sel(~x & y, 1, 0), _sel(~x & ~y & z, 1, 0),
-          _sel(~x & ~y & ~z, 1, 0))
-
-
-def _first_clear(c: jnp.ndarray) -> Tuple[jnp.ndarray, ...]:
-  """One-hot (x, y, z, w) of the first clear bit of c among x, y, z, else w."""
-  x, y, z, _, _ = _bits(c)
-  return (_sel(~x, 1, 0), _sel(x & ~y, 1, 0), _sel(x & y & ~z, 1, 0),
-          _sel(x & y & z, 1, 0))
-
-
-def _stack(*vertices: Sequence[Any]) -> Tuple[jnp.ndarray, ...]:
-  """Vertices (each 4 ints or int arrays) -> (x, y, z, w), int32 [..., n]."""
-  shape = jnp.broadcast_shapes(*[jnp.shape(c) for v in vertices for c in v])
-  return tuple(
-      jnp.stack([jnp.broadcast_to(jnp.asarray(v[k], jnp.int32), shape)
-                 for v in vertices], axis=-1) for k in range(4))
-
-
-def _pick(cond: jnp.ndarray, a: Sequence[jnp.ndarray],
-          b: Sequence[jnp.ndarray]) -> Tuple[jnp.ndarray, ...]:
-  """Per point, the vertex coordinates a where cond, else b."""
-  return tuple(jnp.where(cond[..., None], ak, bk) for ak, bk in zip(a, b))
-
-
 def _closest_two(a_score: jnp.ndarray, a_point: jnp.ndarray,
                  b_score: jnp.ndarray, b_point: jnp.ndarray,
-                 candidates: Sequence[Tuple[jnp.ndarray, Any]], nearer: Any,
+                 candidates: Sequence[Tuple[jnp.ndarray, Any]],
                  a_big: Any = None, b_big: Any = None) -> Tuple[Any, ...]:
-  """opensimplex's cascade keeping the two closest of several points.
+  """opensimplex's cascade keeping the two highest-scoring of several points.
 
-  For each (score, point) candidate: if a_score >= b_score (<= when `nearer`
-  is `jnp.less`) and the candidate beats b, it replaces b; elif it beats a, it
-  replaces a. A replaced side is flagged as not on the bigger side.
+  For each (score, point) candidate: if a_score >= b_score and the
+  candidate's score is greater than b's, it replaces b; elif it is greater
+  than a's, it replaces a. A replaced side is flagged as not on the bigger
+  side.
   """
-  if nearer is jnp.greater:
-    a_first = lambda a, b: a >= b
-  else:
-    a_first = lambda a, b: a <= b
   for score, point in candidates:
-    keep_a = a_first(a_score, b_score)
-    to_b = keep_a & nearer(score, b_score)
-    to_a = ~keep_a & nearer(score, a_score)
+    keep_a = a_score >= b_score
+    to_b = keep_a & (score > b_score)
+    to_a = ~keep_a & (score > a_score)
     b_score = jnp.where(to_b, score, b_score)
     b_point = _sel(to_b, point, b_point)
     a_score = jnp.where(to_a, score, a_score)
@@ -276,133 +379,64 @@ def _closest_two(a_score: jnp.ndarray, a_point: jnp.ndarray,
   return a_score, a_point, b_score, b_point, a_big, b_big
 
 
-def _extra_low(xins: jnp.ndarray, yins: jnp.ndarray, zins: jnp.ndarray,
-               wins: jnp.ndarray,
-               in_sum: jnp.ndarray) -> Tuple[jnp.ndarray, ...]:
-  """Extra vertices inside the pentachoron at (0,0,0,0) (in_sum <= 1)."""
+def _pentachoron_code(xins: jnp.ndarray, yins: jnp.ndarray, zins: jnp.ndarray,
+                      wins: jnp.ndarray, base: jnp.ndarray) -> jnp.ndarray:
+  """opensimplex's decisions in the pentachoron at (0,0,0,0) (in_sum <= 1).
+
+  Args:
+    xins: In-cell x coordinate (negated to mirror: see above).
+    yins: See xins.
+    zins: See xins.
+    wins: See xins.
+    base: 1 - in_sum, the origin's score (in_sum - 4 to mirror).
+
+  Returns:
+    The code of `_pentachoron_extras` (int32).
+  """
   ones = jnp.ones(jnp.shape(xins), jnp.int32)
   a_score, a_point, b_score, b_point, _, _ = _closest_two(
-      xins, ones * 0x01, yins, ones * 0x02,
-      ((zins, 0x04), (wins, 0x08)), jnp.greater)
-  uins = 1 - in_sum
-  origin_closest = (uins > a_score) | (uins > b_score)
-  # (0,0,0,0) is one of the closest two: c is the other one.
-  x, y, z, w, low = _bits(_sel(b_score > a_score, b_point, a_point))
-  near = _stack(
-      (_sel(x, 1, -1), _sel(y, 1, _sel(x, -1, 0)),
-       _sel(z, 1, _sel(low == 3, -1, 0)), _sel(w, 1, 0)),
-      (_sel(x, 1, 0), _sel(y, 1, _sel(x, 0, -1)),
-       _sel(z, 1, _sel((low != 0) & (low != 3), -1, 0)), _sel(w, 1, 0)),
-      (_sel(x, 1, 0), _sel(y, 1, 0), _sel(z, 1, _sel(low == 0, -1, 0)),
-       _sel(w, 1, -1)))
-  # Otherwise the extras follow from the union of the closest two.
-  x, y, z, w, low = _bits(a_point | b_point)
-  far = _stack(
-      (_sel(x, 1, 0), _sel(y, 1, 0), _sel(z, 1, 0), _sel(w, 1, 0)),
-      (_sel(x, 1, -1), _sel(y, 1, _sel(x, -1, 0)),
-       _sel(z, 1, _sel(low == 3, -1, 0)), _sel(w, 1, 0)),
-      (_sel(x, 1, 0), _sel(y, 1, _sel(x, 0, -1)),
-       _sel(z, 1, _sel(low == 3, 0, -1)), _sel(w, 1, -1)))
-  return _pick(origin_closest, near, far)
+      xins, ones * 0x01, yins, ones * 0x02, ((zins, 0x04), (wins, 0x08)))
+  origin_closest = (base > a_score) | (base > b_score)
+  # (0,0,0,0) is one of the closest two: the other one; else both.
+  closest = _sel(b_score > a_score, b_point, a_point)
+  return _sel(origin_closest, 16 + closest, a_point | b_point)
 
 
-def _extra_high(xins: jnp.ndarray, yins: jnp.ndarray, zins: jnp.ndarray,
-                wins: jnp.ndarray,
-               in_sum: jnp.ndarray) -> Tuple[jnp.ndarray, ...]:
-  """Extra vertices inside the pentachoron at (1,1,1,1) (in_sum >= 3)."""
-  ones = jnp.ones(jnp.shape(xins), jnp.int32)
-  a_score, a_point, b_score, b_point, _, _ = _closest_two(
-      xins, ones * 0x0E, yins, ones * 0x0D,
-      ((zins, 0x0B), (wins, 0x07)), jnp.less)
-  uins = 4 - in_sum
-  corner_closest = (uins < a_score) | (uins < b_score)
-  # (1,1,1,1) is one of the closest two: c is the other one.
-  x, y, z, w, low = _bits(_sel(b_score < a_score, b_point, a_point))
-  near = _stack(
-      (_sel(x, 2, 0), _sel(y, _sel(x, 1, 2), 0),
-       _sel(z, _sel(low == 0, 2, 1), 0), _sel(w, 1, 0)),
-      (_sel(x, 1, 0), _sel(y, _sel(x, 2, 1), 0),
-       _sel(z, _sel((low != 0) & (low != 3), 2, 1), 0), _sel(w, 1, 0)),
-      (_sel(x, 1, 0), _sel(y, 1, 0), _sel(z, _sel(low == 3, 2, 1), 0),
-       _sel(w, 2, 0)))
-  # Otherwise the extras follow from the intersection of the closest two.
-  x, y, z, w, low = _bits(a_point & b_point)
-  far = _stack(
-      (_sel(x, 1, 0), _sel(y, 1, 0), _sel(z, 1, 0), _sel(w, 1, 0)),
-      (_sel(x, 2, 0), _sel(y, _sel(x, 1, 2), 0),
-       _sel(z, _sel(low != 0, 1, 2), 0), _sel(w, 1, 0)),
-      (_sel(x, 1, 0), _sel(y, _sel(x, 2, 1), 0),
-       _sel(z, _sel(low != 0, 2, 1), 0), _sel(w, 2, 0)))
-  return _pick(corner_closest, near, far)
+def _dispentachoron_code(xins: jnp.ndarray, yins: jnp.ndarray,
+                         zins: jnp.ndarray, wins: jnp.ndarray,
+                         base: jnp.ndarray) -> jnp.ndarray:
+  """opensimplex's decisions in the first dispentachoron (1 < in_sum <= 2).
 
+  Args:
+    xins: In-cell x coordinate (negated to mirror: see above).
+    yins: See xins.
+    zins: See xins.
+    wins: See xins.
+    base: 2 - in_sum (in_sum - 3 to mirror).
 
-def _minus_one_pair(c: jnp.ndarray) -> Tuple[Tuple[jnp.ndarray, ...], ...]:
-  """Two vertices: point c with each 0 replaced by -1, in two ways."""
-  x, y, z, w, low = _bits(c)
-  return ((_sel(x, 1, -1), _sel(y, 1, _sel(x, -1, 0)),
-           _sel(z, 1, _sel(low == 3, -1, 0)), _sel(w, 1, 0)),
-          (_sel(x, 1, 0), _sel(y, 1, _sel(x, 0, -1)),
-           _sel(z, 1, _sel(low == 3, 0, -1)), _sel(w, 1, -1)))
-
-
-def _plus_two_pair(c: jnp.ndarray) -> Tuple[Tuple[jnp.ndarray, ...], ...]:
-  """Two vertices: point c with each 1 replaced by 2, in two ways."""
-  x, y, z, w, low = _bits(c)
-  return ((_sel(x, 2, 0), _sel(y, _sel(x, 1, 2), 0),
-           _sel(z, _sel(low == 0, 2, 1), 0), _sel(w, 1, 0)),
-          (_sel(x, 1, 0), _sel(y, _sel(x, 2, 1), 0),
-           _sel(z, _sel(low == 0, 1, 2), 0), _sel(w, 2, 0)))
-
-
-def _extra_middle(xins: jnp.ndarray, yins: jnp.ndarray, zins: jnp.ndarray,
-                  wins: jnp.ndarray, in_sum: jnp.ndarray,
-                  lower: bool) -> Tuple[jnp.ndarray, ...]:
-  """Extra vertices inside the first (lower) or second dispentachoron."""
+  Returns:
+    The code of `_dispentachoron_extras` (int32).
+  """
   true = jnp.ones(jnp.shape(xins), bool)
-  if lower:  # 1 < in_sum <= 2
-    nearer, pairs = jnp.greater, ((0x03, 0x0C), (0x05, 0x0A), (0x09, 0x06))
-    singles, base = (0x01, 0x02, 0x04, 0x08), 2
-  else:  # 2 < in_sum < 3
-    nearer, pairs = jnp.less, ((0x0C, 0x03), (0x0A, 0x05), (0x06, 0x09))
-    singles, base = (0x0E, 0x0D, 0x0B, 0x07), 3
   # Decide between (1,1,0,0) and (0,0,1,1), and (1,0,1,0) and (0,1,0,1).
-  cond = nearer(xins + yins, zins + wins)
+  cond = xins + yins > zins + wins
   a_score = jnp.where(cond, xins + yins, zins + wins)
-  a_point = _sel(cond, *pairs[0])
-  cond = nearer(xins + zins, yins + wins)
+  a_point = _sel(cond, 0x03, 0x0C)
+  cond = xins + zins > yins + wins
   b_score = jnp.where(cond, xins + zins, yins + wins)
-  b_point = _sel(cond, *pairs[1])
+  b_point = _sel(cond, 0x05, 0x0A)
   # The closer of (1,0,0,1) and (0,1,1,0) replaces the further of a and b.
-  cond = nearer(xins + wins, yins + zins)
+  cond = xins + wins > yins + zins
   score = jnp.where(cond, xins + wins, yins + zins)
   a_score, a_point, b_score, b_point, _, _ = _closest_two(
-      a_score, a_point, b_score, b_point,
-      ((score, _sel(cond, *pairs[2])),), nearer)
+      a_score, a_point, b_score, b_point, ((score, _sel(cond, 0x09, 0x06)),))
   # Then each single-axis point (on the smaller side).
-  candidates = tuple((base - in_sum + ins, point)
-                     for ins, point in zip((xins, yins, zins, wins), singles))
+  candidates = tuple((base + ins, point) for ins, point in
+                     zip((xins, yins, zins, wins), (0x01, 0x02, 0x04, 0x08)))
   _, a_point, _, b_point, a_big, b_big = _closest_two(
-      a_score, a_point, b_score, b_point, candidates, nearer, true, true)
-
-  if lower:
-    axes = _bits(a_point | b_point)[:4]
-    both_big = _stack(tuple(_sel(v, 1, 0) for v in axes),
-                      tuple(_sel(v, 1, -1) for v in axes),
-                      tuple(2 * v for v in _first_set(a_point & b_point)))
-    both_small = _stack(*_minus_one_pair(a_point | b_point), (0, 0, 0, 0))
-    one_each_pair = _minus_one_pair
-    one_each_third = lambda c: tuple(2 * v for v in _first_set(c))
-  else:
-    one_axis = _first_set(a_point & b_point)
-    both_big = _stack(one_axis, tuple(2 * v for v in one_axis),
-                      tuple(1 - 2 * v for v in _first_clear(a_point | b_point)))
-    both_small = _stack(*_plus_two_pair(a_point & b_point), (1, 1, 1, 1))
-    one_each_pair = _plus_two_pair
-    one_each_third = lambda c: tuple(1 - 2 * v for v in _first_clear(c))
-  c1 = _sel(a_big, a_point, b_point)  # the bigger-side point
-  c2 = _sel(a_big, b_point, a_point)
-  one_each = _stack(*one_each_pair(c1), one_each_third(c2))
-  return _pick(a_big == b_big, _pick(a_big, both_big, both_small), one_each)
+      a_score, a_point, b_score, b_point, candidates, true, true)
+  return (a_point + 16 * b_point + _sel(a_big, 256, 0) +
+          _sel(b_big, 512, 0))
 
 
 def _float_dtype(*values: Any) -> Any:
@@ -430,6 +464,11 @@ def noise4d(perm: jnp.ndarray, x: Any, y: Any, z: Any, w: Any) -> jnp.ndarray:
   extra vertices (chosen as opensimplex chooses them) are summed and divided
   by 30. Noise coordinates are dimensionless.
 
+  Each point evaluates 13 vertex slots (10 cube vertices, 5 of them masked
+  in a pentachoron, and the 3 extra ones), read from `_VERTEX_TABLE` at the
+  code of opensimplex's decisions for the point (see the note above
+  `_PENTACHORON_CODES`).
+
   Args:
     perm: int array [256], `permutation(seed)`.
     x: Coordinates (broadcastable arrays or scalars); the computation is
@@ -447,7 +486,6 @@ def noise4d(perm: jnp.ndarray, x: Any, y: Any, z: Any, w: Any) -> jnp.ndarray:
   x, y, z, w = jnp.broadcast_arrays(*(jnp.asarray(v, dtype)
                                       for v in (x, y, z, w)))
   perm = jnp.asarray(perm, jnp.int32)
-  shape = x.shape
 
   # Stretch onto the honeycomb; cell origin; in-cell coordinates. Same
   # operations in the same order as opensimplex: the branch decisions below
@@ -467,27 +505,29 @@ def noise4d(perm: jnp.ndarray, x: Any, y: Any, z: Any, w: Any) -> jnp.ndarray:
         z - (zsb + squish_offset), w - (wsb + squish_offset))
   origin = tuple(_wrap256(v) for v in (xsb, ysb, zsb, wsb))
 
-  # Region: 0 = pentachoron at (0,0,0,0), 1 = first dispentachoron,
-  # 2 = second dispentachoron, 3 = pentachoron at (1,1,1,1). Region k uses
-  # the cube vertices with k or k + 1 coordinates equal to 1.
-  region = jnp.where(in_sum <= 1, 0,
-                     jnp.where(in_sum >= 3, 3,
-                               jnp.where(in_sum <= 2, 1, 2))).astype(jnp.int32)
-  args = (xins, yins, zins, wins, in_sum)
-  extra = _pick(region == 0, _extra_low(*args),
-                _pick(region == 3, _extra_high(*args),
-                      _pick(region == 1, _extra_middle(*args, lower=True),
-                            _extra_middle(*args, lower=False))))
-  # The 16 cube vertices then the 3 extra ones: (x, y, z, w) [..., 19].
-  vertices = tuple(
-      jnp.concatenate([jnp.broadcast_to(_CUBE[:, k], shape + (16,)),
-                       extra[k]], axis=-1) for k in range(4))
-  ones_in_cube = _CUBE_ONES - region[..., None]
-  used = jnp.concatenate(
-      [(ones_in_cube == 0) | (ones_in_cube == 1),
-       jnp.ones(shape + (3,), bool)], axis=-1)
+  # Region: pentachoron at (0,0,0,0) (in_sum <= 1), first dispentachoron
+  # (<= 2), second dispentachoron (< 3), pentachoron at (1,1,1,1); the
+  # upper two are the lower two mirrored. (NaN: upper, middle; noise NaN.)
+  upper = ~(in_sum <= 2)
+  middle = ~(in_sum <= 1) & ~(in_sum >= 3)
+  corner = jnp.where(in_sum <= 1, 1, jnp.where(in_sum >= 3, 4,
+                                               jnp.where(upper, 3, 2)))
+  corner = corner.astype(dtype)
+  # The lower regions' decisions; scores negated where mirrored (exact).
+  scores = tuple(jnp.where(upper, -v, v) for v in (xins, yins, zins, wins))
+  base = jnp.where(upper, in_sum - corner, corner - in_sum)
+  code = jnp.where(middle,
+                   _PENTACHORON_CODES + _dispentachoron_code(*scores, base),
+                   _pentachoron_code(*scores, base))
+  code = code + _sel(upper, _MIRROR_CODE, 0)
+  words = jnp.asarray(_VERTEX_TABLE)[code]  # [..., 5]
+  # (x, y, z, w) of the 13 vertex slots, int32 [..., 13], and which count.
+  shifts = 2 * np.arange(_SLOTS, dtype=np.int32)
+  vertices = tuple(((words[..., k, None] >> shifts) & 3) - 1
+                   for k in range(4))
+  used = ((words[..., 4, None] >> (shifts // 2)) & 1) == 1
 
-  # Contributions of the 19 vertices (8 or 13 of them used).
+  # Contributions of the 13 vertex slots (8 or 13 of them used).
   squish = (vertices[0] + vertices[1] + vertices[2] + vertices[3]).astype(
       dtype) * SQUISH_CONSTANT_4D
   d = [(d0k[..., None] - v.astype(dtype)) - squish
@@ -623,6 +663,63 @@ def noise_params_from_ble(component: Any) -> NoiseParams:
                      harmonics=tuple(harmonics))
 
 
+def _harmonic_noise(params: Sequence[NoiseParams], points: Sequence[Any],
+                    dtype: Any) -> Tuple[jnp.ndarray, ...]:
+  """Each component's harmonics' noise4d * NOISE_MAGNITUDE at the points.
+
+  The harmonics of all the components are evaluated in one vectorised
+  noise4d call.
+
+  Args:
+    params: The components' NoiseParams (leaves [H, ...], no batch axis).
+    points: (x [km], y [km], pressure [Pa], time [h]), broadcast, of dtype.
+    dtype: The floating dtype of the computation.
+
+  Returns:
+    Per component, its noise [m/s] of shape [H, *point shape].
+  """
+  coordinates = [[] for _ in range(4)]
+  for component in params:
+    n_harmonics = len(component.harmonics)
+    # [harmonic, axis] spacings and offsets, shaped to broadcast over points.
+    spacings = np.array([h[1:] for h in component.harmonics],
+                        dtype=np.float64)
+    spacings = jnp.asarray(spacings, dtype).reshape(
+        (n_harmonics, 4) + (1,) * points[0].ndim)
+    offsets = jnp.asarray(component.offsets).astype(dtype).reshape(
+        spacings.shape)
+    for k, point in enumerate(points):
+      coordinates[k].append(point / spacings[:, k] + offsets[:, k])
+  perm = jnp.concatenate([jnp.asarray(c.perm) for c in params])
+  noise = NOISE_MAGNITUDE * jax.vmap(noise4d)(
+      perm, *(jnp.concatenate(c) for c in coordinates))
+  splits = np.cumsum([len(c.harmonics) for c in params])[:-1]
+  return tuple(jnp.split(noise, splits))
+
+
+def _weighted(noise: jnp.ndarray,
+              harmonics: Sequence[Harmonic]) -> jnp.ndarray:
+  """BLE's weighted, variance-normalised sum of a component's harmonics."""
+  weighted_noise = 0.0
+  total_weight = 0.0
+  total_weight_squared = 0.0
+  for h, harmonic in enumerate(harmonics):
+    weight = harmonic[0]
+    weighted_noise = weighted_noise + noise[h] * weight
+    total_weight += weight
+    total_weight_squared += weight**2
+  # BLE's variance adjustment (Python floats, as BLE computes them).
+  weighted_noise = weighted_noise / total_weight
+  return weighted_noise * math.sqrt(total_weight / total_weight_squared)
+
+
+def _noise_points(*coordinates: Any) -> Tuple[Tuple[jnp.ndarray, ...], Any]:
+  """The coordinates, broadcast, in their floating dtype; and that dtype."""
+  dtype = _float_dtype(*coordinates)
+  return jnp.broadcast_arrays(*(jnp.asarray(v, dtype)
+                                for v in coordinates)), dtype
+
+
 def wind_noise(params: NoiseParams, x_km: Any, y_km: Any, pressure: Any,
                hours: Any) -> jnp.ndarray:
   """BLE's `NoisyWindComponent.get_noise`: one wind component's noise. # [m/s]
@@ -646,26 +743,31 @@ def wind_noise(params: NoiseParams, x_km: Any, y_km: Any, pressure: Any,
   Returns:
     The noise [m/s], of the coordinates' broadcast shape and dtype.
   """
-  dtype = _float_dtype(x_km, y_km, pressure, hours)
-  points = jnp.broadcast_arrays(*(jnp.asarray(v, dtype)
-                                  for v in (x_km, y_km, pressure, hours)))
-  n_harmonics = len(params.harmonics)
-  # [harmonic, axis] spacings and offsets, shaped to broadcast over points.
-  spacings = np.array([h[1:] for h in params.harmonics], dtype=np.float64)
-  spacings = jnp.asarray(spacings, dtype).reshape(
-      (n_harmonics, 4) + (1,) * points[0].ndim)
-  offsets = jnp.asarray(params.offsets).astype(dtype).reshape(spacings.shape)
-  coordinates = [point / spacings[:, k] + offsets[:, k]
-                 for k, point in enumerate(points)]
-  noise = NOISE_MAGNITUDE * jax.vmap(noise4d)(params.perm, *coordinates)
-  weighted_noise = 0.0
-  total_weight = 0.0
-  total_weight_squared = 0.0
-  for h, harmonic in enumerate(params.harmonics):
-    weight = harmonic[0]
-    weighted_noise = weighted_noise + noise[h] * weight
-    total_weight += weight
-    total_weight_squared += weight**2
-  # BLE's variance adjustment (Python floats, as BLE computes them).
-  weighted_noise = weighted_noise / total_weight
-  return weighted_noise * math.sqrt(total_weight / total_weight_squared)
+  points, dtype = _noise_points(x_km, y_km, pressure, hours)
+  noise, = _harmonic_noise((params,), points, dtype)
+  return _weighted(noise, params.harmonics)
+
+
+def wind_noise_uv(noise_u: NoiseParams, noise_v: NoiseParams, x_km: Any,
+                  y_km: Any, pressure: Any,
+                  hours: Any) -> Tuple[jnp.ndarray, jnp.ndarray]:
+  """`wind_noise` of the u and v components at the same points. # [m/s]
+
+  The two components' harmonics (BLE's 5 + 5, each with its own constants)
+  are evaluated in one vectorised noise4d call: the same values as two
+  `wind_noise` calls (the same operations on each harmonic).
+
+  Args:
+    noise_u: The eastward component's NoiseParams (no batch axis).
+    noise_v: The northward component's NoiseParams.
+    x_km: Distance east of the station [km] (broadcastable arrays).
+    y_km: Distance north of the station [km].
+    pressure: Pressure [Pa].
+    hours: Time since the start of the wind field [h].
+
+  Returns:
+    (u noise, v noise) [m/s], of the coordinates' broadcast shape and dtype.
+  """
+  points, dtype = _noise_points(x_km, y_km, pressure, hours)
+  u, v = _harmonic_noise((noise_u, noise_v), points, dtype)
+  return _weighted(u, noise_u.harmonics), _weighted(v, noise_v.harmonics)
