@@ -607,10 +607,10 @@ def plot_wind_stats(a: Any, b: Any, stats: Mapping[str, Any], path: str
     ax.set_xlabel(f'{name} [m/s]')
     ax.set_title(f'{name} per level')
   per_level = stats['per_level']
-  axes[2].plot([r['wasserstein_u_mps'] for r in per_level], rows, 'o-',
-               color='k', label=f'u (all levels {stats["wasserstein_u_mps"]:.2f})')
-  axes[2].plot([r['wasserstein_v_mps'] for r in per_level], rows, 's--',
-               color='0.5', label=f'v (all levels {stats["wasserstein_v_mps"]:.2f})')
+  for name, style, color in (('u', 'o-', 'k'), ('v', 's--', '0.5')):
+    key = f'wasserstein_{name}_mps'
+    axes[2].plot([r[key] for r in per_level], rows, style, color=color,
+                 label=f'{name} (all levels {stats[key]:.2f})')
   axes[2].set_xlabel('Wasserstein distance [m/s]')
   axes[2].set_title('distance between the sources')
   axes[2].set_xlim(left=0.0)

@@ -30,7 +30,6 @@ read back with `era5.load` (which refuses NaN, absurd winds, too few values
 import contextlib
 import datetime as dt
 import importlib
-import math
 import os
 from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple
 
@@ -45,6 +44,8 @@ DEFAULT_STORE = ('gs://gcp-public-data-arco-era5/ar/'
 # Store variable of each file variable.
 VARIABLES = {'u': 'u_component_of_wind', 'v': 'v_component_of_wind'}
 EXTRA = "pip install 'ble_latex[arco]'"
+# m/s units the reader accepts (`era5.load`'s list).
+_WIND_UNITS = era5._WIND_UNITS  # pylint: disable=protected-access
 # Coordinates within this of an area edge count as on it. # [deg]
 _EDGE_TOLERANCE_DEG = 1e-6
 
@@ -162,14 +163,15 @@ def _variable(dataset: xr.Dataset, name: str, store: str) -> xr.DataArray:
         f'{sorted(str(v) for v in dataset.data_vars)[:20]})')
   array = dataset[name]
   unit = str(array.attrs.get('units', '')).strip()
-  if unit not in era5._WIND_UNITS:  # pylint: disable=protected-access
+  if unit not in _WIND_UNITS:
     raise ValueError(
         f'ARCO-ERA5 store {store}: variable {name!r} has units {unit!r}, '
-        f'expected m/s ({list(era5._WIND_UNITS)})')  # pylint: disable=protected-access
+        f'expected m/s ({list(_WIND_UNITS)})')
   dims = [str(d) for d in array.dims]
+  find_dim = era5._find_dim  # pylint: disable=protected-access
   with _named_store(store):
     wanted = [
-        era5._find_dim(dims, candidates, what, store, name)  # pylint: disable=protected-access
+        find_dim(dims, candidates, what, store, name)
         for candidates, what in ((era5.TIME_DIMS, 'time'),
                                  (era5.PRESSURE_DIMS, 'pressure-level'),
                                  (era5.LATITUDE_DIMS, 'latitude'),
@@ -297,7 +299,8 @@ def select(dataset: xr.Dataset, wanted: Dict[str, Any],
                        f'dims {array.dims}, {VARIABLES["u"]!r} has {u.dims}')
   time_dim, level_dim, lat_dim, lon_dim = u.dims
   with _named_store(store):
-    factor = era5._pressure_factor(u[level_dim], store)  # pylint: disable=protected-access
+    # pylint: disable-next=protected-access
+    factor = era5._pressure_factor(u[level_dim], store)
   levels_pa = np.asarray(u[level_dim].values, dtype=np.float64) * factor
   level_indices = []
   for level in wanted['levels_hpa']:

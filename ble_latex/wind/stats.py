@@ -181,7 +181,8 @@ def sample_era5(path: Union[str, Sequence[str]],
   field.set_start_date_time(data.start)
   edge = float(radius_km[1])  # [km]
   for x, y in ((edge, 0.0), (-edge, 0.0), (0.0, edge), (0.0, -edge)):
-    lat, lon = field._latlng(units.Distance(km=x), units.Distance(km=y))  # pylint: disable=protected-access
+    # pylint: disable-next=protected-access
+    lat, lon = field._latlng(units.Distance(km=x), units.Distance(km=y))
     lon = float(data.wrap_longitude(lon))
     if not (data.latitude[0] <= lat <= data.latitude[-1] and
             data.longitude[0] <= lon <= data.longitude[-1]):
