@@ -71,8 +71,11 @@ setuptools.setup(
     install_requires=_INSTALL_REQUIRES,
     extras_require={
         # SB3 and the CPU torch for tests/test_gymnasium_env.py and examples/.
+        # zarr: tests/test_era5_arco.py's local Zarr stores (no gcsfs).
         'test': ['pytest', 'pytest-timeout', 'hypothesis',
-                 'stable-baselines3', 'torch', 'ray[tune]'],
+                 'stable-baselines3', 'torch', 'ray[tune]', 'zarr'],
+        # ble-latex-download-era5 --source=arco (Google's ARCO-ERA5 store).
+        'arco': ['zarr', 'gcsfs'],
         # ble-latex-eval --ray_address and ble-latex-sweep.
         'ray': ['ray[tune]'],
     },

@@ -199,3 +199,23 @@ def test_demo_unknown_suite(capsys):
   assert demo.main(['--baseline=station_seeker']) == 2
   err = capsys.readouterr().err
   assert err.count('\n') == 1 and 'latex_station_seeker' in err
+
+
+def test_plot_wind_stats_usage_errors(capsys, tmp_path):
+  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
+  out = f'--output_dir={tmp_path / "plots"}'
+  for argv, message in (
+      (['--wind_stats'], '--wind_stats needs --era5_path'),
+      (['--wind_seed=1', '--era5_path=x.nc'],
+       '--era5_path and --wind_stats_* need --wind_stats'),
+      (['--wind_seed=1', '--wind_stats_samples=5'],
+       '--era5_path and --wind_stats_* need --wind_stats'),
+      (['--wind_stats', '--era5_path=x.nc', '--wind_stats_samples=0'],
+       '--wind_stats_samples'),
+      (['--wind_stats', '--era5_path=x.nc', '--wind_stats_pressures_pa=5000'],
+       '--wind_stats_pressures_pa needs 2 or more levels')):
+    assert plot.main([out, *argv]) == 2, argv
+    err = capsys.readouterr().err
+    assert err.startswith('ble-latex-plot: ') and err.count('\n') == 1, err
+    assert message in err, err
+  assert not (tmp_path / 'plots').exists()

@@ -5,6 +5,7 @@ import dataclasses
 import json
 import math
 import pathlib
+import types
 from typing import Any, Dict, List
 
 import gin
@@ -14,6 +15,7 @@ import pytest
 from ble_latex.cli import plot
 from ble_latex.plots import figures as plots
 from ble_latex.run import records as records_lib
+import test_era5  # pylint: disable=g-bad-import-order
 
 _PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
 _REASONS = ('out_of_sand', 'time_limit', 'time_limit', 'out_of_helium')
@@ -463,6 +465,33 @@ def test_wind_figure_from_synthetic_field(tmp_path):
                        u_mps=np.full_like(u, np.nan), v_mps=v)
 
 
+def test_wind_stats_figure(tmp_path):
+  pressures = np.array([5000.0, 7000.0, 10000.0])
+  rng = np.random.default_rng(0)
+  a = types.SimpleNamespace(label='a', pressures_pa=pressures,
+                            u=rng.normal(size=(40, 3)),
+                            v=rng.normal(size=(40, 3)))
+  b = types.SimpleNamespace(label='b' * 60, pressures_pa=pressures,
+                            u=a.u + 2.0, v=a.v)
+  diversity = {'opposing_pair_fraction': 0.25, 'opposing_any_fraction': 0.5,
+               'opposing_by_level': [0.1, 0.2, 0.3]}
+  stats = {'per_level': [{'wasserstein_u_mps': 2.0, 'wasserstein_v_mps': 0.0}
+                         ] * 3,
+           'wasserstein_u_mps': 2.0, 'wasserstein_v_mps': 0.0,
+           'direction_diversity': {'a': diversity, 'b': diversity}}
+  fig = plots.plot_wind_stats(a, b, stats, str(tmp_path / 'stats.png'))
+  _assert_png(tmp_path / 'stats.png')
+  panels = _visible_axes(fig)
+  assert [ax.get_title() for ax in panels] == [
+      'u per level', 'v per level', 'distance between the sources',
+      'direction diversity (> 90 deg)']
+  assert [t.get_text() for t in panels[0].get_yticklabels()] == [
+      '5000', '7000', '10000']
+  np.testing.assert_allclose(panels[2].get_lines()[0].get_xdata(), [2.0] * 3)
+  np.testing.assert_allclose(panels[3].get_lines()[0].get_xdata(),
+                             [0.1, 0.2, 0.3])
+
+
 # --- the command -------------------------------------------------------------
 
 
@@ -528,6 +557,51 @@ def test_main_bad_inputs(tmp_path, capsys):
   assert not out.exists()  # Nothing drawn on bad input.
   assert plot.main(['--help']) == 0
   assert '--wind_seeds' in capsys.readouterr().out
+
+
+def test_main_wind_stats_writes_figure_and_json(tmp_path, capsys):
+  era5_file = test_era5.write_era5(tmp_path / 'era5.nc')
+  out = tmp_path / 'plots'
+  argv = [f'--output_dir={out}', '--wind_stats', f'--era5_path={era5_file}',
+          '--wind_stats_fields=2', '--wind_stats_points=4',
+          '--wind_stats_samples=20']
+  assert plot.main(argv) == 0
+  assert sorted(p.name for p in out.iterdir()) == [plot.WIND_STATS_JSON,
+                                                   plot.WIND_STATS]
+  _assert_png(out / plot.WIND_STATS)
+  result = json.loads((out / plot.WIND_STATS_JSON).read_text())
+  assert result['sources'] == {'a': 'VAE', 'b': era5_file}
+  assert result['pressures_pa'] == [5000.0, 10000.0]
+  assert result['samples'] == {'a': 8, 'b': 20}
+  assert result['wasserstein_u_mps'] > 0.0
+  assert set(result['direction_diversity']['a']) >= {
+      'opposing_pair_fraction', 'opposing_any_fraction', 'opposing_by_level'}
+  assert capsys.readouterr().err == ''
+  # Against a second ERA5 file (itself): distance 0, no JAX.
+  assert plot.main(argv + [f'--wind_stats_against={era5_file}',
+                           '--wind_stats_pressures_pa=7000,5000']) == 0
+  result = json.loads((out / plot.WIND_STATS_JSON).read_text())
+  assert result['pressures_pa'] == [5000.0, 7000.0]
+  assert result['per_level'][0]['u_mps']['a']['mean'] == pytest.approx(
+      result['per_level'][0]['u_mps']['b']['mean'], abs=1.0)
+
+
+@pytest.mark.parametrize('change, message', [
+    (dict(nan=True), 'has NaN/inf winds'),
+    (dict(lat=np.array([2.0, 1.0, 0.0])), 'too small for samples up to 200 '
+     'km'),
+    (dict(levels_hpa=np.array([20.0, 50.0, 175.0])), 'the comparison needs 2 '
+     'or more'),
+])
+def test_main_wind_stats_bad_era5_files(tmp_path, capsys, change, message):
+  era5_file = test_era5.write_era5(tmp_path / 'era5.nc', **change)
+  out = tmp_path / 'plots'
+  assert plot.main([f'--output_dir={out}', '--wind_stats',
+                    f'--era5_path={era5_file}']) == 1
+  error = capsys.readouterr().err
+  assert error.startswith('ble-latex-plot: error: ') and message in error
+  assert error.count('\n') == 1, error
+  assert not out.exists()
 
 
 def test_main_validates_every_input_before_drawing(tmp_path, capsys):

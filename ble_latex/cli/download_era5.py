@@ -1,5 +1,5 @@
 # coding=utf-8
-r"""`ble-latex-download-era5`: fetches the paper's ERA5 winds from the CDS.
+r"""`ble-latex-download-era5`: fetches the paper's ERA5 winds (CDS or ARCO).
 
 Downloads ERA5 u, v on pressure levels (CDS dataset
 `reanalysis-era5-pressure-levels`) around the station-keeping target, one
@@ -13,8 +13,16 @@ Needs a CDS account: put your token in ~/.cdsapirc (or set CDSAPI_URL and
 CDSAPI_KEY), see https://cds.climate.copernicus.eu/how-to-api, and accept the
 ERA5 licence on the dataset's page.
 
+--source=arco reads the same area, levels, days and hours from Google's
+public ARCO-ERA5 Zarr store instead (`--store`, default
+gs://gcp-public-data-arco-era5/ar/full_37-1h-0p25deg-chunk-1.zarr-v3):
+anonymous, no account or queue, one file `--output` on the store's native
+0.25 deg grid (`--grid_deg` does not apply); needs
+`pip install 'ble_latex[arco]'` (zarr, gcsfs).
+
 Usage:
   ble-latex-download-era5 --output era5_paper.nc
+  ble-latex-download-era5 --source=arco --output era5_paper.nc
   ble-latex-download-era5 --dry_run          # prints the requests as JSON
   python -m ble_latex.cli.download_era5 --start_date 2022-12-01 \
       --end_date 2022-12-31 --output era5_dec.nc
@@ -37,6 +45,7 @@ with quiet.third_party_noise():
   import xarray as xr
 
   from ble_latex.wind import era5
+  from ble_latex.wind import era5_arco
   # pylint: enable=g-import-not-at-top
 
 
@@ -157,6 +166,7 @@ def _credentials_error() -> Optional[str]:
           'accept the ERA5 licence on the dataset page.')
 
 
+_PROG = 'ble-latex-download-era5'
 # The command's own flags (`cli.run_absl`).
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('output', 'era5_paper.nc',
@@ -184,6 +194,14 @@ flags.DEFINE_boolean('dry_run', False,
 flags.DEFINE_boolean('overwrite', False,
                      'Download months whose file already exists.',
                      flag_values=FLAGS)
+flags.DEFINE_enum('source', 'cds', ['cds', 'arco'],
+                  'cds: the Copernicus Climate Data Store (account, queue, '
+                  'regridded to --grid_deg); arco: Google\'s public ARCO-ERA5 '
+                  'Zarr store (anonymous, native 0.25 deg grid; needs '
+                  f"{era5_arco.EXTRA}).", flag_values=FLAGS)
+flags.DEFINE_string('store', era5_arco.DEFAULT_STORE,
+                    'The Zarr store --source=arco reads (path or URL).',
+                    flag_values=FLAGS)
 flags.DEFINE_boolean('no_merge', False,
                      'Keep the monthly files only (use a glob such as '
                      "'era5_paper_*.nc' as Era5WindField.path).",
@@ -203,6 +221,16 @@ def _date(name: str) -> dt.date:
 def _check() -> None:
   _date('start_date')
   _date('end_date')
+  if FLAGS.source == 'arco':
+    for name, why in (('grid_deg', "ARCO-ERA5 keeps the store's native grid "
+                       '(0.25 deg)'),
+                      ('no_merge', '--source=arco writes one file'),
+                      ('overwrite', '--source=arco always writes --output')):
+      if FLAGS[name].present:
+        raise cli.CommandUsageError(f'--{name} is for --source=cds only: '
+                                    f'{why}')
+  elif FLAGS['store'].present:
+    raise cli.CommandUsageError('--store is for --source=arco only')
 
 
 def _main(argv: Sequence[str]) -> int:
@@ -218,6 +246,8 @@ def _main(argv: Sequence[str]) -> int:
   except ValueError as error:
     print(f'error: {error}', file=sys.stderr)
     return 2
+  if args.source == 'arco':
+    return _arco_main(requests)
   jobs = [(month, request, monthly_path(args.output, month))
           for month, request in requests]
   problem = _output_error(args.output, jobs)
@@ -266,18 +296,56 @@ def _main(argv: Sequence[str]) -> int:
   except (OSError, ValueError) as error:
     print(f'error: {error}', file=sys.stderr)
     return 1
-  print(f'wrote {args.output if not args.no_merge else targets}: '
+  _print_written(args.output if not args.no_merge else targets, data)
+  return 0
+
+
+def _print_written(what: Any, data: era5.Era5Data) -> None:
+  """Prints what was written and the data's extent."""
+  print(f'wrote {what}: '
         f'{data.times.size} times {data.start:%Y-%m-%d %H:%M} to '
         f'{data.end:%Y-%m-%d %H:%M} UTC, pressure {data.pressure.min():.0f}-'
         f'{data.pressure.max():.0f} Pa, lat {data.latitude[0]:g}..'
         f'{data.latitude[-1]:g}, lon {data.longitude[0]:g}..'
         f'{data.longitude[-1]:g}')
+
+
+def _arco_main(requests: Sequence[Tuple[str, Any]]) -> int:
+  """--source=arco: the requests' winds from the Zarr store, one file.
+
+  Args:
+    requests: `era5.build_requests` output (its grid is not used).
+
+  Returns:
+    The exit status: 0, 1 (the store cannot be read or lacks the data, the
+    output cannot be written), 2 (usage: --output, zarr/gcsfs missing).
+  """
+  args = FLAGS
+  problem = _output_error(args.output, [])
+  if problem:
+    return cli.usage(_PROG, problem)
+  if args.dry_run:
+    print(json.dumps({'source': 'arco', 'output': args.output,
+                      **era5_arco.describe(requests, args.store)}, indent=2))
+    return 0
+  try:
+    era5_arco.require_packages(args.store)
+  except era5_arco.ArcoUnavailableError as error:
+    return cli.usage(_PROG, str(error))
+  print(f'reading ARCO-ERA5 {args.store} -> {args.output}', flush=True)
+  try:
+    era5_arco.fetch(requests, args.output, store=args.store)
+    data = era5.load(args.output)
+  except (OSError, ValueError) as error:
+    print(f'{_PROG}: error: {error}', file=sys.stderr)
+    return 1
+  _print_written(args.output, data)
   return 0
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
   """The command (`cli.run_absl`); returns the exit status."""
-  return cli.run_absl(_main, 'ble-latex-download-era5', FLAGS, argv,
+  return cli.run_absl(_main, _PROG, FLAGS, argv,
                       doc=__doc__, check=_check)
 
 

@@ -28,6 +28,12 @@ Writes into --output_dir, each only when its inputs are given:
                            row per seed (Fig. 3). The env is built after
                            latex_env.gin, --gin_file and --gin_bindings, so a
                            binding can select e.g. the ERA5 wind field.
+  wind_stats.png           --wind_stats --era5_path: the VAE forecast (or
+  wind_stats.json          --wind_stats_against, a second ERA5 file) vs the
+                           ERA5 file, per pressure level in 5000-14000 Pa:
+                           distributions of u and v, Wasserstein distances,
+                           direction diversity (how often winds at two levels
+                           point > 90 deg apart); see ble_latex.wind.stats.
   summary.json             for every eval file: mean/std of TW50, reward,
                            helium vented, sand dropped, % out of resources
                            (also printed).
@@ -69,6 +75,8 @@ TRAJECTORY_3D = 'trajectory_3d.png'
 WIND_FIELD = 'wind_field.png'
 SEED_CURVES = 'seed_curves.png'
 SUMMARY = 'summary.json'
+WIND_STATS = 'wind_stats.png'
+WIND_STATS_JSON = 'wind_stats.json'
 DEFAULT_PRESSURES_PA = ('14000', '10000', '7000', '5000')  # [Pa] ~14-21 km.
 
 # The command's own flags (`cli.run_absl`).
@@ -121,7 +129,68 @@ flags.DEFINE_multi_string('gin_bindings', [],
                           'Gin bindings, e.g. "LatexBalloonEnv.'
                           'wind_field_factory = @Era5WindField".',
                           flag_values=FLAGS)
+flags.DEFINE_boolean('wind_stats', False, f'Compare two wind sources: '
+                     f'{WIND_STATS} and {WIND_STATS_JSON}.', flag_values=FLAGS)
+flags.DEFINE_string('era5_path', None, 'ERA5 NetCDF file or glob compared '
+                    'by --wind_stats.', flag_values=FLAGS)
+flags.DEFINE_string('wind_stats_against', 'vae', "The other source: 'vae' "
+                    "(BLE's generative forecast) or a second ERA5 file/glob.",
+                    flag_values=FLAGS)
+flags.DEFINE_list('wind_stats_pressures_pa', [], 'Levels compared [Pa] '
+                  "(default: the ERA5 file's levels in 5000-14000 Pa).",
+                  flag_values=FLAGS)
+flags.DEFINE_integer('wind_stats_samples', 2000, 'Samples (place, time) of '
+                     'each ERA5 source.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('wind_stats_fields', 64, 'VAE forecast keys (fields).',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('wind_stats_points', 32, 'Samples (place, time) per VAE '
+                     'field.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('wind_stats_seed', 0, 'Seed of the samples.',
+                     lower_bound=0, flag_values=FLAGS)
 flags.mark_flag_as_required('output_dir', flag_values=FLAGS)
+
+
+def wind_stats(f: flags.FlagValues) -> Any:
+  """Samples the two sources of --wind_stats and compares them.
+
+  Args:
+    f: The parsed flags.
+
+  Returns:
+    (samples of the other source, samples of --era5_path, the comparison).
+
+  Raises:
+    flags.ValidationError: bad --wind_stats_pressures_pa.
+    OSError, ValueError: a bad ERA5 file (named).
+  """
+  with quiet.third_party_noise():
+    # pylint: disable=g-import-not-at-top
+    import jax
+    from ble_latex.wind import stats
+    # pylint: enable=g-import-not-at-top
+  pressures = (_float_list('wind_stats_pressures_pa',
+                           f.wind_stats_pressures_pa)
+               if f.wind_stats_pressures_pa else None)
+  if pressures is not None and len(pressures) < 2:
+    raise flags.ValidationError('--wind_stats_pressures_pa needs 2 or more '
+                                'levels (direction diversity is between '
+                                'levels)')
+  if pressures is not None:
+    pressures = sorted(pressures)
+  era5_samples = stats.sample_era5(f.era5_path, pressures,
+                                   num_samples=f.wind_stats_samples,
+                                   seed=f.wind_stats_seed)
+  if f.wind_stats_against == 'vae':
+    with quiet.third_party_noise():  # JAX's backend start-up lines.
+      other = stats.sample_vae(jax.random.PRNGKey(f.wind_stats_seed),
+                               era5_samples.pressures_pa,
+                               num_fields=f.wind_stats_fields,
+                               points_per_field=f.wind_stats_points)
+  else:
+    other = stats.sample_era5(f.wind_stats_against, era5_samples.pressures_pa,
+                              num_samples=f.wind_stats_samples,
+                              seed=f.wind_stats_seed + 1)
+  return other, era5_samples, stats.compare(other, era5_samples)
 
 
 def sample_wind_grid(field: Any, pressures_pa: Sequence[float], *,
@@ -323,6 +392,12 @@ def run(f: flags.FlagValues) -> List[str]:
     print('ble-latex-plot: --gin_file/--gin_bindings only affect '
           f'{WIND_FIELD} (give --wind_seed); ignored.', file=sys.stderr)
 
+  compared = None
+  if f.wind_stats:
+    if not f.era5_path:
+      raise flags.ValidationError('--wind_stats needs --era5_path')
+    compared = wind_stats(f)
+
   # 4. Draw.
   os.makedirs(out, exist_ok=True)
 
@@ -352,6 +427,12 @@ def run(f: flags.FlagValues) -> List[str]:
          by_seed(baseline), labels=names)
   if rows is not None:
     draw(plots.plot_wind_fields, WIND_FIELD, rows)
+  if compared is not None:
+    other, era5_samples, comparison = compared
+    draw(plots.plot_wind_stats, WIND_STATS, other, era5_samples, comparison)
+    path = os.path.join(out, WIND_STATS_JSON)
+    safe_io.atomic_write(path, json.dumps(comparison, indent=2))
+    written.append(path)
   if baseline is not None:
     evals[f.baseline_eval_json] = baseline
   if evals:
@@ -366,10 +447,19 @@ def run(f: flags.FlagValues) -> List[str]:
 def _check() -> None:
   if not (FLAGS.run_dir or FLAGS.seed_run_dirs or FLAGS.eval_json or
           FLAGS.baseline_eval_json or
-          FLAGS.wind_seed is not None or FLAGS.wind_seeds):
+          FLAGS.wind_seed is not None or FLAGS.wind_seeds or
+          FLAGS.wind_stats):
     raise cli.CommandUsageError(
         'nothing to plot; give --run_dir, --seed_run_dirs, --eval_json, '
-        '--baseline_eval_json or --wind_seed(s). Try --help.')
+        '--baseline_eval_json, --wind_seed(s) or --wind_stats. Try --help.')
+  if FLAGS.wind_stats and not FLAGS.era5_path:
+    raise cli.CommandUsageError('--wind_stats needs --era5_path (an ERA5 '
+                                'file, e.g. from ble-latex-download-era5)')
+  if not FLAGS.wind_stats and (FLAGS.era5_path or any(
+      FLAGS[name].present for name in FLAGS if
+      name.startswith('wind_stats_'))):
+    raise cli.CommandUsageError('--era5_path and --wind_stats_* need '
+                                '--wind_stats')
   cli.check_gin_files(FLAGS.gin_file)
 
 

@@ -566,3 +566,75 @@ def plot_wind_fields(rows: Sequence[WindPanelRow], path: str, *,
   fig.suptitle('Forecast wind (circle: station-keeping radius, star: balloon '
                'at reset)')
   return _save(fig, path)
+
+
+def plot_wind_stats(a: Any, b: Any, stats: Mapping[str, Any], path: str
+                    ) -> mpl_figure.Figure:
+  """Two wind sources side by side (`ble_latex.wind.stats.compare`).
+
+  Four panels over the pressure levels (top of the band at the top): the
+  distributions of u and of v of each source (box: quartiles, whiskers:
+  5-95 %), the Wasserstein distance between the sources per level, and per
+  level the fraction of samples whose wind opposes (> 90 deg) the wind at
+  some other level of the band (direction diversity).
+
+  Args:
+    a: The first source's columns: `.label`, `.pressures_pa` [L] [Pa], `.u`,
+      `.v` [N, L] [m/s] (a `stats.WindSamples`).
+    b: The second source's, at the same levels.
+    stats: `stats.compare(a, b)`.
+    path: Output PNG.
+
+  Returns:
+    The figure, written to `path`.
+  """
+  pressures = np.asarray(a.pressures_pa, dtype=float)
+  labels = [f'{p:.0f}' for p in pressures]
+  rows = np.arange(len(pressures), dtype=float)
+  fig = mpl_figure.Figure(figsize=(15.0, 0.45 * len(pressures) + 3.2),
+                          layout='constrained')
+  axes = fig.subplots(1, 4, sharey=True)
+  colors = ('tab:blue', 'tab:orange')
+  for ax, name in zip(axes[:2], ('u', 'v')):
+    for k, (source, color) in enumerate(zip((a, b), colors)):
+      ax.boxplot(np.asarray(getattr(source, name)),
+                 positions=rows + (k - 0.5) * 0.35, widths=0.3,
+                 orientation='horizontal', whis=(5, 95), showfliers=False,
+                 patch_artist=True, manage_ticks=False,
+                 boxprops={'facecolor': color, 'alpha': 0.6},
+                 medianprops={'color': 'k'})
+    ax.axvline(0.0, color='0.6', lw=0.8)
+    ax.set_xlabel(f'{name} [m/s]')
+    ax.set_title(f'{name} per level')
+  per_level = stats['per_level']
+  for name, style, color in (('u', 'o-', 'k'), ('v', 's--', '0.5')):
+    key = f'wasserstein_{name}_mps'
+    axes[2].plot([r[key] for r in per_level], rows, style, color=color,
+                 label=f'{name} (all levels {stats[key]:.2f})')
+  axes[2].set_xlabel('Wasserstein distance [m/s]')
+  axes[2].set_title('distance between the sources')
+  axes[2].set_xlim(left=0.0)
+  axes[2].legend(fontsize=8)
+  diversity = stats['direction_diversity']
+  for key, source, color in (('a', a, colors[0]), ('b', b, colors[1])):
+    d = diversity[key]
+    axes[3].plot(d['opposing_by_level'], rows, 'o-', color=color,
+                 label=(f'{_short(source.label)}: any pair '
+                        f'{100 * d["opposing_any_fraction"]:.0f} %, pairs '
+                        f'{100 * d["opposing_pair_fraction"]:.0f} %'))
+  axes[3].set_xlim(0.0, 1.0)
+  axes[3].set_xlabel('fraction opposing another level')
+  axes[3].set_title('direction diversity (> 90 deg)')
+  axes[3].legend(fontsize=8)
+  axes[0].set_yticks(rows, labels)
+  axes[0].set_ylabel('pressure [Pa]')
+  axes[0].invert_yaxis()  # Low pressure (high altitude) at the top.
+  handles = [mpl_patches.Patch(color=c, alpha=0.6, label=_short(s.label))
+             for c, s in zip(colors, (a, b))]
+  fig.legend(handles=handles, loc='outside upper center', ncol=2)
+  return _save(fig, path)
+
+
+def _short(label: str, length: int = 40) -> str:
+  """A label cut to `length` characters (file paths: their end)."""
+  return label if len(label) <= length else '...' + label[-(length - 3):]
