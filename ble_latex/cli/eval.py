@@ -23,6 +23,7 @@ command exits with status 1, listing each failed seed with its error.
 """
 
 import json
+import os
 import sys
 from typing import Optional, Sequence
 
@@ -109,6 +110,7 @@ def _main(argv: Sequence[str]) -> None:
       if FLAGS.checkpoint_idx is not None else FLAGS.agent)
   path = eval_lib.output_path(FLAGS.output_dir, FLAGS.suite, name,
                               FLAGS.num_shards, FLAGS.shard_idx)
+  cli.prepare_output_dir(os.path.dirname(path), '--output_dir')
   description = f'eval {FLAGS.agent} {FLAGS.suite}'
   if FLAGS.ray_address is None:
     results = eval_lib.evaluate(agent, env, seeds, max_steps,
