@@ -297,6 +297,7 @@ def test_train_refused_bindings_are_usage_errors(tmp_path, capsys, clean_gin):
   err = capsys.readouterr().err
   assert err.startswith('ble-latex-train: gin: SyntaxError') and (
       err.count('\n') == 1), err
+  assert not (tmp_path / 'run').exists()  # Refused before the run starts.
 
 
 def test_sweep_value_the_trainer_refuses_is_a_usage_error(tmp_path, capsys,

@@ -115,7 +115,6 @@ def seed_dirs() -> List[Tuple[int, str]]:
 
 
 def _main(argv: Sequence[str]) -> None:
-  cli.prepare_output_dir(FLAGS.base_dir, '--base_dir')
   jax_trainer = FLAGS.trainer == 'jax'
   agent_gin_file = FLAGS.agent_gin_file
   if jax_trainer and agent_gin_file is None:
@@ -123,6 +122,7 @@ def _main(argv: Sequence[str]) -> None:
   configs.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                   FLAGS.gin_bindings)
   cli.check_env_config()
+  cli.prepare_output_dir(FLAGS.base_dir, '--base_dir')
   if jax_trainer:
     # pylint: disable=g-import-not-at-top
     from ble_latex.agents import sac_trainer
