@@ -11,6 +11,8 @@ from typing import Optional, Sequence
 
 import gin
 
+from ble_latex import errors
+
 _PACKAGE = pathlib.Path(__file__).resolve().parent
 _CANDIDATES = (_PACKAGE / 'gin_configs', _PACKAGE.parent / 'gin_configs')
 # The env defaults every command parses first, in this order.
@@ -64,8 +66,8 @@ def bind_gin(agent: Optional[str], agent_gin_file: Optional[str],
 
   Raises:
     OSError: A gin file cannot be read.
-    ValueError: A binding or gin file is wrong (gin's errors other than
-      OSError/ValueError are re-raised as ValueError('gin: ...')).
+    errors.ConfigError (a ValueError): A binding or gin file is wrong
+      (gin's errors other than OSError/ValueError read 'gin: ...').
   """
   files = [*(env_gin_files() if env_defaults else []), *gin_files]
   try:
@@ -80,7 +82,9 @@ def bind_gin(agent: Optional[str], agent_gin_file: Optional[str],
         agents.register()
         run_helpers.bind_gin_variables(agent, agent_gin_file, gin_bindings,
                                        additional_gin_files=files)
-  except (OSError, ValueError):
+  except (OSError, errors.ConfigError):
     raise
+  except ValueError as e:
+    raise errors.ConfigError(str(e)) from e
   except Exception as e:  # pylint: disable=broad-except  # gin's own errors.
-    raise ValueError(f'gin: {type(e).__name__}: {e}') from e
+    raise errors.ConfigError(f'gin: {type(e).__name__}: {e}') from e

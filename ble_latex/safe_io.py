@@ -35,6 +35,8 @@ from typing import Any, Dict, Iterator, Union
 
 import numpy as np
 
+from ble_latex import errors
+
 FORMAT_KEY = 'format'
 TMP_PREFIX = '.tmp-'
 LOCK_FILE = '.lock'  # In a locked directory.
@@ -43,7 +45,7 @@ _LOCK_POLL_S = 0.5  # [s] Between tries while waiting for a lock.
 _HELD_LOCKS: Dict[int, int] = {}
 
 
-class UntrustedFileError(ValueError):
+class UntrustedFileError(errors.BadFileError):
   """A pickle file was given without the explicit opt-in to trust it."""
 
 
@@ -268,11 +270,12 @@ def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
 
   Raises:
     FileNotFoundError: If `path` does not exist.
-    ValueError: If `path` is a directory, not a msgpack file, truncated or
-      corrupt, or carries another format tag; the message names `path`.
+    errors.BadFileError (a ValueError): If `path` is a directory, not a
+      msgpack file, truncated or corrupt, or carries another format tag; the
+      message names `path`.
   """
   if os.path.isdir(path):
-    raise ValueError(f'{what} {path} is a directory, not a file')
+    raise errors.BadFileError(f'{what} {path} is a directory, not a file')
   if not os.path.exists(path):
     raise FileNotFoundError(f'no {what} at {path}')
   with open(path, 'rb') as f:
@@ -287,12 +290,13 @@ def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
   try:
     tree = serialization.msgpack_restore(data)
   except Exception as e:  # msgpack raises several types for bad bytes.
-    raise ValueError(f'{what} {path} is truncated or corrupt (not a '
-                     f'readable msgpack file: {type(e).__name__}: {e})') from e
+    raise errors.BadFileError(
+        f'{what} {path} is truncated or corrupt (not a '
+        f'readable msgpack file: {type(e).__name__}: {e})') from e
   if not isinstance(tree, dict) or tree.get(FORMAT_KEY) != file_format:
     found = tree.get(FORMAT_KEY) if isinstance(tree, dict) else None
-    raise ValueError(f'{path} is not a {what} (format {file_format!r} '
-                     f'expected, found {found!r})')
+    raise errors.BadFileError(f'{path} is not a {what} (format {file_format!r} '
+                              f'expected, found {found!r})')
   return tree
 
 
@@ -341,15 +345,15 @@ def read_legacy_pickle(path: str, *, trust: bool, what: str = 'file') -> Any:
   Raises:
     UntrustedFileError: If `trust` is False.
     FileNotFoundError: If `path` does not exist.
-    ValueError: If the file is corrupt, truncated or refers to any class
-      outside the allowed data classes; names `path`.
+    errors.BadFileError (a ValueError): If the file is corrupt, truncated or
+      refers to any class outside the allowed data classes; names `path`.
   """
   if not trust:
     raise UntrustedFileError(
         f'{path} is a legacy pickle {what}; pickles can run code, so it is '
         'read only with the explicit opt-in (README "Trusted files").')
   if os.path.isdir(path):
-    raise ValueError(f'{what} {path} is a directory, not a file')
+    raise errors.BadFileError(f'{what} {path} is a directory, not a file')
   if not os.path.exists(path):
     raise FileNotFoundError(f'no {what} at {path}')
   try:
@@ -357,5 +361,5 @@ def read_legacy_pickle(path: str, *, trust: bool, what: str = 'file') -> Any:
       return _DataOnlyUnpickler(f).load()
   except (pickle.UnpicklingError, EOFError, AttributeError, ImportError,
           IndexError, TypeError, ValueError, KeyError) as e:
-    raise ValueError(f'unreadable legacy {what} {path}: '
-                     f'{type(e).__name__}: {e}') from e
+    raise errors.BadFileError(f'unreadable legacy {what} {path}: '
+                              f'{type(e).__name__}: {e}') from e

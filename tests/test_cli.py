@@ -7,6 +7,7 @@ import sys
 
 import pytest
 
+from ble_latex import errors
 from ble_latex.cli import common as cli
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -219,3 +220,184 @@ def test_plot_wind_stats_usage_errors(capsys, tmp_path):
     assert err.startswith('ble-latex-plot: ') and err.count('\n') == 1, err
     assert message in err, err
   assert not (tmp_path / 'plots').exists()
+
+
+# -- Refused input while running: one line, exit 2 (usage) or 1 (failure). --
+
+
+@pytest.fixture(name='clean_gin')
+def fixture_clean_gin():
+  """Drops the gin bindings an in-process command leaves behind."""
+  import gin  # pylint: disable=g-import-not-at-top
+  yield
+  gin.clear_config()
+
+
+def _one_error_line(stderr: str, prog: str) -> str:
+  """The one `PROG: ...` line of a command's stderr (absl INFO logs aside)."""
+  assert 'Traceback' not in stderr, stderr[-3000:]
+  lines = [l for l in stderr.splitlines() if l.startswith(f'{prog}: ')]
+  assert len(lines) == 1, stderr[-3000:]
+  return lines[0]
+
+
+def test_eval_refused_input_is_one_line(tmp_path):
+  a_file = tmp_path / 'a_file'
+  a_file.write_text('')
+  truncated = tmp_path / 'truncated.msgpack'
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  with open(pretrained.DEFAULT_POLICY, 'rb') as f:
+    truncated.write_bytes(f.read(3000))
+  short = ['--max_episode_length=2', f'--output_dir={tmp_path}/out']
+  cases = [
+      ['--agent=station_seeker', *short],
+      ['--agent=dqn', *short],
+      ['--agent=latex_random', *short[:1], f'--output_dir={a_file}'],
+      ['--agent=sac', f'--checkpoint_dir={tmp_path}/nope',
+       '--checkpoint_idx=3', *short],
+      ['--agent=latex_random', '--gin_bindings=abc', *short],
+      ['--agent=latex_random', '--gin_bindings=create_state.sand_kg = -1',
+       *short],
+      ['--agent=sac_pretrained', *short, '--gin_bindings='
+       f"SACPretrainedAgent.policy_path = '{tmp_path}/none.msgpack'"],
+      ['--agent=sac_pretrained', *short,
+       f"--gin_bindings=SACPretrainedAgent.policy_path = '{truncated}'"],
+  ]
+  codes, errors, _ = _absl_cases('eval', cases)
+  assert codes == [2, 2, 1, 1, 2, 2, 1, 1]
+  lines = [_one_error_line(e, 'ble-latex-eval') for e in errors]
+  for line, agent in zip(lines[:2], ('station_seeker', 'dqn')):
+    assert f"Agent '{agent}' only supports discrete actions" in line
+    assert 'LatexBalloonDiscrete-v0' in line and 'LatexBalloon-v0' in line
+  assert lines[2] == (f'ble-latex-eval: --output_dir: cannot create the '
+                      f'folder {a_file}/latex_tiny (Not a directory)')
+  assert f'no SAC checkpoint at {tmp_path}/nope/checkpoint_00003' in lines[3]
+  assert "gin: SyntaxError: Couldn't parse" in lines[4]
+  assert 'sand_kg must be' in lines[5] and '-1' in lines[5]
+  assert f'no SAC policy at {tmp_path}/none.msgpack' in lines[6]
+  assert f'{truncated} is truncated or corrupt' in lines[7]
+  assert not (tmp_path / 'out').exists()
+
+
+def test_output_path_that_is_a_file_is_one_line(tmp_path, capsys):
+  from ble_latex.cli import train  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import validate  # pylint: disable=g-import-not-at-top
+  a_file = tmp_path / 'a_file'
+  a_file.write_text('')
+  assert validate.main([f'--output_dir={a_file}', '--no_reference']) == 1
+  assert capsys.readouterr().err == (
+      f'ble-latex-validate: --output_dir: {a_file} is a file, not a folder\n')
+  assert validate.main([f'--output_dir={a_file}/sub', '--no_reference']) == 1
+  assert capsys.readouterr().err == (
+      f'ble-latex-validate: --output_dir: cannot create the folder '
+      f'{a_file}/sub (Not a directory)\n')
+  assert train.main([f'--base_dir={a_file}', '--num_iterations=1']) == 1
+  assert capsys.readouterr().err == (
+      f'ble-latex-train: --base_dir: {a_file} is a file, not a folder\n')
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason='root writes read-only dirs')
+def test_read_only_output_dir_is_one_line(tmp_path, capsys):
+  from ble_latex.cli import validate  # pylint: disable=g-import-not-at-top
+  read_only = tmp_path / 'read_only'
+  read_only.mkdir(mode=0o555)
+  assert validate.main([f'--output_dir={read_only}', '--no_reference']) == 1
+  assert capsys.readouterr().err == (f'ble-latex-validate: --output_dir: the '
+                                     f'folder {read_only} is not writable\n')
+
+
+def test_train_refused_bindings_are_usage_errors(tmp_path, capsys, clean_gin):
+  from ble_latex.cli import train  # pylint: disable=g-import-not-at-top
+  base = [f'--base_dir={tmp_path}/run', '--trainer=jax', '--num_iterations=1']
+  assert train.main([*base, '--gin_bindings=create_state.sand_kg = -1']) == 2
+  err = capsys.readouterr().err
+  assert err.startswith('ble-latex-train: ') and err.count('\n') == 1, err
+  assert 'sand_kg must be' in err and '-1' in err
+  assert train.main([*base, '--gin_bindings=abc']) == 2
+  err = capsys.readouterr().err
+  assert err.startswith('ble-latex-train: gin: SyntaxError') and (
+      err.count('\n') == 1), err
+  assert not (tmp_path / 'run').exists()  # Refused before the run starts.
+
+
+def test_sweep_value_the_trainer_refuses_is_a_usage_error(tmp_path, capsys,
+                                                          clean_gin):
+  from ble_latex.cli import sweep  # pylint: disable=g-import-not-at-top
+  space = tmp_path / 'space.json'
+  space.write_text('{"bindings": {"sac_trainer_config.num_envs": [0]}}')
+  for flag in (f'--space={space}', '--grid=sac_trainer_config.num_envs=0',
+               '--grid=create_state.sand_kg=-1'):
+    assert sweep.main([f'--sweep_dir={tmp_path}/sweep', flag]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('ble-latex-sweep: ') and err.count('\n') == 1, err
+    assert 'must be' in err
+  assert not (tmp_path / 'sweep' / 'trials').exists()
+
+
+def _fake_command(raised: BaseException):
+  from absl import flags  # pylint: disable=g-import-not-at-top
+  flag_values = flags.FlagValues()
+
+  def main(unused_argv):
+    raise raised
+  return lambda: cli.run_absl(main, 'ble-latex-fake', flag_values, [])
+
+
+@pytest.mark.parametrize('raised, code, line', [
+    (OSError(28, 'No space left on device', '/x/checkpoint_00001.msgpack'), 1,
+     "[Errno 28] No space left on device: '/x/checkpoint_00001.msgpack'"),
+    (FileNotFoundError('no SAC policy at /p'), 1, 'no SAC policy at /p'),
+    (cli.CommandFailure('it failed'), 1, 'it failed'),
+    (errors.BadFileError('f.nc is truncated'), 1, 'f.nc is truncated'),
+    (errors.ConfigError('bad agent'), 2, 'bad agent'),
+    (ValueError("sand_kg must be >= 0\n  In call to configurable "
+                "'LatexBalloonArena' (<class 'x'>)\n  In call to "
+                "configurable 'LatexBalloonEnv' (<class 'y'>)"), 2,
+     'sand_kg must be >= 0 (in gin configurable LatexBalloonArena)'),
+])
+def test_known_refusals_are_one_line(raised, code, line, capsys):
+  assert _fake_command(raised)() == code
+  assert capsys.readouterr().err == f'ble-latex-fake: {line}\n'
+
+
+@pytest.mark.parametrize('raised', [ValueError('a bug'), KeyError('k'),
+                                    RecursionError('deep'),
+                                    TypeError('t')])
+def test_other_exceptions_keep_their_traceback(raised):
+  with pytest.raises(type(raised)):
+    _fake_command(raised)()
+
+
+@pytest.mark.slow
+def test_disk_full_checkpoint_write_is_one_line(tmp_path, capsys, monkeypatch,
+                                                clean_gin):
+  # The checkpoint write runs out of space after writing its bytes (fsync):
+  # one line, exit 1, no checkpoint and no temporary file left behind.
+  # pylint: disable=g-import-not-at-top
+  import errno
+  from unittest import mock
+  from ble_latex import safe_io
+  from ble_latex.cli import train
+  # pylint: enable=g-import-not-at-top
+  real_write = safe_io.atomic_write
+
+  def full_disk_for_checkpoints(path, data):
+    if not os.path.basename(path).startswith('checkpoint_'):
+      return real_write(path, data)
+    with mock.patch.object(safe_io.os, 'fsync', side_effect=OSError(
+        errno.ENOSPC, os.strerror(errno.ENOSPC))):
+      return real_write(path, data)
+
+  monkeypatch.setattr(safe_io, 'atomic_write', full_disk_for_checkpoints)
+  run = tmp_path / 'run'
+  status = train.main([
+      f'--base_dir={run}', '--num_iterations=1', '--collectors=episodes',
+      '--gin_bindings=ble_latex.agents.sac.SACAgent.min_replay_history=30',
+      '--gin_bindings=ble_latex.agents.sac.SACAgent.batch_size=16',
+      '--gin_bindings=ble_latex.agents.sac.SACAgent.hidden_units=16',
+      '--max_episode_length=4', '--episodes_per_iteration=1'])
+  assert status == 1
+  err = capsys.readouterr().err
+  assert err == 'ble-latex-train: [Errno 28] No space left on device\n', err
+  left = [p.name for p in (run / 'checkpoints').iterdir()]
+  assert left == [], left

@@ -456,6 +456,101 @@ def test_single_level_is_an_error(tmp_path):
     era5.load(path)
 
 
+def with_coordinate(source, path, name, values):
+  """Copies an ERA5 file with coordinate `name` replaced (same winds)."""
+  def edit(dataset):
+    dataset.coords[name] = (name, np.asarray(values),
+                            dataset[name].attrs)
+  return rewrite(source, path, edit)
+
+
+HOUR = np.timedelta64(1, 'h')
+TEN_YEARS = np.timedelta64(3652, 'D')
+
+
+@pytest.mark.parametrize('name, values, message', [
+    ('latitude', [200.0, 2.0, 1.0, 0.0, -1.0],
+     'latitude 200 is outside [-90, 90]'),
+    ('latitude', [95.0, 94.0, 93.0, 92.0, 91.0],
+     'latitude 95 is outside [-90, 90]'),
+    ('latitude', [-91.0, -92.0, -93.0, -94.0, -95.0],
+     'latitude -91 is outside [-90, 90]'),
+    ('longitude', [-115.0, -114.0, -113.0, -112.0, 1000.0],
+     'longitude 1000 is outside [-180, 360]'),
+    ('longitude', [-181.0, -114.0, -113.0, -112.0, -111.0],
+     'longitude -181 is outside [-180, 360]'),
+    ('longitude', [-115.0, -114.0, -113.0, 246.0, 247.0],
+     'longitudes -114 and 246 are the same meridian'),
+    ('longitude', [-115.0, -114.0, -113.0, -112.0, 246.5],
+     'longitudes span -115 to 246.5, 360 deg or more'),
+    ('longitude', [-115.0, -113.0, -114.0, -112.0, -111.0],
+     'longitude coordinate is not strictly monotonic (values out of order'),
+    ('latitude', [3.0, 2.0, 2.0, 0.0, -1.0],
+     'latitude coordinate is not strictly monotonic (value 2 more than '
+     'once: [3, 2, 2, 0, -1])'),
+    ('pressure_level', [-20.0, 50.0, 100.0, 175.0],
+     'pressure level -20 is not positive'),
+    ('pressure_level', [0.0, 50.0, 100.0, 175.0],
+     'pressure level 0 is not positive'),
+    ('pressure_level', [20.0, 20.0, 100.0, 175.0],
+     'pressure coordinate is not strictly monotonic'),
+    ('valid_time', [T0, T0 + 12 * HOUR, T0 + 6 * HOUR],
+     'times are not strictly increasing (2022-11-01T12:00 is followed by '
+     '2022-11-01T06:00)'),
+    ('valid_time', [T0, T0, T0 + 6 * HOUR],
+     'times are not strictly increasing'),
+    ('valid_time', [T0, T0 + 6 * HOUR, T0 + 6 * HOUR + TEN_YEARS],
+     'time gap from 2022-11-01T06:00 to 2032-10-31T06:00 (87648 h; the '
+     'median step is 43827 h'),
+    ('valid_time', [T0, T0 + 6 * HOUR, T0 + 36 * HOUR],
+     'time gap from 2022-11-01T06:00 to 2022-11-02T12:00 (30 h'),
+])
+def test_impossible_coordinates_are_errors(tmp_path, era5_file, name, values,
+                                           message):
+  path = with_coordinate(era5_file, tmp_path / 'bad.nc', name, values)
+  with pytest.raises(ValueError) as error:
+    era5.load(path)
+  assert str(error.value).startswith(f'ERA5 file {path}: {message}'), error
+
+
+def test_pressure_below_the_ground_is_an_error(tmp_path):
+  path = write_era5(tmp_path / 'deep.nc', pressure_unit='Pa',
+                    levels_hpa=np.array([20.0, 50.0, 100.0, 1200.0]))
+  with pytest.raises(ValueError, match=f'^ERA5 file {path}: pressure level '
+                     '120000 Pa is below the ground'):
+    era5.load(path)
+
+
+def test_time_gap_between_joined_files_is_an_error(tmp_path):
+  first = write_era5(tmp_path / 'era5_a.nc')
+  later = TIMES + TEN_YEARS
+  second = write_era5(tmp_path / 'era5_b.nc', times=later, t0=later[0])
+  with pytest.raises(ValueError, match=(
+      f'^ERA5 files {first} and {second}: time gap from 2022-11-01T12:00 to '
+      r'2032-10-31T00:00 \(87636 h; the median step is 6 h')):
+    era5.load(str(tmp_path / 'era5_?.nc'))
+  # Files that follow on (one 6 h step) are joined (test above).
+  era5.load([first, write_era5(tmp_path / 'next.nc', times=TIMES + 18 * HOUR)])
+
+
+@pytest.mark.parametrize('name, values', [
+    ('latitude', [90.0, 89.0, 88.0, 87.0, 86.0]),
+    ('latitude', [-86.0, -87.0, -88.0, -89.0, -90.0]),
+    ('longitude', [-180.0, -179.0, -178.0, -177.0, -176.0]),
+    ('longitude', [178.0, 179.0, 180.0, 181.0, 182.0]),
+    ('longitude', [356.0, 357.0, 358.0, 359.0, 360.0]),
+    ('longitude', [-2.0, -1.0, 0.0, 1.0, 2.0]),
+    ('valid_time', [T0, T0 + HOUR, T0 + 2 * HOUR]),
+    ('valid_time', [T0, T0 + 24 * HOUR, T0 + 48 * HOUR]),
+])
+def test_real_coordinates_load(tmp_path, era5_file, name, values):
+  path = with_coordinate(era5_file, tmp_path / 'ok.nc', name, values)
+  data = era5.load(path)
+  axis = {'latitude': data.latitude, 'longitude': data.longitude,
+          'valid_time': data.times}[name]
+  np.testing.assert_array_equal(axis, np.sort(np.asarray(values)))
+
+
 @pytest.mark.parametrize('unlimited_dims', [(), ('time',)])
 @pytest.mark.parametrize('coords_first', [True, False])
 @pytest.mark.parametrize('file_format', ['NETCDF3_CLASSIC', 'NETCDF3_64BIT'])

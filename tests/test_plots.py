@@ -153,6 +153,38 @@ def test_load_episodes_bad_files(tmp_path):
     records_lib.load_episodes(str(empty))
 
 
+_DEEP = '[' * 100_000 + ']' * 100_000  # RecursionError inside json.
+
+
+@pytest.mark.parametrize('deep', [
+    _DEEP, '[' * 33 + ']' * 33,
+    '{"episode": 1, "x": ' + '{"a": ' * 40 + '1' + '}' * 40 + '}'])
+def test_deeply_nested_json_is_refused_naming_file_and_line(tmp_path, deep):
+  lines = [json.dumps(_episode(0)), deep, json.dumps(_episode(1))]
+  path = tmp_path / 'deep.jsonl'
+  path.write_text('\n'.join(lines) + '\n')
+  with pytest.raises(ValueError, match=(
+      r'deep\.jsonl: line 2 nests JSON arrays/objects more than 32 levels')):
+    records_lib.load_episodes(str(path))
+  eval_path = tmp_path / 'deep.json'
+  eval_path.write_text(deep)
+  with pytest.raises(ValueError, match=r'deep\.json nests JSON arrays'):
+    records_lib.load_eval(str(eval_path))
+
+
+def test_plot_deeply_nested_json_line_is_one_line(tmp_path, capsys):
+  run_dir = tmp_path / 'run'
+  path = _write_episodes(run_dir / 'episodes.jsonl', n=3)
+  path.write_text(path.read_text() + _DEEP + '\n' + json.dumps(_episode(3)))
+  out = tmp_path / 'plots'
+  assert plot.main([f'--output_dir={out}', f'--run_dir={run_dir}']) == 1
+  err = capsys.readouterr().err
+  assert err == (f'ble-latex-plot: error: {path}: line 4 nests JSON '
+                 'arrays/objects more than 32 levels deep; not a file this '
+                 'package wrote\n'), err
+  assert not out.exists()
+
+
 def test_load_eval_bad_files(tmp_path):
   good = _write_json(tmp_path / 'good.json', _eval_records())
   assert [r['seed'] for r in records_lib.load_eval(str(good))] == [3, 5, 7]

@@ -17,7 +17,13 @@ any of them. `run_absl` gives every command the same contract:
   is one line on stderr, `PROG: ... is in use by pid P on host H ...`, and
   exit status 1;
 - otherwise the absl main runs inside absl's `app.run` (absl logging, init
-  callbacks) and its return value is the exit status (None: 0).
+  callbacks) and its return value is the exit status (None: 0);
+- refused input found while running is one line too (`run_absl`): a refused
+  configuration (`errors.ConfigError`, a gin binding that does not parse, a
+  gin-bound value a configurable refuses) exits 2; a failure of the file
+  system (`OSError`: an output path that is a file or read-only, a missing
+  input, a full disk), an unusable input file (`errors.BadFileError`) or a
+  `CommandFailure` exits 1. Any other exception is a bug: a traceback.
 """
 
 import difflib
@@ -29,16 +35,23 @@ from absl import app
 from absl import flags
 
 from ble_latex import configs
+from ble_latex import errors
 from ble_latex import safe_io
 
 HELP_FLAGS = ('-h', '--help', '-help', '--helpshort', '--helpfull',
               '-helpfull')
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
+# gin's note on an exception raised inside a configurable's call.
+_GIN_CALL_NOTE = 'In call to configurable '
 
 
 class CommandUsageError(Exception):
   """A usage error found while running: one line, exit status 2."""
+
+
+class CommandFailure(Exception):
+  """A failure found while running: one line, exit status 1."""
 
 
 def usage(prog: str, message: str) -> int:
@@ -120,14 +133,15 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
       return main(args)
     except (app.UsageError, CommandUsageError) as e:
       usage_error(prog, str(e))
-    except safe_io.InUseError as e:
-      print(f'{prog}: {e}', file=sys.stderr)
+    except (OSError, errors.BadFileError, CommandFailure,
+            safe_io.InUseError) as e:
+      print(f'{prog}: {one_line(e)}', file=sys.stderr)
       sys.exit(EXIT_FAILURE)
     except ValueError as e:
-      gin_message = gin_usage_message(e)
-      if gin_message is None:
+      message = refused_config_message(e)
+      if message is None:
         raise
-      usage_error(prog, gin_message)
+      usage_error(prog, message)
 
   quiet_init_callbacks()
   try:
@@ -158,6 +172,43 @@ def quiet_init_callbacks() -> None:
   pending = [quietly(c) for c in callbacks]
   callbacks.clear()
   callbacks.extend(pending)
+
+
+def prepare_output_dir(path: str, flag: str) -> None:
+  """Creates the output folder `path` before the work starts.
+
+  Args:
+    path: The folder (made with its parents if missing).
+    flag: The flag that named it (e.g. '--output_dir'), for the message.
+
+  Raises:
+    CommandFailure: `path` (or a parent) is a file, or the folder cannot be
+      created or written (one line, exit status 1).
+  """
+  if os.path.exists(path) and not os.path.isdir(path):
+    raise CommandFailure(f'{flag}: {path} is a file, not a folder')
+  try:
+    os.makedirs(path, exist_ok=True)
+  except OSError as e:
+    raise CommandFailure(f'{flag}: cannot create the folder {path} '
+                         f'({e.strerror or e})') from e
+  if not os.access(path, os.W_OK | os.X_OK):
+    raise CommandFailure(f'{flag}: the folder {path} is not writable')
+
+
+def check_env_config() -> None:
+  """The bound env and physics values (`jax_env.params_from_gin`), now.
+
+  Call after binding gin, before the work starts.
+
+  Raises:
+    CommandUsageError: a value the env's checks refuse (one line, exit 2).
+  """
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  try:
+    jax_env.params_from_gin()
+  except ValueError as e:
+    raise CommandUsageError(one_line(e)) from e
 
 
 # -- Checks shared by train and eval. ----------------------------------------
@@ -219,6 +270,51 @@ def check_gin_files(paths: Iterable[Optional[str]]) -> None:
     raise CommandUsageError(
         f'{unknown("gin file", path, shipped)}{hint}; shipped files live in '
         f'{configs.gin_dir()}')
+
+
+def one_line(error: BaseException) -> str:
+  """An exception's message as one line (gin's call notes become a suffix).
+
+  Args:
+    error: The exception; gin appends '  In call to configurable X (...)'
+      lines to exceptions raised inside a configurable.
+
+  Returns:
+    Its first line, with ' (in gin configurable X)' for the innermost
+    configurable gin noted.
+  """
+  text = str(error) or type(error).__name__
+  first, *rest = text.split('\n')
+  notes = [line.strip()[len(_GIN_CALL_NOTE):].split(' ', 1)[0].strip("'")
+           for line in rest if line.strip().startswith(_GIN_CALL_NOTE)]
+  if notes:
+    first += f' (in gin configurable {notes[0]})'
+  return first
+
+
+def refused_config_message(error: ValueError) -> Optional[str]:
+  """The one-line usage message of a refused configuration, else None.
+
+  Refused: gin's unknown configurable/parameter (`gin_usage_message`), an
+  `errors.ConfigError` (e.g. a gin binding that does not parse, an agent that
+  does not fit the env), and a ValueError raised inside a gin configurable's
+  call (gin notes it): a bound value the configurable's checks refuse.
+
+  Args:
+    error: The ValueError.
+
+  Returns:
+    The message, or None for an `errors.BadFileError` (a failure, not a
+    usage error) and any other ValueError (a bug: re-raise it).
+  """
+  if isinstance(error, errors.BadFileError):
+    return None
+  message = gin_usage_message(error)
+  if message is not None:
+    return message
+  if isinstance(error, errors.ConfigError) or _GIN_CALL_NOTE in str(error):
+    return one_line(error)
+  return None
 
 
 def gin_usage_message(error: ValueError) -> Optional[str]:

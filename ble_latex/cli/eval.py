@@ -27,6 +27,7 @@ and host (shards, other agents and names write alongside).
 """
 
 import json
+import os
 import sys
 from typing import Optional, Sequence
 
@@ -103,6 +104,7 @@ def _main(argv: Sequence[str]) -> None:
       if FLAGS.checkpoint_idx is not None else FLAGS.agent)
   path = eval_lib.output_path(FLAGS.output_dir, FLAGS.suite, name,
                               FLAGS.num_shards, FLAGS.shard_idx)
+  cli.prepare_output_dir(os.path.dirname(path), '--output_dir')
   with eval_lib.lock_output(path):  # Refused before Ray or the agent start.
     _evaluate(spec, path)
 

@@ -470,9 +470,9 @@ def _main(argv: Sequence[str]) -> int:
   except flags.Error as e:
     raise cli.CommandUsageError(str(e)) from e
   except (OSError, ValueError) as e:
-    if isinstance(e, ValueError) and cli.gin_usage_message(e) is not None:
+    if isinstance(e, ValueError) and cli.refused_config_message(e):
       raise
-    print(f'ble-latex-plot: error: {e}', file=sys.stderr)
+    print(f'ble-latex-plot: error: {cli.one_line(e)}', file=sys.stderr)
     return 1
   for path in written:
     print(f'wrote {path}')

@@ -121,6 +121,8 @@ def _main(argv: Sequence[str]) -> None:
     agent_gin_file = configs.gin_file('sac_jax.gin')
   configs.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                   FLAGS.gin_bindings)
+  cli.check_env_config()
+  cli.prepare_output_dir(FLAGS.base_dir, '--base_dir')
   if jax_trainer:
     # pylint: disable=g-import-not-at-top
     from ble_latex.agents import sac_trainer

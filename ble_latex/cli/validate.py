@@ -313,7 +313,7 @@ def _main(argv: Sequence[str]) -> int:
   if args.gin_file or args.gin_bindings:
     configs.bind_gin(None, None, args.gin_file, args.gin_bindings,
                      env_defaults=False)
-  os.makedirs(args.output_dir, exist_ok=True)
+  cli.prepare_output_dir(args.output_dir, '--output_dir')
   result = run_validation(seed=args.seed, reference=not args.no_reference)
   path = os.path.join(args.output_dir, OUTPUT_FILENAME)
   plot(result, path)

@@ -11,11 +11,14 @@ import os
 from typing import Any, Dict, List
 import warnings
 
+from ble_latex import errors
 from ble_latex import safe_io
 
 EPISODE_LOG = 'episodes.jsonl'
 # The jitted trainer's validated policy snapshots (records.VALIDATION_SCHEMA).
 VALIDATION_LOG = 'validation.jsonl'
+# Deepest nesting of JSON arrays/objects read (ours nest at most 4 levels).
+MAX_JSON_DEPTH = 32
 
 
 class EpisodeLogWarning(UserWarning):
@@ -26,8 +29,9 @@ def read(path: str) -> List[Dict[str, Any]]:
   """Reads episodes.jsonl ([] if absent); a torn last line is skipped.
 
   A run killed while writing may leave its last line half written: it is
-  skipped with an `EpisodeLogWarning`. Any other invalid line raises
-  ValueError naming the file and line.
+  skipped with an `EpisodeLogWarning`. Any other invalid line, or one nested
+  too deeply to parse (`parse_json_line`), raises `errors.BadFileError` (a
+  ValueError) naming the file and line.
   """
   if not os.path.exists(path):
     return []
@@ -37,14 +41,52 @@ def read(path: str) -> List[Dict[str, Any]]:
   records = []
   for k, (line_no, line) in enumerate(numbered):
     try:
-      records.append(json.loads(line))
+      records.append(parse_json_line(line, f'{path}: line {line_no}'))
     except json.JSONDecodeError as e:
       if k == len(numbered) - 1:
         warnings.warn(f'{path}: skipping torn last line {line_no} ({e}); was '
                       'the run killed while writing?', EpisodeLogWarning)
         break
-      raise ValueError(f'{path}: line {line_no} is not valid JSON: {e}') from e
+      raise errors.BadFileError(
+          f'{path}: line {line_no} is not valid JSON: {e}') from e
   return records
+
+
+def parse_json_line(text: str, where: str) -> Any:
+  """`json.loads(text)`, refusing arrays/objects nested too deeply.
+
+  Our records nest a few levels (an eval file: list, record, flight path,
+  point); a value nested beyond `MAX_JSON_DEPTH` levels is refused before
+  anything recurses into it (json itself raises RecursionError at Python's
+  recursion limit; printing or checking such a value would too).
+
+  Args:
+    text: JSON text.
+    where: The file (and line) it comes from, for the error.
+
+  Returns:
+    The decoded value.
+
+  Raises:
+    json.JSONDecodeError: `text` is not valid JSON.
+    errors.BadFileError: nesting deeper than `MAX_JSON_DEPTH`.
+  """
+  too_deep = errors.BadFileError(
+      f'{where} nests JSON arrays/objects more than {MAX_JSON_DEPTH} levels '
+      'deep; not a file this package wrote')
+  try:
+    value = json.loads(text)
+  except RecursionError:
+    raise too_deep from None
+  pending = [(value, 0)]
+  while pending:  # Iterative: no recursion into a deep value.
+    item, depth = pending.pop()
+    if isinstance(item, (list, dict)):
+      if depth >= MAX_JSON_DEPTH:
+        raise too_deep
+      children = item.values() if isinstance(item, dict) else item
+      pending.extend((child, depth + 1) for child in children)
+  return value
 
 
 def truncate(path: str, num_episodes: int) -> None:

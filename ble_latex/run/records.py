@@ -354,7 +354,7 @@ def load_eval(path: str) -> List[Dict[str, Any]]:
     raise FileNotFoundError(f'eval file not found: {path}')
   with open(path, encoding='utf-8') as f:
     try:
-      records = json.load(f)
+      records = episode_log.parse_json_line(f.read(), path)
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
       raise ValueError(f'{path}: not a valid eval JSON file: {e}') from e
   validate_eval(records, path)

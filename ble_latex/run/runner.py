@@ -16,6 +16,7 @@ import gym
 import numpy as np
 
 from ble_latex import agents as latex_agents
+from ble_latex import errors
 from ble_latex.run import metrics
 
 
@@ -29,7 +30,7 @@ def create_agent(name: str, env: gym.Env, seed: int = 0) -> base_agent.Agent:
                                     observation_shape=observation_shape)
   constructor = agent_registry.agent_constructor(name)
   if not getattr(constructor, 'supports_box_actions', False):
-    raise ValueError(
+    raise errors.ConfigError(
         f'Agent {name!r} only supports discrete actions; use it with '
         "--env_name=LatexBalloonDiscrete-v0, or a Box agent "
         f'({sorted(latex_agents.BOX_AGENTS)}) with LatexBalloon-v0.')

@@ -53,6 +53,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from ble_latex import errors
 from ble_latex.run import distributed
 from ble_latex.run import episode_log
 from ble_latex import safe_io
@@ -305,15 +306,24 @@ def check_points(settings: SweepSettings) -> None:
   """Binds every point's gin and builds its trainer config, here.
 
   Raises:
-    ValueError: A binding gin or the trainer refuses (gin's message names
-      it), before any trial starts.
+    errors.ConfigError: A binding gin, the trainer or the env refuses
+      (gin's message names it), before any trial starts.
   """
-  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import quiet
+  from ble_latex.envs import jax_env
   with quiet.third_party_noise():  # Binding imports TF, dopamine, BLE.
-    from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
+    from ble_latex.agents import sac_trainer
+    # pylint: enable=g-import-not-at-top
     for index in range(len(settings.points)):
-      bind_trial_gin(settings, index)
-      sac_trainer.TrainerConfig()
+      try:
+        bind_trial_gin(settings, index)
+        sac_trainer.TrainerConfig()
+        jax_env.params_from_gin()
+      except errors.ConfigError:
+        raise
+      except ValueError as e:
+        raise errors.ConfigError(str(e)) from e
 
 
 def _trial(config: Dict[str, Any], *, settings: Dict[str, Any]) -> None:

@@ -22,7 +22,13 @@ Loading checks the files: truncated files (NetCDF3: shorter than the header's
 variables and records; NetCDF4: shorter than the HDF5 superblock's end of
 file), pressure values that contradict their `units`, NaN winds (declared
 fill values) and winds above `MAX_WIND_MPS` (undeclared fill values such as
-9.97e36, corrupt data) are errors naming the file.
+9.97e36, corrupt data) are errors naming the file, and so are coordinates
+no real ERA5 file holds: latitudes outside [-90, 90], longitudes outside
+[-180, 360] or holding one meridian twice (-113 and 247: both conventions),
+axes with duplicate or unordered values, pressure levels <= 0 or below the
+ground (> 1100 hPa), times not increasing, and gaps in time (a step longer
+than twice the median step or than 24 h, in one file or between joined
+files), which are never interpolated across.
 
 `build_requests` builds the exact `cdsapi` requests for such files
 (`ble-latex-download-era5`, `ble_latex.cli.download_era5`, fetches them).
@@ -48,6 +54,8 @@ import numpy as np
 import s2sphere as s2
 import scipy.interpolate
 import xarray as xr
+
+from ble_latex import errors
 
 
 # Dimension names accepted in the files, new CDS layout first.
@@ -76,6 +84,14 @@ MAX_WIND_MPS = 200.0
 _MAX_HPA = 1100.0  # [hPa]
 _MIN_PA = 100.0  # [Pa]
 _MAX_PA_CHECKED = 1000.0  # [Pa]
+# Deepest pressure level a file may hold: no surface pressure reaches it.
+MAX_PRESSURE_PA = _MAX_HPA * 100.0  # [Pa]
+# Time axis rule: a step between consecutive times (of one file, or of files
+# joined along time) longer than GAP_MEDIAN_FACTOR x the median step or than
+# MAX_TIME_STEP is a gap (missing data, a missing month, files from other
+# years); the winds are not interpolated across it, the data is refused.
+GAP_MEDIAN_FACTOR = 2.0
+MAX_TIME_STEP = np.timedelta64(24, 'h')
 
 # The paper's ERA5 data (Saunders et al. 2023, "RL problem", Wind).
 DATASET = 'reanalysis-era5-pressure-levels'
@@ -203,7 +219,7 @@ def _find_dim(dims: Sequence[str], candidates: Sequence[str], what: str,
   for name in candidates:
     if name in dims:
       return name
-  raise ValueError(
+  raise errors.BadFileError(
       f'ERA5 file {path} has no {what} dimension (expected one of '
       f'{list(candidates)}; variable {variable!r} has dims {list(dims)})')
 
@@ -235,7 +251,7 @@ def _pressure_factor(coordinate: xr.DataArray, path: str) -> float:
   if unit:
     factor = _PRESSURE_UNITS.get(unit.lower())
     if factor is None:
-      raise ValueError(
+      raise errors.BadFileError(
           f'ERA5 file {path}: pressure coordinate {coordinate.name!r} has '
           f'unknown units {unit!r} (expected one of '
           f'{sorted(_PRESSURE_UNITS)})')
@@ -252,7 +268,7 @@ def _pressure_factor(coordinate: xr.DataArray, path: str) -> float:
       else:
         wrong, other = high > _MAX_HPA, 'Pa'
       if wrong:
-        raise ValueError(
+        raise errors.BadFileError(
             f'ERA5 file {path}: pressure coordinate {coordinate.name!r} has '
             f'units {unit!r} but values {low:g}..{high:g}, which look like '
             f'{other} (ERA5 levels are 1..1000 hPa = 100..100000 Pa); fix '
@@ -265,13 +281,15 @@ def _pressure_factor(coordinate: xr.DataArray, path: str) -> float:
 def _read_variable(dataset: xr.Dataset, name: str, path: str) -> xr.DataArray:
   """Variable `name` as (time, pressure, latitude, longitude) array."""
   if name not in dataset.data_vars:
-    raise ValueError(f'ERA5 file {path} has no variable {name!r} (found: '
-                     f'{sorted(str(v) for v in dataset.data_vars)})')
+    raise errors.BadFileError(
+        f'ERA5 file {path} has no variable {name!r} (found: '
+        f'{sorted(str(v) for v in dataset.data_vars)})')
   array = dataset[name]
   unit = str(array.attrs.get('units', '')).strip()
   if unit and unit not in _WIND_UNITS:
-    raise ValueError(f'ERA5 file {path}: variable {name!r} has units {unit!r}, '
-                     f'expected m/s ({list(_WIND_UNITS)})')
+    raise errors.BadFileError(
+        f'ERA5 file {path}: variable {name!r} has units {unit!r}, '
+        f'expected m/s ({list(_WIND_UNITS)})')
   dims = [str(d) for d in array.dims]
   wanted = [_find_dim(dims, TIME_DIMS, 'time', path, name),
             _find_dim(dims, PRESSURE_DIMS, 'pressure-level', path, name),
@@ -288,13 +306,14 @@ def _read_variable(dataset: xr.Dataset, name: str, path: str) -> xr.DataArray:
     elif array.sizes[dim] == 1:
       array = array.isel({dim: 0})
     else:
-      raise ValueError(
+      raise errors.BadFileError(
           f'ERA5 file {path}: variable {name!r} has an unexpected dimension '
           f'{dim!r} of size {array.sizes[dim]} (expected dims {wanted})')
   for dim in wanted:
     if dim not in array.coords:
-      raise ValueError(f'ERA5 file {path} has no coordinate values for '
-                       f'dimension {dim!r}')
+      raise errors.BadFileError(
+          f'ERA5 file {path} has no coordinate values for '
+          f'dimension {dim!r}')
   return array.transpose(*wanted)
 
 
@@ -314,13 +333,14 @@ class _HeaderReader:
   def need(self, count: int) -> None:
     """ValueError (truncated) if fewer than `count` bytes are left."""
     if count > self._size - self._file.tell():
-      raise ValueError(
+      raise errors.BadFileError(
           f'ERA5 file {self._path} is truncated: its header runs past the end '
           f'of the file ({self._size} bytes); download it again')
 
   def corrupt(self, why: str) -> ValueError:
-    return ValueError(f'ERA5 file {self._path} is not a readable NetCDF file '
-                      f'(corrupt NetCDF3 header: {why})')
+    return errors.BadFileError(
+        f'ERA5 file {self._path} is not a readable NetCDF file '
+        f'(corrupt NetCDF3 header: {why})')
 
 
 def _netcdf3_needed_size(file: BinaryIO, size: int,
@@ -444,7 +464,7 @@ def _hdf5_needed_size(file: BinaryIO, size: int,
     offset = 512 if offset == 0 else 2 * offset
   else:
     return None
-  truncated = ValueError(
+  truncated = errors.BadFileError(
       f'ERA5 file {path} is truncated: its HDF5 superblock is cut at '
       f'{size} bytes; download it again')
   if len(head) < 14:
@@ -502,7 +522,7 @@ def check_file(path: str) -> None:
     else:
       needed = _hdf5_needed_size(file, size, path)
   if needed is not None and needed[0] > size:
-    raise ValueError(
+    raise errors.BadFileError(
         f'ERA5 file {path} is truncated: it has {size} bytes but {needed[1]} '
         '(an interrupted download or copy?); download it again')
 
@@ -513,8 +533,117 @@ def _open(path: str) -> xr.Dataset:
   try:
     return xr.open_dataset(path)
   except Exception as error:  # pylint: disable=broad-except
-    raise ValueError(f'ERA5 file {path} is not a readable NetCDF file '
-                     f'({type(error).__name__}: {error})') from error
+    raise errors.BadFileError(f'ERA5 file {path} is not a readable NetCDF file '
+                              f'({type(error).__name__}: {error})') from error
+
+
+def _check_coordinates(path: str, times: np.ndarray, pressure: np.ndarray,
+                       latitude: np.ndarray, longitude: np.ndarray) -> None:
+  """Checks one file's coordinate values as stored (before sorting).
+
+  Args:
+    path: The file (for errors).
+    times: Its times (datetime64, no NaT).
+    pressure: Its pressure levels in the file's units.
+    latitude: Its latitudes. # [deg N]
+    longitude: Its longitudes. # [deg E]
+
+  Raises:
+    errors.BadFileError: NaN/inf coordinates; times not strictly increasing;
+      pressure, latitude or longitude not strictly monotonic (duplicates or
+      out of order); pressure levels <= 0; latitudes outside [-90, 90];
+      longitudes outside [-180, 360], spanning 360 deg or more, or holding
+      one meridian twice in the two conventions (e.g. -113 and 247).
+  """
+  for name, axis in (('pressure', pressure), ('latitude', latitude),
+                     ('longitude', longitude)):
+    if not np.all(np.isfinite(axis)):
+      raise errors.BadFileError(
+          f'ERA5 file {path}: {name} coordinate has NaN/inf '
+          'values')
+  steps = np.diff(times)
+  if np.any(steps <= np.timedelta64(0)):
+    i = int(np.nonzero(steps <= np.timedelta64(0))[0][0])
+    raise errors.BadFileError(
+        f'ERA5 file {path}: times are not strictly increasing '
+        f'({_time_text(times[i])} is followed by {_time_text(times[i + 1])})')
+  for name, axis in (('pressure', pressure), ('latitude', latitude),
+                     ('longitude', longitude)):
+    steps = np.diff(axis)
+    if not (np.all(steps > 0) or np.all(steps < 0)):
+      ordered = np.sort(axis)
+      repeated = ordered[1:][np.diff(ordered) == 0]
+      what = (f'value {repeated[0]:g} more than once' if repeated.size else
+              'values out of order')
+      raise errors.BadFileError(
+          f'ERA5 file {path}: {name} coordinate is not strictly '
+          f'monotonic ({what}: {_axis_text(axis)})')
+  if pressure.size and pressure.min() <= 0:
+    raise errors.BadFileError(
+        f'ERA5 file {path}: pressure level {pressure.min():g} is '
+        f'not positive ({_axis_text(pressure)})')
+  for name, axis, low, high in (('latitude', latitude, -90.0, 90.0),
+                                ('longitude', longitude, -180.0, 360.0)):
+    outside = axis[(axis < low) | (axis > high)]
+    if outside.size:
+      raise errors.BadFileError(
+          f'ERA5 file {path}: {name} {outside[0]:g} is outside '
+          f'[{low:g}, {high:g}]')
+  if longitude.size and longitude.max() - longitude.min() >= 360.0:
+    wrapped = (longitude + 180.0) % 360.0 - 180.0
+    order = np.argsort(wrapped, kind='stable')
+    same = np.nonzero(np.diff(wrapped[order]) == 0)[0]
+    if same.size:
+      a, b = sorted(longitude[order[same[0]:same[0] + 2]])
+      raise errors.BadFileError(
+          f'ERA5 file {path}: longitudes {a:g} and {b:g} are the same '
+          'meridian (the file mixes the -180..180 and 0..360 conventions)')
+    raise errors.BadFileError(
+        f'ERA5 file {path}: longitudes span {longitude.min():g} to '
+        f'{longitude.max():g}, 360 deg or more (use one convention: '
+        '-180..180 or 0..360)')
+
+
+def _time_text(time: np.datetime64) -> str:
+  return np.datetime_as_string(time, unit='m')
+
+
+def _axis_text(axis: np.ndarray, most: int = 8) -> str:
+  """A coordinate axis for messages, shortened to `most` values."""
+  values = [f'{v:g}' for v in axis[:most]]
+  return '[' + ', '.join(values) + (', ...]' if axis.size > most else ']')
+
+
+def _check_time_steps(times: np.ndarray, sources: Sequence[str]) -> None:
+  """Refuses gaps in a sorted time axis (see `GAP_MEDIAN_FACTOR`).
+
+  Args:
+    times: Strictly increasing times (datetime64).
+    sources: The file each time comes from (for errors).
+
+  Raises:
+    ValueError: a step longer than GAP_MEDIAN_FACTOR x the median step or
+      than MAX_TIME_STEP; the message names the gap's two times and files.
+  """
+  steps = np.diff(times)
+  if not steps.size:
+    return
+  median = np.median(steps.astype('timedelta64[s]').astype(np.int64))
+  limit = min(GAP_MEDIAN_FACTOR * float(median),
+              MAX_TIME_STEP / np.timedelta64(1, 's'))
+  seconds = steps / np.timedelta64(1, 's')
+  gaps = np.nonzero(seconds > limit)[0]
+  if not gaps.size:
+    return
+  i = int(gaps[0])
+  files = (f'ERA5 file {sources[i]}' if sources[i] == sources[i + 1] else
+           f'ERA5 files {sources[i]} and {sources[i + 1]}')
+  raise errors.BadFileError(
+      f'{files}: time gap from {_time_text(times[i])} to '
+      f'{_time_text(times[i + 1])} ({seconds[i] / 3600:g} h; the median step '
+      f'is {median / 3600:g} h, at most {GAP_MEDIAN_FACTOR:g}x that and '
+      f'{MAX_TIME_STEP / np.timedelta64(1, "h"):g} h are allowed): winds are '
+      'not interpolated across a gap; download the missing times')
 
 
 def _read_file(path: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
@@ -524,36 +653,40 @@ def _read_file(path: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
     u = _read_variable(dataset, 'u', path)
     v = _read_variable(dataset, 'v', path)
     if u.dims != v.dims or u.shape != v.shape:
-      raise ValueError(f'ERA5 file {path}: u has dims {u.dims} {u.shape} but '
-                       f'v has dims {v.dims} {v.shape}')
+      raise errors.BadFileError(
+          f'ERA5 file {path}: u has dims {u.dims} {u.shape} but '
+          f'v has dims {v.dims} {v.shape}')
     time_dim, pressure_dim, lat_dim, lon_dim = u.dims
     times = u[time_dim].values
     if not np.issubdtype(times.dtype, np.datetime64):
-      raise ValueError(f'ERA5 file {path}: time coordinate {time_dim!r} is '
-                       f'not a date/time (dtype {times.dtype})')
+      raise errors.BadFileError(
+          f'ERA5 file {path}: time coordinate {time_dim!r} is '
+          f'not a date/time (dtype {times.dtype})')
     if np.isnat(times).any():
-      raise ValueError(f'ERA5 file {path}: time coordinate {time_dim!r} has '
-                       'missing (NaT) values')
-    pressure = (u[pressure_dim].values.astype(np.float64) *
-                _pressure_factor(u[pressure_dim], path))
+      raise errors.BadFileError(
+          f'ERA5 file {path}: time coordinate {time_dim!r} has '
+          'missing (NaT) values')
+    pressure = u[pressure_dim].values.astype(np.float64)
     latitude = u[lat_dim].values.astype(np.float64)
     longitude = u[lon_dim].values.astype(np.float64)
+    _check_coordinates(path, times, pressure, latitude, longitude)
+    pressure = pressure * _pressure_factor(u[pressure_dim], path)
+    if pressure.max() > MAX_PRESSURE_PA:
+      raise errors.BadFileError(
+          f'ERA5 file {path}: pressure level {pressure.max():g} Pa is below '
+          f'the ground (levels must be <= {MAX_PRESSURE_PA:g} Pa = '
+          f'{MAX_PRESSURE_PA / 100:g} hPa)')
     try:
       uv = np.stack([u.values.astype(np.float64),
                      v.values.astype(np.float64)], axis=-1)
     except Exception as error:  # pylint: disable=broad-except
-      raise ValueError(f'ERA5 file {path} is corrupt or truncated: reading '
-                       f'its winds failed ({type(error).__name__}: {error})'
-                       ) from error
-  for name, axis in (('time', times), ('pressure', pressure),
-                     ('latitude', latitude), ('longitude', longitude)):
-    if name != 'time' and not np.all(np.isfinite(axis)):
-      raise ValueError(f'ERA5 file {path}: {name} coordinate has NaN/inf '
-                       'values')
+      raise errors.BadFileError(
+          f'ERA5 file {path} is corrupt or truncated: reading '
+          f'its winds failed ({type(error).__name__}: {error})') from error
   bad = ~np.isfinite(uv)
   if bad.any():
     counts = bad.reshape(-1, 2).sum(axis=0)
-    raise ValueError(
+    raise errors.BadFileError(
         f'ERA5 file {path} has NaN/inf winds: {int(counts[0])} values of u '
         f'and {int(counts[1])} of v (check the requested area and levels)')
   absurd = np.abs(uv) > MAX_WIND_MPS
@@ -562,7 +695,7 @@ def _read_file(path: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
     name = WIND_VARIABLES[k]
     first = tuple(int(i) for i in np.argwhere(absurd[..., k])[0])
     it, ip, ilat, ilon = first
-    raise ValueError(
+    raise errors.BadFileError(
         f'ERA5 file {path}: variable {name!r} has '
         f'{int(absurd[..., k].sum())} values with |{name}| > '
         f'{MAX_WIND_MPS:g} m/s (first {uv[first + (k,)]:.4g} m/s at '
@@ -622,11 +755,12 @@ def load(path: Union[str, Sequence[str]]) -> Era5Data:
   Raises:
     FileNotFoundError: a file is missing.
     IsADirectoryError: a path (or a glob's match) is a directory.
-    ValueError: a file is not NetCDF, is truncated, lacks a variable,
-      dimension or coordinate, has pressure values that contradict their
-      units, NaN winds (e.g. declared fill values) or winds above
-      `MAX_WIND_MPS` (e.g. undeclared fill values), or files do not share one
-      grid.
+    errors.BadFileError (a ValueError): a file is not NetCDF, is
+      truncated, lacks a variable, dimension or coordinate, has pressure
+      values that contradict their units, NaN winds (e.g. declared fill
+      values) or winds above `MAX_WIND_MPS` (e.g. undeclared fill values),
+      impossible coordinates (`_check_coordinates`), a gap in time
+      (`_check_time_steps`), or files do not share one grid.
   """
   paths = expand_paths(path)
   for p in paths:
@@ -639,31 +773,36 @@ def load(path: Union[str, Sequence[str]]) -> Era5Data:
 
 @functools.lru_cache(maxsize=4)
 def _load_cached(stamps: Tuple[Tuple[str, int, int], ...]) -> Era5Data:
-  parts = [(p,) + _read_file(p) for p, _, _ in stamps]
+  paths = [p for p, _, _ in stamps]
+  parts = [(p,) + _read_file(p) for p in paths]
   first_path, _, pressure, latitude, longitude, _ = parts[0]
   for p, _, other_p, other_lat, other_lon, _ in parts[1:]:
     for name, a, b in (('pressure levels', pressure, other_p),
                        ('latitudes', latitude, other_lat),
                        ('longitudes', longitude, other_lon)):
       if a.shape != b.shape or not np.allclose(a, b):
-        raise ValueError(f'ERA5 files {first_path} and {p} have different '
-                         f'{name}; they cannot be joined')
+        raise errors.BadFileError(
+            f'ERA5 files {first_path} and {p} have different {name}; they '
+            'cannot be joined')
   times = np.concatenate([part[1] for part in parts])
   uv = np.concatenate([part[5] for part in parts], axis=0)
   order = np.argsort(times, kind='stable')
   times, uv = times[order], uv[order]
+  sources = [paths[k] for k in np.repeat(
+      np.arange(len(parts)), [len(part[1]) for part in parts])[order]]
   duplicate = np.nonzero(np.diff(times) == np.timedelta64(0))[0]
   if duplicate.size:
-    raise ValueError(f'ERA5 files {[s[0] for s in stamps]} hold time '
-                     f'{times[duplicate[0]]} more than once')
+    i = int(duplicate[0])
+    raise errors.BadFileError(
+        f'ERA5 files {sources[i]} and {sources[i + 1]} both hold time '
+        f'{_time_text(times[i])}')
+  _check_time_steps(times, sources)
   for name, axis in (('time', times), ('pressure level', pressure),
                      ('latitude', latitude), ('longitude', longitude)):
     if axis.size < 2:
-      raise ValueError(
+      raise errors.BadFileError(
           f'ERA5 file(s) {[s[0] for s in stamps]} hold {axis.size} '
           f'{name} value(s); interpolation needs at least 2')
-    if name != 'time' and np.any(np.diff(axis) <= 0):
-      raise ValueError(f'ERA5 file {first_path}: duplicate {name} values')
   time_s = (times - times[0]) / np.timedelta64(1, 's')
   arrays = [times, time_s, pressure, latitude, longitude, uv]
   for a in arrays:
@@ -740,7 +879,7 @@ class Era5WindField(wind_field.WindField):
     span_s = float(data.time_s[-1])
     episode_s = episode_hours * 3600.0
     if episode_s > span_s:
-      raise ValueError(
+      raise errors.BadFileError(
           f'ERA5 file(s) {list(data.paths)} cover {span_s / 3600:.1f} h '
           f'({data.start} to {data.end}), shorter than episode_hours = '
           f'{episode_hours}')
