@@ -27,6 +27,8 @@ from typing import Any, Callable, Dict, Mapping, Optional
 import gin
 import numpy as np
 
+from ble_latex import errors
+
 
 def effective_bindings(function: Callable[..., Any]) -> Dict[str, Any]:
   """A gin configurable's keyword defaults overridden by its gin bindings."""
@@ -76,7 +78,9 @@ def bound(module: str, name: str) -> Dict[str, Any]:
 # -- Checks of configured numbers (one home for every env/physics value). --
 def require(ok: bool, name: str, requirement: str, value: Any,
             why: str = '') -> None:
-  """Raises `ValueError('{name} must be {requirement}, got {value!r}{why}')`.
+  """Raises `errors.ConfigError('{name} must be {requirement}, got ...')`.
+
+  A `ConfigError` is a `ValueError`; commands print it as one line, exit 2.
 
   Args:
     ok: Whether the value meets the requirement.
@@ -86,7 +90,8 @@ def require(ok: bool, name: str, requirement: str, value: Any,
     why: Appended to the message (the consequence), e.g. ': ...'.
   """
   if not ok:
-    raise ValueError(f'{name} must be {requirement}, got {value!r}{why}')
+    raise errors.ConfigError(
+        f'{name} must be {requirement}, got {value!r}{why}')
 
 
 def _require(ok: bool, binding: str, requirement: str, value: Any) -> None:

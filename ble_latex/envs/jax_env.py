@@ -48,6 +48,7 @@ import flax
 import jax
 import jax.numpy as jnp
 
+from ble_latex import errors
 from ble_latex.envs import jax_features
 from ble_latex.envs import task
 from ble_latex.flight import atmosphere as atmosphere_lib
@@ -523,7 +524,7 @@ def check_params(params: EnvParams) -> EnvParams:
             if helium is not None else
             f'{name("start_altitude_high_m")} = {tuple(band)!r} (helium '
             'neutrally buoyant)')
-    raise ValueError(
+    raise errors.ConfigError(
         f'{what}: the balloon would start at {volume:.4g} m^3 at {top:g} m, '
         f'above {flight_params_lib.gin_name("burst_volume_m3")} = '
         f'{burst:g} (it would burst at once)')
