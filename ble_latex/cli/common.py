@@ -30,6 +30,7 @@ from ble_latex import configs
 HELP_FLAGS = ('-h', '--help', '-help', '--helpshort', '--helpfull',
               '-helpfull')
 EXIT_USAGE = 2
+EXIT_FAILURE = 1
 
 
 class CommandUsageError(Exception):
@@ -45,6 +46,13 @@ def usage(prog: str, message: str) -> int:
 def usage_error(prog: str, message: str) -> NoReturn:
   """`usage`, then exits with its status."""
   sys.exit(usage(prog, message))
+
+
+def failure(prog: str, error: BaseException) -> NoReturn:
+  """The work failed (bad file, diverged run): one line, exit status 1."""
+  message = ' '.join(str(error).split())
+  print(f'{prog}: {message}', file=sys.stderr)
+  sys.exit(EXIT_FAILURE)
 
 
 def unknown(what: str, name: str, valid: Iterable[str],
