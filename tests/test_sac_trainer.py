@@ -359,7 +359,7 @@ def _set_replay(tree, name, index, value):
 
 @pytest.mark.parametrize('change, message', [
     (lambda t: _set_first_leaf(t, 'network_params', np.nan),
-     'network_params: leaf {first} has 2 non-finite values'),
+     'network_params: leaf params/.*/bias has 2 non-finite values'),
     (lambda t: _set_first_leaf(t, 'optimizer_state', np.inf),
      'optimizer_state: leaf .* has 2 non-finite values'),
     (lambda t: _set_replay(t, 'reward', 3, np.nan),
@@ -378,15 +378,13 @@ def _set_replay(tree, name, index, value):
 def test_checkpoint_values_are_checked_on_resume(runs, tmp_path, change,
                                                  message):
   _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
-  first = safe_io.leaf_name(jax.tree_util.tree_flatten_with_path(
-      template.network_params)[0][0][0])
   path = runs[0] / 'checkpoints' / 'checkpoint_00002.msgpack'
   tree = safe_io.read_tree(str(path),
                            file_format=sac_trainer.CHECKPOINT_FORMAT)
   change(tree)
   bad = tmp_path / 'checkpoint_00002.msgpack'
   safe_io.write_tree(str(bad), tree, file_format=sac_trainer.CHECKPOINT_FORMAT)
-  with pytest.raises(ValueError, match=message.format(first=first)) as raised:
+  with pytest.raises(ValueError, match=message) as raised:
     sac_trainer.load_checkpoint(str(bad), template)
   assert str(bad) in str(raised.value)
 
@@ -442,11 +440,12 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
 
   monkeypatch.setattr(sac_trainer, 'train_round', poisoned)
   kept = sac_trainer.checkpoint_path(str(tmp_path), 0)
-  with pytest.raises(sac_trainer.sac.TrainingDiverged,
+  with pytest.raises(FloatingPointError,
                      match=r'^training diverged at round 1: non-finite .*'
                      r'network parameters.*; last good checkpoint: '
-                     f'{re.escape(kept)} kept$'):
+                     f'{re.escape(kept)} kept$') as raised:
     _train(tmp_path, 3)
+  assert isinstance(raised.value, sac_trainer.sac.TrainingDiverged)
   assert rounds == [0, 1]
   assert sac_trainer.sac.checkpoint_iterations(
       str(tmp_path / 'checkpoints')) == [0]
