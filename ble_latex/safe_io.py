@@ -31,7 +31,7 @@ import pickle
 import secrets
 import socket
 import time
-from typing import Any, Dict, Iterator, Union
+from typing import Any, Dict, Iterator, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -298,6 +298,78 @@ def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
     raise errors.BadFileError(f'{path} is not a {what} (format {file_format!r} '
                               f'expected, found {found!r})')
   return tree
+
+
+# --- Checking what a file holds ---------------------------------------------
+# A data file cannot run code, but its numbers can still be wrong: NaN weights,
+# a complex or integer array where weights belong, a negative counter. These
+# checks run on the host copy of what was read, before anything is built from
+# it, and name the file and the entry.
+
+
+def leaf_name(path: Sequence[Any]) -> str:
+  """'params/actor/Dense_0/kernel' for a `jax.tree_util` key path."""
+  parts = []
+  for key in path:
+    for attr in ('key', 'name', 'idx'):
+      if hasattr(key, attr):
+        parts.append(str(getattr(key, attr)))
+        break
+    else:
+      parts.append(str(key))
+  return '/'.join(parts) or '.'
+
+
+def checked_array(value: Any, what: str, *, kind: str = 'float',
+                  shape: Optional[Tuple[int, ...]] = None) -> np.ndarray:
+  """A stored array of real floats (all finite) or of integers.
+
+  Args:
+    value: The stored value (array, number or nested list).
+    what: The file and entry, for the message.
+    kind: 'float' (real floating point, every value finite) or 'int'
+      (integers, no booleans).
+    shape: The shape it must have, if given.
+
+  Returns:
+    `value` as a NumPy array.
+
+  Raises:
+    ValueError: On another dtype (complex, object, integers for 'float'),
+      another shape or a NaN / inf; the message names `what`.
+  """
+  try:
+    array = np.asarray(value)
+  except (TypeError, ValueError) as e:
+    raise ValueError(f'{what} is not an array ({e})') from e
+  expected = {'float': 'f', 'int': 'iu'}[kind]
+  if array.dtype.kind not in expected:
+    wanted = 'real floating point' if kind == 'float' else 'integer'
+    raise ValueError(f'{what} has dtype {array.dtype}; expected {wanted} '
+                     'values')
+  if shape is not None and array.shape != tuple(shape):
+    raise ValueError(f'{what} has shape {array.shape}, expected '
+                     f'{tuple(shape)}')
+  if kind == 'float':
+    bad = array.size - int(np.count_nonzero(np.isfinite(array)))
+    if bad:
+      raise ValueError(f'{what} has {bad} non-finite value'
+                       f'{"s" if bad > 1 else ""} (NaN/inf)')
+  return array
+
+
+def checked_count(value: Any, what: str, *, low: int = 0,
+                  high: Optional[int] = None) -> int:
+  """A stored counter: an integer (not a float or bool) in [low, high]."""
+  if isinstance(value, np.ndarray) and value.ndim == 0:
+    value = value[()]
+  if isinstance(value, (bool, np.bool_)) or not isinstance(
+      value, (int, np.integer)):
+    raise ValueError(f'{what} must be an integer, got {value!r}')
+  if value < low or (high is not None and value > high):
+    bounds = f'>= {low}' + (f' and <= {high}' if high is not None else '')
+    raise ValueError(f'{what} must be {bounds}, got {int(value)}')
+  return int(value)
 
 
 # Classes a legacy ble_latex pickle may contain: NumPy arrays and scalars, and

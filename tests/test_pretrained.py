@@ -1,6 +1,11 @@
 """sac_pretrained: exporting a checkpoint's policy and flying it."""
 
+import os
+
 import ble_latex  # noqa: F401
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex import safe_io
@@ -127,3 +132,143 @@ def test_shipped_policy_reproduces_its_results_row():
   assert s['out_of_resources_pct'] == pytest.approx(
       row['out_of_resources_pct'], abs=ROW_TOLERANCE['out_of_resources_pct'])
   assert s['tw50_window_mean'] >= 0.60 and s['out_of_resources_pct'] <= 5.0
+
+
+# -- Crafted policy files: refused before anything is built from them. --------
+@pytest.fixture(scope='module')
+def small_policy(tmp_path_factory):
+  """A valid small policy (16 units) as the stored tree."""
+  folder = tmp_path_factory.mktemp('policy')
+  agent = _sac(hidden=16)
+  agent.save_checkpoint(str(folder), 0)
+  path = str(folder / 'policy.msgpack')
+  pretrained.export_policy(sac.checkpoint_path(str(folder), 0), path)
+  return safe_io.read_tree(path, file_format=pretrained.POLICY_FORMAT)
+
+
+def _write_policy(path, tree, **changes):
+  config = {**tree['config'], **changes.pop('config', {})}
+  tree = {**tree, **changes, 'config': config}
+  safe_io.write_tree(str(path), tree, file_format=pretrained.POLICY_FORMAT)
+  return str(path)
+
+
+def _kernel_path(tree):
+  params = tree['network_params']['params']
+  layer = sorted(params)[0]
+  return params[layer], layer
+
+
+@pytest.mark.parametrize('config, message', [
+    ({'hidden_units': 40000}, r'config.hidden_units must be an integer >= 1 '
+                              r'and <= 4096, got 40000'),
+    ({'num_layers': 2000}, r'config.num_layers must be an integer >= 1 and '
+                           r'<= 16, got 2000'),
+    ({'hidden_units': 4000},
+     r'network_params: array \d+ \(params/.*\) has shape'),
+    ({'num_layers': 16}, r"network_params: leaves differ .*missing "
+                         r"\['params/_actor_layers_10/bias'"),
+    ({'critic': 'big'}, r'config.critic must be one of'),
+    ({'observation_shape': [100000]},
+     r'config.observation_shape must be a list of integers >= 1 with at most'),
+    ({'action_low': [0.0, 1.0]}, r'config.action_low has shape'),
+])
+def test_policy_config_is_checked_before_building(small_policy, tmp_path,
+                                                  config, message):
+  """Sizes bounded, then the arrays must have the shapes the config implies.
+
+  A ~1 MB policy saying hidden_units=40000 made the agent allocate 6.4 GB
+  before any shape check; num_layers=2000 took 73 s.
+  """
+  import time
+  path = _write_policy(tmp_path / 'p.msgpack', small_policy, config=config)
+  began = time.monotonic()
+  with pytest.raises(ValueError, match=message) as raised:
+    pretrained.SACPretrainedAgent(3, (71,), action_low=_LOW,
+                                  action_high=_HIGH, policy_path=path)
+  assert time.monotonic() - began < 10.0
+  assert path in str(raised.value)
+
+
+def test_policy_arrays_must_be_finite_real_floats(small_policy, tmp_path):
+  params = small_policy['network_params']
+  _, layer = _kernel_path(small_policy)
+  leaf = f'params/{layer}/kernel'
+
+  def with_kernel(kernel):
+    tree = {'params': {**params['params'], layer: {
+        **params['params'][layer], 'kernel': kernel}}}
+    return _write_policy(tmp_path / 'p.msgpack', small_policy,
+                         network_params=tree)
+
+  kernel = np.asarray(params['params'][layer]['kernel'])
+  # A complex kernel loaded with a warning (imaginary part dropped).
+  path = with_kernel(kernel.astype(np.complex64) + 1j)
+  with pytest.raises(ValueError, match=f'{leaf} has dtype complex64'):
+    pretrained.load_policy(path)
+  path = with_kernel(kernel.astype(np.int32))
+  with pytest.raises(ValueError, match=f'{leaf} has dtype int32'):
+    pretrained.load_policy(path)
+  bad = kernel.copy()
+  bad.flat[:12] = np.nan
+  path = with_kernel(bad)
+  with pytest.raises(ValueError, match=f'SAC policy {path}: network_params: '
+                     f'leaf {leaf} has 12 non-finite values'):
+    pretrained.SACPretrainedAgent(3, (71,), action_low=_LOW,
+                                  action_high=_HIGH, policy_path=path)
+
+
+@pytest.mark.parametrize('changes, message', [
+    ({'log_alpha': np.full(1000, np.nan, np.float32)},
+     r'log_alpha has shape \(1000,\), expected \(1,\)'),
+    ({'log_alpha': np.array([np.inf], np.float32)}, 'log_alpha has 1 non'),
+    ({'iteration': -5}, 'iteration must be >= 0, got -5'),
+    ({'training_steps': 1.5}, 'training_steps must be an integer'),
+])
+def test_policy_scalars_are_checked(small_policy, tmp_path, changes, message):
+  path = _write_policy(tmp_path / 'p.msgpack', small_policy, **changes)
+  with pytest.raises(ValueError, match=message):
+    pretrained.load_policy(path)
+
+
+@settings(max_examples=15, deadline=None)
+@given(data=st.data())
+def test_any_corrupted_leaf_is_named(small_policy, tmp_path_factory, data):
+  """NaN / inf anywhere in the parameters: refused, the leaf and count named."""
+  import jax
+  paths_and_leaves = jax.tree_util.tree_flatten_with_path(
+      small_policy['network_params'])[0]
+  index = data.draw(st.integers(0, len(paths_and_leaves) - 1))
+  path, leaf = paths_and_leaves[index]
+  leaf = np.array(leaf)
+  spots = data.draw(st.sets(st.integers(0, leaf.size - 1), min_size=1,
+                            max_size=min(20, leaf.size)))
+  value = data.draw(st.sampled_from([np.nan, np.inf, -np.inf]))
+  leaf.flat[sorted(spots)] = value
+  leaves = [np.asarray(x) for _, x in paths_and_leaves]
+  leaves[index] = leaf
+  tree = jax.tree_util.tree_unflatten(
+      jax.tree_util.tree_structure(small_policy['network_params']), leaves)
+  file = _write_policy(tmp_path_factory.mktemp('h') / 'p.msgpack',
+                       small_policy, network_params=tree)
+  name = safe_io.leaf_name(path)
+  count = len(spots)
+  with pytest.raises(ValueError, match=f'leaf {name} has {count} non-finite '
+                     f'value{"s" if count > 1 else ""}'):
+    pretrained.load_policy(file)
+
+
+def test_export_policy_refuses_a_nan_checkpoint(tmp_path, capsys):
+  from ble_latex.cli import export_policy as export_cli
+  agent = _sac(hidden=16)
+  agent.save_checkpoint(str(tmp_path), 0)
+  path = sac.checkpoint_path(str(tmp_path), 0)
+  tree = safe_io.read_tree(path, file_format=sac.CHECKPOINT_FORMAT)
+  tree['log_alpha'] = np.array([np.nan], np.float32)
+  safe_io.write_tree(path, tree, file_format=sac.CHECKPOINT_FORMAT)
+  out = str(tmp_path / 'out.msgpack')
+  assert export_cli.main([f'--checkpoint={path}', f'--output={out}']) == 1
+  err = capsys.readouterr().err.strip().splitlines()
+  assert err == [f'ble-latex-export-policy: {path}: log_alpha has 1 '
+                 'non-finite value (NaN/inf)']
+  assert not os.path.exists(out)

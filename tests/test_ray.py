@@ -140,6 +140,39 @@ def test_bad_space_file_names_and_yaml_objects_refused(tmp_path):
     sweep_lib.parse_grid_flag('sac_trainer_config.gamma')
 
 
+def test_sweep_size_is_bounded_before_expanding(tmp_path, capsys):
+  """A 7-line space of 10^7 points was expanded until memory ran out."""
+  path = tmp_path / 'space.yaml'
+  path.write_text('bindings:\n' + ''.join(
+      f'  a.b{i}: [0, 1, 2, 3, 4, 5, 6, 7, 8, 9]\n' for i in range(7)))
+  began = time.monotonic()
+  with pytest.raises(sweep_lib.SpaceError,
+                     match=f'space file {path}: 10000000 trials \\(points\\) '
+                     'exceed the limit of 10000'):
+    sweep_lib.load_space(str(path))
+  # Within the limit alone, over it with --grid, --num_samples or seeds.
+  space = sweep_lib.parse_space(
+      {'bindings': {'a.b': list(range(100)), 'a.c': {'uniform': [0, 1]}}},
+      'space')
+  assert sweep_lib.trial_count(space, num_seeds=5) == 500
+  with pytest.raises(sweep_lib.SpaceError, match='20000 trials'):
+    sweep_lib.merge(space, [('a.d', tuple(range(200)))], None)
+  with pytest.raises(sweep_lib.SpaceError, match='1000000 trials'):
+    sweep_lib.merge(space, [], 10_000)
+  with pytest.raises(sweep_lib.SpaceError,
+                     match=r'20000 trials \(points x 200 seeds\)'):
+    sweep_lib.points(space, num_seeds=200)
+  assert time.monotonic() - began < 5.0
+  from ble_latex.cli import sweep as sweep_cli
+  status = sweep_cli.main([f'--sweep_dir={tmp_path / "sweep"}',
+                           f'--space={path}'])
+  assert status == 2
+  assert capsys.readouterr().err.strip().splitlines() == [
+      f'ble-latex-sweep: space file {path}: 10000000 trials (points) exceed '
+      'the limit of 10000; sweep fewer values']
+  assert not (tmp_path / 'sweep').exists()
+
+
 # -- Sweeps. --------------------------------------------------------------------
 # Tiny trials: one balloon, a 1x16 network, 2 validation seeds.
 _TINY_TRIALS = [

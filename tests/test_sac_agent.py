@@ -224,6 +224,79 @@ def test_checkpoint_files_atomic_names_and_cleanup(tmp_path):
     agent.load_checkpoint(ckpt, 5)
 
 
+def _corrupted(tree, change):
+  tree = dict(tree)
+  change(tree)
+  return tree
+
+
+def _set_kernel_nan(tree):
+  params = {k: dict(v) for k, v in tree['network_params']['params'].items()}
+  kernel = np.array(params['_actor_final_layer']['kernel'])
+  kernel.flat[:3] = np.nan
+  params['_actor_final_layer']['kernel'] = kernel
+  tree['network_params'] = {'params': params}
+
+
+def _set_replay_reward_nan(tree):
+  replay = dict(tree['replay'])
+  reward = np.array(replay['$store$_reward'])
+  reward[1] = np.nan
+  replay['$store$_reward'] = reward
+  tree['replay'] = replay
+
+
+@pytest.mark.parametrize('change, message', [
+    (_set_kernel_nan, 'network_params: leaf params/_actor_final_layer/kernel '
+                      'has 3 non-finite values'),
+    (_set_replay_reward_nan, r'replay \$store\$_reward has 1 non-finite value'),
+    (lambda t: t.update(training_steps=-5),
+     'training_steps must be >= 0, got -5'),
+    (lambda t: t.update(log_alpha=np.array([0.5 + 1j], np.complex64)),
+     'log_alpha has dtype complex64'),
+    (lambda t: t.update(log_alpha=np.full(1000, np.nan, np.float32)),
+     r'log_alpha has shape \(1000,\), expected \(1,\)'),
+    (lambda t: t.update(config={**t['config'], 'hidden_units': 40000}),
+     'config.hidden_units must be an integer >= 1 and <= 4096'),
+])
+def test_checkpoint_values_are_checked_on_load(tmp_path, change, message):
+  """NaN weights or replay rewards, bad counters: refused, file and entry named.
+
+  The agent keeps its state.
+  """
+  ckpt = str(tmp_path)
+  agent = _agent(seed=0)
+  _run_episodes(agent, _WalkEnv(), 2)
+  agent.save_checkpoint(ckpt, 0)
+  path = sac.checkpoint_path(ckpt, 0)
+  tree = safe_io.read_tree(path, file_format=sac.CHECKPOINT_FORMAT)
+  safe_io.write_tree(path, _corrupted(tree, change),
+                     file_format=sac.CHECKPOINT_FORMAT)
+  fresh = _agent(seed=3)
+  before = jax.tree.leaves(fresh.network_params)
+  with pytest.raises(ValueError, match=message) as raised:
+    fresh.reload_latest_checkpoint(ckpt)
+  assert path in str(raised.value)
+  assert fresh.training_steps == 0 and fresh.replay_size == 0
+  for x, y in zip(before, jax.tree.leaves(fresh.network_params)):
+    np.testing.assert_array_equal(x, y)
+
+
+def test_diverged_agent_writes_no_checkpoint_or_policy(tmp_path):
+  ckpt = str(tmp_path)
+  agent = _agent(seed=0)
+  agent.save_checkpoint(ckpt, 0)
+  params = agent.network_params['params']
+  params['_critic1']['Dense_0']['kernel'] = params['_critic1']['Dense_0'][
+      'kernel'].at[0, 0].set(np.inf)
+  with pytest.raises(sac.TrainingDiverged,
+                     match=r'non-finite network_params \(1 values\)'):
+    agent.save_checkpoint(ckpt, 1)
+  with pytest.raises(sac.TrainingDiverged):
+    agent.acting_bundle(1)
+  assert sac.checkpoint_iterations(ckpt) == [0]
+
+
 def test_actions_always_inside_box():
   agent = _agent(seed=5, min_replay_history=8)
   rng = np.random.default_rng(1)

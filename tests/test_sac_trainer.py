@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -429,3 +430,124 @@ def test_sac_seeds_compares_runs_on_validation(benchmark_script, tmp_path,
   assert rows[1]['last5_tw50_window_mean'] == pytest.approx(0.25)
   table = capsys.readouterr().out
   assert '| run | critic |' in table and '| layernorm |' in table
+
+
+# -- NaN and bad values: refused on resume, stopped while training. ----------
+def _set_first_leaf(tree, name, value):
+  """Puts `value` into 2 entries of the first floating-point leaf."""
+  leaves = [np.array(x) for x in tree[name]]
+  first = next(x for x in leaves if x.dtype.kind == 'f')
+  first.flat[:2] = value
+  tree[name] = leaves
+
+
+def _set_replay(tree, name, index, value):
+  replay = dict(tree['replay'])
+  array = np.array(replay[name])
+  array.flat[index] = value
+  replay[name] = array
+  tree['replay'] = replay
+
+
+@pytest.mark.parametrize('change, message', [
+    (lambda t: _set_first_leaf(t, 'network_params', np.nan),
+     'network_params: leaf params/.*/bias has 2 non-finite values'),
+    (lambda t: _set_first_leaf(t, 'optimizer_state', np.inf),
+     'optimizer_state: leaf .* has 2 non-finite values'),
+    (lambda t: _set_replay(t, 'reward', 3, np.nan),
+     'replay reward has 1 non-finite value'),
+    (lambda t: _set_replay(t, 'obs', 7, -np.inf),
+     'replay obs has 1 non-finite value'),
+    (lambda t: t.update(updates=-5), 'updates must be >= 0 .*got -5'),
+    (lambda t: t.update(iteration=2.5), 'iteration must be an integer'),
+    (lambda t: t.update(replay={**t['replay'], 'size': 41}),
+     'replay size must be >= 0 and <= 40, got 41'),
+    (lambda t: t.update(log_alpha=np.full(1000, np.nan, np.float32)),
+     r'log_alpha has shape \(1000,\), expected \(1,\)'),
+    (lambda t: t.update(key=np.zeros(2, np.float32)),
+     'key has dtype float32; expected integer'),
+])
+def test_checkpoint_values_are_checked_on_resume(runs, tmp_path, change,
+                                                 message):
+  _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
+  path = runs[0] / 'checkpoints' / 'checkpoint_00002.msgpack'
+  tree = safe_io.read_tree(str(path),
+                           file_format=sac_trainer.CHECKPOINT_FORMAT)
+  change(tree)
+  bad = tmp_path / 'checkpoint_00002.msgpack'
+  safe_io.write_tree(str(bad), tree, file_format=sac_trainer.CHECKPOINT_FORMAT)
+  with pytest.raises(ValueError, match=message) as raised:
+    sac_trainer.load_checkpoint(str(bad), template)
+  assert str(bad) in str(raised.value)
+
+
+def test_train_command_refuses_a_nan_checkpoint_in_one_line(runs, tmp_path,
+                                                            capsys):
+  import shutil
+  import gin
+  from ble_latex.cli import train as train_cli
+  run = tmp_path / 'run'
+  shutil.copytree(runs[0], run)
+  os.remove(run / sac_trainer.RUN_INFO)  # Settings come from the flags.
+  newest = run / 'checkpoints' / 'checkpoint_00002.msgpack'
+  tree = safe_io.read_tree(str(newest),
+                           file_format=sac_trainer.CHECKPOINT_FORMAT)
+  _set_replay(tree, 'reward', 0, np.nan)
+  safe_io.write_tree(str(newest), tree,
+                     file_format=sac_trainer.CHECKPOINT_FORMAT)
+  bindings = [f'--gin_bindings=sac_trainer_config.{k} = {getattr(CONFIG, k)}'
+              for k in ('num_envs', 'updates_per_step', 'batch_size',
+                        'min_replay_history', 'replay_capacity',
+                        'hidden_units')]
+  try:
+    status = train_cli.main(['--trainer=jax', f'--base_dir={run}',
+                             '--num_iterations=4', '--validation_episodes=0',
+                             '--collectors=episodes', *bindings])
+  finally:
+    gin.clear_config()
+  err = capsys.readouterr().err.strip().splitlines()
+  assert status == 1
+  assert err == [f'ble-latex-train: {newest}: replay reward has 1 '
+                 'non-finite value (NaN/inf)']
+
+
+def test_diverged_round_stops_before_anything_of_it_is_written(
+    tmp_path, monkeypatch):
+  """A round that goes NaN: one error, the last good checkpoint the newest.
+
+  NaN is put into the network at the start of round 1 (as an update that
+  diverged would leave it); the round itself counts the NaN it produces.
+  """
+  real = sac_trainer.train_round
+  rounds = []
+
+  def poisoned(learner, env, state, seeds, num_steps, params):
+    rounds.append(len(rounds))
+    if len(rounds) == 2:
+      leaves, treedef = jax.tree.flatten(state.network_params)
+      leaves[0] = leaves[0].at[0].set(jnp.nan)
+      state = state.replace(network_params=jax.tree.unflatten(treedef,
+                                                              leaves))
+    return real(learner, env, state, seeds, num_steps, params)
+
+  monkeypatch.setattr(sac_trainer, 'train_round', poisoned)
+  kept = sac_trainer.checkpoint_path(str(tmp_path), 0)
+  with pytest.raises(FloatingPointError,
+                     match=r'^training diverged at round 1: non-finite .*'
+                     r'network parameters.*; last good checkpoint: '
+                     f'{re.escape(kept)} kept$') as raised:
+    _train(tmp_path, 3)
+  assert isinstance(raised.value, sac_trainer.sac.TrainingDiverged)
+  assert rounds == [0, 1]
+  assert sac_trainer.sac.checkpoint_iterations(
+      str(tmp_path / 'checkpoints')) == [0]
+  assert sorted(os.listdir(tmp_path / 'policies')) == ['policy_00000.msgpack']
+  assert len(episode_log.read(str(tmp_path / episode_log.EPISODE_LOG))) == 3
+  assert [r['iteration'] for r in episode_log.read(
+      str(tmp_path / episode_log.VALIDATION_LOG))] == [0]
+  # What was written is the last good round's, and finite.
+  from ble_latex.agents import pretrained
+  pretrained.load_policy(str(tmp_path / 'policies' / 'policy_00000.msgpack'))
+  _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
+  sac_trainer.load_checkpoint(sac_trainer.checkpoint_path(str(tmp_path), 0),
+                              template)

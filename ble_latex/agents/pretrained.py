@@ -97,10 +97,38 @@ def policy_from_bundle(bundle: Mapping[str, Any], source: str, note: str = '',
   if missing:
     raise ValueError(f'{what} misses {missing}')
   policy = {k: bundle[k] for k in _KEPT}
-  policy['config'] = dict(policy['config'])
-  policy['config']['observation_shape'] = list(
-      policy['config']['observation_shape'])
   policy.update(format=POLICY_FORMAT, source=source, note=note)
+  return check_policy(policy, what)
+
+
+def check_policy(policy: Dict[str, Any], what: str) -> Dict[str, Any]:
+  """Checks a policy's values before anything is built from them.
+
+  The config (`sac.file_config`: types, sizes within `sac.MAX_NUM_LAYERS` /
+  `sac.MAX_HIDDEN_UNITS`, ...), then the network parameters against the
+  shapes that config implies (computed abstractly, nothing allocated):
+  real floating point and finite, leaf by leaf; `log_alpha` a finite
+  float of shape (1,); `iteration` and `training_steps` integers >= 0.
+
+  Args:
+    policy: A policy dict (`POLICY_FORMAT`).
+    what: The file (or bundle), for the message.
+
+  Returns:
+    The policy with its config normalised and its arrays as NumPy arrays.
+
+  Raises:
+    ValueError: Naming `what` and the entry or leaf.
+  """
+  policy = dict(policy)
+  policy['config'] = sac.file_config(policy['config'], what)
+  policy['network_params'] = sac.check_like(
+      sac.network_shapes(policy['config']), policy['network_params'],
+      f'{what}: network_params')
+  policy['log_alpha'] = safe_io.checked_array(
+      policy['log_alpha'], f'{what}: log_alpha', shape=(1,))
+  for key in ('iteration', 'training_steps'):
+    policy[key] = safe_io.checked_count(policy[key], f'{what}: {key}')
   return policy
 
 
@@ -140,19 +168,13 @@ def load_policy(path: str, trust_legacy_pickle: bool = False
       raise ValueError(f'{path} is not a ble_latex SAC policy '
                        f'({LEGACY_POLICY_FORMAT})')
     policy = dict(policy, format=POLICY_FORMAT)
-    policy['config'] = dict(policy.get('config') or {})
-    if 'observation_shape' in policy['config']:
-      policy['config']['observation_shape'] = list(
-          policy['config']['observation_shape'])
   else:
     policy = safe_io.read_tree(path, file_format=POLICY_FORMAT,
                                what='SAC policy')
   missing = [k for k in (*_KEPT, *_TEXT) if k not in policy]
   if missing:
     raise ValueError(f'SAC policy {path} misses {missing}')
-  if not isinstance(policy['config'], dict):
-    raise ValueError(f'SAC policy {path}: config is not a mapping')
-  return policy
+  return check_policy(policy, f'SAC policy {path}')
 
 
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
@@ -180,27 +202,18 @@ class SACPretrainedAgent(sac.SACAgent):
       **kwargs: Further `sac.SACAgent` arguments.
 
     Raises:
-      ValueError: If the policy file is bad or does not fit the env.
+      ValueError: If the policy file is bad or does not fit the env (checked
+        before the agent's networks are built).
     """
     policy = load_policy(policy_path, trust_legacy_pickle)
-    config = policy['config']
-    for key in ('num_layers', 'hidden_units'):
-      if key not in config:
-        raise ValueError(f'SAC policy {policy_path}: config misses {key!r}')
-    kwargs.setdefault('num_layers', config['num_layers'])
-    kwargs.setdefault('hidden_units', config['hidden_units'])
-    # Policies from before critics were configurable hold Dopamine's MLPs.
-    config = dict(config, critic=config.get('critic', 'mlp'))
-    kwargs.setdefault('critic', config['critic'])
+    config = policy['config']  # Checked by `sac.file_config`.
+    for key in ('num_layers', 'hidden_units', 'critic'):
+      kwargs.setdefault(key, config[key])
     super().__init__(num_actions, observation_shape, action_low=action_low,
                      action_high=action_high, seed=seed,
                      trust_legacy_pickle=trust_legacy_pickle, **kwargs)
-    mine = self._config()
-    for key in ('observation_shape', 'num_actions', 'action_low',
-                'action_high', 'num_layers', 'hidden_units', 'critic'):
-      if mine[key] != config.get(key):
-        raise ValueError(f'policy {policy_path} has {key}={config.get(key)}, '
-                         f'this agent {mine[key]}')
+    self.check_config(config, f'SAC policy {policy_path}',
+                      keys=sac.ACTING_CONFIG_KEYS)
     self.network_params = self.restore_network(policy['network_params'],
                                                f'SAC policy {policy_path}')
     # Fine-tuning starts with the target networks equal to the online ones.

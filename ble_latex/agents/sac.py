@@ -74,6 +74,20 @@ LEGACY_CHECKPOINT_FORMAT = 'ble_latex.sac/1'  # Pickles of ble_latex <= 0.1.
 CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.msgpack$')
 LEGACY_CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.pkl$')
 _STORE_PREFIX = circular_replay_buffer.STORE_FILENAME_PREFIX
+# Largest networks a gin binding or a checkpoint / policy file may ask for:
+# a file's config is checked against these before anything is built from it.
+MAX_NUM_LAYERS = 16
+MAX_HIDDEN_UNITS = 4096
+MAX_OBSERVATION_SIZE = 4096  # Features of a file's observation_shape.
+MAX_NUM_ACTIONS = 64
+# What `file_config` checks and `check_config` compares: the config entries
+# that fix the network's shapes and the action box. Policies need no more.
+ACTING_CONFIG_KEYS = ('observation_shape', 'num_actions', 'action_low',
+                      'action_high', 'num_layers', 'hidden_units', 'critic')
+
+
+class TrainingDiverged(FloatingPointError):
+  """Training produced NaN / inf (parameters, losses, actions, rewards)."""
 
 
 @functools.partial(jax.jit, static_argnums=0)
@@ -393,8 +407,8 @@ def check_hyperparameters(owner: str, **values: Any) -> None:
   number('target_smoothing_coefficient', 0.0, 1.0, lo_open=True)
   number('target_entropy')
   number('reward_scale_factor', 0.0, lo_open=True)
-  number('num_layers', 1, integer=True)
-  number('hidden_units', 1, integer=True)
+  number('num_layers', 1, MAX_NUM_LAYERS, integer=True)
+  number('hidden_units', 1, MAX_HIDDEN_UNITS, integer=True)
   number('checkpoint_duration', 0, integer=True, allow_none=True)
   number('summary_writing_frequency', 1, integer=True)
 
@@ -445,28 +459,144 @@ def _restore_like(template: Any, stored: Any, what: str) -> Any:
     `stored`'s values on the device, in `template`'s structure and dtypes.
 
   Raises:
-    ValueError: On a different structure, leaf count or leaf shape.
+    ValueError: On a different structure, leaf count, leaf shape or kind of
+      dtype (real floats where the template has floats, integers where it
+      has integers), or a NaN / inf; the message names the leaf.
+  """
+  return _to_device(check_like(template, stored, what))
+
+
+def check_like(template: Any, stored: Any, what: str) -> Any:
+  """`_restore_like`'s checks, on the host: stored leaves as NumPy arrays.
+
+  Args:
+    template: A tree of arrays or `jax.ShapeDtypeStruct`s (nothing is
+      allocated from it).
+    stored: As `_restore_like`.
+    what: Name for error messages.
+
+  Returns:
+    `stored`'s leaves in `template`'s structure, as NumPy arrays in the
+    template's dtypes.
+
+  Raises:
+    ValueError: As `_restore_like`.
   """
   treedef = jax.tree_util.tree_structure(template)
-  expected = jax.tree_util.tree_leaves(template)
+  paths_and_refs = jax.tree_util.tree_flatten_with_path(template)[0]
+  expected = [ref for _, ref in paths_and_refs]
   if isinstance(stored, list):
     leaves = stored
   else:
     if jax.tree_util.tree_structure(stored) != treedef:
-      raise ValueError(f'{what}: structure {jax.tree_util.tree_structure(stored)}'
-                       f' differs from the agent\'s {treedef}')
+      names = lambda t: {safe_io.leaf_name(p) for p, _ in
+                         jax.tree_util.tree_flatten_with_path(t)[0]}
+      missing = sorted(names(template) - names(stored))
+      extra = sorted(names(stored) - names(template))
+      shown = lambda x: f'{x[:4]}' + (f' and {len(x) - 4} more'
+                                      if len(x) > 4 else '')
+      raise ValueError(f'{what}: leaves differ from the expected network\'s: '
+                       f'missing {shown(missing)}, unexpected {shown(extra)}')
     leaves = jax.tree_util.tree_leaves(stored)
   if not isinstance(leaves, list) or len(leaves) != len(expected):
     raise ValueError(f'{what}: expected {len(expected)} arrays, found '
                      f'{len(leaves) if isinstance(leaves, list) else leaves!r}')
   restored = []
-  for i, (leaf, ref) in enumerate(zip(leaves, expected)):
-    leaf = np.asarray(leaf)
-    if leaf.shape != np.shape(ref):
-      raise ValueError(f'{what}: array {i} has shape {leaf.shape}, expected '
-                       f'{np.shape(ref)}')
-    restored.append(jnp.asarray(leaf, dtype=jnp.asarray(ref).dtype))
+  for i, (leaf, (path, ref)) in enumerate(zip(leaves, paths_and_refs)):
+    # A tree of one array (log_alpha) is named by `what` alone.
+    label = (f'{what}: leaf {safe_io.leaf_name(path)}' if path else what)
+    if np.shape(leaf) != tuple(ref.shape):
+      raise ValueError(f'{what}: array {i} ({safe_io.leaf_name(path)}) has '
+                       f'shape {np.shape(leaf)}, expected {tuple(ref.shape)}'
+                       if path else f'{what} has shape {np.shape(leaf)}, '
+                       f'expected {tuple(ref.shape)}')
+    dtype = np.dtype(ref.dtype)
+    leaf = safe_io.checked_array(
+        leaf, label, kind='int' if dtype.kind in 'iu' else 'float')
+    restored.append(leaf.astype(dtype, copy=False))
   return jax.tree_util.tree_unflatten(treedef, restored)
+
+
+def file_config(config: Any, what: str) -> Dict[str, Any]:
+  """A checkpoint's or policy's `config`, checked before anything is built.
+
+  The one reading of a file's config: types and bounds of the entries that
+  fix the network (`ACTING_CONFIG_KEYS`; sizes at most `MAX_NUM_LAYERS`,
+  `MAX_HIDDEN_UNITS`, `MAX_OBSERVATION_SIZE`, `MAX_NUM_ACTIONS`) and of
+  `replay_capacity` where present. Files from before critics were
+  configurable hold Dopamine's MLPs: a missing `critic` reads as 'mlp'.
+
+  Args:
+    config: The `config` entry of the file.
+    what: The file, for the message.
+
+  Returns:
+    A normalised copy (lists, Python numbers, `critic` filled in).
+
+  Raises:
+    ValueError: Naming `what` and the entry.
+  """
+  if not isinstance(config, Mapping):
+    raise ValueError(f'{what}: config is not a mapping: {config!r}')
+  config = dict(config)
+  config.setdefault('critic', 'mlp')  # Files from before critics were set.
+  missing = [k for k in ACTING_CONFIG_KEYS if k not in config]
+  if missing:
+    raise ValueError(f'{what}: config misses {missing}')
+  check_hyperparameters(f'{what}: config', num_layers=config['num_layers'],
+                        hidden_units=config['hidden_units'],
+                        **({'replay_capacity': config['replay_capacity']}
+                           if 'replay_capacity' in config else {}))
+  for key in ('num_layers', 'hidden_units', 'replay_capacity'):
+    if key in config:
+      config[key] = int(config[key])
+  networks.check_critic(f'{what}: config', config['critic'])
+  num_actions = safe_io.checked_count(
+      config['num_actions'], f'{what}: config.num_actions', low=1,
+      high=MAX_NUM_ACTIONS)
+  shape = safe_io.checked_array(config['observation_shape'],
+                                f'{what}: config.observation_shape',
+                                kind='int')
+  if shape.ndim != 1 or not shape.size or np.any(shape < 1) or (
+      np.prod(shape.astype(np.float64)) > MAX_OBSERVATION_SIZE):
+    raise ValueError(f'{what}: config.observation_shape must be a list of '
+                     f'integers >= 1 with at most {MAX_OBSERVATION_SIZE} '
+                     f'features, got {config["observation_shape"]!r}')
+  config['num_actions'] = num_actions
+  config['observation_shape'] = [int(d) for d in shape]
+  for key in ('action_low', 'action_high'):
+    config[key] = safe_io.checked_array(
+        config[key], f'{what}: config.{key}', shape=(num_actions,)).astype(
+            np.float64).tolist()
+  return config
+
+
+@functools.lru_cache(maxsize=16)
+def _network_shapes(num_actions: int, observation_shape: tuple,
+                    num_layers: int, hidden_units: int, critic: str) -> Any:
+  network_def = networks.make_network(num_actions, num_layers, hidden_units,
+                                      critic)
+  state = jax.ShapeDtypeStruct(observation_shape, jnp.float32)
+  return jax.eval_shape(
+      lambda s: network_def.init(jax.random.PRNGKey(0), s,
+                                 jax.random.PRNGKey(0)), state)
+
+
+def network_shapes(config: Mapping[str, Any]) -> Any:
+  """The network parameters' shapes and dtypes a `file_config` implies.
+
+  Computed abstractly (`jax.eval_shape`): nothing is allocated or compiled.
+  """
+  return _network_shapes(
+      config['num_actions'], tuple(config['observation_shape']),
+      config['num_layers'], config['hidden_units'], config['critic'])
+
+
+def nonfinite_count(tree: Any) -> jnp.ndarray:
+  """NaN / inf values in a tree's floating-point leaves (traceable)."""
+  counts = [jnp.sum(~jnp.isfinite(x)) for x in jax.tree_util.tree_leaves(tree)
+            if jnp.issubdtype(jnp.asarray(x).dtype, jnp.inexact)]
+  return sum(counts, jnp.zeros((), jnp.int32))
 
 
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
@@ -747,7 +877,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
                                   -1.0, 1.0)
     action = np.asarray(action, dtype=np.float32)
     if not np.all(np.isfinite(action)):
-      raise FloatingPointError(
+      raise TrainingDiverged(
           f'SAC policy produced a non-finite action {action.tolist()} at '
           f'training step {self.training_steps}: the network parameters have '
           'diverged (check observation scaling and learning rates)')
@@ -890,7 +1020,9 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     for name, value in bundle.items():
       if name.startswith(_STORE_PREFIX):
         array = replay._store[name[len(_STORE_PREFIX):]]  # pylint: disable=protected-access
-        value = np.asarray(value)
+        value = safe_io.checked_array(
+            value, f'replay {name}',
+            kind='float' if array.dtype.kind == 'f' else 'int')
         if value.ndim != array.ndim or value.shape[1:] != array.shape[1:] or (
             len(value) > len(array)):
           raise ValueError(f'replay {name} has shape {value.shape}, buffer '
@@ -902,7 +1034,10 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         indices = value if isinstance(value, (set, frozenset, list)) else (
             np.asarray(value).reshape(-1))  # Legacy pickles hold a set.
         replay.episode_end_indices = {int(i) for i in indices}
-      else:
+      else:  # add_count, invalid_range: counters.
+        value = safe_io.checked_array(value, f'replay {name}', kind='int')
+        if np.any(value < 0):
+          raise ValueError(f'replay {name} must be >= 0, got {value}')
         setattr(replay, name, np.array(value))
     self._replay = replay
 
@@ -922,6 +1057,9 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     """
     del checkpoint_dir
     bundle = self.acting_bundle(iteration_number)
+    self._check_finite(target_params=self.target_params,
+                       optimizer_state=self.optimizer_state,
+                       alpha_optimizer_state=self.alpha_optimizer_state)
     leaves = jax.tree_util.tree_leaves
     bundle.update(
         rng=np.asarray(self._rng),
@@ -945,7 +1083,13 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
 
     Returns:
       A dict with those entries, as in a checkpoint.
+
+    Raises:
+      TrainingDiverged: If the parameters or log(alpha) hold NaN / inf
+        (nothing is written from them).
     """
+    self._check_finite(network_params=self.network_params,
+                       log_alpha=self.log_alpha)
     return {
         'format': CHECKPOINT_FORMAT,
         'iteration': int(iteration_number),
@@ -955,23 +1099,37 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         'log_alpha': np.asarray(self.log_alpha),
     }
 
-  def check_config(self, config: Any, what: str) -> None:
+  def _check_finite(self, **trees: Any) -> None:
+    """Raises TrainingDiverged naming the trees that hold NaN / inf."""
+    bad = {name: int(nonfinite_count(tree)) for name, tree in trees.items()}
+    bad = {name: n for name, n in bad.items() if n}
+    if bad:
+      raise TrainingDiverged(
+          f'training diverged at training step {self.training_steps}: '
+          f'non-finite {", ".join(f"{k} ({n} values)" for k, n in bad.items())}'
+          '; no checkpoint or policy is written from it (the newest one on '
+          'disk is the last good one)')
+
+  def check_config(self, config: Any, what: str,
+                   keys: Optional[Sequence[str]] = None) -> None:
     """Raises ValueError unless `config` (from a file) matches this agent's.
 
     Args:
-      config: The `config` entry of a checkpoint or policy.
+      config: The `config` entry of a checkpoint or policy (`file_config`
+        checks it first).
       what: The file, for the message.
+      keys: The entries that must be equal (default: all of this agent's;
+        a policy compares `ACTING_CONFIG_KEYS`).
     """
     mine = self._config()
-    if not isinstance(config, Mapping):
-      raise ValueError(f'{what}: config is not a mapping: {config!r}')
-    theirs = dict(config)
-    if isinstance(theirs.get('observation_shape'), (tuple, np.ndarray)):
-      theirs['observation_shape'] = list(theirs['observation_shape'])
-    theirs.setdefault('critic', 'mlp')  # Files from before critics were set.
-    if theirs != mine:
-      raise ValueError(f'{what} was written by an agent with config {theirs}, '
-                       f'this agent has {mine}')
+    theirs = file_config(config, what)
+    keys = list(mine) if keys is None else list(keys)
+    differ = [k for k in keys if theirs.get(k) != mine[k]]
+    if differ:
+      raise ValueError(
+          f'{what}: its config has '
+          f'{", ".join(f"{k}={theirs.get(k)!r}" for k in differ)}; this '
+          f'agent has {", ".join(f"{k}={mine[k]!r}" for k in differ)}')
 
   def restore_network(self, network_params: Any, what: str) -> Any:
     """Network parameters from a file, checked against this agent's shapes."""
@@ -1013,6 +1171,10 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     if missing:
       raise ValueError(f'{what} misses {missing}')
     self.check_config(bundle['config'], what)
+    training_steps = safe_io.checked_count(bundle['training_steps'],
+                                           f'{what}: training_steps')
+    if 'iteration' in bundle:
+      safe_io.checked_count(bundle['iteration'], f'{what}: iteration')
 
     def opt_leaves(value):
       return jax.tree_util.tree_leaves(value) if legacy else value
@@ -1028,17 +1190,14 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         f'{what}: alpha_optimizer_state')
     log_alpha = _restore_like(self.log_alpha, bundle['log_alpha'],
                               f'{what}: log_alpha')
-    rng = np.asarray(bundle['rng'], dtype=np.uint32)
-    if rng.shape != (2,):
-      raise ValueError(f'{what}: rng has shape {rng.shape}, expected (2,)')
-    state = np.array(bundle['state'])
-    if state.shape != np.shape(self.state):
-      raise ValueError(f'{what}: state has shape {state.shape}, expected '
-                       f'{np.shape(self.state)}')
+    rng = safe_io.checked_array(bundle['rng'], f'{what}: rng', kind='int',
+                                shape=(2,)).astype(np.uint32)
+    state = np.array(safe_io.checked_array(
+        bundle['state'], f'{what}: state', shape=np.shape(self.state)))
     old_replay = self._replay
     self._restore_replay(bundle['replay'])  # Raises before replacing.
     del old_replay
-    self.training_steps = int(bundle['training_steps'])
+    self.training_steps = training_steps
     self._rng = jnp.asarray(rng)
     self.state = state
     self.network_params = network_params

@@ -181,6 +181,9 @@ class RoundOutput(NamedTuple):
   steps: Array  # [N] steps flown.
   info: Dict[str, Array]  # `jax_env.step_info` of the last flown step, [N].
   losses: Dict[str, Array]  # Mean over the round's updates.
+  # NaN / inf values the round produced, by what holds them (`_NONFINITE`):
+  # scalar counts computed in the round, for `check_round`.
+  nonfinite: Dict[str, Array]
 
 
 class Learner(NamedTuple):
@@ -193,6 +196,10 @@ class Learner(NamedTuple):
 
 _LOSS_KEYS = ('Losses/Critic', 'Losses/Actor', 'Losses/Alpha',
               'Values/CriticValues1', 'Values/Alpha')
+# `RoundOutput.nonfinite`'s entries, in the order `check_round` names them.
+_NONFINITE = ('critic loss', 'actor loss', 'alpha loss', 'critic values',
+              'temperature', 'network parameters', 'target parameters',
+              'optimizer state', 'log_alpha', 'actions', 'rewards')
 
 
 @functools.lru_cache(maxsize=8)
@@ -331,10 +338,13 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
   info0 = jax.vmap(jax_env.step_info, in_axes=(0, None))(env_state, params)
 
   def one_step(carry, _):
-    state, env_state, obs, active, ep_reward, within, steps, last = carry
+    (state, env_state, obs, active, ep_reward, within, steps, last,
+     bad_actions) = carry
     key, act_key, update_key = jax.random.split(state.key, 3)
     state = state.replace(key=key)
     action = _act(learner, state, obs, act_key)
+    bad_actions = bad_actions + jnp.sum(
+        ~jnp.isfinite(action) & active[:, None])
     next_obs, env_state, reward, done, info = jax.vmap(
         env.step_env, in_axes=(None, 0, 0, None))(
             act_key, env_state, to_box(action), params)
@@ -362,16 +372,22 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
     state, losses = jax.lax.cond(ready, learn, wait, state)
     losses = {k: v.mean() for k, v in losses.items()}
     return ((state, env_state, next_obs, active, ep_reward, within, steps,
-             last), (losses, ready))
+             last, bad_actions), (losses, ready))
 
   carry = (state, env_state, obs, jnp.ones((n,), bool), zeros,
-           jnp.zeros((n,), jnp.int32), jnp.zeros((n,), jnp.int32), info0)
+           jnp.zeros((n,), jnp.int32), jnp.zeros((n,), jnp.int32), info0,
+           jnp.zeros((), jnp.int32))
   carry, (losses, ready) = jax.lax.scan(one_step, carry, None,
                                         length=num_steps)
-  state, _, _, _, ep_reward, within, steps, last = carry
+  state, _, _, _, ep_reward, within, steps, last, bad_actions = carry
   learned = jnp.maximum(jnp.sum(ready), 1)
   losses = {k: jnp.sum(v) / learned for k, v in losses.items()}
-  return state, RoundOutput(ep_reward, within, steps, last, losses)
+  counted = [losses[k] for k in _LOSS_KEYS] + [
+      state.network_params, state.target_params, state.optimizer_state,
+      state.log_alpha]
+  nonfinite = dict(zip(_NONFINITE, [sac.nonfinite_count(x) for x in counted]
+                       + [bad_actions, sac.nonfinite_count(ep_reward)]))
+  return state, RoundOutput(ep_reward, within, steps, last, losses, nonfinite)
 
 
 @functools.partial(jax.jit, static_argnums=(0, 1, 4))
@@ -475,6 +491,29 @@ def checkpoint_path(base_dir: str, iteration: int) -> str:
   return sac.checkpoint_path(os.path.join(base_dir, 'checkpoints'), iteration)
 
 
+def check_round(out: RoundOutput, iteration: int, base_dir: str) -> None:
+  """Raises `sac.TrainingDiverged` if the round produced NaN / inf.
+
+  Called before anything of the round is written: the newest checkpoint in
+  `base_dir` stays the last good one.
+
+  Args:
+    out: One seed's round output (its `nonfinite` counts).
+    iteration: The round.
+    base_dir: The seed's run directory.
+  """
+  counts = jax.device_get(out.nonfinite)
+  bad = [name for name in _NONFINITE if int(counts[name])]
+  if not bad:
+    return
+  done = sac.checkpoint_iterations(os.path.join(base_dir, 'checkpoints'))
+  kept = (f'last good checkpoint: {checkpoint_path(base_dir, done[-1])} kept'
+          if done else f'no checkpoint was written in {base_dir}')
+  raise sac.TrainingDiverged(
+      f'training diverged at round {iteration}: non-finite '
+      f'{", ".join(bad)}; {kept}')
+
+
 def save_checkpoint(base_dir: str, iteration: int, state: TrainState,
                     elapsed_s: float = 0.0, keep: int = 2) -> None:
   """The whole state (replay cut to its filled part), atomically.
@@ -516,22 +555,33 @@ def load_checkpoint(path: str, template: TrainState
                            what='SAC trainer checkpoint')
   what = f'{path}'
   restore = lambda name, t: sac._restore_like(t, tree[name], f'{what}: {name}')  # pylint: disable=protected-access
+  missing = [k for k in ('iteration', 'network_params', 'target_params',
+                         'optimizer_state', 'log_alpha',
+                         'alpha_optimizer_state', 'replay', 'key', 'updates',
+                         'env_steps') if k not in tree]
+  if missing:
+    raise ValueError(f'{what} misses {missing}')
   r = tree['replay']
+  if not isinstance(r, dict):
+    raise ValueError(f'{what}: replay is not a mapping')
   capacity = template.replay.reward.shape[0]
-  size = int(r['size'])
-  if not 0 <= size <= capacity or not 0 <= int(r['cursor']) < capacity:
-    raise ValueError(f'{what}: replay size/cursor {size}/{r["cursor"]} do '
-                     f'not fit the capacity {capacity}')
+  size = safe_io.checked_count(r.get('size'), f'{what}: replay size',
+                               high=capacity)
+  cursor = safe_io.checked_count(r.get('cursor'), f'{what}: replay cursor',
+                                 high=capacity - 1)
+  counters = {k: safe_io.checked_count(tree[k], f'{what}: {k}',
+                                       high=np.iinfo(np.int32).max)
+              for k in ('iteration', 'updates', 'env_steps')}
   arrays = {}
   for name in ('obs', 'action', 'reward', 'next_obs', 'terminal'):
     ref = getattr(template.replay, name)
-    value = np.asarray(r[name])
-    if value.shape != (size,) + ref.shape[1:]:
-      raise ValueError(f'{what}: replay {name} has shape {value.shape}, '
-                       f'expected {(size,) + ref.shape[1:]}')
+    value = safe_io.checked_array(r.get(name), f'{what}: replay {name}',
+                                  shape=(size,) + ref.shape[1:])
     arrays[name] = jnp.asarray(ref).at[:size].set(value.astype(ref.dtype))
   replay = Replay(size=jnp.asarray(size, jnp.int32),
-                  cursor=jnp.asarray(int(r['cursor']), jnp.int32), **arrays)
+                  cursor=jnp.asarray(cursor, jnp.int32), **arrays)
+  elapsed = safe_io.checked_array(tree.get('elapsed_s', 0.0),
+                                  f'{what}: elapsed_s', shape=())
   return TrainState(
       network_params=restore('network_params', template.network_params),
       target_params=restore('target_params', template.target_params),
@@ -540,9 +590,8 @@ def load_checkpoint(path: str, template: TrainState
       alpha_optimizer_state=restore('alpha_optimizer_state',
                                     template.alpha_optimizer_state),
       replay=replay, key=restore('key', template.key),
-      updates=jnp.asarray(int(tree['updates']), jnp.int32),
-      env_steps=jnp.asarray(int(tree['env_steps']), jnp.int32)), float(
-          tree.get('elapsed_s', 0.0))
+      updates=jnp.asarray(counters['updates'], jnp.int32),
+      env_steps=jnp.asarray(counters['env_steps'], jnp.int32)), float(elapsed)
 
 
 def recorded_config(config: Mapping[str, Any]) -> Dict[str, Any]:
@@ -843,6 +892,7 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
               iteration == num_iterations - 1)
 
     def record(run, iteration, state, out, wall):
+      check_round(out, iteration, run.base_dir)
       result = run.record(
           iteration=iteration, state=state, out=out, wall=wall, env=env,
           params=params, checkpoint=checkpoint_due(iteration),
@@ -887,7 +937,10 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
       # Slicing the replays out costs a copy each: only for checkpoints.
       sliced = _unstack(states if checkpoint_due(iteration)
                         else states.replace(replay=None), k)
-      for run, state, out in zip(opened, sliced, _unstack(outs, k)):
+      outs = _unstack(outs, k)
+      for run, out in zip(opened, outs):  # Every seed before any is written.
+        check_round(out, iteration, run.base_dir)
+      for run, state, out in zip(opened, sliced, outs):
         record(run, iteration, state, out, wall)
     for run in opened:
       run.close()

@@ -65,6 +65,13 @@ def usage_error(prog: str, message: str) -> NoReturn:
   sys.exit(usage(prog, message))
 
 
+def failure(prog: str, error: BaseException) -> NoReturn:
+  """The work failed (bad file, diverged run): one line, exit status 1."""
+  message = ' '.join(str(error).split())
+  print(f'{prog}: {message}', file=sys.stderr)
+  sys.exit(EXIT_FAILURE)
+
+
 def unknown(what: str, name: str, valid: Iterable[str],
             label: str = 'valid') -> str:
   """"unknown agent 'x'; valid: a, b" (with a guess when one is close)."""

@@ -50,8 +50,7 @@ def _main(argv: Sequence[str]) -> None:
         policy['note'] = FLAGS.note
       pretrained.write_policy(policy, FLAGS.output)
   except (OSError, ValueError) as e:
-    print(f'ble-latex-export-policy: {e}', file=sys.stderr)
-    sys.exit(1)
+    cli.failure('ble-latex-export-policy', e)
   print(f'wrote {FLAGS.output} ({os.path.getsize(FLAGS.output) / 1e6:.1f} MB) '
         f'from {policy["source"]}, iteration {policy["iteration"]}')
 

@@ -92,7 +92,8 @@ def settings_from_flags() -> sweep_lib.SweepSettings:
                      f'{FLAGS.seeds}')
   return sweep_lib.SweepSettings(
       sweep_dir=os.path.abspath(FLAGS.sweep_dir),
-      points=tuple(sweep_lib.points(space, FLAGS.search_seed)), seeds=seeds,
+      points=tuple(sweep_lib.points(space, FLAGS.search_seed, len(seeds))),
+      seeds=seeds,
       num_iterations=FLAGS.num_iterations,
       policy_snapshot_period=FLAGS.policy_snapshot_period,
       validation_episodes=FLAGS.validation_episodes,

@@ -115,6 +115,19 @@ def seed_dirs() -> List[Tuple[int, str]]:
 
 
 def _main(argv: Sequence[str]) -> None:
+  del argv
+  try:
+    _train()
+  except (OSError, ValueError, FloatingPointError) as e:
+    # A bad checkpoint (named, with its entry), a run that diverged
+    # (`sac.TrainingDiverged`), a resume refused: one line, exit status 1.
+    # Gin usage errors go on to `cli.run_absl` (exit status 2).
+    if isinstance(e, ValueError) and cli.gin_usage_message(e) is not None:
+      raise
+    cli.failure('ble-latex-train', e)
+
+
+def _train() -> None:
   jax_trainer = FLAGS.trainer == 'jax'
   agent_gin_file = FLAGS.agent_gin_file
   if jax_trainer and agent_gin_file is None:

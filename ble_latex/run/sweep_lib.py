@@ -69,6 +69,9 @@ BEST_GIN = 'best_config.gin'
 # [s] A trial waits this long for its run directory's lock: after a killed
 # sweep, the old trial's worker may still be exiting when Tune restarts it.
 TRIAL_LOCK_WAIT_S = 60.0
+# Most trials (points x training seeds) a sweep may have; counted from the
+# space before any point is made.
+MAX_TRIALS = 10_000
 
 
 class SpaceError(ValueError):
@@ -87,6 +90,21 @@ class Space:
   grid: Mapping[str, Tuple[Literal, ...]]
   sampled: Mapping[str, Tuple[str, Tuple[Literal, ...]]]
   num_samples: int = 1
+
+
+def trial_count(space: Space, num_seeds: int = 1) -> int:
+  """Trials of `space` x `num_seeds`, computed without expanding it."""
+  count = math.prod(len(v) for v in space.grid.values())
+  return count * (space.num_samples if space.sampled else 1) * num_seeds
+
+
+def check_size(space: Space, source: str, num_seeds: int = 1) -> None:
+  """Raises SpaceError if the sweep would have more than `MAX_TRIALS`."""
+  count = trial_count(space, num_seeds)
+  if count > MAX_TRIALS:
+    seeds = f' x {num_seeds} seeds' if num_seeds != 1 else ''
+    raise SpaceError(f'{source}: {count} trials (points{seeds}) exceed the '
+                     f'limit of {MAX_TRIALS}; sweep fewer values')
 
 
 def _literal(value: Any, where: str) -> Literal:
@@ -158,7 +176,9 @@ def parse_space(data: Any, source: str) -> Space:
       if kind == 'randint' and not all(isinstance(a, int) for a in args):
         raise SpaceError(f'{where}: randint takes integers [low, high)')
       sampled[name] = (kind, args)
-  return Space(grid=grid, sampled=sampled, num_samples=num_samples)
+  space = Space(grid=grid, sampled=sampled, num_samples=num_samples)
+  check_size(space, source)
+  return space
 
 
 def load_space(path: str) -> Space:
@@ -226,12 +246,26 @@ def merge(space: Optional[Space], grid: Sequence[Tuple[str, Tuple[Literal, ...]]
     combined[name] = values
   if not combined and not space.sampled:
     raise SpaceError('nothing to sweep: give --space or --grid')
-  return Space(grid=combined, sampled=space.sampled,
-               num_samples=num_samples or space.num_samples)
+  merged = Space(grid=combined, sampled=space.sampled,
+                 num_samples=num_samples or space.num_samples)
+  check_size(merged, 'the sweep (--space, --grid, --num_samples)')
+  return merged
 
 
-def points(space: Space, search_seed: int = 0) -> List[Dict[str, Literal]]:
-  """The sweep's points: grid product x `num_samples` draws (deterministic)."""
+def points(space: Space, search_seed: int = 0, num_seeds: int = 1
+           ) -> List[Dict[str, Literal]]:
+  """The sweep's points: grid product x `num_samples` draws (deterministic).
+
+  Args:
+    space: The space.
+    search_seed: Seed of the draws of the sampled bindings.
+    num_seeds: Training seeds each point runs with (for the size check).
+
+  Raises:
+    SpaceError: If points x `num_seeds` exceed `MAX_TRIALS` (checked before
+      any point is made).
+  """
+  check_size(space, 'the sweep', num_seeds)
   from ray import tune  # pylint: disable=g-import-not-at-top
   rng = np.random.default_rng(search_seed)
   domains = {'choice': tune.choice, 'uniform': tune.uniform,
