@@ -10,6 +10,8 @@ prints them as `PROG: message` without a traceback:
   range): a usage error, exit status 2.
 - `BadFileError`: an input file is unusable (truncated, corrupt, not the
   expected format, impossible contents): a failure, exit status 1.
+- `ResumeError` (a `ConfigError`): a run directory was started with other
+  settings, or its logs miss episodes its checkpoint covers: exit status 2.
 
 Light on purpose: no imports.
 """
@@ -21,3 +23,7 @@ class ConfigError(ValueError):
 
 class BadFileError(ValueError):
   """An input file is truncated, corrupt or holds impossible values."""
+
+
+class ResumeError(ConfigError):
+  """A run directory cannot be resumed with these settings; nothing changed."""

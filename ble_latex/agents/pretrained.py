@@ -27,6 +27,7 @@ import gin
 import jax.numpy as jnp
 
 from ble_latex.agents import sac
+from ble_latex import errors
 from ble_latex import safe_io
 
 POLICY_FORMAT = 'ble_latex-sac-policy-v2'  # msgpack (`safe_io`).
@@ -65,10 +66,16 @@ def export_policy(checkpoint_file: str, output_file: str, note: str = '',
 
   Returns:
     The policy dict written.
+
+  Raises:
+    errors.BadFileError: The checkpoint is unreadable or refused (named).
   """
   bundle = read_checkpoint(checkpoint_file, trust_legacy_pickle)
-  policy = policy_from_bundle(bundle, os.path.basename(checkpoint_file), note,
-                              what=checkpoint_file)
+  try:
+    policy = policy_from_bundle(bundle, os.path.basename(checkpoint_file),
+                                note, what=checkpoint_file)
+  except (ValueError, TypeError) as e:
+    raise errors.BadFileError(str(e)) from e
   write_policy(policy, output_file)
   return policy
 
@@ -157,24 +164,27 @@ def load_policy(path: str, trust_legacy_pickle: bool = False
   Raises:
     FileNotFoundError: If `path` does not exist.
     safe_io.UntrustedFileError: For a pickle without the opt-in.
-    ValueError: If the file is truncated, corrupt or not a policy; the
-      message names `path`.
+    errors.BadFileError: If the file is truncated, corrupt or not a policy;
+      the message names `path`.
   """
   if _is_pickle_path(path):
     policy = safe_io.read_legacy_pickle(path, trust=trust_legacy_pickle,
                                         what='SAC policy')
     if not isinstance(policy, dict) or policy.get(
         'format') != LEGACY_POLICY_FORMAT:
-      raise ValueError(f'{path} is not a ble_latex SAC policy '
-                       f'({LEGACY_POLICY_FORMAT})')
+      raise errors.BadFileError(f'{path} is not a ble_latex SAC policy '
+                                f'({LEGACY_POLICY_FORMAT})')
     policy = dict(policy, format=POLICY_FORMAT)
   else:
     policy = safe_io.read_tree(path, file_format=POLICY_FORMAT,
                                what='SAC policy')
   missing = [k for k in (*_KEPT, *_TEXT) if k not in policy]
   if missing:
-    raise ValueError(f'SAC policy {path} misses {missing}')
-  return check_policy(policy, f'SAC policy {path}')
+    raise errors.BadFileError(f'SAC policy {path} misses {missing}')
+  try:
+    return check_policy(policy, f'SAC policy {path}')
+  except (ValueError, TypeError) as e:
+    raise errors.BadFileError(str(e)) from e
 
 
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',

@@ -67,6 +67,7 @@ import numpy as np
 import optax
 
 from ble_latex.agents import networks
+from ble_latex import errors
 from ble_latex import safe_io
 
 CHECKPOINT_FORMAT = 'ble_latex.sac/2'  # msgpack (`safe_io`).
@@ -1258,7 +1259,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     try:
       self.unbundle(checkpoint_dir, iteration_number, bundle)
     except (ValueError, TypeError, KeyError) as e:
-      raise ValueError(f'SAC checkpoint {path}: {e}') from e
+      raise errors.BadFileError(f'SAC checkpoint {path}: {e}') from e
     logging.info('Restored SAC checkpoint %s (training step %d, replay %d).',
                  path, self.training_steps, self.replay_size)
 

@@ -70,6 +70,7 @@ from ble_latex.run import episode_log
 from ble_latex.run import metrics
 from ble_latex.run import suites
 from ble_latex.run import train_lib
+from ble_latex import errors
 from ble_latex import safe_io
 
 Array = jax.Array
@@ -550,9 +551,26 @@ def save_checkpoint(base_dir: str, iteration: int, state: TrainState,
 
 def load_checkpoint(path: str, template: TrainState
                     ) -> Tuple[TrainState, float]:
-  """A checkpoint's state (checked against `template`) and elapsed [s]."""
+  """A checkpoint's state (checked against `template`) and elapsed [s].
+
+  Raises:
+    errors.BadFileError: The file is unreadable, or an entry is missing, of
+      another shape or dtype, non-finite or out of range (named with the
+      file).
+  """
   tree = safe_io.read_tree(path, file_format=CHECKPOINT_FORMAT,
                            what='SAC trainer checkpoint')
+  try:
+    return _restore_checkpoint(tree, path, template)
+  except (ValueError, TypeError, KeyError) as e:
+    if isinstance(e, errors.BadFileError):
+      raise
+    raise errors.BadFileError(str(e)) from e
+
+
+def _restore_checkpoint(tree: Dict[str, Any], path: str, template: TrainState
+                        ) -> Tuple[TrainState, float]:
+  """`load_checkpoint` of a read tree."""
   what = f'{path}'
   restore = lambda name, t: sac._restore_like(t, tree[name], f'{what}: {name}')  # pylint: disable=protected-access
   missing = [k for k in ('iteration', 'network_params', 'target_params',
@@ -619,12 +637,13 @@ def _check_resume(base_dir: str, run_info: Dict[str, Any],
       with open(path, encoding='utf-8') as f:
         recorded = json.load(f)
     except (OSError, ValueError) as e:
-      raise ValueError(f'{path} is unreadable ({e}); not resuming') from e
+      raise errors.ResumeError(f'{path} is unreadable ({e}); not resuming'
+                               ) from e
     if isinstance(recorded.get('config'), dict):
       recorded['config'] = recorded_config(recorded['config'])
     for key, value in run_info.items():
       if key in recorded and recorded[key] != value:
-        raise ValueError(
+        raise errors.ResumeError(
             f'{base_dir} was started with {key}={recorded[key]!r}, this run '
             f'asks for {key}={value!r}; use the same settings or a new '
             '--base_dir. Nothing was changed.')
@@ -632,7 +651,7 @@ def _check_resume(base_dir: str, run_info: Dict[str, Any],
                                              episode_log.EPISODE_LOG)))
   covered = start_iteration * num_envs
   if logged < covered:
-    raise ValueError(
+    raise errors.ResumeError(
         f'{base_dir}/{episode_log.EPISODE_LOG} holds {logged} episodes but '
         f'the newest checkpoint covers {covered}: episodes would be missing. '
         'Nothing was changed.')
@@ -879,7 +898,8 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
       locks.enter_context(safe_io.locked_dir(base_dir, wait_s=lock_wait_s))
       train_lib.remove_stale_temporaries(base_dir)
     env = jax_env.LatexBalloonJaxEnv()
-    params = env_params if env_params is not None else env.default_params
+    params = (jax_env.check_params(env_params) if env_params is not None
+              else env.default_params)
     window = int(params.episode_steps)
     learner = learner_for(config)
     n = config.num_envs

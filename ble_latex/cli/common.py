@@ -65,13 +65,6 @@ def usage_error(prog: str, message: str) -> NoReturn:
   sys.exit(usage(prog, message))
 
 
-def failure(prog: str, error: BaseException) -> NoReturn:
-  """The work failed (bad file, diverged run): one line, exit status 1."""
-  message = ' '.join(str(error).split())
-  print(f'{prog}: {message}', file=sys.stderr)
-  sys.exit(EXIT_FAILURE)
-
-
 def unknown(what: str, name: str, valid: Iterable[str],
             label: str = 'valid') -> str:
   """"unknown agent 'x'; valid: a, b" (with a guess when one is close)."""
@@ -140,8 +133,8 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
       return main(args)
     except (app.UsageError, CommandUsageError) as e:
       usage_error(prog, str(e))
-    except (OSError, errors.BadFileError, CommandFailure,
-            safe_io.InUseError) as e:
+    except (OSError, errors.BadFileError, CommandFailure, safe_io.InUseError,
+            FloatingPointError) as e:  # FloatingPointError: a diverged run.
       print(f'{prog}: {one_line(e)}', file=sys.stderr)
       sys.exit(EXIT_FAILURE)
     except ValueError as e:

@@ -29,7 +29,7 @@ and host (shards, other agents and names write alongside).
 import json
 import os
 import sys
-from typing import Optional, Sequence
+from typing import Any, Optional, Sequence
 
 from absl import app
 from absl import flags
@@ -104,9 +104,7 @@ def _main(argv: Sequence[str]) -> None:
       if FLAGS.checkpoint_idx is not None else FLAGS.agent)
   path = eval_lib.output_path(FLAGS.output_dir, FLAGS.suite, name,
                               FLAGS.num_shards, FLAGS.shard_idx)
-  cli.prepare_output_dir(os.path.dirname(path), '--output_dir')
-  with eval_lib.lock_output(path):  # Refused before Ray or the agent start.
-    _evaluate(spec, path)
+  _evaluate(spec, path)
 
 
 def _evaluate(spec: eval_lib.EvalSpec, path: str) -> None:
@@ -118,6 +116,15 @@ def _evaluate(spec: eval_lib.EvalSpec, path: str) -> None:
     except distributed.RayUnavailableError as e:
       raise cli.CommandUsageError(str(e)) from e
   agent, env = eval_lib.build(spec)  # Checks the spec before Ray work starts.
+  # A refused spec leaves no folder; the output's one writer is this process
+  # from here on (a second eval of the same file is refused before it runs).
+  cli.prepare_output_dir(os.path.dirname(path), '--output_dir')
+  with eval_lib.lock_output(path):
+    _fly(spec, path, agent, env)
+
+
+def _fly(spec: eval_lib.EvalSpec, path: str, agent: Any, env: Any) -> None:
+  """Flies the suite's seeds with `agent` (or on Ray) and writes `path`."""
   suite = suites.get_eval_suite(FLAGS.suite)
   seeds = eval_lib.shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)
   max_steps = FLAGS.max_episode_length or suite.max_episode_length

@@ -40,17 +40,16 @@ flags.mark_flags_as_required(['checkpoint', 'output'], flag_values=FLAGS)
 
 def _main(argv: Sequence[str]) -> None:
   source = FLAGS.checkpoint
-  try:
-    if os.path.basename(source).startswith('checkpoint_'):
-      policy = pretrained.export_policy(source, FLAGS.output, FLAGS.note,
-                                        FLAGS.trust_legacy_pickle)
-    else:
-      policy = pretrained.load_policy(source, FLAGS.trust_legacy_pickle)
-      if FLAGS.note:
-        policy['note'] = FLAGS.note
-      pretrained.write_policy(policy, FLAGS.output)
-  except (OSError, ValueError) as e:
-    cli.failure('ble-latex-export-policy', e)
+  # Refused input (a bad file, an unwritable output) is one line, exit 1
+  # (`cli.run_absl`).
+  if os.path.basename(source).startswith('checkpoint_'):
+    policy = pretrained.export_policy(source, FLAGS.output, FLAGS.note,
+                                      FLAGS.trust_legacy_pickle)
+  else:
+    policy = pretrained.load_policy(source, FLAGS.trust_legacy_pickle)
+    if FLAGS.note:
+      policy['note'] = FLAGS.note
+    pretrained.write_policy(policy, FLAGS.output)
   print(f'wrote {FLAGS.output} ({os.path.getsize(FLAGS.output) / 1e6:.1f} MB) '
         f'from {policy["source"]}, iteration {policy["iteration"]}')
 

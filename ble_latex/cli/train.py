@@ -115,19 +115,13 @@ def seed_dirs() -> List[Tuple[int, str]]:
 
 
 def _main(argv: Sequence[str]) -> None:
+  """Trains; refused input is one line (`cli.run_absl`).
+
+  A bad checkpoint (`errors.BadFileError`, naming the file and entry) or a run
+  that diverged (`sac.TrainingDiverged`) exits 1; a refused resume
+  (`errors.ResumeError`) or binding exits 2.
+  """
   del argv
-  try:
-    _train()
-  except (OSError, ValueError, FloatingPointError) as e:
-    # A bad checkpoint (named, with its entry), a run that diverged
-    # (`sac.TrainingDiverged`), a resume refused: one line, exit status 1.
-    # Gin usage errors go on to `cli.run_absl` (exit status 2).
-    if isinstance(e, ValueError) and cli.gin_usage_message(e) is not None:
-      raise
-    cli.failure('ble-latex-train', e)
-
-
-def _train() -> None:
   jax_trainer = FLAGS.trainer == 'jax'
   agent_gin_file = FLAGS.agent_gin_file
   if jax_trainer and agent_gin_file is None:

@@ -21,6 +21,7 @@ from ble_latex.run import episode_log
 from ble_latex.run import metrics
 from ble_latex.run import runner
 from ble_latex.run import suites
+from ble_latex import errors
 from ble_latex import safe_io
 
 
@@ -30,8 +31,7 @@ RUN_INFO = 'run.json'  # What a resumed run must agree with.
 _BLE_CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.pkl$')
 
 
-class ResumeError(ValueError):
-  """A run directory cannot be resumed safely; nothing was changed."""
+ResumeError = errors.ResumeError  # The old name.
 
 
 def policy_snapshot_path(base_dir: str, iteration: int) -> str:
