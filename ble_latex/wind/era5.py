@@ -175,6 +175,12 @@ class Era5Data:
     return (np.asarray(lon, dtype=np.float64) - centre + 180.0) % 360.0 - (
         180.0 - centre)
 
+  def covers(self, lat: float, lon: float) -> bool:
+    """Whether the file's area holds (lat [deg N], lon [deg E], any convention)."""
+    lon = float(self.wrap_longitude(lon))
+    return bool(self.latitude[0] <= lat <= self.latitude[-1] and
+                self.longitude[0] <= lon <= self.longitude[-1])
+
   def interpolate(self, time_s: Union[float, np.ndarray],
                   pressure: Union[float, np.ndarray],
                   latitude: Union[float, np.ndarray],
@@ -868,9 +874,7 @@ class Era5WindField(wind_field.WindField):
                        f'{episode_hours}')
     self._data = load(path)
     data = self._data
-    lon = float(data.wrap_longitude(center_lon))
-    if not (data.latitude[0] <= center_lat <= data.latitude[-1] and
-            data.longitude[0] <= lon <= data.longitude[-1]):
+    if not data.covers(center_lat, center_lon):
       raise ValueError(
           f'Target (lat {center_lat}, lon {center_lon}) lies outside the area '
           f'of ERA5 file(s) {list(data.paths)}: lat [{data.latitude[0]}, '

@@ -183,9 +183,8 @@ def sample_era5(path: Union[str, Sequence[str]],
   for x, y in ((edge, 0.0), (-edge, 0.0), (0.0, edge), (0.0, -edge)):
     # pylint: disable-next=protected-access
     lat, lon = field._latlng(units.Distance(km=x), units.Distance(km=y))
-    lon = float(data.wrap_longitude(lon))
-    if not (data.latitude[0] <= lat <= data.latitude[-1] and
-            data.longitude[0] <= lon <= data.longitude[-1]):
+    if not data.covers(lat, lon):
+      lon = float(data.wrap_longitude(lon))
       raise ValueError(
           f'{where} cover lat {data.latitude[0]:g}..{data.latitude[-1]:g}, '
           f'lon {data.longitude[0]:g}..{data.longitude[-1]:g}: too small for '
