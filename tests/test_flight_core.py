@@ -922,3 +922,37 @@ def test_step_derivative_is_finite():
                                           (jnp.ones_like(a0),))[1])
   d = float(derivative(jnp.float32(15_000.0)))  # a vent decision
   assert np.isfinite(d) and 0.0 < d < 1.0
+
+
+_STEP_SCHEDULED = dynamics.make_scheduled_step(_analytic_wind)
+
+
+@pytest.mark.parametrize('finite', [False, True])
+def test_scheduled_step_equals_static_step_and_compiles_once(finite):
+  """A traced `padded_schedule` flies the static stride.
+
+  Bit for bit but the position, which XLA may round once differently
+  (x + u dt fused otherwise; <= 1 ulp).
+
+  Strides of other lengths with the same padded shape (5 to 8 sub-steps)
+  reuse one compiled step; the static `time_delta_s` compiles per length.
+  """
+  params = _FINITE_PARAMS if finite else PARAMS
+  rng = np.random.default_rng(2)
+  atms, states, actions = _random_batch(rng, 4, params)
+  before = _STEP_SCHEDULED._cache_size()
+  for i, time_delta_s in enumerate((1200.0, 901.0, 1.44e3 - 1e-3)):
+    grid = dynamics.padded_schedule(time_delta_s, params.max_substep_s,
+                                    params.vertical_step_s)
+    assert grid.valid.shape == (8,) and grid.chunks.shape == (8, 4)
+    one = jax.tree.map(lambda a, i=i: a[i], (atms, states, actions))
+    static = dynamics.make_step(_analytic_wind, time_delta_s)(params, *one)
+    traced = _STEP_SCHEDULED(params, *one, grid)
+    for name, a in static.__dict__.items():
+      if name in ('x_m', 'y_m'):  # XLA may fuse x + u dt differently.
+        np.testing.assert_allclose(np.asarray(getattr(traced, name)),
+                                   np.asarray(a), rtol=2.5e-7, err_msg=name)
+      else:
+        np.testing.assert_array_equal(np.asarray(getattr(traced, name)),
+                                      np.asarray(a), err_msg=name)
+  assert _STEP_SCHEDULED._cache_size() - before == 1

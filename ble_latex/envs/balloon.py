@@ -321,8 +321,13 @@ def flight_state(state: LatexBalloonState, params: params_lib.FlightParams,
 
 
 @functools.lru_cache(maxsize=64)
-def _jitted_step(wind: Any, time_delta_s: float) -> Callable[..., Any]:
-  """The core step with a constant wind (u, v) or a host-callback wind."""
+def _jitted_step(wind: Any) -> Callable[..., Any]:
+  """The core step with a constant wind (u, v) or a host-callback wind.
+
+  The stride is a traced `dynamics.padded_schedule` argument: other stride
+  lengths reuse the compiled step (one compile per power of two of
+  sub-steps), not one compile per `time_delta`.
+  """
   if isinstance(wind, tuple):
     u, v = wind
 
@@ -343,7 +348,7 @@ def _jitted_step(wind: Any, time_delta_s: float) -> Callable[..., Any]:
       uv = jax.pure_callback(host, jax.ShapeDtypeStruct((2,), x.dtype),
                              x, y, p, t)
       return uv[0], uv[1]
-  return dynamics.make_step(wind_fn, time_delta_s)
+  return dynamics.make_scheduled_step(wind_fn)
 
 
 @gin.configurable
@@ -471,8 +476,11 @@ class LatexBalloon:
     start = s.date_time - s.time_elapsed
     flight = (self._flight if self._written == repr(s) else
               flight_state(s, params, atm))
-    new = _jitted_step(wind, time_delta.total_seconds())(
-        params, atm, flight, jnp.asarray(a, jnp.float32))
+    grid = dynamics.padded_schedule(time_delta.total_seconds(),
+                                    params.max_substep_s,
+                                    params.vertical_step_s)
+    new = _jitted_step(wind)(params, atm, flight, jnp.asarray(a, jnp.float32),
+                             grid)
     if not np.isfinite(float(new.x_m)) or not np.isfinite(float(new.y_m)):
       raise ValueError('wind must be finite: the wind callable returned a '
                        'non-finite wind; the state is left untouched')

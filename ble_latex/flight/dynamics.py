@@ -28,16 +28,20 @@ sections "Equations of Motion" and "Altitude Controller"):
      instead).
 
 Everything is traced once: the sub-step and chunk grid of the instantaneous
-case is static (computed from the static `time_delta_s`, `max_substep_s` and
-`vertical_step_s`) and run with `lax.scan`; with finite rates each sub-step
-runs a `lax.while_loop` that reproduces NumPy's chunking exactly. `step` is
-vmappable over states, actions and atmosphere/flight parameters.
+case (`schedule`, from `time_delta_s`, `max_substep_s` and
+`vertical_step_s`) is run with `lax.scan`, either built into the program
+(a static `time_delta_s`) or passed as data (`padded_schedule`: a traced
+argument padded to powers of two, so strides of other lengths reuse the
+compiled step; the same values, except that XLA may round the position
+update x + u dt once differently: <= 1 ulp of x, y); with finite rates
+each sub-step runs a `lax.while_loop` that reproduces NumPy's chunking
+exactly. `step` is vmappable over states, actions and atmosphere/flight parameters.
 """
 
 import datetime as dt
 import functools
 import math
-from typing import Callable, Tuple
+from typing import Callable, NamedTuple, Tuple, Union
 
 import jax
 import jax.numpy as jnp
@@ -115,6 +119,67 @@ def schedule(time_delta_s: float, max_substep_s: float,
     chunks[i, :len(row)] = row
   return (np.asarray(starts), np.asarray(durations), np.asarray(ends),
           chunks)
+
+
+class Schedule(NamedTuple):
+  """A stride's sub-step and chunk grid as data (`padded_schedule`).
+
+  Passed to `step` instead of a static `time_delta_s`, it is a traced
+  argument: strides of other lengths reuse the compiled step as long as the
+  padded shapes agree. Rows with `valid` False are padding: they change
+  nothing (no wind query, no flight, no time).
+
+  Attributes:
+    starts: Sub-step starts, shape (n,). # [s]
+    durations: Sub-step lengths, shape (n,). # [s]
+    ends: Sub-step ends, shape (n,). # [s]
+    chunks: Chunk lengths of each sub-step (instantaneous releases), zero
+      padded, shape (n, m). # [s]
+    valid: Which rows are sub-steps of the stride, shape (n,).
+  """
+  starts: Array
+  durations: Array
+  ends: Array
+  chunks: Array
+  valid: Array
+
+
+def _power_of_two(n: int) -> int:
+  return 1 << max(0, n - 1).bit_length()
+
+
+def padded_schedule(time_delta_s: float, max_substep_s: float,
+                    vertical_step_s: float) -> Schedule:
+  """`schedule` as a `Schedule`, its shapes padded to powers of two.
+
+  The sub-steps are padded to the next power of two (invalid rows), the
+  chunks of a row to the next power of two of the most a sub-step of at most
+  `max_substep_s` can need (zero chunks, which change nothing), so the
+  compiled step is shared by every stride up to that many sub-steps. The
+  values are `schedule`'s, so `step` flies the same stride (the position
+  within 1 ulp: XLA may fuse x + u dt otherwise than with constants).
+
+  Args:
+    time_delta_s: Stride length. # [s]
+    max_substep_s: Longest sub-step. # [s]
+    vertical_step_s: Longest vertical chunk. # [s]
+
+  Returns:
+    The grid (NumPy float64 arrays and a bool mask).
+  """
+  starts, durations, ends, chunks = schedule(time_delta_s, max_substep_s,
+                                             vertical_step_s)
+  n, m = chunks.shape
+  rows = _power_of_two(n)
+  columns = _power_of_two(max(m, math.ceil(max_substep_s / vertical_step_s)
+                              + 1))
+  pad = rows - n
+  return Schedule(
+      starts=np.pad(starts, (0, pad), constant_values=ends[-1]),
+      durations=np.pad(durations, (0, pad)),
+      ends=np.pad(ends, (0, pad), constant_values=ends[-1]),
+      chunks=np.pad(chunks, ((0, pad), (0, columns - m))),
+      valid=np.arange(rows) < n)
 
 
 def release(state: FlightState, *, vent: Array, drop: Array) -> FlightState:
@@ -305,7 +370,8 @@ def step(params: params_lib.FlightParams,
          state: FlightState,
          action: Array,
          wind_fn: WindFn,
-         time_delta_s: float = DEFAULT_TIME_DELTA_S) -> FlightState:
+         time_delta_s: Union[float, Schedule] = DEFAULT_TIME_DELTA_S
+         ) -> FlightState:
   """One controller action and `time_delta_s` of flight (one stride).
 
   Args:
@@ -316,7 +382,10 @@ def step(params: params_lib.FlightParams,
       shape (3,); clipped into the action Box.
     wind_fn: Pure JAX (x [m], y [m], pressure [Pa], time [s]) -> (u, v)
       [m/s], queried at the start of every sub-step at the balloon.
-    time_delta_s: Simulated time to advance; a static Python number. # [s]
+    time_delta_s: Simulated time to advance: a static Python number (its
+      grid is built into the program), or its `padded_schedule` (traced:
+      one compiled step serves every stride with the same padded shapes;
+      the same values but x, y within 1 ulp). # [s]
 
   Returns:
     The state after the stride.
@@ -331,13 +400,14 @@ def step_with_trajectory(
     state: FlightState,
     action: Array,
     wind_fn: WindFn,
-    time_delta_s: float = DEFAULT_TIME_DELTA_S
+    time_delta_s: Union[float, Schedule] = DEFAULT_TIME_DELTA_S
 ) -> Tuple[FlightState, FlightState, FlightState]:
   """`step`, also returning the states inside the stride (plots, checks).
 
   Returns:
     (state after the stride, state right after the controller's actuation,
-    states after each physics sub-step stacked on a leading axis).
+    states after each physics sub-step stacked on a leading axis; with a
+    `Schedule`, its padding rows repeat the state after the stride).
   """
   return _step(params, atm_params, state, action, wind_fn, time_delta_s,
                record=True)
@@ -354,19 +424,32 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
               actuation)
   actuated = f
 
-  starts, durations, ends, chunks = schedule(
-      time_delta_s, params.max_substep_s, params.vertical_step_s)
   dtype = state.altitude_m.dtype
-  xs = tuple(jnp.asarray(a, dtype) for a in (starts, durations, ends, chunks))
+  masked = isinstance(time_delta_s, Schedule)
+  if masked:
+    grid = time_delta_s
+    xs = tuple(jnp.asarray(a, dtype) for a in grid[:4]) + (
+        jnp.asarray(grid.valid, bool),)
+  else:
+    xs = tuple(jnp.asarray(a, dtype) for a in schedule(
+        time_delta_s, params.max_substep_s, params.vertical_step_s))
   finite = params.finite_valve or params.finite_ballast
 
   def substep(carry, x):
     f, elapsed = carry
-    start, duration, end, chunk_row = x
+    start, duration, end, chunk_row = x[:4]
     active = f.status == FlightStatus.OK
     pressure = atmosphere_lib.at_height(atm_params,
                                         _clamp(f.altitude_m)).pressure
-    u, v = wind_fn(f.x_m, f.y_m, pressure, state.time_s + start)
+    query = (f.x_m, f.y_m, pressure, state.time_s + start)
+    if masked:  # No wind query on a padding row (a host wind is not called).
+      active = active & x[4]
+      calm = jax.tree.map(lambda a: jnp.zeros(a.shape, a.dtype),
+                          jax.eval_shape(wind_fn, *query))
+      u, v = jax.lax.cond(x[4], lambda: tuple(wind_fn(*query)),
+                          lambda: tuple(calm))
+    else:
+      u, v = wind_fn(*query)
     if finite:
       g = _chunks_dynamic(params, atm_params, f, duration)
     else:
@@ -403,7 +486,7 @@ def make_step(wind_fn: WindFn,
 
   Args:
     wind_fn: The wind callback (part of the jit cache key).
-    time_delta_s: Stride length. # [s]
+    time_delta_s: Stride length (static). # [s]
 
   Returns:
     jitted (params, atm_params, state, action) -> state; vmap it for
@@ -411,3 +494,22 @@ def make_step(wind_fn: WindFn,
   """
   return jax.jit(functools.partial(step, wind_fn=wind_fn,
                                    time_delta_s=float(time_delta_s)))
+
+
+def make_scheduled_step(wind_fn: WindFn) -> Callable[
+    [params_lib.FlightParams, atmosphere_lib.AtmosphereParams, FlightState,
+     Array, Schedule], FlightState]:
+  """`step` with the wind bound, jitted; the stride is a traced argument.
+
+  Args:
+    wind_fn: The wind callback (part of the jit cache key).
+
+  Returns:
+    jitted (params, atm_params, state, action, schedule) -> state, with
+    `schedule = padded_schedule(time_delta_s, params.max_substep_s,
+    params.vertical_step_s)`: it compiles once per padded shape (powers of
+    two of sub-steps), not once per stride length.
+  """
+  def scheduled(params, atm_params, state, action, grid):
+    return step(params, atm_params, state, action, wind_fn, Schedule(*grid))
+  return jax.jit(scheduled)

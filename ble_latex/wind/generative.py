@@ -331,7 +331,25 @@ def forecast(field: ForecastField, x_m: Any, y_m: Any, pressure_pa: Any,
   dtype = _float_dtype(x_m, y_m, pressure_pa, t_s)
   x_m, y_m, pressure_pa, t_s = jnp.broadcast_arrays(
       *(jnp.asarray(v, dtype) for v in (x_m, y_m, pressure_pa, t_s)))
-  # BLE's point: units.Distance.kilometers, np.clip, then a float32 array.
+  located = _locate_point(field, x_m, y_m, pressure_pa, t_s)
+  # The 16 corners' (u, v): [..., 2, 2, 2, 2, 2] (lower / upper corner in x,
+  # y, pressure, time; then u, v): one 2 x 2 x 2 x 2 x 2 slice per point.
+  indices = jnp.stack([i for i, _ in located], axis=-1)
+  flat = indices.reshape(-1, 4)
+  block = jax.vmap(lambda i: jax.lax.dynamic_slice(
+      field.grid, (*i, jnp.zeros_like(i[0])), (2, 2, 2, 2, 2)))(flat)
+  block = block.reshape(indices.shape[:-1] + block.shape[1:])
+  return _interpolate(block, [y for _, y in located])
+
+
+def _locate_point(field: ForecastField, x_m: jnp.ndarray, y_m: jnp.ndarray,
+                  pressure_pa: jnp.ndarray, t_s: jnp.ndarray
+                  ) -> Sequence[Tuple[jnp.ndarray, jnp.ndarray]]:
+  """BLE's query point on the grid: (index, fraction) per axis (x, y, P, t).
+
+  BLE's point: units.Distance.kilometers, np.clip, the time boomeranged,
+  then a float32 array; then scipy's interval search (`_locate`).
+  """
   axes = field.grid_axes()
   x_km, y_km, pressure_axis, time_h = axes
   point = (
@@ -341,17 +359,17 @@ def forecast(field: ForecastField, x_m: Any, y_m: Any, pressure_pa: Any,
       field_time_hours(t_s, time_h[-1]),
   )
   point = [_to_float32_point(p) for p in point]
-  located = [_locate(axis, p) for axis, p in zip(axes, point)]
-  # The 16 corners' (u, v): [..., 2, 2, 2, 2, 2] (lower / upper corner in x,
-  # y, pressure, time; then u, v).
-  offsets = np.indices((2, 2, 2, 2)).reshape(4, 2, 2, 2, 2)
-  corners = tuple(i[..., None, None, None, None] + offset
-                  for (i, _), offset in zip(located, offsets))
-  block = field.grid[corners].astype(dtype)
-  if dtype == jnp.float64:
-    uv = _scipy_linear(block, [y for _, y in located])
+  return [_locate(axis, p) for axis, p in zip(axes, point)]
+
+
+def _interpolate(block: jnp.ndarray, fractions: Sequence[jnp.ndarray]
+                 ) -> Tuple[jnp.ndarray, jnp.ndarray]:
+  """(u, v) of the corner block [..., 2, 2, 2, 2, 2] at the fractions."""
+  block = block.astype(fractions[0].dtype)
+  if block.dtype == jnp.float64:
+    uv = _scipy_linear(block, fractions)
   else:
-    uv = _nested_linear(block, [y for _, y in located])
+    uv = _nested_linear(block, fractions)
   return uv[..., 0], uv[..., 1]
 
 
@@ -408,4 +426,21 @@ def forecast_column(field: ForecastField, x_m: Any, y_m: Any, pressures: Any,
   Returns:
     (u [L], v [L]) at the pressure levels. # [m/s]
   """
-  return forecast(field, x_m, y_m, jnp.asarray(pressures), t_s)
+  dtype = _float_dtype(x_m, y_m, pressures, t_s)
+  x_m, y_m, pressures, t_s = (jnp.asarray(v, dtype)
+                              for v in (x_m, y_m, pressures, t_s))
+  if x_m.ndim or y_m.ndim or t_s.ndim or pressures.ndim != 1:
+    return forecast(field, x_m, y_m, pressures, t_s)
+  # The column shares its x, y and time corners: one 2 x 2 x P x 2 x 2 slab,
+  # then the two pressure planes of each level (the same corner values and
+  # arithmetic as `forecast` at each level).
+  (ix, fx), (iy, fy), (ip, fp), (it, ft) = _locate_point(
+      field, x_m, y_m, pressures, t_s)
+  num_pressures = field.grid.shape[-3]
+  zero = jnp.zeros_like(ix)
+  slab = jax.lax.dynamic_slice(field.grid, (ix, iy, zero, it, zero),
+                               (2, 2, num_pressures, 2, 2))
+  block = jax.vmap(lambda i: jax.lax.dynamic_slice_in_dim(slab, i, 2,
+                                                          axis=2))(ip)
+  return _interpolate(block, [jnp.broadcast_to(y, fp.shape)
+                              for y in (fx, fy, fp, ft)])
