@@ -254,13 +254,24 @@ def _main(argv: Sequence[str]) -> None:
     print(f'one stride of {args.profile_batch} balloons, parts jitted alone: '
           + ', '.join(f'{k[:-3]} {v:.1f} ms' for k, v in r.items()
                       if k.endswith('_ms')), flush=True)
+  write_results(results, load_before, args.json)
+
+
+def write_results(results: dict, load_before: Sequence[float],
+                  path: Optional[str], note: str = '') -> None:
+  """Adds the machine and its load to `results`, prints it, writes JSON.
+
+  The one ending of the speed benchmarks (batch_speed, noise_speed,
+  core_profile): their numbers are only read with the load they ran under.
+  """
   results['machine'] = {
       'cpus': os.cpu_count(), 'platform': platform.platform(),
-      'loadavg_before': load_before, 'loadavg_after': os.getloadavg(),
+      'loadavg_before': tuple(load_before), 'loadavg_after': os.getloadavg(),
       'command': ' '.join(sys.argv)}
-  print(f'load average before/after: {load_before} / {os.getloadavg()}')
-  if args.json:
-    safe_io.atomic_write(args.json, json.dumps(results, indent=1))
+  print(f'{note}load average before/after: {tuple(load_before)} / '
+        f'{os.getloadavg()}')
+  if path:
+    safe_io.atomic_write(path, json.dumps(results, indent=1))
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -30,14 +30,12 @@ under the same load; the load average is recorded before and after each.
 
 import json
 import os
-import platform
 import subprocess
 import sys
-from typing import Any, Callable, Dict, Optional, Sequence
+from typing import Any, Dict, Optional, Sequence
 
 from absl import flags
 
-from ble_latex import safe_io
 from ble_latex.cli import common as cli
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
@@ -234,13 +232,8 @@ def _main(argv: Sequence[str]) -> None:
     print('compare / this:  ' + ', '.join(
         f'{k}: compile {v["compile"]:.2f}x call {v["call"]:.2f}x'
         for k, v in results['ratio_compare_over_this'].items()))
-  results['machine'] = {
-      'cpus': os.cpu_count(), 'platform': platform.platform(),
-      'loadavg_before': load_before, 'loadavg_after': os.getloadavg(),
-      'command': ' '.join(sys.argv)}
-  print(f'load average before/after: {load_before} / {os.getloadavg()}')
-  if args.json:
-    safe_io.atomic_write(args.json, json.dumps(results, indent=1))
+  import batch_speed  # pylint: disable=g-import-not-at-top
+  batch_speed.write_results(results, load_before, args.json)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

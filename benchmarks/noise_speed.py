@@ -21,16 +21,13 @@ with `PYTHONPATH` pointing at it) to compare kernels; the JSON records which
   python benchmarks/noise_speed.py --json=benchmarks/noise_speed.json
 """
 
-import json
 import os
-import platform
 import sys
 import time
 from typing import Any, Callable, Optional, Sequence
 
 from absl import flags
 
-from ble_latex import safe_io
 from ble_latex.cli import common as cli
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
@@ -137,14 +134,9 @@ def _main(argv: Sequence[str]) -> None:
     print(f'rollout N={args.batch}, {args.rollout_steps} strides: '
           f'{r["balloon_steps_per_s"]:.0f} balloon-steps/s  first call '
           f'{r["first_call_s"]:.1f} s  best {r["wall_s"]:.2f} s', flush=True)
-  results['machine'] = {
-      'cpus': os.cpu_count(), 'platform': platform.platform(),
-      'loadavg_before': load_before, 'loadavg_after': os.getloadavg(),
-      'command': ' '.join(sys.argv)}
-  print(f'ble_latex from {results["ble_latex"]}; load average before/after: '
-        f'{load_before} / {os.getloadavg()}')
-  if args.json:
-    safe_io.atomic_write(args.json, json.dumps(results, indent=1))
+  import batch_speed  # pylint: disable=g-import-not-at-top
+  batch_speed.write_results(results, load_before, args.json,
+                            note=f'ble_latex from {results["ble_latex"]}; ')
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -503,7 +503,7 @@ def check_params(params: EnvParams) -> EnvParams:
   gin_values.require(
       all(gin_values.is_number(h) and 0.0 < float(h) < START_ALTITUDE_MAX_M
           for h in band) and float(band[0]) <= float(band[1]),
-      name('start_altitude_low_m'), f'(low, high) with low <= high, both '
+      name('start_altitude_low_m'), '(low, high) with low <= high, both '
       + within, band)
   gin_values.check_number(name('max_start_distance_km'),
                           p.max_start_distance_km, above=0.0)
