@@ -307,6 +307,22 @@ def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
 # it, and name the file and the entry.
 
 
+@contextlib.contextmanager
+def checking(what: str = '') -> Iterator[None]:
+  """Checks of what a read file holds: their refusals are the file's.
+
+  A ValueError, TypeError or KeyError raised in the block (a missing entry,
+  a wrong shape, a NaN, an out-of-range counter, from whichever check) is
+  re-raised as `errors.BadFileError` with the same message, prefixed by
+  `what` (e.g. 'SAC checkpoint P: '), so commands report it as a bad file
+  (one line, exit 1).
+  """
+  try:
+    yield
+  except (ValueError, TypeError, KeyError) as e:
+    raise errors.BadFileError(f'{what}{e}') from e
+
+
 def leaf_name(path: Sequence[Any]) -> str:
   """'params/actor/Dense_0/kernel' for a `jax.tree_util` key path."""
   parts = []

@@ -71,11 +71,9 @@ def export_policy(checkpoint_file: str, output_file: str, note: str = '',
     errors.BadFileError: The checkpoint is unreadable or refused (named).
   """
   bundle = read_checkpoint(checkpoint_file, trust_legacy_pickle)
-  try:
+  with safe_io.checking():
     policy = policy_from_bundle(bundle, os.path.basename(checkpoint_file),
                                 note, what=checkpoint_file)
-  except (ValueError, TypeError) as e:
-    raise errors.BadFileError(str(e)) from e
   write_policy(policy, output_file)
   return policy
 
@@ -181,10 +179,8 @@ def load_policy(path: str, trust_legacy_pickle: bool = False
   missing = [k for k in (*_KEPT, *_TEXT) if k not in policy]
   if missing:
     raise errors.BadFileError(f'SAC policy {path} misses {missing}')
-  try:
+  with safe_io.checking():
     return check_policy(policy, f'SAC policy {path}')
-  except (ValueError, TypeError) as e:
-    raise errors.BadFileError(str(e)) from e
 
 
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',

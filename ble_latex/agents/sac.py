@@ -67,7 +67,6 @@ import numpy as np
 import optax
 
 from ble_latex.agents import networks
-from ble_latex import errors
 from ble_latex import safe_io
 
 CHECKPOINT_FORMAT = 'ble_latex.sac/2'  # msgpack (`safe_io`).
@@ -1256,10 +1255,8 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     else:
       bundle = safe_io.read_tree(path, file_format=CHECKPOINT_FORMAT,
                                  what='SAC checkpoint')
-    try:
+    with safe_io.checking(f'SAC checkpoint {path}: '):
       self.unbundle(checkpoint_dir, iteration_number, bundle)
-    except (ValueError, TypeError, KeyError) as e:
-      raise errors.BadFileError(f'SAC checkpoint {path}: {e}') from e
     logging.info('Restored SAC checkpoint %s (training step %d, replay %d).',
                  path, self.training_steps, self.replay_size)
 

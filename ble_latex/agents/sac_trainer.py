@@ -560,12 +560,8 @@ def load_checkpoint(path: str, template: TrainState
   """
   tree = safe_io.read_tree(path, file_format=CHECKPOINT_FORMAT,
                            what='SAC trainer checkpoint')
-  try:
+  with safe_io.checking():
     return _restore_checkpoint(tree, path, template)
-  except (ValueError, TypeError, KeyError) as e:
-    if isinstance(e, errors.BadFileError):
-      raise
-    raise errors.BadFileError(str(e)) from e
 
 
 def _restore_checkpoint(tree: Dict[str, Any], path: str, template: TrainState
@@ -912,7 +908,6 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
               iteration == num_iterations - 1)
 
     def record(run, iteration, state, out, wall):
-      check_round(out, iteration, run.base_dir)
       result = run.record(
           iteration=iteration, state=state, out=out, wall=wall, env=env,
           params=params, checkpoint=checkpoint_due(iteration),
@@ -927,6 +922,7 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
         state, out = train_round(learner, env, state, env_seeds(iteration),
                                  window, params)
         jax.block_until_ready(state.key)
+        check_round(out, iteration, run.base_dir)  # Before it is written.
         record(run, iteration, state, out, time.monotonic() - began)
       run.state = state
       return state

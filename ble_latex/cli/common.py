@@ -202,13 +202,11 @@ def check_env_config() -> None:
   Call after binding gin, before the work starts.
 
   Raises:
-    CommandUsageError: a value the env's checks refuse (one line, exit 2).
+    errors.ConfigError: a value the env's checks refuse, naming its gin
+      binding (`run_absl`: one line, exit 2).
   """
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
-  try:
-    jax_env.params_from_gin()
-  except ValueError as e:
-    raise CommandUsageError(one_line(e)) from e
+  jax_env.params_from_gin()
 
 
 # -- Checks shared by train and eval. ----------------------------------------

@@ -393,9 +393,7 @@ def run(f: flags.FlagValues) -> List[str]:
           f'{WIND_FIELD} (give --wind_seed); ignored.', file=sys.stderr)
 
   compared = None
-  if f.wind_stats:
-    if not f.era5_path:
-      raise flags.ValidationError('--wind_stats needs --era5_path')
+  if f.wind_stats:  # With --era5_path (`_main` checks).
     compared = wind_stats(f)
 
   # 4. Draw.

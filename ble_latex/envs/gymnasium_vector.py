@@ -279,10 +279,11 @@ class LatexBalloonVectorEnv(gymnasium.vector.VectorEnv):
       if value is not None:
         gin_values.check_int(name, value, minimum=1)
     self.num_envs = int(num_envs)
-    params = params if params is not None else jax_env.params_from_gin()
-    if episode_steps is not None:
+    params = (jax_env.params_from_gin() if params is None else
+              jax_env.check_params(params))
+    if episode_steps is not None:  # Checked above.
       params = params.replace(episode_steps=int(episode_steps))
-    self.params = jax_env.check_params(params)
+    self.params = params
     self.max_episode_steps = (None if max_episode_steps is None else
                               int(max_episode_steps))
     self.render_mode = None

@@ -577,7 +577,6 @@ def params_from_gin() -> EnvParams:
        'stride': dt.timedelta(seconds=d['stride_s'])})
   env = gin_values.imported_bindings('ble_latex.envs.gym_env', 'LatexBalloonEnv',
                                      {'episode_steps': d['episode_steps']})
-  gin_values.check_reward_values(latex, ble)
   band = start_band(arena['start_altitude_range_m'])
   params = check_params(EnvParams(
       flight=flight_params_lib.flight_params_from_gin(),
