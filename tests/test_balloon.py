@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Tests for ble_latex.envs.balloon (LatexBalloon, its state) and validate."""
+"""Tests for ble_latex.ble.balloon (LatexBalloon, its state) and validate."""
 
 import copy
 import datetime as dt
@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 import pytest
 import s2sphere as s2
 
-from ble_latex.envs import balloon as balloon_lib
+from ble_latex.ble import balloon as balloon_lib
 from ble_latex.envs import controller as controller_lib
 from ble_latex.flight import controller as core_controller
 from ble_latex.flight import physics

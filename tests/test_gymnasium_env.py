@@ -306,7 +306,7 @@ def test_station_radius_must_be_a_positive_number(radius):
 
 def test_gin_bound_station_radius_is_checked():
   import gin  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import gym_env  # pylint: disable=g-import-not-at-top,unused-import
+  from ble_latex.ble import gym_env  # pylint: disable=g-import-not-at-top,unused-import
   gin.clear_config()
   try:
     gin.parse_config('LatexBalloonEnv.station_keeping_radius_km = -5.0')
@@ -417,7 +417,7 @@ def test_make_and_make_vec_import_no_tensorflow():
   code = ('import sys, ble_latex, gymnasium\n'
           f'gymnasium.make({ID!r}, normalize_actions=True)\n'
           f'gymnasium.make_vec({ID!r}, num_envs=2)\n'
-          "heavy = [m for m in ('tensorflow', 'ble_latex.envs.gym_env', 'ble_latex."
+          "heavy = [m for m in ('tensorflow', 'ble_latex.ble.gym_env', 'ble_latex.ble."
           "balloon', 'balloon_learning_environment.env.balloon_env') "
           'if m in sys.modules]\n'
           'assert not heavy, heavy\n')
@@ -505,15 +505,15 @@ def same(a, b):
           all(jax.tree.leaves(leaves)))
 
 light = jax_env.params_from_gin()
-# AltitudeController (light module) can be bound without ble_latex.envs.balloon.
+# AltitudeController (light module) can be bound without ble_latex.ble.balloon.
 import ble_latex.envs.controller
 gin.parse_config('AltitudeController.min_vent_mols = 0.3')
 assert float(jax_env.params_from_gin().flight.min_vent_mols) == np.float32(0.3)
-heavy = [m for m in ('tensorflow', 'ble_latex.envs.gym_env', 'ble_latex.envs.balloon')
+heavy = [m for m in ('tensorflow', 'ble_latex.ble.gym_env', 'ble_latex.ble.balloon')
          if m in sys.modules]
 assert not heavy, heavy
 gin.clear_config()
-import ble_latex.envs.gym_env  # Registers every configurable (and imports BLE, TF).
+import ble_latex.ble.gym_env  # Registers every configurable (and imports BLE, TF).
 assert same(light, jax_env.params_from_gin()), 'defaults differ'
 gin.parse_config([
     'LatexBalloonEnv.episode_steps = 7',

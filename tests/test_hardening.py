@@ -9,7 +9,7 @@ import sys
 import ble_latex  # noqa: F401
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
-from ble_latex.envs import gym_env as env_lib
+from ble_latex.ble import gym_env as env_lib
 from ble_latex.run import episode_log
 from ble_latex.run import train_lib
 from ble_latex import safe_io

@@ -10,7 +10,7 @@ batched `jax_env`. What it adds for BLE's side:
   start distance (Beta(1.2, 2) x 200 km) and angle, station location, the
   latex balloon neutral at an altitude uniform in the start band, and the
   wind (by default BLE's generative field drawn inside the core,
-  `wind.ble_field.CoreGenerativeWindField`; any other BLE `WindField`, e.g.
+  `wind.ble_wind.CoreGenerativeWindField`; any other BLE `WindField`, e.g.
   ERA5, is flown through host callbacks, and one that chooses its own start
   time sets the flight's date);
 - one step is one 20-minute controller action; the core re-queries the
@@ -41,12 +41,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ble_latex.envs import balloon as balloon_lib
+from ble_latex.ble import balloon as balloon_lib
+from ble_latex.ble import features as latex_features
+from ble_latex.ble import wind as ble_wind
 from ble_latex.envs import controller as controller_lib
-from ble_latex.envs import features as latex_features
 from ble_latex.envs import host_env
 from ble_latex.envs import jax_env
-from ble_latex.wind import ble_field
 
 
 @gin.configurable(denylist=['feature_constructor_factory',
@@ -91,9 +91,9 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
         episode_steps=(params.episode_steps if episode_steps is None else
                        episode_steps))
     if wind_field_instance is None:
-      wind_field_instance = ble_field.CoreGenerativeWindField()
+      wind_field_instance = ble_wind.CoreGenerativeWindField()
     core_wind = isinstance(wind_field_instance,
-                           ble_field.CoreGenerativeWindField)
+                           ble_wind.CoreGenerativeWindField)
     self._driver = host_env.FlightDriver(
         params, None if core_wind else wind_field_instance)
     if core_wind:

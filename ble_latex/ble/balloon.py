@@ -14,7 +14,7 @@ once per action, sub-steps of at most 3 simulated minutes re-querying the
 wind, the exact vertical relax of Eq. fullN2L, finite-rate releases, the
 in-stride band guard) and writes the result back. The envs do not use it:
 they fly `ble_latex.envs.host_env.FlightDriver` (the same core) through
-`ble_latex.envs.arena`.
+`ble_latex.ble.arena`.
 
 Terminal statuses (`LatexBalloonStatus` = the core's `FlightStatus`, field
 `latex_status`): out of sand (sand aboard < m_s_min), out of helium
@@ -41,6 +41,7 @@ import jax.numpy as jnp
 import numpy as np
 import s2sphere as s2
 
+from ble_latex.ble import wind as wind_lib
 from ble_latex.envs import controller as controller_lib
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import dynamics
@@ -335,14 +336,10 @@ def _jitted_step(wind: Any) -> Callable[..., Any]:
       del y, p, t
       return jnp.full_like(x, u), jnp.full_like(x, v)
   else:
-    def host(x, y, p, t):
-      w = wind(units.Distance(m=float(x)), units.Distance(m=float(y)),
-               float(p), dt.timedelta(seconds=float(t)))
-      # A non-finite wind makes the step's position non-finite:
-      # simulate_step raises then (an exception here would surface as an
-      # XLA runtime error).
-      return np.array([w.u.meters_per_second, w.v.meters_per_second],
-                      np.asarray(x).dtype)
+    # A non-finite wind makes the step's position non-finite: simulate_step
+    # raises then (an exception in the callback would surface as an XLA
+    # runtime error).
+    host = wind_lib.host_ground_truth(wind)
 
     def wind_fn(x, y, p, t):
       uv = jax.pure_callback(host, jax.ShapeDtypeStruct((2,), x.dtype),

@@ -21,7 +21,7 @@ from balloon_learning_environment.utils import units
 import gin
 import numpy as np
 
-from ble_latex.envs import balloon as balloon_lib
+from ble_latex.ble import balloon as balloon_lib
 from ble_latex.envs import controller as controller_lib
 
 

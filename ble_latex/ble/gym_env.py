@@ -27,16 +27,16 @@ import gym
 import numpy as np
 
 from ble_latex import gin_values
-from ble_latex.envs import arena as arena_lib
-from ble_latex.envs import balloon as balloon_lib
+from ble_latex.ble import arena as arena_lib
+from ble_latex.ble import balloon as balloon_lib
+from ble_latex.ble import discrete_features
+from ble_latex.ble import features as latex_features
+from ble_latex.ble import reward as reward_lib
+from ble_latex.ble import wind as ble_wind
 from ble_latex.envs import controller as controller_lib
-from ble_latex.envs import discrete_features
-from ble_latex.envs import features as latex_features
 from ble_latex.envs import host_env
-from ble_latex.envs import reward as reward_lib
 from ble_latex.envs import seeds
 from ble_latex.envs import task
-from ble_latex.wind import ble_field
 
 # Info keys at every step (see README, "Environment contract").
 INFO_KEYS = host_env.INFO_KEYS
@@ -76,7 +76,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
           features.FeatureConstructor] = (
               latex_features.LatexFeatureConstructor),
       wind_field_factory: Callable[
-          [], wind_field.WindField] = ble_field.CoreGenerativeWindField,
+          [], wind_field.WindField] = ble_wind.CoreGenerativeWindField,
       episode_steps: int = 216,
       seed: Optional[int] = None,
       renderer: Optional[renderer_lib.Renderer] = None):
@@ -91,7 +91,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
       feature_constructor_factory: Builds the observation features.
       wind_field_factory: Builds the wind field: by default BLE's generative
         VAE field with BLE's noise, drawn and flown inside the flight core
-        (`ble_latex.wind.ble_field.CoreGenerativeWindField`);
+        (`ble_latex.wind.ble_wind.CoreGenerativeWindField`);
         `ble_latex.wind.era5.Era5WindField` for ERA5 data (any BLE `WindField`
         is flown through host callbacks).
       episode_steps: Steps per episode; 216 x 20 min = 3 days. The episode is
@@ -260,3 +260,12 @@ class LatexBalloonDiscreteEnv(LatexBalloonEnv):
 
   def __str__(self) -> str:
     return 'LatexBalloonDiscreteEnv'
+
+
+# Bridge until the core owns the gin names: `jax_env.params_from_gin` and the
+# Gymnasium env read `latex_reward.*`, `LatexBalloonArena.*` and
+# `LatexBalloonEnv.*` under their old module names.
+# pylint: disable=g-import-not-at-top,g-bad-import-order,unused-import,wrong-import-position
+from ble_latex.envs import arena as _old_arena
+from ble_latex.envs import gym_env as _old_gym_env
+from ble_latex.envs import reward as _old_reward

@@ -8,29 +8,29 @@ registered by string entry points and only built on `gym.make`.
 
 import contextlib
 
-# env id -> entry point: builds ble_latex.envs.gym_env's LatexBalloonEnv /
+# env id -> entry point: builds ble_latex.ble.gym_env's LatexBalloonEnv /
 # LatexBalloonDiscreteEnv (the env classes are unchanged; the factories only
 # keep the known gym/BLE/TF start-up notices quiet, `ble_latex.quiet`).
 ENV_IDS = {
-    'LatexBalloon-v0': 'ble_latex.envs.gym_registration:make_latex_balloon',
+    'LatexBalloon-v0': 'ble_latex.ble.gym_registration:make_latex_balloon',
     'LatexBalloonDiscrete-v0':
-        'ble_latex.envs.gym_registration:make_latex_balloon_discrete',
+        'ble_latex.ble.gym_registration:make_latex_balloon_discrete',
 }
 
 
 def make_latex_balloon(**kwargs):
-  """`ble_latex.envs.gym_env.LatexBalloonEnv(**kwargs)`, built quietly."""
+  """`ble_latex.ble.gym_env.LatexBalloonEnv(**kwargs)`, built quietly."""
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
-    from ble_latex.envs import gym_env  # pylint: disable=g-import-not-at-top
+    from ble_latex.ble import gym_env  # pylint: disable=g-import-not-at-top
     return gym_env.LatexBalloonEnv(**kwargs)
 
 
 def make_latex_balloon_discrete(**kwargs):
-  """`ble_latex.envs.gym_env.LatexBalloonDiscreteEnv(**kwargs)`, built quietly."""
+  """`ble_latex.ble.gym_env.LatexBalloonDiscreteEnv(**kwargs)`, built quietly."""
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
-    from ble_latex.envs import gym_env  # pylint: disable=g-import-not-at-top
+    from ble_latex.ble import gym_env  # pylint: disable=g-import-not-at-top
     return gym_env.LatexBalloonDiscreteEnv(**kwargs)
 
 

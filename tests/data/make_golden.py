@@ -92,7 +92,7 @@ import gym
 import jax
 import numpy as np
 
-from ble_latex.envs import balloon as balloon_lib
+from ble_latex.ble import balloon as balloon_lib
 from ble_latex.envs import controller as controller_lib
 # pylint: enable=g-import-not-at-top,wrong-import-position
 

@@ -1,0 +1,4 @@
+# coding=utf-8
+"""Old import path, kept for users: `ble_latex.ble.discrete_features`."""
+
+from ble_latex.ble.discrete_features import LatexPerciatelliFeatureConstructor

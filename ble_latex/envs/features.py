@@ -1,0 +1,6 @@
+# coding=utf-8
+"""Old import path of the features, kept: `ble_latex.ble.features` and the decoder."""
+
+from ble_latex.ble.features import LatexFeatureConstructor
+from ble_latex.envs.jax_features import NamedLatexFeatures
+from ble_latex.envs.jax_features import NUM_FEATURES
