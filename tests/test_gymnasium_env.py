@@ -289,10 +289,10 @@ def test_discrete_make_vec_checks_every_action_before_stepping_any():
       with pytest.raises(ValueError, match=r'^actions\[\d\]: action must be 0'):
         envs.step(np.array(bad, dtype=object) if None in bad else
                   np.array(bad))
-      assert [e._steps for e in inner] == [0, 0]  # pylint: disable=protected-access
+      assert [int(e.arena.driver.state.steps) for e in inner] == [0, 0]
       assert all(e.arena.driver.state is s for e, s in zip(inner, states))
     envs.step(np.array([1, 2]))
-    assert [e._steps for e in inner] == [1, 1]  # pylint: disable=protected-access
+    assert [int(e.arena.driver.state.steps) for e in inner] == [1, 1]
   finally:
     envs.close()
 

@@ -293,10 +293,10 @@ def test_bad_seed_is_refused_before_anything_changes(latex_env, seed):
   latex_env.reset(seed=3)
   latex_env.step(action)
   before = repr(latex_env.arena.get_balloon_state())
-  steps = latex_env._steps
+  steps = int(latex_env.arena.driver.state.steps)
   with pytest.raises(ValueError, match='seed'):
     latex_env.reset(seed=seed)
-  assert latex_env._steps == steps
+  assert int(latex_env.arena.driver.state.steps) == steps
   assert repr(latex_env.arena.get_balloon_state()) == before
 
 

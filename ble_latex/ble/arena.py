@@ -15,8 +15,11 @@ batched `jax_env`. What it adds for BLE's side:
   time sets the flight's date);
 - one step is one 20-minute controller action; the core re-queries the
   ground-truth wind at every sub-step of at most 3 simulated minutes;
-- BLE objects on demand: the `LatexBalloonState` view (`balloon.write_flight`),
-  BLE's `Atmosphere` (same key), `SimulatorState` and measurements;
+- BLE objects only when asked (`get_balloon_state`, `get_simulator_state`,
+  `get_measurements`, a BLE feature constructor): the `LatexBalloonState`
+  view is built from the driver's host copy of the flight
+  (`balloon.write_flight`), BLE's `Atmosphere` from the arena key; nothing is
+  mirrored per step;
 - observations: the core's 71 features for `features.LatexFeatureConstructor`
   (the continuous env), or any BLE feature constructor fed with BLE's
   measurements (the discrete env's Perciatelli features).
@@ -40,6 +43,7 @@ import gin
 import jax
 import jax.numpy as jnp
 import numpy as np
+import s2sphere as s2
 
 from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import features as latex_features
@@ -102,10 +106,14 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     self._feature_constructor_factory = feature_constructor_factory
     self._core_features = (
         feature_constructor_factory is latex_features.LatexFeatureConstructor)
-    self._atmosphere = standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
-    self._balloon_state: Optional[balloon_lib.LatexBalloonState] = None
-    self.feature_constructor: features.FeatureConstructor
-    self._observation: Optional[np.ndarray] = None
+    # Built when asked, for the flight of the last reset (the atmosphere)
+    # or the flight state they were built from (the view).
+    self._atmosphere: Optional[standard_atmosphere.Atmosphere] = None
+    self._atmosphere_key: Optional[jax.Array] = None
+    self._center_latlng: Optional[s2.LatLng] = None
+    self._view: Optional[balloon_lib.LatexBalloonState] = None
+    self._view_of = None
+    self._feature_constructor: Optional[features.FeatureConstructor] = None
     self.reset(seed)
 
   @property
@@ -117,6 +125,14 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
   def params(self) -> jax_env.EnvParams:
     return self._driver.params
 
+  @property
+  def feature_constructor(self) -> features.FeatureConstructor:
+    """This episode's BLE feature constructor (built when first asked)."""
+    if self._feature_constructor is None:
+      self._feature_constructor = self._feature_constructor_factory(
+          self._wind_field, self._ble_atmosphere())
+    return self._feature_constructor
+
   def reset(self, seed: Union[int, jnp.ndarray, None] = None) -> np.ndarray:
     """A new flight from BLE's arena key (int seed, key, or None: random)."""
     if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
@@ -126,22 +142,10 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     else:
       key = jax.random.PRNGKey(secrets.randbits(32))
     observation = self._driver.reset(key)
-    self._atmosphere.reset(
-        jax.random.split(key, 3)[1])  # BLE's atmosphere key.
-    flight = self._driver.flight()
-    self._balloon_state = balloon_lib.LatexBalloonState(
-        center_latlng=sampling.sample_location(self._driver.location_key),
-        date_time=self._driver.start_date_time,
-        x=units.Distance(m=0.0), y=units.Distance(m=0.0),
-        altitude_m=float(flight['altitude_m']),
-        payload_kg=self.params.flight.payload_kg,
-        sand_kg=float(flight['sand_kg']),
-        helium_mols=float(flight['helium_mols']),
-        drag_coefficient=self.params.flight.drag_coefficient,
-        burst_volume_m3=self.params.flight.burst_volume_m3)
-    self._write_view()
-    self.feature_constructor = self._feature_constructor_factory(
-        self._wind_field, self._atmosphere)
+    self._atmosphere_key = key  # BLE's atmosphere key is split from it.
+    self._center_latlng = None
+    self._view = None
+    self._feature_constructor = None
     return self._observe(observation)
 
   def step(self, action: np.ndarray) -> np.ndarray:
@@ -150,26 +154,29 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     The action must already be valid (the env validates it once).
     """
     observation, _, _, _ = self._driver.step(action)
-    self._write_view()
     return self._observe(observation)
-
-  def _write_view(self) -> None:
-    balloon_lib.write_flight(
-        self._balloon_state, self._driver.flight(),
-        start_date_time=self._driver.start_date_time,
-        volume_m3=self._driver.volume_m3)
 
   def _observe(self, core_observation: np.ndarray) -> np.ndarray:
     if self._core_features:
-      self._observation = core_observation
       return core_observation
     self.feature_constructor.observe(self.get_measurements())
-    self._observation = self.feature_constructor.get_features()
-    return self._observation
+    return self.feature_constructor.get_features()
+
+  def _ble_atmosphere(self) -> standard_atmosphere.Atmosphere:
+    """BLE's atmosphere of this flight (one object, reset when asked)."""
+    if self._atmosphere_key is not None:
+      key = jax.random.split(self._atmosphere_key, 3)[1]  # BLE's arena.
+      if self._atmosphere is None:
+        self._atmosphere = standard_atmosphere.Atmosphere(key)
+      else:
+        self._atmosphere.reset(key)
+      self._atmosphere_key = None
+    return self._atmosphere
 
   def get_simulator_state(self) -> simulator_data.SimulatorState:
-    return simulator_data.SimulatorState(self._balloon_state,
-                                         self._wind_field, self._atmosphere)
+    return simulator_data.SimulatorState(self.get_balloon_state(),
+                                         self._wind_field,
+                                         self._ble_atmosphere())
 
   def set_simulator_state(self,
                           new_state: simulator_data.SimulatorState) -> None:
@@ -178,7 +185,28 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
         'in the JAX core (ble_latex.envs.host_env.FlightDriver.state).')
 
   def get_balloon_state(self) -> balloon_lib.LatexBalloonState:
-    return self._balloon_state
+    """The BLE view of the flight now (built from the driver's host copy)."""
+    flight_of = self._driver.state.flight
+    if self._view is None or self._view_of is not flight_of:
+      if self._center_latlng is None:
+        self._center_latlng = sampling.sample_location(
+            self._driver.location_key)
+      flight = self._driver.flight()
+      system = self.params.flight
+      view = balloon_lib.LatexBalloonState(
+          center_latlng=self._center_latlng,
+          date_time=self._driver.start_date_time,
+          x=units.Distance(m=0.0), y=units.Distance(m=0.0),
+          altitude_m=float(flight['altitude_m']),
+          payload_kg=system.payload_kg, sand_kg=float(flight['sand_kg']),
+          helium_mols=float(flight['helium_mols']),
+          drag_coefficient=system.drag_coefficient,
+          burst_volume_m3=system.burst_volume_m3)
+      balloon_lib.write_flight(view, flight,
+                               start_date_time=self._driver.start_date_time,
+                               volume_m3=self._driver.volume_m3)
+      self._view, self._view_of = view, flight_of
+    return self._view
 
   def set_balloon_state(self, new_state: balloon_lib.LatexBalloonState
                         ) -> None:
@@ -189,6 +217,6 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
   def get_measurements(self) -> simulator_data.SimulatorObservation:
     u, v = self._driver.measured_wind()
     return simulator_data.SimulatorObservation(
-        balloon_observation=self._balloon_state,
+        balloon_observation=self.get_balloon_state(),
         wind_at_balloon=wind_field.WindVector(units.Velocity(mps=u),
                                               units.Velocity(mps=v)))

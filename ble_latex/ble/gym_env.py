@@ -4,7 +4,7 @@
 `LatexBalloonEnv` is BLE's `BalloonEnv` with the paper's continuous action
 (desired altitude a0 [m], time factor a1, float flag a2) driving the vent/ballast
 altitude controller every 20 simulated minutes, 3-day episodes (216 steps),
-the paper's reward and the paper's observation (`ble_latex.envs.features`).
+the paper's reward and the paper's observation (`ble_latex.envs.jax_features`).
 `LatexBalloonDiscreteEnv` keeps BLE's Discrete(3) `AltitudeControlCommand` and
 Perciatelli features so BLE's own agents fly the latex balloon unchanged.
 
@@ -24,6 +24,7 @@ from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.env.rendering import renderer as renderer_lib
 import gin
 import gym
+import jax
 import numpy as np
 
 from ble_latex import gin_values
@@ -31,7 +32,7 @@ from ble_latex.ble import arena as arena_lib
 from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import discrete_features
 from ble_latex.ble import features as latex_features
-from ble_latex.ble import reward as reward_lib
+from ble_latex.ble import reward  # pylint: disable=unused-import  (latex_reward.* gin names)
 from ble_latex.ble import wind as ble_wind
 from ble_latex.envs import controller as controller_lib
 from ble_latex.envs import host_env
@@ -70,7 +71,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
       *,
       station_keeping_radius_km: float = task.STATION_RADIUS_KM,
       arena: Optional[arena_lib.LatexBalloonArena] = None,
-      reward_function: Callable[..., float] = reward_lib.latex_reward,
+      reward_function: Optional[Callable[..., float]] = None,
       feature_constructor_factory: Callable[
           [wind_field.WindField, standard_atmosphere.Atmosphere],
           features.FeatureConstructor] = (
@@ -87,11 +88,14 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
         metrics (TW50). The reward's radius is BLE's
         `perciatelli_reward_function.station_keeping_radius_km`. # [km]
       arena: A latex balloon arena; built from the factories if None.
-      reward_function: (simulator_state, vented_mols, dropped_kg) -> reward.
+      reward_function: None: the core's reward (Eq. reward_function and
+        the optional resource penalty, `jax_features.reward`); else
+        (simulator_state, vented_mols, dropped_kg) -> reward on BLE objects
+        (e.g. `ble_latex.ble.reward.latex_reward`).
       feature_constructor_factory: Builds the observation features.
       wind_field_factory: Builds the wind field: by default BLE's generative
         VAE field with BLE's noise, drawn and flown inside the flight core
-        (`ble_latex.wind.ble_wind.CoreGenerativeWindField`);
+        (`ble_latex.ble.wind.CoreGenerativeWindField`);
         `ble_latex.wind.era5.Era5WindField` for ERA5 data (any BLE `WindField`
         is flown through host callbacks).
       episode_steps: Steps per episode; 216 x 20 min = 3 days. The episode is
@@ -107,10 +111,6 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
     validate_seed(seed)
     if seed is None:  # BLE would use time in microseconds, beyond 2**32.
       seed = secrets.randbits(32)
-    if reward_function is reward_lib.latex_reward:
-      reward_lib.check_config()
-    self._episode_steps = episode_steps
-    self._steps = 0
     if arena is None:
       arena = arena_lib.LatexBalloonArena(feature_constructor_factory,
                                           wind_field_factory(),
@@ -132,7 +132,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
   @property
   def episode_steps(self) -> int:
     """Steps per episode (the time limit; the window of `tw50_window`)."""
-    return self._episode_steps
+    return int(self.arena.params.episode_steps)
 
   @property
   def reward_range(self) -> Tuple[float, float]:
@@ -157,8 +157,15 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
     validate_seed(seed)  # Before anything changes.
     seed = None if seed is None else int(seed)  # gym refuses NumPy ints.
     gym.Env.reset(self, seed=seed)
-    self._steps = 0
-    return super().reset(seed=seed, return_info=return_info)
+    # BLE's `BalloonEnv.reset`, without BLE objects nobody asked for.
+    if seed is not None:
+      self.seed(seed)
+    self._rng, arena_rng = jax.random.split(self._rng)
+    observation = self.arena.reset(arena_rng)
+    if self._renderer is not None:
+      self._renderer.reset()
+      self._renderer.step(self.arena.get_simulator_state())
+    return (observation, self._get_info()) if return_info else observation
 
   def step(
       self, action: Any) -> Tuple[np.ndarray, float, bool, Dict[str, Any]]:
@@ -173,40 +180,37 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
       (observation, reward, done, info); see README for `info`.
     """
     action = controller_lib.validate_action(action)
-    if self._steps >= self._episode_steps or self._is_terminal(
-        self.arena.get_balloon_state()):
+    driver = self.arena.driver
+    if driver.info['time_limit'] or self._is_terminal():
       raise RuntimeError('step() called on a finished episode; call reset().')
-    before = self.arena.get_balloon_state()
-    vented0, dropped0 = before.helium_vented_mols, before.sand_dropped_kg
+    before = driver.flight() if self._reward_fn is not None else None
     observation = self.arena.step(action)
-    simulator_state = self.arena.get_simulator_state()
-    state = simulator_state.balloon_state
+    if self._renderer is not None or self._reward_fn is not None:
+      simulator_state = self.arena.get_simulator_state()
     if self._renderer is not None:
       self._renderer.step(simulator_state)
-    if self._reward_fn is reward_lib.latex_reward:
-      reward = self.arena.driver.reward  # The core's (same equation).
+    if self._reward_fn is None:
+      reward = driver.reward  # The core's.
     else:
-      reward = self._reward_fn(simulator_state,
-                               state.helium_vented_mols - vented0,
-                               state.sand_dropped_kg - dropped0)
-    self._steps += 1
+      state = simulator_state.balloon_state
+      reward = self._reward_fn(
+          simulator_state,
+          state.helium_vented_mols - float(before['helium_vented_mols']),
+          state.sand_dropped_kg - float(before['sand_dropped_kg']))
     self._global_iteration += 1
-    info = self._get_info(state)
-    done = self._is_terminal(state) or info['time_limit']
+    info = self._get_info()
+    done = self._is_terminal() or info['time_limit']
     return observation, reward, done, info
 
-  @staticmethod
-  def _is_terminal(state: balloon_lib.LatexBalloonState) -> bool:
-    return state.latex_status != balloon_lib.LatexBalloonStatus.OK
+  def _is_terminal(self) -> bool:
+    """Whether the flight has ended (the core's status is not OK)."""
+    status = int(self.arena.driver.flight()['status'])
+    return status != balloon_lib.LatexBalloonStatus.OK
 
-  def _get_info(self, balloon_state: Any) -> Dict[str, Any]:
-    """The core's info of the last step (`host_env.info_dict`)."""
-    info = dict(self.arena.driver.info)
-    info['time_limit'] = self._steps >= self._episode_steps
-    info.pop('TimeLimit.truncated', None)
-    if info['time_limit'] and not self._is_terminal(balloon_state):
-      info['TimeLimit.truncated'] = True
-    return info
+  def _get_info(self, balloon_state: Any = None) -> Dict[str, Any]:
+    """The core's info of the last reset/step (`host_env.info_dict`)."""
+    del balloon_state  # The core's.
+    return dict(self.arena.driver.info)
 
   def __str__(self) -> str:
     return 'LatexBalloonEnv'
@@ -249,7 +253,7 @@ class LatexBalloonDiscreteEnv(LatexBalloonEnv):
   def continuous_action(self, action: int) -> np.ndarray:
     """Maps an AltitudeControlCommand to the controller's (a0, a1, a2)."""
     command = control.AltitudeControlCommand(action)
-    altitude = self.arena.get_balloon_state().altitude_m
+    altitude = float(self.arena.driver.flight()['altitude_m'])
     low, high = controller_lib.ACTION_LOW, controller_lib.ACTION_HIGH
     if command == control.AltitudeControlCommand.STAY:
       return np.array([np.clip(altitude, low[0], high[0]), 1.0, 1.0])

@@ -330,10 +330,10 @@ def seed_record(env: gym.Env, seed: int) -> Dict[str, Any]:
   Returns:
     Per-seed values (numpy arrays / strings).
   """
-  arena = env.unwrapped.arena
-  state = arena.get_balloon_state()
-  atmosphere = arena._atmosphere
-  wind_field = arena._wind_field
+  simulator_state = env.unwrapped.arena.get_simulator_state()
+  state = simulator_state.balloon_state
+  atmosphere = simulator_state.atmosphere
+  wind_field = simulator_state.wind_field
   key_env = jax.random.PRNGKey(seed)
   _, key_arena = jax.random.split(key_env)
   rng, key_atmosphere, key_time = jax.random.split(key_arena, 3)
