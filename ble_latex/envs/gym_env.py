@@ -33,9 +33,9 @@ from ble_latex.envs import controller as controller_lib
 from ble_latex.envs import discrete_features
 from ble_latex.envs import features as latex_features
 from ble_latex.envs import host_env
+from ble_latex.envs import jax_env
 from ble_latex.envs import reward as reward_lib
 from ble_latex.envs import seeds
-from ble_latex.envs import task
 from ble_latex.wind import ble_field
 
 # Info keys at every step (see README, "Environment contract").
@@ -61,30 +61,28 @@ def validate_discrete_action(action: Any) -> int:
   return int(value)
 
 
-@gin.configurable
 class LatexBalloonEnv(balloon_env.BalloonEnv):
   """Station-keeping with a vent/ballast latex balloon, continuous actions."""
 
   def __init__(
       self,
       *,
-      station_keeping_radius_km: float = task.STATION_RADIUS_KM,
+      station_keeping_radius_km: Optional[float] = None,
       arena: Optional[arena_lib.LatexBalloonArena] = None,
       reward_function: Callable[..., float] = reward_lib.latex_reward,
       feature_constructor_factory: Callable[
           [wind_field.WindField, standard_atmosphere.Atmosphere],
           features.FeatureConstructor] = (
               latex_features.LatexFeatureConstructor),
-      wind_field_factory: Callable[
-          [], wind_field.WindField] = ble_field.CoreGenerativeWindField,
-      episode_steps: int = 216,
+      wind_field_factory: Optional[Callable[[], wind_field.WindField]] = None,
+      episode_steps: Optional[int] = None,
       seed: Optional[int] = None,
       renderer: Optional[renderer_lib.Renderer] = None):
     """Constructs the environment.
 
     Args:
       station_keeping_radius_km: Radius used for `info['distance_km']`-based
-        metrics (TW50). The reward's radius is BLE's
+        metrics (TW50); None: gin's. The reward's radius is BLE's
         `perciatelli_reward_function.station_keeping_radius_km`. # [km]
       arena: A latex balloon arena; built from the factories if None.
       reward_function: (simulator_state, vented_mols, dropped_kg) -> reward.
@@ -94,12 +92,21 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
         (`ble_latex.wind.ble_field.CoreGenerativeWindField`);
         `ble_latex.wind.era5.Era5WindField` for ERA5 data (any BLE `WindField`
         is flown through host callbacks).
-      episode_steps: Steps per episode; 216 x 20 min = 3 days. The episode is
+      episode_steps: Steps per episode (None: gin's `LatexBalloonEnv.*`, the
+        core's `jax_env.episode`); 216 x 20 min = 3 days. The episode is
         cut there (`info['time_limit']`, `info['TimeLimit.truncated']`).
       seed: PRNG seed in [0, 2**32); the same seed gives the identical
         trajectory. None: a random one.
       renderer: An optional BLE renderer.
     """
+    bound = jax_env.episode()  # gin's `LatexBalloonEnv.*`.
+    if station_keeping_radius_km is None:
+      station_keeping_radius_km = bound['station_keeping_radius_km']
+    if episode_steps is None:
+      episode_steps = bound['episode_steps']
+    if wind_field_factory is None:
+      wind_field_factory = (bound['wind_field_factory'] or
+                            ble_field.CoreGenerativeWindField)
     gin_values.check_int('LatexBalloonEnv.episode_steps', episode_steps,
                          minimum=1)
     gin_values.check_number('LatexBalloonEnv.station_keeping_radius_km',
