@@ -3,3 +3,5 @@
 
 from ble_latex.ble.gym_env import LatexBalloonDiscreteEnv
 from ble_latex.ble.gym_env import LatexBalloonEnv
+
+__all__ = ['LatexBalloonDiscreteEnv', 'LatexBalloonEnv']

@@ -1,17 +1,16 @@
 # coding=utf-8
-"""Reading gin bindings without importing the modules that declare them.
+"""Checks of configured values, and reading BLE's gin bindings without BLE.
 
 A gin binding can only exist for a configurable that is registered: gin
-refuses to parse `LatexBalloonEnv.episode_steps = 10` unless the module
-declaring `LatexBalloonEnv` was imported (and `skip_unknown=True` drops such
-a binding for good). So a configurable whose module is not in `sys.modules`
-has no bindings, and its keyword defaults are all there is. That lets the
-JAX env (`jax_env.params_from_gin`) read the gym env's gin names
-(`LatexBalloonEnv.*`, `LatexBalloonArena.*`, `latex_reward.*`,
-`balloon_env.perciatelli_reward_function.*`) without importing BLE's
-balloon/env modules and TensorFlow behind them.
+refuses to parse `perciatelli_reward_function.reward_dropoff = 0.5` unless
+the module declaring it (BLE's `balloon_env`) was imported. So a
+configurable whose module is not in `sys.modules` has no bindings, and its
+keyword defaults are all there is (`imported_bindings`). That lets the JAX
+env (`jax_env.params_from_gin`) read BLE's reward bindings without
+importing BLE's balloon/env modules and TensorFlow behind them; every other
+gin name of the env is a configurable of the core itself.
 
-It is also the one home of the checks of configured numbers (`require`,
+This module is also the one home of the checks of configured numbers (`require`,
 `check_number`, `check_int`, `check_bool`): every env, physics and reward
 value is checked with them, naming the gin binding that set it.
 
@@ -59,20 +58,6 @@ def imported_bindings(module: str, name: str,
   if loaded is not None:
     values.update(effective_bindings(getattr(loaded, name)))
   return values
-
-
-def registered_bindings(selector: str) -> Dict[str, Any]:
-  """gin bindings of `selector`, or {} if no such configurable is registered."""
-  try:
-    return gin.get_bindings(selector)
-  except ValueError:  # "Could not find ... in the Gin registry".
-    return {}
-
-
-def bound(module: str, name: str) -> Dict[str, Any]:
-  """Only the gin-bound values of `module.name` ({} if not imported)."""
-  loaded = sys.modules.get(module)
-  return {} if loaded is None else gin.get_bindings(getattr(loaded, name))
 
 
 # -- Checks of configured numbers (one home for every env/physics value). --

@@ -19,6 +19,7 @@ import s2sphere as s2
 from ble_latex.ble import balloon as balloon_lib
 from ble_latex.envs import controller as controller_lib
 from ble_latex.flight import controller as core_controller
+from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
 
@@ -39,7 +40,7 @@ def _state(atmosphere, altitude_m=17_000.0, **kwargs):
 def _steady_state(atmosphere, altitude_m, rate, sand=2.0, **kwargs):
   """A state moving steadily at `rate` (helium set by the vent equation)."""
   a = atmosphere.at_height(units.Distance(m=altitude_m))
-  n = physics.vent_target_mols(balloon_lib.DEFAULT_PAYLOAD_KG, sand, rate,
+  n = physics.vent_target_mols(params_lib.DEFAULTS.payload_kg, sand, rate,
                                0.25, a.temperature, a.pressure)
   return _state(atmosphere, altitude_m, ascent_rate_mps=rate, sand_kg=sand,
                 helium_mols=n, **kwargs)
@@ -210,8 +211,7 @@ def test_guard_at_lower_edge(atmosphere):
   assert abs(s.ascent_rate_mps) < 0.05
   # With smaller thresholds the same command ballasts back up: no guard.
   s = _steady_state(atmosphere, 12_950.0, -0.3)
-  b = balloon_lib.LatexBalloon(
-      s, controller=controller_lib.AltitudeController(min_drop_kg=0.001))
+  b = balloon_lib.LatexBalloon(s, min_drop_kg=0.001)
   b.simulate_step(CALM, atmosphere, [14_000.0, 5.0, -1.0], STRIDE)
   assert s.last_decision == Decision.BALLAST and not s.guard_engaged
   assert s.ascent_rate_mps > 0.0

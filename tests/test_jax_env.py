@@ -68,12 +68,11 @@ def _fly_golden(source):
   obs, state = batch_reset(keys, params)
   states, observations, done = [state.flight], [np.asarray(obs)], []
   for t in range(actions.shape[1]):
-    obs, state, _, d, _ = batch_step(keys, state,
-                                     jnp.asarray(actions[:, t], jnp.float32),
-                                     params)
+    obs, state, _, terminated, info = batch_step(
+        keys, state, jnp.asarray(actions[:, t], jnp.float32), params)
     states.append(state.flight)
     observations.append(np.asarray(obs))
-    done.append(np.asarray(d))
+    done.append(np.asarray(terminated | info['time_limit']))
   return golden, states, np.stack(observations, 1), np.stack(done, 1)
 
 
@@ -195,8 +194,9 @@ def test_single_steps_from_recorded_states(source):
       before = test_golden.state_at(episode, t)
       action = episode['action'][t]
       one = _restored(state, i, before, t)
-      _, after, _, done, _ = step(_KEY, one, jnp.asarray(action, jnp.float32),
-                                  params)
+      _, after, _, terminated, info = step(
+          _KEY, one, jnp.asarray(action, jnp.float32), params)
+      done = terminated | info['time_limit']
       simulated = _flight_dict(jax.tree.map(lambda a: a[None], after.flight),
                                0)
       test_golden.assert_step_matches(
@@ -225,10 +225,14 @@ def test_batched_equals_single_and_auto_reset():
   short = params.replace(episode_steps=1)
   o, s = jax.jit(env.reset)(keys[0], short)
   new_key = jax.random.PRNGKey(99)
-  o2, s2, _, done, info = jax.jit(env.step)(new_key, s, action[0], short)
-  assert bool(done) and bool(info['truncated'])
+  o2, s2, _, terminated, truncated, info = jax.jit(env.step)(
+      new_key, s, action[0], short)
+  assert bool(truncated) and not bool(terminated)
   fresh_obs, fresh = jax.jit(env.reset)(new_key, short)
   np.testing.assert_array_equal(o2, fresh_obs)
+  # gymnax 1.0: the finished step's observation is in the info.
+  last, _, _, _, _ = jax.jit(env.step_env)(new_key, s, action[0], short)
+  np.testing.assert_array_equal(info['final_observation'], last)
   assert int(s2.steps) == 0
   assert float(s2.flight.x_m) == float(fresh.flight.x_m)
 

@@ -346,10 +346,11 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
     action = _act(learner, state, obs, act_key)
     bad_actions = bad_actions + jnp.sum(
         ~jnp.isfinite(action) & active[:, None])
-    next_obs, env_state, reward, done, info = jax.vmap(
+    next_obs, env_state, reward, terminated, info = jax.vmap(
         env.step_env, in_axes=(None, 0, 0, None))(
             act_key, env_state, to_box(action), params)
-    terminal = (done & ~info['truncated']).astype(jnp.float32)
+    done = terminated | info['time_limit']
+    terminal = terminated.astype(jnp.float32)
     state = state.replace(
         replay=_add(state.replay, obs, action, reward, next_obs, terminal,
                     active),
@@ -413,9 +414,10 @@ def validate(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
 
   def one_step(carry, _):
     env_state, obs, active, within, steps = carry
-    obs, env_state, _, done, info = jax.vmap(
+    obs, env_state, _, terminated, info = jax.vmap(
         env.step_env, in_axes=(None, 0, 0, None))(
             None, env_state, to_box(mean_action(obs)), params)
+    done = terminated | info['time_limit']
     within = within + (active & (info['distance_km'] <= params.radius_km))
     steps = steps + active
     return (env_state, obs, active & ~done, within, steps), None

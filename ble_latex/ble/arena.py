@@ -39,7 +39,6 @@ from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import sampling
 from balloon_learning_environment.utils import units
-import gin
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -48,13 +47,10 @@ import s2sphere as s2
 from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import features as latex_features
 from ble_latex.ble import wind as ble_wind
-from ble_latex.envs import controller as controller_lib
 from ble_latex.envs import host_env
 from ble_latex.envs import jax_env
 
 
-@gin.configurable(denylist=['feature_constructor_factory',
-                            'wind_field_instance', 'seed', 'episode_steps'])
 class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
   """BLE's arena interface over one balloon of the flight core."""
 
@@ -65,10 +61,9 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
                wind_field_instance: Optional[wind_field.WindField] = None,
                seed: Optional[int] = None,
                *,
-               start_altitude_range_m: Tuple[float, float] = (15_000.0,
-                                                              20_000.0),
-               max_start_distance_km: float = 200.0,
-               stride: dt.timedelta = controller_lib.STRIDE,
+               start_altitude_range_m: Optional[Tuple[float, float]] = None,
+               max_start_distance_km: Optional[float] = None,
+               stride: Optional[dt.timedelta] = None,
                episode_steps: Optional[int] = None):
     """Constructor.
 
@@ -78,22 +73,22 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
       wind_field_instance: The wind field to fly in; None or a
         `CoreGenerativeWindField`: BLE's generative field inside the core.
       seed: Optional seed (BLE semantics).
-      start_altitude_range_m: Start altitude is uniform in this range. # [m]
-      max_start_distance_km: Start distance is BLE's Beta(1.2, 2) times this.
-        # [km]
-      stride: Simulated time per action (paper: 20 minutes).
+      start_altitude_range_m: Start altitude is uniform in this range;
+        None: gin's `LatexBalloonArena.start_altitude_range_m`. # [m]
+      max_start_distance_km: Start distance is BLE's Beta(1.2, 2) times this;
+        None: gin's. # [km]
+      stride: Simulated time per action (paper: 20 minutes); None: gin's.
       episode_steps: Strides per episode (the env's); None: gin's.
     """
     # Checked with every other value by the driver (`jax_env.check_params`,
     # the one validator of the env's values).
-    low, high = jax_env.start_band(start_altitude_range_m)
-    params = jax_env.params_from_gin()
-    params = params.replace(
-        start_altitude_low_m=low, start_altitude_high_m=high,
-        max_start_distance_km=max_start_distance_km,
-        stride_s=jax_env.stride_seconds(stride),
-        episode_steps=(params.episode_steps if episode_steps is None else
-                       episode_steps))
+    given = {k: v for k, v in (
+        ('start_altitude_range_m', start_altitude_range_m),
+        ('max_start_distance_km', max_start_distance_km),
+        ('stride', stride)) if v is not None}
+    params = jax_env.params_from_gin().replace(**jax_env.start(**given))
+    if episode_steps is not None:
+      params = params.replace(episode_steps=episode_steps)
     if wind_field_instance is None:
       wind_field_instance = ble_wind.CoreGenerativeWindField()
     core_wind = isinstance(wind_field_instance,

@@ -35,7 +35,6 @@ from balloon_learning_environment.env.balloon import balloon
 from balloon_learning_environment.env.balloon import control
 from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
-import gin
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -49,12 +48,9 @@ from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics as core_physics
 from ble_latex.flight import state as state_lib
 
-# Default flight system (README, "Physics and altitude controller").
-DEFAULT_PAYLOAD_KG = 2.2  # [kg] 1.2 kg TA-1200-class envelope + 1.0 kg avionics
-DEFAULT_SAND_KG = 2.0  # [kg]
-DEFAULT_DRAG_COEFFICIENT = 0.25  # [.] BLE / Bellemare et al.
-DEFAULT_BURST_VOLUME_M3 = 336.5  # [m^3] Totex TA-1200, 8.63 m burst diameter
-DEFAULT_ALTITUDE_M = 17_000.0  # [m]
+# The flight system's defaults live in `flight.params.FlightParams`.
+_FLIGHT = params_lib.DEFAULTS
+DEFAULT_ALTITUDE_M = 17_000.0  # [m] The view's altitude if none is given.
 
 # BLE's standard atmosphere is defined on [-610 m, 85 km).
 _ATMOSPHERE_MIN_M = -600.0  # [m]
@@ -103,11 +99,11 @@ class LatexBalloonState(balloon.BalloonState):
   """
   altitude_m: float = DEFAULT_ALTITUDE_M  # [m]
   ascent_rate_mps: float = 0.0  # [m/s]
-  payload_kg: float = DEFAULT_PAYLOAD_KG  # [kg]
-  sand_kg: float = DEFAULT_SAND_KG  # [kg]
+  payload_kg: float = _FLIGHT.payload_kg  # [kg]
+  sand_kg: float = _FLIGHT.initial_sand_kg  # [kg]
   helium_mols: Optional[float] = None  # [mol]
-  drag_coefficient: float = DEFAULT_DRAG_COEFFICIENT  # [.]
-  burst_volume_m3: float = DEFAULT_BURST_VOLUME_M3  # [m^3]
+  drag_coefficient: float = _FLIGHT.drag_coefficient  # [.]
+  burst_volume_m3: float = _FLIGHT.burst_volume_m3  # [m^3]
   helium_vented_mols: float = 0.0  # [mol]
   sand_dropped_kg: float = 0.0  # [kg]
   pending_vent_mols: float = 0.0  # [mol]
@@ -244,7 +240,6 @@ def atmosphere_params(
                                           (high[i] - low[i]))
 
 
-@gin.configurable
 def create_state(
     *,
     center_latlng: s2.LatLng,
@@ -254,11 +249,7 @@ def create_state(
     x: Optional[units.Distance] = None,
     y: Optional[units.Distance] = None,
     ascent_rate_mps: float = 0.0,
-    payload_kg: float = DEFAULT_PAYLOAD_KG,
-    sand_kg: float = DEFAULT_SAND_KG,
-    helium_mols: Optional[float] = None,
-    drag_coefficient: float = DEFAULT_DRAG_COEFFICIENT,
-    burst_volume_m3: float = DEFAULT_BURST_VOLUME_M3) -> LatexBalloonState:
+    **launch: Any) -> LatexBalloonState:
   """Builds a LatexBalloonState with BLE's pressure fields set from altitude.
 
   Args:
@@ -269,15 +260,21 @@ def create_state(
     x: Start offset east of the station (default 0).
     y: Start offset north of the station (default 0).
     ascent_rate_mps: Start ascent rate. # [m/s]
-    payload_kg: m_p including the envelope. # [kg]
-    sand_kg: Initial sand. # [kg]
-    helium_mols: Initial helium; None = neutrally buoyant. # [mol]
-    drag_coefficient: c_d. # [.]
-    burst_volume_m3: Latex burst volume. # [m^3]
+    **launch: The balloon at launch, as the gin configurable
+      `flight.params.launch` (`create_state.*`) names it: `payload_kg`,
+      `sand_kg`, `helium_mols` (None = neutrally buoyant),
+      `drag_coefficient`, `burst_volume_m3`; the gin-bound values where not
+      given.
 
   Returns:
     The new state.
   """
+  bound = params_lib.launch()
+  unknown = sorted(set(launch) - set(bound))
+  if unknown:
+    raise TypeError(f'create_state() got an unexpected keyword argument '
+                    f'{unknown[0]!r}')
+  v = {**bound, **launch}
   state = LatexBalloonState(
       center_latlng=center_latlng,
       date_time=date_time,
@@ -285,11 +282,12 @@ def create_state(
       y=y if y is not None else units.Distance(m=0.0),
       altitude_m=float(altitude_m),
       ascent_rate_mps=float(ascent_rate_mps),
-      payload_kg=float(payload_kg),
-      sand_kg=float(sand_kg),
-      helium_mols=None if helium_mols is None else float(helium_mols),
-      drag_coefficient=float(drag_coefficient),
-      burst_volume_m3=float(burst_volume_m3))
+      payload_kg=float(v['payload_kg']),
+      sand_kg=float(v['sand_kg']),
+      helium_mols=(None if v['helium_mols'] is None else
+                   float(v['helium_mols'])),
+      drag_coefficient=float(v['drag_coefficient']),
+      burst_volume_m3=float(v['burst_volume_m3']))
   state.sync_ambient(atmosphere)
   return state
 
@@ -348,71 +346,41 @@ def _jitted_step(wind: Any) -> Callable[..., Any]:
   return dynamics.make_scheduled_step(wind_fn)
 
 
-@gin.configurable
 class LatexBalloon:
   """One latex balloon object stepped by the flight core (BLE interface)."""
 
-  def __init__(
-      self,
-      balloon_state: LatexBalloonState,
-      *,
-      controller: Optional[controller_lib.AltitudeController] = None,
-      max_substep: dt.timedelta = dt.timedelta(minutes=3),
-      vertical_step: dt.timedelta = dt.timedelta(seconds=60),
-      valve_flow_mols_per_s: Optional[float] = None,
-      ballast_rate_kg_per_s: Optional[float] = None,
-      actuation_chunk: dt.timedelta = dt.timedelta(seconds=10),
-      guard_within_stride: bool = True):
+  def __init__(self, balloon_state: LatexBalloonState, **settings: Any):
     """Constructor.
 
     Args:
       balloon_state: The state to step (updated in place by simulate_step).
-      controller: The controller settings; the gin-configured ones if None.
-      max_substep: Longest physics sub-step; the wind is re-queried at the
-        balloon's position and altitude at every sub-step.
-      vertical_step: Longest step with the drag factor k(h) frozen (evaluated
-        at the step's predicted midpoint altitude).
-      valve_flow_mols_per_s: Finite valve flow; None = instantaneous venting
-        as in the paper. # [mol/s]
-      ballast_rate_kg_per_s: Finite ballast drop rate; None = instantaneous
-        as in the paper. # [kg/s]
-      actuation_chunk: With finite rates, the release is applied in pieces of
-        at most this duration (each at its midpoint).
-      guard_within_stride: Also apply the altitude-band guard between actions:
-        when the balloon leaves the band moving outward it is floated (neutral
-        buoyancy) at once. The paper applies the guard at actions only.
+      **settings: The controller's and actuators' settings, as the gin
+        configurables `flight.params.controller` (`AltitudeController.*`:
+        `stride`, `min_vent_mols`, `min_drop_kg`, `band_low_m`,
+        `band_high_m`) and `flight.params.simulation` (`LatexBalloon.*`:
+        `max_substep`, `vertical_step`, `valve_flow_mols_per_s`,
+        `ballast_rate_kg_per_s`, `actuation_chunk`, `guard_within_stride`)
+        name them; the gin-bound values where not given.
 
     Raises:
-      ValueError: for a non-LatexBalloonState state or bad options.
+      ValueError: for a non-LatexBalloonState state or bad settings.
     """
     if not isinstance(balloon_state, LatexBalloonState):
       raise ValueError('LatexBalloon needs a LatexBalloonState, got '
                        f'{type(balloon_state).__name__}')
     self.state = balloon_state
-    self.controller = (controller if controller is not None else
-                       controller_lib.AltitudeController())
-    # Validates every option (ValueError naming it).
-    self._settings = dict(
-        max_substep=max_substep, vertical_step=vertical_step,
-        valve_flow_mols_per_s=valve_flow_mols_per_s,
-        ballast_rate_kg_per_s=ballast_rate_kg_per_s,
-        actuation_chunk=actuation_chunk,
-        guard_within_stride=guard_within_stride,
-        **self.controller.flight_params_kwargs())
-    for name in ('max_substep', 'vertical_step', 'actuation_chunk'):
-      value = self._settings[name]
-      if not isinstance(value, dt.timedelta) or value.total_seconds() <= 0:
-        raise ValueError(f'{name} must be a positive timedelta, got {value!r}')
-    self.params()
+    gin_settings = {**params_lib.controller(), **params_lib.simulation()}
+    unknown = sorted(set(settings) - set(gin_settings))
+    if unknown:
+      raise ValueError(f'LatexBalloon has no setting {unknown[0]!r}; '
+                       f'settings: {sorted(gin_settings)}')
+    self._settings = {**gin_settings, **settings}
+    self.params()  # Validates every setting (ValueError naming it).
     # The core state of the last step and the view it wrote: reused while
     # the view is unchanged (keeps the core's exact free lift, which the
     # float32 view of n and m_s cannot carry).
     self._flight: Optional[state_lib.FlightState] = None
     self._written: Optional[str] = None
-    self.max_substep = max_substep
-    self.valve_flow_mols_per_s = valve_flow_mols_per_s
-    self.ballast_rate_kg_per_s = ballast_rate_kg_per_s
-    self.guard_within_stride = guard_within_stride
 
   def params(self) -> params_lib.FlightParams:
     """The core's `FlightParams` of this balloon and its settings."""

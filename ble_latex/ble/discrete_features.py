@@ -22,7 +22,7 @@ import gin
 import numpy as np
 
 from ble_latex.ble import balloon as balloon_lib
-from ble_latex.envs import controller as controller_lib
+from ble_latex.flight import params as params_lib
 
 
 def latex_pressure_range(
@@ -31,7 +31,7 @@ def latex_pressure_range(
 ) -> pressure_range_builder.AccessiblePressureRange:
   """Pressures the latex balloon can reach: its controller's band. # [Pa]"""
   del state  # Any level in the band, while resources last.
-  band = controller_lib.AltitudeController()  # The gin-configured band.
+  band = params_lib.flight_params_from_gin()  # The gin-configured band.
   return pressure_range_builder.AccessiblePressureRange(
       min_pressure=atmosphere.at_height(
           units.Distance(m=band.band_high_m)).pressure,

@@ -32,12 +32,11 @@ from ble_latex.ble import arena as arena_lib
 from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import discrete_features
 from ble_latex.ble import features as latex_features
-from ble_latex.ble import reward  # pylint: disable=unused-import  (latex_reward.* gin names)
 from ble_latex.ble import wind as ble_wind
 from ble_latex.envs import controller as controller_lib
 from ble_latex.envs import host_env
+from ble_latex.envs import jax_env
 from ble_latex.envs import seeds
-from ble_latex.envs import task
 
 # Info keys at every step (see README, "Environment contract").
 INFO_KEYS = host_env.INFO_KEYS
@@ -62,30 +61,28 @@ def validate_discrete_action(action: Any) -> int:
   return int(value)
 
 
-@gin.configurable
 class LatexBalloonEnv(balloon_env.BalloonEnv):
   """Station-keeping with a vent/ballast latex balloon, continuous actions."""
 
   def __init__(
       self,
       *,
-      station_keeping_radius_km: float = task.STATION_RADIUS_KM,
+      station_keeping_radius_km: Optional[float] = None,
       arena: Optional[arena_lib.LatexBalloonArena] = None,
       reward_function: Optional[Callable[..., float]] = None,
       feature_constructor_factory: Callable[
           [wind_field.WindField, standard_atmosphere.Atmosphere],
           features.FeatureConstructor] = (
               latex_features.LatexFeatureConstructor),
-      wind_field_factory: Callable[
-          [], wind_field.WindField] = ble_wind.CoreGenerativeWindField,
-      episode_steps: int = 216,
+      wind_field_factory: Optional[Callable[[], wind_field.WindField]] = None,
+      episode_steps: Optional[int] = None,
       seed: Optional[int] = None,
       renderer: Optional[renderer_lib.Renderer] = None):
     """Constructs the environment.
 
     Args:
       station_keeping_radius_km: Radius used for `info['distance_km']`-based
-        metrics (TW50). The reward's radius is BLE's
+        metrics (TW50); None: gin's. The reward's radius is BLE's
         `perciatelli_reward_function.station_keeping_radius_km`. # [km]
       arena: A latex balloon arena; built from the factories if None.
       reward_function: None: the core's reward (Eq. reward_function and
@@ -98,12 +95,21 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
         (`ble_latex.ble.wind.CoreGenerativeWindField`);
         `ble_latex.wind.era5.Era5WindField` for ERA5 data (any BLE `WindField`
         is flown through host callbacks).
-      episode_steps: Steps per episode; 216 x 20 min = 3 days. The episode is
+      episode_steps: Steps per episode (None: gin's `LatexBalloonEnv.*`, the
+        core's `jax_env.episode`); 216 x 20 min = 3 days. The episode is
         cut there (`info['time_limit']`, `info['TimeLimit.truncated']`).
       seed: PRNG seed in [0, 2**32); the same seed gives the identical
         trajectory. None: a random one.
       renderer: An optional BLE renderer.
     """
+    bound = jax_env.episode()  # gin's `LatexBalloonEnv.*`.
+    if station_keeping_radius_km is None:
+      station_keeping_radius_km = bound['station_keeping_radius_km']
+    if episode_steps is None:
+      episode_steps = bound['episode_steps']
+    if wind_field_factory is None:
+      wind_field_factory = (bound['wind_field_factory'] or
+                            ble_wind.CoreGenerativeWindField)
     gin_values.check_int('LatexBalloonEnv.episode_steps', episode_steps,
                          minimum=1)
     gin_values.check_number('LatexBalloonEnv.station_keeping_radius_km',
@@ -265,11 +271,3 @@ class LatexBalloonDiscreteEnv(LatexBalloonEnv):
   def __str__(self) -> str:
     return 'LatexBalloonDiscreteEnv'
 
-
-# Bridge until the core owns the gin names: `jax_env.params_from_gin` and the
-# Gymnasium env read `latex_reward.*`, `LatexBalloonArena.*` and
-# `LatexBalloonEnv.*` under their old module names.
-# pylint: disable=g-import-not-at-top,g-bad-import-order,unused-import,wrong-import-position
-from ble_latex.envs import arena as _old_arena
-from ble_latex.envs import gym_env as _old_gym_env
-from ble_latex.envs import reward as _old_reward

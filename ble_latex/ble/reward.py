@@ -13,32 +13,34 @@ half-life are bound through BLE's own gin names:
   balloon_env.perciatelli_reward_function.reward_halflife = 100.0
 
 This module adds only the optional resource penalty (default off, as in the
-paper).
+paper; gin `latex_reward.*`, the core's `jax_env.resource_penalties`).
 """
+
+from typing import Optional
 
 from balloon_learning_environment.env import balloon_env
 from balloon_learning_environment.env import simulator_data
 from balloon_learning_environment.env.balloon import control
-import gin
 
 from ble_latex import gin_values
+from ble_latex.envs import jax_env
 
 
-@gin.configurable
 def latex_reward(simulator_state: simulator_data.SimulatorState,
                  helium_vented_mols: float = 0.0,
                  sand_dropped_kg: float = 0.0,
                  *,
-                 helium_penalty_per_mol: float = 0.0,
-                 sand_penalty_per_kg: float = 0.0) -> float:
+                 helium_penalty_per_mol: Optional[float] = None,
+                 sand_penalty_per_kg: Optional[float] = None) -> float:
   """Implements Eq. reward_function plus an optional resource penalty.
 
   Args:
     simulator_state: The simulator state after the step.
     helium_vented_mols: Helium vented during this step. # [mol]
     sand_dropped_kg: Sand dropped during this step. # [kg]
-    helium_penalty_per_mol: Penalty per mol of helium vented. # [1/mol]
-    sand_penalty_per_kg: Penalty per kg of sand dropped. # [1/kg]
+    helium_penalty_per_mol: Penalty per mol of helium vented; None: gin's
+      `latex_reward.helium_penalty_per_mol`. # [1/mol]
+    sand_penalty_per_kg: Penalty per kg of sand dropped; None: gin's. # [1/kg]
 
   Returns:
     The step reward.
@@ -47,29 +49,14 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
       control.AltitudeControlCommand.DOWN):
     raise ValueError('A latex balloon state must not record the air-pump DOWN '
                      "command: BLE's reward would apply its power penalty.")
-  _check_penalties(helium_penalty_per_mol=helium_penalty_per_mol,
-                   sand_penalty_per_kg=sand_penalty_per_kg)
+  bound = jax_env.resource_penalties()
+  if helium_penalty_per_mol is None:
+    helium_penalty_per_mol = bound['helium_penalty_per_mol']
+  if sand_penalty_per_kg is None:
+    sand_penalty_per_kg = bound['sand_penalty_per_kg']
+  gin_values.check_penalties(helium_penalty_per_mol=helium_penalty_per_mol,
+                             sand_penalty_per_kg=sand_penalty_per_kg)
   reward = balloon_env.perciatelli_reward_function(simulator_state)
   return (reward - helium_penalty_per_mol * helium_vented_mols -
           sand_penalty_per_kg * sand_dropped_kg)
 
-
-# The gin-reading helpers live in the light `ble_latex.gin_values` (the JAX
-# env reads these bindings without importing this module); kept here by name.
-effective_bindings = gin_values.effective_bindings
-_check_penalties = gin_values.check_penalties
-
-
-def check_config() -> None:
-  """Checks the reward's gin bindings once, when an env is built.
-
-  Resource penalties must be finite and >= 0 (a negative one would pay for
-  venting: rewards above 1), BLE's Perciatelli radius and half-life finite
-  and > 0 (a zero half-life divides by zero), the drop-off in [0, 1].
-
-  Raises:
-    ValueError: Naming the first gin binding that breaks the contract.
-  """
-  gin_values.check_reward_values(
-      effective_bindings(latex_reward),
-      effective_bindings(balloon_env.perciatelli_reward_function))

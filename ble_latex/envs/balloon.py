@@ -5,3 +5,10 @@ from ble_latex.ble.balloon import create_state
 from ble_latex.ble.balloon import LatexBalloon
 from ble_latex.ble.balloon import LatexBalloonState
 from ble_latex.ble.balloon import LatexBalloonStatus
+
+__all__ = [
+    'create_state',
+    'LatexBalloon',
+    'LatexBalloonState',
+    'LatexBalloonStatus',
+]

@@ -10,24 +10,17 @@ files see:
 - `ACTION_LOW` / `ACTION_HIGH`: the Box of (a0 desired altitude [m], a1 time
   factor [.], a2 float flag [.]), and `validate_action`, the one check of an
   action at the env boundary;
-- `AltitudeController`: the gin configurable whose bindings
-  (`AltitudeController.min_vent_mols`, `.min_drop_kg`, `.band_low_m`,
-  `.band_high_m`, `.stride`) set the core's `FlightParams`
-  (`flight.params.flight_params_from_gin`);
 - `Decision`: the controller's decision as the strings of `info`.
 """
 
 import datetime as dt
 import enum
 import math
-from typing import Any, Dict
+from typing import Any
 
-import gin
 import numpy as np
 
-from ble_latex import gin_values
 from ble_latex.flight import controller as core_controller
-from ble_latex.flight import params as params_lib
 from ble_latex.flight import state as state_lib
 
 # Action bounds (a0 [m], a1 [.], a2 [.]), paper "Method"; the core's.
@@ -35,11 +28,6 @@ ACTION_LOW = core_controller.ACTION_LOW
 ACTION_HIGH = core_controller.ACTION_HIGH
 # Controller stride Delta t between actions.
 STRIDE = dt.timedelta(minutes=20)
-
-DEFAULT_MIN_VENT_MOLS = 0.2  # [mol] ~5 g of lift
-DEFAULT_MIN_DROP_KG = 0.005  # [kg]
-DEFAULT_BAND_LOW_M = 13_000.0  # [m]
-DEFAULT_BAND_HIGH_M = 22_000.0  # [m]
 
 
 class Decision(enum.Enum):
@@ -83,51 +71,6 @@ def validate_action(action: Any) -> np.ndarray:
       raise ValueError(f'action {name} must be in [{ACTION_LOW[i]:g}, '
                        f'{ACTION_HIGH[i]:g}], got {a[i]}')
   return a
-
-
-@gin.configurable
-class AltitudeController:
-  """The controller's settings (gin); the controller is the flight core's."""
-
-  def __init__(self,
-               *,
-               stride: dt.timedelta = STRIDE,
-               min_vent_mols: float = DEFAULT_MIN_VENT_MOLS,
-               min_drop_kg: float = DEFAULT_MIN_DROP_KG,
-               band_low_m: float = DEFAULT_BAND_LOW_M,
-               band_high_m: float = DEFAULT_BAND_HIGH_M):
-    """Constructor.
-
-    Args:
-      stride: Delta t in hdot_des = (a0 - h) / (a1 Delta t).
-      min_vent_mols: n_min, smallest ventable helium. # [mol]
-      min_drop_kg: m_s_min, smallest droppable sand; also the out-of-sand
-        threshold. # [kg]
-      band_low_m: Lower edge of the allowed altitude band. # [m]
-      band_high_m: Upper edge of the allowed altitude band. # [m]
-
-    Raises:
-      ValueError: for non-finite, negative or inconsistent values, naming
-        the gin binding (`flight.params.check_flight_params`, the one check
-        of the flight system's values).
-    """
-    gin_values.require(isinstance(stride, dt.timedelta),
-                       'gin binding AltitudeController.stride',
-                       'a datetime.timedelta', stride)
-    params_lib.make_flight_params(
-        stride=stride, min_vent_mols=min_vent_mols, min_drop_kg=min_drop_kg,
-        band_low_m=band_low_m, band_high_m=band_high_m)
-    self.stride = stride
-    self.min_vent_mols = float(min_vent_mols)
-    self.min_drop_kg = float(min_drop_kg)
-    self.band_low_m = float(band_low_m)
-    self.band_high_m = float(band_high_m)
-
-  def flight_params_kwargs(self) -> Dict[str, Any]:
-    """These settings as `flight.params.make_flight_params` arguments."""
-    return {'stride': self.stride, 'min_vent_mols': self.min_vent_mols,
-            'min_drop_kg': self.min_drop_kg, 'band_low_m': self.band_low_m,
-            'band_high_m': self.band_high_m}
 
 
 def decision(code: int) -> Decision:

@@ -232,7 +232,7 @@ class LatexBalloonGymnasiumEnv(_FlightDrawing, gymnasium.Env):
     _check_not_forked_after_jax()
     if episode_steps is not None:
       gin_values.check_int('episode_steps', episode_steps, minimum=1)
-    gym_bound = gin_values.bound('ble_latex.envs.gym_env', 'LatexBalloonEnv')
+    gym_bound = jax_env.episode()
     self._gym_kwargs = {k: v for k, v in (
         ('episode_steps', episode_steps),
         ('station_keeping_radius_km', station_keeping_radius_km),

@@ -89,9 +89,9 @@ class _BatchedCore:
       return _strong(state), obs, jax_env.step_info(state, params)
 
     def step_one(state, action, params):
-      state, reward, done, info = env.advance(state, action, params)
-      return (_strong(state), jax_env.observation(state, params, env.wind),
-              reward, done, info)
+      obs, state, reward, terminated, info = env.step_env(None, state, action,
+                                                          params)
+      return _strong(state), obs, reward, terminated | info['time_limit'], info
 
     def select(mask, new, old):
       def pick(n, o):

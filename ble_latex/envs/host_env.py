@@ -193,10 +193,11 @@ class _Jitted:
                                params).pack(host)
 
   def _step_host(self, state, action, params):
-    state, reward, done, info = self.env.advance(state, action, params)
+    obs, state, reward, terminated, info = self.env.step_env(
+        None, state, action, params)
     parts = _strong({k: getattr(state, k) for k in _STEP_PARTS})
-    return parts, (jax_env.observation(state, params, self.env.wind), reward,
-                   done, info, state.flight)
+    return parts, (obs, reward, terminated | info['time_limit'], info,
+                   state.flight)
 
   def _step(self, state: jax_env.EnvState, action: jax.Array,
             params: jax_env.EnvParams):

@@ -1,5 +1,5 @@
 # coding=utf-8
-"""`LatexBalloon-v0` as a functional, batched JAX environment (gymnax style).
+"""`LatexBalloon-v0` as a functional, batched JAX environment (gymnax 1.0 style).
 
   import jax
   from ble_latex.envs import jax_env
@@ -8,16 +8,26 @@
   params = env.default_params                       # gin-bound constants
   keys = jax.random.split(jax.random.PRNGKey(0), 1024)
   obs, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
-  obs, state, reward, done, info = jax.vmap(
+  obs, state, reward, terminated, truncated, info = jax.vmap(
       env.step, in_axes=(0, 0, 0, None))(keys, state, actions, params)
 
-`reset(key, params) -> (obs, state)` and `step(key, state, action, params) ->
-(obs, state, reward, done, info)` are pure functions: jit them, vmap them over
-balloons, scan them over time (`rollout`). `step` auto-resets a finished
-episode from `key` (gymnax's convention); `step_env` does not.
+gymnax 1.0's contract: `reset(key, params) -> (obs, state)`;
+`step(key, state, action, params) -> (obs, state, reward, terminated,
+truncated, info)` resets a finished episode from `key` (the finished step's
+observation in `info['final_observation']`); `step_env` is the step without
+reset, `(obs, state, reward, terminated, info)`. All are pure: jit them,
+vmap them over balloons, scan them over time (`rollout`). `terminated`: out
+of sand or helium, burst or grounded; `truncated`: the time limit
+(`EnvParams.episode_steps`, gymnax's `max_steps_in_episode`) without a
+terminal status. `observation_space(params)`, `action_space(params)`,
+`num_actions` and `default_params` are gymnax's names.
 
-The world is BLE's, drawn from the key exactly as the gym env draws it from
-`reset(seed=s)` with `key = jax.random.PRNGKey(s)` (BLE's key chain: the
+`EnvParams` is the one home of every default (flight system, controller,
+reward, task, episode); gin configures it through the configurables of this
+module and `flight.params`, under the gin names existing gin files use.
+
+The world is BLE's, drawn from the key exactly as BLE's gym env draws it
+from `reset(seed=s)` with `key = jax.random.PRNGKey(s)` (BLE's key chain: the
 arena key, then atmosphere and start-time keys, then the balloon's start
 distance (Beta(1.2, 2) x 200 km), angle, location and altitude, then the wind
 key split into noise and forecast): BLE's standard atmosphere with its
@@ -29,32 +39,36 @@ ground-truth wind (forecast + noise) re-queried every <= 3 simulated minutes.
 Observations are the 71 features (`jax_features`), the reward BLE's
 Perciatelli reward minus the optional resource penalties.
 
-The gym envs (`ble_latex.envs.gym_env`, through `ble_latex.envs.host_env.FlightDriver`)
-and the Gymnasium envs fly one balloon of these same functions. Differences
-from them: actions are clipped into the Box instead of raising (they
-validate at their boundary; +-inf clip onto the Box's edges), and an action
-with any NaN component, which no clipping can place, is flown as the float
-(hold) action (clip(h), 1, +1) (`flight.controller.float_if_nan`), flagged
-by `info['invalid_action']`, so NaN never reaches the state or the
-features; the winds are `GENERATIVE_WIND` unless a
-`Wind` is given (the gym envs pass host callbacks to other BLE wind fields,
-e.g. ERA5); everything runs in JAX's default float32 (see README).
+Actions are clipped into the Box (the host envs validate at their
+boundary; +-inf clip onto the Box's edges), and an action with any NaN
+component, which no clipping can place, is flown as the float (hold) action
+(clip(h), 1, +1) (`flight.controller.float_if_nan`), flagged by
+`info['invalid_action']`, so NaN never reaches the state or the features.
+The winds are `GENERATIVE_WIND` unless a `Wind` is given (BLE's other wind
+fields fly through host callbacks, `ble_latex.ble.wind`); everything runs
+in JAX's default float32 (see README).
 """
 
+import dataclasses
+import datetime as dt
 import functools
-from typing import Any, Callable, Dict, NamedTuple, Tuple
+from typing import Any, Callable, Dict, Mapping, NamedTuple, Optional, Tuple
 
 import flax
+import gin
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ble_latex import errors
+from ble_latex import gin_values
 from ble_latex.envs import jax_features
 from ble_latex.envs import task
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import dynamics
 from ble_latex.flight import params as flight_params_lib
+from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
 from ble_latex.wind import generative
 from ble_latex.wind import simplex
@@ -66,6 +80,8 @@ ACTION_HIGH = controller_lib.ACTION_HIGH
 _START_BETA = (1.2, 2.0)
 # BLE's sampling.sample_time range: 2011-01-01 .. 2014-12-31, in seconds.
 _START_TIME_RANGE_S = 126_230_400
+# ... from this date (a flight's `start_time_offset_s` counts from it).
+START_EPOCH = dt.datetime(2011, 1, 1, tzinfo=dt.timezone.utc)
 
 
 @flax.struct.dataclass
@@ -75,11 +91,12 @@ class EnvParams:
   Attributes:
     flight: The flight system and controller (`flight.params`).
     decoder: BLE's VAE decoder variables (`generative.decoder_params()`).
-    radius_km: Station-keeping radius of the reward and TW50. # [km]
+    radius_km: Station-keeping radius of the reward. # [km]
     reward_dropoff: Reward just outside the radius. # [.]
     reward_halflife_km: Half-life of the reward outside the radius. # [km]
     helium_penalty_per_mol: Reward penalty per mol vented. # [1/mol]
     sand_penalty_per_kg: Reward penalty per kg dropped. # [1/kg]
+    station_keeping_radius_km: TW50's radius (metrics, figures). # [km]
     start_altitude_low_m: Start altitude band, low edge. # [m]
     start_altitude_high_m: Start altitude band, high edge. # [m]
     max_start_distance_km: Scale of the Beta start distance. # [km]
@@ -94,11 +111,17 @@ class EnvParams:
   reward_halflife_km: float = 100.0
   helium_penalty_per_mol: float = 0.0
   sand_penalty_per_kg: float = 0.0
+  station_keeping_radius_km: float = task.STATION_RADIUS_KM
   start_altitude_low_m: float = 15_000.0
   start_altitude_high_m: float = 20_000.0
   max_start_distance_km: float = 200.0
   episode_steps: int = 216
   stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
+
+  @property
+  def max_steps_in_episode(self) -> int:
+    """gymnax's name of `episode_steps`."""
+    return self.episode_steps
 
 
 @flax.struct.dataclass
@@ -115,8 +138,8 @@ class EnvState:
     history: Feature history (altitude, ascent rate, float action).
     wind_u: Measured (ground-truth) eastward wind at the balloon. # [m/s]
     wind_v: Measured (ground-truth) northward wind at the balloon. # [m/s]
-    start_time_offset_s: Start time after 2011-01-01 (BLE's date). # [s]
-    steps: Strides flown in this episode.
+    start_time_offset_s: Start time after `START_EPOCH` (BLE's date). # [s]
+    steps: Strides flown in this episode (the one step count).
   """
   flight: state_lib.FlightState
   atmosphere: atmosphere_lib.AtmosphereParams
@@ -179,7 +202,7 @@ GENERATIVE_WIND = Wind(ground_truth_wind, forecast_column)
 
 def observation(state: EnvState, params: EnvParams,
                 wind: Wind = GENERATIVE_WIND) -> Array:
-  """The 71 features of `state` (`ble_latex.envs.features` order), float32."""
+  """The 71 features of `state` (`jax_features` order), float32."""
   f = state.flight
   column_u, column_v = wind.forecast_column(
       state, f.x_m, f.y_m,
@@ -200,7 +223,7 @@ def measure(state: EnvState, wind: Wind = GENERATIVE_WIND) -> EnvState:
 
 def step_info(state: EnvState, params: EnvParams,
               invalid_action: Any = False) -> Dict[str, Array]:
-  """The numbers behind the gym env's `info` after a step (arrays).
+  """The numbers behind the envs' `info` after a reset or step (arrays).
 
   Keys: `distance_km` [km], `altitude_m` [m], `ascent_rate_mps` [m/s],
   `helium_mols` [mol], `sand_kg` [kg], `helium_vented_mols` [mol],
@@ -227,38 +250,91 @@ def step_info(state: EnvState, params: EnvParams,
               jnp.asarray(invalid_action, bool), state.steps.shape)}
 
 
+# Info keys of the host envs at every step (README, "Environment contract").
+INFO_KEYS = ('distance_km', 'altitude_m', 'ascent_rate_mps', 'helium_mols',
+             'sand_kg', 'helium_vented_mols', 'sand_dropped_kg',
+             'controller_decision', 'out_of_resources', 'envelope_burst',
+             'time_limit', 'time_elapsed')
+
+
+def info_dict(info: Mapping[str, Any]) -> Dict[str, Any]:
+  """The host envs' `info` of one balloon from `step_info` numbers.
+
+  Args:
+    info: `step_info` of one balloon (arrays or NumPy scalars).
+
+  Returns:
+    Python values: INFO_KEYS plus `terminal_reason` (`FlightStatus` name,
+    lower case), `out_of_power` and `zeropressure` (False; BLE's eval_lib
+    reads them) and `TimeLimit.truncated` where the time limit cut a flight
+    that had not ended.
+  """
+  status = state_lib.FlightStatus(int(info['status']))
+  out = {
+      'distance_km': float(info['distance_km']),
+      'altitude_m': float(info['altitude_m']),
+      'ascent_rate_mps': float(info['ascent_rate_mps']),
+      'helium_mols': float(info['helium_mols']),
+      'sand_kg': float(info['sand_kg']),
+      'helium_vented_mols': float(info['helium_vented_mols']),
+      'sand_dropped_kg': float(info['sand_dropped_kg']),
+      'controller_decision': state_lib.DecisionCode(
+          int(info['decision'])).name.lower(),
+      'out_of_resources': status in state_lib.OUT_OF_RESOURCES,
+      'envelope_burst': status == state_lib.FlightStatus.BURST,
+      'time_limit': bool(info['time_limit']),
+      'time_elapsed': dt.timedelta(seconds=float(info['time_s'])),
+      'terminal_reason': status.name.lower(),
+      'out_of_power': False,
+      'zeropressure': False,
+  }
+  if bool(info['truncated']):
+    out['TimeLimit.truncated'] = True
+  return out
+
+
 def arena_key(key: Array) -> Array:
   """The arena's key of the env key (BLE's `BalloonEnv.reset` split)."""
   return jax.random.split(key)[1]
 
 
 class LatexBalloonJaxEnv:
-  """Functional `LatexBalloon-v0`: `reset`/`step` are pure and vmappable.
+  """Functional `LatexBalloon-v0` (gymnax 1.0's `Environment` contract).
 
   Args:
     wind: Where the winds come from (static). Default: BLE's generative
-      field drawn from the reset key (`GENERATIVE_WIND`). The gym env passes
-      host callbacks to any BLE `WindField` (e.g. ERA5) here.
+      field drawn from the reset key (`GENERATIVE_WIND`).
   """
 
   action_low = ACTION_LOW
   action_high = ACTION_HIGH
   num_features = jax_features.NUM_FEATURES
+  num_actions = len(ACTION_LOW)  # gymnax: the action's size.
 
   def __init__(self, wind: Wind = GENERATIVE_WIND):
     self.wind = wind
 
   @property
   def default_params(self) -> EnvParams:
-    """Parameters from the current gin bindings (defaults where unbound).
-
-    Reads the same bindings as the gym env (`latex_physics.gin`,
-    `latex_env.gin`: flight system, controller, reward, start band).
-    """
+    """Parameters from the current gin bindings (defaults where unbound)."""
     return params_from_gin()
 
+  def observation_space(self, params: EnvParams) -> Any:
+    """The 71 features in [-1, 1] (a `gymnasium.spaces.Box`)."""
+    del params
+    import gymnasium  # pylint: disable=g-import-not-at-top
+    return gymnasium.spaces.Box(-1.0, 1.0, (self.num_features,), np.float32)
+
+  def action_space(self, params: EnvParams) -> Any:
+    """(a0 [m], a1, a2), the controller's Box (a `gymnasium.spaces.Box`)."""
+    del params
+    import gymnasium  # pylint: disable=g-import-not-at-top
+    return gymnasium.spaces.Box(np.asarray(ACTION_LOW, np.float32),
+                                np.asarray(ACTION_HIGH, np.float32),
+                                dtype=np.float32)
+
   def reset(self, key: Array, params: EnvParams) -> Tuple[Array, EnvState]:
-    """A new flight drawn from `key` (the gym env's `reset(seed=s)` world).
+    """A new flight drawn from `key` (BLE's gym env's `reset(seed=s)` world).
 
     Args:
       key: `jax.random.PRNGKey(s)` gives the world of the gym env's seed s.
@@ -318,11 +394,13 @@ class LatexBalloonJaxEnv:
     return state, {'wind': wind_key, 'location': location_key,
                    'atmosphere': atmosphere_key}
 
-  def advance(self, state: EnvState, action: Array, params: EnvParams
-              ) -> Tuple[EnvState, Array, Array, Dict[str, Array]]:
-    """One 20-minute controller action, without the observation.
+  def step_env(self, key: Array, state: EnvState, action: Array,
+               params: EnvParams
+               ) -> Tuple[Array, EnvState, Array, Array, Dict[str, Array]]:
+    """One 20-minute controller action, without auto-reset.
 
     Args:
+      key: Unused (the world is fixed at reset); gymnax's signature.
       state: The env state; a finished flight stays as it is.
       action: (a0 desired altitude [m], a1 time factor, a2 float flag),
         clipped into the Box; an action with a NaN component is flown as
@@ -330,8 +408,11 @@ class LatexBalloonJaxEnv:
       params: The env parameters.
 
     Returns:
-      (state, reward, done, info) with `info = step_info(...)`.
+      (observation, state, reward, terminated, info): `terminated` is a
+      terminal status (out of sand or helium, burst, grounded); `info` is
+      `step_info` (its `truncated` is the time limit without one).
     """
+    del key
     before = state.flight
     action, invalid = controller_lib.float_if_nan(
         jnp.asarray(action, before.altitude_m.dtype), before.altitude_m)
@@ -344,8 +425,7 @@ class LatexBalloonJaxEnv:
                            wind_fn, params.stride_s)
     state = state.replace(
         flight=flight,
-        # As `ble_latex.envs.features` today: the state after the step (BLE's live
-        # state object) becomes history slot t-1 (see jax_features).
+        # The state after the step becomes history slot t-1 (jax_features).
         history=jax_features.push_history(state.history, flight.altitude_m,
                                           flight.ascent_rate_mps, action[2]),
         steps=state.steps + 1)
@@ -357,42 +437,30 @@ class LatexBalloonJaxEnv:
         flight.helium_vented_mols - before.helium_vented_mols,
         flight.sand_dropped_kg - before.sand_dropped_kg,
         params.helium_penalty_per_mol, params.sand_penalty_per_kg)
-    done = (flight.status != state_lib.FlightStatus.OK) | info['time_limit']
-    return state, reward, done, info
-
-  def step_env(self, key: Array, state: EnvState, action: Array,
-               params: EnvParams
-               ) -> Tuple[Array, EnvState, Array, Array, Dict[str, Array]]:
-    """One 20-minute controller action, without auto-reset.
-
-    Args:
-      key: Unused (the world is fixed at reset); kept for gymnax's API.
-      state: The env state; a finished flight stays as it is.
-      action: (a0 desired altitude [m], a1 time factor, a2 float flag),
-        clipped into the Box (NaN: see `advance`).
-      params: The env parameters.
-
-    Returns:
-      (observation, state, reward, done, info); info is `step_info`.
-    """
-    del key
-    state, reward, done, info = self.advance(state, action, params)
-    return observation(state, params, self.wind), state, reward, done, info
+    terminated = flight.status != state_lib.FlightStatus.OK
+    return (observation(state, params, self.wind), state, reward, terminated,
+            info)
 
   def step(self, key: Array, state: EnvState, action: Array,
            params: EnvParams
-           ) -> Tuple[Array, EnvState, Array, Array, Dict[str, Array]]:
+           ) -> Tuple[Array, EnvState, Array, Array, Array, Dict[str, Any]]:
     """`step_env`, then a new flight from `key` where the episode ended.
 
-    The returned observation and state are the new flight's when `done`
-    (gymnax's auto-reset); reward, done and info are the finished step's.
+    gymnax 1.0's auto-reset: the returned observation and state are the new
+    flight's where the episode ended (terminated or truncated); reward,
+    terminated, truncated and info are the finished step's, and
+    `info['final_observation']` is its observation.
     """
-    obs, state, reward, done, info = self.step_env(key, state, action, params)
+    obs, state, reward, terminated, info = self.step_env(key, state, action,
+                                                         params)
+    truncated = info['truncated']
+    done = terminated | truncated
     reset_obs, reset_state = self.reset(key, params)
     state = jax.tree.map(lambda r, s: jnp.where(done, r, s), reset_state,
                          state)
-    obs = jnp.where(done, reset_obs, obs)
-    return obs, state, reward, done, info
+    info = {**info, 'final_observation': obs}
+    return (jnp.where(done, reset_obs, obs), state, reward, terminated,
+            truncated, info)
 
 
 # The gin binding of each `EnvParams` value (the flight system's are in
@@ -429,10 +497,6 @@ def start_volume_m3(flight: flight_params_lib.FlightParams,
   the atmosphere blends `_CHECK_ALPHAS`. Runs eagerly on the host (no
   compilation of the env).
   """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.flight import physics
-  import numpy as np
-  # pylint: enable=g-import-not-at-top
   helium = flight.initial_helium_mols
   if helium is None:
     helium = physics.neutral_helium_mols(flight.payload_kg,
@@ -451,9 +515,6 @@ def start_band(value: Any) -> Tuple[Any, Any]:
   Raises:
     ValueError: Not a pair (its values are checked by `check_params`).
   """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex import gin_values
-  # pylint: enable=g-import-not-at-top
   gin_values.require(
       isinstance(value, (tuple, list)) and len(value) == 2,
       f'gin binding {_BINDINGS["start_altitude_low_m"]}',
@@ -483,9 +544,6 @@ def check_params(params: EnvParams) -> EnvParams:
       start at 329000 m^3 at 20000 m, above create_state.burst_volume_m3 =
       336.5".
   """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex import gin_values
-  # pylint: enable=g-import-not-at-top
   def name(field: str) -> str:
     return f'gin binding {_BINDINGS[field]}'
 
@@ -536,60 +594,106 @@ def check_params(params: EnvParams) -> EnvParams:
                    **{f: float(getattr(p, f)) for f in floats})
 
 
-def params_from_gin() -> EnvParams:
-  """`EnvParams` from the gin bindings the gym env reads (defaults else).
+# The gin names of `EnvParams` (besides the flight system's, `flight.params`,
+# and BLE's own `perciatelli_reward_function.*`, read where BLE registers
+# it): the configurables below take the gin names of the classes that once
+# held them, so existing gin files and commands keep working. Their defaults
+# are `EnvParams`' field defaults, the one home of each.
+_GIN_MODULE = 'ble_latex.envs.jax_env'
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(EnvParams)
+             if f.default is not dataclasses.MISSING}
 
-  The gin names are the gym env's: `LatexBalloonEnv.episode_steps`,
-  `LatexBalloonArena.start_altitude_range_m` / `.max_start_distance_km` /
-  `.stride`, `balloon_env.perciatelli_reward_function.*`, `latex_reward.*`
-  and the flight system's (`flight.params.flight_params_from_gin`). Nothing
-  is imported to read them: gin only holds bindings of configurables whose
-  module is imported, so a configurable whose module is not in `sys.modules`
-  is read as its defaults (`ble_latex.gin_values`). This keeps the JAX env
-  and the Gymnasium envs free of BLE's balloon/env modules and TensorFlow.
+
+@gin.configurable('latex_reward', module=_GIN_MODULE)
+def resource_penalties(
+    *, helium_penalty_per_mol: float = _DEFAULTS['helium_penalty_per_mol'],
+    sand_penalty_per_kg: float = _DEFAULTS['sand_penalty_per_kg']
+) -> Dict[str, Any]:
+  """The reward's resource penalties (gin `latex_reward.*`).
+
+  Args:
+    helium_penalty_per_mol: Reward penalty per mol vented. # [1/mol]
+    sand_penalty_per_kg: Reward penalty per kg dropped. # [1/kg]
+
+  Returns:
+    The values by `EnvParams` field (unchecked).
+  """
+  return dict(helium_penalty_per_mol=helium_penalty_per_mol,
+              sand_penalty_per_kg=sand_penalty_per_kg)
+
+
+@gin.configurable('LatexBalloonArena', module=_GIN_MODULE)
+def start(*, start_altitude_range_m: Tuple[float, float] = (
+    _DEFAULTS['start_altitude_low_m'], _DEFAULTS['start_altitude_high_m']),
+          max_start_distance_km: float = _DEFAULTS['max_start_distance_km'],
+          stride: Any = _DEFAULTS['stride_s']) -> Dict[str, Any]:
+  """Where flights start and the stride (gin `LatexBalloonArena.*`).
+
+  Args:
+    start_altitude_range_m: (low, high) band of the start altitude. # [m]
+    max_start_distance_km: Scale of the Beta start distance. # [km]
+    stride: Simulated time per action (timedelta or seconds). # [s]
+
+  Returns:
+    The values by `EnvParams` field (unchecked but the band's shape).
+  """
+  low, high = start_band(start_altitude_range_m)
+  return dict(start_altitude_low_m=low, start_altitude_high_m=high,
+              max_start_distance_km=max_start_distance_km,
+              stride_s=stride_seconds(stride))
+
+
+@gin.configurable('LatexBalloonEnv', module=_GIN_MODULE)
+def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
+            station_keeping_radius_km: float = _DEFAULTS[
+                'station_keeping_radius_km'],
+            wind_field_factory: Optional[Callable[[], Any]] = None
+            ) -> Dict[str, Any]:
+  """The episode (gin `LatexBalloonEnv.*`).
+
+  Args:
+    episode_steps: Strides per episode (the time limit).
+    station_keeping_radius_km: TW50 radius. # [km]
+    wind_field_factory: None: BLE's generative field inside the core; else
+      a factory of a BLE `WindField` (e.g. ERA5) that the single-balloon
+      envs fly through host callbacks. Not an `EnvParams` value.
+
+  Returns:
+    `episode_steps` and `station_keeping_radius_km` by `EnvParams` field
+    (unchecked) and `wind_field_factory`.
+  """
+  return dict(episode_steps=episode_steps,
+              station_keeping_radius_km=station_keeping_radius_km,
+              wind_field_factory=wind_field_factory)
+
+
+def params_from_gin() -> EnvParams:
+  """`EnvParams` from the gin bindings (the defaults where unbound).
+
+  The configurables above, the flight system's
+  (`flight.params.flight_params_from_gin`) and BLE's
+  `balloon_env.perciatelli_reward_function.*`, read without importing BLE
+  (a configurable whose module is not imported has no bindings,
+  `ble_latex.gin_values`), so the JAX and Gymnasium envs stay free of BLE's
+  balloon/env modules and TensorFlow.
 
   Raises:
     ValueError: A bad bound value, naming its gin binding (`check_params`).
   """
-  # pylint: disable=g-import-not-at-top
-  import dataclasses
-  import datetime as dt
-  from ble_latex import gin_values
-  # pylint: enable=g-import-not-at-top
-
-  d = {f.name: f.default for f in dataclasses.fields(EnvParams)
-       if f.default is not dataclasses.MISSING}
   ble = gin_values.imported_bindings(
       'balloon_learning_environment.env.balloon_env',
       'perciatelli_reward_function',
-      {'station_keeping_radius_km': d['radius_km'],
-       'reward_dropoff': d['reward_dropoff'],
-       'reward_halflife': d['reward_halflife_km']})
-  latex = gin_values.imported_bindings(
-      'ble_latex.envs.reward', 'latex_reward',
-      {'helium_penalty_per_mol': d['helium_penalty_per_mol'],
-       'sand_penalty_per_kg': d['sand_penalty_per_kg']})
-  arena = gin_values.imported_bindings(
-      'ble_latex.envs.arena', 'LatexBalloonArena',
-      {'start_altitude_range_m': (d['start_altitude_low_m'],
-                                  d['start_altitude_high_m']),
-       'max_start_distance_km': d['max_start_distance_km'],
-       'stride': dt.timedelta(seconds=d['stride_s'])})
-  env = gin_values.imported_bindings('ble_latex.envs.gym_env', 'LatexBalloonEnv',
-                                     {'episode_steps': d['episode_steps']})
-  band = start_band(arena['start_altitude_range_m'])
+      {'station_keeping_radius_km': _DEFAULTS['radius_km'],
+       'reward_dropoff': _DEFAULTS['reward_dropoff'],
+       'reward_halflife': _DEFAULTS['reward_halflife_km']})
+  values = episode()
+  del values['wind_field_factory']
   params = check_params(EnvParams(
-      flight=flight_params_lib.flight_params_from_gin(),
-      decoder=None,
+      flight=flight_params_lib.flight_params_from_gin(), decoder=None,
       radius_km=ble['station_keeping_radius_km'],
       reward_dropoff=ble['reward_dropoff'],
       reward_halflife_km=ble['reward_halflife'],
-      helium_penalty_per_mol=latex['helium_penalty_per_mol'],
-      sand_penalty_per_kg=latex['sand_penalty_per_kg'],
-      start_altitude_low_m=band[0], start_altitude_high_m=band[1],
-      max_start_distance_km=arena['max_start_distance_km'],
-      episode_steps=env['episode_steps'],
-      stride_s=stride_seconds(arena['stride'])))
+      **resource_penalties(), **start(), **values))
   return params.replace(decoder=generative.decoder_params())
 
 
@@ -614,16 +718,17 @@ def rollout(env: LatexBalloonJaxEnv, keys: Array, actions: Array,
 
   Returns:
     (observations [num_steps + 1, N, 71], rewards [num_steps, N], done
-    [num_steps, N]); episodes that end are not reset (`step_env`).
+    [num_steps, N]: terminated or time limit); episodes that end are not
+    reset (`step_env`).
   """
   obs0, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
   if actions.ndim == 2:
     actions = jnp.broadcast_to(actions, (num_steps,) + actions.shape)
 
   def one(state, action):
-    obs, state, reward, done, _ = jax.vmap(
+    obs, state, reward, terminated, info = jax.vmap(
         env.step_env, in_axes=(0, 0, 0, None))(keys, state, action, params)
-    return state, (obs, reward, done)
+    return state, (obs, reward, terminated | info['time_limit'])
 
   _, (obs, rewards, done) = jax.lax.scan(one, state, actions)
   return jnp.concatenate([obs0[None], obs]), rewards, done

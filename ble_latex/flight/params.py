@@ -1,12 +1,11 @@
 # coding=utf-8
 """`FlightParams`: every constant of the latex flight system, in one pytree.
 
-The defaults are today's (`gin_configs/latex_physics.gin`, the defaults of
-`ble_latex.envs.balloon.create_state` / `LatexBalloon` and
-`ble_latex.envs.controller.AltitudeController`). `flight_params_from_gin()` builds
-the parameters from the gin bindings of those three configurables, so the
-existing gin files configure the JAX flight core too and no new gin names
-are registered.
+`FlightParams`' field defaults are the one home of the flight system's
+defaults (`gin_configs/latex_physics.gin` spells them out). The gin names of
+existing gin files and commands (`create_state.*`, `AltitudeController.*`,
+`LatexBalloon.*`) are this module's configurables (`launch`, `controller`,
+`simulation`); `flight_params_from_gin()` builds the parameters from them.
 
 Numeric constants are pytree leaves (so a batch of flight systems can be
 vmapped); what decides the structure of the computation (finite-rate
@@ -16,14 +15,11 @@ the jit cache key.
 """
 
 import datetime as dt
+import inspect
 from typing import Any, Dict, Optional
 
 from flax import struct
-
-# Names of the gin configurables read by `flight_params_from_gin`.
-_GIN_CREATE_STATE = 'create_state'
-_GIN_CONTROLLER = 'AltitudeController'
-_GIN_BALLOON = 'LatexBalloon'
+import gin
 
 
 @struct.dataclass
@@ -79,6 +75,9 @@ class FlightParams:
   vertical_step_s: float = struct.field(pytree_node=False,
                                         default=60.0)  # [s]
 
+
+# The defaults (the one home of each: the field defaults above).
+DEFAULTS = FlightParams()
 
 # Shortest duration of a stride, sub-step, vertical step or release chunk:
 # shorter ones only multiply the work (a 20-minute stride in 1 s sub-steps is
@@ -163,22 +162,22 @@ def check_flight_params(params: FlightParams) -> None:
 
 def make_flight_params(
     *,
-    payload_kg: float = 2.2,
-    sand_kg: float = 2.0,
-    helium_mols: Optional[float] = None,
-    drag_coefficient: float = 0.25,
-    burst_volume_m3: float = 336.5,
-    min_vent_mols: float = 0.2,
-    min_drop_kg: float = 0.005,
-    band_low_m: float = 13_000.0,
-    band_high_m: float = 22_000.0,
-    stride: Any = 1200.0,
+    payload_kg: float = DEFAULTS.payload_kg,
+    sand_kg: float = DEFAULTS.initial_sand_kg,
+    helium_mols: Optional[float] = DEFAULTS.initial_helium_mols,
+    drag_coefficient: float = DEFAULTS.drag_coefficient,
+    burst_volume_m3: float = DEFAULTS.burst_volume_m3,
+    min_vent_mols: float = DEFAULTS.min_vent_mols,
+    min_drop_kg: float = DEFAULTS.min_drop_kg,
+    band_low_m: float = DEFAULTS.band_low_m,
+    band_high_m: float = DEFAULTS.band_high_m,
+    stride: Any = DEFAULTS.stride_s,
     valve_flow_mols_per_s: Optional[float] = None,
     ballast_rate_kg_per_s: Optional[float] = None,
-    actuation_chunk: Any = 10.0,
-    guard_within_stride: bool = True,
-    max_substep: Any = 180.0,
-    vertical_step: Any = 60.0) -> FlightParams:
+    actuation_chunk: Any = DEFAULTS.actuation_chunk_s,
+    guard_within_stride: bool = DEFAULTS.guard_within_stride,
+    max_substep: Any = DEFAULTS.max_substep_s,
+    vertical_step: Any = DEFAULTS.vertical_step_s) -> FlightParams:
   """Validated `FlightParams` from the NumPy code's argument names.
 
   Durations may be numbers of seconds or `datetime.timedelta`s (at least
@@ -227,33 +226,88 @@ def make_flight_params(
           'band_high_m', 'valve_flow_mols_per_s', 'ballast_rate_kg_per_s')})
 
 
-# gin parameter -> make_flight_params argument, per configurable. Other
-# bindings of these configurables (start altitude and position, the
-# controller instance, ...) are not flight-system constants.
-_GIN_NAMES = {
-    _GIN_CREATE_STATE: {
-        'payload_kg': 'payload_kg',
-        'sand_kg': 'sand_kg',
-        'helium_mols': 'helium_mols',
-        'drag_coefficient': 'drag_coefficient',
-        'burst_volume_m3': 'burst_volume_m3',
-    },
-    _GIN_CONTROLLER: {
-        'stride': 'stride',
-        'min_vent_mols': 'min_vent_mols',
-        'min_drop_kg': 'min_drop_kg',
-        'band_low_m': 'band_low_m',
-        'band_high_m': 'band_high_m',
-    },
-    _GIN_BALLOON: {
-        'max_substep': 'max_substep',
-        'vertical_step': 'vertical_step',
-        'valve_flow_mols_per_s': 'valve_flow_mols_per_s',
-        'ballast_rate_kg_per_s': 'ballast_rate_kg_per_s',
-        'actuation_chunk': 'actuation_chunk',
-        'guard_within_stride': 'guard_within_stride',
-    },
-}
+# The gin names of the flight system. Each configurable takes the gin names
+# of one part (those of the classes that once held them, so existing gin
+# files and commands keep working) and returns them as `make_flight_params`
+# arguments; its defaults are `FlightParams`'.
+_GIN_MODULE = 'ble_latex.flight.params'
+
+
+@gin.configurable('create_state', module=_GIN_MODULE)
+def launch(*, payload_kg: float = DEFAULTS.payload_kg,
+           sand_kg: float = DEFAULTS.initial_sand_kg,
+           helium_mols: Optional[float] = DEFAULTS.initial_helium_mols,
+           drag_coefficient: float = DEFAULTS.drag_coefficient,
+           burst_volume_m3: float = DEFAULTS.burst_volume_m3
+           ) -> Dict[str, Any]:
+  """The balloon at launch (gin `create_state.*`).
+
+  Args:
+    payload_kg: m_p, including the latex envelope. # [kg]
+    sand_kg: Sand at launch m_s. # [kg]
+    helium_mols: Helium at launch; None = neutrally buoyant. # [mol]
+    drag_coefficient: c_d. # [.]
+    burst_volume_m3: Envelope volume at which the latex bursts. # [m^3]
+
+  Returns:
+    These values as `make_flight_params` arguments (unchecked).
+  """
+  return dict(payload_kg=payload_kg, sand_kg=sand_kg, helium_mols=helium_mols,
+              drag_coefficient=drag_coefficient,
+              burst_volume_m3=burst_volume_m3)
+
+
+@gin.configurable('AltitudeController', module=_GIN_MODULE)
+def controller(*, stride: Any = DEFAULTS.stride_s,
+               min_vent_mols: float = DEFAULTS.min_vent_mols,
+               min_drop_kg: float = DEFAULTS.min_drop_kg,
+               band_low_m: float = DEFAULTS.band_low_m,
+               band_high_m: float = DEFAULTS.band_high_m) -> Dict[str, Any]:
+  """The altitude controller (gin `AltitudeController.*`).
+
+  Args:
+    stride: Delta t of Eq. hdot_des (timedelta or seconds). # [s]
+    min_vent_mols: n_min, smallest ventable helium. # [mol]
+    min_drop_kg: m_s_min, smallest droppable sand (the out-of-sand level).
+      # [kg]
+    band_low_m: Lower edge of the altitude band. # [m]
+    band_high_m: Upper edge of the altitude band. # [m]
+
+  Returns:
+    These values as `make_flight_params` arguments (unchecked).
+  """
+  return dict(stride=stride, min_vent_mols=min_vent_mols,
+              min_drop_kg=min_drop_kg, band_low_m=band_low_m,
+              band_high_m=band_high_m)
+
+
+@gin.configurable('LatexBalloon', module=_GIN_MODULE)
+def simulation(*, max_substep: Any = DEFAULTS.max_substep_s,
+               vertical_step: Any = DEFAULTS.vertical_step_s,
+               valve_flow_mols_per_s: Optional[float] = None,
+               ballast_rate_kg_per_s: Optional[float] = None,
+               actuation_chunk: Any = DEFAULTS.actuation_chunk_s,
+               guard_within_stride: bool = DEFAULTS.guard_within_stride
+               ) -> Dict[str, Any]:
+  """Actuators and the step structure (gin `LatexBalloon.*`).
+
+  Args:
+    max_substep: Longest physics sub-step (timedelta or seconds). # [s]
+    vertical_step: Longest step with the drag factor frozen. # [s]
+    valve_flow_mols_per_s: Finite valve flow; None = instantaneous (the
+      paper). # [mol/s]
+    ballast_rate_kg_per_s: Finite ballast rate; None = instantaneous. # [kg/s]
+    actuation_chunk: Longest piece of a finite-rate release. # [s]
+    guard_within_stride: Apply the altitude-band guard between actions too.
+
+  Returns:
+    These values as `make_flight_params` arguments (unchecked).
+  """
+  return dict(max_substep=max_substep, vertical_step=vertical_step,
+              valve_flow_mols_per_s=valve_flow_mols_per_s,
+              ballast_rate_kg_per_s=ballast_rate_kg_per_s,
+              actuation_chunk=actuation_chunk,
+              guard_within_stride=guard_within_stride)
 
 
 # make_flight_params argument -> FlightParams field (where they differ).
@@ -264,31 +318,12 @@ _ARG_FIELDS = {'sand_kg': 'initial_sand_kg',
                'vertical_step': 'vertical_step_s'}
 # FlightParams field -> the gin binding that sets it, e.g.
 # 'initial_sand_kg' -> 'create_state.sand_kg'.
-_FIELD_BINDINGS = {_ARG_FIELDS.get(arg, arg): f'{configurable}.{gin_name}'
-                   for configurable, names in _GIN_NAMES.items()
-                   for gin_name, arg in names.items()}
-
-
-def gin_overrides() -> Dict[str, Any]:
-  """The flight-system values bound in gin, as `make_flight_params` kwargs.
-
-  Reads the bindings of `create_state`, `AltitudeController` and
-  `LatexBalloon` that are registered (their modules, `ble_latex.envs.balloon` and
-  `ble_latex.envs.controller`, imported): gin refuses to parse a binding of an
-  unregistered name, so an unregistered one has none. Imports nothing.
-  """
-  import gin  # pylint: disable=g-import-not-at-top
-
-  overrides = {}
-  for configurable, names in _GIN_NAMES.items():
-    try:
-      bindings = gin.get_bindings(configurable)
-    except ValueError:  # Not registered: nothing can be bound to it.
-      continue
-    for gin_name, arg in names.items():
-      if gin_name in bindings:
-        overrides[arg] = bindings[gin_name]
-  return overrides
+_FIELD_BINDINGS = {
+    _ARG_FIELDS.get(arg, arg): f'{name}.{arg}'
+    for name, fn in (('create_state', launch),
+                     ('AltitudeController', controller),
+                     ('LatexBalloon', simulation))
+    for arg in inspect.signature(fn).parameters}
 
 
 def flight_params_from_gin(**overrides: Any) -> FlightParams:
@@ -303,7 +338,9 @@ def flight_params_from_gin(**overrides: Any) -> FlightParams:
 
   Returns:
     The validated parameters.
+
+  Raises:
+    ValueError: A bad value, naming its gin binding.
   """
-  values = gin_overrides()
-  values.update(overrides)
-  return make_flight_params(**values)
+  return make_flight_params(**{**launch(), **controller(), **simulation(),
+                               **overrides})
