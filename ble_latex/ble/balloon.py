@@ -292,6 +292,19 @@ def create_state(
   return state
 
 
+# The view's fields `flight_state` reads (with the payload of the params).
+_FLIGHT_INPUTS = ('x', 'y', 'altitude_m', 'ascent_rate_mps', 'sand_kg',
+                  'helium_mols', 'payload_kg', 'time_elapsed',
+                  'pending_vent_mols', 'pending_drop_kg', 'helium_vented_mols',
+                  'sand_dropped_kg', 'latex_status', 'last_action',
+                  'desired_ascent_rate_mps')
+
+
+def flight_inputs(state: LatexBalloonState) -> Tuple[Any, ...]:
+  """What `flight_state` rebuilds the core state from, as one tuple."""
+  return tuple(getattr(state, name) for name in _FLIGHT_INPUTS)
+
+
 def flight_state(state: LatexBalloonState, params: params_lib.FlightParams,
                  atm: atmosphere_lib.AtmosphereParams
                  ) -> state_lib.FlightState:
@@ -376,11 +389,11 @@ class LatexBalloon:
                        f'settings: {sorted(gin_settings)}')
     self._settings = {**gin_settings, **settings}
     self.params()  # Validates every setting (ValueError naming it).
-    # The core state of the last step and the view it wrote: reused while
-    # the view is unchanged (keeps the core's exact free lift, which the
-    # float32 view of n and m_s cannot carry).
+    # The core state of the last step and the view's `flight_inputs` it
+    # wrote: reused while those are unchanged (keeps the core's exact free
+    # lift, which the float32 view of n and m_s cannot carry).
     self._flight: Optional[state_lib.FlightState] = None
-    self._written: Optional[str] = None
+    self._written: Optional[Tuple[Any, ...]] = None
 
   def params(self) -> params_lib.FlightParams:
     """The core's `FlightParams` of this balloon and its settings."""
@@ -439,7 +452,7 @@ class LatexBalloon:
         params.max_substep_s, stride.total_seconds()))
     atm = atmosphere_params(atmosphere)
     start = s.date_time - s.time_elapsed
-    flight = (self._flight if self._written == repr(s) else
+    flight = (self._flight if self._written == flight_inputs(s) else
               flight_state(s, params, atm))
     grid = dynamics.padded_schedule(time_delta.total_seconds(),
                                     params.max_substep_s,
@@ -453,4 +466,4 @@ class LatexBalloon:
                      for host in [jax.device_get(new)]
                      for f in dataclasses.fields(host)},
                  start_date_time=start)
-    self._flight, self._written = new, repr(s)
+    self._flight, self._written = new, flight_inputs(s)
