@@ -2,9 +2,9 @@
 
 `gymnasium.make_vec('ble_latex/LatexBalloon-v0', num_envs=N)` (the default
 vector entry point: all N balloons in one jitted, vmapped core call,
-`gymnasium_vector.LatexBalloonVectorEnv`) against
+`gymnasium_env.LatexBalloonVectorEnv`) against
 `make_vec(..., vectorization_mode='sync')` (a `SyncVectorEnv` of N single
-envs, each stepping its balloon through `host_env.FlightDriver`), side by
+envs, each stepping its balloon through the same compiled step), side by
 side in one run. Each (mode, N) runs in its own fresh subprocess: build,
 `reset(seed=0)`, one warm-up step (compilation, or loading it from the
 persistent cache), then seeded uniform random actions for at least

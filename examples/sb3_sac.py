@@ -33,6 +33,7 @@ with quiet.third_party_noise():
   import numpy as np
   import stable_baselines3
   import torch
+  from ble_latex.ble import gym_env as ble_gym_env
   from ble_latex.run import eval_lib
   from ble_latex.run import metrics
   from ble_latex.run import suites
@@ -44,9 +45,9 @@ ENV_ID = 'ble_latex/LatexBalloon-v0'
 class SB3PolicyAgent(base_agent.Agent):
   """A trained SB3 model behind BLE's Agent interface (for eval_lib).
 
-  It flies the gym env inside the gymnasium env (`env.unwrapped.gym_env`, the
-  same simulation), so `eval_lib.evaluate` builds exactly `ble-latex-eval`'s
-  records; normalized actions are mapped to the Box by the gymnasium env.
+  It flies BLE's gym env `LatexBalloon-v0` (the same core and gin-bound
+  params), so `eval_lib.evaluate` builds exactly `ble-latex-eval`'s records;
+  normalized actions are mapped to the Box by the gymnasium env.
   """
 
   def __init__(self, model: Any, env: gymnasium.Env):
@@ -57,7 +58,7 @@ class SB3PolicyAgent(base_agent.Agent):
 
   def _act(self, observation: np.ndarray) -> np.ndarray:
     action, _ = self._model.predict(observation, deterministic=True)
-    return self._env.box_action(action)
+    return self._env.box_actions(action)
 
   def begin_episode(self, observation: np.ndarray) -> np.ndarray:
     return self._act(observation)
@@ -131,7 +132,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
   seeds = list(suite.seeds)[:args.num_eval_seeds]
   max_steps = min(args.max_episode_length, suite.max_episode_length)
   results = eval_lib.evaluate(
-      SB3PolicyAgent(model, env), env.unwrapped.gym_env, seeds, max_steps,
+      SB3PolicyAgent(model, env), ble_gym_env.LatexBalloonEnv(), seeds,
+      max_steps,
       description=f'eval {args.name} {args.suite}')
   path = eval_lib.output_path(args.output_dir, args.suite, args.name, 1, 0)
   eval_lib.write_results(path, results)

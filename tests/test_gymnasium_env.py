@@ -13,9 +13,10 @@ from gymnasium.utils import env_checker as gymnasium_checker
 import numpy as np
 import pytest
 
+from ble_latex.ble import gymnasium_discrete
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import gymnasium_registration
-from ble_latex.envs import host_env
+from ble_latex.envs import jax_env
 from ble_latex import quiet
 
 ID = 'ble_latex/LatexBalloon-v0'
@@ -70,10 +71,10 @@ def test_import_registers_ids_cheaply(order):
 def test_make_gives_gymnasium_envs(env, discrete_env):
   assert isinstance(env.unwrapped, gymnasium_env.LatexBalloonGymnasiumEnv)
   assert isinstance(discrete_env.unwrapped,
-                    gymnasium_env.LatexBalloonDiscreteGymnasiumEnv)
-  # The continuous env flies the core's driver (as the gym env's arena does);
-  # the discrete one owns BLE's gym env.
-  assert isinstance(env.unwrapped.driver, host_env.FlightDriver)
+                    gymnasium_discrete.LatexBalloonDiscreteGymnasiumEnv)
+  # The continuous env flies the functional env's state; the discrete one
+  # owns BLE's gym env.
+  assert isinstance(env.unwrapped.state, jax_env.EnvState)
   assert isinstance(discrete_env.unwrapped.gym_env, gym.Env)
   assert env.action_space == gymnasium.spaces.Box(
       np.array([14000, 1, -1], np.float32), np.array([21000, 5, 1], np.float32))
@@ -168,7 +169,7 @@ def test_time_limit_is_truncation():
      (True, False)),
 ])
 def test_done_maps_to_terminated_or_truncated(done, info, expected):
-  terminated, truncated, out_info = gymnasium_env._split_done(done, info)  # pylint: disable=protected-access
+  terminated, truncated, out_info = gymnasium_discrete.split_done(done, info)
   assert (terminated, truncated) == expected
   assert 'TimeLimit.truncated' not in out_info
 
@@ -192,15 +193,15 @@ def test_normalize_actions_maps_unit_cube_onto_the_box():
   box = raw.action_space
   assert env.action_space == gymnasium.spaces.Box(-1, 1, (3,), np.float32)
   base = env.unwrapped
-  np.testing.assert_allclose(base.box_action(-np.ones(3)), box.low)
-  np.testing.assert_allclose(base.box_action(np.ones(3)), box.high)
-  np.testing.assert_allclose(base.box_action(np.zeros(3)),
+  np.testing.assert_allclose(base.box_actions(-np.ones(3)), box.low)
+  np.testing.assert_allclose(base.box_actions(np.ones(3)), box.high)
+  np.testing.assert_allclose(base.box_actions(np.zeros(3)),
                              (box.low + box.high) / 2, rtol=1e-6)
   obs, _ = env.reset(seed=2)
   np.testing.assert_array_equal(obs, raw.reset(seed=2)[0])
   for a in (np.array([0.5, -1.0, -0.2]), np.array([1.0, 1.0, 1.0])):
     np.testing.assert_array_equal(env.step(a)[0],
-                                  raw.step(base.box_action(a))[0])
+                                  raw.step(base.box_actions(a))[0])
   for bad in (np.array([1.01, 0.0, 0.0]), np.array([np.nan, 0, 0]),
               np.zeros(2)):
     with pytest.raises(ValueError, match='normalize_actions'):
@@ -220,7 +221,7 @@ def test_render_rgb_array_draws_the_flight():
   later = env.render()
   assert later.shape == first.shape
   assert np.any(later != first)  # The path and altitude curve grew.
-  assert len(env.unwrapped._flight) == 4  # pylint: disable=protected-access
+  assert len(env.unwrapped._path) == 4  # pylint: disable=protected-access
   env.close()
 
 
@@ -259,9 +260,8 @@ def test_gymnasium_and_sb3_env_checkers(env_id, normalize):
 # -- Vector envs. -------------------------------------------------------------
 def test_make_vec_is_the_batched_core_and_discrete_is_sync():
   """make_vec's default: one batched env (ID), SyncVectorEnv (DISCRETE_ID)."""
-  from ble_latex.envs import gymnasium_vector  # pylint: disable=g-import-not-at-top
   envs = gymnasium.make_vec(ID, num_envs=3, normalize_actions=True)
-  assert isinstance(envs, gymnasium_vector.LatexBalloonVectorEnv)
+  assert isinstance(envs, gymnasium_env.LatexBalloonVectorEnv)
   assert envs.num_envs == 3
   assert envs.single_action_space == gymnasium.spaces.Box(-1, 1, (3,),
                                                           np.float32)
@@ -417,9 +417,13 @@ def test_make_and_make_vec_import_no_tensorflow():
   code = ('import sys, ble_latex, gymnasium\n'
           f'gymnasium.make({ID!r}, normalize_actions=True)\n'
           f'gymnasium.make_vec({ID!r}, num_envs=2)\n'
-          "heavy = [m for m in ('tensorflow', 'ble_latex.ble.gym_env', 'ble_latex.ble."
-          "balloon', 'balloon_learning_environment.env.balloon_env') "
+          "heavy = [m for m in ('tensorflow', "
+          "'balloon_learning_environment.env.balloon_env', 'dopamine') "
           'if m in sys.modules]\n'
+          # BLE's package imports gym, whose entry point is the light
+          # ble_latex.ble.gym_registration; nothing else of ble_latex.ble.
+          "heavy += [m for m in sys.modules if m.startswith('ble_latex.ble.') "
+          "and m != 'ble_latex.ble.gym_registration']\n"
           'assert not heavy, heavy\n')
   result = _python(code, timeout=120)
   assert result.returncode == 0, result.stderr[-3000:]
@@ -505,15 +509,23 @@ def same(a, b):
           all(jax.tree.leaves(leaves)))
 
 light = jax_env.params_from_gin()
-# AltitudeController (light module) can be bound without ble_latex.ble.balloon.
-import ble_latex.envs.controller
-gin.parse_config('AltitudeController.min_vent_mols = 0.3')
-assert float(jax_env.params_from_gin().flight.min_vent_mols) == np.float32(0.3)
-heavy = [m for m in ('tensorflow', 'ble_latex.ble.gym_env', 'ble_latex.ble.balloon')
+# Every gin name of the env is the core's own: bound without BLE or gym.
+gin.parse_config(['AltitudeController.min_vent_mols = 0.3',
+                  'create_state.sand_kg = 1.5', 'LatexBalloonEnv.episode_steps = 9',
+                  'LatexBalloonArena.max_start_distance_km = 150.0',
+                  'latex_reward.helium_penalty_per_mol = 0.1',
+                  'LatexBalloon.guard_within_stride = False'])
+p = jax_env.params_from_gin()
+assert float(p.flight.min_vent_mols) == np.float32(0.3)
+assert (p.flight.initial_sand_kg, p.episode_steps, p.max_start_distance_km,
+        p.helium_penalty_per_mol, p.flight.guard_within_stride) == (
+            1.5, 9, 150.0, 0.1, False)
+heavy = [m for m in ('tensorflow', 'ble_latex.ble.gym_env',
+                     'ble_latex.ble.balloon', 'balloon_learning_environment.env.balloon_env')
          if m in sys.modules]
 assert not heavy, heavy
 gin.clear_config()
-import ble_latex.ble.gym_env  # Registers every configurable (and imports BLE, TF).
+import ble_latex.envs.gym_env  # The old gin-file import (BLE, TF) changes nothing.
 assert same(light, jax_env.params_from_gin()), 'defaults differ'
 gin.parse_config([
     'LatexBalloonEnv.episode_steps = 7',

@@ -9,8 +9,8 @@ import jax
 import numpy as np
 import pytest
 
-from ble_latex.envs import gymnasium_vector
-from ble_latex.envs import host_env
+from ble_latex.envs import gymnasium_env
+from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
 
 ID = 'ble_latex/LatexBalloon-v0'
@@ -58,7 +58,7 @@ def _check_info(vector_info, i, info, mask_key=True):
 
 def test_equals_per_balloon_flights_and_autoresets(envs, single):
   """Balloon i flies seed s + i as the single env; time limit -> new flight."""
-  assert isinstance(envs, gymnasium_vector.LatexBalloonVectorEnv)
+  assert isinstance(envs, gymnasium_env.LatexBalloonVectorEnv)
   assert envs.metadata['autoreset_mode'] == AutoresetMode.SAME_STEP
   obs0, info0 = envs.reset(seed=7)
   assert obs0.shape == (N, 71) and obs0.dtype == np.float32
@@ -96,7 +96,7 @@ def test_equals_per_balloon_flights_and_autoresets(envs, single):
     np.testing.assert_allclose(obs[i], ref_obs, **TOL)
     _check_info(info, i, ref_info)
   # One compilation of the batched step (no retrace on the new state).
-  assert envs.unwrapped._core.step._cache_size() == 1  # pylint: disable=protected-access
+  assert envs.unwrapped._fns.step._cache_size() == 1  # pylint: disable=protected-access
 
 
 def test_unseeded_resets_are_reproducible_training_seeds(envs):
@@ -126,19 +126,17 @@ def test_unseeded_resets_are_reproducible_training_seeds(envs):
 def test_bad_actions_raise_and_change_nothing(envs, bad, match):
   envs.reset(seed=0)
   state = envs.unwrapped.state
-  elapsed = envs.unwrapped._elapsed.copy()  # pylint: disable=protected-access
   with pytest.raises(ValueError, match=match):
     envs.step(bad)
-  assert envs.unwrapped.state is state
-  np.testing.assert_array_equal(envs.unwrapped._elapsed, elapsed)  # pylint: disable=protected-access
+  assert envs.unwrapped.state is state  # The step count is the core's.
 
 
 def test_normalize_actions_maps_like_the_single_env(single):
-  norm = gymnasium_vector.LatexBalloonVectorEnv(N, normalize_actions=True)
+  norm = gymnasium_env.LatexBalloonVectorEnv(N, normalize_actions=True)
   one = gymnasium.make(ID, normalize_actions=True).unwrapped
   a = np.array([[0.5, -1.0, -0.2], [1.0, 1.0, 1.0], [-1.0, 0.0, 0.0]])
   np.testing.assert_allclose(norm.box_actions(a),
-                             np.stack([one.box_action(x) for x in a]))
+                             np.stack([one.box_actions(x) for x in a]))
   with pytest.raises(ValueError, match=r'normalize_actions=True.*1\.5'):
     norm.box_actions(a * 1.5)
   del single
@@ -151,7 +149,7 @@ def test_reset_refuses_bad_seeds_and_options(envs):
   with pytest.raises(ValueError, match='options'):
     envs.reset(seed=0, options={'x': 1})
   with pytest.raises(ValueError, match='render'):
-    gymnasium_vector.LatexBalloonVectorEnv(2, render_mode='rgb_array')
+    gymnasium_env.LatexBalloonVectorEnv(2, render_mode='rgb_array')
 
 
 def test_keys_of_large_seeds_match_the_host_keys():
@@ -179,13 +177,13 @@ def _random_raw(rng, n):
 
 
 def test_info_arrays_are_info_dict_per_balloon():
-  """The batched info is host_env.info_dict of every balloon (one source)."""
+  """The batched info is jax_env.info_dict of every balloon (one source)."""
   rng = np.random.default_rng(0)
   raw = _random_raw(rng, 64)
   mask = rng.random(64) < 0.5
-  out = gymnasium_vector.info_arrays(raw, mask)
+  out = gymnasium_env.info_arrays(raw, mask)
   for i in range(64):
-    expected = host_env.info_dict({k: v[i] for k, v in raw.items()})
+    expected = jax_env.info_dict({k: v[i] for k, v in raw.items()})
     expected.pop('TimeLimit.truncated', None)
     assert {k for k in out if not k.startswith('_')} == set(expected)
     for key, value in expected.items():
@@ -200,7 +198,7 @@ def test_info_arrays_are_info_dict_per_balloon():
 @pytest.mark.slow
 def test_partial_resets_chunked_and_selected(monkeypatch, single):
   """Only the ended balloons get new flights (both reset paths)."""
-  envs = gymnasium_vector.LatexBalloonVectorEnv(N, episode_steps=STEPS)
+  envs = gymnasium_env.LatexBalloonVectorEnv(N, episode_steps=STEPS)
   for chunk in (N, 2):  # N: whole batch + select; 2: padded chunk + scatter.
     monkeypatch.setattr(gymnasium_vector, 'RESET_CHUNK', chunk)
     before, _ = envs.reset(seed=20)
@@ -213,7 +211,7 @@ def test_partial_resets_chunked_and_selected(monkeypatch, single):
     for i, seed in ((0, 20), (1, 42), (2, 22)):
       single.reset(seed=seed)
       np.testing.assert_allclose(
-          start_x[i], float(single.unwrapped.driver.state.flight.x_m),
+          start_x[i], float(single.unwrapped.state.flight.x_m),
           rtol=1e-6)
     del before
 
@@ -249,7 +247,7 @@ class _CountingEnv(gymnasium.Env):
 ])
 def test_checked_sync_vector_env_steps_no_balloon_on_a_bad_action(bad, match):
   """gymnasium's SyncVectorEnv would have stepped balloon 0 already."""
-  envs = gymnasium_vector.CheckedSyncVectorEnv([_CountingEnv] * 3)
+  envs = gymnasium_env.CheckedSyncVectorEnv([_CountingEnv] * 3)
   envs.reset(seed=0)
   with pytest.raises(ValueError, match=match):
     envs.step(np.asarray(bad))
@@ -273,4 +271,4 @@ def test_given_params_are_checked(change, binding):
   params = jax_env.EnvParams(
       flight=jax_env.flight_params_lib.FlightParams(), decoder=None)
   with pytest.raises(ValueError, match=f'^gin binding {binding} must be'):
-    gymnasium_vector.LatexBalloonVectorEnv(2, params=params.replace(**change))
+    gymnasium_env.LatexBalloonVectorEnv(2, params=params.replace(**change))

@@ -373,3 +373,35 @@ def test_valid_gin_config_unchanged():
   default = jax_env.EnvParams(flight=params.flight, decoder=params.decoder)
   assert params == default
   assert params.flight == jax_env.flight_params_lib.FlightParams()
+
+
+def test_gymnax_client_loop_without_a_wrapper():
+  """A purejaxrl-style loop: spaces, default params, scan of vmapped step."""
+  env = jax_env.LatexBalloonJaxEnv()
+  params = env.default_params.replace(episode_steps=2)
+  assert params.max_steps_in_episode == 2
+  assert env.num_actions == env.action_space(params).shape[0] == 3
+  assert env.observation_space(params).shape == (env.num_features,)
+  low = jnp.asarray(env.action_space(params).low)
+  high = jnp.asarray(env.action_space(params).high)
+  n = 2
+
+  def one(carry, key):
+    obs, state = carry
+    act_key, step_key = jax.random.split(key)
+    action = jax.random.uniform(act_key, (n, 3), minval=low, maxval=high)
+    obs, state, reward, terminated, truncated, info = jax.vmap(
+        env.step, in_axes=(0, 0, 0, None))(
+            jax.random.split(step_key, n), state, action, params)
+    return (obs, state), (reward, terminated, truncated, info['steps'])
+
+  obs, state = jax.vmap(env.reset, in_axes=(0, None))(
+      jax.random.split(jax.random.PRNGKey(0), n), params)
+  (obs, state), (reward, terminated, truncated, steps) = jax.jit(
+      lambda c, k: jax.lax.scan(one, c, k))(
+          (obs, state), jax.random.split(jax.random.PRNGKey(1), 4))
+  assert obs.shape == (n, 71) and reward.shape == (4, n)
+  # Truncated at the limit, auto-reset (the step count restarts).
+  np.testing.assert_array_equal(np.asarray(truncated | terminated),
+                                np.asarray(steps) == 2)
+  np.testing.assert_array_equal(np.asarray(state.steps), [0, 0])

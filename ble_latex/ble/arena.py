@@ -2,24 +2,25 @@
 """The latex balloon arena: BLE's arena interface over the flight core.
 
 `LatexBalloonArena` implements BLE's `BalloonArenaInterface` (what
-`BalloonEnv`, BLE's `eval_lib` and renderers use) on
-`ble_latex.envs.host_env.FlightDriver`, i.e. on the same jitted core as the
-batched `jax_env`. What it adds for BLE's side:
+`BalloonEnv`, BLE's `eval_lib` and renderers use) on one
+`ble_latex.envs.gymnasium_env.LatexBalloonGymnasiumEnv` (`driver`), i.e. on
+the same jitted core as `ble_latex/LatexBalloon-v0` and the batched env.
+What it adds for BLE's side:
 
 - the world of BLE's `BalloonArena.reset(key)`: atmosphere, start time,
   start distance (Beta(1.2, 2) x 200 km) and angle, station location, the
   latex balloon neutral at an altitude uniform in the start band, and the
   wind (by default BLE's generative field drawn inside the core,
-  `wind.ble_wind.CoreGenerativeWindField`; any other BLE `WindField`, e.g.
+  `ble.wind.CoreGenerativeWindField`; any other BLE `WindField`, e.g.
   ERA5, is flown through host callbacks, and one that chooses its own start
   time sets the flight's date);
 - one step is one 20-minute controller action; the core re-queries the
   ground-truth wind at every sub-step of at most 3 simulated minutes;
 - BLE objects only when asked (`get_balloon_state`, `get_simulator_state`,
   `get_measurements`, a BLE feature constructor): the `LatexBalloonState`
-  view is built from the driver's host copy of the flight
-  (`balloon.write_flight`), BLE's `Atmosphere` from the arena key; nothing is
-  mirrored per step;
+  view is built from the host copy of the flight the last reset/step
+  brought back (`flight`, `balloon.write_flight`), BLE's `Atmosphere` from
+  the arena key; nothing is mirrored per step;
 - observations: the core's 71 features for `features.LatexFeatureConstructor`
   (the continuous env), or any BLE feature constructor fed with BLE's
   measurements (the discrete env's Perciatelli features).
@@ -30,7 +31,7 @@ state is not rebuilt from BLE objects); they raise NotImplementedError.
 
 import datetime as dt
 import secrets
-from typing import Callable, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Optional, Tuple, Union
 
 from balloon_learning_environment.env import balloon_arena
 from balloon_learning_environment.env import features
@@ -47,8 +48,9 @@ import s2sphere as s2
 from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import features as latex_features
 from ble_latex.ble import wind as ble_wind
-from ble_latex.envs import host_env
+from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
+from ble_latex.flight import physics as core_physics
 
 
 class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
@@ -93,14 +95,20 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
       wind_field_instance = ble_wind.CoreGenerativeWindField()
     core_wind = isinstance(wind_field_instance,
                            ble_wind.CoreGenerativeWindField)
-    self._driver = host_env.FlightDriver(
-        params, None if core_wind else wind_field_instance)
+    self._env = gymnasium_env.LatexBalloonGymnasiumEnv(
+        params=params, wind_field_factory=(
+            ble_wind.CoreGenerativeWindField if core_wind else
+            lambda: wind_field_instance))
     if core_wind:
-      wind_field_instance.attach(lambda: self._driver.state)
+      wind_field_instance.attach(lambda: self._env.state)
     self._wind_field = wind_field_instance
     self._feature_constructor_factory = feature_constructor_factory
     self._core_features = (
         feature_constructor_factory is latex_features.LatexFeatureConstructor)
+    self.info: Dict[str, Any] = {}  # The gym env's info of the last step.
+    self.reward = float('nan')  # The core's reward of the last step.
+    # The core's flight that `driver.flight` (its host copy) was copied from.
+    self._flight_of = None
     # Built when asked, for the flight of the last reset (the atmosphere)
     # or the flight state they were built from (the view).
     self._atmosphere: Optional[standard_atmosphere.Atmosphere] = None
@@ -112,13 +120,13 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     self.reset(seed)
 
   @property
-  def driver(self) -> host_env.FlightDriver:
-    """The core balloon this arena flies."""
-    return self._driver
+  def driver(self) -> gymnasium_env.LatexBalloonGymnasiumEnv:
+    """The core balloon this arena flies (`state`, `params`, `flight`)."""
+    return self._env
 
   @property
   def params(self) -> jax_env.EnvParams:
-    return self._driver.params
+    return self._env.params
 
   @property
   def feature_constructor(self) -> features.FeatureConstructor:
@@ -136,7 +144,9 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
       key = jnp.asarray(seed)
     else:
       key = jax.random.PRNGKey(secrets.randbits(32))
-    observation = self._driver.reset(key)
+    observation, self.info = self._env.start(key)
+    self.reward = float('nan')
+    self._flight_of = self._env.state.flight
     self._atmosphere_key = key  # BLE's atmosphere key is split from it.
     self._center_latlng = None
     self._view = None
@@ -148,8 +158,24 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
 
     The action must already be valid (the env validates it once).
     """
-    observation, _, _, _ = self._driver.step(action)
+    observation, self.reward, _, truncated, self.info = self._env.step(action)
+    if truncated:  # gym's info says it.
+      self.info['TimeLimit.truncated'] = True
+    self._flight_of = self._env.state.flight
     return self._observe(observation)
+
+  def flight(self) -> Dict[str, np.ndarray]:
+    """The balloon's `FlightState` as NumPy values by field name.
+
+    The host copy the last reset/step brought back; read from the device
+    only if the core's state was set from outside since.
+    """
+    flight = self._env.state.flight
+    if flight is self._flight_of:
+      return self._env.flight
+    host = jax.device_get(flight)
+    return {name: np.asarray(getattr(host, name))
+            for name in host.__dataclass_fields__}
 
   def _observe(self, core_observation: np.ndarray) -> np.ndarray:
     if self._core_features:
@@ -177,29 +203,32 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
                           new_state: simulator_data.SimulatorState) -> None:
     raise NotImplementedError(
         'LatexBalloonArena cannot restore a SimulatorState: the flight lives '
-        'in the JAX core (ble_latex.envs.host_env.FlightDriver.state).')
+        "in the JAX core (the arena's driver.state).")
 
   def get_balloon_state(self) -> balloon_lib.LatexBalloonState:
-    """The BLE view of the flight now (built from the driver's host copy)."""
-    flight_of = self._driver.state.flight
+    """The BLE view of the flight now (built from `flight()` when asked)."""
+    flight_of = self._env.state.flight
     if self._view is None or self._view_of is not flight_of:
       if self._center_latlng is None:
-        self._center_latlng = sampling.sample_location(
-            self._driver.location_key)
-      flight = self._driver.flight()
+        self._center_latlng = sampling.sample_location(self._env.location_key)
+      flight = self.flight()
       system = self.params.flight
       view = balloon_lib.LatexBalloonState(
           center_latlng=self._center_latlng,
-          date_time=self._driver.start_date_time,
+          date_time=self._env.start_date_time,
           x=units.Distance(m=0.0), y=units.Distance(m=0.0),
           altitude_m=float(flight['altitude_m']),
           payload_kg=system.payload_kg, sand_kg=float(flight['sand_kg']),
           helium_mols=float(flight['helium_mols']),
           drag_coefficient=system.drag_coefficient,
           burst_volume_m3=system.burst_volume_m3)
+      # nRT/P in the core's precision (its `FlightState.volume_m3`).
+      volume = core_physics.volume(flight['helium_mols'],
+                                   flight['temperature_k'],
+                                   flight['pressure_pa'])
       balloon_lib.write_flight(view, flight,
-                               start_date_time=self._driver.start_date_time,
-                               volume_m3=self._driver.volume_m3)
+                               start_date_time=self._env.start_date_time,
+                               volume_m3=float(volume))
       self._view, self._view_of = view, flight_of
     return self._view
 
@@ -207,10 +236,10 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
                         ) -> None:
     raise NotImplementedError(
         'LatexBalloonArena cannot restore a balloon state: the flight lives '
-        'in the JAX core (ble_latex.envs.host_env.FlightDriver.state).')
+        "in the JAX core (the arena's driver.state).")
 
   def get_measurements(self) -> simulator_data.SimulatorObservation:
-    u, v = self._driver.measured_wind()
+    u, v = self._env.measured_wind()
     return simulator_data.SimulatorObservation(
         balloon_observation=self.get_balloon_state(),
         wind_at_balloon=wind_field.WindVector(units.Velocity(mps=u),

@@ -13,8 +13,7 @@ time_delta)` interface for code that drives one balloon object (the paper's
 once per action, sub-steps of at most 3 simulated minutes re-querying the
 wind, the exact vertical relax of Eq. fullN2L, finite-rate releases, the
 in-stride band guard) and writes the result back. The envs do not use it:
-they fly `ble_latex.envs.host_env.FlightDriver` (the same core) through
-`ble_latex.ble.arena`.
+the gym envs fly the same core through `ble_latex.ble.arena`.
 
 Terminal statuses (`LatexBalloonStatus` = the core's `FlightStatus`, field
 `latex_status`): out of sand (sand aboard < m_s_min), out of helium
@@ -190,7 +189,7 @@ def write_flight(state: LatexBalloonState, flight: Mapping[str, Any], *,
 
   Args:
     state: The view to update (in place).
-    flight: `FlightState` fields as host scalars (`FlightDriver.flight()`).
+    flight: `FlightState` fields as host scalars (the arena's `flight()`).
     start_date_time: Date and time of the flight's start.
     volume_m3: Envelope volume nRT/P; computed by the core if None. # [m^3]
   """

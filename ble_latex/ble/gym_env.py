@@ -34,12 +34,11 @@ from ble_latex.ble import discrete_features
 from ble_latex.ble import features as latex_features
 from ble_latex.ble import wind as ble_wind
 from ble_latex.envs import controller as controller_lib
-from ble_latex.envs import host_env
 from ble_latex.envs import jax_env
 from ble_latex.envs import seeds
 
 # Info keys at every step (see README, "Environment contract").
-INFO_KEYS = host_env.INFO_KEYS
+INFO_KEYS = jax_env.INFO_KEYS
 
 
 # One seed check for every env (`ble_latex.envs.seeds`).
@@ -186,17 +185,16 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
       (observation, reward, done, info); see README for `info`.
     """
     action = controller_lib.validate_action(action)
-    driver = self.arena.driver
-    if driver.info['time_limit'] or self._is_terminal():
+    if self.arena.info['time_limit'] or self._is_terminal():
       raise RuntimeError('step() called on a finished episode; call reset().')
-    before = driver.flight() if self._reward_fn is not None else None
+    before = self.arena.flight() if self._reward_fn is not None else None
     observation = self.arena.step(action)
     if self._renderer is not None or self._reward_fn is not None:
       simulator_state = self.arena.get_simulator_state()
     if self._renderer is not None:
       self._renderer.step(simulator_state)
     if self._reward_fn is None:
-      reward = driver.reward  # The core's.
+      reward = self.arena.reward  # The core's.
     else:
       state = simulator_state.balloon_state
       reward = self._reward_fn(
@@ -210,13 +208,13 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
 
   def _is_terminal(self) -> bool:
     """Whether the flight has ended (the core's status is not OK)."""
-    status = int(self.arena.driver.flight()['status'])
+    status = int(self.arena.flight()['status'])
     return status != balloon_lib.LatexBalloonStatus.OK
 
   def _get_info(self, balloon_state: Any = None) -> Dict[str, Any]:
-    """The core's info of the last reset/step (`host_env.info_dict`)."""
+    """The core's info of the last reset/step (`jax_env.info_dict`)."""
     del balloon_state  # The core's.
-    return dict(self.arena.driver.info)
+    return dict(self.arena.info)
 
   def __str__(self) -> str:
     return 'LatexBalloonEnv'
@@ -259,7 +257,7 @@ class LatexBalloonDiscreteEnv(LatexBalloonEnv):
   def continuous_action(self, action: int) -> np.ndarray:
     """Maps an AltitudeControlCommand to the controller's (a0, a1, a2)."""
     command = control.AltitudeControlCommand(action)
-    altitude = float(self.arena.driver.flight()['altitude_m'])
+    altitude = float(self.arena.flight()['altitude_m'])
     low, high = controller_lib.ACTION_LOW, controller_lib.ACTION_HIGH
     if command == control.AltitudeControlCommand.STAY:
       return np.array([np.clip(altitude, low[0], high[0]), 1.0, 1.0])

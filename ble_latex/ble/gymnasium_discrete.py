@@ -33,8 +33,16 @@ def to_gymnasium_space(space: Any) -> gymnasium.Space:
   raise TypeError(f'no gymnasium equivalent for {space!r}')
 
 
-class LatexBalloonDiscreteGymnasiumEnv(gymnasium_env._FlightDrawing,  # pylint: disable=protected-access
-                                       gymnasium.Env):
+def split_done(done: bool, info: Mapping[str, Any]
+               ) -> Tuple[bool, bool, Dict[str, Any]]:
+  """gym's (done, info) as (terminated, truncated, info without
+  `TimeLimit.truncated`)."""
+  info = dict(info)
+  truncated = bool(info.pop('TimeLimit.truncated', False))
+  return bool(done) and not truncated, truncated, info
+
+
+class LatexBalloonDiscreteGymnasiumEnv(gymnasium.Env):
   """`ble_latex/LatexBalloonDiscrete-v0`: BLE's Discrete(3), gymnasium API.
 
   Owns BLE's gym env `ble_latex.ble.gym_env.LatexBalloonDiscreteEnv` (BLE's
@@ -56,7 +64,7 @@ class LatexBalloonDiscreteGymnasiumEnv(gymnasium_env._FlightDrawing,  # pylint: 
       self._env = gym_env_lib.LatexBalloonDiscreteEnv(**env_kwargs)
     self.observation_space = to_gymnasium_space(self._env.observation_space)
     self.action_space = to_gymnasium_space(self._env.action_space)
-    self._flight: List[Tuple[float, float, float, float]] = []
+    self._path: List[Tuple[float, float, float, float]] = []
     self._figure = None
 
   @property
@@ -90,29 +98,33 @@ class LatexBalloonDiscreteGymnasiumEnv(gymnasium_env._FlightDrawing,  # pylint: 
     if seed is None:  # Reproducible once np_random was seeded.
       seed = int(self.np_random.integers(seeds_lib.TRAIN_SEED_LIMIT))
     obs, info = self._env.reset(seed=int(seed), return_info=True)
-    self._flight = [self._flight_point()]
+    self._path = []
+    self._record()
     return obs, dict(info)
 
   def step(self, action: Any
            ) -> Tuple[np.ndarray, float, bool, bool, Dict[str, Any]]:
     obs, reward, done, info = self._env.step(action)
-    terminated, truncated, info = gymnasium_env._split_done(done, info)  # pylint: disable=protected-access
-    self._flight.append(self._flight_point())
+    terminated, truncated, info = split_done(done, info)
+    self._record()
     return obs, float(reward), terminated, truncated, info
+
+  def _record(self) -> None:
+    if self.render_mode is not None:
+      self._path.append(gymnasium_env.flight_point(self._env.arena.flight()))
+
+  def render(self) -> Optional[np.ndarray]:
+    """The flight so far as an (H, W, 3) uint8 image ('rgb_array'), or None."""
+    if self.render_mode != 'rgb_array':
+      return None
+    self._figure = gymnasium_env.draw_flight(self._figure, self._path,
+                                             self._env.radius.kilometers)
+    return gymnasium_env.figure_rgb(self._figure)
 
   def close(self) -> None:
     self._env.close()
     self._figure = None
     super().close()
-
-  def _flight_point(self) -> Tuple[float, float, float, float]:
-    """t [h], x [km], y [km], altitude [km] of the balloon now."""
-    s = self._env.arena.get_balloon_state()
-    return (s.time_elapsed.total_seconds() / 3600.0, s.x.kilometers,
-            s.y.kilometers, s.altitude_m / 1000.0)
-
-  def _radius_km(self) -> float:
-    return self._env.radius.kilometers
 
   def __str__(self) -> str:
     return f'{type(self).__name__}({self._env})'

@@ -12,24 +12,25 @@ gymnasium is imported, or at once if gymnasium already is. So both orders work:
 
 String entry points: the env modules load on `make` (JAX and the flight core;
 BLE's env modules and TensorFlow only for the discrete id). `make_vec` of the
-continuous id is one batched env (`gymnasium_vector.LatexBalloonVectorEnv`),
+continuous id is one batched env (`gymnasium_env.LatexBalloonVectorEnv`),
 of the discrete id a `SyncVectorEnv`.
 """
 
 NAMESPACE = 'ble_latex'
 _MODULE = 'ble_latex.envs.gymnasium_env'
+_DISCRETE = 'ble_latex.ble.gymnasium_discrete'  # BLE's features: at the edge.
 # env id -> entry point.
 ENV_IDS = {
     f'{NAMESPACE}/LatexBalloon-v0': f'{_MODULE}:LatexBalloonGymnasiumEnv',
     f'{NAMESPACE}/LatexBalloonDiscrete-v0':
-        f'{_MODULE}:LatexBalloonDiscreteGymnasiumEnv',
+        f'{_DISCRETE}:LatexBalloonDiscreteGymnasiumEnv',
 }
 # env id -> vector entry point (`gymnasium.make_vec`'s default mode): the
 # batched core for the continuous id, a SyncVectorEnv for the discrete one.
 VECTOR_ENTRY_POINTS = {
     f'{NAMESPACE}/LatexBalloon-v0': f'{_MODULE}:make_vector_latex_balloon',
     f'{NAMESPACE}/LatexBalloonDiscrete-v0':
-        f'{_MODULE}:make_vector_latex_balloon_discrete',
+        f'{_DISCRETE}:make_vector_latex_balloon_discrete',
 }
 
 

@@ -31,50 +31,10 @@ import numpy as np
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
 
-# BLE's `sampling.sample_time` range starts here (the draw's time offset).
-START_EPOCH = dt.datetime(2011, 1, 1, tzinfo=dt.timezone.utc)
-
-# Info keys at every step (see README, "Environment contract").
-INFO_KEYS = ('distance_km', 'altitude_m', 'ascent_rate_mps', 'helium_mols',
-             'sand_kg', 'helium_vented_mols', 'sand_dropped_kg',
-             'controller_decision', 'out_of_resources', 'envelope_burst',
-             'time_limit', 'time_elapsed')
-
-
-def info_dict(info: Mapping[str, Any]) -> Dict[str, Any]:
-  """The gym env's `info` of one balloon from `jax_env.step_info` numbers.
-
-  Args:
-    info: `step_info` of one balloon (arrays or NumPy scalars).
-
-  Returns:
-    Python values: INFO_KEYS plus `terminal_reason` (`FlightStatus` name,
-    lower case), `out_of_power` and `zeropressure` (False; BLE's eval_lib
-    reads them) and `TimeLimit.truncated` where the time limit cut a flight
-    that had not ended.
-  """
-  status = state_lib.FlightStatus(int(info['status']))
-  out = {
-      'distance_km': float(info['distance_km']),
-      'altitude_m': float(info['altitude_m']),
-      'ascent_rate_mps': float(info['ascent_rate_mps']),
-      'helium_mols': float(info['helium_mols']),
-      'sand_kg': float(info['sand_kg']),
-      'helium_vented_mols': float(info['helium_vented_mols']),
-      'sand_dropped_kg': float(info['sand_dropped_kg']),
-      'controller_decision': state_lib.DecisionCode(
-          int(info['decision'])).name.lower(),
-      'out_of_resources': status in state_lib.OUT_OF_RESOURCES,
-      'envelope_burst': status == state_lib.FlightStatus.BURST,
-      'time_limit': bool(info['time_limit']),
-      'time_elapsed': dt.timedelta(seconds=float(info['time_s'])),
-      'terminal_reason': status.name.lower(),
-      'out_of_power': False,
-      'zeropressure': False,
-  }
-  if bool(info['truncated']):
-    out['TimeLimit.truncated'] = True
-  return out
+# Moved to the functional env (kept until the arena flies the Gymnasium env).
+INFO_KEYS = jax_env.INFO_KEYS
+info_dict = jax_env.info_dict
+START_EPOCH = jax_env.START_EPOCH
 
 
 def callback_wind(wind_field: Any) -> jax_env.Wind:
