@@ -1,21 +1,14 @@
 # coding=utf-8
-r"""The jitted SAC trainer's driver: run directories around `sac_trainer`.
-
-`ble-latex-train --trainer=jax` calls `train_seeds`; a sweep's trial calls
-`train`. The algorithm (`TrainState`, the jitted round) is
-`ble_latex.agents.sac_trainer`; this module flies its rounds and keeps what a
-run leaves:
+r"""The jitted SAC trainer's driver: `sac_trainer` rounds in run directories.
 
   ble-latex-train --trainer=jax --base_dir=/tmp/latex/jax \
       --num_iterations=40 --seeds=0,1,2,3,4
 
 Episode e of a training seed flies env seed `suites.train_seed(e)`, as
-`ble-latex-train` does. Several training seeds (`train_seeds`,
-`ble-latex-train --seeds`) run one after another, or with `vmap=True`
-(`--vmap_seeds`) as one `sac_trainer.train_round_seeds` call per round; each
-seed keeps its own run directory either way.
-
-A run directory (`run_dir`) holds what `ble-latex-train` writes:
+`ble-latex-train` does. Several training seeds (`train_seeds`, `--seeds`) run
+one after another, or with `vmap=True` (`--vmap_seeds`) as one
+`sac_trainer.train_round_seeds` call per round; each keeps its own run
+directory (`run_dir`), with what `ble-latex-train` writes:
 `episodes.jsonl` (with env seeds and both TW50s), tensorboard scalars,
 `checkpoints/` (msgpack, `safe_io`; the whole `TrainState` including the
 replay and the PRNG key, so a killed run resumes after its last checkpoint

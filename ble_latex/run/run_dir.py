@@ -39,19 +39,10 @@ def policy_snapshot_path(base_dir: str, iteration: int) -> str:
 
 @contextlib.contextmanager
 def locked(base_dir: str, *, wait_s: float = 0.0) -> Iterator[None]:
-  """Holds the run directory's lock (`safe_io.locked_dir`; creates it).
+  """Holds the run directory's lock (`safe_io.locked_dir`, creating it).
 
-  Once held, no temporary file in checkpoints/ or policies/ belongs to a live
-  writer: those killed writes left are removed.
-
-  Args:
-    base_dir: The run directory.
-    wait_s: How long to wait for another writer to end; 0: refuse at once.
-      # [s]
-
-  Raises:
-    safe_io.InUseError: If another process (or another run in this one)
-      holds it.
+  Once it is held no temporary file in checkpoints/ or policies/ belongs to a
+  live writer: those killed writes left are removed.
   """
   with safe_io.locked_dir(base_dir, wait_s=wait_s):
     safe_io.remove_stale_temporaries(checkpoint_dir(base_dir), 'checkpoint_')
@@ -68,10 +59,6 @@ def check_resume(base_dir: str, run_info: Mapping[str, Any], *,
                  ) -> None:
   """Refuses a resume that would change settings or lose logged episodes.
 
-  Episodes logged after the newest checkpoint are dropped and flown again
-  (`metrics.EpisodeLogCollector`); more of them than the unsaved iterations
-  can explain means checkpoints are missing.
-
   Args:
     base_dir: The run directory.
     run_info: This invocation's `RUN_INFO` settings.
@@ -79,8 +66,8 @@ def check_resume(base_dir: str, run_info: Mapping[str, Any], *,
     episodes_per_iteration: Episodes one iteration logs.
     log_episodes: Whether episodes.jsonl is written (else it is not checked).
     unsaved_iterations: Iterations the log may hold past the newest
-      checkpoint (one for a trainer that checkpoints every iteration); None:
-      any number.
+      checkpoint (dropped and flown again; more means checkpoints are
+      missing); None: any number.
     defaults: For settings recorded as a mapping (e.g. the jitted trainer's
       `config`), the values of entries added since a run started: a run
       recorded without them counts with these.
