@@ -34,7 +34,6 @@ import numpy as np
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_trainer
-from ble_latex.envs import host_env
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
 from ble_latex.run import episode_log
@@ -75,7 +74,7 @@ def episode_records(out: sac_trainer.RoundOutput, seeds: Sequence[int],
   out = jax.device_get(out)
   records = []
   for i, seed in enumerate(seeds):
-    info = host_env.info_dict({k: v[i] for k, v in out.info.items()})
+    info = jax_env.info_dict({k: v[i] for k, v in out.info.items()})
     summary = metrics.EpisodeSummary(
         episode=first_episode + i, seed=int(seed),
         reward=float(out.reward[i]),
