@@ -148,7 +148,7 @@ def compare(run_dirs: Sequence[str], max_oor_pct: float,
             ) -> List[Dict[str, Any]]:
   """Validation-only summary of each run (settings that differ shown)."""
   # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import sac_trainer
+  from ble_latex.run import jax_train
   from ble_latex.run import records
   # pylint: enable=g-import-not-at-top
   rows = []
@@ -161,7 +161,7 @@ def compare(run_dirs: Sequence[str], max_oor_pct: float,
     chosen = choose(validation, max_oor_pct, max_minutes, max_iteration)
     last = validation[-5:]
     rows.append({
-        'run': run, 'config': sac_trainer.recorded_config(info['config']),
+        'run': run, 'config': jax_train.recorded_config(info['config']),
         'validated_rounds': [r['iteration'] for r in validation][-1:],
         'chosen': chosen,
         'last5_tw50_window_mean': (statistics.mean(
@@ -223,9 +223,9 @@ def _chosen_policy(run: str, seed: int, chosen: Dict[str, Any],
   """
   # pylint: disable=g-import-not-at-top
   from ble_latex.agents import pretrained
-  from ble_latex.run import train_lib
+  from ble_latex.run import run_dir
   # pylint: enable=g-import-not-at-top
-  source = train_lib.policy_snapshot_path(run, chosen['iteration'])
+  source = run_dir.policy_snapshot_path(run, chosen['iteration'])
   policy_path = os.path.join(run, 'chosen_policy.msgpack')
   if not os.path.exists(source):
     if os.path.exists(policy_path):

@@ -109,7 +109,7 @@ def _vmap(num_envs, updates_per_step, rounds, num_seeds) -> float:
   # pylint: enable=g-import-not-at-top
   env, learner, params, steps, states, env_seeds = _setup(
       num_envs, updates_per_step, rounds, range(num_seeds))
-  stacked = sac_trainer._stack(states)  # pylint: disable=protected-access
+  stacked = sac_trainer.stack(states)
   del states
   stacked, _ = sac_trainer.train_round_seeds(learner, env, stacked,
                                              env_seeds[0], steps, params)

@@ -74,8 +74,8 @@ def train(base_dir: str, episodes: int, episodes_per_iteration: int,
 
 def candidates(base_dir: str, every: int, include_newest: bool) -> List[str]:
   """Exported policies of iterations (i + 1) % every == 0 (and the newest)."""
-  from ble_latex.run import train_lib  # pylint: disable=g-import-not-at-top
-  pattern = train_lib.POLICY_SNAPSHOT_PATTERN
+  from ble_latex.run import run_dir  # pylint: disable=g-import-not-at-top
+  pattern = run_dir.POLICY_SNAPSHOT_PATTERN
   folder = os.path.join(base_dir, 'policies')
   paths = sorted(os.path.join(folder, name)
                  for name in (os.listdir(folder) if os.path.isdir(folder)

@@ -12,6 +12,7 @@ from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_trainer
 from ble_latex.envs import jax_env
+from ble_latex.run import jax_train
 
 BATCH = 16
 
@@ -152,7 +153,7 @@ def test_crossq_trainer_snapshot_loads_in_sac_pretrained(tmp_path):
       replay_capacity=64, hidden_units=16, critic='crossq')
   params = jax_env.LatexBalloonJaxEnv().default_params.replace(
       episode_steps=6)
-  final = sac_trainer.train(
+  final = jax_train.train(
       base_dir=str(tmp_path), num_iterations=1, seed=0, config=config,
       collectors=['episodes'], env_params=params)
   assert 'batch_stats' in final.network_params

@@ -1,6 +1,7 @@
 """sac_pretrained: exporting a checkpoint's policy and flying it."""
 
 import os
+import pickle
 
 import ble_latex  # noqa: F401
 from hypothesis import given
@@ -16,10 +17,11 @@ _LOW = np.array([14000.0, 1.0, -1.0], dtype=np.float32)
 _HIGH = np.array([21000.0, 5.0, 1.0], dtype=np.float32)
 
 
-def _sac(hidden=16, seed=0):
+def _sac(hidden=16, seed=0, **kwargs):
+  kwargs = {'hidden_units': hidden, 'min_replay_history': 8, 'batch_size': 4,
+            **kwargs}
   return sac.SACAgent(3, (71,), action_low=_LOW, action_high=_HIGH,
-                      seed=seed, hidden_units=hidden, min_replay_history=8,
-                      batch_size=4)
+                      seed=seed, **kwargs)
 
 
 def _train_a_little(agent):
@@ -28,6 +30,22 @@ def _train_a_little(agent):
   for _ in range(20):
     agent.step(float(rng.uniform()), rng.uniform(-1, 1, 71).astype(np.float32))
   agent.end_episode(0.5, False)
+
+
+class _Payload:
+  """Pickles to a call that creates a marker file: proof that code ran."""
+
+  def __init__(self, marker):
+    self.marker = marker
+
+  def __reduce__(self):
+    return (open, (self.marker, 'w'))
+
+
+def _crafted_pickle(path, marker):
+  with open(path, 'wb') as f:
+    pickle.dump({'format': sac.LEGACY_CHECKPOINT_FORMAT,
+                 'payload': _Payload(str(marker))}, f)
 
 
 def test_exported_policy_acts_like_the_checkpoint(tmp_path):
@@ -272,3 +290,47 @@ def test_export_policy_refuses_a_nan_checkpoint(tmp_path, capsys):
   assert err == [f'ble-latex-export-policy: {path}: log_alpha has 1 '
                  'non-finite value (NaN/inf)']
   assert not os.path.exists(out)
+
+
+def test_crafted_pickle_policy_runs_no_code(tmp_path):
+  marker = tmp_path / 'pwned'
+  policy = tmp_path / 'policy.pkl'
+  _crafted_pickle(policy, marker)
+  with pytest.raises(safe_io.UntrustedFileError):
+    pretrained.SACPretrainedAgent(3, (71,), action_low=_LOW, action_high=_HIGH,
+                                  policy_path=str(policy))
+  with pytest.raises(ValueError, match='refusing to load'):
+    pretrained.load_policy(str(policy), trust_legacy_pickle=True)
+  assert not marker.exists()
+
+
+@pytest.mark.parametrize('content,message', [
+    (b'', 'truncated or corrupt'),
+    (b'\x00\x01garbage', 'truncated or corrupt'),
+    ('cut', 'truncated or corrupt'),
+    ('no_config', "misses \\['config'"),
+])
+def test_corrupt_policy_files_name_the_path(tmp_path, content, message):
+  path = tmp_path / 'policy.msgpack'
+  if content == 'cut':
+    safe_io.write_tree(str(path), {'x': np.zeros(1000)}, file_format='f')
+    path.write_bytes(path.read_bytes()[:500])
+  elif content == 'no_config':
+    safe_io.write_tree(str(path), {'source': '', 'note': ''},
+                       file_format=pretrained.POLICY_FORMAT)
+  else:
+    path.write_bytes(content)
+  with pytest.raises(ValueError, match=message) as e:
+    pretrained.load_policy(str(path))
+  assert str(path) in str(e.value)
+  with pytest.raises(ValueError, match='is a directory'):
+    pretrained.load_policy(str(tmp_path))
+
+
+def test_shipped_policy_is_a_data_file():
+  with open(pretrained.DEFAULT_POLICY, 'rb') as f:
+    head = f.read(2)
+  assert head[:1] != b'\x80' or head[1:2] not in (b'\x02', b'\x03', b'\x04',
+                                                  b'\x05')
+  policy = pretrained.load_policy(pretrained.DEFAULT_POLICY)
+  assert policy['format'] == pretrained.POLICY_FORMAT

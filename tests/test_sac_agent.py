@@ -2,6 +2,7 @@
 """Tests of ble_latex's SAC agent (ble_latex/agents/sac.py)."""
 
 import os
+import pickle
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 from balloon_learning_environment.agents import agent as base_agent
@@ -19,8 +20,11 @@ import pytest
 
 from ble_latex import agents as latex_agents
 from ble_latex.agents import networks
+from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex import safe_io
+from test_pretrained import _HIGH, _LOW, _sac  # pylint: disable=g-bad-import-order
+from test_pretrained import _crafted_pickle, _train_a_little  # pylint: disable=g-bad-import-order
 
 # The latex env's action box: a0 altitude [m], a1 time factor, a2 float flag.
 LOW = np.array([14_000.0, 1.0, -1.0])
@@ -598,3 +602,121 @@ def test_batched_update_equals_dopamines_train(terminal_fraction,
       jax.tree_util.tree_leaves(ours['network_params']),
       jax.tree_util.tree_leaves(params))]
   assert min(moved) > 0
+
+
+# -- Checkpoint files: only data, named when bad (the latex env's shapes). ---
+
+
+def _eval_actions(agent, n=4):
+  agent.set_mode('eval')
+  obs = np.random.default_rng(3).uniform(-1, 1, (n, 71)).astype(np.float32)
+  actions = [agent.begin_episode(o) for o in obs]
+  agent.set_mode('train')
+  return np.array(actions)
+
+
+def test_checkpoint_iterations_ignore_unnumbered_names(tmp_path):
+  for name in ('checkpoint_00003.msgpack', 'checkpoint_00010.msgpack',
+               'checkpoint_backup.msgpack', 'checkpoint_00011 (copy).msgpack',
+               'checkpoint_00012.pkl', '.tmp-checkpoint_00013.msgpack-1'):
+    (tmp_path / name).write_bytes(b'')
+  assert sac.checkpoint_iterations(str(tmp_path)) == [3, 10]
+  assert sac.checkpoint_iterations(str(tmp_path),
+                                   sac.LEGACY_CHECKPOINT_PATTERN) == [12]
+
+
+def test_crafted_pickle_checkpoint_runs_no_code(tmp_path):
+  marker = tmp_path / 'pwned'
+  ckpt = tmp_path / 'checkpoints'
+  ckpt.mkdir()
+  _crafted_pickle(ckpt / 'checkpoint_00000.pkl', marker)
+  with pytest.raises(safe_io.UntrustedFileError, match='trust_legacy_pickle'):
+    _sac().reload_latest_checkpoint(str(ckpt))
+  with pytest.raises(safe_io.UntrustedFileError):
+    _sac().load_checkpoint(str(ckpt), 0)
+  # Even with the opt-in, only data classes are resolved.
+  with pytest.raises(ValueError, match='refusing to load'):
+    _sac(trust_legacy_pickle=True).load_checkpoint(str(ckpt), 0)
+  # A pickle under a msgpack name is recognised and refused.
+  os.rename(ckpt / 'checkpoint_00000.pkl', ckpt / 'checkpoint_00000.msgpack')
+  with pytest.raises(safe_io.UntrustedFileError, match='pickle'):
+    _sac().load_checkpoint(str(ckpt), 0)
+  assert not marker.exists()
+
+
+def test_truncated_checkpoint_is_an_error_naming_it(tmp_path):
+  agent = _sac()
+  _train_a_little(agent)
+  agent.save_checkpoint(str(tmp_path), 0)
+  path = sac.checkpoint_path(str(tmp_path), 0)
+  data = open(path, 'rb').read()
+  with open(path, 'wb') as f:
+    f.write(data[:len(data) // 2])
+  fresh = _sac(seed=5)
+  before = _eval_actions(fresh)
+  with pytest.raises(ValueError, match='truncated') as e:
+    fresh.reload_latest_checkpoint(str(tmp_path))
+  assert path in str(e.value)
+  np.testing.assert_array_equal(_eval_actions(fresh), before)  # Unchanged.
+
+
+def test_checkpoint_with_wrong_shapes_leaves_agent_unchanged(tmp_path):
+  agent = _sac()
+  _train_a_little(agent)
+  bundle = agent.bundle_and_checkpoint(str(tmp_path), 0)
+  bundle['optimizer_state'] = bundle['optimizer_state'][:-1]
+  safe_io.write_tree(sac.checkpoint_path(str(tmp_path), 0), bundle,
+                     file_format=sac.CHECKPOINT_FORMAT)
+  fresh = _sac(seed=5)
+  before = _eval_actions(fresh)
+  with pytest.raises(ValueError, match='optimizer_state'):
+    fresh.load_checkpoint(str(tmp_path), 0)
+  np.testing.assert_array_equal(_eval_actions(fresh), before)
+
+
+def _legacy_bundle(agent):
+  """What ble_latex 0.1 pickled: optax named tuples, tuples, a set."""
+  bundle = agent.bundle_and_checkpoint('', 0)
+  to_numpy = lambda t: jax.tree.map(np.asarray, jax.device_get(t))
+  bundle.update(
+      format=sac.LEGACY_CHECKPOINT_FORMAT,
+      optimizer_state=to_numpy(agent.optimizer_state),
+      alpha_optimizer_state=to_numpy(agent.alpha_optimizer_state))
+  bundle['config']['observation_shape'] = tuple(
+      bundle['config']['observation_shape'])
+  bundle['replay']['episode_end_indices'] = set(
+      int(i) for i in bundle['replay']['episode_end_indices'])
+  return bundle
+
+
+def test_legacy_pickles_load_only_with_the_opt_in(tmp_path):
+  agent = _sac()
+  _train_a_little(agent)
+  with open(sac.legacy_checkpoint_path(str(tmp_path), 3), 'wb') as f:
+    pickle.dump(_legacy_bundle(agent), f)
+  with pytest.raises(safe_io.UntrustedFileError):
+    _sac(seed=4).reload_latest_checkpoint(str(tmp_path))
+  restored = _sac(seed=4, trust_legacy_pickle=True)
+  assert restored.reload_latest_checkpoint(str(tmp_path)) == 3
+  assert restored.replay_size == agent.replay_size
+  np.testing.assert_array_equal(_eval_actions(restored), _eval_actions(agent))
+  # Converting the legacy checkpoint's policy gives a data-only file.
+  out = tmp_path / 'policy.msgpack'
+  pretrained.export_policy(sac.legacy_checkpoint_path(str(tmp_path), 3),
+                           str(out), trust_legacy_pickle=True)
+  loaded = pretrained.SACPretrainedAgent(
+      3, (71,), action_low=_LOW, action_high=_HIGH, hidden_units=16,
+      policy_path=str(out))
+  np.testing.assert_array_equal(_eval_actions(loaded), _eval_actions(agent))
+
+
+@pytest.mark.parametrize('name,value', [
+    ('gamma', -5.0), ('gamma', 1.5), ('gamma', float('nan')),
+    ('actor_learning_rate', 0.0), ('critic_learning_rate', -1e-3),
+    ('alpha_learning_rate', float('inf')), ('batch_size', 0),
+    ('target_smoothing_coefficient', 0.0), ('reward_scale_factor', -1.0),
+    ('update_period', 0), ('hidden_units', 2.5), ('target_entropy', float('nan')),
+])
+def test_bad_sac_hyperparameters_name_the_binding(name, value):
+  with pytest.raises(ValueError, match=f'SACAgent.{name} must be'):
+    _sac(**{name: value})

@@ -1,4 +1,5 @@
-"""The jitted SAC trainer (ble_latex/agents/sac_trainer.py)."""
+"""The jitted SAC trainer (ble_latex/agents/sac_trainer.py) and its driver
+(ble_latex/run/jax_train.py)."""
 
 import json
 import os
@@ -21,7 +22,9 @@ import pytest
 from ble_latex.agents import sac_trainer
 from ble_latex.envs import jax_env
 from ble_latex.run import episode_log
+from ble_latex.run import jax_train
 from ble_latex.run import records as records_lib
+from ble_latex.run import run_dir
 from ble_latex.run import suites
 from ble_latex import safe_io
 
@@ -44,7 +47,7 @@ def _train(base_dir, iterations, **kwargs):
   kwargs = {'seed': 5, 'config': CONFIG, 'collectors': ['episodes'],
             'validation_seeds': VALIDATION, 'env_params': _params(),
             **kwargs}
-  return sac_trainer.train(base_dir=str(base_dir), num_iterations=iterations,
+  return jax_train.train(base_dir=str(base_dir), num_iterations=iterations,
                            **kwargs)
 
 
@@ -126,7 +129,7 @@ def test_vmapped_seeds_equal_one_after_another(runs, tmp_path, monkeypatch):
     return vmapped_call(*args)
 
   monkeypatch.setattr(sac_trainer, 'train_round_seeds', counted)
-  finals = sac_trainer.train_seeds(
+  finals = jax_train.train_seeds(
       runs=[(5, str(both5)), (6, str(both6))], num_iterations=3,
       config=CONFIG, collectors=['episodes'], validation_seeds=VALIDATION,
       env_params=_params(), vmap=True)
@@ -153,7 +156,7 @@ def test_vmapped_seeds_equal_one_after_another(runs, tmp_path, monkeypatch):
 
 def test_train_seeds_needs_distinct_seeds(tmp_path):
   with pytest.raises(ValueError, match='distinct training seeds'):
-    sac_trainer.train_seeds(runs=[(1, str(tmp_path / 'a')),
+    jax_train.train_seeds(runs=[(1, str(tmp_path / 'a')),
                                   (1, str(tmp_path / 'b'))],
                             num_iterations=1, config=CONFIG)
 
@@ -164,7 +167,7 @@ def test_one_run_directory_twice_in_one_process_is_refused(tmp_path):
   with pytest.raises(safe_io.InUseError,
                      match=f'run directory {tmp_path} is in use by pid '
                      f'{os.getpid()} .*this process'):
-    sac_trainer.train_seeds(runs=[(1, str(tmp_path)), (2, str(tmp_path))],
+    jax_train.train_seeds(runs=[(1, str(tmp_path)), (2, str(tmp_path))],
                             num_iterations=1, config=CONFIG,
                             env_params=_params())
   assert not (tmp_path / episode_log.EPISODE_LOG).exists()
@@ -288,7 +291,7 @@ def test_run_started_before_critics_resumes_and_other_critic_is_refused(
     tmp_path):
   _train(tmp_path, 1)
   # run.json as written before `critic` existed: resumes as 'mlp'.
-  path = tmp_path / sac_trainer.RUN_INFO
+  path = tmp_path / run_dir.RUN_INFO
   info = json.loads(path.read_text())
   del info['config']['critic']
   path.write_text(json.dumps(info))
@@ -307,11 +310,11 @@ def test_corrupt_checkpoint_is_named(runs, tmp_path):
   bad = tmp_path / 'checkpoint_00002.msgpack'
   bad.write_bytes(path.read_bytes()[:1000])
   with pytest.raises(ValueError, match='checkpoint_00002'):
-    sac_trainer.load_checkpoint(str(bad), template)
+    jax_train.load_checkpoint(str(bad), template)
   wrong = sac_trainer.TrainerConfig(**{**CONFIG.__dict__, 'hidden_units': 8})
   _, small = sac_trainer.make_learner(wrong, jax.random.PRNGKey(0))
   with pytest.raises(ValueError, match='network_params'):
-    sac_trainer.load_checkpoint(str(path), small)
+    jax_train.load_checkpoint(str(path), small)
 
 
 @pytest.mark.parametrize('name,value', [('num_envs', 0),
@@ -472,12 +475,12 @@ def test_checkpoint_values_are_checked_on_resume(runs, tmp_path, change,
   _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
   path = runs[0] / 'checkpoints' / 'checkpoint_00002.msgpack'
   tree = safe_io.read_tree(str(path),
-                           file_format=sac_trainer.CHECKPOINT_FORMAT)
+                           file_format=jax_train.CHECKPOINT_FORMAT)
   change(tree)
   bad = tmp_path / 'checkpoint_00002.msgpack'
-  safe_io.write_tree(str(bad), tree, file_format=sac_trainer.CHECKPOINT_FORMAT)
+  safe_io.write_tree(str(bad), tree, file_format=jax_train.CHECKPOINT_FORMAT)
   with pytest.raises(ValueError, match=message) as raised:
-    sac_trainer.load_checkpoint(str(bad), template)
+    jax_train.load_checkpoint(str(bad), template)
   assert str(bad) in str(raised.value)
 
 
@@ -488,13 +491,13 @@ def test_train_command_refuses_a_nan_checkpoint_in_one_line(runs, tmp_path,
   from ble_latex.cli import train as train_cli
   run = tmp_path / 'run'
   shutil.copytree(runs[0], run)
-  os.remove(run / sac_trainer.RUN_INFO)  # Settings come from the flags.
+  os.remove(run / run_dir.RUN_INFO)  # Settings come from the flags.
   newest = run / 'checkpoints' / 'checkpoint_00002.msgpack'
   tree = safe_io.read_tree(str(newest),
-                           file_format=sac_trainer.CHECKPOINT_FORMAT)
+                           file_format=jax_train.CHECKPOINT_FORMAT)
   _set_replay(tree, 'reward', 0, np.nan)
   safe_io.write_tree(str(newest), tree,
-                     file_format=sac_trainer.CHECKPOINT_FORMAT)
+                     file_format=jax_train.CHECKPOINT_FORMAT)
   bindings = [f'--gin_bindings=sac_trainer_config.{k} = {getattr(CONFIG, k)}'
               for k in ('num_envs', 'updates_per_step', 'batch_size',
                         'min_replay_history', 'replay_capacity',
@@ -531,7 +534,7 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
     return real(learner, env, state, seeds, num_steps, params)
 
   monkeypatch.setattr(sac_trainer, 'train_round', poisoned)
-  kept = sac_trainer.checkpoint_path(str(tmp_path), 0)
+  kept = run_dir.checkpoint_path(str(tmp_path), 0)
   with pytest.raises(FloatingPointError,
                      match=r'^training diverged at round 1: non-finite .*'
                      r'network parameters.*; last good checkpoint: '
@@ -549,5 +552,5 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
   from ble_latex.agents import pretrained
   pretrained.load_policy(str(tmp_path / 'policies' / 'policy_00000.msgpack'))
   _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
-  sac_trainer.load_checkpoint(sac_trainer.checkpoint_path(str(tmp_path), 0),
+  jax_train.load_checkpoint(run_dir.checkpoint_path(str(tmp_path), 0),
                               template)

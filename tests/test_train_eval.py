@@ -18,10 +18,11 @@ import numpy as np
 import pytest
 
 # A tiny SAC so the test is fast; the schedule is the real one.
-_TINY = ['--gin_bindings=ble_latex.agents.sac.SACAgent.min_replay_history=30',
-         '--gin_bindings=ble_latex.agents.sac.SACAgent.batch_size=16',
-         '--gin_bindings=ble_latex.agents.sac.SACAgent.hidden_units=16',
-         '--max_episode_length=12', '--episodes_per_iteration=2']
+_TINY_SAC = [
+    '--gin_bindings=ble_latex.agents.sac.SACAgent.min_replay_history=30',
+    '--gin_bindings=ble_latex.agents.sac.SACAgent.batch_size=16',
+    '--gin_bindings=ble_latex.agents.sac.SACAgent.hidden_units=16']
+_TINY = [*_TINY_SAC, '--max_episode_length=12', '--episodes_per_iteration=2']
 _ENV = dict(os.environ, TF_CPP_MIN_LOG_LEVEL='3', JAX_PLATFORMS='cpu')
 
 
@@ -69,6 +70,41 @@ def test_train_killed_and_resumed_equals_uninterrupted_run(tmp_path):
   assert _comparable(resumed) == _comparable(reference)
   assert sorted(os.listdir(killed / 'metrics')) == ['episodes', 'pickle',
                                                     'tensorboard']
+
+
+def _train_short(base_dir, iterations, per_iteration=2):
+  return subprocess.run(
+      [sys.executable, '-m', 'ble_latex.cli.train', f'--base_dir={base_dir}',
+       f'--num_iterations={iterations}',
+       f'--episodes_per_iteration={per_iteration}', *_TINY_SAC,
+       '--max_episode_length=6', '--collectors=episodes'],
+      env=_ENV, capture_output=True, text=True, timeout=600)
+
+
+def test_resume_finds_numbered_checkpoints_among_stray_files(tmp_path):
+  run = tmp_path / 'run'
+  first = _train_short(run, 2)
+  assert first.returncode == 0, first.stderr[-2000:]
+  log_path = run / episode_log.EPISODE_LOG
+  before = episode_log.read(str(log_path))
+  assert len(before) == 4
+  for stray in ('checkpoint_backup.pkl', 'checkpoint_00002 (copy).pkl',
+                'checkpoint_00009 (copy).msgpack', 'checkpoint_.msgpack'):
+    (run / 'checkpoints' / stray).write_bytes(b'junk')
+  second = _train_short(run, 3)
+  assert second.returncode == 0, second.stderr[-2000:]
+  after = episode_log.read(str(log_path))
+  assert [r['episode'] for r in after] == list(range(6))
+  assert after[:4] == before  # Resumed after checkpoint 1, kept the log.
+
+  # Another --episodes_per_iteration is refused, naming both values, and the
+  # run directory is left exactly as it was.
+  snapshot = log_path.read_bytes()
+  third = _train_short(run, 4, per_iteration=3)
+  assert third.returncode != 0
+  assert 'episodes_per_iteration=2' in third.stderr
+  assert 'episodes_per_iteration=3' in third.stderr
+  assert log_path.read_bytes() == snapshot
 
 
 def test_train_and_eval_refuse_what_another_process_writes(tmp_path):

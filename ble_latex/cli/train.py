@@ -8,7 +8,7 @@ latex env and SAC as defaults:
       --episodes_per_iteration=10
 
 With `--trainer=jax` SAC trains in jitted rounds on the batched env
-(`ble_latex.agents.sac_trainer`, gin `gin_configs/sac_jax.gin`): an iteration
+(`ble_latex.run.jax_train`, gin `gin_configs/sac_jax.gin`): an iteration
 is one episode on each of `sac_trainer_config.num_envs` balloons in parallel.
 `--seeds` runs several training seeds, each in BASE_DIR/seed_<s>: one after
 another, or with `--vmap_seeds` (jax trainer) all in one vmapped XLA call
@@ -132,10 +132,10 @@ def _main(argv: Sequence[str]) -> None:
   cli.prepare_output_dir(FLAGS.base_dir, '--base_dir')
   if jax_trainer:
     # pylint: disable=g-import-not-at-top
-    from ble_latex.agents import sac_trainer
+    from ble_latex.run import jax_train
     # pylint: enable=g-import-not-at-top
     first = suites.VALIDATION_SEED_OFFSET
-    sac_trainer.train_seeds(
+    jax_train.train_seeds(
         runs=seed_dirs(), num_iterations=FLAGS.num_iterations,
         collectors=FLAGS.collectors,
         policy_snapshot_period=FLAGS.policy_snapshot_period,

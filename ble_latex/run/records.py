@@ -118,7 +118,7 @@ EVAL_SCHEMA: Mapping[str, FieldType] = {
     'flight_path': list_of(FLIGHT_POINT_SCHEMA, 'flight points'),
 }
 # One line of RUN/validation.jsonl (the jitted trainer's policy snapshots
-# flown on latex_validation seeds, `sac_trainer.train`).
+# flown on latex_validation seeds, `jax_train.train`).
 VALIDATION_SCHEMA: Mapping[str, FieldType] = {
     'iteration': COUNT,
     'training_episodes': COUNT,

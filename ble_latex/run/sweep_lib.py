@@ -1,7 +1,7 @@
 # coding=utf-8
 """Training sweeps on Ray Tune: gin bindings x training seeds (`ble-latex-sweep`).
 
-Each trial is one run of the jitted SAC trainer (`sac_trainer.train`, gin
+Each trial is one run of the jitted SAC trainer (`jax_train.train`, gin
 `sac_jax.gin` plus the trial's bindings) in SWEEP_DIR/runs/p<point>_seed<s>,
 with the usual run-directory outputs. At every policy snapshot the trainer
 flies the policy on `latex_validation` and the trial reports to Tune:
@@ -368,7 +368,7 @@ def _trial(config: Dict[str, Any], *, settings: Dict[str, Any]) -> None:
   from ble_latex import quiet
   from ble_latex.run import suites
   with quiet.third_party_noise():
-    from ble_latex.agents import sac_trainer
+    from ble_latex.run import jax_train
   # pylint: enable=g-import-not-at-top
   sweep = SweepSettings(**{
       k: tuple(v) if isinstance(v, list) else v for k, v in settings.items()})
@@ -382,7 +382,7 @@ def _trial(config: Dict[str, Any], *, settings: Dict[str, Any]) -> None:
 
   first = suites.VALIDATION_SEED_OFFSET
   period = sweep.policy_snapshot_period
-  sac_trainer.train(
+  jax_train.train(
       base_dir=sweep.run_dir(index, seed), num_iterations=sweep.num_iterations,
       seed=seed, collectors=('episodes', 'tensorboard'),
       policy_snapshot_period=period, checkpoint_period=period,

@@ -5,10 +5,8 @@ Checkpoints after each iteration; a restarted run resumes after the last
 checkpoint. Used by `ble-latex-train` and the demo.
 """
 
-import json
 import os
-import re
-from typing import Any, Dict, Sequence
+from typing import Sequence
 
 from absl import logging
 from balloon_learning_environment.agents import agent as base_agent
@@ -17,38 +15,11 @@ import gym
 
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
-from ble_latex.run import episode_log
 from ble_latex.run import metrics
+from ble_latex.run import run_dir
 from ble_latex.run import runner
 from ble_latex.run import suites
-from ble_latex import errors
 from ble_latex import safe_io
-
-
-POLICY_SNAPSHOT_PATTERN = re.compile(r'^policy_(\d{5,})\.msgpack$')
-RUN_INFO = 'run.json'  # What a resumed run must agree with.
-# BLE's own agents checkpoint with Dopamine's `checkpoint_NNNNN.pkl` files.
-_BLE_CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.pkl$')
-
-
-ResumeError = errors.ResumeError  # The old name.
-
-
-def policy_snapshot_path(base_dir: str, iteration: int) -> str:
-  """Where `train` exports the policy of `iteration` (0-based)."""
-  return os.path.join(base_dir, 'policies', f'policy_{iteration:05d}.msgpack')
-
-
-def remove_stale_temporaries(base_dir: str) -> None:
-  """Removes the temporary files killed writes left in checkpoints/, policies/.
-
-  Call it holding the run directory's lock (`safe_io.locked_dir`): then no
-  temporary file there belongs to a live writer.
-  """
-  safe_io.remove_stale_temporaries(os.path.join(base_dir, 'checkpoints'),
-                                   'checkpoint_')
-  safe_io.remove_stale_temporaries(os.path.join(base_dir, 'policies'),
-                                   'policy_')
 
 
 def _reload_latest(agent: base_agent.Agent, checkpoint_dir: str) -> int:
@@ -61,65 +32,13 @@ def _reload_latest(agent: base_agent.Agent, checkpoint_dir: str) -> int:
   """
   if isinstance(agent, sac.SACAgent):
     return agent.reload_latest_checkpoint(checkpoint_dir)
+  # BLE's own agents write Dopamine's `checkpoint_NNNNN.pkl` files.
   iterations = sac.checkpoint_iterations(checkpoint_dir,
-                                         _BLE_CHECKPOINT_PATTERN)
+                                         sac.LEGACY_CHECKPOINT_PATTERN)
   if not iterations:
     return -1
   agent.load_checkpoint(checkpoint_dir, iterations[-1])
   return iterations[-1]
-
-
-def _check_resume(base_dir: str, run_info: Dict[str, Any],
-                  start_iteration: int, log_episodes: bool) -> None:
-  """Refuses to resume where resuming would lose or skip logged episodes.
-
-  Args:
-    base_dir: The run directory.
-    run_info: This invocation's `RUN_INFO` settings.
-    start_iteration: First iteration to run (last checkpoint + 1, or 0).
-    log_episodes: Whether the episodes.jsonl collector is on.
-
-  Raises:
-    ResumeError: If `RUN_INFO` records other settings (e.g. another
-      `episodes_per_iteration`), or episodes.jsonl holds more episodes than
-      the newest checkpoint and the one unfinished iteration after it cover,
-      or fewer than the checkpoint covers.
-  """
-  info_path = os.path.join(base_dir, RUN_INFO)
-  if os.path.exists(info_path):
-    try:
-      with open(info_path, encoding='utf-8') as f:
-        recorded = json.load(f)
-    except (OSError, ValueError) as e:
-      raise ResumeError(f'{info_path} is unreadable ({e}); not resuming') from e
-    if not isinstance(recorded, dict):
-      raise ResumeError(f'{info_path} is not a JSON object; not resuming')
-    for key, value in run_info.items():
-      if key in recorded and recorded[key] != value:
-        raise ResumeError(
-            f'{base_dir} was started with {key}={recorded[key]!r}, this run '
-            f'asks for {key}={value!r}: resuming would leave a gap in its '
-            f'episode log. Use the same value or a new --base_dir.')
-  if not log_episodes:
-    return
-  log_path = os.path.join(base_dir, episode_log.EPISODE_LOG)
-  logged = len(episode_log.read(log_path))
-  per_iteration = run_info['episodes_per_iteration']
-  covered = start_iteration * per_iteration
-  if logged > covered + per_iteration:
-    newest = ('no checkpoint' if not start_iteration else
-              f'the newest checkpoint (iteration {start_iteration - 1})')
-    raise ResumeError(
-        f'{log_path} holds {logged} episodes but {newest} covers only '
-        f'{covered}: resuming would drop {logged - covered} logged episodes. '
-        f'Are checkpoints missing from {base_dir}/checkpoints? Nothing was '
-        'changed.')
-  if logged < covered:
-    raise ResumeError(
-        f'{log_path} holds {logged} episodes but the newest checkpoint '
-        f'(iteration {start_iteration - 1}) covers {covered}: episodes '
-        f'{logged}..{covered - 1} would be missing from the log. Nothing was '
-        'changed.')
 
 
 def train(*, agent_name: str, env_name: str, base_dir: str,
@@ -147,8 +66,9 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
   Raises:
     ValueError: On an unknown collector, a non-positive count, or policy
       snapshots asked of an agent that is not SAC.
-    ResumeError: If `base_dir` holds a run that cannot be resumed without
-      losing logged episodes or with these settings (nothing is changed).
+    errors.ResumeError: If `base_dir` holds a run that cannot be resumed
+      without losing logged episodes or with these settings (nothing is
+      changed; `run_dir.check_resume`).
     safe_io.InUseError: If another process (or another run in this one)
       trains in `base_dir` (`safe_io.locked_dir`, held for the whole run).
   """
@@ -159,22 +79,21 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
   if policy_snapshot_period < 0:
     raise ValueError('policy_snapshot_period must be >= 0, got '
                      f'{policy_snapshot_period}')
-  with safe_io.locked_dir(base_dir):  # Creates it.
-    remove_stale_temporaries(base_dir)
+  with run_dir.locked(base_dir):  # Creates it.
     env = gym.make(env_name).unwrapped
     agent = runner.create_agent(agent_name, env, seed=seed)
     if policy_snapshot_period and not isinstance(agent, sac.SACAgent):
       raise ValueError(
           f'policy snapshots need a SAC agent, not {agent_name!r}')
-    checkpoint_dir = os.path.join(base_dir, 'checkpoints')
+    checkpoint_dir = run_dir.checkpoint_dir(base_dir)
     start_iteration = _reload_latest(agent, checkpoint_dir) + 1
     run_info = {'agent': agent_name, 'env_name': env_name, 'seed': seed,
                 'episodes_per_iteration': episodes_per_iteration,
                 'max_episode_length': max_episode_length}
-    _check_resume(base_dir, run_info, start_iteration,
-                  log_episodes='episodes' in collectors)
-    safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
-                         json.dumps(run_info, indent=1) + '\n')
+    run_dir.check_resume(base_dir, run_info, start_iteration=start_iteration,
+                         episodes_per_iteration=episodes_per_iteration,
+                         log_episodes='episodes' in collectors)
+    run_dir.write_run_info(base_dir, run_info)
     start_episode = start_iteration * episodes_per_iteration
     if start_iteration:
       logging.info('Resuming after checkpoint %d (episode %d).',
@@ -202,11 +121,11 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
         # iteration.
         policy = pretrained.policy_from_bundle(
             agent.acting_bundle(iteration),
-            os.path.basename(sac.checkpoint_path(checkpoint_dir, iteration)),
+            os.path.basename(run_dir.checkpoint_path(base_dir, iteration)),
             note=f'{agent_name} after '
             f'{(iteration + 1) * episodes_per_iteration} training episodes')
-        pretrained.write_policy(policy,
-                                policy_snapshot_path(base_dir, iteration))
+        pretrained.write_policy(
+            policy, run_dir.policy_snapshot_path(base_dir, iteration))
     dispatcher.end_training()
     safe_io.atomic_write(os.path.join(base_dir, 'operative_config.gin'),
                          gin.operative_config_str())

@@ -1,0 +1,126 @@
+# coding=utf-8
+"""A training run directory, as both trainers keep it.
+
+`ble-latex-train --base_dir` holds `run.json` (the settings a resumed run
+must agree with), `checkpoints/`, `policies/policy_NNNNN.msgpack` snapshots,
+`episodes.jsonl` and `metrics/`. One process writes it at a time (`locked`).
+Used by the agent loop (`train_lib`) and the jitted trainer (`jax_train`).
+"""
+
+import contextlib
+import json
+import os
+import re
+from typing import Any, Iterator, Mapping, Optional
+
+from ble_latex.agents import sac
+from ble_latex.run import episode_log
+from ble_latex import errors
+from ble_latex import safe_io
+
+RUN_INFO = 'run.json'  # What a resumed run must agree with.
+POLICY_SNAPSHOT_PATTERN = re.compile(r'^policy_(\d{5,})\.msgpack$')
+
+
+def checkpoint_dir(base_dir: str) -> str:
+  """The folder of a run's checkpoints."""
+  return os.path.join(base_dir, 'checkpoints')
+
+
+def checkpoint_path(base_dir: str, iteration: int) -> str:
+  """Where a SAC trainer checkpoints `iteration` (0-based)."""
+  return sac.checkpoint_path(checkpoint_dir(base_dir), iteration)
+
+
+def policy_snapshot_path(base_dir: str, iteration: int) -> str:
+  """Where a trainer exports the policy of `iteration` (0-based)."""
+  return os.path.join(base_dir, 'policies', f'policy_{iteration:05d}.msgpack')
+
+
+@contextlib.contextmanager
+def locked(base_dir: str, *, wait_s: float = 0.0) -> Iterator[None]:
+  """Holds the run directory's lock (`safe_io.locked_dir`, creating it).
+
+  Once it is held no temporary file in checkpoints/ or policies/ belongs to a
+  live writer: those killed writes left are removed.
+  """
+  with safe_io.locked_dir(base_dir, wait_s=wait_s):
+    safe_io.remove_stale_temporaries(checkpoint_dir(base_dir), 'checkpoint_')
+    safe_io.remove_stale_temporaries(os.path.join(base_dir, 'policies'),
+                                     'policy_')
+    yield
+
+
+def check_resume(base_dir: str, run_info: Mapping[str, Any], *,
+                 start_iteration: int, episodes_per_iteration: int,
+                 log_episodes: bool = True,
+                 unsaved_iterations: Optional[int] = 1,
+                 defaults: Optional[Mapping[str, Mapping[str, Any]]] = None
+                 ) -> None:
+  """Refuses a resume that would change settings or lose logged episodes.
+
+  Args:
+    base_dir: The run directory.
+    run_info: This invocation's `RUN_INFO` settings.
+    start_iteration: First iteration to run (newest checkpoint + 1, or 0).
+    episodes_per_iteration: Episodes one iteration logs.
+    log_episodes: Whether episodes.jsonl is written (else it is not checked).
+    unsaved_iterations: Iterations the log may hold past the newest
+      checkpoint (dropped and flown again; more means checkpoints are
+      missing); None: any number.
+    defaults: For settings recorded as a mapping (e.g. the jitted trainer's
+      `config`), the values of entries added since a run started: a run
+      recorded without them counts with these.
+
+  Raises:
+    errors.ResumeError: If `RUN_INFO` is unreadable or records other
+      settings, or episodes.jsonl holds fewer episodes than the newest
+      checkpoint covers, or more than it and the unsaved iterations cover.
+      Nothing is changed.
+  """
+  info_path = os.path.join(base_dir, RUN_INFO)
+  if os.path.exists(info_path):
+    try:
+      with open(info_path, encoding='utf-8') as f:
+        recorded = json.load(f)
+    except (OSError, ValueError) as e:
+      raise errors.ResumeError(
+          f'{info_path} is unreadable ({e}); not resuming') from e
+    if not isinstance(recorded, dict):
+      raise errors.ResumeError(
+          f'{info_path} is not a JSON object; not resuming')
+    for key, added in (defaults or {}).items():
+      if isinstance(recorded.get(key), dict):
+        recorded[key] = {**added, **recorded[key]}
+    for key, value in run_info.items():
+      if key in recorded and recorded[key] != value:
+        raise errors.ResumeError(
+            f'{base_dir} was started with {key}={recorded[key]!r}, this run '
+            f'asks for {key}={value!r}; use the same settings or a new '
+            '--base_dir. Nothing was changed.')
+  if not log_episodes:
+    return
+  log_path = os.path.join(base_dir, episode_log.EPISODE_LOG)
+  logged = len(episode_log.read(log_path))
+  covered = start_iteration * episodes_per_iteration
+  if (unsaved_iterations is not None and
+      logged > covered + unsaved_iterations * episodes_per_iteration):
+    newest = ('no checkpoint' if not start_iteration else
+              f'the newest checkpoint (iteration {start_iteration - 1})')
+    raise errors.ResumeError(
+        f'{log_path} holds {logged} episodes but {newest} covers only '
+        f'{covered}: resuming would drop {logged - covered} logged episodes. '
+        f'Are checkpoints missing from {checkpoint_dir(base_dir)}? Nothing '
+        'was changed.')
+  if logged < covered:
+    raise errors.ResumeError(
+        f'{log_path} holds {logged} episodes but the newest checkpoint '
+        f'(iteration {start_iteration - 1}) covers {covered}: episodes '
+        f'{logged}..{covered - 1} would be missing from the log. Nothing was '
+        'changed.')
+
+
+def write_run_info(base_dir: str, run_info: Mapping[str, Any]) -> None:
+  """Records the settings a resumed run must agree with (`check_resume`)."""
+  safe_io.atomic_write(os.path.join(base_dir, RUN_INFO),
+                       json.dumps(run_info, indent=1) + '\n')
