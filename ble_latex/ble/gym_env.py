@@ -33,7 +33,6 @@ from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import discrete_features
 from ble_latex.ble import features as latex_features
 from ble_latex.ble import wind as ble_wind
-from ble_latex.envs import controller as controller_lib
 from ble_latex.envs import jax_env
 from ble_latex.envs import seeds
 
@@ -131,8 +130,8 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
   @property
   def action_space(self) -> gym.spaces.Box:
     """(desired altitude a0 [m], time factor a1 [.], float flag a2 [.])."""
-    return gym.spaces.Box(low=controller_lib.ACTION_LOW,
-                          high=controller_lib.ACTION_HIGH, dtype=np.float32)
+    return gym.spaces.Box(low=jax_env.ACTION_LOW, high=jax_env.ACTION_HIGH,
+                          dtype=np.float32)
 
   @property
   def episode_steps(self) -> int:
@@ -184,7 +183,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
     Returns:
       (observation, reward, done, info); see README for `info`.
     """
-    action = controller_lib.validate_action(action)
+    action = self.arena.driver.box_actions(action)  # The one check.
     if self.arena.info['time_limit'] or self._is_terminal():
       raise RuntimeError('step() called on a finished episode; call reset().')
     before = self.arena.flight() if self._reward_fn is not None else None
@@ -258,12 +257,12 @@ class LatexBalloonDiscreteEnv(LatexBalloonEnv):
     """Maps an AltitudeControlCommand to the controller's (a0, a1, a2)."""
     command = control.AltitudeControlCommand(action)
     altitude = float(self.arena.flight()['altitude_m'])
-    low, high = controller_lib.ACTION_LOW, controller_lib.ACTION_HIGH
+    low, high = jax_env.ACTION_LOW, jax_env.ACTION_HIGH
     if command == control.AltitudeControlCommand.STAY:
       return np.array([np.clip(altitude, low[0], high[0]), 1.0, 1.0])
     sign = 1.0 if command == control.AltitudeControlCommand.UP else -1.0
     target = altitude + sign * self._ascent_rate_mps * (
-        controller_lib.STRIDE.total_seconds())
+        self.arena.params.stride_s)
     return np.array([np.clip(target, low[0], high[0]), 1.0, -1.0])
 
   def __str__(self) -> str:
