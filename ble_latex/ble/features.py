@@ -23,9 +23,7 @@ import numpy as np
 
 from ble_latex.envs import jax_features
 
-N_LEVELS = jax_features.N_LEVELS
 NUM_FEATURES = jax_features.NUM_FEATURES
-HISTORY = jax_features.HISTORY
 
 
 @gin.configurable(denylist=['forecast', 'atmosphere'])

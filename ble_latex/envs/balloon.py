@@ -6,9 +6,5 @@ from ble_latex.ble.balloon import LatexBalloon
 from ble_latex.ble.balloon import LatexBalloonState
 from ble_latex.ble.balloon import LatexBalloonStatus
 
-__all__ = [
-    'create_state',
-    'LatexBalloon',
-    'LatexBalloonState',
-    'LatexBalloonStatus',
-]
+__all__ = ['create_state', 'LatexBalloon', 'LatexBalloonState',
+           'LatexBalloonStatus']

@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Old import path of the features, kept: `ble_latex.ble.features` and the decoder."""
+"""Old import path of the features (`ble_latex.ble.features`) and decoder."""
 
 from ble_latex.ble.features import LatexFeatureConstructor
 from ble_latex.envs.jax_features import NamedLatexFeatures

@@ -7,10 +7,5 @@ from ble_latex.ble.gym_env import LatexBalloonEnv
 from ble_latex.ble.gym_env import validate_discrete_action
 from ble_latex.ble.gym_env import validate_seed
 
-__all__ = [
-    'INFO_KEYS',
-    'LatexBalloonDiscreteEnv',
-    'LatexBalloonEnv',
-    'validate_discrete_action',
-    'validate_seed',
-]
+__all__ = ['INFO_KEYS', 'LatexBalloonDiscreteEnv', 'LatexBalloonEnv',
+           'validate_discrete_action', 'validate_seed']
