@@ -24,6 +24,7 @@ burst (V > burst volume; BLE's `status` becomes BURST too) and grounded
 
 import dataclasses
 import datetime as dt
+import enum
 import functools
 import math
 import numbers
@@ -40,7 +41,8 @@ import numpy as np
 import s2sphere as s2
 
 from ble_latex.ble import wind as wind_lib
-from ble_latex.envs import controller as controller_lib
+from ble_latex.envs import gymnasium_env
+from ble_latex.envs import jax_env
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import dynamics
 from ble_latex.flight import params as params_lib
@@ -60,6 +62,14 @@ WindSource = Union[wind_field.WindVector,
                              dt.timedelta], wind_field.WindVector]]
 
 LatexBalloonStatus = state_lib.FlightStatus
+
+
+class Decision(enum.Enum):
+  """The controller's decision at an action (values are `info`'s strings)."""
+  NOTHING = 'nothing'
+  FLOAT = 'float'
+  VENT = 'vent'
+  BALLAST = 'ballast'
 
 
 @dataclasses.dataclass
@@ -108,7 +118,7 @@ class LatexBalloonState(balloon.BalloonState):
   pending_vent_mols: float = 0.0  # [mol]
   pending_drop_kg: float = 0.0  # [kg]
   latex_status: LatexBalloonStatus = LatexBalloonStatus.OK
-  last_decision: controller_lib.Decision = controller_lib.Decision.NOTHING
+  last_decision: Decision = Decision.NOTHING
   last_action: Tuple[float, float, float] = (0.0, 0.0, 0.0)
   last_float_action: float = 0.0  # [.]
   desired_ascent_rate_mps: float = 0.0  # [m/s]
@@ -212,7 +222,8 @@ def write_flight(state: LatexBalloonState, flight: Mapping[str, Any], *,
   s.latex_status = status
   s.status = (balloon.BalloonStatus.BURST if
               status == LatexBalloonStatus.BURST else balloon.BalloonStatus.OK)
-  s.last_decision = controller_lib.decision(np.asarray(flight['last_decision']))
+  s.last_decision = Decision[state_lib.DecisionCode(
+      int(np.asarray(flight['last_decision']))).name]
   action = np.asarray(flight['last_action'], np.float64)
   s.last_action = tuple(float(v) for v in action)
   s.last_float_action = float(action[2])
@@ -430,7 +441,8 @@ class LatexBalloon:
     if s.latex_status != LatexBalloonStatus.OK:
       raise RuntimeError('Stepping a latex balloon after a terminal event '
                          f'({s.latex_status.name}); reset it first.')
-    a = controller_lib.validate_action(action)
+    a = gymnasium_env.validate_actions(action, None, jax_env.ACTION_LOW,
+                                       jax_env.ACTION_HIGH)
     for name, value in (('time_delta', time_delta), ('stride', stride)):
       if not isinstance(value, dt.timedelta) or value.total_seconds() <= 0:
         raise ValueError(f'{name} must be a positive timedelta, got {value!r}')
