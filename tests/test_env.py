@@ -213,6 +213,10 @@ def test_old_import_path_of_the_gym_envs_is_kept():
      ('register_env',)),
     ('ble_latex.wind.ble_field', 'ble_latex.ble.wind',
      ('CoreGenerativeWindField',)),
+    ('ble_latex.envs.controller', 'ble_latex.envs.jax_env',
+     ('ACTION_LOW', 'ACTION_HIGH')),
+    ('ble_latex.envs.gymnasium_vector', 'ble_latex.envs.gymnasium_env',
+     ('LatexBalloonVectorEnv', 'info_arrays')),
 ])
 def test_old_module_paths_alias_the_ble_package(old, new, names):
   """Pre-`ble_latex.ble` paths (README, gin files) give the same objects."""
@@ -224,12 +228,18 @@ def test_old_module_paths_alias_the_ble_package(old, new, names):
 
 def test_shipped_gin_imports_of_old_paths_keep_working():
   import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   try:
     gin.parse_config('import ble_latex.envs.gym_env\n'
                      'import ble_latex.envs.balloon\n'
+                     'import ble_latex.envs.controller\n'
                      'LatexBalloonEnv.episode_steps = 7\n'
+                     'AltitudeController.min_vent_mols = 0.3\n'
                      'create_state.sand_kg = 1.5')
     assert gin.query_parameter('LatexBalloonEnv.episode_steps') == 7
     assert gin.query_parameter('create_state.sand_kg') == 1.5
+    params = jax_env.params_from_gin()
+    assert (params.episode_steps, params.flight.initial_sand_kg,
+            params.flight.min_vent_mols) == (7, 1.5, 0.3)
   finally:
     gin.clear_config()
