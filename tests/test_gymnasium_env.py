@@ -74,6 +74,7 @@ def test_make_gives_gymnasium_envs(env, discrete_env):
                     gymnasium_discrete.LatexBalloonDiscreteGymnasiumEnv)
   # The continuous env flies the functional env's state; the discrete one
   # owns BLE's gym env.
+  env.reset(seed=0)
   assert isinstance(env.unwrapped.state, jax_env.EnvState)
   assert isinstance(discrete_env.unwrapped.gym_env, gym.Env)
   assert env.action_space == gymnasium.spaces.Box(
