@@ -49,13 +49,17 @@ class Era5Grid:
   Attributes:
     time_s: Grid times after the data's first time, [T]. # [s]
     pressure_pa: Pressure levels, ascending, [P]. # [Pa]
-    latitude: Latitudes, ascending, [La]. # [deg N]
-    longitude: Longitudes, ascending, the file's convention, [Lo]. # [deg E]
+    latitude: Latitudes after `latitude_origin`, ascending, [La]. # [deg]
+    longitude: Longitudes after `longitude_origin`, ascending, [Lo]. # [deg]
     uv: Winds (u east, v north), [T, P, La, Lo, 2]. # [m/s]
-    longitude_centre: Centre of the longitude range (wrapping). # [deg E]
+    latitude_origin: The first latitude. # [deg N]
+    longitude_origin: The first longitude, the file's convention. # [deg E]
     sin_center_lat: sin of the target's latitude.
     cos_center_lat: cos of the target's latitude.
-    center_lon: The target's longitude, the file's convention. # [deg E]
+    center_lon: The target's longitude after `longitude_origin`, the
+      file's convention. # [deg]
+    (Axes relative to their first value keep float32's resolution of the
+    coordinates, ~1e-6 deg, instead of ~1e-5 deg at 100 deg.)
     last_start_minute: Latest flight start after the first time (int32;
       `era5.last_start_minute`). # [min]
     first_time_min: The data's first time after 1970-01-01 UTC (int32). # [min]
@@ -67,7 +71,8 @@ class Era5Grid:
   latitude: Array
   longitude: Array
   uv: Array
-  longitude_centre: Array
+  latitude_origin: Array
+  longitude_origin: Array
   sin_center_lat: Array
   cos_center_lat: Array
   center_lon: Array
@@ -111,14 +116,15 @@ def grid_from_data(data: era5.Era5Data, *,
   def f32(value):
     return jnp.asarray(np.asarray(value, np.float64), jnp.float32)
 
+  lat0 = np.float64(np.float32(data.latitude[0]))
+  lon0 = np.float64(np.float32(data.longitude[0]))
   return Era5Grid(
       time_s=f32(data.time_s), pressure_pa=f32(data.pressure),
-      latitude=f32(data.latitude), longitude=f32(data.longitude),
-      uv=f32(data.uv),
-      longitude_centre=f32(0.5 * (data.longitude[0] + data.longitude[-1])),
+      latitude=f32(data.latitude - lat0), longitude=f32(data.longitude - lon0),
+      uv=f32(data.uv), latitude_origin=f32(lat0), longitude_origin=f32(lon0),
       sin_center_lat=f32(math.sin(lat_rad)),
       cos_center_lat=f32(math.cos(lat_rad)),
-      center_lon=f32(data.wrap_longitude(center_lon)),
+      center_lon=f32(data.wrap_longitude(center_lon) - lon0),
       last_start_minute=jnp.asarray(last, jnp.int32),
       first_time_min=jnp.asarray(int(first_s // 60), jnp.int32),
       add_noise=bool(add_noise))
@@ -142,17 +148,36 @@ def draw_start_minute(grid: Era5Grid, key: Array) -> Array:
   return jax.random.randint(key, (), 0, grid.last_start_minute + 1)
 
 
-def wrap_longitude(grid: Era5Grid, lon: Array) -> Array:
-  """`Era5Data.wrap_longitude`: lon within 180 deg of the grid's centre. # [deg]"""
-  centre = grid.longitude_centre
-  return jnp.remainder(lon - centre + 180.0, 360.0) - (180.0 - centre)
+def _wrap(grid: Era5Grid, lon: Array, origin: Array = 0.0) -> Array:
+  """`Era5Data.wrap_longitude` of longitudes after `origin`. # [deg]
+
+  Shifts by multiples of 360 deg to within 180 deg of the centre of the
+  file's longitude range (`origin` 0: longitudes after `longitude_origin`).
+  Only whole turns are subtracted: no rounding through values near 180.
+  """
+  centre = origin + 0.5 * grid.longitude[-1]
+  return lon - 360.0 * jnp.floor((lon - centre + 180.0) / 360.0)
+
+
+def _offsets(grid: Era5Grid, x_m: Array, y_m: Array) -> Tuple[Array, Array]:
+  """`latlng`, after the grid's origin (latitude, longitude). # [deg]"""
+  heading = jnp.arctan2(x_m, y_m)
+  angle = jnp.hypot(x_m, y_m) / EARTH_RADIUS_M
+  cos_angle, sin_angle = jnp.cos(angle), jnp.sin(angle)
+  sin_lat = (cos_angle * grid.sin_center_lat +
+             sin_angle * grid.cos_center_lat * jnp.cos(heading))
+  d_lng = jnp.arctan2(sin_angle * grid.cos_center_lat * jnp.sin(heading),
+                      cos_angle - grid.sin_center_lat * sin_lat)
+  lat = jnp.degrees(jnp.arcsin(jnp.clip(sin_lat, -1.0, 1.0)))
+  return (lat - grid.latitude_origin,
+          _wrap(grid, grid.center_lon + jnp.degrees(d_lng)))
 
 
 def latlng(grid: Era5Grid, x_m: Array, y_m: Array) -> Tuple[Array, Array]:
   """(lat, lon) of the offset (x east, y north) from the target. # [deg]
 
   BLE's `spherical_geometry.calculate_latlng_from_offset` (`Era5WindField.
-  _latlng`): heading atan2(x, y) from north, angular distance
+  _latlng`): heading h = atan2(x, y) from north, angular distance d =
   hypot(x, y) / R, the great-circle destination (sin lat = cos d sin lat0 +
   sin d cos lat0 cos h; dlon = atan2(sin h sin d cos lat0, cos d -
   sin lat0 sin lat)); the longitude in the file's convention.
@@ -165,19 +190,12 @@ def latlng(grid: Era5Grid, x_m: Array, y_m: Array) -> Tuple[Array, Array]:
   Returns:
     (latitude [deg N], longitude [deg E]), of the inputs' broadcast shape.
   """
-  heading = jnp.arctan2(x_m, y_m)
-  angle = jnp.hypot(x_m, y_m) / EARTH_RADIUS_M
-  cos_angle, sin_angle = jnp.cos(angle), jnp.sin(angle)
-  sin_lat = (cos_angle * grid.sin_center_lat +
-             sin_angle * grid.cos_center_lat * jnp.cos(heading))
-  d_lng = jnp.arctan2(sin_angle * grid.cos_center_lat * jnp.sin(heading),
-                      cos_angle - grid.sin_center_lat * sin_lat)
-  lat = jnp.degrees(jnp.arcsin(jnp.clip(sin_lat, -1.0, 1.0)))
-  return lat, wrap_longitude(grid, grid.center_lon + jnp.degrees(d_lng))
+  lat, lon = _offsets(grid, x_m, y_m)
+  return lat + grid.latitude_origin, lon + grid.longitude_origin
 
 
 def _cell(axis: Array, value: Array) -> Tuple[Array, Array]:
-  """Lower index and weight of the upper node of `value`, clipped. """
+  """Lower index and weight of the upper node of `value`, clipped."""
   value = jnp.clip(value, axis[0], axis[-1])
   i = jnp.clip(jnp.searchsorted(axis, value, side='right') - 1, 0,
                axis.shape[0] - 2)
@@ -203,9 +221,17 @@ def interpolate(grid: Era5Grid, time_s: Array, pressure_pa: Array,
   Returns:
     [broadcast(inputs) + (2,)] (u, v), float32. # [m/s]
   """
+  lat = jnp.asarray(latitude, jnp.float32) - grid.latitude_origin
+  lon = _wrap(grid, jnp.asarray(longitude, jnp.float32),
+              grid.longitude_origin) - grid.longitude_origin
+  return _interpolate(grid, time_s, pressure_pa, lat, lon)
+
+
+def _interpolate(grid: Era5Grid, time_s: Array, pressure_pa: Array,
+                 lat: Array, lon: Array) -> Array:
+  """`interpolate` of (lat, lon) after the grid's origin. # [m/s]"""
   coords = jnp.broadcast_arrays(
-      *(jnp.asarray(c, jnp.float32) for c in (
-          time_s, pressure_pa, latitude, wrap_longitude(grid, longitude))))
+      *(jnp.asarray(c, jnp.float32) for c in (time_s, pressure_pa, lat, lon)))
   axes = (grid.time_s, grid.pressure_pa, grid.latitude, grid.longitude)
   cells = [_cell(axis, c) for axis, c in zip(axes, coords)]
   uv = jnp.zeros(coords[0].shape + (2,), jnp.float32)
@@ -233,6 +259,6 @@ def forecast(grid: Era5Grid, time_s: Array, x_m: Array, y_m: Array,
   Returns:
     (u, v) of pressure_pa's shape (broadcast with the others).
   """
-  lat, lon = latlng(grid, x_m, y_m)
-  uv = interpolate(grid, time_s, pressure_pa, lat, lon)
+  lat, lon = _offsets(grid, x_m, y_m)
+  uv = _interpolate(grid, time_s, pressure_pa, lat, lon)
   return uv[..., 0], uv[..., 1]
