@@ -222,7 +222,8 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
   The env flies it when `EnvParams.wind_grid` is set
   (`LatexBalloonJaxEnv.wind_for`): the grid is then a traced argument, read
   by every balloon (not a compile-time constant, not copied per balloon).
-  The flight's start in the data is its `start_time_offset_s`.
+  The flight's start in the data is its `start_time_offset_s` (int32
+  seconds after `START_EPOCH`: data from 1943 to 2079).
 
   Args:
     grid: The ERA5 grid (`era5_jax.grid_from_data`).
