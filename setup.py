@@ -81,7 +81,7 @@ setuptools.setup(
     },
     entry_points={
         'gym.envs': [
-            '__root__ = ble_latex.envs.gym_registration:register_env',
+            '__root__ = ble_latex.ble.gym_registration:register_env',
         ],
         'console_scripts': [
             'ble-latex-ble = ble_latex.cli.ble_commands:main',

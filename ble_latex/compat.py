@@ -30,7 +30,7 @@ The same hook also runs three integration steps that are not fixes:
 `gymnasium_register` (the `ble_latex/...` ids, after `import gymnasium`),
 `gin_latex_configurables` (a gin finalize hook that imports
 `GIN_CONFIGURABLE_MODULES` before BLE's `bind_gin_variables` locks the config)
-and `quiet_import` (ble_latex.envs.gym_env imports inside `quiet.third_party_noise`).
+and `quiet_import` (ble_latex.ble.gym_env imports inside `quiet.third_party_noise`).
 """
 
 import contextlib
@@ -334,7 +334,7 @@ def _flax_optim_shim() -> types.ModuleType:
 # Integration hooks (not fixes): gymnasium ids, gin configurables, quiet start.
 # ---------------------------------------------------------------------------
 # Modules whose import declares every gin configurable a latex env needs.
-GIN_CONFIGURABLE_MODULES = ('ble_latex.envs.gym_env',)
+GIN_CONFIGURABLE_MODULES = ('ble_latex.ble.gym_env',)
 
 
 def _register_gymnasium_envs(unused_gymnasium: types.ModuleType) -> None:
@@ -352,7 +352,7 @@ def _import_latex_configurables(unused_config: Any) -> None:
 
   BLE's order (`run_helpers.bind_gin_variables`, which finalizes and locks
   gin's config, then `gym.make('LatexBalloonDiscrete-v0')`) would otherwise
-  import ble_latex.envs.gym_env after the lock, and its `@gin.configurable`s raise
+  import ble_latex.ble.gym_env after the lock, and its `@gin.configurable`s raise
   "Attempted to add a new configurable after the config was locked".
   """
   import importlib  # pylint: disable=g-import-not-at-top
@@ -388,7 +388,7 @@ _HOOKS: Dict[str, Tuple[str, _Around, _After]] = {
     # Integration hooks.
     'gymnasium': ('gymnasium_register', None, _register_gymnasium_envs),
     'gin.config': ('gin_latex_configurables', None, _gin_finalize_hook),
-    'ble_latex.envs.gym_env': ('quiet_import', _quiet_import, None),
+    'ble_latex.ble.gym_env': ('quiet_import', _quiet_import, None),
 }
 # Top-level packages whose (non-trivial) import first applies the jax fixes.
 _JAX_USERS = (f'{_BLE}.', 'dopamine.', 'tensorflow_probability.substrates')

@@ -44,7 +44,7 @@ def imported_bindings(module: str, name: str,
   """`effective_bindings` of `module.name` if that module is imported.
 
   Args:
-    module: The module declaring the configurable, e.g. 'ble_latex.envs.gym_env'.
+    module: The module declaring the configurable, e.g. 'ble_latex.ble.gym_env'.
     name: The configurable's attribute in that module.
     defaults: Values when the module is not imported (it then has no
       bindings): the configurable's keyword defaults, restated.

@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Tests for ble_latex.envs.balloon (LatexBalloon, its state) and validate."""
+"""Tests for ble_latex.ble.balloon (LatexBalloon, its state) and validate."""
 
 import copy
 import datetime as dt
@@ -16,17 +16,16 @@ from hypothesis import strategies as st
 import pytest
 import s2sphere as s2
 
-from ble_latex.envs import balloon as balloon_lib
-from ble_latex.envs import controller as controller_lib
+from ble_latex.ble import balloon as balloon_lib
 from ble_latex.flight import controller as core_controller
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
 
 _SETTINGS = settings(max_examples=25, deadline=None)
-STRIDE = controller_lib.STRIDE
+STRIDE = dt.timedelta(seconds=params_lib.DEFAULTS.stride_s)
 Status = balloon_lib.LatexBalloonStatus
-Decision = controller_lib.Decision
+Decision = balloon_lib.Decision
 CALM = wind_field.WindVector(units.Velocity(mps=0.0), units.Velocity(mps=0.0))
 
 

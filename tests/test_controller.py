@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Tests for ble_latex.envs.controller (Eq. fullcontroller)."""
+"""Tests of the action check and Eq. fullcontroller (NumPy oracle)."""
 
 import datetime as dt
 
@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-from ble_latex.envs import controller as package_controller
+from ble_latex.envs import gymnasium_env
+from ble_latex.envs import jax_env
 # The retired NumPy controller, the oracle of tests/test_flight_core.py.
 from reference import numpy_controller as controller_lib
 from reference import numpy_physics as physics
@@ -46,7 +47,8 @@ def _apply(state, act):
     [14_000, 1, -1], [21_000, 5, 1], (17_500.0, 2.5, 0.0),
     np.array([15_000, 3, 0.3], dtype=np.float32)])
 def test_validate_action_accepts_in_range(action):
-  a = package_controller.validate_action(action)
+  a = gymnasium_env.validate_actions(action, None, jax_env.ACTION_LOW,
+                                     jax_env.ACTION_HIGH)
   assert a.dtype == np.float64 and a.shape == (3,)
 
 
@@ -62,18 +64,18 @@ def test_validate_action_accepts_in_range(action):
     ([17_000, 1], r'shape \(3,\)'),
     ([[17_000, 1, 0, 0]], r'shape \(3,\)'),
     ([[17_000, 1, 0]], r'shape \(3,\)'),
-    ('abc', '3 numbers'),
-    (None, '3 numbers'),
+    ('abc', 'numbers'),
+    (None, 'numbers'),
 ])
 def test_validate_action_rejects_bad(action, match):
   with pytest.raises(ValueError, match=match):
-    package_controller.validate_action(action)
+    gymnasium_env.validate_actions(action, None, jax_env.ACTION_LOW,
+                                     jax_env.ACTION_HIGH)
 
 
 def test_action_bounds_match_paper():
-  np.testing.assert_array_equal(package_controller.ACTION_LOW, [14_000, 1, -1])
-  np.testing.assert_array_equal(package_controller.ACTION_HIGH, [21_000, 5, 1])
-  assert controller_lib.STRIDE == dt.timedelta(minutes=20)
+  np.testing.assert_array_equal(jax_env.ACTION_LOW, [14_000, 1, -1])
+  np.testing.assert_array_equal(jax_env.ACTION_HIGH, [21_000, 5, 1])
 
 
 def test_desired_ascent_rate_formula():

@@ -1,8 +1,8 @@
 """LatexBalloon-v0 and LatexBalloonDiscrete-v0: the gym contract."""
 
 import ble_latex  # noqa: F401  (fixes first)
-from ble_latex.envs import features as latex_features
-from ble_latex.envs import gym_env as env_lib
+from ble_latex.ble import features as latex_features
+from ble_latex.ble import gym_env as env_lib
 import gym
 from gym.utils import env_checker
 import numpy as np
@@ -192,5 +192,54 @@ def test_old_import_path_of_the_gym_envs_is_kept():
     gin.parse_config('import ble_latex.env\n'
                      'LatexBalloonEnv.episode_steps = 7')
     assert gin.query_parameter('LatexBalloonEnv.episode_steps') == 7
+  finally:
+    gin.clear_config()
+
+
+@pytest.mark.parametrize('old, new, names', [
+    ('ble_latex.envs.gym_env', 'ble_latex.ble.gym_env',
+     ('LatexBalloonEnv', 'LatexBalloonDiscreteEnv', 'validate_discrete_action')),
+    ('ble_latex.envs.arena', 'ble_latex.ble.arena', ('LatexBalloonArena',)),
+    ('ble_latex.envs.balloon', 'ble_latex.ble.balloon',
+     ('LatexBalloon', 'LatexBalloonState', 'create_state')),
+    ('ble_latex.envs.features', 'ble_latex.ble.features',
+     ('LatexFeatureConstructor',)),
+    ('ble_latex.envs.features', 'ble_latex.envs.jax_features',
+     ('NamedLatexFeatures',)),
+    ('ble_latex.envs.reward', 'ble_latex.ble.reward', ('latex_reward',)),
+    ('ble_latex.envs.discrete_features', 'ble_latex.ble.discrete_features',
+     ('LatexPerciatelliFeatureConstructor',)),
+    ('ble_latex.envs.gym_registration', 'ble_latex.ble.gym_registration',
+     ('register_env',)),
+    ('ble_latex.wind.ble_field', 'ble_latex.ble.wind',
+     ('CoreGenerativeWindField',)),
+    ('ble_latex.envs.controller', 'ble_latex.envs.jax_env',
+     ('ACTION_LOW', 'ACTION_HIGH')),
+    ('ble_latex.envs.gymnasium_vector', 'ble_latex.envs.gymnasium_env',
+     ('LatexBalloonVectorEnv', 'info_arrays')),
+])
+def test_old_module_paths_alias_the_ble_package(old, new, names):
+  """Pre-`ble_latex.ble` paths (README, gin files) give the same objects."""
+  import importlib  # pylint: disable=g-import-not-at-top
+  old_module, new_module = (importlib.import_module(m) for m in (old, new))
+  for name in names:
+    assert getattr(old_module, name) is getattr(new_module, name), name
+
+
+def test_shipped_gin_imports_of_old_paths_keep_working():
+  import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  try:
+    gin.parse_config('import ble_latex.envs.gym_env\n'
+                     'import ble_latex.envs.balloon\n'
+                     'import ble_latex.envs.controller\n'
+                     'LatexBalloonEnv.episode_steps = 7\n'
+                     'AltitudeController.min_vent_mols = 0.3\n'
+                     'create_state.sand_kg = 1.5')
+    assert gin.query_parameter('LatexBalloonEnv.episode_steps') == 7
+    assert gin.query_parameter('create_state.sand_kg') == 1.5
+    params = jax_env.params_from_gin()
+    assert (params.episode_steps, params.flight.initial_sand_kg,
+            params.flight.min_vent_mols) == (7, 1.5, 0.3)
   finally:
     gin.clear_config()

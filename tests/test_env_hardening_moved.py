@@ -5,7 +5,7 @@ bindings before anything changes.
 """
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
-from ble_latex.envs import gym_env as env_lib
+from ble_latex.ble import gym_env as env_lib
 import gin
 import gym
 import numpy as np
@@ -23,10 +23,10 @@ def test_bad_seed_is_refused_before_anything_changes(latex_env, seed):
   latex_env.reset(seed=3)
   latex_env.step(action)
   before = repr(latex_env.arena.get_balloon_state())
-  steps = latex_env._steps
+  steps = int(latex_env.arena.driver.state.steps)
   with pytest.raises(ValueError, match='seed'):
     latex_env.reset(seed=seed)
-  assert latex_env._steps == steps
+  assert int(latex_env.arena.driver.state.steps) == steps
   assert repr(latex_env.arena.get_balloon_state()) == before
 
 

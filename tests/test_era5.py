@@ -706,7 +706,7 @@ def test_paper_gin_file_binds_the_field(era5_file):
          'Era5WindField.episode_hours = 6.0'])
     field = era5.Era5WindField()
     assert field.add_noise
-    from ble_latex.envs import gym_env as env_lib  # pylint: disable=g-import-not-at-top
+    from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
     factory = gin.query_parameter('LatexBalloonEnv.wind_field_factory')
     assert factory.selector == 'Era5WindField'
     del env_lib
@@ -954,7 +954,7 @@ def test_failed_merge_leaves_no_part_file(monkeypatch, capsys, tmp_path):
 
 
 def test_env_flies_at_the_sampled_era5_start(tmp_path):
-  from ble_latex.envs import gym_env as env_lib  # pylint: disable=g-import-not-at-top
+  from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
   path = write_era5(tmp_path / 'era5.nc')
   env = env_lib.LatexBalloonEnv(
       wind_field_factory=lambda: era5.Era5WindField(path=path,
@@ -971,7 +971,7 @@ def test_env_flies_at_the_sampled_era5_start(tmp_path):
 
 
 def test_full_random_episode_on_era5_wind(tmp_path):
-  from ble_latex.envs import gym_env as env_lib  # pylint: disable=g-import-not-at-top
+  from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
   times = T0 + np.arange(17) * np.timedelta64(6, 'h')  # 4 days of data.
   path = write_era5(tmp_path / 'era5_4d.nc', times=times)
   env = env_lib.LatexBalloonEnv(

@@ -351,7 +351,7 @@ def test_make_flight_params_refuses_non_numbers_naming_the_binding(
 
 def test_flight_params_from_gin_names_the_binding():
   """A gin-bound 'abc' or None is a ValueError naming it, not a TypeError."""
-  import ble_latex.envs.balloon  # pylint: disable=g-import-not-at-top,unused-import
+  import ble_latex.ble.balloon  # pylint: disable=g-import-not-at-top,unused-import
   gin.clear_config()
   try:
     for binding, value in (('create_state.sand_kg', 'True'),

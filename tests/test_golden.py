@@ -278,7 +278,7 @@ def restore_state(env: Any, seed: int, step: int, before: State) -> None:
 
   The env flies the flight core (`arena.driver`): its `FlightState` is
   rebuilt from the recording (pressure and temperature from the altitude,
-  the free lift from helium and sand) and the BLE view re-written.
+  the free lift from helium and sand); the BLE view follows it.
   """
   env.reset(seed=seed)
   unwrapped = env.unwrapped
@@ -307,8 +307,6 @@ def restore_state(env: Any, seed: int, step: int, before: State) -> None:
                                sand_kg=before['sand_kg'])
   driver.state = driver.state.replace(flight=f,
                                       steps=jnp.asarray(step, jnp.int32))
-  unwrapped.arena._write_view()  # pylint: disable=protected-access
-  unwrapped._steps = step  # pylint: disable=protected-access
 
 
 def step_env(seed: int, step: int, before: State,

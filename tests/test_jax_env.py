@@ -327,7 +327,7 @@ _BAD_BINDINGS = [
 @pytest.fixture
 def all_configurables():
   """Every configurable registered (gym env, arena, balloon); gin cleared."""
-  import ble_latex.envs.gym_env  # pylint: disable=g-import-not-at-top,unused-import
+  import ble_latex.ble.gym_env  # pylint: disable=g-import-not-at-top,unused-import
   gin.clear_config()
   yield
   gin.clear_config()

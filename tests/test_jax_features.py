@@ -12,9 +12,9 @@ import math
 import types
 
 import ble_latex  # noqa: F401  (fixes first)
-from ble_latex.envs import features as features_lib
+from ble_latex.ble import features as features_lib
 from ble_latex.envs import jax_features
-from ble_latex.envs import reward as reward_lib
+from ble_latex.ble import reward as reward_lib
 from ble_latex.wind import generative
 from balloon_learning_environment.env import balloon_env
 from balloon_learning_environment.env import wind_field
@@ -164,7 +164,7 @@ def test_features_of_recorded_states_are_the_recorded_observations(source):
 
   The recorded states, measured winds and ambient values, with the forecast
   column of the seed's field, give the recorded observations: the 71
-  features are the ones `ble_latex.envs.features` computed.
+  features are the ones `ble_latex.ble.features` computed.
   """
   golden = test_golden.load_golden(source)
   features = jax.jit(jax_features.features)
@@ -279,7 +279,7 @@ def test_named_features_decode_what_was_encoded(speeds, x_km, y_km,
       speeds, np.zeros(25), x_km * 1000.0, y_km * 1000.0, altitude_m,
       ascent_rate_mps, 5.0, 0.0, 400.0 * helium_left, 10.0 * sand_left, 60.0,
       216.0, 7500.0, initial, history))
-  named = features_lib.NamedLatexFeatures(f)
+  named = jax_features.NamedLatexFeatures(f)
   # float32 features: ~1e-7 relative, amplified where the squash is steep.
   np.testing.assert_allclose(named.wind_speeds_mps, speeds, rtol=2e-4,
                              atol=2e-3)
@@ -299,4 +299,4 @@ def test_named_features_decode_what_was_encoded(speeds, x_km, y_km,
 
 def test_named_features_reject_other_shapes():
   with pytest.raises(ValueError, match='71 features'):
-    features_lib.NamedLatexFeatures(np.zeros(70))
+    jax_features.NamedLatexFeatures(np.zeros(70))

@@ -352,11 +352,12 @@ def test_loaders_name_file_on_bad_encoding(tmp_path):
 
 def test_schemas_match_what_is_written():
   # pylint: disable-next=g-import-not-at-top
-  from ble_latex.envs import controller
+  from ble_latex.flight import state as state_lib
   from ble_latex.run import metrics
   from ble_latex.run import runner
   assert set(plots.TERMINAL_COLORS) == set(records_lib.TERMINAL_REASONS)
-  assert set(records_lib.DECISIONS) == {d.value for d in controller.Decision}
+  assert set(records_lib.DECISIONS) == {
+      d.name.lower() for d in state_lib.DecisionCode}
   fields = {f.name for f in dataclasses.fields(metrics.EpisodeSummary)}
   assert set(records_lib.EPISODE_SCHEMA) == fields
   assert set(records_lib.EVAL_SCHEMA) == (

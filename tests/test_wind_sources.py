@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import ble_latex  # noqa: F401  (compat fixes first)
-from ble_latex.envs import gym_env as env_lib
-from ble_latex.wind import ble_field
+from ble_latex.ble import gym_env as env_lib
+from ble_latex.ble import wind as ble_wind
 
 _ACTIONS = [np.array([a0, 1.0, a2]) for a0, a2 in (
     (18_000.0, -1.0), (18_000.0, 1.0), (15_500.0, -1.0), (16_000.0, 1.0),
@@ -37,7 +37,7 @@ def _fly(env, seed):
 def test_ble_generative_field_object_flies_like_the_core_field():
   core = env_lib.LatexBalloonEnv(seed=0)
   assert isinstance(core.arena._wind_field,  # pylint: disable=protected-access
-                    ble_field.CoreGenerativeWindField)
+                    ble_wind.CoreGenerativeWindField)
   ble = env_lib.LatexBalloonEnv(
       seed=0, wind_field_factory=generative_wind_field.GenerativeWindField)
   for seed in (0, 3):
@@ -80,6 +80,6 @@ def _wind_key(env):
 
 def test_unattached_core_field_says_what_to_do():
   with pytest.raises(RuntimeError, match='reset the env'):
-    ble_field.CoreGenerativeWindField().get_forecast(
+    ble_wind.CoreGenerativeWindField().get_forecast(
         units.Distance(m=0.0), units.Distance(m=0.0), 8000.0,
         dt.timedelta(0))

@@ -17,7 +17,7 @@ import gin
 import jax
 import numpy as np
 
-from ble_latex.envs import features as latex_features
+from ble_latex.envs import jax_features
 
 
 class _BoxAgent(agent.Agent):
@@ -89,9 +89,9 @@ class GeometricStationSeeker(_BoxAgent):
     """
     super().__init__(num_actions, observation_shape, action_low=action_low,
                      action_high=action_high, seed=seed)
-    if tuple(observation_shape) != (latex_features.NUM_FEATURES,):
+    if tuple(observation_shape) != (jax_features.NUM_FEATURES,):
       raise ValueError('GeometricStationSeeker reads LatexBalloon-v0 features '
-                       f'({latex_features.NUM_FEATURES}), got '
+                       f'({jax_features.NUM_FEATURES}), got '
                        f'{observation_shape}')
     self._time_factor = float(np.clip(time_factor, action_low[1],
                                       action_high[1]))
@@ -99,13 +99,13 @@ class GeometricStationSeeker(_BoxAgent):
     self._min_gain_mps = min_gain_mps
     # Level altitudes from BLE's standard atmosphere (nominal lapse rates).
     atmosphere = standard_atmosphere.Atmosphere(jax.random.PRNGKey(0))
-    levels = np.linspace(min_pressure, max_pressure, latex_features.N_LEVELS)
+    levels = np.linspace(min_pressure, max_pressure, jax_features.N_LEVELS)
     self._level_altitudes = np.array(
         [atmosphere.at_pressure(p).height.meters for p in levels])
     self._target: Optional[float] = None
 
   def _act(self, observation: np.ndarray) -> np.ndarray:
-    named = latex_features.NamedLatexFeatures(observation)
+    named = jax_features.NamedLatexFeatures(observation)
     # Velocity component towards the target at each level. # [m/s]
     towards = named.wind_speeds_mps * np.cos(named.bearing_errors_rad)
     altitude = named.altitude_m

@@ -267,9 +267,10 @@ def _wind_row(env: Any, seed: int, pressures_pa: Sequence[float], *,
   """Resets `env` to `seed` and samples its forecast wind."""
   env.reset(seed=seed)
   arena = env.unwrapped.arena
-  field = arena._wind_field  # pylint: disable=protected-access
-  atmosphere = arena._atmosphere  # pylint: disable=protected-access
-  state = arena.get_balloon_state()
+  simulator_state = arena.get_simulator_state()
+  field = simulator_state.wind_field
+  atmosphere = simulator_state.atmosphere
+  state = simulator_state.balloon_state
   elapsed = dt.timedelta(hours=hours)
   grid = sample_wind_grid(field, pressures_pa, extent_km=extent_km,
                           num_points=num_points, elapsed=elapsed)

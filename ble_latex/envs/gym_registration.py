@@ -1,47 +1,6 @@
 # coding=utf-8
-"""Gym registration of the ble_latex environments (the `gym.envs` entry point).
+"""Old `gym.envs` entry point, kept: `ble_latex.ble.gym_registration`."""
 
-Kept light on purpose: gym calls `register_env` at `import gym`, so this module
-imports nothing heavy (no TF/JAX/BLE env modules); the environments are
-registered by string entry points and only built on `gym.make`.
-"""
+from ble_latex.ble.gym_registration import register_env
 
-import contextlib
-
-# env id -> entry point: builds ble_latex.envs.gym_env's LatexBalloonEnv /
-# LatexBalloonDiscreteEnv (the env classes are unchanged; the factories only
-# keep the known gym/BLE/TF start-up notices quiet, `ble_latex.quiet`).
-ENV_IDS = {
-    'LatexBalloon-v0': 'ble_latex.envs.gym_registration:make_latex_balloon',
-    'LatexBalloonDiscrete-v0':
-        'ble_latex.envs.gym_registration:make_latex_balloon_discrete',
-}
-
-
-def make_latex_balloon(**kwargs):
-  """`ble_latex.envs.gym_env.LatexBalloonEnv(**kwargs)`, built quietly."""
-  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
-  with quiet.third_party_noise():
-    from ble_latex.envs import gym_env  # pylint: disable=g-import-not-at-top
-    return gym_env.LatexBalloonEnv(**kwargs)
-
-
-def make_latex_balloon_discrete(**kwargs):
-  """`ble_latex.envs.gym_env.LatexBalloonDiscreteEnv(**kwargs)`, built quietly."""
-  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
-  with quiet.third_party_noise():
-    from ble_latex.envs import gym_env  # pylint: disable=g-import-not-at-top
-    return gym_env.LatexBalloonDiscreteEnv(**kwargs)
-
-
-def register_env() -> None:
-  """Registers the latex balloon envs with gym (idempotent)."""
-  import ble_latex  # pylint: disable=g-import-not-at-top,unused-import
-  from gym.envs import registration  # pylint: disable=g-import-not-at-top
-  for env_id, entry_point in ENV_IDS.items():
-    if env_id in registration.registry:
-      continue
-    with contextlib.ExitStack() as stack:
-      if hasattr(registration, 'namespace'):
-        stack.enter_context(registration.namespace(None))
-      registration.register(id=env_id, entry_point=entry_point)
+__all__ = ['register_env']

@@ -598,8 +598,8 @@ def check_params(params: EnvParams) -> EnvParams:
   """Checks every value of `EnvParams` (one validator for every path).
 
   Called where `EnvParams` is built (`params_from_gin`) and where params are
-  given as they are (`host_env.FlightDriver`, hence the gym arena and the
-  Gymnasium env, and the Gymnasium vector env). On the host, before any
+  given as they are (the Gymnasium envs of `gymnasium_env`, hence BLE's
+  arena too). On the host, before any
   compilation: the flight system (`flight.params.check_flight_params`), the
   reward (`gin_values.check_reward_values`), the start band (finite, low <=
   high, inside (0, `START_ALTITUDE_MAX_M`)), `max_start_distance_km` (> 0),

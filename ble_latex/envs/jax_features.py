@@ -1,14 +1,13 @@
 # coding=utf-8
 """The latex balloon's 71 observation features and its reward, in JAX.
 
-Pure, jittable and vmappable re-implementations of
-
-- `ble_latex.envs.features.LatexFeatureConstructor.get_features` (`features`, with
-  the history bookkeeping of its `observe` as `init_history` /
-  `push_history` and its reset-time references as `initial_resources`);
-- `ble_latex.envs.features.bearing_errors` (`bearing_errors`);
-- `ble_latex.envs.reward.latex_reward`, i.e. BLE's `perciatelli_reward_function`
-  for a latex balloon plus the optional resource penalty (`reward`).
+Pure, jittable and vmappable: `features` (with the history bookkeeping as
+`init_history` / `push_history` and the reset-time references as
+`initial_resources`), `bearing_errors`, and `reward` (BLE's
+`perciatelli_reward_function` for a latex balloon plus the optional resource
+penalty). BLE's interfaces over them: `ble_latex.ble.features`
+(`LatexFeatureConstructor`) and `ble_latex.ble.reward` (`latex_reward`).
+`NamedLatexFeatures` decodes an observation.
 
 Every input is a plain array (or a NamedTuple of arrays), so nothing here
 depends on a flight-state class: the caller passes the balloon's position,
@@ -16,11 +15,39 @@ altitude, ascent rate, resources, the ambient temperature and pressure at
 its altitude, the forecast column at `PRESSURE_LEVELS` (for the generative
 field, `ble_latex.wind.generative.forecast_column`) and the measured wind at
 the balloon (BLE's ground truth: forecast at the balloon's pressure + simplex
-noise). See `ble_latex.envs.features` for the index map.
+noise).
+
+Every feature is scaled to [-1, 1] (clipped); `NamedLatexFeatures`
+decodes them. Index map (N_LEVELS = 25):
+
+| index   | feature                                                            | scaling                  |
+|---------|--------------------------------------------------------------------|--------------------------|
+| 0-24    | forecast wind speed |v| at 25 pressure levels, 5000..14000 Pa      | squash(|v|, 30 m/s)      |
+| 25-49   | bearing error theta of that wind to the target, same levels       | theta / pi               |
+| 50      | altitude h                                                         | (h - 17.5 km) / 3.5 km   |
+| 51      | ascent rate hdot                                                   | hdot / 5 m/s             |
+| 52      | measured wind speed at the balloon |v_h|                           | squash(|v_h|, 30 m/s)    |
+| 53      | bearing error at the balloon theta_h                               | theta_h / pi             |
+| 54      | drag area A                                                        | A / 25 m^2               |
+| 55      | envelope volume V                                                  | V / 100 m^3              |
+| 56      | total system mass m_T                                              | m_T / initial m_T        |
+| 57      | distance to the target |x|                                        | squash(|x|, 250 km)      |
+| 58, 59  | heading to the target sin(theta_x), cos(theta_x)                   | as is                    |
+| 60-62   | altitudes at t-1, t-2, t-3                                         | as index 50              |
+| 63-65   | ascent rates at t-1, t-2, t-3                                      | as index 51              |
+| 66-68   | float actions a2 at t-1, t-2, t-3                                  | as is ([-1, 1])          |
+| 69      | sand mass m_s                                                      | m_s / initial m_s        |
+| 70      | helium n                                                           | n / initial n            |
+
+71 features: exactly the items the paper lists (its text says 74 and 77 in
+different places; the listed items add up to 71). The wind column is BLE's
+forecast (the agent's view); the balloon moves in forecast + simplex noise
+(BLE's ground truth), and features 52-53 use that measured wind. At reset the
+history slots hold the current values and float actions 0.
 
 Precision: computed in the floating dtype of the inputs (float32 by default);
 features are returned as float32 like `get_features`, rewards in the input
-dtype. In float32 the features agree with `ble_latex.envs.features` within ~1e-6
+dtype. In float32 the features agree with BLE-object computations within ~1e-6
 and the reward with BLE's within ~1e-7 (tests/test_jax_features.py). Bearing
 errors are computed as atan2(|cross|, dot), not arccos(cos): the same angle,
 without arccos's loss of precision near 0 and pi.
@@ -41,9 +68,9 @@ HISTORY = 3
 # Pressure levels of the forecast column (LatexFeatureConstructor's
 # defaults: np.linspace(5000, 14000, 25)). # [Pa]
 PRESSURE_LEVELS = np.linspace(5000.0, 14000.0, N_LEVELS)
-_TOLERANCE = 1e-5  # ble_latex.envs.features._TOLERANCE.
-# Feature scales (the index map of `ble_latex.envs.features`; its
-# `NamedLatexFeatures` undoes them).
+_TOLERANCE = 1e-5  # [m], [m/s]
+# Feature scales (the module's index map; `NamedLatexFeatures`
+# undoes them).
 SPEED_SQUASH_MPS = 30.0  # [m/s]
 DISTANCE_SQUASH_KM = 250.0  # [km]
 ALTITUDE_CENTER_M = 17_500.0  # [m]
@@ -140,9 +167,9 @@ def push_history(history: History, altitude_m: Any, ascent_rate_mps: Any,
   the oldest slot is dropped.
 
   Which altitude and ascent rate to push: the features' documentation says
-  the previous step's (t-1). `ble_latex.envs.features` as of today pushes
-  `self._state.altitude_m` where `self._state` is BLE's live balloon state
-  object, already updated by the step: it pushes the state *after* the step,
+  the previous step's (t-1). The gym env (as BLE's features did) pushes
+  the altitude of BLE's live balloon state object, already updated by
+  the step: it pushes the state *after* the step,
   so slot t-1 equals the current value (features 60 = 50, 63 = 51). Pass the
   current values to reproduce it, the pre-step values for the documented
   features. The float action pushed is the one just applied (a2 of the
@@ -169,7 +196,7 @@ def push_history(history: History, altitude_m: Any, ascent_rate_mps: Any,
 
 
 def bearing_errors(u: Any, v: Any, x_m: Any, y_m: Any) -> jnp.ndarray:
-  """`ble_latex.envs.features.bearing_errors`: wind vs direction to the target.
+  """Bearing errors: wind vs direction to the target.
 
   The angle between the wind (u, v) and the direction from the balloon to
   the target (-x, -y): 0 when the wind blows straight at the target, pi when
@@ -210,7 +237,7 @@ def features(column_u: Any, column_v: Any, x_m: Any, y_m: Any,
              initial: InitialResources, history: History) -> jnp.ndarray:
   """`LatexFeatureConstructor.get_features`: the 71 features, in [-1, 1].
 
-  For one balloon; vmap for a batch. Index map: `ble_latex.envs.features`.
+  For one balloon; vmap for a batch. Index map: the module's.
 
   Args:
     column_u: [25] forecast eastward wind at PRESSURE_LEVELS. # [m/s]
@@ -290,7 +317,7 @@ def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
            dropped: Any = 0.0,
            helium_penalty: Any = 0.0,
            sand_penalty: Any = 0.0) -> jnp.ndarray:
-  """`ble_latex.envs.reward.latex_reward`: BLE's Perciatelli reward - penalties.
+  """BLE's Perciatelli reward - penalties (`ble_latex.ble.reward.latex_reward`).
 
   BLE's `perciatelli_reward_function` for a latex balloon (its power term
   never applies: no air pump): 1 within the radius, else dropoff *
@@ -325,3 +352,81 @@ def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
                               (distance_km - radius_km))
   base = jnp.where(distance_km <= radius_km, 1.0, outside)
   return base - helium_penalty * vented - sand_penalty * dropped
+
+
+class NamedLatexFeatures:
+  """The 71 features decoded back into named quantities (the decoder).
+
+  The inverse of the scalings in the module's index map, as BLE's
+  `features.NamedPerciatelliFeatures` is of its Perciatelli features. Values
+  that the encoder clipped to [-1, 1] decode to the edge of their range (an
+  altitude above 21 km reads as 21 km); squashed magnitudes near 1 decode to
+  large finite values.
+
+  Attributes:
+    wind_speeds_mps: [25] forecast wind speed |v| at PRESSURE_LEVELS. # [m/s]
+    bearing_errors_rad: [25] angle between that wind and the direction to
+      the target. # [rad]
+    altitude_m: Altitude h. # [m]
+    ascent_rate_mps: Ascent rate hdot. # [m/s]
+    wind_speed_mps: Measured wind speed at the balloon. # [m/s]
+    bearing_error_rad: Bearing error of the measured wind. # [rad]
+    drag_area_m2: Drag area A. # [m^2]
+    volume_m3: Envelope volume V. # [m^3]
+    mass_fraction: Total system mass / its value at reset. # [.]
+    distance_km: Distance to the target. # [km]
+    sin_heading, cos_heading: Heading to the target. # [.]
+    altitude_history_m: [3] altitudes at t-1, t-2, t-3. # [m]
+    ascent_rate_history_mps: [3] ascent rates at t-1, t-2, t-3. # [m/s]
+    float_action_history: [3] float actions a2 at t-1, t-2, t-3. # [.]
+    sand_fraction: Sand / sand at reset. # [.]
+    helium_fraction: Helium / helium at reset. # [.]
+  """
+
+  def __init__(self, observation: np.ndarray):
+    """Decodes one observation.
+
+    Args:
+      observation: [71] features of `LatexBalloon-v0`.
+
+    Raises:
+      ValueError: If the observation is not 71 features.
+    """
+    f = np.asarray(observation)
+    if f.shape != (NUM_FEATURES,):
+      raise ValueError(f'NamedLatexFeatures needs {NUM_FEATURES} features '
+                       f'(LatexBalloon-v0), got shape {f.shape}')
+    n = N_LEVELS
+    # Features 0-24 are 1 - exp(-|v| / c).
+    squashed = np.clip(f[:n], 0.0, 1.0 - 1e-6)
+    self.wind_speeds_mps = -SPEED_SQUASH_MPS * np.log1p(-squashed)
+    self.bearing_errors_rad = f[n:2 * n] * math.pi
+    scalars = [float(x) for x in f[2 * n:2 * n + 10]]
+    self.altitude_m = _altitude_m(scalars[0])
+    self.ascent_rate_mps = scalars[1] * ASCENT_RATE_SCALE_MPS
+    self.wind_speed_mps = _unsquash(scalars[2], SPEED_SQUASH_MPS)
+    self.bearing_error_rad = scalars[3] * math.pi
+    self.drag_area_m2 = scalars[4] * DRAG_AREA_SCALE_M2
+    self.volume_m3 = scalars[5] * VOLUME_SCALE_M3
+    self.mass_fraction = scalars[6]
+    self.distance_km = _unsquash(scalars[7], DISTANCE_SQUASH_KM)
+    self.sin_heading, self.cos_heading = scalars[8], scalars[9]
+    h = 2 * n + 10
+    self.altitude_history_m = np.array(
+        [_altitude_m(float(x)) for x in f[h:h + HISTORY]])
+    self.ascent_rate_history_mps = (
+        f[h + HISTORY:h + 2 * HISTORY].astype(np.float64) *
+        ASCENT_RATE_SCALE_MPS)
+    self.float_action_history = f[h + 2 * HISTORY:h + 3 * HISTORY].copy()
+    self.sand_fraction, self.helium_fraction = float(f[-2]), float(f[-1])
+
+
+def _altitude_m(scaled: float) -> float:
+  """Undoes (h - 17.5 km) / 3.5 km. # [m]"""
+  return ALTITUDE_CENTER_M + ALTITUDE_SCALE_M * scaled
+
+
+def _unsquash(squashed: float, constant: float) -> float:
+  """Undoes `_squash` (x / (x + c)): c y / (1 - y), y kept inside [0, 1)."""
+  y = min(max(squashed, 0.0), 1.0 - 1e-6)
+  return y * constant / (1.0 - y)

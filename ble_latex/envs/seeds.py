@@ -2,7 +2,7 @@
 """Seeds of the latex envs: the valid range and the training range.
 
 Light (NumPy only), so the Gymnasium envs check seeds without importing the
-gym env module (BLE's env, TensorFlow). `ble_latex.envs.gym_env.validate_seed` is the
+gym env module (BLE's env, TensorFlow). `ble_latex.ble.gym_env.validate_seed` is the
 same check.
 """
 

@@ -1,9 +1,9 @@
 # coding=utf-8
 """Vent/ballast altitude controller (Eq. fullcontroller) in JAX.
 
-Paper section "Altitude Controller"; the JAX twin of
-`ble_latex.envs.controller.AltitudeController`. Once per action (a0 desired
-altitude [m], a1 time factor [.], a2 float flag [.]):
+Paper section "Altitude Controller" (settings: `flight.params.controller`,
+gin `AltitudeController.*`). Once per action (a0 desired altitude [m], a1
+time factor [.], a2 float flag [.]):
 
   hdot_des = (a0 - h) / (a1 Delta t)                          (Eq. hdot_des)
   Float      if a2 > 0                  -> neutral buoyancy   (Eq. float)

@@ -1,7 +1,7 @@
 # coding=utf-8
 """One 20-minute stride of the latex balloon, as a pure JAX function.
 
-The JAX twin of `ble_latex.envs.balloon.LatexBalloon.simulate_step` (paper
+The JAX twin of `ble_latex.ble.balloon.LatexBalloon.simulate_step` (paper
 sections "Equations of Motion" and "Altitude Controller"):
 
   1. The controller acts once (Eq. fullcontroller, `controller.decide`, at

@@ -1,7 +1,7 @@
 # coding=utf-8
 """`FlightState`: the latex balloon's state as a frozen pytree.
 
-The JAX counterpart of `ble_latex.envs.balloon.LatexBalloonState` without BLE's
+The JAX counterpart of `ble_latex.ble.balloon.LatexBalloonState` without BLE's
 bookkeeping (lat/lng, date): position, vertical state, resources, pending
 finite-rate releases, cumulative releases, time, status and what the
 controller did at the last action. The flight-system constants (payload,

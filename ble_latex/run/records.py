@@ -21,7 +21,7 @@ from ble_latex.run import episode_log
 
 # The values of an episode's `terminal_reason`, in plot order: the env's time
 # limit, the runner's episode-length cap, then each non-OK flight status by
-# name (`host_env` writes `FlightStatus.name.lower()`).
+# name (`jax_env.info_dict` writes `FlightStatus.name.lower()`).
 TERMINAL_REASONS = ('time_limit', 'max_episode_length') + tuple(
     s.name.lower() for s in state_lib.FlightStatus
     if s != state_lib.FlightStatus.OK)

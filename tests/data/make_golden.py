@@ -92,8 +92,8 @@ import gym
 import jax
 import numpy as np
 
-from ble_latex.envs import balloon as balloon_lib
-from ble_latex.envs import controller as controller_lib
+from ble_latex.ble import balloon as balloon_lib
+from ble_latex.envs import jax_env
 # pylint: enable=g-import-not-at-top,wrong-import-position
 
 ENV_ID = 'LatexBalloon-v0'
@@ -134,7 +134,7 @@ STATE_FIELDS = (
 )
 ENUM_FIELDS = ('latex_status', 'last_decision', 'status')
 STATUS_NAMES = tuple(s.name.lower() for s in balloon_lib.LatexBalloonStatus)
-DECISION_NAMES = tuple(d.value for d in controller_lib.Decision)
+DECISION_NAMES = tuple(d.value for d in balloon_lib.Decision)
 BLE_STATUS_NAMES = tuple(s.name.lower() for s in ble_balloon.BalloonStatus)
 
 # The scripted policy: (steps, a0 rule, a0 [m] or offset [m], a1, a2).
@@ -177,7 +177,7 @@ def scripted_action(step: int, seed: int, altitude_m: float) -> np.ndarray:
   """
   _, rule, value, a1, a2 = _SCRIPT_STEPS[(step + seed) % len(_SCRIPT_STEPS)]
   a0 = value if rule == 'abs' else altitude_m + value
-  low, high = controller_lib.ACTION_LOW, controller_lib.ACTION_HIGH
+  low, high = jax_env.ACTION_LOW, jax_env.ACTION_HIGH
   return np.array([np.clip(a0, float(low[0]), float(high[0])), a1, a2],
                   dtype=np.float64)
 
@@ -185,7 +185,7 @@ def scripted_action(step: int, seed: int, altitude_m: float) -> np.ndarray:
 def random_actions(seed: int, steps: int = EPISODE_STEPS) -> np.ndarray:
   """The random policy's actions: uniform in the Box, seeded by `seed`."""
   rng = np.random.default_rng(seed)
-  return rng.uniform(controller_lib.ACTION_LOW, controller_lib.ACTION_HIGH,
+  return rng.uniform(jax_env.ACTION_LOW, jax_env.ACTION_HIGH,
                      size=(steps, 3)).astype(np.float64)
 
 
@@ -330,10 +330,10 @@ def seed_record(env: gym.Env, seed: int) -> Dict[str, Any]:
   Returns:
     Per-seed values (numpy arrays / strings).
   """
-  arena = env.unwrapped.arena
-  state = arena.get_balloon_state()
-  atmosphere = arena._atmosphere
-  wind_field = arena._wind_field
+  simulator_state = env.unwrapped.arena.get_simulator_state()
+  state = simulator_state.balloon_state
+  atmosphere = simulator_state.atmosphere
+  wind_field = simulator_state.wind_field
   key_env = jax.random.PRNGKey(seed)
   _, key_arena = jax.random.split(key_env)
   rng, key_atmosphere, key_time = jax.random.split(key_arena, 3)

@@ -1,0 +1,62 @@
+# coding=utf-8
+"""Station-keeping reward for the latex balloon (paper Eq. reward_function).
+
+The paper's reward is BLE's Perciatelli reward without its power term:
+1 within radius rho, else c * 2^(-(d - rho) / tau). BLE's
+`perciatelli_reward_function` computes exactly that for a latex balloon: its
+power penalty only applies to BLE's air-pump DOWN command, which a latex
+balloon state never records (`last_command` stays STAY). Radius, cliff and
+half-life are bound through BLE's own gin names:
+
+  balloon_env.perciatelli_reward_function.station_keeping_radius_km = 50.0
+  balloon_env.perciatelli_reward_function.reward_dropoff = 0.4
+  balloon_env.perciatelli_reward_function.reward_halflife = 100.0
+
+This module adds only the optional resource penalty (default off, as in the
+paper; gin `latex_reward.*`, the core's `jax_env.resource_penalties`).
+"""
+
+from typing import Optional
+
+from balloon_learning_environment.env import balloon_env
+from balloon_learning_environment.env import simulator_data
+from balloon_learning_environment.env.balloon import control
+
+from ble_latex import gin_values
+from ble_latex.envs import jax_env
+
+
+def latex_reward(simulator_state: simulator_data.SimulatorState,
+                 helium_vented_mols: float = 0.0,
+                 sand_dropped_kg: float = 0.0,
+                 *,
+                 helium_penalty_per_mol: Optional[float] = None,
+                 sand_penalty_per_kg: Optional[float] = None) -> float:
+  """Implements Eq. reward_function plus an optional resource penalty.
+
+  Args:
+    simulator_state: The simulator state after the step.
+    helium_vented_mols: Helium vented during this step. # [mol]
+    sand_dropped_kg: Sand dropped during this step. # [kg]
+    helium_penalty_per_mol: Penalty per mol of helium vented; None: gin's
+      `latex_reward.helium_penalty_per_mol`. # [1/mol]
+    sand_penalty_per_kg: Penalty per kg of sand dropped; None: gin's. # [1/kg]
+
+  Returns:
+    The step reward.
+  """
+  if simulator_state.balloon_state.last_command == (
+      control.AltitudeControlCommand.DOWN):
+    raise ValueError('A latex balloon state must not record the air-pump DOWN '
+                     "command: BLE's reward would apply its power penalty.")
+  bound = jax_env.resource_penalties()
+  if helium_penalty_per_mol is None:
+    helium_penalty_per_mol = bound['helium_penalty_per_mol']
+  if sand_penalty_per_kg is None:
+    sand_penalty_per_kg = bound['sand_penalty_per_kg']
+  gin_values.check_penalties(helium_penalty_per_mol=helium_penalty_per_mol,
+                             sand_penalty_per_kg=sand_penalty_per_kg)
+  reward = balloon_env.perciatelli_reward_function(simulator_state)
+  return (reward - helium_penalty_per_mol * helium_vented_mols -
+          sand_penalty_per_kg * sand_dropped_kg)
+

@@ -1,0 +1,154 @@
+# coding=utf-8
+"""The BLE `WindField` adapters of the flight core, both directions.
+
+- `CoreGenerativeWindField`: BLE's `WindField` interface on the core's
+  generative wind. It is the gym envs' default wind field: BLE's generative
+  (VAE) forecast plus BLE's simplex noise, drawn from the arena's key by the
+  flight core (`jax_env.LatexBalloonJaxEnv.draw`) and flown inside the core's
+  jitted step. This object gives BLE's consumers (the Perciatelli features of
+  BLE's agents, renderers, `SimulatorState` users) the same field through
+  BLE's methods: `get_forecast`, `get_forecast_column` and
+  `get_ground_truth` evaluate the core's `wind.generative` / `jax_env`
+  functions on the flight the arena is flying (`attach`). `reset` does
+  nothing: the arena's driver draws the field from the same key BLE's arena
+  would give `WindField.reset`.
+- `callback_wind`: the core's `jax_env.Wind` over any BLE `WindField` object
+  (e.g. `ble_latex.wind.era5.Era5WindField`), asked on the host through
+  `jax.pure_callback` at every physics sub-step.
+"""
+
+import datetime as dt
+from typing import Any, Callable, List, Optional, Sequence
+
+from balloon_learning_environment.env import wind_field
+from balloon_learning_environment.utils import units
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ble_latex.envs import jax_env
+
+
+def _vectors(u: np.ndarray, v: np.ndarray) -> List[wind_field.WindVector]:
+  """BLE's WindVectors of winds (u, v). # [m/s]"""
+  return [wind_field.WindVector(units.Velocity(mps=float(a)),
+                                units.Velocity(mps=float(b)))
+          for a, b in zip(np.atleast_1d(u), np.atleast_1d(v))]
+
+
+def _uv(vectors: Sequence[wind_field.WindVector], dtype: Any) -> np.ndarray:
+  """[2, ...] (u, v) of BLE's WindVectors. # [m/s]"""
+  return np.array([[w.u.meters_per_second for w in vectors],
+                   [w.v.meters_per_second for w in vectors]], dtype=dtype)
+
+
+def host_ground_truth(
+    ground_truth: Callable[..., wind_field.WindVector]
+) -> Callable[..., np.ndarray]:
+  """A host function (x, y, p, t) -> [2] (u, v) of a BLE ground-truth call.
+
+  Args:
+    ground_truth: (x, y, pressure [Pa], time elapsed) -> WindVector, e.g. a
+      BLE `WindField.get_ground_truth`.
+
+  Returns:
+    The function on array scalars (x [m], y [m], p [Pa], t [s]), in x's
+    dtype, for `jax.pure_callback`.
+  """
+  def host(x, y, p, t):
+    w = ground_truth(units.Distance(m=float(x)), units.Distance(m=float(y)),
+                     float(p), dt.timedelta(seconds=float(t)))
+    return _uv([w], np.asarray(x).dtype)[:, 0]
+  return host
+
+
+def callback_wind(field: wind_field.WindField) -> jax_env.Wind:
+  """A `jax_env.Wind` that asks a BLE `WindField` object on the host.
+
+  Args:
+    field: A BLE `wind_field.WindField` (reset by the caller).
+
+  Returns:
+    The wind: `get_ground_truth` and `get_forecast_column` of the object,
+    called through `jax.pure_callback` (the core stays jittable).
+  """
+  host_truth = host_ground_truth(field.get_ground_truth)
+
+  def host_column(x, y, pressures, t):
+    column = field.get_forecast_column(
+        units.Distance(m=float(x)), units.Distance(m=float(y)),
+        [float(p) for p in np.asarray(pressures)],
+        dt.timedelta(seconds=float(t)))
+    return _uv(column, np.asarray(x).dtype)
+
+  def ground_truth(state, x, y, p, t):
+    del state
+    uv = jax.pure_callback(host_truth, jax.ShapeDtypeStruct((2,), x.dtype),
+                           x, y, p, t)
+    return uv[0], uv[1]
+
+  def forecast_column(state, x, y, pressures, t):
+    del state
+    uv = jax.pure_callback(
+        host_column, jax.ShapeDtypeStruct((2,) + pressures.shape, x.dtype),
+        x, y, pressures, t)
+    return uv[0], uv[1]
+
+  return jax_env.Wind(ground_truth, forecast_column)
+
+
+@jax.jit
+def _forecast(state: jax_env.EnvState, x, y, pressures, t):
+  return jax_env.forecast_column(state, x, y, pressures, t)
+
+
+@jax.jit
+def _ground_truth(state: jax_env.EnvState, x, y, pressure, t):
+  return jax_env.ground_truth_wind(state, x, y, pressure, t)
+
+
+class CoreGenerativeWindField(wind_field.WindField):
+  """BLE's generative field as the flight core draws and flies it."""
+
+  def __init__(self):
+    super().__init__()
+    self._state_fn: Optional[Callable[[], jax_env.EnvState]] = None
+
+  def attach(self, state_fn: Callable[[], jax_env.EnvState]) -> None:
+    """Reads the field of the flight `state_fn()` returns (the arena's)."""
+    self._state_fn = state_fn
+
+  def _state(self) -> jax_env.EnvState:
+    state = None if self._state_fn is None else self._state_fn()
+    if state is None:
+      raise RuntimeError('CoreGenerativeWindField is drawn by the latex '
+                         'arena: reset the env before querying it.')
+    return state
+
+  def reset(self, key: jnp.ndarray, date_time: dt.datetime) -> None:
+    """Nothing to do: the arena's driver draws the field from `key`."""
+    del key, date_time
+
+  def reset_forecast(self, key: jnp.ndarray, date_time: dt.datetime) -> None:
+    del key, date_time
+
+  def get_forecast(self, x: units.Distance, y: units.Distance, pressure: float,
+                   elapsed_time: dt.timedelta) -> wind_field.WindVector:
+    return self.get_forecast_column(x, y, [pressure], elapsed_time)[0]
+
+  def get_forecast_column(
+      self, x: units.Distance, y: units.Distance, pressures: Sequence[float],
+      elapsed_time: dt.timedelta) -> List[wind_field.WindVector]:
+    u, v = jax.device_get(_forecast(
+        self._state(), jnp.float32(x.meters), jnp.float32(y.meters),
+        jnp.asarray(np.asarray(pressures, np.float32)),
+        jnp.float32(elapsed_time.total_seconds())))
+    return _vectors(u, v)
+
+  def get_ground_truth(self, x: units.Distance, y: units.Distance,
+                       pressure: float,
+                       elapsed_time: dt.timedelta) -> wind_field.WindVector:
+    u, v = jax.device_get(_ground_truth(
+        self._state(), jnp.float32(x.meters), jnp.float32(y.meters),
+        jnp.float32(pressure), jnp.float32(elapsed_time.total_seconds())))
+    return _vectors(u, v)[0]
