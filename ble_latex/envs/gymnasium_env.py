@@ -322,9 +322,11 @@ class _Compiled:
       return self._layouts[name].pack(tree, lead)
 
     def start(state, params):
+      wind = env.wind_for(params)  # ERA5 if the params hold a grid.
+
       def one(state):
-        state = _strong(jax_env.measure(state, env.wind))
-        return state, (jax_env.observation(state, params, env.wind),
+        state = _strong(jax_env.measure(state, wind))
+        return state, (jax_env.observation(state, params, wind),
                        jax_env.step_info(state, params), state.flight)
       state, host = over(one, 0)(state)
       return state, pack('start', host, state.steps.shape)

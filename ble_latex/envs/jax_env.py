@@ -45,7 +45,9 @@ component, which no clipping can place, is flown as the float (hold) action
 (clip(h), 1, +1) (`flight.controller.float_if_nan`), flagged by
 `info['invalid_action']`, so NaN never reaches the state or the features.
 The winds are `GENERATIVE_WIND` unless a `Wind` is given (BLE's other wind
-fields fly through host callbacks, `ble_latex.ble.wind`); everything runs
+fields fly through host callbacks, `ble_latex.ble.wind`) or the params hold
+an ERA5 grid (`EnvParams.wind_grid`, `era5_wind`: ERA5 plus BLE's simplex
+noise, the paper's winds, shared by all balloons); everything runs
 in JAX's default float32 (see README).
 """
 
@@ -70,6 +72,7 @@ from ble_latex.flight import dynamics
 from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
+from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
 from ble_latex.wind import simplex
 
@@ -103,6 +106,9 @@ class EnvParams:
     episode_steps: Strides per episode (216 = 3 days); traced, so a new
       length does not recompile.
     stride_s: Simulated time per action (the arena's stride). Static. # [s]
+    wind_grid: None: the winds are the env's `Wind` (BLE's generative field
+      by default); an `era5_jax.Era5Grid`: ERA5 winds plus BLE's simplex
+      noise (`era5_wind`), the grid shared by every balloon.
   """
   flight: flight_params_lib.FlightParams
   decoder: Any
@@ -117,6 +123,7 @@ class EnvParams:
   max_start_distance_km: float = 200.0
   episode_steps: int = 216
   stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
+  wind_grid: Optional[era5_jax.Era5Grid] = None
 
   @property
   def max_steps_in_episode(self) -> int:
@@ -131,14 +138,15 @@ class EnvState:
   Attributes:
     flight: The balloon (`flight.state.FlightState`).
     atmosphere: This flight's atmosphere.
-    forecast: This flight's forecast wind field.
+    forecast: This flight's forecast wind field (None on ERA5 winds).
     noise_u: Noise of the eastward wind component.
     noise_v: Noise of the northward wind component.
     initial: References of the resource features.
     history: Feature history (altitude, ascent rate, float action).
     wind_u: Measured (ground-truth) eastward wind at the balloon. # [m/s]
     wind_v: Measured (ground-truth) northward wind at the balloon. # [m/s]
-    start_time_offset_s: Start time after `START_EPOCH` (BLE's date). # [s]
+    start_time_offset_s: Start time after `START_EPOCH` (BLE's date; on
+      ERA5 winds the flight's start in the data). # [s]
     steps: Strides flown in this episode (the one step count).
   """
   flight: state_lib.FlightState
@@ -169,6 +177,12 @@ def ground_truth_wind(state: EnvState, x_m: Array, y_m: Array,
     (u, v) eastward and northward wind.
   """
   u, v = generative.forecast(state.forecast, x_m, y_m, pressure_pa, t_s)
+  return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s)
+
+
+def _add_noise(state: EnvState, u: Array, v: Array, x_m: Array, y_m: Array,
+               pressure_pa: Array, t_s: Array) -> Tuple[Array, Array]:
+  """(u, v) plus BLE's simplex noise of the flight. # [m/s]"""
   x_km, y_km, hours = x_m / 1000.0, y_m / 1000.0, t_s / 3600.0
   noise_u, noise_v = simplex.wind_noise_uv(state.noise_u, state.noise_v, x_km,
                                            y_km, pressure_pa, hours)
@@ -198,6 +212,43 @@ class Wind(NamedTuple):
 
 # BLE's generative field (VAE forecast + simplex noise), drawn at reset.
 GENERATIVE_WIND = Wind(ground_truth_wind, forecast_column)
+# `START_EPOCH` after 1970-01-01 UTC. # [min]
+_EPOCH_MIN = int(START_EPOCH.timestamp()) // 60
+
+
+def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
+  """ERA5 winds plus BLE's simplex noise (`wind.era5.Era5WindField`).
+
+  The env flies it when `EnvParams.wind_grid` is set
+  (`LatexBalloonJaxEnv.wind_for`): the grid is then a traced argument, read
+  by every balloon (not a compile-time constant, not copied per balloon).
+  The flight's start in the data is its `start_time_offset_s` (int32
+  seconds after `START_EPOCH`: data from 1943 to 2079).
+
+  Args:
+    grid: The ERA5 grid (`era5_jax.grid_from_data`).
+
+  Returns:
+    The wind: ground truth = ERA5 forecast + BLE's simplex noise (forecast
+    only if not `grid.add_noise`), forecast columns of the ERA5 forecast.
+  """
+  def data_time_s(state, t_s):
+    start_s = state.start_time_offset_s - (grid.first_time_min -
+                                           _EPOCH_MIN) * 60
+    return start_s.astype(t_s.dtype) + t_s
+
+  def ground_truth(state, x_m, y_m, pressure_pa, t_s):
+    u, v = era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
+                             pressure_pa)
+    if not grid.add_noise:
+      return u, v
+    return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s)
+
+  def column(state, x_m, y_m, pressures_pa, t_s):
+    return era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
+                             pressures_pa)
+
+  return Wind(ground_truth, column)
 
 
 def observation(state: EnvState, params: EnvParams,
@@ -344,8 +395,22 @@ class LatexBalloonJaxEnv:
       (observation [71] float32, state).
     """
     state, _ = self.draw(arena_key(key), params)
-    state = measure(state, self.wind)
-    return observation(state, params, self.wind), state
+    wind = self.wind_for(params)
+    state = measure(state, wind)
+    return observation(state, params, wind), state
+
+  def wind_for(self, params: EnvParams) -> Wind:
+    """The winds flown under `params`: `era5_wind(params.wind_grid)` if set.
+
+    Raises:
+      ValueError: `params.wind_grid` set on an env given another `Wind`.
+    """
+    if params.wind_grid is None:
+      return self.wind
+    if self.wind is not GENERATIVE_WIND:
+      raise ValueError('EnvParams.wind_grid (ERA5) is set, and the env was '
+                       'given another wind; give one of them')
+    return era5_wind(params.wind_grid)
 
   def draw(self, key: Array, params: EnvParams
            ) -> Tuple[EnvState, Dict[str, Array]]:
@@ -376,7 +441,13 @@ class LatexBalloonJaxEnv:
     _, wind_key = jax.random.split(rng, 2)
     noise_key, forecast_key = generative.split_wind_key(wind_key)
     noise_u, noise_v = simplex.reset_uv_noise_params(noise_key)
-    forecast = generative.reset_forecast(forecast_key, params.decoder)
+    if params.wind_grid is None:
+      forecast = generative.reset_forecast(forecast_key, params.decoder)
+    else:  # ERA5: `Era5WindField.reset_forecast`'s start, no VAE forecast.
+      forecast = None
+      minute = era5_jax.draw_start_minute(params.wind_grid, forecast_key)
+      start_time = (params.wind_grid.first_time_min - _EPOCH_MIN +
+                    minute) * 60
 
     flight = state_lib.initial_state(
         params.flight, altitude, jnp.cos(theta) * radius_km * 1000.0,
@@ -413,13 +484,14 @@ class LatexBalloonJaxEnv:
       `step_info` (its `truncated` is the time limit without one).
     """
     del key
+    wind = self.wind_for(params)
     before = state.flight
     action, invalid = controller_lib.float_if_nan(
         jnp.asarray(action, before.altitude_m.dtype), before.altitude_m)
     action = jnp.clip(action, ACTION_LOW, ACTION_HIGH)
 
     def wind_fn(x_m, y_m, pressure_pa, t_s):
-      return self.wind.ground_truth(state, x_m, y_m, pressure_pa, t_s)
+      return wind.ground_truth(state, x_m, y_m, pressure_pa, t_s)
 
     flight = dynamics.step(params.flight, state.atmosphere, before, action,
                            wind_fn, params.stride_s)
@@ -429,7 +501,7 @@ class LatexBalloonJaxEnv:
         history=jax_features.push_history(state.history, flight.altitude_m,
                                           flight.ascent_rate_mps, action[2]),
         steps=state.steps + 1)
-    state = measure(state, self.wind)
+    state = measure(state, wind)
     info = step_info(state, params, invalid_action=invalid)
     reward = jax_features.reward(
         info['distance_km'], params.radius_km, params.reward_dropoff,
@@ -438,7 +510,7 @@ class LatexBalloonJaxEnv:
         flight.sand_dropped_kg - before.sand_dropped_kg,
         params.helium_penalty_per_mol, params.sand_penalty_per_kg)
     terminated = flight.status != state_lib.FlightStatus.OK
-    return (observation(state, params, self.wind), state, reward, terminated,
+    return (observation(state, params, wind), state, reward, terminated,
             info)
 
   def step(self, key: Array, state: EnvState, action: Array,

@@ -816,6 +816,52 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...]) -> Era5Data:
   return Era5Data(tuple(s[0] for s in stamps), *arrays)
 
 
+def last_start_minute(data: Era5Data, *, center_lat: float, center_lon: float,
+                      episode_hours: float) -> int:
+  """Checks a flight against the data; the last minute a flight may start.
+
+  Args:
+    data: The ERA5 data.
+    center_lat: Latitude of the station-keeping target. # [deg N]
+    center_lon: Longitude of the station-keeping target. # [deg E]
+    episode_hours: Flight length that must fit in the data after the
+      start. # [h]
+
+  Returns:
+    The latest start, in whole minutes after the data's first time, such
+    that `episode_hours` fit.
+
+  Raises:
+    ValueError: non-finite arguments, target outside the data's area, or
+      (`errors.BadFileError`) data shorter than `episode_hours`.
+  """
+  for name, value in (('center_lat', center_lat),
+                      ('center_lon', center_lon),
+                      ('episode_hours', episode_hours)):
+    if not math.isfinite(value):
+      raise ValueError(f'Era5WindField.{name} must be finite, got {value}')
+  if not -90.0 <= center_lat <= 90.0:
+    raise ValueError(f'Era5WindField.center_lat must be in [-90, 90], got '
+                     f'{center_lat}')
+  if episode_hours < 0:
+    raise ValueError(f'Era5WindField.episode_hours must be >= 0, got '
+                     f'{episode_hours}')
+  if not data.covers(center_lat, center_lon):
+    raise ValueError(
+        f'Target (lat {center_lat}, lon {center_lon}) lies outside the area '
+        f'of ERA5 file(s) {list(data.paths)}: lat [{data.latitude[0]}, '
+        f'{data.latitude[-1]}], lon [{data.longitude[0]}, '
+        f'{data.longitude[-1]}]')
+  span_s = float(data.time_s[-1])
+  episode_s = episode_hours * 3600.0
+  if episode_s > span_s:
+    raise errors.BadFileError(
+        f'ERA5 file(s) {list(data.paths)} cover {span_s / 3600:.1f} h '
+        f'({data.start} to {data.end}), shorter than episode_hours = '
+        f'{episode_hours}')
+  return int((span_s - episode_s) // 60)
+
+
 @gin.configurable
 class Era5WindField(wind_field.WindField):
   """ERA5 reanalysis winds around a station-keeping target (paper's Wind).
@@ -861,35 +907,12 @@ class Era5WindField(wind_field.WindField):
         non-finite arguments, or data shorter than `episode_hours`.
     """
     super().__init__()  # BLE's simplex noise (`SimplexWindNoise`).
-    for name, value in (('center_lat', center_lat),
-                        ('center_lon', center_lon),
-                        ('episode_hours', episode_hours)):
-      if not math.isfinite(value):
-        raise ValueError(f'Era5WindField.{name} must be finite, got {value}')
-    if not -90.0 <= center_lat <= 90.0:
-      raise ValueError(f'Era5WindField.center_lat must be in [-90, 90], got '
-                       f'{center_lat}')
-    if episode_hours < 0:
-      raise ValueError(f'Era5WindField.episode_hours must be >= 0, got '
-                       f'{episode_hours}')
     self._data = load(path)
-    data = self._data
-    if not data.covers(center_lat, center_lon):
-      raise ValueError(
-          f'Target (lat {center_lat}, lon {center_lon}) lies outside the area '
-          f'of ERA5 file(s) {list(data.paths)}: lat [{data.latitude[0]}, '
-          f'{data.latitude[-1]}], lon [{data.longitude[0]}, '
-          f'{data.longitude[-1]}]')
-    span_s = float(data.time_s[-1])
-    episode_s = episode_hours * 3600.0
-    if episode_s > span_s:
-      raise errors.BadFileError(
-          f'ERA5 file(s) {list(data.paths)} cover {span_s / 3600:.1f} h '
-          f'({data.start} to {data.end}), shorter than episode_hours = '
-          f'{episode_hours}')
+    self._start_minutes = last_start_minute(
+        self._data, center_lat=center_lat, center_lon=center_lon,
+        episode_hours=episode_hours)
     self._center = s2.LatLng.from_degrees(center_lat, center_lon)
     self._episode_hours = float(episode_hours)
-    self._start_minutes = int((span_s - episode_s) // 60)
     self.add_noise = bool(add_noise)
     self.start_date_time: Optional[dt.datetime] = None
     self._start_offset_s: Optional[float] = None

@@ -1,0 +1,269 @@
+# coding=utf-8
+"""ERA5 winds in JAX: `wind.era5.Era5WindField` as device arrays.
+
+`Era5Grid` holds the ERA5 u, v of an `era5.Era5Data` (time, pressure,
+latitude, longitude; `era5.load` stays the one reader: loading, validation,
+errors) as float32 device arrays, with the station-keeping target and the
+start-time range of `Era5WindField`. It is a pytree: put it in the env's
+params (`jax_env.EnvParams.wind_grid`) and every balloon of a vmapped batch
+reads the same arrays (never copied per balloon), and a new grid of the
+same shape does not recompile.
+
+The functions are pure and jittable and answer as `Era5WindField`:
+  - `latlng`: BLE's x (east) / y (north) offsets from the target to
+    latitude/longitude (BLE's `spherical_geometry.
+    calculate_latlng_from_offset`: great-circle destination on a sphere of
+    radius 6371 km);
+  - `interpolate`: `Era5Data.interpolate`, multi-linear in (time, pressure,
+    latitude, longitude), each coordinate clipped to the grid's edges;
+  - `draw_start_minute`: `Era5WindField.reset_forecast`'s start time from
+    the forecast key (the same `jax.random.randint` call);
+  - `forecast`: `Era5WindField.get_forecast(_column)`.
+BLE's simplex noise (the paper's forecast error) is added by the env
+(`jax_env`), as for BLE's generative field.
+
+Everything is float32 (JAX's default). Latitudes and longitudes are kept
+after the grid's first node (float32 steps ~1e-6 deg inside a 10 deg area,
+not ~1e-5 deg at 250 deg), times after the data's first time (0.5 s steps
+after 97 days). At the same float32 coordinates `interpolate` agrees with
+`Era5Data.interpolate` (float64 scipy) to 1e-4 m/s on random winds of
+15 m/s rms, and `latlng` with BLE's geometry to 2e-5 deg; the env on this
+grid flies the BLE object's flight (host callbacks) to a few metres over
+216 strides (tests/test_era5_jax.py).
+"""
+
+import math
+from typing import Tuple
+
+import flax
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ble_latex.wind import era5
+
+Array = jax.Array
+# BLE's spherical Earth (`spherical_geometry._EARTH_RADIUS`). # [m]
+EARTH_RADIUS_M = 6_371_000.0
+
+
+@flax.struct.dataclass
+class Era5Grid:
+  """ERA5 winds and the flight area of `Era5WindField`, on the device.
+
+  Attributes:
+    time_s: Grid times after the data's first time, [T]. # [s]
+    pressure_pa: Pressure levels, ascending, [P]. # [Pa]
+    latitude: Latitudes after `latitude_origin`, ascending, [La]. # [deg]
+    longitude: Longitudes after `longitude_origin`, ascending, [Lo]. # [deg]
+    uv: Winds (u east, v north), [T, P, La, Lo, 2]. # [m/s]
+    latitude_origin: The first latitude. # [deg N]
+    longitude_origin: The first longitude, the file's convention. # [deg E]
+    sin_center_lat: sin of the target's latitude.
+    cos_center_lat: cos of the target's latitude.
+    center_lon: The target's longitude after `longitude_origin`, the
+      file's convention. # [deg]
+    (Axes relative to their first value keep float32's resolution of the
+    coordinates, ~1e-6 deg, instead of ~1e-5 deg at 100 deg.)
+    last_start_minute: Latest flight start after the first time (int32;
+      `era5.last_start_minute`). # [min]
+    first_time_min: The data's first time after 1970-01-01 UTC (int32). # [min]
+    add_noise: Whether the ground truth adds BLE's simplex noise to the
+      forecast (`Era5WindField.add_noise`). Static.
+  """
+  time_s: Array
+  pressure_pa: Array
+  latitude: Array
+  longitude: Array
+  uv: Array
+  latitude_origin: Array
+  longitude_origin: Array
+  sin_center_lat: Array
+  cos_center_lat: Array
+  center_lon: Array
+  last_start_minute: Array
+  first_time_min: Array
+  add_noise: bool = flax.struct.field(pytree_node=False, default=True)
+
+
+def grid_from_data(data: era5.Era5Data, *,
+                   center_lat: float = era5.PAPER_CENTER_LAT,  # [deg N]
+                   center_lon: float = era5.PAPER_CENTER_LON,  # [deg E]
+                   episode_hours: float = 72.0,  # [h]
+                   add_noise: bool = True) -> Era5Grid:
+  """The device grid of loaded ERA5 data (`era5.load(path)`).
+
+  Args:
+    data: ERA5 data, read and checked by `era5.load`.
+    center_lat: Latitude of the station-keeping target. # [deg N]
+    center_lon: Longitude of the station-keeping target. # [deg E]
+    episode_hours: Flight length that must fit after the start. # [h]
+    add_noise: Whether the ground truth adds BLE's simplex noise.
+    (The arguments of `Era5WindField`, with its defaults.)
+
+  Returns:
+    The grid, float32 (int32 minutes).
+
+  Raises:
+    ValueError: as `Era5WindField` (`era5.last_start_minute`), or a first
+      time that is not a whole minute.
+  """
+  last = era5.last_start_minute(data, center_lat=center_lat,
+                                center_lon=center_lon,
+                                episode_hours=episode_hours)
+  first_s = (data.times[0] - np.datetime64('1970-01-01T00:00:00')) / (
+      np.timedelta64(1, 's'))
+  if first_s % 60:
+    raise ValueError(f'ERA5 data {list(data.paths)} start at {data.start}, '
+                     'not a whole minute')
+  lat_rad = math.radians(center_lat)
+
+  def f32(value):
+    return jnp.asarray(np.asarray(value, np.float64), jnp.float32)
+
+  lat0 = np.float64(np.float32(data.latitude[0]))
+  lon0 = np.float64(np.float32(data.longitude[0]))
+  return Era5Grid(
+      time_s=f32(data.time_s), pressure_pa=f32(data.pressure),
+      latitude=f32(data.latitude - lat0), longitude=f32(data.longitude - lon0),
+      uv=f32(data.uv), latitude_origin=f32(lat0), longitude_origin=f32(lon0),
+      sin_center_lat=f32(math.sin(lat_rad)),
+      cos_center_lat=f32(math.cos(lat_rad)),
+      center_lon=f32(data.wrap_longitude(center_lon) - lon0),
+      last_start_minute=jnp.asarray(last, jnp.int32),
+      first_time_min=jnp.asarray(int(first_s // 60), jnp.int32),
+      add_noise=bool(add_noise))
+
+
+def draw_start_minute(grid: Era5Grid, key: Array) -> Array:
+  """`Era5WindField.reset_forecast`'s start draw from the forecast key.
+
+  Uniform over whole minutes in [0, `last_start_minute`] after the data's
+  first time: BLE's call `jax.random.randint(key, (), 0, last + 1)`, so
+  the same key gives the same start as the BLE object.
+
+  Args:
+    grid: The grid.
+    key: The forecast key (the second half of BLE's `WindField.reset` key
+      split, `generative.split_wind_key`).
+
+  Returns:
+    The start after the data's first time (int32). # [min]
+  """
+  return jax.random.randint(key, (), 0, grid.last_start_minute + 1)
+
+
+def _wrap(grid: Era5Grid, lon: Array, origin: Array = 0.0) -> Array:
+  """`Era5Data.wrap_longitude` of longitudes after `origin`. # [deg]
+
+  Shifts by multiples of 360 deg to within 180 deg of the centre of the
+  file's longitude range (`origin` 0: longitudes after `longitude_origin`).
+  Only whole turns are subtracted: no rounding through values near 180.
+  """
+  centre = origin + 0.5 * grid.longitude[-1]
+  return lon - 360.0 * jnp.floor((lon - centre + 180.0) / 360.0)
+
+
+def _offsets(grid: Era5Grid, x_m: Array, y_m: Array) -> Tuple[Array, Array]:
+  """`latlng`, after the grid's origin (latitude, longitude). # [deg]"""
+  heading = jnp.arctan2(x_m, y_m)
+  angle = jnp.hypot(x_m, y_m) / EARTH_RADIUS_M
+  cos_angle, sin_angle = jnp.cos(angle), jnp.sin(angle)
+  sin_lat = (cos_angle * grid.sin_center_lat +
+             sin_angle * grid.cos_center_lat * jnp.cos(heading))
+  d_lng = jnp.arctan2(sin_angle * grid.cos_center_lat * jnp.sin(heading),
+                      cos_angle - grid.sin_center_lat * sin_lat)
+  lat = jnp.degrees(jnp.arcsin(jnp.clip(sin_lat, -1.0, 1.0)))
+  return (lat - grid.latitude_origin,
+          _wrap(grid, grid.center_lon + jnp.degrees(d_lng)))
+
+
+def latlng(grid: Era5Grid, x_m: Array, y_m: Array) -> Tuple[Array, Array]:
+  """(lat, lon) of the offset (x east, y north) from the target. # [deg]
+
+  BLE's `spherical_geometry.calculate_latlng_from_offset` (`Era5WindField.
+  _latlng`): heading h = atan2(x, y) from north, angular distance d =
+  hypot(x, y) / R, the great-circle destination (sin lat = cos d sin lat0 +
+  sin d cos lat0 cos h; dlon = atan2(sin h sin d cos lat0, cos d -
+  sin lat0 sin lat)); the longitude in the file's convention.
+
+  Args:
+    grid: The grid (its target).
+    x_m: Distance east of the target. # [m]
+    y_m: Distance north of the target. # [m]
+
+  Returns:
+    (latitude [deg N], longitude [deg E]), of the inputs' broadcast shape.
+  """
+  lat, lon = _offsets(grid, x_m, y_m)
+  return lat + grid.latitude_origin, lon + grid.longitude_origin
+
+
+def _cell(axis: Array, value: Array) -> Tuple[Array, Array]:
+  """Lower index and weight of the upper node of `value`, clipped."""
+  value = jnp.clip(value, axis[0], axis[-1])
+  i = jnp.clip(jnp.searchsorted(axis, value, side='right') - 1, 0,
+               axis.shape[0] - 2)
+  low, high = axis[i], axis[i + 1]
+  return i, (value - low) / (high - low)
+
+
+def interpolate(grid: Era5Grid, time_s: Array, pressure_pa: Array,
+                latitude: Array, longitude: Array) -> Array:
+  """`Era5Data.interpolate`: multi-linear (u, v), clipped to the edges.
+
+  Each coordinate is clipped to its axis (the field is constant beyond the
+  time range, pressure range and area), then the 16 surrounding nodes are
+  weighted multi-linearly (scipy's `RegularGridInterpolator`, 'linear').
+
+  Args:
+    grid: The grid.
+    time_s: Time after the data's first time. # [s]
+    pressure_pa: Pressure. # [Pa]
+    latitude: Latitude. # [deg N]
+    longitude: Longitude, any convention. # [deg E]
+
+  Returns:
+    [broadcast(inputs) + (2,)] (u, v), float32. # [m/s]
+  """
+  lat = jnp.asarray(latitude, jnp.float32) - grid.latitude_origin
+  lon = _wrap(grid, jnp.asarray(longitude, jnp.float32),
+              grid.longitude_origin) - grid.longitude_origin
+  return _interpolate(grid, time_s, pressure_pa, lat, lon)
+
+
+def _interpolate(grid: Era5Grid, time_s: Array, pressure_pa: Array,
+                 lat: Array, lon: Array) -> Array:
+  """`interpolate` of (lat, lon) after the grid's origin. # [m/s]"""
+  coords = jnp.broadcast_arrays(
+      *(jnp.asarray(c, jnp.float32) for c in (time_s, pressure_pa, lat, lon)))
+  axes = (grid.time_s, grid.pressure_pa, grid.latitude, grid.longitude)
+  cells = [_cell(axis, c) for axis, c in zip(axes, coords)]
+  uv = jnp.zeros(coords[0].shape + (2,), jnp.float32)
+  for corner in range(16):
+    index, weight = [], jnp.ones_like(coords[0])
+    for axis, (i, w) in enumerate(cells):
+      upper = (corner >> (3 - axis)) & 1
+      index.append(i + upper)
+      weight = weight * (w if upper else 1.0 - w)
+    uv = uv + weight[..., None] * grid.uv[tuple(index)]
+  return uv
+
+
+def forecast(grid: Era5Grid, time_s: Array, x_m: Array, y_m: Array,
+             pressure_pa: Array) -> Tuple[Array, Array]:
+  """`Era5WindField.get_forecast` / `get_forecast_column`. # [m/s]
+
+  Args:
+    grid: The grid.
+    time_s: Time after the data's first time (flight start + elapsed). # [s]
+    x_m: Distance east of the target. # [m]
+    y_m: Distance north of the target. # [m]
+    pressure_pa: Pressure, or pressures of a column. # [Pa]
+
+  Returns:
+    (u, v) of pressure_pa's shape (broadcast with the others).
+  """
+  lat, lon = _offsets(grid, x_m, y_m)
+  uv = _interpolate(grid, time_s, pressure_pa, lat, lon)
+  return uv[..., 0], uv[..., 1]
