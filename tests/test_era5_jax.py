@@ -278,6 +278,24 @@ def test_flight_is_the_gymnasium_envs_on_era5_wind_field(era5_path):
     np.testing.assert_allclose(where[i], ref_where, atol=1.0, rtol=0)
 
 
+def test_vector_env_flies_the_grid_in_its_params(era5_path):
+  """The batched Gymnasium env flies ERA5 from `params.wind_grid` too."""
+  from ble_latex.envs import gymnasium_env  # pylint: disable=g-import-not-at-top
+  _, with_grid = _params(era5_path)
+  actions = jnp.asarray(_ACTIONS, jnp.float32)
+  obs, _ = _jax_flight(with_grid, _ENV_SEEDS, actions)
+  envs = gymnasium_env.LatexBalloonVectorEnv(len(_ENV_SEEDS),
+                                             params=with_grid)
+  first, _ = envs.reset(seed=_ENV_SEEDS[0])
+  assert list(_ENV_SEEDS) == list(range(_ENV_SEEDS[0],
+                                        _ENV_SEEDS[0] + len(_ENV_SEEDS)))
+  np.testing.assert_allclose(first, obs[:, 0], atol=1e-4, rtol=0)
+  stepped = envs.step(np.broadcast_to(np.asarray(actions[0]),
+                                      (len(_ENV_SEEDS), 3)))[0]
+  np.testing.assert_allclose(stepped, obs[:, 1], atol=1e-4, rtol=0)
+  envs.close()
+
+
 @pytest.mark.slow
 def test_three_day_flights_are_the_gymnasium_envs(era5_path):
   # Issue 27: within 100 m over 216 strides on several seeds.
