@@ -277,11 +277,6 @@ def test_wrong_shape_or_type_actions_are_refused(latex_env, bad):
   assert repr(latex_env.arena.get_balloon_state()) == before
 
 
-@pytest.fixture(scope='module')
-def discrete_env():
-  return gym.make('LatexBalloonDiscrete-v0').unwrapped
-
-
 @pytest.mark.parametrize('bad', [None, [1], 1e30, float('nan'), float('inf'),
                                  1.5, 3, -1, True, '1', np.array([2])])
 def test_bad_discrete_actions_are_value_errors(discrete_env, bad):

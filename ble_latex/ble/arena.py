@@ -173,9 +173,7 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     flight = self._env.state.flight
     if flight is self._flight_of:
       return self._env.flight
-    host = jax.device_get(flight)
-    return {name: np.asarray(getattr(host, name))
-            for name in host.__dataclass_fields__}
+    return gymnasium_env.flight_values(jax.device_get(flight))
 
   def _observe(self, core_observation: np.ndarray) -> np.ndarray:
     if self._core_features:

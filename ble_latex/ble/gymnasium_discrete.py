@@ -17,7 +17,6 @@ import numpy as np
 
 from ble_latex import quiet
 from ble_latex.envs import gymnasium_env
-from ble_latex.envs import seeds as seeds_lib
 
 ENV_ID = 'ble_latex/LatexBalloonDiscrete-v0'
 
@@ -42,7 +41,8 @@ def split_done(done: bool, info: Mapping[str, Any]
   return bool(done) and not truncated, truncated, info
 
 
-class LatexBalloonDiscreteGymnasiumEnv(gymnasium.Env):
+class LatexBalloonDiscreteGymnasiumEnv(gymnasium_env.SeedRule,
+                                       gymnasium.Env):
   """`ble_latex/LatexBalloonDiscrete-v0`: BLE's Discrete(3), gymnasium API.
 
   Owns BLE's gym env `ble_latex.ble.gym_env.LatexBalloonDiscreteEnv` (BLE's
@@ -91,13 +91,8 @@ class LatexBalloonDiscreteGymnasiumEnv(gymnasium.Env):
             options: Optional[Mapping[str, Any]] = None
             ) -> Tuple[np.ndarray, Dict[str, Any]]:
     """Starts a new flight; seeded as `ble_latex/LatexBalloon-v0`."""
-    seeds_lib.validate_seed(seed)
-    if options:
-      raise ValueError(f'reset takes no options, got {dict(options)!r}')
-    super().reset(seed=None if seed is None else int(seed))
-    if seed is None:  # Reproducible once np_random was seeded.
-      seed = int(self.np_random.integers(seeds_lib.TRAIN_SEED_LIMIT))
-    obs, info = self._env.reset(seed=int(seed), return_info=True)
+    seed = int(self._episode_seeds(seed, options)[0])
+    obs, info = self._env.reset(seed=seed, return_info=True)
     self._path = []
     self._record()
     return obs, dict(info)

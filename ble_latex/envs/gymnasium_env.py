@@ -359,7 +359,37 @@ def _is_core_generative(factory: Any) -> bool:
       module is not None and factory is module.CoreGenerativeWindField)
 
 
-class _Balloons:
+class SeedRule:
+  """The one seed/options rule of every Gymnasium env here (a mixin).
+
+  Mixed in before `gymnasium.Env` / `gymnasium.vector.VectorEnv`, whose
+  `reset` seeds `np_random`; `num_envs` is None for one balloon.
+  """
+
+  num_envs: Optional[int] = None
+
+  def _episode_seeds(self, seed: Optional[int],
+                     options: Optional[Mapping[str, Any]]) -> np.ndarray:
+    """The seed rule: seeds s + i, or training seeds from `np_random`.
+
+    Raises:
+      ValueError: `seed` not None or an int with s + N - 1 < 2**32, or any
+        `options`; nothing is changed.
+    """
+    count = 1 if self.num_envs is None else self.num_envs
+    seeds_lib.validate_seed(seed)
+    if seed is not None and int(seed) + count > seeds_lib.MAX_SEED:
+      raise ValueError(f'seed + num_envs - 1 must be < 2**32 (balloon i flies '
+                       f'seed + i), got seed {seed} with {count} envs')
+    if options:
+      raise ValueError(f'reset takes no options, got {dict(options)!r}')
+    super().reset(seed=None if seed is None else int(seed))  # np_random.
+    if seed is None:
+      return self.np_random.integers(seeds_lib.TRAIN_SEED_LIMIT, size=count)
+    return int(seed) + np.arange(count)
+
+
+class _Balloons(SeedRule):
   """What the single and the vector env share (a mixin of both).
 
   Attributes:
@@ -368,8 +398,6 @@ class _Balloons:
       vector env); None before the first reset.
     normalize_actions: Actions in [-1, 1]^3 mapped affinely onto the Box.
   """
-
-  num_envs: Optional[int]  # None: one balloon (no balloon axis).
 
   def _setup(self, params: Optional[jax_env.EnvParams],
              episode_steps: Optional[int], normalize_actions: bool,
@@ -408,26 +436,6 @@ class _Balloons:
                          ' (normalize_actions=True)')
     return np.clip(self._from_normalized(a.astype(self._box.dtype)),
                    self._box.low, self._box.high).astype(np.float64)
-
-  def _episode_seeds(self, seed: Optional[int],
-                     options: Optional[Mapping[str, Any]]) -> np.ndarray:
-    """The seed rule: seeds s + i, or training seeds from `np_random`.
-
-    Raises:
-      ValueError: `seed` not None or an int with s + N - 1 < 2**32, or any
-        `options`; nothing is changed.
-    """
-    count = 1 if self.num_envs is None else self.num_envs
-    seeds_lib.validate_seed(seed)
-    if seed is not None and int(seed) + count > seeds_lib.MAX_SEED:
-      raise ValueError(f'seed + num_envs - 1 must be < 2**32 (balloon i flies '
-                       f'seed + i), got seed {seed} with {count} envs')
-    if options:
-      raise ValueError(f'reset takes no options, got {dict(options)!r}')
-    super().reset(seed=None if seed is None else int(seed))  # np_random.
-    if seed is None:
-      return self.np_random.integers(seeds_lib.TRAIN_SEED_LIMIT, size=count)
-    return int(seed) + np.arange(count)
 
 
 class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
@@ -552,8 +560,7 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
     return float(u), float(v)
 
   def _set_flight(self, flight: Any, first: bool = False) -> None:
-    self.flight = {name: np.asarray(getattr(flight, name))
-                   for name in flight.__dataclass_fields__}
+    self.flight = flight_values(flight)
     if self.render_mode is not None:
       self._path = ([] if first else self._path) + [
           flight_point(self.flight)]
@@ -572,6 +579,12 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
 
   def __str__(self) -> str:
     return f'{type(self).__name__}(LatexBalloon-v0 on the JAX core)'
+
+
+def flight_values(flight: Any) -> Dict[str, np.ndarray]:
+  """A `FlightState` (host or device values) as NumPy values by field name."""
+  return {name: np.asarray(getattr(flight, name))
+          for name in flight.__dataclass_fields__}
 
 
 def flight_point(flight: Mapping[str, Any]) -> Tuple[float, float, float,
