@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.ble_latex-installed
 OUT ?= demo_output
 
-.PHONY: venv demo test test-slow test-all clean
+.PHONY: venv demo test test-slow test-all docs docs-serve clean
 
 venv: $(STAMP)
 
@@ -14,7 +14,7 @@ venv: $(STAMP)
 $(STAMP): setup.py constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -c constraints.txt -e '.[test]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,docs]'
 	touch $(STAMP)
 
 # The main job: a short demo run (see README "Quick start").
@@ -31,8 +31,15 @@ test-slow: venv
 test-all: venv
 	$(PY) -m pytest -m 'slow or not slow'
 
+# The documentation site (mkdocs.yml, docs/) into site/; warnings are errors.
+docs: venv
+	$(VENV)/bin/mkdocs build --strict --site-dir site
+
+docs-serve: venv
+	$(VENV)/bin/mkdocs serve
+
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache
+	rm -rf $(VENV) $(OUT) .pytest_cache site
 
 # Issue 6 results: baselines and the shipped policy on the 100 held-out seeds
 # of latex_small, then the table README shows (benchmarks/results.md).

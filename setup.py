@@ -78,6 +78,9 @@ setuptools.setup(
         'arco': ['zarr', 'gcsfs'],
         # ble-latex-eval --ray_address and ble-latex-sweep.
         'ray': ['ray[tune]'],
+        # The documentation site (mkdocs.yml, docs/; tests/test_docs.py builds
+        # it with `mkdocs build --strict`).
+        'docs': ['mkdocs', 'mkdocs-material', 'mkdocstrings[python]'],
     },
     entry_points={
         'gym.envs': [
