@@ -18,12 +18,14 @@ the balloon (BLE's ground truth: forecast at the balloon's pressure + simplex
 noise).
 
 Every feature is scaled to [-1, 1] (clipped); `NamedLatexFeatures`
-decodes them. Index map (N_LEVELS = 25):
+decodes them. squash(x, c) = x / (x + c) is BLE's
+`transforms.squash_to_unit_interval`. Index map (N_LEVELS = 25; the docs
+site's observation table is generated from this table):
 
 | index   | feature                                                            | scaling                  |
 |---------|--------------------------------------------------------------------|--------------------------|
-| 0-24    | forecast wind speed |v| at 25 pressure levels, 5000..14000 Pa      | squash(|v|, 30 m/s)      |
-| 25-49   | bearing error theta of that wind to the target, same levels       | theta / pi               |
+| 0-24    | forecast wind speed |v| at 25 pressure levels, 5000..14000 Pa      | 1 - exp(-|v| / 30 m/s)   |
+| 25-49   | bearing error theta of that wind to the target, same levels        | theta / pi               |
 | 50      | altitude h                                                         | (h - 17.5 km) / 3.5 km   |
 | 51      | ascent rate hdot                                                   | hdot / 5 m/s             |
 | 52      | measured wind speed at the balloon |v_h|                           | squash(|v_h|, 30 m/s)    |

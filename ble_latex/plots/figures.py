@@ -579,8 +579,8 @@ def plot_wind_stats(a: Any, b: Any, stats: Mapping[str, Any], path: str
   some other level of the band (direction diversity).
 
   Args:
-    a: The first source's columns: `.label`, `.pressures_pa` [L] [Pa], `.u`,
-      `.v` [N, L] [m/s] (a `stats.WindSamples`).
+    a: The first source's columns: `.label`, `.pressures_pa` (L,) in Pa, `.u`,
+      `.v` (N, L) in m/s (a `stats.WindSamples`).
     b: The second source's, at the same levels.
     stats: `stats.compare(a, b)`.
     path: Output PNG.

@@ -51,6 +51,9 @@ EARTH_RADIUS_M = 6_371_000.0
 class Era5Grid:
   """ERA5 winds and the flight area of `Era5WindField`, on the device.
 
+  Axes are stored relative to their first value, which keeps float32's
+  resolution of the coordinates (~1e-6 deg instead of ~1e-5 deg at 100 deg).
+
   Attributes:
     time_s: Grid times after the data's first time, [T]. # [s]
     pressure_pa: Pressure levels, ascending, [P]. # [Pa]
@@ -63,8 +66,6 @@ class Era5Grid:
     cos_center_lat: cos of the target's latitude.
     center_lon: The target's longitude after `longitude_origin`, the
       file's convention. # [deg]
-    (Axes relative to their first value keep float32's resolution of the
-    coordinates, ~1e-6 deg, instead of ~1e-5 deg at 100 deg.)
     last_start_minute: Latest flight start after the first time (int32;
       `era5.last_start_minute`). # [min]
     first_time_min: The data's first time after 1970-01-01 UTC (int32). # [min]
@@ -93,13 +94,14 @@ def grid_from_data(data: era5.Era5Data, *,
                    add_noise: bool = True) -> Era5Grid:
   """The device grid of loaded ERA5 data (`era5.load(path)`).
 
+  The keyword arguments are `Era5WindField`'s, with its defaults.
+
   Args:
     data: ERA5 data, read and checked by `era5.load`.
     center_lat: Latitude of the station-keeping target. # [deg N]
     center_lon: Longitude of the station-keeping target. # [deg E]
     episode_hours: Flight length that must fit after the start. # [h]
     add_noise: Whether the ground truth adds BLE's simplex noise.
-    (The arguments of `Era5WindField`, with its defaults.)
 
   Returns:
     The grid, float32 (int32 minutes).

@@ -215,7 +215,7 @@ def direction_diversity(samples: WindSamples) -> Dict[str, Any]:
 
   Returns:
     {'opposing_pair_fraction', 'opposing_any_fraction',
-    'opposing_by_level' [L], 'pairs' [L][L]}.
+    'opposing_by_level' [L], 'pairs' [L, L]}.
   """
   levels = samples.pressures_pa.size
   if levels < 2:
