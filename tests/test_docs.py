@@ -1,0 +1,110 @@
+# coding=utf-8
+"""The documentation: README's size and links, the site's coverage and build.
+
+The site (mkdocs.yml, docs/) is built with `mkdocs build --strict` (every
+warning is an error: broken links and anchors, docstrings griffe cannot
+parse, pages missing from the nav). That test needs the `docs` extra
+(`pip install -c constraints.txt -e '.[docs]'`, which `make venv` and CI
+install) and is skipped, saying so, where mkdocs is not installed.
+"""
+
+import importlib.util
+import os
+import pathlib
+import re
+import subprocess
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+DOCS = ROOT / 'docs'
+README = ROOT / 'README.md'
+README_MAX_LINES = 300
+
+
+def _hook():
+  spec = importlib.util.spec_from_file_location(
+      'docs_generated_hook', DOCS / 'hooks' / 'generated.py')
+  module = importlib.util.module_from_spec(spec)
+  spec.loader.exec_module(module)
+  return module
+
+
+def _docs_text() -> str:
+  return '\n'.join(p.read_text(encoding='utf-8')
+                   for p in sorted(DOCS.rglob('*.md')))
+
+
+def test_readme_fits_its_budget():
+  lines = README.read_text(encoding='utf-8').splitlines()
+  assert len(lines) <= README_MAX_LINES, (
+      f'README.md has {len(lines)} lines, more than {README_MAX_LINES}: move '
+      'reference material to a page under docs/')
+
+
+def test_readme_links_into_the_docs_exist():
+  text = README.read_text(encoding='utf-8')
+  targets = re.findall(r'\]\((docs/[^)#\s]+)(?:#[^)\s]*)?\)', text)
+  assert targets, 'README.md links to no page under docs/'
+  missing = sorted({t for t in targets if not (ROOT / t).exists()})
+  assert not missing, f'README.md links to missing files: {missing}'
+
+
+def test_every_command_and_gin_file_is_documented():
+  docs = _docs_text()
+  commands = _hook().console_scripts()
+  assert 'ble-latex-train' in commands  # the parser found the entry points
+  gin_files = sorted(p.name for p in (ROOT / 'gin_configs').glob('*.gin'))
+  assert gin_files
+  undocumented = [name for name in list(commands) + gin_files
+                  if not re.search(rf'(?<![\w-]){re.escape(name)}(?![\w-])',
+                                   docs)]
+  assert not undocumented, (
+      f'not mentioned on any page under docs/: {undocumented}')
+
+
+def test_observation_map_names_every_feature_once():
+  """The table the site generates covers indices 0..NUM_FEATURES-1."""
+  from ble_latex.envs import jax_features  # pylint: disable=g-import-not-at-top
+  hook = _hook()
+  rows = hook.observation_rows()
+  indices = [i for index, _, _ in rows for i in hook.row_indices(index)]
+  assert indices == list(range(jax_features.NUM_FEATURES))
+  # The scalings the table states are the module's constants.
+  text = ' '.join(scaling for _, _, scaling in rows)
+  for constant in (jax_features.SPEED_SQUASH_MPS,
+                   jax_features.DISTANCE_SQUASH_KM,
+                   jax_features.ASCENT_RATE_SCALE_MPS,
+                   jax_features.DRAG_AREA_SCALE_M2,
+                   jax_features.VOLUME_SCALE_M3):
+    assert f'{constant:g}' in text, constant
+
+
+def test_hook_refuses_unknown_generated_blocks():
+  with pytest.raises(ValueError, match='unknown generated block'):
+    _hook().on_page_markdown('<!-- generated: no-such-table -->')
+
+
+def test_site_builds_strictly(tmp_path):
+  if importlib.util.find_spec('mkdocs') is None:
+    pytest.skip("mkdocs is not installed: pip install -c constraints.txt "
+                "-e '.[docs]' (make venv does) to build the site")
+  site = tmp_path / 'site'
+  env = dict(os.environ, NO_MKDOCS_2_WARNING='1')
+  result = subprocess.run(
+      [sys.executable, '-m', 'mkdocs', 'build', '--strict', '--quiet',
+       '--config-file', str(ROOT / 'mkdocs.yml'), '--site-dir', str(site)],
+      cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
+      check=False)
+  assert result.returncode == 0, result.stdout + result.stderr
+  pages = sorted(p.parent.relative_to(site).as_posix()
+                 for p in site.rglob('index.html'))
+  assert len(pages) >= 6, pages
+  environment = (site / 'environment' / 'index.html').read_text()
+  assert 'generated:' not in environment
+  assert 'squash(|x|, 250 km)' in environment  # the generated table
+  reference = (site / 'api' / 'envs' / 'index.html').read_text()
+  assert 'ble_latex.envs.jax_env.LatexBalloonJaxEnv' in reference
+  changelog = (site / 'changelog' / 'index.html').read_text()
+  assert 'Keep a Changelog' in changelog  # CHANGELOG.md is included
