@@ -32,6 +32,7 @@ MAX_SIZE_BYTES = 2 * 1024**3
 
 
 def default_dir() -> str:
+  """`$XDG_CACHE_HOME/ble_latex/jax` (default `~/.cache/ble_latex/jax`)."""
   base = os.environ.get('XDG_CACHE_HOME') or os.path.join(
       os.path.expanduser('~'), '.cache')
   return os.path.join(base, 'ble_latex', 'jax')

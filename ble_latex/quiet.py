@@ -89,12 +89,14 @@ def known_stderr() -> Tuple[str, ...]:
 
 
 def filter_python_stderr(text: str) -> str:
+  """The text with every known third-party notice (`known_stderr`) removed."""
   for notice in known_stderr():
     text = text.replace(notice, '')
   return text
 
 
 def filter_native_stderr(text: str) -> str:
+  """The text without the known native-library notice lines (`_NATIVE`)."""
   return ''.join(line for line in text.splitlines(keepends=True)
                  if not _NATIVE.fullmatch(line.rstrip('\r\n')))
 
@@ -163,6 +165,7 @@ def _known_log_records_dropped() -> Iterator[None]:
 
 
 def is_known_warning(message: Warning, category: Type[Warning]) -> bool:
+  """Whether a warning is one of `KNOWN_WARNINGS` (dropped at start-up)."""
   return any(issubclass(category, known) and re.match(pattern, str(message))
              for pattern, known in KNOWN_WARNINGS)
 

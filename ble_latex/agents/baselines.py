@@ -51,12 +51,15 @@ class LatexRandomAgent(_BoxAgent):
     return self._rng.uniform(self._low, self._high)
 
   def begin_episode(self, observation: np.ndarray) -> np.ndarray:
+    """A uniform random action in the Box."""
     return self._action()
 
   def step(self, reward: float, observation: np.ndarray) -> np.ndarray:
+    """A uniform random action in the Box."""
     return self._action()
 
   def end_episode(self, reward: float, terminal: bool = True) -> None:
+    """Nothing to learn."""
     pass
 
 
@@ -123,11 +126,14 @@ class GeometricStationSeeker(_BoxAgent):
     return np.array([a0, self._time_factor, -1.0])
 
   def begin_episode(self, observation: np.ndarray) -> np.ndarray:
+    """Forgets the chosen level, then acts as `step` does."""
     self._target = None
     return self._act(observation)
 
   def step(self, reward: float, observation: np.ndarray) -> np.ndarray:
+    """The rule's action for this observation (see the class)."""
     return self._act(observation)
 
   def end_episode(self, reward: float, terminal: bool = True) -> None:
+    """Nothing to learn."""
     pass

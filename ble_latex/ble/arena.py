@@ -193,12 +193,14 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     return self._atmosphere
 
   def get_simulator_state(self) -> simulator_data.SimulatorState:
+    """BLE's `SimulatorState` view: balloon state, wind field, atmosphere."""
     return simulator_data.SimulatorState(self.get_balloon_state(),
                                          self._wind_field,
                                          self._ble_atmosphere())
 
   def set_simulator_state(self,
                           new_state: simulator_data.SimulatorState) -> None:
+    """Unsupported: raises `NotImplementedError` (the flight is the core's)."""
     raise NotImplementedError(
         'LatexBalloonArena cannot restore a SimulatorState: the flight lives '
         "in the JAX core (the arena's driver.state).")
@@ -232,11 +234,13 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
 
   def set_balloon_state(self, new_state: balloon_lib.LatexBalloonState
                         ) -> None:
+    """Unsupported: raises `NotImplementedError` (the flight is the core's)."""
     raise NotImplementedError(
         'LatexBalloonArena cannot restore a balloon state: the flight lives '
         "in the JAX core (the arena's driver.state).")
 
   def get_measurements(self) -> simulator_data.SimulatorObservation:
+    """BLE's `SimulatorObservation`: the balloon state and the measured wind."""
     u, v = self._env.measured_wind()
     return simulator_data.SimulatorObservation(
         balloon_observation=self.get_balloon_state(),

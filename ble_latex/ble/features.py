@@ -63,6 +63,7 @@ class LatexFeatureConstructor(features.FeatureConstructor):
     self._history: Optional[jax_features.History] = None
 
   def observe(self, observation: simulator_data.SimulatorObservation) -> None:
+    """Records BLE's observation (and, at the first, the reset's resources)."""
     s = observation.balloon_observation
     if self._initial is None:
       self._initial = jax_features.initial_resources(
@@ -77,6 +78,7 @@ class LatexFeatureConstructor(features.FeatureConstructor):
     self._observation = observation
 
   def get_features(self) -> np.ndarray:
+    """The 71 features of the last observation (`jax_features.features`)."""
     s = self._observation.balloon_observation
     wind = self._observation.wind_at_balloon
     column = self._forecast.get_forecast_column(

@@ -130,15 +130,18 @@ class CoreGenerativeWindField(wind_field.WindField):
     del key, date_time
 
   def reset_forecast(self, key: jnp.ndarray, date_time: dt.datetime) -> None:
+    """No-op: the core's field was drawn by the env's reset."""
     del key, date_time
 
   def get_forecast(self, x: units.Distance, y: units.Distance, pressure: float,
                    elapsed_time: dt.timedelta) -> wind_field.WindVector:
+    """BLE's `get_forecast`: the core's forecast at one point."""
     return self.get_forecast_column(x, y, [pressure], elapsed_time)[0]
 
   def get_forecast_column(
       self, x: units.Distance, y: units.Distance, pressures: Sequence[float],
       elapsed_time: dt.timedelta) -> List[wind_field.WindVector]:
+    """BLE's `get_forecast_column`: the forecast at several pressures."""
     u, v = jax.device_get(_forecast(
         self._state(), jnp.float32(x.meters), jnp.float32(y.meters),
         jnp.asarray(np.asarray(pressures, np.float32)),
@@ -148,6 +151,7 @@ class CoreGenerativeWindField(wind_field.WindField):
   def get_ground_truth(self, x: units.Distance, y: units.Distance,
                        pressure: float,
                        elapsed_time: dt.timedelta) -> wind_field.WindVector:
+    """BLE's `get_ground_truth`: forecast plus simplex noise, from the core."""
     u, v = jax.device_get(_ground_truth(
         self._state(), jnp.float32(x.meters), jnp.float32(y.meters),
         jnp.float32(pressure), jnp.float32(elapsed_time.total_seconds())))

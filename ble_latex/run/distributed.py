@@ -125,6 +125,7 @@ def _probe(address: str, timeout_s: float = 10.0) -> None:
 
 
 def shutdown() -> None:
+  """Stops this process's Ray connection (or embedded Ray), if one is up."""
   ray = require_ray()
   if ray.is_initialized():
     ray.shutdown()

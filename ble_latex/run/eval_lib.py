@@ -112,6 +112,18 @@ def evaluate(agent: base_agent.Agent, env: gym.Env, seeds: Sequence[int],
 
 def output_path(output_dir: str, suite: str, name: str, num_shards: int,
                 shard_idx: int) -> str:
+  """The eval file `OUTPUT_DIR/SUITE/NAME.json` (`NAME_SHARD.json` with shards).
+
+  Args:
+    output_dir: The eval output folder.
+    suite: The eval suite's name.
+    name: The file's name (agent, `agent_IDX` with a checkpoint).
+    num_shards: Number of shards the suite is split into.
+    shard_idx: This shard's index (used only when `num_shards` > 1).
+
+  Returns:
+    The path of the eval file.
+  """
   if num_shards > 1:
     name = f'{name}_{shard_idx}'
   return os.path.join(output_dir, suite, f'{name}.json')

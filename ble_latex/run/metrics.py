@@ -59,6 +59,7 @@ class EpisodeSummary:
   wall_time_s: float = 0.0  # [s]
 
   def to_json(self) -> Dict[str, Any]:
+    """The summary as a JSON-ready dict (one line of episodes.jsonl)."""
     return dataclasses.asdict(self)
 
 
@@ -122,12 +123,26 @@ class EpisodeTracker:
     self._start = time.monotonic()
 
   def step(self, reward: float, info: Mapping[str, Any]) -> None:
+    """Adds one env step.
+
+    Args:
+      reward: The step's reward.
+      info: The env's `info` after the step (resources, distance, status).
+    """
     self.reward += float(reward)
     self.steps += 1
     self._within += info['distance_km'] <= self._radius_km
     self.info = info
 
   def summary(self, done: bool) -> EpisodeSummary:
+    """The episode so far as an `EpisodeSummary`.
+
+    Args:
+      done: Whether the env ended the episode (else it was cut at the step cap).
+
+    Returns:
+      The summary, with its terminal reason.
+    """
     info = self.info
     return EpisodeSummary(
         episode=self.episode,
@@ -172,9 +187,11 @@ class EpisodeLogCollector(_EpisodeCollector):
     episode_log.truncate(self.path, current_episode)
 
   def get_name(self) -> str:
+    """BLE's collector name: 'episodes'."""
     return 'episodes'
 
   def end_episode(self, statistics: LatexStatistics) -> None:
+    """Appends the finished episode's summary to episodes.jsonl."""
     with open(self.path, 'a') as f:
       f.write(json.dumps(statistics.summary.to_json()) + '\n')
       f.flush()
@@ -186,6 +203,7 @@ class LatexTensorboardCollector(tensorboard_collector.TensorboardCollector):
   """BLE's tensorboard collector plus TW50, resources and terminal reasons."""
 
   def end_episode(self, statistics: LatexStatistics) -> None:
+    """Writes BLE's scalars, then TW50, resources and the terminal reason."""
     episode = self.current_episode
     super().end_episode(statistics)
     s = statistics.summary
@@ -213,9 +231,11 @@ class ProgressCollector(_EpisodeCollector):
     self._recent: List[EpisodeSummary] = []
 
   def get_name(self) -> str:
+    """BLE's collector name: 'progress'."""
     return 'progress'
 
   def end_episode(self, statistics: LatexStatistics) -> None:
+    """Advances the bar and shows the episode and its 50-episode means."""
     s = statistics.summary
     self._recent = (self._recent + [s])[-50:]
     n = len(self._recent)
@@ -228,6 +248,7 @@ class ProgressCollector(_EpisodeCollector):
     self.current_episode += 1
 
   def end_training(self) -> None:
+    """Closes the progress bar."""
     self._bar.close()
 
 

@@ -39,6 +39,15 @@ def create_agent(name: str, env: gym.Env, seed: int = 0) -> base_agent.Agent:
 
 
 def flight_point(env: gym.Env) -> Dict[str, Any]:
+  """One point of an eval record's flight path: the balloon's state now.
+
+  Args:
+    env: A gym env of ble_latex (its arena holds the balloon state).
+
+  Returns:
+    `t_s`, `x_km`, `y_km`, `altitude_m`, `ascent_rate_mps`, `decision`,
+    `helium_mols`, `sand_kg` (`records.FLIGHT_POINT_SCHEMA`).
+  """
   s = env.unwrapped.arena.get_balloon_state()
   return {
       't_s': s.time_elapsed.total_seconds(),

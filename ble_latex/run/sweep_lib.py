@@ -290,10 +290,12 @@ def gin_value(value: Literal) -> str:
 
 
 def binding_lines(point: Mapping[str, Literal]) -> List[str]:
+  """The gin binding lines (`name = value`) of one sweep point."""
   return [f'{name} = {gin_value(v)}' for name, v in point.items()]
 
 
 def trial_name(index: int, seed: int) -> str:
+  """A trial's name and run folder: `p<point>_seed<seed>`, e.g. `p003_seed1`."""
   return f'p{index:03d}_seed{seed}'
 
 
@@ -312,9 +314,11 @@ class SweepSettings:
   cpus_per_trial: float = 1.0
 
   def run_dir(self, index: int, seed: int) -> str:
+    """The run directory of a trial: `SWEEP_DIR/runs/p<point>_seed<seed>`."""
     return os.path.join(self.sweep_dir, 'runs', trial_name(index, seed))
 
   def to_json(self) -> Dict[str, Any]:
+    """The settings as a JSON-ready dict (what `sweep.json` records)."""
     d = dataclasses.asdict(self)
     d['points'] = list(d['points'])
     d['seeds'] = list(d['seeds'])
