@@ -11,7 +11,7 @@ The fixes are applied lazily by an import hook (`install()`, called by
 executes, so `import ble_latex` itself stays cheap (no TF/JAX/BLE import) and the
 gym entry point can install the hook at `import gym` time. Where possible a fix
 is local to the broken third-party module; the few global changes are listed
-in `GLOBAL_CHANGES` (and in README).
+in `GLOBAL_CHANGES` (and in docs/ble-compat.md).
 
 | # | breakage (see shared ble-compat-notes)             | fix                         |
 |---|----------------------------------------------------|-----------------------------|

@@ -284,7 +284,7 @@ def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
                                            b'\x05'):
     raise UntrustedFileError(
         f'{path} is a pickle ({what} of an older ble_latex?). Pickles can run '
-        'code and are not read by default; see README "Trusted files" to '
+        'code and are not read by default; see docs/trusted-files.md to '
         'convert one you made yourself.')
   from flax import serialization  # pylint: disable=g-import-not-at-top
   try:
@@ -439,7 +439,7 @@ def read_legacy_pickle(path: str, *, trust: bool, what: str = 'file') -> Any:
   if not trust:
     raise UntrustedFileError(
         f'{path} is a legacy pickle {what}; pickles can run code, so it is '
-        'read only with the explicit opt-in (README "Trusted files").')
+        'read only with the explicit opt-in (docs/trusted-files.md).')
   if os.path.isdir(path):
     raise errors.BadFileError(f'{what} {path} is a directory, not a file')
   if not os.path.exists(path):

@@ -1288,7 +1288,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
             f'{os.path.basename(legacy_checkpoint_path(checkpoint_dir, legacy[-1]))}'
             '); pickles can run code. If you made them, resume with '
             "--gin_bindings='ble_latex.agents.sac.SACAgent.trust_legacy_pickle = True' "
-            '(README "Trusted files").')
+            '(docs/trusted-files.md).')
       iterations = legacy
     if not iterations:
       return -1

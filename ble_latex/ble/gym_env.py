@@ -9,7 +9,7 @@ the paper's reward and the paper's observation (`ble_latex.envs.jax_features`).
 Perciatelli features so BLE's own agents fly the latex balloon unchanged.
 
 Both use BLE's old gym API: `reset(seed=...)` returns the observation and
-`step` returns (observation, reward, done, info). See README for the contract.
+`step` returns (observation, reward, done, info). Contract: docs/environment.md.
 """
 
 import math
@@ -181,7 +181,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
         leave the state untouched.
 
     Returns:
-      (observation, reward, done, info); see README for `info`.
+      (observation, reward, done, info); `info`: docs/environment.md.
     """
     action = self.arena.driver.box_actions(action)  # The one check.
     if self.arena.info['time_limit'] or self._is_terminal():

@@ -9,11 +9,11 @@ the latex env and suites:
 
 Writes OUTPUT_DIR/SUITE/NAME.json: one object per seed with seed, reward,
 tw50, tw50_window, window_steps, steps, helium_vented_mols, sand_dropped_kg, terminal_reason,
-final_distance_km and flight_path (README, "Eval output").
+final_distance_km and flight_path (docs/training.md, "Eval output").
 
 With --ray_address the seeds (after --num_shards/--shard_idx) are Ray tasks
 on a local Ray (`local`) or a cluster (`auto`, `HOST:PORT`); the file written
-is the same (`ble_latex.run.distributed`, README "Scaling out on Ray"):
+is the same (`ble_latex.run.distributed`, docs/ray.md):
 
   ble-latex-eval --agent=station_seeker --env_name=LatexBalloonDiscrete-v0 \
       --suite=latex_small --ray_address=local --ray_num_cpus=2

@@ -13,7 +13,7 @@ is one episode on each of `sac_trainer_config.num_envs` balloons in parallel.
 `--seeds` runs several training seeds, each in BASE_DIR/seed_<s>: one after
 another, or with `--vmap_seeds` (jax trainer) all in one vmapped XLA call
 per round, which gains where the hardware has room for more than one
-seed's work (README, "Jitted SAC trainer", for measurements):
+seed's work (docs/benchmarks.md, for measurements):
 
   ble-latex-train --trainer=jax --base_dir=/tmp/latex/jax \
       --num_iterations=170 --policy_snapshot_period=5 --seeds=0,1,2,3,4 \

@@ -48,7 +48,7 @@ The winds are `GENERATIVE_WIND` unless a `Wind` is given (BLE's other wind
 fields fly through host callbacks, `ble_latex.ble.wind`) or the params hold
 an ERA5 grid (`EnvParams.wind_grid`, `era5_wind`: ERA5 plus BLE's simplex
 noise, the paper's winds, shared by all balloons); everything runs
-in JAX's default float32 (see README).
+in JAX's default float32 (see docs/jax-env.md).
 """
 
 import dataclasses

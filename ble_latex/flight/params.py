@@ -24,7 +24,7 @@ import gin
 
 @struct.dataclass
 class FlightParams:
-  """The latex balloon's flight system (paper "Method" and README table).
+  """The latex balloon's flight system (paper "Method", docs/physics-model.md).
 
   Attributes:
     payload_kg: m_p, including the 1.2 kg latex envelope. # [kg]

@@ -1,8 +1,8 @@
 # coding=utf-8
 """Vertical physics of a zero-superpressure latex balloon, in JAX.
 
-Paper section "Equations of Motion" (README, "Physics and altitude
-controller", has the derivations). The equations are written branch-free
+Paper section "Equations of Motion" (docs/physics-model.md has the
+derivations). The equations are written branch-free
 (`jnp.where` on safe operands, so neither values nor gradients of an unused
 branch can leak NaN/inf), jittable, vmappable and working in float32 or, in
 a caller's `jax.enable_x64(True)` scope, float64.

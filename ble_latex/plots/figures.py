@@ -17,7 +17,7 @@ writes a PNG with matplotlib's Agg canvas (no display, no global pyplot state):
 `ble-latex-validate`.) The loaders read the run/eval file formats of
 `ble-latex-train` (RUN/episodes.jsonl) and `ble-latex-eval` (OUT/SUITE/A.json)
 and check every record against its schema (`ble_latex.run.records`), raising
-ValueError naming the file, record and field; see README "Plots". Nothing
+ValueError naming the file, record and field; see docs/plots.md. Nothing
 here imports BLE; `ble_latex.cli.plot` (the
 `ble-latex-plot` command) gathers wind data from the env.
 """

@@ -4,8 +4,7 @@
 Used by `ble-latex-eval` (in one process, or seed by seed on Ray workers,
 `ble_latex.run.distributed`) and the demo. Records per seed: seed, reward, tw50,
 tw50_window, window_steps, steps, helium_vented_mols, sand_dropped_kg,
-terminal_reason, final_distance_km and flight_path (README, "Training and
-evaluation").
+terminal_reason, final_distance_km and flight_path (docs/training.md).
 """
 
 import contextlib

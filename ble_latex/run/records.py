@@ -7,7 +7,7 @@ the per-seed eval record (the summary without `episode`/`wall_time_s`, plus
 `flight_path`), `runner.flight_point` each point of that path; tests check
 that each writer's fields are this module's. The loaders read the files back
 and check every record, raising ValueError naming the file, record and field
-(README, "Training and evaluation" and "Plots"). Nothing here imports BLE.
+(docs/training.md and docs/plots.md). Nothing here imports BLE.
 """
 
 import dataclasses
