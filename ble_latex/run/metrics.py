@@ -71,7 +71,17 @@ class LatexStatistics(statistics_instance.StatisticsInstance):
 
 
 def terminal_reason(info: Mapping[str, Any], done: bool) -> str:
-  """Why an episode ended, from the env's last info."""
+  """Why an episode ended, from the env's last info.
+
+  Args:
+    info: The env's `info` after the episode's last step.
+    done: Whether the env ended the episode.
+
+  Returns:
+    `time_limit`, the env's `terminal_reason` (`out_of_sand`,
+    `out_of_helium`, `burst`, `grounded`) if it ended the episode, else
+    `max_episode_length` (the runner's step cap).
+  """
   if info.get('time_limit'):
     return 'time_limit'
   if done:

@@ -1027,7 +1027,18 @@ class Era5WindField(wind_field.WindField):
 
 def pressure_levels_hpa(min_hpa: float = PAPER_MIN_PRESSURE_HPA,
                         max_hpa: float = PAPER_MAX_PRESSURE_HPA) -> List[int]:
-  """ERA5's standard pressure levels within [min_hpa, max_hpa]. # [hPa]"""
+  """ERA5's standard pressure levels within [min_hpa, max_hpa]. # [hPa]
+
+  Args:
+    min_hpa: Lowest pressure wanted (the paper's 20 hPa). # [hPa]
+    max_hpa: Highest pressure wanted (the paper's 175 hPa). # [hPa]
+
+  Returns:
+    The levels, ascending. # [hPa]
+
+  Raises:
+    ValueError: If no ERA5 level lies in the range.
+  """
   levels = [p for p in ERA5_PRESSURE_LEVELS_HPA if min_hpa <= p <= max_hpa]
   if not levels:
     raise ValueError(f'No ERA5 pressure level in [{min_hpa}, {max_hpa}] hPa '

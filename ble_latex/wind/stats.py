@@ -86,7 +86,15 @@ class WindSamples:
 
 def band_levels(pressures_pa: Sequence[float],
                 band: Sequence[float] = BAND_PA) -> np.ndarray:
-  """The levels inside the band, ascending. # [Pa]"""
+  """The levels inside the band, ascending. # [Pa]
+
+  Args:
+    pressures_pa: Pressure levels, any order. # [Pa]
+    band: (low, high) pressures kept, inclusive. # [Pa]
+
+  Returns:
+    The levels in the band, ascending. # [Pa]
+  """
   pressures = np.sort(np.asarray(pressures_pa, dtype=np.float64))
   return pressures[(pressures >= band[0]) & (pressures <= band[1])]
 
