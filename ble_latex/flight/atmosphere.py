@@ -2,7 +2,9 @@
 """BLE's standard atmosphere in JAX (pure, jittable, vmappable).
 
 Re-implements `balloon_learning_environment.env.balloon.standard_atmosphere`
-(US Standard Atmosphere 1976 layers with BLE's random lapse-rate blend):
+(BLE's seven layers with its random lapse-rate blend: a tropical profile,
+300 K at -610 m and the tropopause at 17 km, not the US Standard Atmosphere
+1976 that BLE's docstring names):
 
   * `reset(key)` draws the blend exactly as BLE's `Atmosphere.reset(key)`,
     alpha = jax.random.uniform(key) (float32, so the same key gives the same
