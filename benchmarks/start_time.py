@@ -1,14 +1,20 @@
-"""Time to the first `gymnasium.make('ble_latex/LatexBalloon-v0')` + `reset`.
+"""Time to the first step: ble_latex's Gymnasium env against BLE's own env.
 
 Each measurement is a fresh Python process (`python -c`, nothing imported
-before) timing `import ble_latex, gymnasium`, `gymnasium.make(ID)` and the
-first `env.reset(seed=0)` (the reset compiles, or loads from JAX's persistent
-compilation cache, the env's jitted functions), and recording whether
-TensorFlow was imported. Three cases, in this order:
+before) timing `import ble_latex, gymnasium`, `gymnasium.make(ID)`, the
+first `env.reset(seed=0)` and the first `env.step(...)` (reset and step
+compile, or load from JAX's persistent compilation cache, the env's jitted
+functions), and recording whether TensorFlow was imported. The cases:
 
-- cold: an empty compilation cache directory (the very first start);
-- warm: the same directory again (every later start), `--repeats` times;
-- vector: `gymnasium.make_vec(ID, num_envs=--num_envs)` + `reset`, warm.
+- cold: no compilation cache at all (what every process pays by default),
+  `--cold_repeats` times, interleaved with
+- ble: BLE's own `gym.make('BalloonLearningEnvironment-v0')` -> reset ->
+  step in a fresh process (`import balloon_learning_environment.env`,
+  TensorFlow included, as BLE's users start it), so the ratio cold / ble is
+  measured side by side under the same load;
+- warm: an opt-in cache directory (`BLE_LATEX_JAX_CACHE=1`) filled by one
+  start, then `--repeats` later starts;
+- vector: `gymnasium.make_vec(ID, num_envs=--num_envs)` + reset + step, warm.
 
 The machine's load average (`os.getloadavg`) is recorded before and after
 each run: on a shared machine it explains most of the spread.
@@ -45,21 +51,48 @@ else:
 t2 = time.perf_counter()
 env.reset(seed=0)
 t3 = time.perf_counter()
+env.step(env.action_space.sample())
+t4 = time.perf_counter()
 import json, sys
 print(json.dumps({{'import_s': t1 - t0, 'make_s': t2 - t1, 'reset_s': t3 - t2,
-                  'total_s': t3 - t0,
+                  'step_s': t4 - t3, 'total_s': t4 - t0,
                   'tensorflow_imported': 'tensorflow' in sys.modules}}))
 '''
 
+# BLE's own env, as its README starts it (gym 0.25 API).
+_BLE_CHILD = '''
+import time
+t0 = time.perf_counter()
+import gym
+import balloon_learning_environment.env.balloon_env  # registers the id
+t1 = time.perf_counter()
+env = gym.make('BalloonLearningEnvironment-v0')
+t2 = time.perf_counter()
+env.reset()
+t3 = time.perf_counter()
+env.step(env.action_space.sample())
+t4 = time.perf_counter()
+import json, sys
+print(json.dumps({'import_s': t1 - t0, 'make_s': t2 - t1, 'reset_s': t3 - t2,
+                  'step_s': t4 - t3, 'total_s': t4 - t0,
+                  'tensorflow_imported': 'tensorflow' in sys.modules}))
+'''
 
-def run_once(cache_dir: str, num_envs: int = 0) -> dict:
-  env = dict(os.environ, BLE_LATEX_JAX_CACHE='1',
-             BLE_LATEX_JAX_CACHE_DIR=cache_dir)
-  env.pop('JAX_COMPILATION_CACHE_DIR', None)
+
+def run_once(cache_dir: Optional[str], num_envs: int = 0,
+             ble: bool = False) -> dict:
+  """One fresh process; `cache_dir` None: no persistent cache at all."""
+  env = dict(os.environ)
+  for name in ('JAX_COMPILATION_CACHE_DIR', 'BLE_LATEX_JAX_CACHE',
+               'BLE_LATEX_JAX_CACHE_DIR'):
+    env.pop(name, None)
+  if cache_dir is not None:
+    env.update(BLE_LATEX_JAX_CACHE='1', BLE_LATEX_JAX_CACHE_DIR=cache_dir)
+  code = _BLE_CHILD if ble else _CHILD.format(id=ID, num_envs=num_envs)
   load_before = os.getloadavg()
   start = time.perf_counter()
   result = subprocess.run(
-      [sys.executable, '-c', _CHILD.format(id=ID, num_envs=num_envs)],
+      [sys.executable, '-c', code],
       env=env, cwd=REPO, capture_output=True, text=True, timeout=1200)
   wall = time.perf_counter() - start
   if result.returncode != 0:
@@ -73,6 +106,8 @@ def run_once(cache_dir: str, num_envs: int = 0) -> dict:
 FLAGS = flags.FlagValues()
 flags.DEFINE_integer('repeats', 5, 'Warm starts to time.', lower_bound=1,
                      flag_values=FLAGS)
+flags.DEFINE_integer('cold_repeats', 3, 'Cold starts of ours and of BLE, '
+                     'interleaved.', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('num_envs', 16, 'Balloons of the vector env timed.',
                      lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_string('json', '', 'Also write the report here.',
@@ -82,8 +117,13 @@ flags.DEFINE_string('json', '', 'Also write the report here.',
 def _main(argv: Sequence[str]) -> int:
   args = FLAGS
   with tempfile.TemporaryDirectory(prefix='ble_latex_jax_cache_') as cache:
-    runs = {'cold': [run_once(cache)], 'warm': [], 'vector_warm': []}
-    print('cold', runs['cold'][0], flush=True)
+    runs = {'cold': [], 'ble': [], 'warm': [], 'vector_warm': []}
+    for i in range(args.cold_repeats):
+      runs['cold'].append(run_once(None))
+      print('cold', i, runs['cold'][-1], flush=True)
+      runs['ble'].append(run_once(None, ble=True))
+      print('ble', i, runs['ble'][-1], flush=True)
+    run_once(cache)  # Fills the opt-in cache.
     for i in range(args.repeats):
       runs['warm'].append(run_once(cache))
       print('warm', i, runs['warm'][-1], flush=True)
@@ -99,9 +139,14 @@ def _main(argv: Sequence[str]) -> int:
             'tensorflow_imported': any(r['tensorflow_imported'] for r in rows),
             'stderr_empty': all(r['stderr_empty'] for r in rows)}
 
+  ratios = sorted(ours['total_s'] / ble['total_s']
+                  for ours, ble in zip(runs['cold'], runs['ble']))
   report = {
       'what': ('fresh process: import ble_latex, gymnasium; gymnasium.make('
-               f'{ID!r}); env.reset(seed=0)'),
+               f'{ID!r}); env.reset(seed=0); env.step; against BLE\'s '
+               'gym.make(BalloonLearningEnvironment-v0), reset, step'),
+      'cold_over_ble': {'per_pair': ratios,
+                        'median': ratios[len(ratios) // 2]},
       'num_envs_vector': args.num_envs,
       'machine': {'cpus': os.cpu_count(), 'platform': platform.platform(),
                   'python': platform.python_version()},
@@ -109,6 +154,7 @@ def _main(argv: Sequence[str]) -> int:
       'runs': runs,
   }
   print(json.dumps(report['summary'], indent=1))
+  print('cold / BLE:', json.dumps(report['cold_over_ble']))
   if args.json:
     safe_io.atomic_write(args.json, json.dumps(report, indent=1) + '\n')
   return 0

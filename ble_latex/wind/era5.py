@@ -42,7 +42,8 @@ import glob
 import math
 import os
 import struct
-from typing import Any, BinaryIO, Dict, List, Optional, Sequence, Tuple, Union
+from typing import (Any, BinaryIO, Dict, List, Optional, Sequence, Tuple,
+                    TYPE_CHECKING, Union)
 
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.utils import spherical_geometry
@@ -52,8 +53,9 @@ import jax
 from jax import numpy as jnp
 import numpy as np
 import s2sphere as s2
-import scipy.interpolate
-import xarray as xr
+
+if TYPE_CHECKING:  # xarray, pandas and SciPy load when a file is read (~2 s).
+  import xarray as xr  # pylint: disable=g-bad-import-order
 
 from ble_latex import errors
 
@@ -143,6 +145,7 @@ class Era5Data:
   uv: np.ndarray
 
   def __post_init__(self):
+    import scipy.interpolate  # pylint: disable=g-import-not-at-top
     axes = (self.time_s, self.pressure, self.latitude, self.longitude)
     object.__setattr__(self, '_interpolator',
                        scipy.interpolate.RegularGridInterpolator(
@@ -230,7 +233,7 @@ def _find_dim(dims: Sequence[str], candidates: Sequence[str], what: str,
       f'{list(candidates)}; variable {variable!r} has dims {list(dims)})')
 
 
-def find_time_dim(dataset: xr.Dataset) -> Optional[str]:
+def find_time_dim(dataset: 'xr.Dataset') -> Optional[str]:
   """The name of the time dimension of an ERA5 dataset, or None."""
   for name in TIME_DIMS:
     if name in dataset.dims:
@@ -238,7 +241,7 @@ def find_time_dim(dataset: xr.Dataset) -> Optional[str]:
   return None
 
 
-def _pressure_factor(coordinate: xr.DataArray, path: str) -> float:
+def _pressure_factor(coordinate: 'xr.DataArray', path: str) -> float:
   """Factor that converts the pressure coordinate to Pa.
 
   Args:
@@ -284,7 +287,8 @@ def _pressure_factor(coordinate: xr.DataArray, path: str) -> float:
   return 100.0 if float(np.nanmax(coordinate.values)) <= 1100.0 else 1.0
 
 
-def _read_variable(dataset: xr.Dataset, name: str, path: str) -> xr.DataArray:
+def _read_variable(dataset: 'xr.Dataset', name: str,
+                   path: str) -> 'xr.DataArray':
   """Variable `name` as (time, pressure, latitude, longitude) array."""
   if name not in dataset.data_vars:
     raise errors.BadFileError(
@@ -533,9 +537,10 @@ def check_file(path: str) -> None:
         '(an interrupted download or copy?); download it again')
 
 
-def _open(path: str) -> xr.Dataset:
+def _open(path: str) -> 'xr.Dataset':
   """Opens one NetCDF file, with errors that name the file."""
   check_file(path)
+  import xarray as xr  # pylint: disable=g-import-not-at-top,redefined-outer-name
   try:
     return xr.open_dataset(path)
   except Exception as error:  # pylint: disable=broad-except
