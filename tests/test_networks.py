@@ -10,6 +10,7 @@ import pytest
 from ble_latex.agents import networks
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
+from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
 from ble_latex.envs import jax_env
 from ble_latex.run import jax_train
@@ -28,9 +29,10 @@ def _batch(seed=0):
 
 
 def _update(network_def, params, target, batch):
-  optimizer, alpha_optimizer = sac.make_optimizers(params, 1e-3, 1e-3, 1e-3)
+  optimizer, alpha_optimizer = sac_core.make_optimizers(params, 1e-3, 1e-3,
+                                                        1e-3)
   log_alpha = jnp.array([-0.3])
-  return sac.update(
+  return sac_core.update(
       network_def, optimizer, alpha_optimizer, optimizer.init(params),
       alpha_optimizer.init(log_alpha), params, target, log_alpha,
       batch['key'], batch['states'], batch['actions'], batch['next_states'],
@@ -72,7 +74,7 @@ def test_every_critic_learns_in_the_one_update(critic):
       jax.tree_util.tree_leaves(out['network_params']['params']))]
   assert all(changed)  # Actor and both critics moved.
   # The critics get the critic optimizer, the actor the actor's.
-  labels = jax.tree_util.tree_leaves(sac._param_labels(params))  # pylint: disable=protected-access
+  labels = jax.tree_util.tree_leaves(sac_core.param_labels(params))
   assert labels.count('actor') == 6  # 3 dense layers x (kernel, bias).
   assert 'critic' in labels
 
@@ -160,7 +162,7 @@ def test_crossq_trainer_snapshot_loads_in_sac_pretrained(tmp_path):
   policy = pretrained.load_policy(
       str(tmp_path / 'policies' / 'policy_00000.msgpack'))
   assert policy['config']['critic'] == 'crossq'
-  agent = pretrained.SACPretrainedAgent(
+  agent = sac.SACPretrainedAgent(
       3, (71,), action_low=jax_env.ACTION_LOW,
       action_high=jax_env.ACTION_HIGH,
       policy_path=str(tmp_path / 'policies' / 'policy_00000.msgpack'))

@@ -251,13 +251,13 @@ def test_second_trainer_process_on_a_run_directory_is_refused(tmp_path):
 def test_snapshot_flies_in_the_gym_env_as_validated(runs):
   """The exported policy, loaded by `sac_pretrained`, flies the gym env."""
   import gym  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   straight, final, _, _ = runs
   path = straight / 'policies' / 'policy_00002.msgpack'
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
-  agent = pretrained.SACPretrainedAgent(
+  agent = sac.SACPretrainedAgent(
       3, env.observation_space.shape, action_low=space.low,
       action_high=space.high, policy_path=str(path))
   for a, b in zip(jax.tree_util.tree_leaves(agent.network_params),

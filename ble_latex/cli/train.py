@@ -118,7 +118,7 @@ def _main(argv: Sequence[str]) -> None:
   """Trains; refused input is one line (`cli.run_absl`).
 
   A bad checkpoint (`errors.BadFileError`, naming the file and entry) or a run
-  that diverged (`sac.TrainingDiverged`) exits 1; a refused resume
+  that diverged (`sac_core.TrainingDiverged`) exits 1; a refused resume
   (`errors.ResumeError`) or binding exits 2.
   """
   del argv

@@ -15,6 +15,7 @@ import gym
 
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
+from ble_latex.agents import sac_core
 from ble_latex.run import metrics
 from ble_latex.run import run_dir
 from ble_latex.run import runner
@@ -33,8 +34,8 @@ def _reload_latest(agent: base_agent.Agent, checkpoint_dir: str) -> int:
   if isinstance(agent, sac.SACAgent):
     return agent.reload_latest_checkpoint(checkpoint_dir)
   # BLE's own agents write Dopamine's `checkpoint_NNNNN.pkl` files.
-  iterations = sac.checkpoint_iterations(checkpoint_dir,
-                                         sac.LEGACY_CHECKPOINT_PATTERN)
+  iterations = sac_core.checkpoint_iterations(checkpoint_dir,
+                                         sac_core.LEGACY_CHECKPOINT_PATTERN)
   if not iterations:
     return -1
   agent.load_checkpoint(checkpoint_dir, iterations[-1])
