@@ -45,22 +45,43 @@ def _init(critic, seed=0):
   return network_def, network_def.init(key, jnp.zeros(71), key)
 
 
-def test_mlp_critic_is_dopamines_network():
-  """Same variables as Dopamine's SACNetwork: old policies load unchanged."""
-  ours, params = _init('mlp')
-  theirs = continuous_networks.SACNetwork(
-      (3,), 2, 32, ((-1.0,) * 3, (1.0,) * 3))
+@pytest.mark.parametrize('limits', [
+    ((-1.0,) * 3, (1.0,) * 3),  # `make_network`'s, the agent's.
+    ((14000.0, 1.0, -1.0), (21000.0, 5.0, 1.0)),
+    None])
+def test_mlp_network_is_dopamines_sac_network(limits):
+  """Dopamine's SACNetwork's variables and outputs, bit for bit.
+
+  So policies and checkpoints written with Dopamine's network load and act
+  unchanged; the actor's log-probability is TFP's, also where tanh
+  saturates (a final layer scaled up).
+  """
+  ours = networks.LatexSACNetwork((3,), 2, 32, limits)
+  theirs = continuous_networks.SACNetwork((3,), 2, 32, limits)
   key = jax.random.PRNGKey(0)
+  params = ours.init(key, jnp.zeros(71), key)
   expected = theirs.init(key, jnp.zeros(71), key)
   assert jax.tree_util.tree_structure(params) == (
       jax.tree_util.tree_structure(expected))
   for a, b in zip(jax.tree_util.tree_leaves(params),
                   jax.tree_util.tree_leaves(expected)):
     np.testing.assert_array_equal(a, b)
-  s, a = jnp.ones(71), jnp.zeros(3)
-  np.testing.assert_array_equal(
-      ours.apply(params, s, a, method=ours.critic).q_value1,
-      theirs.apply(expected, s, a, method=theirs.critic).q_value1)
+  states = 3.0 * jax.random.normal(jax.random.PRNGKey(1), (64, 71))
+  keys = jax.random.split(jax.random.PRNGKey(2), 64)
+  saturated = jax.tree_util.tree_map_with_path(
+      lambda path, x: 8.0 * x if 'final' in jax.tree_util.keystr(path) else x,
+      params)
+  for p in (params, saturated):
+    for mean_action in (True, False):
+      out = jax.vmap(lambda s, k: ours.apply(p, s, k, mean_action))(
+          states, keys)
+      ref = jax.vmap(lambda s, k: theirs.apply(p, s, k, mean_action))(
+          states, keys)
+      for a, b in zip(jax.tree_util.tree_leaves(out),
+                      jax.tree_util.tree_leaves(ref)):
+        np.testing.assert_array_equal(a, b)
+  if limits is not None:  # tanh saturated: |log-probability| is large.
+    assert np.any(np.abs(out.actor.log_probability) > 100.0)
 
 
 @pytest.mark.parametrize('critic', networks.CRITICS)

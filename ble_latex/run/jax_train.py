@@ -273,7 +273,9 @@ class _RunDir:
     self.validation_seeds = list(validation_seeds)
     self._validation_seeds = jnp.asarray(self.validation_seeds, jnp.int32)
     n = config.num_envs
-    self.dispatcher = metrics.dispatcher(
+    # BLE's collectors import TensorFlow: only once a run starts.
+    from ble_latex.run import collectors as collectors_lib  # pylint: disable=g-import-not-at-top
+    self.dispatcher = collectors_lib.dispatcher(
         base_dir, len(jax_env.ACTION_LOW), collectors, self.start * n,
         num_iterations * n, f'train sac (jax, seed {seed})')
     self.writer = self.dispatcher.get_summary_writer()
@@ -366,7 +368,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
       each flies `config.num_envs` episodes.
     seed: Training seed (network init, exploration, replay sampling).
     config: Trainer settings (default: gin's `sac_trainer_config.*`).
-    collectors: Names from `metrics.AVAILABLE_COLLECTORS`.
+    collectors: Names from `collectors.AVAILABLE_COLLECTORS`.
     policy_snapshot_period: Every this many rounds export the policy to
       `base_dir/policies/` (0: never).
     checkpoint_period: Every this many rounds (and after the last) write a
@@ -442,7 +444,8 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
       locked before any training starts, and held until all are done).
   """
   config = config or sac_trainer.TrainerConfig()
-  metrics.check_collectors(collectors)
+  from ble_latex.run import collectors as collectors_lib  # pylint: disable=g-import-not-at-top
+  collectors_lib.check_collectors(collectors)
   if num_iterations < 1 or checkpoint_period < 1 or policy_snapshot_period < 0:
     raise ValueError('num_iterations and checkpoint_period must be >= 1, '
                      'policy_snapshot_period >= 0')
