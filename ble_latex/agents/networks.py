@@ -201,7 +201,7 @@ class LatexSACNetwork(nn.Module):
       mode = half_width * jnp.tanh(loc) + centre
       sample = half_width * jnp.tanh(u) + centre
       log_det = 2.0 * (_LOG_2 - u - jax.nn.softplus(-2.0 * u))
-      log_prob = log_prob - jnp.sum(jnp.log(half_width)) - jnp.sum(log_det)
+      log_prob = log_prob - (jnp.sum(jnp.log(half_width)) + jnp.sum(log_det))
     return SacActorOutput(mode.reshape(self.action_shape),
                           sample.reshape(self.action_shape), log_prob)
 
