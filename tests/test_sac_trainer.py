@@ -540,9 +540,9 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
                      r'network parameters.*; last good checkpoint: '
                      f'{re.escape(kept)} kept$') as raised:
     _train(tmp_path, 3)
-  assert isinstance(raised.value, sac_trainer.sac.TrainingDiverged)
+  assert isinstance(raised.value, sac_trainer.sac_core.TrainingDiverged)
   assert rounds == [0, 1]
-  assert sac_trainer.sac.checkpoint_iterations(
+  assert sac_trainer.sac_core.checkpoint_iterations(
       str(tmp_path / 'checkpoints')) == [0]
   assert sorted(os.listdir(tmp_path / 'policies')) == ['policy_00000.msgpack']
   assert len(episode_log.read(str(tmp_path / episode_log.EPISODE_LOG))) == 3
