@@ -16,7 +16,7 @@ import gym
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
-from ble_latex.run import collectors
+from ble_latex.run import collectors as collectors_lib
 from ble_latex.run import run_dir
 from ble_latex.run import runner
 from ble_latex.run import suites
@@ -73,7 +73,7 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
     safe_io.InUseError: If another process (or another run in this one)
       trains in `base_dir` (`safe_io.locked_dir`, held for the whole run).
   """
-  collectors.check_collectors(collectors)
+  collectors_lib.check_collectors(collectors)
   if num_iterations < 1 or episodes_per_iteration < 1 or max_episode_length < 1:
     raise ValueError('num_iterations, episodes_per_iteration and '
                      'max_episode_length must be >= 1')
@@ -101,7 +101,7 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
                    start_iteration - 1, start_episode)
     action_dim = (env.action_space.n if hasattr(env.action_space, 'n') else
                   env.action_space.shape[0])
-    dispatcher = collectors.dispatcher(
+    dispatcher = collectors_lib.dispatcher(
         base_dir, action_dim, collectors, start_episode,
         num_iterations * episodes_per_iteration, f'train {agent_name}')
     agent.set_summary_writer(dispatcher.get_summary_writer())
