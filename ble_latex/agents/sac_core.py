@@ -1,22 +1,13 @@
 # coding=utf-8
 """Soft Actor-Critic in pure JAX: the update, optimizers and file checks.
 
-Shared by the BLE agent (`ble_latex.agents.sac.SACAgent`, which wraps
-Dopamine's) and the jitted trainer (`ble_latex.agents.sac_trainer`); this
-module imports neither TensorFlow nor Dopamine nor BLE's agents.
-
-The update is Dopamine 4.0.9's `sac_agent.train` (Haarnoja et al.
-2018/2019; twin-critic TD loss with the clipped double-Q target,
-reparameterised actor loss, temperature loss), computed on the whole batch
-at once (`update`): Dopamine averages B per-transition gradients, the same
-number at ~4x the cost; tests/test_sac_agent.py checks `update` against
-`sac_agent.train`. As in Dopamine, the next action of the TD target comes
-from the Polyak-averaged (target) actor. Actor, critics and temperature have
-separate Adam learning rates (`make_optimizers`; Dopamine uses one).
-
-Checkpoints and policies are data files (`ble_latex.safe_io`); what is read
-from one is checked here before anything is built from it (`file_config`,
-`check_like`, `network_shapes`).
+Shared by the BLE agent (`sac.SACAgent`, which wraps Dopamine's) and the
+jitted trainer (`sac_trainer`); imports neither TensorFlow nor Dopamine nor
+BLE's agents. `update` is Dopamine 4.0.9's `sac_agent.train` (Haarnoja et
+al. 2018/2019) on the whole batch at once, with separate Adam learning rates
+for actor, critics and temperature (`make_optimizers`). What is read from a
+checkpoint or policy file is checked here before anything is built from it
+(`file_config`, `check_like`, `network_shapes`).
 """
 
 import functools
