@@ -193,7 +193,7 @@ def _held_out(suite_name: str, policy_path: str,
   """Flies a policy on the held-out suite in the gym env; its summary."""
   # pylint: disable=g-import-not-at-top
   import gym
-  from ble_latex.agents import pretrained
+  from ble_latex.agents import sac
   from ble_latex import configs
   from ble_latex.run import eval_lib
   from ble_latex.run import metrics
@@ -203,7 +203,7 @@ def _held_out(suite_name: str, policy_path: str,
   suite = suites.get_eval_suite(suite_name)
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
-  agent = pretrained.SACPretrainedAgent(
+  agent = sac.SACPretrainedAgent(
       space.shape[0], env.observation_space.shape, action_low=space.low,
       action_high=space.high, policy_path=policy_path)
   records = eval_lib.evaluate(agent, env, suite.seeds,

@@ -15,10 +15,10 @@ in two configurations, alternating in the same process for --rounds rounds:
   jitted `optax.incremental_update`.
 
 Part 2 (`update`): one SAC update on the same batch of 256: Dopamine's
-`sac_agent.train` (per-transition gradients, averaged) vs `sac.update` (the
-gradient of the batch mean; the update both the agent and the trainer run),
-each jitted, --steps calls per round; also `sac.update` with the LayerNorm
-and the CrossQ critics (`networks.CRITICS`, same sizes).
+`sac_agent.train` (per-transition gradients, averaged) vs `sac_core.update`
+(the gradient of the batch mean; the update both the agent and the trainer
+run), each jitted, --steps calls per round; also `sac_core.update` with the
+LayerNorm and the CrossQ critics (`networks.CRITICS`, same sizes).
 
 Part 3 (`per_env_step`): what one environment step of training costs.
 - agent: `LatexBalloon-v0` (gym, one balloon) stepped with `SACAgent.step`
@@ -141,10 +141,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
 
 def _time_updates(agent, steps: int, rounds: int) -> dict:
-  """ms per SAC update: Dopamine's `sac_agent.train` vs `sac.update`."""
+  """ms per SAC update: Dopamine's `sac_agent.train` vs `sac_core.update`."""
   # pylint: disable=g-import-not-at-top
   from ble_latex.agents import networks
-  from ble_latex.agents import sac
+  from ble_latex.agents import sac_core
   from dopamine.jax.agents.sac import sac_agent
   import jax
   # pylint: enable=g-import-not-at-top
@@ -166,7 +166,7 @@ def _time_updates(agent, steps: int, rounds: int) -> dict:
                                 critic)
     init_key = jax.random.PRNGKey(1)
     params = net.init(init_key, e['state'][0], init_key)
-    opt, alpha_opt = sac.make_optimizers(params, 3e-4, 3e-4, 3e-4)
+    opt, alpha_opt = sac_core.make_optimizers(params, 3e-4, 3e-4, 3e-4)
     critics[f'ble_latex_update_{critic}'] = (
         net, opt, alpha_opt, opt.init(params),
         alpha_opt.init(agent.log_alpha), params, params)
@@ -175,8 +175,8 @@ def _time_updates(agent, steps: int, rounds: int) -> dict:
     if name == 'dopamine_train':
       return sac_agent.train(*args(key))
     if name == 'ble_latex_update':
-      return sac.update(*args(key))
-    return sac.update(*critics[name], *args(key)[7:])
+      return sac_core.update(*args(key))
+    return sac_core.update(*critics[name], *args(key)[7:])
 
   times = {name: [] for name in ('dopamine_train', 'ble_latex_update',
                                  *critics)}

@@ -109,6 +109,7 @@ def select(base_dir: str, every: int, include_newest: bool,
   """Evaluates candidate policies on validation seeds; writes the best."""
   import gym  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
   from ble_latex import configs  # pylint: disable=g-import-not-at-top
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
@@ -134,7 +135,7 @@ def select(base_dir: str, every: int, include_newest: bool,
     name = os.path.basename(path)
     if name in results:
       continue
-    agent = pretrained.SACPretrainedAgent(
+    agent = sac.SACPretrainedAgent(
         space.shape[0], env.observation_space.shape, action_low=space.low,
         action_high=space.high, policy_path=path)
     records = eval_lib.evaluate(agent, env, seeds, suite.max_episode_length,

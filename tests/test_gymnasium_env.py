@@ -413,14 +413,22 @@ def test_first_make_is_quiet():
   print('time to first gymnasium.make [s]:', made_s)
 
 
-def test_make_and_make_vec_import_no_tensorflow():
-  """The continuous env and its vector env need neither BLE's env nor TF."""
+def test_core_imports_no_tensorflow_dopamine_or_ble_agents():
+  """No TF, Dopamine, BLE agents/balloon/features in the env and trainer.
+
+  Importing the functional env, the Gymnasium envs and the jitted trainer,
+  and making the continuous env and its vector env.
+  """
   code = ('import sys, ble_latex, gymnasium\n'
+          'import ble_latex.envs.jax_env, ble_latex.envs.gymnasium_env\n'
+          'import ble_latex.agents.sac_trainer, ble_latex.run.jax_train\n'
           f'gymnasium.make({ID!r}, normalize_actions=True)\n'
           f'gymnasium.make_vec({ID!r}, num_envs=2)\n'
-          "heavy = [m for m in ('tensorflow', "
-          "'balloon_learning_environment.env.balloon_env', 'dopamine') "
-          'if m in sys.modules]\n'
+          "ble = 'balloon_learning_environment.'\n"
+          "banned = ('tensorflow', 'dopamine', ble + 'agents', "
+          "ble + 'env.features')\n"
+          "heavy = [m for m in sys.modules if m.startswith(ble + 'env.balloon')"
+          " or m in banned or m.startswith(tuple(b + '.' for b in banned))]\n"
           # BLE's package imports gym, whose entry point is the light
           # ble_latex.ble.gym_registration; nothing else of ble_latex.ble.
           "heavy += [m for m in sys.modules if m.startswith('ble_latex.ble.') "

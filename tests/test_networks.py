@@ -10,6 +10,7 @@ import pytest
 from ble_latex.agents import networks
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
+from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
 from ble_latex.envs import jax_env
 from ble_latex.run import jax_train
@@ -28,9 +29,10 @@ def _batch(seed=0):
 
 
 def _update(network_def, params, target, batch):
-  optimizer, alpha_optimizer = sac.make_optimizers(params, 1e-3, 1e-3, 1e-3)
+  optimizer, alpha_optimizer = sac_core.make_optimizers(params, 1e-3, 1e-3,
+                                                        1e-3)
   log_alpha = jnp.array([-0.3])
-  return sac.update(
+  return sac_core.update(
       network_def, optimizer, alpha_optimizer, optimizer.init(params),
       alpha_optimizer.init(log_alpha), params, target, log_alpha,
       batch['key'], batch['states'], batch['actions'], batch['next_states'],
@@ -43,22 +45,43 @@ def _init(critic, seed=0):
   return network_def, network_def.init(key, jnp.zeros(71), key)
 
 
-def test_mlp_critic_is_dopamines_network():
-  """Same variables as Dopamine's SACNetwork: old policies load unchanged."""
-  ours, params = _init('mlp')
-  theirs = continuous_networks.SACNetwork(
-      (3,), 2, 32, ((-1.0,) * 3, (1.0,) * 3))
+@pytest.mark.parametrize('limits', [
+    ((-1.0,) * 3, (1.0,) * 3),  # `make_network`'s, the agent's.
+    ((14000.0, 1.0, -1.0), (21000.0, 5.0, 1.0)),
+    None])
+def test_mlp_network_is_dopamines_sac_network(limits):
+  """Dopamine's SACNetwork's variables and outputs, bit for bit.
+
+  So policies and checkpoints written with Dopamine's network load and act
+  unchanged; the actor's log-probability is TFP's, also where tanh
+  saturates (a final layer scaled up).
+  """
+  ours = networks.LatexSACNetwork((3,), 2, 32, limits)
+  theirs = continuous_networks.SACNetwork((3,), 2, 32, limits)
   key = jax.random.PRNGKey(0)
+  params = ours.init(key, jnp.zeros(71), key)
   expected = theirs.init(key, jnp.zeros(71), key)
   assert jax.tree_util.tree_structure(params) == (
       jax.tree_util.tree_structure(expected))
   for a, b in zip(jax.tree_util.tree_leaves(params),
                   jax.tree_util.tree_leaves(expected)):
     np.testing.assert_array_equal(a, b)
-  s, a = jnp.ones(71), jnp.zeros(3)
-  np.testing.assert_array_equal(
-      ours.apply(params, s, a, method=ours.critic).q_value1,
-      theirs.apply(expected, s, a, method=theirs.critic).q_value1)
+  states = 3.0 * jax.random.normal(jax.random.PRNGKey(1), (64, 71))
+  keys = jax.random.split(jax.random.PRNGKey(2), 64)
+  saturated = jax.tree_util.tree_map_with_path(
+      lambda path, x: 8.0 * x if 'final' in jax.tree_util.keystr(path) else x,
+      params)
+  for p in (params, saturated):
+    for mean_action in (True, False):
+      out = jax.vmap(lambda s, k: ours.apply(p, s, k, mean_action))(
+          states, keys)
+      ref = jax.vmap(lambda s, k: theirs.apply(p, s, k, mean_action))(
+          states, keys)
+      for a, b in zip(jax.tree_util.tree_leaves(out),
+                      jax.tree_util.tree_leaves(ref)):
+        np.testing.assert_array_equal(a, b)
+  if limits is not None:  # tanh saturated: |log-probability| is large.
+    assert np.any(np.abs(out.actor.log_probability) > 100.0)
 
 
 @pytest.mark.parametrize('critic', networks.CRITICS)
@@ -72,7 +95,7 @@ def test_every_critic_learns_in_the_one_update(critic):
       jax.tree_util.tree_leaves(out['network_params']['params']))]
   assert all(changed)  # Actor and both critics moved.
   # The critics get the critic optimizer, the actor the actor's.
-  labels = jax.tree_util.tree_leaves(sac._param_labels(params))  # pylint: disable=protected-access
+  labels = jax.tree_util.tree_leaves(sac_core.param_labels(params))
   assert labels.count('actor') == 6  # 3 dense layers x (kernel, bias).
   assert 'critic' in labels
 
@@ -160,7 +183,7 @@ def test_crossq_trainer_snapshot_loads_in_sac_pretrained(tmp_path):
   policy = pretrained.load_policy(
       str(tmp_path / 'policies' / 'policy_00000.msgpack'))
   assert policy['config']['critic'] == 'crossq'
-  agent = pretrained.SACPretrainedAgent(
+  agent = sac.SACPretrainedAgent(
       3, (71,), action_low=jax_env.ACTION_LOW,
       action_high=jax_env.ACTION_HIGH,
       policy_path=str(tmp_path / 'policies' / 'policy_00000.msgpack'))

@@ -9,6 +9,7 @@ from hypothesis import settings
 from hypothesis import strategies as st
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
+from ble_latex.agents import sac_core
 from ble_latex import safe_io
 import numpy as np
 import pytest
@@ -44,7 +45,7 @@ class _Payload:
 
 def _crafted_pickle(path, marker):
   with open(path, 'wb') as f:
-    pickle.dump({'format': sac.LEGACY_CHECKPOINT_FORMAT,
+    pickle.dump({'format': sac_core.LEGACY_CHECKPOINT_FORMAT,
                  'payload': _Payload(str(marker))}, f)
 
 
@@ -53,9 +54,9 @@ def test_exported_policy_acts_like_the_checkpoint(tmp_path):
   _train_a_little(agent)
   agent.save_checkpoint(str(tmp_path), 0)
   policy_file = str(tmp_path / 'policy.msgpack')
-  pretrained.export_policy(sac.checkpoint_path(str(tmp_path), 0), policy_file,
-                           note='test')
-  loaded = pretrained.SACPretrainedAgent(
+  pretrained.export_policy(sac_core.checkpoint_path(str(tmp_path), 0),
+                           policy_file, note='test')
+  loaded = sac.SACPretrainedAgent(
       3, (71,), action_low=_LOW, action_high=_HIGH, seed=7, hidden_units=16,
       policy_path=policy_file)
   assert loaded.policy_info['note'] == 'test'
@@ -84,9 +85,10 @@ def test_policy_for_other_shapes_is_rejected(tmp_path):
   agent = _sac(hidden=16)
   agent.save_checkpoint(str(tmp_path), 0)
   policy_file = str(tmp_path / 'policy.msgpack')
-  pretrained.export_policy(sac.checkpoint_path(str(tmp_path), 0), policy_file)
+  pretrained.export_policy(sac_core.checkpoint_path(str(tmp_path), 0),
+                           policy_file)
   with pytest.raises(ValueError, match='observation_shape'):
-    pretrained.SACPretrainedAgent(3, (70,), action_low=_LOW,
+    sac.SACPretrainedAgent(3, (70,), action_low=_LOW,
                                   action_high=_HIGH, policy_path=policy_file)
 
 
@@ -160,7 +162,7 @@ def small_policy(tmp_path_factory):
   agent = _sac(hidden=16)
   agent.save_checkpoint(str(folder), 0)
   path = str(folder / 'policy.msgpack')
-  pretrained.export_policy(sac.checkpoint_path(str(folder), 0), path)
+  pretrained.export_policy(sac_core.checkpoint_path(str(folder), 0), path)
   return safe_io.read_tree(path, file_format=pretrained.POLICY_FORMAT)
 
 
@@ -202,7 +204,7 @@ def test_policy_config_is_checked_before_building(small_policy, tmp_path,
   path = _write_policy(tmp_path / 'p.msgpack', small_policy, config=config)
   began = time.monotonic()
   with pytest.raises(ValueError, match=message) as raised:
-    pretrained.SACPretrainedAgent(3, (71,), action_low=_LOW,
+    sac.SACPretrainedAgent(3, (71,), action_low=_LOW,
                                   action_high=_HIGH, policy_path=path)
   assert time.monotonic() - began < 10.0
   assert path in str(raised.value)
@@ -232,7 +234,7 @@ def test_policy_arrays_must_be_finite_real_floats(small_policy, tmp_path):
   path = with_kernel(bad)
   with pytest.raises(ValueError, match=f'SAC policy {path}: network_params: '
                      f'leaf {leaf} has 12 non-finite values'):
-    pretrained.SACPretrainedAgent(3, (71,), action_low=_LOW,
+    sac.SACPretrainedAgent(3, (71,), action_low=_LOW,
                                   action_high=_HIGH, policy_path=path)
 
 
@@ -280,10 +282,10 @@ def test_export_policy_refuses_a_nan_checkpoint(tmp_path, capsys):
   from ble_latex.cli import export_policy as export_cli
   agent = _sac(hidden=16)
   agent.save_checkpoint(str(tmp_path), 0)
-  path = sac.checkpoint_path(str(tmp_path), 0)
-  tree = safe_io.read_tree(path, file_format=sac.CHECKPOINT_FORMAT)
+  path = sac_core.checkpoint_path(str(tmp_path), 0)
+  tree = safe_io.read_tree(path, file_format=sac_core.CHECKPOINT_FORMAT)
   tree['log_alpha'] = np.array([np.nan], np.float32)
-  safe_io.write_tree(path, tree, file_format=sac.CHECKPOINT_FORMAT)
+  safe_io.write_tree(path, tree, file_format=sac_core.CHECKPOINT_FORMAT)
   out = str(tmp_path / 'out.msgpack')
   assert export_cli.main([f'--checkpoint={path}', f'--output={out}']) == 1
   err = capsys.readouterr().err.strip().splitlines()
@@ -297,7 +299,7 @@ def test_crafted_pickle_policy_runs_no_code(tmp_path):
   policy = tmp_path / 'policy.pkl'
   _crafted_pickle(policy, marker)
   with pytest.raises(safe_io.UntrustedFileError):
-    pretrained.SACPretrainedAgent(3, (71,), action_low=_LOW, action_high=_HIGH,
+    sac.SACPretrainedAgent(3, (71,), action_low=_LOW, action_high=_HIGH,
                                   policy_path=str(policy))
   with pytest.raises(ValueError, match='refusing to load'):
     pretrained.load_policy(str(policy), trust_legacy_pickle=True)

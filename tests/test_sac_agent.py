@@ -22,6 +22,7 @@ from ble_latex import agents as latex_agents
 from ble_latex.agents import networks
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
+from ble_latex.agents import sac_core
 from ble_latex import safe_io
 from test_pretrained import _HIGH, _LOW, _sac  # pylint: disable=g-bad-import-order
 from test_pretrained import _crafted_pickle, _train_a_little  # pylint: disable=g-bad-import-order
@@ -272,10 +273,10 @@ def test_checkpoint_values_are_checked_on_load(tmp_path, change, message):
   agent = _agent(seed=0)
   _run_episodes(agent, _WalkEnv(), 2)
   agent.save_checkpoint(ckpt, 0)
-  path = sac.checkpoint_path(ckpt, 0)
-  tree = safe_io.read_tree(path, file_format=sac.CHECKPOINT_FORMAT)
+  path = sac_core.checkpoint_path(ckpt, 0)
+  tree = safe_io.read_tree(path, file_format=sac_core.CHECKPOINT_FORMAT)
   safe_io.write_tree(path, _corrupted(tree, change),
-                     file_format=sac.CHECKPOINT_FORMAT)
+                     file_format=sac_core.CHECKPOINT_FORMAT)
   fresh = _agent(seed=3)
   before = jax.tree.leaves(fresh.network_params)
   with pytest.raises(ValueError, match=message) as raised:
@@ -293,12 +294,12 @@ def test_diverged_agent_writes_no_checkpoint_or_policy(tmp_path):
   params = agent.network_params['params']
   params['_critic1']['Dense_0']['kernel'] = params['_critic1']['Dense_0'][
       'kernel'].at[0, 0].set(np.inf)
-  with pytest.raises(sac.TrainingDiverged,
+  with pytest.raises(sac_core.TrainingDiverged,
                      match=r'non-finite network_params \(1 values\)'):
     agent.save_checkpoint(ckpt, 1)
-  with pytest.raises(sac.TrainingDiverged):
+  with pytest.raises(sac_core.TrainingDiverged):
     agent.acting_bundle(1)
-  assert sac.checkpoint_iterations(ckpt) == [0]
+  assert sac_core.checkpoint_iterations(ckpt) == [0]
 
 
 def test_actions_always_inside_box():
@@ -564,7 +565,7 @@ def test_maybe_sync_weights_is_soft_update():
                                                              (0.5, -3.0)])
 def test_batched_update_equals_dopamines_train(terminal_fraction,
                                                target_entropy):
-  """`sac.update` computes Dopamine's `sac_agent.train` (same step, losses)."""
+  """`sac_core.update` computes Dopamine's `sac_agent.train` (same losses)."""
   from dopamine.jax.agents.sac import sac_agent  # pylint: disable=g-import-not-at-top
   network_def = networks.make_network(3, 2, 32)
   key = jax.random.PRNGKey(3)
@@ -580,13 +581,14 @@ def test_batched_update_equals_dopamines_train(terminal_fraction,
   # Targets differ from the online network, as after some soft updates.
   target = jax.tree.map(lambda p: p * 0.9,
                         network_def.init(k[6], states[0], k[6]))
-  optimizer, alpha_optimizer = sac.make_optimizers(params, 1e-3, 2e-3, 3e-3)
+  optimizer, alpha_optimizer = sac_core.make_optimizers(params, 1e-3, 2e-3,
+                                                        3e-3)
   log_alpha = jnp.array([-0.3])
   args = (network_def, optimizer, alpha_optimizer, optimizer.init(params),
           alpha_optimizer.init(log_alpha), params, target, log_alpha, k[7],
           states, actions, next_states, rewards, terminals, 0.99,
           target_entropy, 1.5)
-  ours = sac.update(*args)
+  ours = sac_core.update(*args)
   theirs = sac_agent.train(*args)
   assert set(ours) == set(theirs)
   for name in ('network_params', 'log_alpha'):
@@ -620,9 +622,9 @@ def test_checkpoint_iterations_ignore_unnumbered_names(tmp_path):
                'checkpoint_backup.msgpack', 'checkpoint_00011 (copy).msgpack',
                'checkpoint_00012.pkl', '.tmp-checkpoint_00013.msgpack-1'):
     (tmp_path / name).write_bytes(b'')
-  assert sac.checkpoint_iterations(str(tmp_path)) == [3, 10]
-  assert sac.checkpoint_iterations(str(tmp_path),
-                                   sac.LEGACY_CHECKPOINT_PATTERN) == [12]
+  assert sac_core.checkpoint_iterations(str(tmp_path)) == [3, 10]
+  assert sac_core.checkpoint_iterations(str(tmp_path),
+                                   sac_core.LEGACY_CHECKPOINT_PATTERN) == [12]
 
 
 def test_crafted_pickle_checkpoint_runs_no_code(tmp_path):
@@ -648,7 +650,7 @@ def test_truncated_checkpoint_is_an_error_naming_it(tmp_path):
   agent = _sac()
   _train_a_little(agent)
   agent.save_checkpoint(str(tmp_path), 0)
-  path = sac.checkpoint_path(str(tmp_path), 0)
+  path = sac_core.checkpoint_path(str(tmp_path), 0)
   data = open(path, 'rb').read()
   with open(path, 'wb') as f:
     f.write(data[:len(data) // 2])
@@ -665,8 +667,8 @@ def test_checkpoint_with_wrong_shapes_leaves_agent_unchanged(tmp_path):
   _train_a_little(agent)
   bundle = agent.bundle_and_checkpoint(str(tmp_path), 0)
   bundle['optimizer_state'] = bundle['optimizer_state'][:-1]
-  safe_io.write_tree(sac.checkpoint_path(str(tmp_path), 0), bundle,
-                     file_format=sac.CHECKPOINT_FORMAT)
+  safe_io.write_tree(sac_core.checkpoint_path(str(tmp_path), 0), bundle,
+                     file_format=sac_core.CHECKPOINT_FORMAT)
   fresh = _sac(seed=5)
   before = _eval_actions(fresh)
   with pytest.raises(ValueError, match='optimizer_state'):
@@ -679,7 +681,7 @@ def _legacy_bundle(agent):
   bundle = agent.bundle_and_checkpoint('', 0)
   to_numpy = lambda t: jax.tree.map(np.asarray, jax.device_get(t))
   bundle.update(
-      format=sac.LEGACY_CHECKPOINT_FORMAT,
+      format=sac_core.LEGACY_CHECKPOINT_FORMAT,
       optimizer_state=to_numpy(agent.optimizer_state),
       alpha_optimizer_state=to_numpy(agent.alpha_optimizer_state))
   bundle['config']['observation_shape'] = tuple(
@@ -692,7 +694,7 @@ def _legacy_bundle(agent):
 def test_legacy_pickles_load_only_with_the_opt_in(tmp_path):
   agent = _sac()
   _train_a_little(agent)
-  with open(sac.legacy_checkpoint_path(str(tmp_path), 3), 'wb') as f:
+  with open(sac_core.legacy_checkpoint_path(str(tmp_path), 3), 'wb') as f:
     pickle.dump(_legacy_bundle(agent), f)
   with pytest.raises(safe_io.UntrustedFileError):
     _sac(seed=4).reload_latest_checkpoint(str(tmp_path))
@@ -702,9 +704,9 @@ def test_legacy_pickles_load_only_with_the_opt_in(tmp_path):
   np.testing.assert_array_equal(_eval_actions(restored), _eval_actions(agent))
   # Converting the legacy checkpoint's policy gives a data-only file.
   out = tmp_path / 'policy.msgpack'
-  pretrained.export_policy(sac.legacy_checkpoint_path(str(tmp_path), 3),
+  pretrained.export_policy(sac_core.legacy_checkpoint_path(str(tmp_path), 3),
                            str(out), trust_legacy_pickle=True)
-  loaded = pretrained.SACPretrainedAgent(
+  loaded = sac.SACPretrainedAgent(
       3, (71,), action_low=_LOW, action_high=_HIGH, hidden_units=16,
       policy_path=str(out))
   np.testing.assert_array_equal(_eval_actions(loaded), _eval_actions(agent))

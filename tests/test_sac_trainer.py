@@ -251,13 +251,13 @@ def test_second_trainer_process_on_a_run_directory_is_refused(tmp_path):
 def test_snapshot_flies_in_the_gym_env_as_validated(runs):
   """The exported policy, loaded by `sac_pretrained`, flies the gym env."""
   import gym  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   straight, final, _, _ = runs
   path = straight / 'policies' / 'policy_00002.msgpack'
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
-  agent = pretrained.SACPretrainedAgent(
+  agent = sac.SACPretrainedAgent(
       3, env.observation_space.shape, action_low=space.low,
       action_high=space.high, policy_path=str(path))
   for a, b in zip(jax.tree_util.tree_leaves(agent.network_params),
@@ -540,9 +540,9 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
                      r'network parameters.*; last good checkpoint: '
                      f'{re.escape(kept)} kept$') as raised:
     _train(tmp_path, 3)
-  assert isinstance(raised.value, sac_trainer.sac.TrainingDiverged)
+  assert isinstance(raised.value, sac_trainer.sac_core.TrainingDiverged)
   assert rounds == [0, 1]
-  assert sac_trainer.sac.checkpoint_iterations(
+  assert sac_trainer.sac_core.checkpoint_iterations(
       str(tmp_path / 'checkpoints')) == [0]
   assert sorted(os.listdir(tmp_path / 'policies')) == ['policy_00000.msgpack']
   assert len(episode_log.read(str(tmp_path / episode_log.EPISODE_LOG))) == 3

@@ -3,7 +3,7 @@
 
 - 'sac': `sac.SACAgent`, Soft Actor-Critic for the Box action of
   LatexBalloon-v0; default gin file `gin_configs/sac.gin`.
-- 'sac_pretrained': `pretrained.SACPretrainedAgent`, SAC with the policy
+- 'sac_pretrained': `sac.SACPretrainedAgent`, SAC with the policy
   shipped in `agents/policies/sac_latex.msgpack`.
 - 'latex_random', 'latex_station_seeker': the Box baselines of
   `baselines.py` (no gin file).
@@ -39,7 +39,7 @@ def register() -> None:
   agent_registry.REGISTRY['sac'] = (sac.SACAgent,
                                     configs.gin_file(SAC_GIN_FILE))
   agent_registry.REGISTRY['sac_pretrained'] = (
-      pretrained.SACPretrainedAgent, configs.gin_file(SAC_GIN_FILE))
+      sac.SACPretrainedAgent, configs.gin_file(SAC_GIN_FILE))
   agent_registry.REGISTRY['latex_random'] = (baselines.LatexRandomAgent, None)
   agent_registry.REGISTRY['latex_station_seeker'] = (
       baselines.GeometricStationSeeker, None)

@@ -5,8 +5,8 @@ r"""The SAC policy shipped with ble_latex, registered as agent `sac_pretrained`.
 PRNG key, target networks) down to what acting needs: the config, the network
 parameters and the temperature. Policies are msgpack data files
 (`ble_latex.safe_io`; reading one cannot run code). The shipped one is package
-data (`ble_latex/agents/policies/sac_latex.msgpack`) and `SACPretrainedAgent`
-loads it:
+data (`ble_latex/agents/policies/sac_latex.msgpack`) and
+`sac.SACPretrainedAgent` (the BLE agent) loads it:
 
   ble-latex-eval --agent=sac_pretrained --suite=latex_small
 
@@ -21,12 +21,9 @@ one once gives a data-only file.
 """
 
 import os
-from typing import Any, Dict, Mapping, Optional, Sequence
+from typing import Any, Dict, Mapping
 
-import gin
-import jax.numpy as jnp
-
-from ble_latex.agents import sac
+from ble_latex.agents import sac_core
 from ble_latex import errors
 from ble_latex import safe_io
 
@@ -50,7 +47,7 @@ def read_checkpoint(path: str, trust_legacy_pickle: bool = False
   if _is_pickle_path(path):
     return safe_io.read_legacy_pickle(path, trust=trust_legacy_pickle,
                                       what='SAC checkpoint')
-  return safe_io.read_tree(path, file_format=sac.CHECKPOINT_FORMAT,
+  return safe_io.read_tree(path, file_format=sac_core.CHECKPOINT_FORMAT,
                            what='SAC checkpoint')
 
 
@@ -96,7 +93,7 @@ def policy_from_bundle(bundle: Mapping[str, Any], source: str, note: str = '',
     ValueError: If `bundle` is not a ble_latex SAC checkpoint bundle.
   """
   if not isinstance(bundle, Mapping) or bundle.get('format') not in (
-      sac.CHECKPOINT_FORMAT, sac.LEGACY_CHECKPOINT_FORMAT):
+      sac_core.CHECKPOINT_FORMAT, sac_core.LEGACY_CHECKPOINT_FORMAT):
     raise ValueError(f'{what} is not a ble_latex SAC checkpoint')
   missing = [k for k in _KEPT if k not in bundle]
   if missing:
@@ -109,11 +106,12 @@ def policy_from_bundle(bundle: Mapping[str, Any], source: str, note: str = '',
 def check_policy(policy: Dict[str, Any], what: str) -> Dict[str, Any]:
   """Checks a policy's values before anything is built from them.
 
-  The config (`sac.file_config`: types, sizes within `sac.MAX_NUM_LAYERS` /
-  `sac.MAX_HIDDEN_UNITS`, ...), then the network parameters against the
-  shapes that config implies (computed abstractly, nothing allocated):
-  real floating point and finite, leaf by leaf; `log_alpha` a finite
-  float of shape (1,); `iteration` and `training_steps` integers >= 0.
+  The config (`sac_core.file_config`: types, sizes within
+  `sac_core.MAX_NUM_LAYERS` / `sac_core.MAX_HIDDEN_UNITS`, ...), then the
+  network parameters against the shapes that config implies (computed
+  abstractly, nothing allocated): real floating point and finite, leaf by
+  leaf; `log_alpha` a finite float of shape (1,); `iteration` and
+  `training_steps` integers >= 0.
 
   Args:
     policy: A policy dict (`POLICY_FORMAT`).
@@ -126,9 +124,9 @@ def check_policy(policy: Dict[str, Any], what: str) -> Dict[str, Any]:
     ValueError: Naming `what` and the entry or leaf.
   """
   policy = dict(policy)
-  policy['config'] = sac.file_config(policy['config'], what)
-  policy['network_params'] = sac.check_like(
-      sac.network_shapes(policy['config']), policy['network_params'],
+  policy['config'] = sac_core.file_config(policy['config'], what)
+  policy['network_params'] = sac_core.check_like(
+      sac_core.network_shapes(policy['config']), policy['network_params'],
       f'{what}: network_params')
   policy['log_alpha'] = safe_io.checked_array(
       policy['log_alpha'], f'{what}: log_alpha', shape=(1,))
@@ -183,50 +181,9 @@ def load_policy(path: str, trust_legacy_pickle: bool = False
     return check_policy(policy, f'SAC policy {path}')
 
 
-@gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
-                            'action_high'])
-class SACPretrainedAgent(sac.SACAgent):
-  """`sac.SACAgent` with the shipped (or a given) policy loaded."""
-
-  def __init__(self, num_actions: int, observation_shape: Sequence[int], *,
-               action_low: Optional[Sequence[float]] = None,
-               action_high: Optional[Sequence[float]] = None,
-               seed: int = 0, policy_path: str = DEFAULT_POLICY,
-               trust_legacy_pickle: bool = False,
-               **kwargs: Any):
-    """Loads the policy, then builds the agent around it.
-
-    Args:
-      num_actions: Dimension of the action vector.
-      observation_shape: Shape of the observation vector.
-      action_low: Lower bounds of the Box action space.
-      action_high: Upper bounds of the Box action space.
-      seed: Agent seed (only used if the agent is fine-tuned).
-      policy_path: Policy file (`.msgpack`; default: the shipped policy).
-      trust_legacy_pickle: Also read a legacy `.pkl` policy or checkpoint.
-        Unpickling can run code: only for files you made.
-      **kwargs: Further `sac.SACAgent` arguments.
-
-    Raises:
-      ValueError: If the policy file is bad or does not fit the env (checked
-        before the agent's networks are built).
-    """
-    policy = load_policy(policy_path, trust_legacy_pickle)
-    config = policy['config']  # Checked by `sac.file_config`.
-    for key in ('num_layers', 'hidden_units', 'critic'):
-      kwargs.setdefault(key, config[key])
-    super().__init__(num_actions, observation_shape, action_low=action_low,
-                     action_high=action_high, seed=seed,
-                     trust_legacy_pickle=trust_legacy_pickle, **kwargs)
-    self.check_config(config, f'SAC policy {policy_path}',
-                      keys=sac.ACTING_CONFIG_KEYS)
-    self.network_params = self.restore_network(policy['network_params'],
-                                               f'SAC policy {policy_path}')
-    # Fine-tuning starts with the target networks equal to the online ones.
-    self.target_params = self.network_params
-    self.log_alpha = jnp.asarray(policy['log_alpha'], dtype=jnp.float32)
-    self.policy_info = {k: policy[k] for k in ('source', 'iteration',
-                                               'training_steps', 'note')}
-
-  def get_name(self) -> str:
-    return 'sac_pretrained'
+def __getattr__(name: str) -> Any:
+  """`pretrained.SACPretrainedAgent`, the agent's old path (BLE, Dopamine)."""
+  if name == 'SACPretrainedAgent':
+    from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+    return sac.SACPretrainedAgent
+  raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

@@ -6,16 +6,14 @@ The paper (Saunders et al. 2023, "RL problem") trains SAC (Haarnoja et al.
 automatic entropy temperature with target entropy 0, and a replay buffer.
 
 What is reused from Dopamine 4.0.9 (`dopamine.jax.agents.sac.sac_agent`):
-the SAC update of `sac_agent.train` (twin-critic TD loss with the clipped
-double-Q target, reparameterised actor loss, temperature loss), computed by
-`update` on the whole batch at once (Dopamine averages B per-transition
-gradients: the same number at ~4x the cost; tests check `update` against
-`sac_agent.train`), the jitted
-stochastic action sampler `sac_agent.select_action`, the network
-`continuous_networks.SACNetwork` (tanh-squashed diagonal Gaussian actor, two
-critics), the soft target update, the train-step schedule (`_train_step`),
-and the out-of-graph `OutOfGraphReplayBuffer` with its episode-end handling
-(transitions cut by a time limit are never bootstrapped across episodes).
+the jitted stochastic action sampler `sac_agent.select_action`, the
+train-step schedule (`_train_step`), and the out-of-graph
+`OutOfGraphReplayBuffer` with its episode-end handling (transitions cut by a
+time limit are never bootstrapped across episodes). The SAC update, the
+optimizers, the soft target update and the checks of files are
+`ble_latex.agents.sac_core`'s (Dopamine's `sac_agent.train`, batched), the
+network `ble_latex.agents.networks`' (Dopamine's `SACNetwork` re-written):
+both are shared with the jitted trainer, which imports no Dopamine.
 
 What this wrapper changes, and why:
 - The policy acts in a normalised box [-1, 1]^d; actions are mapped affinely
@@ -25,7 +23,7 @@ What this wrapper changes, and why:
   of the action. The target entropy is therefore that of the normalised
   action: H = 0 for a [-1, 1]^d box.
 - Separate learning rates for actor, critics and temperature (Dopamine uses
-  one gin-bound `create_optimizer` for all three) via `optax.multi_transform`.
+  one gin-bound `create_optimizer` for all three; `sac_core.make_optimizers`).
 - Eval mode always returns the deterministic policy mean, also before
   `min_replay_history` (Dopamine returns random actions then), and does not
   consume the agent's PRNG key.
@@ -43,9 +41,6 @@ What this wrapper changes, and why:
 - Observations and rewards are checked: NaN / inf / wrong shape raises a
   ValueError before any state changes.
 
-Note that Dopamine's update samples the next action of the TD target from the
-Polyak-averaged (target) actor rather than the online actor; we keep that.
-
 The critics can be changed (`critic`, `ble_latex.agents.networks`):
 Dopamine's MLPs (default), LayerNorm MLPs, or CrossQ's batch-norm critics
 without target networks; the actor is Dopamine's in every case.
@@ -53,7 +48,6 @@ without target networks; the actor is Dopamine's in every case.
 
 import functools
 import os
-import re
 from typing import Any, Dict, Mapping, Optional, Sequence, Union
 
 from absl import logging
@@ -64,30 +58,13 @@ import gin
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from ble_latex.agents import networks
+from ble_latex.agents import pretrained
+from ble_latex.agents import sac_core
 from ble_latex import safe_io
 
-CHECKPOINT_FORMAT = 'ble_latex.sac/2'  # msgpack (`safe_io`).
-LEGACY_CHECKPOINT_FORMAT = 'ble_latex.sac/1'  # Pickles of ble_latex <= 0.1.
-CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.msgpack$')
-LEGACY_CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.pkl$')
 _STORE_PREFIX = circular_replay_buffer.STORE_FILENAME_PREFIX
-# Largest networks a gin binding or a checkpoint / policy file may ask for:
-# a file's config is checked against these before anything is built from it.
-MAX_NUM_LAYERS = 16
-MAX_HIDDEN_UNITS = 4096
-MAX_OBSERVATION_SIZE = 4096  # Features of a file's observation_shape.
-MAX_NUM_ACTIONS = 64
-# What `file_config` checks and `check_config` compares: the config entries
-# that fix the network's shapes and the action box. Policies need no more.
-ACTING_CONFIG_KEYS = ('observation_shape', 'num_actions', 'action_low',
-                      'action_high', 'num_layers', 'hidden_units', 'critic')
-
-
-class TrainingDiverged(FloatingPointError):
-  """Training produced NaN / inf (parameters, losses, actions, rewards)."""
 
 
 @functools.partial(jax.jit, static_argnums=0)
@@ -98,26 +75,6 @@ def _mean_action(network_def: networks.LatexSACNetwork, params: Any,
   output = network_def.apply(params, state, jax.random.PRNGKey(0),
                              method=network_def.actor)
   return output.mean_action
-
-
-def _param_labels(params: Any) -> Any:
-  """Labels each parameter leaf 'critic' or 'actor' for multi_transform."""
-
-  def label(path, _):
-    names = [getattr(k, 'key', getattr(k, 'name', '')) for k in path]
-    return ('critic' if any(str(n).startswith('_critic') for n in names)
-            else 'actor')
-
-  return jax.tree_util.tree_map_with_path(label, params)
-
-
-def _to_numpy(tree: Any) -> Any:
-  """Host (NumPy) copy of a pytree of arrays, for checkpoints."""
-  return jax.tree.map(np.asarray, jax.device_get(tree))
-
-
-def _to_device(tree: Any) -> Any:
-  return jax.tree.map(jnp.asarray, tree)
 
 
 class _ScalarSummaryWriter:
@@ -214,391 +171,6 @@ class VectorReplayBuffer(circular_replay_buffer.OutOfGraphReplayBuffer):
     return tuple(batch)
 
 
-@jax.jit
-def _polyak_update(online_params: Any, target_params: Any,
-                   tau: float) -> Any:
-  """Soft target update tau * online + (1 - tau) * target, one XLA call."""
-  return optax.incremental_update(online_params, target_params, tau)
-
-
-def _update_losses(network_def: networks.LatexSACNetwork, params: Any,
-                   log_alpha: jnp.ndarray, target_params: Any, key: jnp.ndarray,
-                   states: jnp.ndarray, actions: jnp.ndarray,
-                   next_states: jnp.ndarray, rewards: jnp.ndarray,
-                   terminals: jnp.ndarray, cumulative_gamma: float,
-                   target_entropy: float, reward_scale_factor: float):
-  """Dopamine's SAC loss (`sac_agent.train`'s `loss_fn`), over a whole batch.
-
-  Dopamine differentiates the loss of each transition separately (a vmapped
-  `value_and_grad`) and averages the B gradients; this takes the gradient of
-  the batch mean once, which is the same number without B per-example
-  gradient copies. Everything else is Dopamine's: per-transition keys split
-  from `key`, the target critic evaluated at the target actor's mean action
-  with the sampled action's log-probability (Haarnoja et al. 2018, eq. 5),
-  the actor loss through critics that are not updated by it (eq. 9), and the
-  temperature loss (eq. 18); weights 0.5 / 1 / 1.
-
-  CrossQ critics (`networks.CRITICS`; Bhatt et al. 2024) have no target
-  network: the online actor gives the next action the same way, and the
-  critics see the B current and B next state-action pairs as one batch of
-  2B in training mode, so both are normalised with the same batch
-  statistics; the next-state values are not differentiated. The actor loss
-  reads the critics with their running statistics. The updated running
-  statistics come back in the aux dict as `batch_stats`.
-  """
-  batch = states.shape[0]
-  keys = jax.vmap(lambda k: jax.random.split(k, 2))(
-      jax.random.split(key, batch))
-  actor_keys, target_keys = keys[:, 1], keys[:, 0]
-  critic = lambda p, s, a: network_def.apply(p, s, a,
-                                             method=network_def.critic)
-  alpha = jnp.exp(log_alpha)
-  extra = {}
-  if networks.uses_target_network(network_def):
-    q1, q2 = jax.vmap(critic, in_axes=(None, 0, 0))(params, states, actions)
-    target_out = jax.vmap(lambda s, k: network_def.apply(
-        target_params, s, k, True))(next_states, target_keys)
-    target_q1, target_q2 = target_out.critic
-    next_log_prob = target_out.actor.log_probability
-  else:
-    next_actor = jax.vmap(lambda s, k: network_def.apply(
-        params, s, k, method=network_def.actor))(next_states, target_keys)
-    joint, updated = network_def.apply(
-        params, jnp.concatenate([states, next_states]),
-        jnp.concatenate([actions,
-                         jax.lax.stop_gradient(next_actor.mean_action)]),
-        True, method=network_def.critic, mutable=['batch_stats'])
-    q1, target_q1 = jnp.split(joint.q_value1, 2)
-    q2, target_q2 = jnp.split(joint.q_value2, 2)
-    next_log_prob = next_actor.log_probability
-    extra['batch_stats'] = updated['batch_stats']
-  q1, q2 = q1.reshape(batch), q2.reshape(batch)
-  target_q1, target_q2 = target_q1.reshape(batch), target_q2.reshape(batch)
-  target = reward_scale_factor * rewards + cumulative_gamma * (
-      jnp.minimum(target_q1, target_q2) - alpha * next_log_prob) * (
-          1.0 - terminals)
-  target = jax.lax.stop_gradient(target)
-  critic_loss = jnp.mean((q1 - target) ** 2 + (q2 - target) ** 2)
-  mean_action, sampled_action, log_prob = jax.vmap(
-      lambda s, k: network_def.apply(params, s, k, method=network_def.actor))(
-          states, actor_keys)
-  frozen = jax.lax.stop_gradient(params)
-  no_grad_q1, no_grad_q2 = jax.vmap(critic, in_axes=(None, 0, 0))(
-      frozen, states, sampled_action)
-  no_grad_q = jnp.minimum(no_grad_q1, no_grad_q2).reshape(batch)
-  policy_loss = jnp.mean(jnp.exp(jax.lax.stop_gradient(log_alpha)) * log_prob
-                         - no_grad_q)
-  alpha_loss = jnp.mean(
-      log_alpha * jax.lax.stop_gradient(-log_prob - target_entropy)[:, None])
-  combined = 0.5 * critic_loss + policy_loss + alpha_loss
-  return combined, {
-      'critic_loss': critic_loss, 'policy_loss': policy_loss,
-      'alpha_loss': alpha_loss, 'critic_value_1': jnp.mean(q1),
-      'critic_value_2': jnp.mean(q2), 'target_value_1': jnp.mean(target_q1),
-      'target_value_2': jnp.mean(target_q2),
-      'mean_action': jnp.mean(mean_action, axis=0), **extra}
-
-
-@functools.partial(jax.jit, static_argnums=(0, 1, 2))
-def update(network_def: networks.LatexSACNetwork,
-           optimizer: optax.GradientTransformation,
-           alpha_optimizer: optax.GradientTransformation,
-           optimizer_state: Any, alpha_optimizer_state: Any,
-           network_params: Any, target_params: Any, log_alpha: jnp.ndarray,
-           key: jnp.ndarray, states: jnp.ndarray, actions: jnp.ndarray,
-           next_states: jnp.ndarray, rewards: jnp.ndarray,
-           terminals: jnp.ndarray, cumulative_gamma: float,
-           target_entropy: float, reward_scale_factor: float
-           ) -> Dict[str, Any]:
-  """One SAC update: Dopamine's `sac_agent.train`, batched (same arguments).
-
-  The one SAC update of the project: `SACAgent` and the jitted trainer
-  (`sac_trainer`) both call it. `tests/test_sac_agent.py` checks it against
-  Dopamine's `sac_agent.train` on the same inputs.
-
-  Returns:
-    Dopamine's dict: new `network_params`, `log_alpha`, `optimizer_state`,
-    `alpha_optimizer_state` and the `Losses/*`, `Values/*` scalars.
-  """
-  batch = states.shape[0]
-  states = states.reshape(batch, -1)
-  next_states = next_states.reshape(batch, -1)
-  actions = actions.reshape(batch, -1)
-  grad_fn = jax.value_and_grad(_update_losses, argnums=(1, 2), has_aux=True)
-  (_, aux), (network_gradient, alpha_gradient) = grad_fn(
-      network_def, network_params, log_alpha, target_params, key, states,
-      actions, next_states, rewards.reshape(batch),
-      terminals.reshape(batch).astype(jnp.float32), cumulative_gamma,
-      target_entropy, reward_scale_factor)
-  updates, optimizer_state = optimizer.update(
-      network_gradient, optimizer_state, params=network_params)
-  network_params = optax.apply_updates(network_params, updates)
-  if 'batch_stats' in aux:  # CrossQ: running statistics, not gradients.
-    network_params = {**network_params, 'batch_stats': aux['batch_stats']}
-  alpha_updates, alpha_optimizer_state = alpha_optimizer.update(
-      alpha_gradient, alpha_optimizer_state, params=log_alpha)
-  log_alpha = optax.apply_updates(log_alpha, alpha_updates)
-  returns = {
-      'network_params': network_params, 'log_alpha': log_alpha,
-      'optimizer_state': optimizer_state,
-      'alpha_optimizer_state': alpha_optimizer_state,
-      'Losses/Critic': aux['critic_loss'], 'Losses/Actor': aux['policy_loss'],
-      'Losses/Alpha': aux['alpha_loss'],
-      'Values/CriticValues1': aux['critic_value_1'],
-      'Values/CriticValues2': aux['critic_value_2'],
-      'Values/TargetValues1': aux['target_value_1'],
-      'Values/TargetValues2': aux['target_value_2'],
-      'Values/Alpha': jnp.exp(log_alpha)}
-  for i, a in enumerate(aux['mean_action']):
-    returns[f'Values/MeanActions{i}'] = a
-  return returns
-
-
-def make_optimizers(params: Any, actor_learning_rate: float,
-                    critic_learning_rate: float, alpha_learning_rate: float
-                    ) -> tuple:
-  """(network optimizer, temperature optimizer): Adam per actor / critics."""
-  network = optax.multi_transform(
-      {'actor': optax.adam(actor_learning_rate),
-       'critic': optax.adam(critic_learning_rate)}, _param_labels(params))
-  return network, optax.adam(alpha_learning_rate)
-
-
-def check_hyperparameters(owner: str, **values: Any) -> None:
-  """Raises ValueError naming the `<owner>.<name>` binding that is invalid.
-
-  Args:
-    owner: The gin configurable the values are bound to (`SACAgent`).
-    **values: Hyperparameters by name; names not given are not checked.
-  """
-
-  def number(name, lo=None, hi=None, lo_open=False, integer=False,
-             allow_none=False):
-    if name not in values:
-      return
-    value = values[name]
-    if value is None and allow_none:
-      return
-    ok = (isinstance(value, (int, float, np.integer, np.floating)) and
-          not isinstance(value, bool) and np.isfinite(value) and
-          (not integer or float(value).is_integer()))
-    if ok and lo is not None:
-      ok = value > lo if lo_open else value >= lo
-    if ok and hi is not None:
-      ok = value <= hi
-    if not ok:
-      bounds = ''
-      if lo is not None:
-        bounds += f' {">" if lo_open else ">="} {lo}'
-      if hi is not None:
-        bounds += f'{" and" if lo is not None else ""} <= {hi}'
-      kind = 'an integer' if integer else 'a finite number'
-      raise ValueError(f'{owner}.{name} must be {kind}{bounds}, got '
-                       f'{value!r}')
-
-  number('gamma', 0.0, 1.0)
-  for name in ('actor_learning_rate', 'critic_learning_rate',
-               'alpha_learning_rate'):
-    number(name, 0.0, lo_open=True)
-  number('batch_size', 1, integer=True)
-  number('replay_capacity', 2, integer=True)
-  number('min_replay_history', 0, integer=True)
-  number('update_period', 1, integer=True)
-  number('target_smoothing_coefficient', 0.0, 1.0, lo_open=True)
-  number('target_entropy')
-  number('reward_scale_factor', 0.0, lo_open=True)
-  number('num_layers', 1, MAX_NUM_LAYERS, integer=True)
-  number('hidden_units', 1, MAX_HIDDEN_UNITS, integer=True)
-  number('checkpoint_duration', 0, integer=True, allow_none=True)
-  number('summary_writing_frequency', 1, integer=True)
-
-
-def checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:
-  """The checkpoint file of `iteration_number` (BLE's numbering)."""
-  return os.path.join(checkpoint_dir,
-                      f'checkpoint_{iteration_number:05d}.msgpack')
-
-
-def legacy_checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:
-  """The pickle checkpoint an older ble_latex wrote for `iteration_number`."""
-  return os.path.join(checkpoint_dir, f'checkpoint_{iteration_number:05d}.pkl')
-
-
-def checkpoint_iterations(checkpoint_dir: str,
-                          pattern: re.Pattern = CHECKPOINT_PATTERN) -> list:
-  """Iterations of the numbered checkpoints in a folder, ascending.
-
-  Only names that match `pattern` exactly count: stray files such as
-  `checkpoint_backup.pkl` or `checkpoint_00002 (copy).msgpack` are ignored
-  (BLE's `get_latest_checkpoint` gives -1 when it meets one).
-
-  Args:
-    checkpoint_dir: Folder to scan (missing: no checkpoints).
-    pattern: Regex with the iteration as group 1.
-
-  Returns:
-    Sorted iteration numbers.
-  """
-  if not os.path.isdir(checkpoint_dir):
-    return []
-  found = (pattern.match(name) for name in os.listdir(checkpoint_dir))
-  return sorted(int(m.group(1)) for m in found if m)
-
-
-def _restore_like(template: Any, stored: Any, what: str) -> Any:
-  """A tree shaped like `template` from stored data, checked leaf by leaf.
-
-  Args:
-    template: The agent's current tree (e.g. freshly initialised parameters).
-    stored: A tree of the same structure (dicts), or the list of its leaves
-      in `jax.tree_util` order (optimizer states, whose named tuples a data
-      file does not hold).
-    what: Name for error messages.
-
-  Returns:
-    `stored`'s values on the device, in `template`'s structure and dtypes.
-
-  Raises:
-    ValueError: On a different structure, leaf count, leaf shape or kind of
-      dtype (real floats where the template has floats, integers where it
-      has integers), or a NaN / inf; the message names the leaf.
-  """
-  return _to_device(check_like(template, stored, what))
-
-
-def check_like(template: Any, stored: Any, what: str) -> Any:
-  """`_restore_like`'s checks, on the host: stored leaves as NumPy arrays.
-
-  Args:
-    template: A tree of arrays or `jax.ShapeDtypeStruct`s (nothing is
-      allocated from it).
-    stored: As `_restore_like`.
-    what: Name for error messages.
-
-  Returns:
-    `stored`'s leaves in `template`'s structure, as NumPy arrays in the
-    template's dtypes.
-
-  Raises:
-    ValueError: As `_restore_like`.
-  """
-  treedef = jax.tree_util.tree_structure(template)
-  paths_and_refs = jax.tree_util.tree_flatten_with_path(template)[0]
-  expected = [ref for _, ref in paths_and_refs]
-  if isinstance(stored, list):
-    leaves = stored
-  else:
-    if jax.tree_util.tree_structure(stored) != treedef:
-      names = lambda t: {safe_io.leaf_name(p) for p, _ in
-                         jax.tree_util.tree_flatten_with_path(t)[0]}
-      missing = sorted(names(template) - names(stored))
-      extra = sorted(names(stored) - names(template))
-      shown = lambda x: f'{x[:4]}' + (f' and {len(x) - 4} more'
-                                      if len(x) > 4 else '')
-      raise ValueError(f'{what}: leaves differ from the expected network\'s: '
-                       f'missing {shown(missing)}, unexpected {shown(extra)}')
-    leaves = jax.tree_util.tree_leaves(stored)
-  if not isinstance(leaves, list) or len(leaves) != len(expected):
-    raise ValueError(f'{what}: expected {len(expected)} arrays, found '
-                     f'{len(leaves) if isinstance(leaves, list) else leaves!r}')
-  restored = []
-  for i, (leaf, (path, ref)) in enumerate(zip(leaves, paths_and_refs)):
-    # A tree of one array (log_alpha) is named by `what` alone.
-    label = (f'{what}: leaf {safe_io.leaf_name(path)}' if path else what)
-    if np.shape(leaf) != tuple(ref.shape):
-      raise ValueError(f'{what}: array {i} ({safe_io.leaf_name(path)}) has '
-                       f'shape {np.shape(leaf)}, expected {tuple(ref.shape)}'
-                       if path else f'{what} has shape {np.shape(leaf)}, '
-                       f'expected {tuple(ref.shape)}')
-    dtype = np.dtype(ref.dtype)
-    leaf = safe_io.checked_array(
-        leaf, label, kind='int' if dtype.kind in 'iu' else 'float')
-    restored.append(leaf.astype(dtype, copy=False))
-  return jax.tree_util.tree_unflatten(treedef, restored)
-
-
-def file_config(config: Any, what: str) -> Dict[str, Any]:
-  """A checkpoint's or policy's `config`, checked before anything is built.
-
-  The one reading of a file's config: types and bounds of the entries that
-  fix the network (`ACTING_CONFIG_KEYS`; sizes at most `MAX_NUM_LAYERS`,
-  `MAX_HIDDEN_UNITS`, `MAX_OBSERVATION_SIZE`, `MAX_NUM_ACTIONS`) and of
-  `replay_capacity` where present. Files from before critics were
-  configurable hold Dopamine's MLPs: a missing `critic` reads as 'mlp'.
-
-  Args:
-    config: The `config` entry of the file.
-    what: The file, for the message.
-
-  Returns:
-    A normalised copy (lists, Python numbers, `critic` filled in).
-
-  Raises:
-    ValueError: Naming `what` and the entry.
-  """
-  if not isinstance(config, Mapping):
-    raise ValueError(f'{what}: config is not a mapping: {config!r}')
-  config = dict(config)
-  config.setdefault('critic', 'mlp')  # Files from before critics were set.
-  missing = [k for k in ACTING_CONFIG_KEYS if k not in config]
-  if missing:
-    raise ValueError(f'{what}: config misses {missing}')
-  check_hyperparameters(f'{what}: config', num_layers=config['num_layers'],
-                        hidden_units=config['hidden_units'],
-                        **({'replay_capacity': config['replay_capacity']}
-                           if 'replay_capacity' in config else {}))
-  for key in ('num_layers', 'hidden_units', 'replay_capacity'):
-    if key in config:
-      config[key] = int(config[key])
-  networks.check_critic(f'{what}: config', config['critic'])
-  num_actions = safe_io.checked_count(
-      config['num_actions'], f'{what}: config.num_actions', low=1,
-      high=MAX_NUM_ACTIONS)
-  shape = safe_io.checked_array(config['observation_shape'],
-                                f'{what}: config.observation_shape',
-                                kind='int')
-  if shape.ndim != 1 or not shape.size or np.any(shape < 1) or (
-      np.prod(shape.astype(np.float64)) > MAX_OBSERVATION_SIZE):
-    raise ValueError(f'{what}: config.observation_shape must be a list of '
-                     f'integers >= 1 with at most {MAX_OBSERVATION_SIZE} '
-                     f'features, got {config["observation_shape"]!r}')
-  config['num_actions'] = num_actions
-  config['observation_shape'] = [int(d) for d in shape]
-  for key in ('action_low', 'action_high'):
-    config[key] = safe_io.checked_array(
-        config[key], f'{what}: config.{key}', shape=(num_actions,)).astype(
-            np.float64).tolist()
-  return config
-
-
-@functools.lru_cache(maxsize=16)
-def _network_shapes(num_actions: int, observation_shape: tuple,
-                    num_layers: int, hidden_units: int, critic: str) -> Any:
-  network_def = networks.make_network(num_actions, num_layers, hidden_units,
-                                      critic)
-  state = jax.ShapeDtypeStruct(observation_shape, jnp.float32)
-  return jax.eval_shape(
-      lambda s: network_def.init(jax.random.PRNGKey(0), s,
-                                 jax.random.PRNGKey(0)), state)
-
-
-def network_shapes(config: Mapping[str, Any]) -> Any:
-  """The network parameters' shapes and dtypes a `file_config` implies.
-
-  Computed abstractly (`jax.eval_shape`): nothing is allocated or compiled.
-  """
-  return _network_shapes(
-      config['num_actions'], tuple(config['observation_shape']),
-      config['num_layers'], config['hidden_units'], config['critic'])
-
-
-def nonfinite_count(tree: Any) -> jnp.ndarray:
-  """NaN / inf values in a tree's floating-point leaves (traceable)."""
-  counts = [jnp.sum(~jnp.isfinite(x)) for x in jax.tree_util.tree_leaves(tree)
-            if jnp.issubdtype(jnp.asarray(x).dtype, jnp.inexact)]
-  return sum(counts, jnp.zeros((), jnp.int32))
-
-
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
                             'action_high'])
 class SACAgent(agent.Agent, sac_agent.SACAgent):
@@ -687,7 +259,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
             np.all(low < high)):
       raise ValueError('action box must be finite with low < high, got '
                        f'low={low.tolist()}, high={high.tolist()}')
-    check_hyperparameters(
+    sac_core.check_hyperparameters(
         'SACAgent', gamma=gamma, actor_learning_rate=actor_learning_rate,
         critic_learning_rate=critic_learning_rate,
         alpha_learning_rate=alpha_learning_rate, batch_size=batch_size,
@@ -760,7 +332,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     """Initialises SACNetwork, Adam per actor / critics, and log(alpha)."""
     self._rng, init_key = jax.random.split(self._rng)
     self.network_params = self.network_def.init(init_key, self.state, init_key)
-    self.network_optimizer, self.alpha_optimizer = make_optimizers(
+    self.network_optimizer, self.alpha_optimizer = sac_core.make_optimizers(
         self.network_params, self._actor_learning_rate,
         self._critic_learning_rate, self._alpha_learning_rate)
     self.optimizer_state = self.network_optimizer.init(self.network_params)
@@ -808,7 +380,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       self._sample_from_replay_buffer()
       self._rng, key = jax.random.split(self._rng)
       e = self.replay_elements
-      out = update(
+      out = sac_core.update(
           self.network_def, self.network_optimizer, self.alpha_optimizer,
           self.optimizer_state, self.alpha_optimizer_state,
           self.network_params, self.target_params, self.log_alpha, key,
@@ -830,7 +402,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
 
   def _maybe_sync_weights(self) -> None:
     """Dopamine's soft target update, as one jitted call (was 18 eager ops)."""
-    self.target_params = _polyak_update(
+    self.target_params = sac_core.polyak_update(
         self.network_params, self.target_params,
         self.target_smoothing_coefficient)
 
@@ -877,7 +449,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
                                   -1.0, 1.0)
     action = np.asarray(action, dtype=np.float32)
     if not np.all(np.isfinite(action)):
-      raise TrainingDiverged(
+      raise sac_core.TrainingDiverged(
           f'SAC policy produced a non-finite action {action.tolist()} at '
           f'training step {self.training_steps}: the network parameters have '
           'diverged (check observation scaling and learning rates)')
@@ -1064,10 +636,10 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     bundle.update(
         rng=np.asarray(self._rng),
         state=np.array(self.state),
-        target_params=_to_numpy(self.target_params),
-        optimizer_state=[np.asarray(x) for x in leaves(_to_numpy(
+        target_params=sac_core.to_numpy(self.target_params),
+        optimizer_state=[np.asarray(x) for x in leaves(sac_core.to_numpy(
             self.optimizer_state))],
-        alpha_optimizer_state=[np.asarray(x) for x in leaves(_to_numpy(
+        alpha_optimizer_state=[np.asarray(x) for x in leaves(sac_core.to_numpy(
             self.alpha_optimizer_state))],
         replay=self._replay_bundle())
     return bundle
@@ -1085,26 +657,27 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       A dict with those entries, as in a checkpoint.
 
     Raises:
-      TrainingDiverged: If the parameters or log(alpha) hold NaN / inf
+      sac_core.TrainingDiverged: If the parameters or log(alpha) hold NaN / inf
         (nothing is written from them).
     """
     self._check_finite(network_params=self.network_params,
                        log_alpha=self.log_alpha)
     return {
-        'format': CHECKPOINT_FORMAT,
+        'format': sac_core.CHECKPOINT_FORMAT,
         'iteration': int(iteration_number),
         'config': self._config(),
         'training_steps': int(self.training_steps),
-        'network_params': _to_numpy(self.network_params),
+        'network_params': sac_core.to_numpy(self.network_params),
         'log_alpha': np.asarray(self.log_alpha),
     }
 
   def _check_finite(self, **trees: Any) -> None:
     """Raises TrainingDiverged naming the trees that hold NaN / inf."""
-    bad = {name: int(nonfinite_count(tree)) for name, tree in trees.items()}
+    bad = {name: int(sac_core.nonfinite_count(tree))
+           for name, tree in trees.items()}
     bad = {name: n for name, n in bad.items() if n}
     if bad:
-      raise TrainingDiverged(
+      raise sac_core.TrainingDiverged(
           f'training diverged at training step {self.training_steps}: '
           f'non-finite {", ".join(f"{k} ({n} values)" for k, n in bad.items())}'
           '; no checkpoint or policy is written from it (the newest one on '
@@ -1122,7 +695,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         a policy compares `ACTING_CONFIG_KEYS`).
     """
     mine = self._config()
-    theirs = file_config(config, what)
+    theirs = sac_core.file_config(config, what)
     keys = list(mine) if keys is None else list(keys)
     differ = [k for k in keys if theirs.get(k) != mine[k]]
     if differ:
@@ -1133,7 +706,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
 
   def restore_network(self, network_params: Any, what: str) -> Any:
     """Network parameters from a file, checked against this agent's shapes."""
-    return _restore_like(self.network_params, network_params,
+    return sac_core.restore_like(self.network_params, network_params,
                          f'{what}: network_params')
 
   def unbundle(self, checkpoint_dir: str, iteration_number: int,
@@ -1160,10 +733,10 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     bundle = bundle_dictionary
     what = 'checkpoint'
     if not isinstance(bundle, Mapping) or bundle.get('format') not in (
-        CHECKPOINT_FORMAT, LEGACY_CHECKPOINT_FORMAT):
+        sac_core.CHECKPOINT_FORMAT, sac_core.LEGACY_CHECKPOINT_FORMAT):
       raise ValueError('not a ble_latex SAC checkpoint (format '
-                       f'{CHECKPOINT_FORMAT!r} expected)')
-    legacy = bundle['format'] == LEGACY_CHECKPOINT_FORMAT
+                       f'{sac_core.CHECKPOINT_FORMAT!r} expected)')
+    legacy = bundle['format'] == sac_core.LEGACY_CHECKPOINT_FORMAT
     needed = ('config', 'training_steps', 'rng', 'state', 'network_params',
               'target_params', 'optimizer_state', 'log_alpha',
               'alpha_optimizer_state', 'replay')
@@ -1180,15 +753,15 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       return jax.tree_util.tree_leaves(value) if legacy else value
 
     network_params = self.restore_network(bundle['network_params'], what)
-    target_params = _restore_like(self.target_params, bundle['target_params'],
-                                  f'{what}: target_params')
-    optimizer_state = _restore_like(
+    target_params = sac_core.restore_like(
+        self.target_params, bundle['target_params'], f'{what}: target_params')
+    optimizer_state = sac_core.restore_like(
         self.optimizer_state, opt_leaves(bundle['optimizer_state']),
         f'{what}: optimizer_state')
-    alpha_optimizer_state = _restore_like(
+    alpha_optimizer_state = sac_core.restore_like(
         self.alpha_optimizer_state, opt_leaves(bundle['alpha_optimizer_state']),
         f'{what}: alpha_optimizer_state')
-    log_alpha = _restore_like(self.log_alpha, bundle['log_alpha'],
+    log_alpha = sac_core.restore_like(self.log_alpha, bundle['log_alpha'],
                               f'{what}: log_alpha')
     rng = safe_io.checked_array(bundle['rng'], f'{what}: rng', kind='int',
                                 shape=(2,)).astype(np.uint32)
@@ -1222,12 +795,13 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     os.makedirs(checkpoint_dir, exist_ok=True)
     safe_io.remove_stale_temporaries(checkpoint_dir, 'checkpoint_')
     bundle = self.bundle_and_checkpoint(checkpoint_dir, iteration_number)
-    safe_io.write_tree(checkpoint_path(checkpoint_dir, iteration_number),
-                       bundle, file_format=CHECKPOINT_FORMAT)
+    safe_io.write_tree(
+        sac_core.checkpoint_path(checkpoint_dir, iteration_number), bundle,
+        file_format=sac_core.CHECKPOINT_FORMAT)
     if self._checkpoint_duration is not None:
-      for old in checkpoint_iterations(checkpoint_dir):
+      for old in sac_core.checkpoint_iterations(checkpoint_dir):
         if old < iteration_number - self._checkpoint_duration:
-          os.remove(checkpoint_path(checkpoint_dir, old))
+          os.remove(sac_core.checkpoint_path(checkpoint_dir, old))
 
   def load_checkpoint(self, checkpoint_dir: str, iteration_number: int) -> None:
     """Restores the checkpoint of `iteration_number`.
@@ -1246,14 +820,14 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       ValueError: If the file is truncated, corrupt or not a compatible SAC
         checkpoint (the message names the file).
     """
-    path = checkpoint_path(checkpoint_dir, iteration_number)
-    legacy = legacy_checkpoint_path(checkpoint_dir, iteration_number)
+    path = sac_core.checkpoint_path(checkpoint_dir, iteration_number)
+    legacy = sac_core.legacy_checkpoint_path(checkpoint_dir, iteration_number)
     if not os.path.exists(path) and os.path.exists(legacy):
       path = legacy
       bundle = safe_io.read_legacy_pickle(
           legacy, trust=self._trust_legacy_pickle, what='SAC checkpoint')
     else:
-      bundle = safe_io.read_tree(path, file_format=CHECKPOINT_FORMAT,
+      bundle = safe_io.read_tree(path, file_format=sac_core.CHECKPOINT_FORMAT,
                                  what='SAC checkpoint')
     with safe_io.checking(f'SAC checkpoint {path}: '):
       self.unbundle(checkpoint_dir, iteration_number, bundle)
@@ -1279,13 +853,15 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       ValueError: If the newest checkpoint cannot be read (never falls back
         silently to starting over).
     """
-    iterations = checkpoint_iterations(checkpoint_dir)
-    legacy = checkpoint_iterations(checkpoint_dir, LEGACY_CHECKPOINT_PATTERN)
+    iterations = sac_core.checkpoint_iterations(checkpoint_dir)
+    legacy = sac_core.checkpoint_iterations(
+        checkpoint_dir, sac_core.LEGACY_CHECKPOINT_PATTERN)
     if legacy and (not iterations or legacy[-1] > iterations[-1]):
       if not self._trust_legacy_pickle:
+        newest = sac_core.legacy_checkpoint_path(checkpoint_dir, legacy[-1])
         raise safe_io.UntrustedFileError(
             f'{checkpoint_dir} holds legacy pickle checkpoints (newest '
-            f'{os.path.basename(legacy_checkpoint_path(checkpoint_dir, legacy[-1]))}'
+            f'{os.path.basename(newest)}'
             '); pickles can run code. If you made them, resume with '
             "--gin_bindings='ble_latex.agents.sac.SACAgent.trust_legacy_pickle = True' "
             '(docs/trusted-files.md).')
@@ -1294,3 +870,52 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       return -1
     self.load_checkpoint(checkpoint_dir, iterations[-1])
     return iterations[-1]
+
+
+@gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
+                            'action_high'])
+class SACPretrainedAgent(SACAgent):
+  """`SACAgent` with the shipped (or a given) policy loaded (`pretrained`)."""
+
+  def __init__(self, num_actions: int, observation_shape: Sequence[int], *,
+               action_low: Optional[Sequence[float]] = None,
+               action_high: Optional[Sequence[float]] = None,
+               seed: int = 0, policy_path: str = pretrained.DEFAULT_POLICY,
+               trust_legacy_pickle: bool = False,
+               **kwargs: Any):
+    """Loads the policy, then builds the agent around it.
+
+    Args:
+      num_actions: Dimension of the action vector.
+      observation_shape: Shape of the observation vector.
+      action_low: Lower bounds of the Box action space.
+      action_high: Upper bounds of the Box action space.
+      seed: Agent seed (only used if the agent is fine-tuned).
+      policy_path: Policy file (`.msgpack`; default: the shipped policy).
+      trust_legacy_pickle: Also read a legacy `.pkl` policy or checkpoint.
+        Unpickling can run code: only for files you made.
+      **kwargs: Further `SACAgent` arguments.
+
+    Raises:
+      ValueError: If the policy file is bad or does not fit the env (checked
+        before the agent's networks are built).
+    """
+    policy = pretrained.load_policy(policy_path, trust_legacy_pickle)
+    config = policy['config']  # Checked by `sac_core.file_config`.
+    for key in ('num_layers', 'hidden_units', 'critic'):
+      kwargs.setdefault(key, config[key])
+    super().__init__(num_actions, observation_shape, action_low=action_low,
+                     action_high=action_high, seed=seed,
+                     trust_legacy_pickle=trust_legacy_pickle, **kwargs)
+    self.check_config(config, f'SAC policy {policy_path}',
+                      keys=sac_core.ACTING_CONFIG_KEYS)
+    self.network_params = self.restore_network(policy['network_params'],
+                                               f'SAC policy {policy_path}')
+    # Fine-tuning starts with the target networks equal to the online ones.
+    self.target_params = self.network_params
+    self.log_alpha = jnp.asarray(policy['log_alpha'], dtype=jnp.float32)
+    self.policy_info = {k: policy[k] for k in ('source', 'iteration',
+                                               'training_steps', 'note')}
+
+  def get_name(self) -> str:
+    return 'sac_pretrained'

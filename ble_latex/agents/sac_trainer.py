@@ -5,12 +5,13 @@ r"""Jitted Soft Actor-Critic on the batched env (purejaxrl / rejax style).
 env (`ble_latex.envs.jax_env`) in parallel and runs the SAC updates inside one
 `jax.lax.scan` per round: no Python per step, no host copies of transitions.
 
-The SAC itself is not written again: the update is `sac.update` (Dopamine's
-`sac_agent.train` computed on the whole batch at once; the update
-`sac.SACAgent` runs too), the network Dopamine's `SACNetwork` with the
-critic chosen by `critic` (`networks.make_network`), the optimizers and the
-soft target update those of `sac.SACAgent` (`sac.make_optimizers`,
-`sac._polyak_update`).
+The SAC itself is not written again: the update is `sac_core.update`
+(Dopamine's `sac_agent.train` computed on the whole batch at once; the update
+`sac.SACAgent` runs too), the network Dopamine's `SACNetwork` re-written in
+Flax with the critic chosen by `critic` (`networks.make_network`), the
+optimizers and the soft target update those of `sac.SACAgent`
+(`sac_core.make_optimizers`, `sac_core.polyak_update`). Neither imports
+TensorFlow, Dopamine or BLE's agents.
 What this module adds is the loop, as pure functions of a `TrainState`:
 
 - One round (an iteration) flies `num_envs` new episodes of
@@ -48,7 +49,7 @@ import numpy as np
 import optax
 
 from ble_latex.agents import networks
-from ble_latex.agents import sac
+from ble_latex.agents import sac_core
 from ble_latex.envs import jax_env
 
 Array = jax.Array
@@ -103,7 +104,7 @@ class TrainerConfig:
   def __post_init__(self):
     fields = dataclasses.asdict(self)
     networks.check_critic('sac_trainer_config', self.critic)
-    sac.check_hyperparameters(
+    sac_core.check_hyperparameters(
         'sac_trainer_config',
         **{k: v for k, v in fields.items()
            if k not in ('num_envs', 'updates_per_step', 'critic')})
@@ -191,7 +192,7 @@ def learner_for(config: TrainerConfig) -> Learner:
                                       config.hidden_units, config.critic)
   obs = jnp.zeros((jax_env.LatexBalloonJaxEnv.num_features,), jnp.float32)
   key = jax.random.PRNGKey(0)  # Only the parameters' structure is used.
-  optimizer, alpha_optimizer = sac.make_optimizers(
+  optimizer, alpha_optimizer = sac_core.make_optimizers(
       network_def.init(key, obs, key), config.actor_learning_rate,
       config.critic_learning_rate, config.alpha_learning_rate)
   return Learner(network_def, optimizer, alpha_optimizer, config)
@@ -250,20 +251,20 @@ def _add(replay: Replay, obs: Array, action: Array, reward: Array,
 
 def _update(learner: Learner, state: TrainState, key: Array
             ) -> Tuple[TrainState, Dict[str, Array]]:
-  """One SAC update (`sac.update`) on a uniform batch of the replay."""
+  """One SAC update (`sac_core.update`) on a uniform batch of the replay."""
   c = learner.config
   sample_key, train_key = jax.random.split(key)
   idx = jax.random.randint(sample_key, (c.batch_size,), 0,
                            jnp.maximum(state.replay.size, 1))
   r = state.replay
-  out = sac.update(
+  out = sac_core.update(
       learner.network_def, learner.optimizer, learner.alpha_optimizer,
       state.optimizer_state, state.alpha_optimizer_state,
       state.network_params, state.target_params, state.log_alpha, train_key,
       r.obs[idx], r.action[idx], r.next_obs[idx], r.reward[idx],
       r.terminal[idx], c.gamma, c.target_entropy, c.reward_scale_factor)
   if networks.uses_target_network(learner.network_def):
-    target = sac._polyak_update(out['network_params'], state.target_params,  # pylint: disable=protected-access
+    target = sac_core.polyak_update(out['network_params'], state.target_params,
                                 c.target_smoothing_coefficient)
   else:  # CrossQ: the targets are the online critics (unused by the update).
     target = out['network_params']
@@ -363,8 +364,8 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
   counted = [losses[k] for k in _LOSS_KEYS] + [
       state.network_params, state.target_params, state.optimizer_state,
       state.log_alpha]
-  nonfinite = dict(zip(NONFINITE, [sac.nonfinite_count(x) for x in counted]
-                       + [bad_actions, sac.nonfinite_count(ep_reward)]))
+  nonfinite = dict(zip(NONFINITE, [sac_core.nonfinite_count(x) for x in counted]
+                       + [bad_actions, sac_core.nonfinite_count(ep_reward)]))
   return state, RoundOutput(ep_reward, within, steps, last, losses, nonfinite)
 
 
@@ -420,9 +421,9 @@ def acting_bundle(learner: Learner, state: TrainState,
       'action_high': np.asarray(jax_env.ACTION_HIGH, np.float64).tolist(),
       'num_layers': c.num_layers, 'hidden_units': c.hidden_units,
       'critic': c.critic, 'replay_capacity': c.replay_capacity}
-  return {'format': sac.CHECKPOINT_FORMAT, 'iteration': int(iteration),
+  return {'format': sac_core.CHECKPOINT_FORMAT, 'iteration': int(iteration),
           'config': config, 'training_steps': int(state.updates),
-          'network_params': sac._to_numpy(state.network_params),  # pylint: disable=protected-access
+          'network_params': sac_core.to_numpy(state.network_params),
           'log_alpha': np.asarray(state.log_alpha)}
 
 

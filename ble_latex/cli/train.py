@@ -42,7 +42,7 @@ from ble_latex import quiet
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
-  from ble_latex.run import metrics
+  from ble_latex.run import collectors
   from ble_latex.run import suites
   from ble_latex.run import train_lib
   # pylint: enable=g-import-not-at-top
@@ -79,7 +79,7 @@ flags.DEFINE_multi_string('gin_bindings', [],
                           'Gin bindings to override default values.',
                           flag_values=FLAGS)
 flags.DEFINE_multi_string('collectors', ['progress', 'episodes', 'tensorboard'],
-                          f'Collectors: {sorted(metrics.AVAILABLE_COLLECTORS)}.',
+                          f'Collectors: {sorted(collectors.AVAILABLE_COLLECTORS)}.',
                           flag_values=FLAGS)
 flags.DEFINE_integer('seed', 0, 'Seed of the agent (env seeds are episode '
                      'indices).', flag_values=FLAGS)
@@ -118,7 +118,7 @@ def _main(argv: Sequence[str]) -> None:
   """Trains; refused input is one line (`cli.run_absl`).
 
   A bad checkpoint (`errors.BadFileError`, naming the file and entry) or a run
-  that diverged (`sac.TrainingDiverged`) exits 1; a refused resume
+  that diverged (`sac_core.TrainingDiverged`) exits 1; a refused resume
   (`errors.ResumeError`) or binding exits 2.
   """
   del argv
@@ -184,9 +184,9 @@ def check() -> None:
     if FLAGS.checkpoint_period < 1:
       raise cli.CommandUsageError('--checkpoint_period must be >= 1')
   for name in FLAGS.collectors:
-    if name not in metrics.AVAILABLE_COLLECTORS:
+    if name not in collectors.AVAILABLE_COLLECTORS:
       raise cli.CommandUsageError(cli.unknown(
-          'collector', name, metrics.AVAILABLE_COLLECTORS))
+          'collector', name, collectors.AVAILABLE_COLLECTORS))
   cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
 
 

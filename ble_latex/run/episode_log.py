@@ -1,7 +1,7 @@
 # coding=utf-8
 """RUN/episodes.jsonl: one JSON line per training episode (light, no BLE/TF).
 
-Written by `metrics.EpisodeLogCollector`, read by the plots. A resumed run
+Written by `collectors.EpisodeLogCollector`, read by the plots. A resumed run
 truncates it back to its checkpoint (`truncate`), so each episode appears
 exactly once.
 """

@@ -32,7 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex.agents import pretrained
-from ble_latex.agents import sac
+from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
@@ -92,7 +92,7 @@ def episode_records(out: sac_trainer.RoundOutput, seeds: Sequence[int],
 
 def check_round(out: sac_trainer.RoundOutput, iteration: int,
                 base_dir: str) -> None:
-  """Raises `sac.TrainingDiverged` if the round produced NaN / inf.
+  """Raises `sac_core.TrainingDiverged` if the round produced NaN / inf.
 
   Called before anything of the round is written: the newest checkpoint in
   `base_dir` stays the last good one.
@@ -106,11 +106,11 @@ def check_round(out: sac_trainer.RoundOutput, iteration: int,
   bad = [name for name in sac_trainer.NONFINITE if int(counts[name])]
   if not bad:
     return
-  done = sac.checkpoint_iterations(run_dir.checkpoint_dir(base_dir))
+  done = sac_core.checkpoint_iterations(run_dir.checkpoint_dir(base_dir))
   kept = (f'last good checkpoint: '
           f'{run_dir.checkpoint_path(base_dir, done[-1])} kept' if done
           else f'no checkpoint was written in {base_dir}')
-  raise sac.TrainingDiverged(
+  raise sac_core.TrainingDiverged(
       f'training diverged at round {iteration}: non-finite '
       f'{", ".join(bad)}; {kept}')
 
@@ -146,7 +146,7 @@ def save_checkpoint(base_dir: str, iteration: int,
   os.makedirs(os.path.dirname(path), exist_ok=True)
   safe_io.write_tree(path, tree, file_format=CHECKPOINT_FORMAT)
   folder = os.path.dirname(path)
-  for old in sac.checkpoint_iterations(folder)[:-keep]:
+  for old in sac_core.checkpoint_iterations(folder)[:-keep]:
     os.remove(run_dir.checkpoint_path(base_dir, old))
 
 
@@ -170,7 +170,8 @@ def _restore_checkpoint(tree: Dict[str, Any], path: str,
                         ) -> Tuple[sac_trainer.TrainState, float]:
   """`load_checkpoint` of a read tree."""
   what = f'{path}'
-  restore = lambda name, t: sac._restore_like(t, tree[name], f'{what}: {name}')  # pylint: disable=protected-access
+  restore = lambda name, t: sac_core.restore_like(t, tree[name],
+                                                  f'{what}: {name}')
   missing = [k for k in ('iteration', 'network_params', 'target_params',
                          'optimizer_state', 'log_alpha',
                          'alpha_optimizer_state', 'replay', 'key', 'updates',
@@ -246,7 +247,7 @@ class _RunDir:
     config = learner.config
     self.base_dir, self.seed, self.learner = base_dir, seed, learner
     _, self.state = sac_trainer.make_learner(config, jax.random.PRNGKey(seed))
-    done_iterations = sac.checkpoint_iterations(
+    done_iterations = sac_core.checkpoint_iterations(
         run_dir.checkpoint_dir(base_dir))
     self.start = done_iterations[-1] + 1 if done_iterations else 0
     run_info = {'trainer': 'jax', 'seed': seed,
@@ -272,7 +273,9 @@ class _RunDir:
     self.validation_seeds = list(validation_seeds)
     self._validation_seeds = jnp.asarray(self.validation_seeds, jnp.int32)
     n = config.num_envs
-    self.dispatcher = metrics.dispatcher(
+    # BLE's collectors import TensorFlow: only once a run starts.
+    from ble_latex.run import collectors as collectors_lib  # pylint: disable=g-import-not-at-top
+    self.dispatcher = collectors_lib.dispatcher(
         base_dir, len(jax_env.ACTION_LOW), collectors, self.start * n,
         num_iterations * n, f'train sac (jax, seed {seed})')
     self.writer = self.dispatcher.get_summary_writer()
@@ -365,7 +368,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
       each flies `config.num_envs` episodes.
     seed: Training seed (network init, exploration, replay sampling).
     config: Trainer settings (default: gin's `sac_trainer_config.*`).
-    collectors: Names from `metrics.AVAILABLE_COLLECTORS`.
+    collectors: Names from `collectors.AVAILABLE_COLLECTORS`.
     policy_snapshot_period: Every this many rounds export the policy to
       `base_dir/policies/` (0: never).
     checkpoint_period: Every this many rounds (and after the last) write a
@@ -441,7 +444,8 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
       locked before any training starts, and held until all are done).
   """
   config = config or sac_trainer.TrainerConfig()
-  metrics.check_collectors(collectors)
+  from ble_latex.run import collectors as collectors_lib  # pylint: disable=g-import-not-at-top
+  collectors_lib.check_collectors(collectors)
   if num_iterations < 1 or checkpoint_period < 1 or policy_snapshot_period < 0:
     raise ValueError('num_iterations and checkpoint_period must be >= 1, '
                      'policy_snapshot_period >= 0')

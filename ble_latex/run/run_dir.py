@@ -13,7 +13,7 @@ import os
 import re
 from typing import Any, Iterator, Mapping, Optional
 
-from ble_latex.agents import sac
+from ble_latex.agents import sac_core
 from ble_latex.run import episode_log
 from ble_latex import errors
 from ble_latex import safe_io
@@ -29,7 +29,7 @@ def checkpoint_dir(base_dir: str) -> str:
 
 def checkpoint_path(base_dir: str, iteration: int) -> str:
   """Where a SAC trainer checkpoints `iteration` (0-based)."""
-  return sac.checkpoint_path(checkpoint_dir(base_dir), iteration)
+  return sac_core.checkpoint_path(checkpoint_dir(base_dir), iteration)
 
 
 def policy_snapshot_path(base_dir: str, iteration: int) -> str:

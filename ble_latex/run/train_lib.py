@@ -15,7 +15,8 @@ import gym
 
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
-from ble_latex.run import metrics
+from ble_latex.agents import sac_core
+from ble_latex.run import collectors as collectors_lib
 from ble_latex.run import run_dir
 from ble_latex.run import runner
 from ble_latex.run import suites
@@ -33,8 +34,8 @@ def _reload_latest(agent: base_agent.Agent, checkpoint_dir: str) -> int:
   if isinstance(agent, sac.SACAgent):
     return agent.reload_latest_checkpoint(checkpoint_dir)
   # BLE's own agents write Dopamine's `checkpoint_NNNNN.pkl` files.
-  iterations = sac.checkpoint_iterations(checkpoint_dir,
-                                         sac.LEGACY_CHECKPOINT_PATTERN)
+  iterations = sac_core.checkpoint_iterations(checkpoint_dir,
+                                         sac_core.LEGACY_CHECKPOINT_PATTERN)
   if not iterations:
     return -1
   agent.load_checkpoint(checkpoint_dir, iterations[-1])
@@ -55,7 +56,7 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
       finished ones).
     episodes_per_iteration: Episodes per iteration; a checkpoint follows each.
     max_episode_length: Steps per episode at most.
-    collectors: Names from `metrics.AVAILABLE_COLLECTORS`.
+    collectors: Names from `collectors.AVAILABLE_COLLECTORS`.
     seed: Agent seed.
     policy_snapshot_period: If > 0 (SAC agents only), every this many
       iterations the acting part of the checkpoint is also exported to
@@ -72,7 +73,7 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
     safe_io.InUseError: If another process (or another run in this one)
       trains in `base_dir` (`safe_io.locked_dir`, held for the whole run).
   """
-  metrics.check_collectors(collectors)
+  collectors_lib.check_collectors(collectors)
   if num_iterations < 1 or episodes_per_iteration < 1 or max_episode_length < 1:
     raise ValueError('num_iterations, episodes_per_iteration and '
                      'max_episode_length must be >= 1')
@@ -100,7 +101,7 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
                    start_iteration - 1, start_episode)
     action_dim = (env.action_space.n if hasattr(env.action_space, 'n') else
                   env.action_space.shape[0])
-    dispatcher = metrics.dispatcher(
+    dispatcher = collectors_lib.dispatcher(
         base_dir, action_dim, collectors, start_episode,
         num_iterations * episodes_per_iteration, f'train {agent_name}')
     agent.set_summary_writer(dispatcher.get_summary_writer())
