@@ -670,9 +670,9 @@ def check_params(params: EnvParams) -> EnvParams:
                    **{f: float(getattr(p, f)) for f in floats})
 
 
-# Grids `check_wind_grid` passed, by id of their winds (kept alive here so
-# an id is never reused): a grid is checked once, not at every env.
-_CHECKED_GRIDS: Dict[int, Tuple[Any, Any]] = {}
+# Grids `check_wind_grid` passed, by the ids of their arrays (kept alive
+# here so an id is never reused): a grid is checked once, not at every env.
+_CHECKED_GRIDS: Dict[Tuple[int, ...], Tuple[Any, ...]] = {}
 
 
 def check_wind_grid(grid: Any) -> None:
@@ -695,9 +695,10 @@ def check_wind_grid(grid: Any) -> None:
     raise errors.ConfigError(f'{what} must be an era5_jax.Era5Grid '
                              f'(era5_jax.grid_from_data) or None, got '
                              f'{type(grid).__name__}')
-  seen = _CHECKED_GRIDS.get(id(grid.uv))
-  if seen is not None and seen[0] is grid.uv and seen[1] == (
-      int(grid.first_start_minute), int(grid.last_start_minute)):
+  leaves = tuple(jax.tree.leaves(grid)) + (grid.add_noise,)
+  key = tuple(id(leaf) for leaf in leaves)
+  seen = _CHECKED_GRIDS.get(key)
+  if seen is not None and all(a is b for a, b in zip(seen, leaves)):
     return
   axes = {}
   for name in ('time_s', 'pressure_pa', 'latitude', 'longitude'):
@@ -746,7 +747,7 @@ def check_wind_grid(grid: Any) -> None:
         f'<= last <= {span_min:g} (the time axis)')
   if len(_CHECKED_GRIDS) >= 8:
     _CHECKED_GRIDS.clear()
-  _CHECKED_GRIDS[id(grid.uv)] = (grid.uv, (int(first), int(last)))
+  _CHECKED_GRIDS[key] = leaves
 
 
 # The gin names of `EnvParams` (besides the flight system's, `flight.params`,
