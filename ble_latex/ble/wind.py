@@ -164,8 +164,8 @@ class CoreGenerativeWindField(wind_field.WindField):
       self, x: units.Distance, y: units.Distance, pressures: Sequence[float],
       elapsed_time: dt.timedelta) -> List[wind_field.WindVector]:
     u, v = jax.device_get(_forecast(
-        self._grid(), self._state(), jnp.float32(x.meters), jnp.float32(y.meters),
-        jnp.asarray(np.asarray(pressures, np.float32)),
+        self._grid(), self._state(), jnp.float32(x.meters),
+        jnp.float32(y.meters), jnp.asarray(np.asarray(pressures, np.float32)),
         jnp.float32(elapsed_time.total_seconds())))
     return _vectors(u, v)
 
@@ -173,6 +173,7 @@ class CoreGenerativeWindField(wind_field.WindField):
                        pressure: float,
                        elapsed_time: dt.timedelta) -> wind_field.WindVector:
     u, v = jax.device_get(_ground_truth(
-        self._grid(), self._state(), jnp.float32(x.meters), jnp.float32(y.meters),
-        jnp.float32(pressure), jnp.float32(elapsed_time.total_seconds())))
+        self._grid(), self._state(), jnp.float32(x.meters),
+        jnp.float32(y.meters), jnp.float32(pressure),
+        jnp.float32(elapsed_time.total_seconds())))
     return _vectors(u, v)[0]

@@ -252,6 +252,8 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
   if path is not None:
     if not path.strip():
       raise CommandUsageError('--era5_path is empty')
+    # Absolute (the Ray workers' working directory may differ).
+    path = os.path.abspath(os.path.expandvars(os.path.expanduser(path)))
     bindings += ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
                  f'Era5WindField.path = {path!r}']
   elif not jax_env.is_era5(jax_env.episode()['wind_field_factory']):
