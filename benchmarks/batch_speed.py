@@ -8,7 +8,12 @@ In one run, each measurement in its own fresh subprocess (own peak RSS):
   jitted call resets N balloons and flies them through --steps 20-minute
   strides (`jax_env.rollout`: ground-truth wind with noise re-queried every
   <= 3 min, the 71 features and the reward at every stride). Reported: the
-  first call (compile + run), then the best of --repeats timed calls;
+  first call (compile + run), then the best of --repeats timed calls; for
+  each wind of --winds: BLE's VAE field ('vae') and ERA5 in JAX ('era5',
+  `EnvParams.wind_grid`: a synthetic grid of the paper's size, 368 times
+  (1 Nov 2022 - 31 Jan 2023, 6-hourly) x 8 levels (20-175 hPa) x 26 x 26
+  (+-5 deg at 0.4 deg) of random winds, or --era5_path's file), side by
+  side;
 - `LatexBalloon-v0` (gym, one balloon; it flies the same core) and BLE's
   `BalloonLearningEnvironment-v0` (3-minute steps) over the same simulated
   time, measured by `benchmarks/env_speed.py`'s worker;
@@ -40,8 +45,29 @@ _HERE = os.path.dirname(os.path.abspath(__file__))
 STRIDE_H = 20.0 / 60.0  # [h] simulated per latex step
 
 
-def jax_worker(batch: int, steps: int, repeats: int) -> dict:
-  """Times `rollout` of `batch` balloons for `steps` strides."""
+def paper_size_grid(era5_path: Optional[str] = None):
+  """An ERA5 grid of the paper's size (random winds), or a file's."""
+  import numpy as np  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
+  if era5_path:
+    return era5_jax.grid_from_data(era5.load(era5_path))
+  hours = np.arange(368) * 6.0  # [h] 1 Nov 2022 - 31 Jan 2023 18:00.
+  times = np.datetime64('2022-11-01T00:00', 'ns') + (
+      hours * 3600).astype('timedelta64[s]')
+  pressure = np.array(era5.pressure_levels_hpa(), np.float64) * 100.0  # [Pa]
+  lats = np.round(np.arange(-4.0, 6.0 + 1e-9, era5.PAPER_GRID_DEG), 6)
+  lons = np.round(np.arange(-118.0, -108.0 + 1e-9, era5.PAPER_GRID_DEG), 6)
+  uv = np.random.default_rng(0).normal(
+      0.0, 10.0, (len(hours), len(pressure), len(lats), len(lons), 2))
+  data = era5.Era5Data(('synthetic',), times, hours * 3600.0, pressure,
+                       lats, lons, uv)
+  return era5_jax.grid_from_data(data)
+
+
+def jax_worker(batch: int, steps: int, repeats: int, wind: str = 'vae',
+               era5_path: Optional[str] = None) -> dict:
+  """Times `rollout` of `batch` balloons for `steps` strides on `wind`."""
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
@@ -51,6 +77,11 @@ def jax_worker(batch: int, steps: int, repeats: int) -> dict:
   configs.bind_gin(None, None, [], [])
   env = jax_env.LatexBalloonJaxEnv()
   params = env.default_params
+  grid_shape = None
+  if wind == 'era5':
+    params = jax_env.check_params(params.replace(
+        wind_grid=paper_size_grid(era5_path)))
+    grid_shape = list(params.wind_grid.uv.shape)
   low = jnp.asarray(jax_env.ACTION_LOW)
   high = jnp.asarray(jax_env.ACTION_HIGH)
 
@@ -73,7 +104,8 @@ def jax_worker(batch: int, steps: int, repeats: int) -> dict:
     times.append(time.perf_counter() - t)
   wall = min(times)
   return {
-      'env': 'LatexBalloonJaxEnv', 'batch': batch, 'steps': steps,
+      'env': 'LatexBalloonJaxEnv', 'wind': wind, 'grid_shape': grid_shape,
+      'era5_path': era5_path, 'batch': batch, 'steps': steps,
       'first_call_s': first, 'wall_s': wall, 'all_wall_s': times,
       'balloon_steps_per_s': batch * steps / wall,
       'sim_hours_per_wall_s': batch * steps * STRIDE_H / wall,
@@ -195,8 +227,18 @@ flags.DEFINE_string('json', None, 'Also write the results here.',
                     flag_values=FLAGS)
 flags.DEFINE_integer('profile_batch', 1024, 'Batch size of the per-part '
                      'profile (0: none).', lower_bound=0, flag_values=FLAGS)
+flags.DEFINE_list('winds', ['vae', 'era5'], "Winds of the batched env: "
+                  "'vae' (BLE's generative field), 'era5' (ERA5 in JAX, "
+                  'EnvParams.wind_grid).', flag_values=FLAGS)
+flags.DEFINE_string('era5_path', None, "ERA5 file of the 'era5' runs; "
+                    "default: a synthetic grid of the paper's size.",
+                    flag_values=FLAGS)
+flags.DEFINE_bool('skip_gym', False, 'Skip the gym/BLE single-env runs and '
+                  'the ratios to them.', flag_values=FLAGS)
 flags.DEFINE_integer('worker', None, 'Internal: time this batch size here.',
                      flag_values=FLAGS)
+flags.DEFINE_string('worker_wind', 'vae', 'Internal: the worker\'s wind.',
+                    flag_values=FLAGS)
 flags.DEFINE_integer('profile_worker', None, 'Internal: profile this batch '
                      'size here.', flag_values=FLAGS)
 
@@ -204,7 +246,8 @@ flags.DEFINE_integer('profile_worker', None, 'Internal: profile this batch '
 def _main(argv: Sequence[str]) -> None:
   args = FLAGS
   if args.worker is not None:
-    print(json.dumps(jax_worker(args.worker, args.steps, args.repeats)))
+    print(json.dumps(jax_worker(args.worker, args.steps, args.repeats,
+                                args.worker_wind, args.era5_path)))
     return
   if args.profile_worker is not None:
     print(json.dumps(profile_worker(args.profile_worker, max(args.repeats,
@@ -213,17 +256,37 @@ def _main(argv: Sequence[str]) -> None:
 
   load_before = os.getloadavg()
   results = {'jax': [], 'gym': {}}
+  for wind in args.winds:
+    if wind not in ('vae', 'era5'):
+      raise cli.CommandUsageError(f"--winds takes vae, era5; got {wind!r}")
   for batch in (int(b) for b in args.batch_sizes.split(',')):
-    r = _child([__file__, '--worker', str(batch), '--steps', str(args.steps),
-                '--repeats', str(args.repeats)])
-    results['jax'].append(r)
-    print(f'jax N={batch:5d}: {r["balloon_steps_per_s"]:12.0f} balloon-steps/s'
-          f'  first call {r["first_call_s"]:6.1f} s  best {r["wall_s"]:7.2f} s'
-          f'  peak RSS {r["peak_rss_mb"]:6.0f} MB', flush=True)
+    for wind in args.winds:
+      r = _child([__file__, '--worker', str(batch), '--steps',
+                  str(args.steps), '--repeats', str(args.repeats),
+                  '--worker_wind', wind] +
+                 ([f'--era5_path={args.era5_path}'] if args.era5_path
+                  else []))
+      results['jax'].append(r)
+      print(f'jax {wind:4s} N={batch:5d}: {r["balloon_steps_per_s"]:12.0f} '
+            f'balloon-steps/s  first call {r["first_call_s"]:6.1f} s  best '
+            f'{r["wall_s"]:7.2f} s  peak RSS {r["peak_rss_mb"]:6.0f} MB',
+            flush=True)
+  by_wind = {}
+  for r in results['jax']:
+    by_wind.setdefault(r['batch'], {})[r['wind']] = r
+  for batch, runs in by_wind.items():
+    if 'vae' in runs and 'era5' in runs:
+      ratio = (runs['era5']['balloon_steps_per_s'] /
+               runs['vae']['balloon_steps_per_s'])
+      results.setdefault('era5_vs_vae', {})[str(batch)] = ratio
+      print(f'N={batch}: ERA5 / VAE throughput {ratio:.2f}x', flush=True)
+  if args.skip_gym:
+    args.before_ref = ''
   latex_steps = int(args.gym_episodes * 216)
   env_speed = os.path.join(_HERE, 'env_speed.py')
-  for name, steps in (('latex', latex_steps),
-                      ('ble', int(latex_steps * 20 / 3))):
+  for name, steps in (() if args.skip_gym else
+                      (('latex', latex_steps),
+                       ('ble', int(latex_steps * 20 / 3)))):
     r = _child([env_speed, '--worker', name, '--steps', str(steps)])
     results['gym'][name] = r
     print(f'{r["env"]}: {r["steps_per_s"]:.1f} steps/s, '
@@ -240,8 +303,12 @@ def _main(argv: Sequence[str]) -> None:
           f'{r["steps_per_s"]:.1f} steps/s, {r["wall_s_per_3_days"]:.2f} s '
           f'per 3 days; the core-backed env is {ratio:.1f}x faster',
           flush=True)
-  best = max(results['jax'], key=lambda r: r['sim_hours_per_wall_s'])
-  for name in ('latex', 'ble'):
+  vae_runs = [r for r in results['jax'] if r['wind'] == 'vae']
+  best = max(vae_runs or results['jax'],
+             key=lambda r: r['sim_hours_per_wall_s'])
+  for name in results['gym']:
+    if name == 'latex_before':
+      continue
     ratio = best['sim_hours_per_wall_s'] / results['gym'][name][
         'sim_hours_per_wall_s']
     results[f'ratio_sim_time_vs_{name}'] = ratio

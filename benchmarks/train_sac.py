@@ -53,6 +53,10 @@ flags.DEFINE_float('max_oor_pct', 10.0, 'select: most % of episodes out of '
                    'resources of the chosen policy.', flag_values=FLAGS)
 flags.DEFINE_string('output', None, 'select: write the chosen policy here.',
                     flag_values=FLAGS)
+flags.DEFINE_string('era5_path', None, 'select: fly the validation on this '
+                    'ERA5 file, flights starting in the validation dates '
+                    '(ble_latex.wind.era5.DATE_SPLITS; docs/era5.md).',
+                    flag_values=FLAGS)
 
 
 
@@ -105,8 +109,12 @@ def best(results: Dict[str, Dict[str, Any]],
 
 def select(base_dir: str, every: int, include_newest: bool,
            validation_episodes: int, max_oor_pct: float,
-           output: Optional[str]) -> int:
-  """Evaluates candidate policies on validation seeds; writes the best."""
+           output: Optional[str], era5_path: Optional[str] = None) -> int:
+  """Evaluates candidate policies on validation seeds; writes the best.
+
+  With `era5_path` the seeds fly ERA5 winds from the validation dates
+  (`suites.era5_dates('latex_validation')`), never the training dates.
+  """
   import gym  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
@@ -129,6 +137,16 @@ def select(base_dir: str, every: int, include_newest: bool,
                  if v.get('seeds') == [seeds[0], seeds[-1]] and
                  'tw50_window_mean' in v}
   configs.bind_gin('sac_pretrained', None, [], [])
+  era5 = cli.era5_bindings(era5_path, None,
+                           suites.era5_dates('latex_validation'))
+  if era5:
+    configs.bind_gin('sac_pretrained', None, [], era5)
+    results_path = os.path.join(base_dir, 'validation_era5.json')
+    results = {}
+    if os.path.exists(results_path):
+      with open(results_path) as f:
+        results = {k: v for k, v in json.load(f).items()
+                   if v.get('seeds') == [seeds[0], seeds[-1]]}
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
   for path in candidates(base_dir, every, include_newest):
@@ -185,7 +203,8 @@ def _main(argv: Sequence[str]) -> int:
           args.seed, args.gin_bindings)
     return 0
   return select(args.base_dir, args.every, args.include_newest,
-                args.validation_episodes, args.max_oor_pct, args.output)
+                args.validation_episodes, args.max_oor_pct, args.output,
+                args.era5_path)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

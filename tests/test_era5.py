@@ -960,14 +960,21 @@ def test_env_flies_at_the_sampled_era5_start(tmp_path):
       wind_field_factory=lambda: era5.Era5WindField(path=path,
                                                     episode_hours=1.0),
       episode_steps=2, seed=0)
+  # An Era5WindField flies its grid in the core (`EnvParams.wind_grid`).
+  assert env.arena.params.wind_grid is not None
+  reference = era5.Era5WindField(path=path, episode_hours=1.0)
   starts = []
   for _ in range(2):
     env.reset(seed=5)
-    field = env.arena._wind_field  # pylint: disable=protected-access
-    starts.append(field.start_date_time)
-    assert env.arena.get_balloon_state().date_time == field.start_date_time
+    start = env.arena.driver.start_date_time
+    starts.append(start)
+    assert env.arena.get_balloon_state().date_time == start
     env.step(np.array([17_000.0, 1.0, 1.0]))
   assert starts[0] == starts[1]
+  # Inside the data, 1 h before its end (the draw is the field's own:
+  # test_era5_jax.test_start_draw_is_era5_wind_fields).
+  assert reference.data.start <= starts[0] <= (
+      reference.data.end - dt.timedelta(hours=1))
 
 
 def test_full_random_episode_on_era5_wind(tmp_path):

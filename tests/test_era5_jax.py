@@ -247,12 +247,19 @@ def _jax_flight(params, seeds, actions):
   return np.asarray(obs).swapaxes(0, 1), np.asarray(where).swapaxes(0, 1)
 
 
+class HostEra5WindField(era5.Era5WindField):
+  """`Era5WindField` as a third-party BLE WindField: flown through host
+  callbacks (scipy, float64), the reference of the JAX grid (an
+  `Era5WindField` itself flies its grid)."""
+
+
 def _gymnasium_flight(params, path, seed, actions, episode_hours=24.0):
   """The same from the Gymnasium env flying `Era5WindField` (callbacks)."""
   env = gymnasium.make(
       'ble_latex/LatexBalloon-v0', params=params,
-      wind_field_factory=functools.partial(era5.Era5WindField, path=path,
+      wind_field_factory=functools.partial(HostEra5WindField, path=path,
                                            episode_hours=episode_hours))
+  assert env.unwrapped._wind_field is not None  # pylint: disable=protected-access
   obs, _ = env.reset(seed=seed)
   all_obs, where = [obs], []
   for action in np.asarray(actions):

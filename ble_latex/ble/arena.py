@@ -73,7 +73,10 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
       feature_constructor_factory: Builds the feature constructor;
         `features.LatexFeatureConstructor` means the core's 71 features.
       wind_field_instance: The wind field to fly in; None or a
-        `CoreGenerativeWindField`: BLE's generative field inside the core.
+        `CoreGenerativeWindField`: BLE's generative field inside the core
+        (ERA5 if gin binds `LatexBalloonEnv.wind_field_factory =
+        @Era5WindField`); an `Era5WindField`: its grid, in the core; any
+        other BLE `WindField`: host callbacks.
       seed: Optional seed (BLE semantics).
       start_altitude_range_m: Start altitude is uniform in this range;
         None: gin's `LatexBalloonArena.start_altitude_range_m`. # [m]
@@ -91,6 +94,12 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     params = jax_env.params_from_gin().replace(**jax_env.start(**given))
     if episode_steps is not None:
       params = params.replace(episode_steps=episode_steps)
+    if jax_env.is_era5(wind_field_instance):
+      # ERA5 flies in JAX (its grid in the params); BLE's consumers read it
+      # through the core's field, as the generative one.
+      params = params.replace(
+          wind_grid=jax_env.era5_grid(wind_field_instance))
+      wind_field_instance = None
     if wind_field_instance is None:
       wind_field_instance = ble_wind.CoreGenerativeWindField()
     core_wind = isinstance(wind_field_instance,
@@ -100,7 +109,8 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
             ble_wind.CoreGenerativeWindField if core_wind else
             lambda: wind_field_instance))
     if core_wind:
-      wind_field_instance.attach(lambda: self._env.state)
+      wind_field_instance.attach(lambda: self._env.state,
+                                 lambda: self._env.params)
     self._wind_field = wind_field_instance
     self._feature_constructor_factory = feature_constructor_factory
     self._core_features = (

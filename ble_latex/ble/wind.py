@@ -97,26 +97,50 @@ def callback_wind(field: wind_field.WindField) -> jax_env.Wind:
   return jax_env.Wind(ground_truth, forecast_column)
 
 
-@jax.jit
-def _forecast(state: jax_env.EnvState, x, y, pressures, t):
-  return jax_env.forecast_column(state, x, y, pressures, t)
+def _wind(grid: Any) -> jax_env.Wind:
+  """The core's wind: ERA5 on `grid`, or BLE's generative field (None)."""
+  return jax_env.GENERATIVE_WIND if grid is None else jax_env.era5_wind(grid)
 
 
 @jax.jit
-def _ground_truth(state: jax_env.EnvState, x, y, pressure, t):
-  return jax_env.ground_truth_wind(state, x, y, pressure, t)
+def _forecast(grid: Any, state: jax_env.EnvState, x, y, pressures, t):
+  wind = _wind(grid)
+  return wind.forecast_column(state, x, y, pressures, t)
+
+
+@jax.jit
+def _ground_truth(grid: Any, state: jax_env.EnvState, x, y, pressure, t):
+  wind = _wind(grid)
+  return wind.ground_truth(state, x, y, pressure, t)
 
 
 class CoreGenerativeWindField(wind_field.WindField):
-  """BLE's generative field as the flight core draws and flies it."""
+  """The core's wind as the flight core draws and flies it.
+
+  BLE's generative field, or ERA5 when the flight's params hold its grid
+  (`jax_env.EnvParams.wind_grid`).
+  """
 
   def __init__(self):
     super().__init__()
     self._state_fn: Optional[Callable[[], jax_env.EnvState]] = None
+    self._params_fn: Optional[Callable[[], jax_env.EnvParams]] = None
 
-  def attach(self, state_fn: Callable[[], jax_env.EnvState]) -> None:
-    """Reads the field of the flight `state_fn()` returns (the arena's)."""
+  def attach(self, state_fn: Callable[[], jax_env.EnvState],
+             params_fn: Optional[Callable[[], jax_env.EnvParams]] = None
+             ) -> None:
+    """Reads the field of the flight `state_fn()` returns (the arena's).
+
+    Args:
+      state_fn: The flight's state.
+      params_fn: Its params (ERA5's grid); None: BLE's generative field.
+    """
     self._state_fn = state_fn
+    self._params_fn = params_fn
+
+  def _grid(self) -> Any:
+    """The flight's ERA5 grid, or None (BLE's generative field)."""
+    return None if self._params_fn is None else self._params_fn().wind_grid
 
   def _state(self) -> jax_env.EnvState:
     state = None if self._state_fn is None else self._state_fn()
@@ -143,8 +167,8 @@ class CoreGenerativeWindField(wind_field.WindField):
       elapsed_time: dt.timedelta) -> List[wind_field.WindVector]:
     """BLE's `get_forecast_column`: the forecast at several pressures."""
     u, v = jax.device_get(_forecast(
-        self._state(), jnp.float32(x.meters), jnp.float32(y.meters),
-        jnp.asarray(np.asarray(pressures, np.float32)),
+        self._grid(), self._state(), jnp.float32(x.meters),
+        jnp.float32(y.meters), jnp.asarray(np.asarray(pressures, np.float32)),
         jnp.float32(elapsed_time.total_seconds())))
     return _vectors(u, v)
 
@@ -153,6 +177,7 @@ class CoreGenerativeWindField(wind_field.WindField):
                        elapsed_time: dt.timedelta) -> wind_field.WindVector:
     """BLE's `get_ground_truth`: forecast plus simplex noise, from the core."""
     u, v = jax.device_get(_ground_truth(
-        self._state(), jnp.float32(x.meters), jnp.float32(y.meters),
-        jnp.float32(pressure), jnp.float32(elapsed_time.total_seconds())))
+        self._grid(), self._state(), jnp.float32(x.meters),
+        jnp.float32(y.meters), jnp.float32(pressure),
+        jnp.float32(elapsed_time.total_seconds())))
     return _vectors(u, v)[0]

@@ -29,10 +29,12 @@ any of them. `run_absl` gives every command the same contract:
 import difflib
 import os
 import sys
-from typing import Any, Callable, Iterable, NoReturn, Optional, Sequence
+from typing import (Any, Callable, Iterable, List, NoReturn, Optional,
+                    Sequence)
 
 from absl import app
 from absl import flags
+import gin
 
 from ble_latex import configs
 from ble_latex import errors
@@ -207,6 +209,81 @@ def check_env_config() -> None:
   """
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   jax_env.params_from_gin()
+
+
+# -- ERA5: --era5_path / --era5_dates of train and eval. ----------------------
+ERA5_PATH_HELP = ('ERA5 NetCDF file or glob pattern (from '
+                  'ble-latex-download-era5): every env flies ERA5 (binds '
+                  'LatexBalloonEnv.wind_field_factory = @Era5WindField and '
+                  'Era5WindField.path; the same as gin_configs/paper_era5.gin '
+                  'with that path).')
+ERA5_DATES_HELP = ("Date range ERA5 flights start in: a split (train, "
+                   "validation, eval; ble_latex.wind.era5.DATE_SPLITS), "
+                   "'all' (anywhere in the file) or FIRST,END (ISO dates, "
+                   "END excluded). Default: {default}. Needs ERA5 winds "
+                   "(--era5_path or a gin file binding @Era5WindField).")
+
+
+def era5_bindings(path: Optional[str], dates: Optional[str],
+                  default_dates: str) -> List[str]:
+  """The gin bindings of --era5_path / --era5_dates (after `bind_gin`).
+
+  Call after the user's gin is bound: ERA5 is on with `path`, or when gin
+  binds `LatexBalloonEnv.wind_field_factory = @Era5WindField`. The start
+  range is `dates`, else an `Era5WindField.start_dates` the user bound,
+  else `default_dates` (the command's split).
+
+  Args:
+    path: --era5_path, or None.
+    dates: --era5_dates, or None.
+    default_dates: The command's split (train: 'train'; eval: the suite's).
+
+  Returns:
+    Bindings to add after the user's (empty without ERA5).
+
+  Raises:
+    CommandUsageError: --era5_dates without ERA5, or a bad range.
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env
+  from ble_latex.wind import era5
+  # pylint: enable=g-import-not-at-top
+  bindings = []
+  if path is not None:
+    if not path.strip():
+      raise CommandUsageError('--era5_path is empty')
+    # Absolute (the Ray workers' working directory may differ).
+    path = os.path.abspath(os.path.expandvars(os.path.expanduser(path)))
+    bindings += ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
+                 f'Era5WindField.path = {path!r}']
+  elif not jax_env.is_era5(jax_env.episode()['wind_field_factory']):
+    if dates is not None:
+      raise CommandUsageError(
+          '--era5_dates needs ERA5 winds: --era5_path, or a gin file binding '
+          'LatexBalloonEnv.wind_field_factory = @Era5WindField')
+    return []
+  if dates is None:
+    try:
+      gin.query_parameter('Era5WindField.start_dates')
+      return bindings  # The user's gin chose the range.
+    except ValueError:
+      dates = default_dates
+  value = era5_dates_value(dates)
+  return bindings + [f'Era5WindField.start_dates = {value!r}']
+
+
+def era5_dates_value(dates: str) -> Any:
+  """`Era5WindField.start_dates` of an --era5_dates value (checked)."""
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  if dates == 'all':
+    return None
+  value = dates if dates in era5.DATE_SPLITS else tuple(
+      d.strip() for d in dates.split(','))
+  try:
+    era5.start_dates_range(value, '--era5_dates')
+  except errors.ConfigError as e:
+    raise CommandUsageError(str(e)) from e
+  return value
 
 
 # -- Checks shared by train and eval. ----------------------------------------

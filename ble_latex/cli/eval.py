@@ -18,6 +18,11 @@ is the same (`ble_latex.run.distributed`, docs/ray.md):
   ble-latex-eval --agent=station_seeker --env_name=LatexBalloonDiscrete-v0 \
       --suite=latex_small --ray_address=local --ray_num_cpus=2
 
+On ERA5 (`--era5_path=era5_paper.nc`, or `--gin_file=gin_configs/
+paper_era5.gin`) the flights start inside the suite's dates
+(`suites.era5_dates`: latex_validation flies 'validation', every other
+suite 'eval'; `--era5_dates` to choose), never the training dates.
+
 If seeds fail on Ray, the others are written to NAME.partial.json and the
 command exits with status 1, listing each failed seed with its error.
 
@@ -36,6 +41,7 @@ from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex.cli import common as cli
+from ble_latex import configs
 from ble_latex import quiet
 
 with quiet.third_party_noise():
@@ -85,6 +91,11 @@ flags.DEFINE_string('ray_address', None,
                     'this machine), auto (the cluster this machine joined) '
                     "or HOST:PORT / ray://HOST:PORT. Needs the 'ray' extra.",
                     flag_values=FLAGS)
+flags.DEFINE_string('era5_path', None, cli.ERA5_PATH_HELP, flag_values=FLAGS)
+flags.DEFINE_string('era5_dates', None,
+                    cli.ERA5_DATES_HELP.format(
+                        default="the suite's (latex_validation: validation; "
+                        'every other suite: eval)'), flag_values=FLAGS)
 flags.DEFINE_integer('ray_num_cpus', None,
                      'CPUs of a --ray_address=local Ray (default: all).',
                      lower_bound=1, flag_values=FLAGS)
@@ -93,10 +104,16 @@ flags.DEFINE_integer('ray_num_cpus', None,
 def _main(argv: Sequence[str]) -> None:
   if (FLAGS.checkpoint_dir is None) != (FLAGS.checkpoint_idx is None):
     raise app.UsageError('--checkpoint_dir and --checkpoint_idx go together.')
+  # ERA5 (--era5_path, or a gin file binding it): the suite's dates; the
+  # bindings travel in the spec (Ray workers bind the same).
+  configs.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
+                   FLAGS.gin_bindings)
+  era5_bindings = cli.era5_bindings(FLAGS.era5_path, FLAGS.era5_dates,
+                                    suites.era5_dates(FLAGS.suite))
   spec = eval_lib.EvalSpec(
       agent=FLAGS.agent, env_name=FLAGS.env_name,
       agent_gin_file=FLAGS.agent_gin_file, gin_files=tuple(FLAGS.gin_file),
-      gin_bindings=tuple(FLAGS.gin_bindings),
+      gin_bindings=(*FLAGS.gin_bindings, *era5_bindings),
       checkpoint_dir=FLAGS.checkpoint_dir, checkpoint_idx=FLAGS.checkpoint_idx,
       seed=FLAGS.seed)
   name = FLAGS.name_override or (

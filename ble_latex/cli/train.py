@@ -27,6 +27,13 @@ restarted with the same flags, training resumes after the last checkpoint:
 episodes logged after it are dropped and re-run from their seeds, so no
 episode is lost or repeated. Episode i always flies env seed i (held-out eval
 seeds start at 1,000,000).
+
+On ERA5 (`--era5_path`, or `--gin_file=gin_configs/paper_era5.gin`) flights
+start inside the 'train' dates (`--era5_dates`, `era5.DATE_SPLITS`), and the
+jax trainer's validation flies the 'validation' dates (docs/era5.md):
+
+  ble-latex-train --trainer=jax --base_dir=/tmp/latex/era5 \
+      --era5_path=era5_paper.nc --policy_snapshot_period=5
 """
 
 import os
@@ -103,6 +110,12 @@ flags.DEFINE_integer('policy_snapshot_period', 0,
                      'policy (~1 MB) to BASE_DIR/policies/, for choosing one '
                      'on a validation suite afterwards. 0: never.',
                      flag_values=FLAGS)
+flags.DEFINE_string('era5_path', None, cli.ERA5_PATH_HELP, flag_values=FLAGS)
+flags.DEFINE_string('era5_dates', None,
+                    cli.ERA5_DATES_HELP.format(default='train (the jax '
+                                               "trainer's validation flies "
+                                               'validation)'),
+                    flag_values=FLAGS)
 flags.mark_flag_as_required('base_dir', flag_values=FLAGS)
 
 
@@ -128,6 +141,11 @@ def _main(argv: Sequence[str]) -> None:
     agent_gin_file = configs.gin_file('sac_jax.gin')
   configs.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                   FLAGS.gin_bindings)
+  era5_bindings = cli.era5_bindings(FLAGS.era5_path, FLAGS.era5_dates,
+                                    suites.TRAIN_DATES)
+  if era5_bindings:  # ERA5: the file, and the training dates.
+    configs.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
+                     [*FLAGS.gin_bindings, *era5_bindings])
   cli.check_env_config()
   cli.prepare_output_dir(FLAGS.base_dir, '--base_dir')
   if jax_trainer:
@@ -136,6 +154,7 @@ def _main(argv: Sequence[str]) -> None:
     # pylint: enable=g-import-not-at-top
     first = suites.VALIDATION_SEED_OFFSET
     jax_train.train_seeds(
+        validation_params=_era5_validation_params(),
         runs=seed_dirs(), num_iterations=FLAGS.num_iterations,
         collectors=FLAGS.collectors,
         policy_snapshot_period=FLAGS.policy_snapshot_period,
@@ -150,6 +169,27 @@ def _main(argv: Sequence[str]) -> None:
           max_episode_length=FLAGS.max_episode_length,
           collectors=FLAGS.collectors, seed=seed,
           policy_snapshot_period=FLAGS.policy_snapshot_period)
+
+
+def _era5_validation_params():
+  """The jax trainer's validation env on ERA5: the validation dates.
+
+  When training flies the 'train' split (the default), the training params
+  with flights starting in the 'validation' split (the same winds on the
+  device, `jax_env.era5_grid`); None otherwise (no ERA5, or other training
+  dates: validation flies the training env; choose with
+  `ble-latex-eval --suite=latex_validation --era5_dates=...`).
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env
+  from ble_latex.wind import era5
+  # pylint: enable=g-import-not-at-top
+  params = jax_env.params_from_gin()
+  if (params.wind_grid is None or
+      era5.Era5WindField().start_dates != suites.TRAIN_DATES):
+    return None
+  return params.replace(wind_grid=jax_env.era5_grid(
+      era5.Era5WindField(start_dates=suites.era5_dates('latex_validation'))))
 
 
 def check() -> None:

@@ -33,9 +33,11 @@ TensorFlow; both read the env's gin names (`jax_env.params_from_gin`).
   vector env resets ended balloons in the same step
   (`AutoresetMode.SAME_STEP`, the core's gymnax convention) from seeds drawn
   from `np_random`, with `info['final_obs']` / `info['final_info']`.
-- The single env flies any BLE `WindField` (`wind_field_factory`, e.g.
-  ERA5's) through host callbacks (`ble_latex.ble.wind.callback_wind`); the
-  vector env flies BLE's generative field inside the core.
+- Both fly BLE's generative field inside the core, or ERA5 when the params
+  hold its grid (`EnvParams.wind_grid`: gin's `LatexBalloonEnv.
+  wind_field_factory = @Era5WindField`, or an `Era5WindField` factory).
+  The single env also flies any other BLE `WindField` (`wind_field_factory`)
+  through host callbacks (`ble_latex.ble.wind.callback_wind`).
 
 The ids are registered with gymnasium by `ble_latex.envs.gymnasium_registration`
 when `ble_latex` is imported.
@@ -450,9 +452,12 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
       gin's `LatexBalloonEnv.station_keeping_radius_km` (50). The reward's
       radius is BLE's `perciatelli_reward_function`'s.
     wind_field_factory: None (or `ble_latex.ble.wind.CoreGenerativeWindField`):
-      BLE's generative field inside the core; any other factory of a BLE
-      `WindField` (e.g. `ble_latex.wind.era5.Era5WindField`) is flown through
-      host callbacks. None reads gin's `LatexBalloonEnv.wind_field_factory`.
+      BLE's generative field inside the core; `ble_latex.wind.era5.
+      Era5WindField` (the class, gin's `@Era5WindField`, or a factory of its
+      instances): its ERA5 grid in the params (`EnvParams.wind_grid`), flown
+      in JAX; any other factory of a BLE `WindField` (third-party fields,
+      subclasses) is flown through host callbacks. None reads gin's
+      `LatexBalloonEnv.wind_field_factory`.
     params: `jax_env.EnvParams` to fly instead of the gin-bound ones.
 
   Attributes:
@@ -486,14 +491,25 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
                bound['wind_field_factory'])
     self._wind_field = None
     compiled = _generative(batched=False)
-    if not _is_core_generative(factory):
-      # pylint: disable=g-import-not-at-top
-      from ble_latex.ble import wind as ble_wind
-      # pylint: enable=g-import-not-at-top
-      self._wind_field = factory()
-      compiled = _Compiled(jax_env.LatexBalloonJaxEnv(
-          ble_wind.callback_wind(self._wind_field)), batched=False)
+    grid = None
+    if jax_env.is_era5(factory):  # gin's @Era5WindField: ERA5 in JAX.
+      grid = jax_env.era5_grid_from_gin(factory)
+    elif not _is_core_generative(factory):
+      field = factory()
+      if jax_env.is_era5(field):  # An Era5WindField: its grid, in JAX.
+        grid = jax_env.era5_grid(field)
+      else:  # A third-party BLE WindField: host callbacks.
+        # pylint: disable=g-import-not-at-top
+        from ble_latex.ble import wind as ble_wind
+        # pylint: enable=g-import-not-at-top
+        self._wind_field = field
+        compiled = _Compiled(jax_env.LatexBalloonJaxEnv(
+            ble_wind.callback_wind(field)), batched=False)
+    if grid is not None and params is not None:
+      params = params.replace(wind_grid=grid)
     self._setup(params, episode_steps, normalize_actions, compiled)
+    if grid is not None and self.params.wind_grid is not grid:
+      self.params = jax_env.check_params(self.params.replace(wind_grid=grid))
     self.action_space = self._single_action_space
     self.observation_space = self._single_observation_space
     self.flight: Optional[Dict[str, np.ndarray]] = None

@@ -72,6 +72,7 @@ from ble_latex.flight import dynamics
 from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
+from ble_latex.wind import era5
 from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
 from ble_latex.wind import simplex
@@ -613,8 +614,9 @@ def check_params(params: EnvParams) -> EnvParams:
   reward (`gin_values.check_reward_values`), the start band (finite, low <=
   high, inside (0, `START_ALTITUDE_MAX_M`)), `max_start_distance_km` (> 0),
   `episode_steps` (an int >= 1), the stride (>= 1 s; the physics sub-step,
-  vertical step and release chunk no longer than it), and the launch volume
-  below the burst volume anywhere in the start band (`start_volume_m3`).
+  vertical step and release chunk no longer than it), the launch volume
+  below the burst volume anywhere in the start band (`start_volume_m3`),
+  and an ERA5 `wind_grid` (`check_wind_grid`).
 
   Returns:
     The params with Python floats (and an int `episode_steps`).
@@ -667,12 +669,94 @@ def check_params(params: EnvParams) -> EnvParams:
         f'{what}: the balloon would start at {volume:.4g} m^3 at {top:g} m, '
         f'above {flight_params_lib.gin_name("burst_volume_m3")} = '
         f'{burst:g} (it would burst at once)')
+  if p.wind_grid is not None:
+    check_wind_grid(p.wind_grid)
   floats = ('radius_km', 'reward_dropoff', 'reward_halflife_km',
             'helium_penalty_per_mol', 'sand_penalty_per_kg',
             'start_altitude_low_m', 'start_altitude_high_m',
             'max_start_distance_km')
   return p.replace(episode_steps=int(p.episode_steps), stride_s=stride,
                    **{f: float(getattr(p, f)) for f in floats})
+
+
+# Grids `check_wind_grid` passed, by the ids of their arrays (kept alive
+# here so an id is never reused): a grid is checked once, not at every env.
+_CHECKED_GRIDS: Dict[Tuple[int, ...], Tuple[Any, ...]] = {}
+
+
+def check_wind_grid(grid: Any) -> None:
+  """Checks `EnvParams.wind_grid` on the host (one line per fault).
+
+  An `era5_jax.Era5Grid` with 1-D axes of >= 2 finite, strictly ascending
+  values (time from 0), winds of shape (time, pressure, latitude,
+  longitude, 2), finite and below `era5.MAX_WIND_MPS`, finite target and
+  origin values, and a start range 0 <= first <= last inside the time
+  axis. Grids from `era5_jax.grid_from_data` pass (the reader checked the
+  file); this catches grids built or edited by hand.
+
+  Raises:
+    errors.ConfigError: Naming the field, e.g. "EnvParams.wind_grid.uv has
+      shape (3, 4, 5, 5, 2), expected (time 3, pressure 4, latitude 5,
+      longitude 6, 2)".
+  """
+  what = 'EnvParams.wind_grid'
+  if not isinstance(grid, era5_jax.Era5Grid):
+    raise errors.ConfigError(f'{what} must be an era5_jax.Era5Grid '
+                             f'(era5_jax.grid_from_data) or None, got '
+                             f'{type(grid).__name__}')
+  leaves = tuple(jax.tree.leaves(grid)) + (grid.add_noise,)
+  key = tuple(id(leaf) for leaf in leaves)
+  seen = _CHECKED_GRIDS.get(key)
+  if seen is not None and all(a is b for a, b in zip(seen, leaves)):
+    return
+  axes = {}
+  for name in ('time_s', 'pressure_pa', 'latitude', 'longitude'):
+    axis = np.asarray(jax.device_get(getattr(grid, name)), np.float64)
+    if axis.ndim != 1 or axis.size < 2:
+      raise errors.ConfigError(f'{what}.{name} must be 1-D with >= 2 values, '
+                               f'got shape {axis.shape}')
+    if not np.all(np.isfinite(axis)):
+      raise errors.ConfigError(f'{what}.{name} holds non-finite values')
+    if not np.all(np.diff(axis) > 0):
+      raise errors.ConfigError(f'{what}.{name} must be strictly ascending')
+    axes[name] = axis
+  if axes['time_s'][0] != 0.0:
+    raise errors.ConfigError(f'{what}.time_s must start at 0 (seconds after '
+                             f"the data's first time), got "
+                             f'{axes["time_s"][0]:g}')
+  if axes['pressure_pa'][0] <= 0.0:
+    raise errors.ConfigError(f'{what}.pressure_pa must be > 0 Pa, got '
+                             f'{axes["pressure_pa"][0]:g}')
+  expected = tuple(a.size for a in axes.values()) + (2,)
+  if tuple(grid.uv.shape) != expected:
+    raise errors.ConfigError(
+        f'{what}.uv has shape {tuple(grid.uv.shape)}, expected (time '
+        f'{expected[0]}, pressure {expected[1]}, latitude {expected[2]}, '
+        f'longitude {expected[3]}, 2)')
+  uv = np.asarray(jax.device_get(grid.uv))
+  if not np.all(np.isfinite(uv)):
+    raise errors.ConfigError(f'{what}.uv holds non-finite winds')
+  if np.max(np.abs(uv)) > era5.MAX_WIND_MPS:
+    raise errors.ConfigError(
+        f'{what}.uv holds |wind| {np.max(np.abs(uv)):.4g} m/s, above '
+        f'{era5.MAX_WIND_MPS:g} m/s')
+  for name in ('latitude_origin', 'longitude_origin', 'sin_center_lat',
+               'cos_center_lat', 'center_lon'):
+    value = np.asarray(jax.device_get(getattr(grid, name)))
+    if value.shape != () or not np.isfinite(value):
+      raise errors.ConfigError(f'{what}.{name} must be a finite scalar, got '
+                               f'{value!r}')
+  first, last = (np.asarray(jax.device_get(grid.first_start_minute)),
+                 np.asarray(jax.device_get(grid.last_start_minute)))
+  span_min = axes['time_s'][-1] / 60.0
+  if (first.shape != () or last.shape != () or
+      not 0 <= int(first) <= int(last) <= span_min):
+    raise errors.ConfigError(
+        f'{what}: start minutes [{first}, {last}] must satisfy 0 <= first '
+        f'<= last <= {span_min:g} (the time axis)')
+  if len(_CHECKED_GRIDS) >= 8:
+    _CHECKED_GRIDS.clear()
+  _CHECKED_GRIDS[key] = leaves
 
 
 # The gin names of `EnvParams` (besides the flight system's, `flight.params`,
@@ -768,14 +852,89 @@ def params_from_gin() -> EnvParams:
        'reward_dropoff': _DEFAULTS['reward_dropoff'],
        'reward_halflife': _DEFAULTS['reward_halflife_km']})
   values = episode()
-  del values['wind_field_factory']
+  grid = era5_grid_from_gin(values.pop('wind_field_factory'))
   params = check_params(EnvParams(
       flight=flight_params_lib.flight_params_from_gin(), decoder=None,
       radius_km=ble['station_keeping_radius_km'],
       reward_dropoff=ble['reward_dropoff'],
       reward_halflife_km=ble['reward_halflife'],
-      **resource_penalties(), **start(), **values))
+      **resource_penalties(), **start(), **values, wind_grid=grid))
   return params.replace(decoder=generative.decoder_params())
+
+
+def is_era5(field_or_factory: Any) -> bool:
+  """Whether the gym envs fly this wind (factory) as an ERA5 grid in JAX.
+
+  True for `era5.Era5WindField` (the class, gin's `@Era5WindField`) and
+  its instances (not subclasses): they fly `EnvParams.wind_grid`; every
+  other BLE `WindField` flies through host callbacks (`ble_latex.ble.wind`).
+  """
+  return (field_or_factory is era5.Era5WindField or
+          type(field_or_factory) is era5.Era5WindField)  # pylint: disable=unidiomatic-typecheck
+
+
+# Grids built from `Era5WindField`s, by (data, target, flight, dates): every
+# env of a process shares one device copy of a file's winds.
+_GRIDS: Dict[Tuple[Any, ...], Tuple[Any, era5_jax.Era5Grid]] = {}
+
+
+def era5_grid(field: era5.Era5WindField) -> era5_jax.Era5Grid:
+  """The device grid of an `Era5WindField` (cached per data and settings).
+
+  Two settings that differ only in `start_dates` share the winds' arrays
+  (`era5_jax.with_start_dates`).
+  """
+  data = field.data
+  base = (id(data), field.center_lat, field.center_lon, field.episode_hours,
+          field.add_noise)
+  key = base + (repr(field.start_dates),)
+  if key not in _GRIDS:
+    shared = next((grid for k, (d, grid) in _GRIDS.items()
+                   if k[:-1] == base and d is data), None)
+    if shared is None:
+      grid = era5_jax.grid_from_field(field)
+    else:
+      grid = era5_jax.with_start_dates(
+          shared, data, start_dates=field.start_dates,
+          center_lat=field.center_lat, center_lon=field.center_lon,
+          episode_hours=field.episode_hours)
+    if len(_GRIDS) >= 8:
+      _GRIDS.clear()
+    _GRIDS[key] = (data, grid)
+  return _GRIDS[key][1]
+
+
+def era5_grid_from_gin(factory: Any = None) -> Optional[era5_jax.Era5Grid]:
+  """The ERA5 grid of gin's `LatexBalloonEnv.wind_field_factory`, or None.
+
+  With `LatexBalloonEnv.wind_field_factory = @Era5WindField` (or `factory`
+  `era5.Era5WindField`) the `Era5WindField.*` bindings (path, target,
+  episode_hours, add_noise, start_dates) are read, the file(s) by the one
+  reader (`era5.load`), into the grid every env flies
+  (`EnvParams.wind_grid`). Any other factory: None.
+
+  Raises:
+    errors.ConfigError: `Era5WindField.path` unbound, or a bad binding.
+    FileNotFoundError, errors.BadFileError: As `era5.load`.
+  """
+  if factory is None:
+    factory = episode()['wind_field_factory']
+  if factory is not era5.Era5WindField:
+    return None
+  try:
+    gin.query_parameter('Era5WindField.path')
+  except ValueError as e:
+    raise errors.ConfigError(
+        'LatexBalloonEnv.wind_field_factory = @Era5WindField needs the ERA5 '
+        "file: bind Era5WindField.path = 'era5_paper.nc' (or --era5_path)"
+        ) from e
+  try:
+    field = factory()
+  except errors.BadFileError:
+    raise
+  except ValueError as e:
+    raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
+  return era5_grid(field)
 
 
 def stride_seconds(value: Any) -> float:

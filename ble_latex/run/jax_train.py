@@ -284,7 +284,8 @@ class _RunDir:
   def record(self, *, iteration: int, state: sac_trainer.TrainState,
              out: sac_trainer.RoundOutput, wall: float,
              env: jax_env.LatexBalloonJaxEnv,
-             params: jax_env.EnvParams, checkpoint: bool,
+             params: jax_env.EnvParams, validation_params: jax_env.EnvParams,
+             checkpoint: bool,
              policy_snapshot_period: int) -> Optional[Dict[str, Any]]:
     """Logs a finished round of this seed; returns its validation record.
 
@@ -296,6 +297,7 @@ class _RunDir:
       wall: The round's wall time (for vmapped seeds, that of all). # [s]
       env: The functional env.
       params: Env parameters.
+      validation_params: The validation's env parameters.
       checkpoint: Whether to write a checkpoint after this round.
       policy_snapshot_period: Rounds between policy snapshots (0: never).
     """
@@ -321,7 +323,7 @@ class _RunDir:
       began = time.monotonic()
       result = validation_summary(
           sac_trainer.validate(self.learner, env, state.network_params,
-                   self._validation_seeds, window, params), window)
+                   self._validation_seeds, window, validation_params), window)
       self.elapsed += time.monotonic() - began
       record = {'iteration': iteration,
                 'training_episodes': (iteration + 1) * n,
@@ -358,6 +360,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
           policy_snapshot_period: int = 1, checkpoint_period: int = 1,
           validation_seeds: Sequence[int] = (),
           env_params: Optional[jax_env.EnvParams] = None,
+          validation_params: Optional[jax_env.EnvParams] = None,
           on_validation: Optional[Callable[[Dict[str, Any]], None]] = None,
           lock_wait_s: float = 0.0) -> sac_trainer.TrainState:
   """Runs (or resumes) one jitted training run; gin must already be bound.
@@ -378,6 +381,9 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
       (`sac_trainer.validate`); the results go to `base_dir/validation.jsonl`
       (with the training wall time so far) and tensorboard (`Validation/*`).
     env_params: Env parameters (default: `jax_env.params_from_gin()`).
+    validation_params: The validation's env parameters (default: the
+      training's), e.g. ERA5 flights starting in the validation dates
+      (`era5.DATE_SPLITS`); the same static structure as `env_params`.
     on_validation: Called with each `validation.jsonl` record once its round
       is done (policy snapshot written; the checkpoint too when the periods
       coincide), e.g. to report it to
@@ -399,8 +405,8 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
       runs=[(seed, base_dir)], num_iterations=num_iterations, config=config,
       collectors=collectors, policy_snapshot_period=policy_snapshot_period,
       checkpoint_period=checkpoint_period, validation_seeds=validation_seeds,
-      env_params=env_params, on_validation=on_validation,
-      lock_wait_s=lock_wait_s)[0]
+      env_params=env_params, validation_params=validation_params,
+      on_validation=on_validation, lock_wait_s=lock_wait_s)[0]
 
 
 def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
@@ -410,6 +416,7 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
                 policy_snapshot_period: int = 1, checkpoint_period: int = 1,
                 validation_seeds: Sequence[int] = (),
                 env_params: Optional[jax_env.EnvParams] = None,
+                validation_params: Optional[jax_env.EnvParams] = None,
                 on_validation: Optional[Callable[[Dict[str, Any]], None]] = None,
                 vmap: bool = False, lock_wait_s: float = 0.0
                 ) -> List[sac_trainer.TrainState]:
@@ -431,6 +438,7 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
     checkpoint_period: As `train`.
     validation_seeds: As `train`.
     env_params: As `train`.
+    validation_params: As `train`.
     on_validation: As `train`, called with each seed's records.
     vmap: Train the seeds together with `jax.vmap`.
     lock_wait_s: As `train`.
@@ -459,6 +467,8 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
     params = (jax_env.check_params(env_params) if env_params is not None
               else env.default_params)
     window = int(params.episode_steps)
+    validation_params = (params if validation_params is None else
+                         jax_env.check_params(validation_params))
     learner = sac_trainer.learner_for(config)
     n = config.num_envs
 
@@ -472,7 +482,8 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
     def record(run, iteration, state, out, wall):
       result = run.record(
           iteration=iteration, state=state, out=out, wall=wall, env=env,
-          params=params, checkpoint=checkpoint_due(iteration),
+          params=params, validation_params=validation_params,
+          checkpoint=checkpoint_due(iteration),
           policy_snapshot_period=policy_snapshot_period)
       if result is not None and on_validation is not None:
         on_validation(result)

@@ -6,6 +6,11 @@ evaluation suites use seeds from EVAL_SEED_OFFSET up, so they never overlap.
 `latex_validation` (seeds from VALIDATION_SEED_OFFSET) is for choosing among
 checkpoints (`benchmarks/train_sac.py select`); it overlaps neither training
 nor the held-out suites that results are reported on.
+On ERA5 winds the split is by dates too (`era5_dates`): training flights
+start inside `wind.era5.DATE_SPLITS['train']`, `latex_validation` inside
+'validation' and every other suite inside 'eval', three disjoint date
+ranges a 3-day episode apart, so a policy is never evaluated (or chosen) on
+winds it trained on.
 Registration is explicit and happens in one place, `register()`: nothing is
 added to BLE's registry at import. `get_eval_suite` and `available_suites`
 (BLE's, with the latex suites registered first) are what ble_latex's commands
@@ -27,6 +32,17 @@ SUITE_SIZES = {
     'latex_small': 100,
     'latex_medium': 1000,
 }
+
+
+# The ERA5 date split (`wind.era5.DATE_SPLITS`) each use flies.
+TRAIN_DATES = 'train'
+SUITE_DATES = {'latex_validation': 'validation'}
+EVAL_DATES = 'eval'  # Every other suite.
+
+
+def era5_dates(suite: str) -> str:
+  """The `DATE_SPLITS` name ERA5 flights of `suite` start in."""
+  return SUITE_DATES.get(suite, EVAL_DATES)
 
 
 def register() -> None:

@@ -105,6 +105,15 @@ PAPER_MIN_PRESSURE_HPA = 20.0  # [hPa] = 2000 Pa
 PAPER_MAX_PRESSURE_HPA = 175.0  # [hPa] = 17 500 Pa
 PAPER_GRID_DEG = 0.4  # [deg]
 PAPER_TIMES = ('00:00', '06:00', '12:00', '18:00')
+# The held-out split of the paper's period by dates: flights start inside
+# [first, end) of their split (`Era5WindField.start_dates`). Each gap is one
+# 3-day episode, so a training flight never flies a validation or evaluation
+# flight's winds (the last training start, 12 Dec 23:59, lands before 16 Dec).
+DATE_SPLITS = {
+    'train': ('2022-11-01', '2022-12-13'),
+    'validation': ('2022-12-16', '2022-12-29'),
+    'eval': ('2023-01-01', '2023-01-29'),
+}
 # Covers the 200 km start radius and the 500 km the balloon may drift.
 DEFAULT_HALF_WIDTH_DEG = 5.0  # [deg]
 # ERA5's 37 standard pressure levels. # [hPa]
@@ -821,6 +830,93 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...]) -> Era5Data:
   return Era5Data(tuple(s[0] for s in stamps), *arrays)
 
 
+def start_dates_range(start_dates: Any, what: str = 'Era5WindField.start_dates'
+                      ) -> Optional[Tuple[dt.datetime, dt.datetime]]:
+  """The [first, end) start range of `Era5WindField.start_dates`, UTC.
+
+  Args:
+    start_dates: None (any start in the data), a split of `DATE_SPLITS`
+      ('train', 'validation', 'eval') or a (first, end) pair of ISO dates or
+      date-times (strings, `datetime.date`s or `datetime.datetime`s; naive
+      ones are UTC), first < end.
+    what: The binding or flag named in errors.
+
+  Returns:
+    None, or (first, end) as aware UTC date-times.
+
+  Raises:
+    errors.ConfigError: anything else, in one line.
+  """
+  if start_dates is None:
+    return None
+  given = start_dates
+  if isinstance(start_dates, str):
+    if start_dates not in DATE_SPLITS:
+      raise errors.ConfigError(
+          f'{what} = {given!r}: not a split ({sorted(DATE_SPLITS)}) nor a '
+          '(first, end) pair of dates')
+    start_dates = DATE_SPLITS[start_dates]
+  if not isinstance(start_dates, (tuple, list)) or len(start_dates) != 2:
+    raise errors.ConfigError(
+        f'{what} = {given!r}: expected a split ({sorted(DATE_SPLITS)}) or a '
+        "(first, end) pair of dates, e.g. ('2022-11-01', '2022-12-13')")
+  pair = []
+  for value in start_dates:
+    try:
+      if isinstance(value, dt.datetime):
+        when = value
+      elif isinstance(value, dt.date):
+        when = dt.datetime(value.year, value.month, value.day)
+      else:
+        when = dt.datetime.fromisoformat(str(value))
+    except ValueError as e:
+      raise errors.ConfigError(
+          f'{what} = {given!r}: {value!r} is not an ISO date (YYYY-MM-DD '
+          'or YYYY-MM-DDTHH:MM)') from e
+    if when.tzinfo is None:
+      when = when.replace(tzinfo=dt.timezone.utc)
+    pair.append(when.astimezone(dt.timezone.utc))
+  if not pair[0] < pair[1]:
+    raise errors.ConfigError(f'{what} = {given!r}: the first date must come '
+                             'before the end')
+  return pair[0], pair[1]
+
+
+def start_window(data: Era5Data, *, center_lat: float, center_lon: float,
+                 episode_hours: float, start_dates: Any = None
+                 ) -> Tuple[int, int]:
+  """The minutes a flight may start at, after the data's first time.
+
+  `last_start_minute`'s checks, and the starts restricted to `start_dates`
+  (`start_dates_range`: [first, end), so the splits of `DATE_SPLITS` never
+  share a start).
+
+  Returns:
+    (first, last) whole minutes after the data's first time, inclusive.
+
+  Raises:
+    ValueError: as `last_start_minute`; `errors.ConfigError`: bad
+      `start_dates`, or no start of the range lies in the data with
+      `episode_hours` after it.
+  """
+  last = last_start_minute(data, center_lat=center_lat, center_lon=center_lon,
+                           episode_hours=episode_hours)
+  window = start_dates_range(start_dates)
+  if window is None:
+    return 0, last
+  first_s = (window[0] - data.start).total_seconds()
+  end_s = (window[1] - data.start).total_seconds()
+  first = max(0, math.ceil(first_s / 60.0))
+  last = min(last, math.ceil(end_s / 60.0) - 1)
+  if first > last:
+    raise errors.ConfigError(
+        f'Era5WindField.start_dates = {start_dates!r}: no flight of '
+        f'{episode_hours:g} h can start in [{window[0]:%Y-%m-%d %H:%M}, '
+        f'{window[1]:%Y-%m-%d %H:%M}) inside ERA5 file(s) {list(data.paths)} '
+        f'({data.start:%Y-%m-%d %H:%M} to {data.end:%Y-%m-%d %H:%M})')
+  return int(first), int(last)
+
+
 def last_start_minute(data: Era5Data, *, center_lat: float, center_lon: float,
                       episode_hours: float) -> int:
   """Checks a flight against the data; the last minute a flight may start.
@@ -880,8 +976,9 @@ class Era5WindField(wind_field.WindField):
   The ground truth adds BLE's simplex noise unless `add_noise` is False.
 
   Each reset samples the flight's start time uniformly (whole minutes) from
-  the file's time range such that `episode_hours` fit, from the forecast key
-  (same key, same start). The `date_time` BLE passes to `reset` is ignored
+  the file's time range such that `episode_hours` fit, and inside
+  `start_dates` if given (the held-out split by dates, `DATE_SPLITS`), from
+  the forecast key (same key, same start). The `date_time` BLE passes to `reset` is ignored
   (as BLE's generative field does); `start_date_time` holds the sampled
   start, and the arena uses it as the balloon's date and time.
   """
@@ -892,7 +989,8 @@ class Era5WindField(wind_field.WindField):
                center_lat: float = PAPER_CENTER_LAT,  # [deg N]
                center_lon: float = PAPER_CENTER_LON,  # [deg E]
                episode_hours: float = 72.0,  # [h]
-               add_noise: bool = True):
+               add_noise: bool = True,
+               start_dates: Any = None):
     """Loads the ERA5 file(s).
 
     Args:
@@ -904,6 +1002,9 @@ class Era5WindField(wind_field.WindField):
         sampled start. # [h]
       add_noise: Whether the ground truth adds BLE's simplex noise to the
         forecast (the paper does).
+      start_dates: None: flights start anywhere in the data; a split of
+        `DATE_SPLITS` ('train', 'validation', 'eval') or a (first, end) pair
+        of ISO dates: flights start in [first, end) (`start_window`).
 
     Raises:
       FileNotFoundError: a file is missing.
@@ -913,11 +1014,13 @@ class Era5WindField(wind_field.WindField):
     """
     super().__init__()  # BLE's simplex noise (`SimplexWindNoise`).
     self._data = load(path)
-    self._start_minutes = last_start_minute(
+    self._first_start, self._start_minutes = start_window(
         self._data, center_lat=center_lat, center_lon=center_lon,
-        episode_hours=episode_hours)
+        episode_hours=episode_hours, start_dates=start_dates)
+    self.center_lat, self.center_lon = float(center_lat), float(center_lon)
+    self.start_dates = start_dates
     self._center = s2.LatLng.from_degrees(center_lat, center_lon)
-    self._episode_hours = float(episode_hours)
+    self.episode_hours = float(episode_hours)
     self.add_noise = bool(add_noise)
     self.start_date_time: Optional[dt.datetime] = None
     self._start_offset_s: Optional[float] = None
@@ -931,14 +1034,15 @@ class Era5WindField(wind_field.WindField):
     """Samples the flight's start time from the data's time range.
 
     The start is uniform over whole minutes in [first time, last time -
-    episode_hours], drawn from `key` (the same key gives the same start).
+    episode_hours] (inside `start_dates`), drawn from `key` (the same key gives the same start).
 
     Args:
       key: A jax PRNGKey used for sampling the start time.
       date_time: Ignored (BLE's random date); see `start_date_time`.
     """
     del date_time
-    minutes = jax.random.randint(key, (), 0, self._start_minutes + 1).item()
+    minutes = jax.random.randint(key, (), self._first_start,
+                                 self._start_minutes + 1).item()
     self.set_start_date_time(self._data.start + dt.timedelta(minutes=minutes))
 
   def set_start_date_time(self, start: dt.datetime) -> None:

@@ -33,7 +33,7 @@ grid flies the BLE object's flight (host callbacks) to a few metres over
 """
 
 import math
-from typing import Tuple
+from typing import Any, Tuple
 
 import flax
 import jax
@@ -66,8 +66,10 @@ class Era5Grid:
     cos_center_lat: cos of the target's latitude.
     center_lon: The target's longitude after `longitude_origin`, the
       file's convention. # [deg]
+    first_start_minute: Earliest flight start after the first time (int32;
+      `era5.start_window`: 0, or the first minute of `start_dates`). # [min]
     last_start_minute: Latest flight start after the first time (int32;
-      `era5.last_start_minute`). # [min]
+      `era5.start_window`). # [min]
     first_time_min: The data's first time after 1970-01-01 UTC (int32). # [min]
     add_noise: Whether the ground truth adds BLE's simplex noise to the
       forecast (`Era5WindField.add_noise`). Static.
@@ -82,6 +84,7 @@ class Era5Grid:
   sin_center_lat: Array
   cos_center_lat: Array
   center_lon: Array
+  first_start_minute: Array
   last_start_minute: Array
   first_time_min: Array
   add_noise: bool = flax.struct.field(pytree_node=False, default=True)
@@ -91,7 +94,8 @@ def grid_from_data(data: era5.Era5Data, *,
                    center_lat: float = era5.PAPER_CENTER_LAT,  # [deg N]
                    center_lon: float = era5.PAPER_CENTER_LON,  # [deg E]
                    episode_hours: float = 72.0,  # [h]
-                   add_noise: bool = True) -> Era5Grid:
+                   add_noise: bool = True,
+                   start_dates: Any = None) -> Era5Grid:
   """The device grid of loaded ERA5 data (`era5.load(path)`).
 
   The keyword arguments are `Era5WindField`'s, with its defaults.
@@ -102,17 +106,20 @@ def grid_from_data(data: era5.Era5Data, *,
     center_lon: Longitude of the station-keeping target. # [deg E]
     episode_hours: Flight length that must fit after the start. # [h]
     add_noise: Whether the ground truth adds BLE's simplex noise.
+    start_dates: None, a split of `era5.DATE_SPLITS` or a (first, end)
+      pair of dates: the range flights start in (`era5.start_window`).
 
   Returns:
     The grid, float32 (int32 minutes).
 
   Raises:
-    ValueError: as `Era5WindField` (`era5.last_start_minute`), or a first
+    ValueError: as `Era5WindField` (`era5.start_window`), or a first
       time that is not a whole minute.
   """
-  last = era5.last_start_minute(data, center_lat=center_lat,
-                                center_lon=center_lon,
-                                episode_hours=episode_hours)
+  first, last = era5.start_window(data, center_lat=center_lat,
+                                  center_lon=center_lon,
+                                  episode_hours=episode_hours,
+                                  start_dates=start_dates)
   first_s = (data.times[0] - np.datetime64('1970-01-01T00:00:00')) / (
       np.timedelta64(1, 's'))
   if first_s % 60:
@@ -132,17 +139,52 @@ def grid_from_data(data: era5.Era5Data, *,
       sin_center_lat=f32(math.sin(lat_rad)),
       cos_center_lat=f32(math.cos(lat_rad)),
       center_lon=f32(data.wrap_longitude(center_lon) - lon0),
+      first_start_minute=jnp.asarray(first, jnp.int32),
       last_start_minute=jnp.asarray(last, jnp.int32),
       first_time_min=jnp.asarray(int(first_s // 60), jnp.int32),
       add_noise=bool(add_noise))
 
 
+def grid_from_field(field: era5.Era5WindField) -> Era5Grid:
+  """The device grid of an `Era5WindField` (its data, target and dates)."""
+  return grid_from_data(field.data, center_lat=field.center_lat,
+                        center_lon=field.center_lon,
+                        episode_hours=field.episode_hours,
+                        add_noise=field.add_noise,
+                        start_dates=field.start_dates)
+
+
+def with_start_dates(grid: Era5Grid, data: era5.Era5Data, *,
+                     start_dates: Any, center_lat: float, center_lon: float,
+                     episode_hours: float) -> Era5Grid:
+  """`grid` with flights starting in `start_dates` (same arrays, no copy).
+
+  The start range is two traced int32 scalars: params differing only in
+  it share every compiled function (e.g. training and validation splits).
+
+  Args:
+    grid: A grid of `data` (`grid_from_data`).
+    data: The ERA5 data the grid holds.
+    start_dates: As `grid_from_data`.
+    center_lat: As `grid_from_data`. # [deg N]
+    center_lon: As `grid_from_data`. # [deg E]
+    episode_hours: As `grid_from_data`. # [h]
+  """
+  first, last = era5.start_window(data, center_lat=center_lat,
+                                  center_lon=center_lon,
+                                  episode_hours=episode_hours,
+                                  start_dates=start_dates)
+  return grid.replace(first_start_minute=jnp.asarray(first, jnp.int32),
+                      last_start_minute=jnp.asarray(last, jnp.int32))
+
+
 def draw_start_minute(grid: Era5Grid, key: Array) -> Array:
   """`Era5WindField.reset_forecast`'s start draw from the forecast key.
 
-  Uniform over whole minutes in [0, `last_start_minute`] after the data's
-  first time: BLE's call `jax.random.randint(key, (), 0, last + 1)`, so
-  the same key gives the same start as the BLE object.
+  Uniform over whole minutes in [`first_start_minute`,
+  `last_start_minute`] after the data's first time: BLE's call
+  `jax.random.randint(key, (), first, last + 1)`, so the same key gives
+  the same start as the BLE object.
 
   Args:
     grid: The grid.
@@ -152,7 +194,8 @@ def draw_start_minute(grid: Era5Grid, key: Array) -> Array:
   Returns:
     The start after the data's first time (int32). # [min]
   """
-  return jax.random.randint(key, (), 0, grid.last_start_minute + 1)
+  return jax.random.randint(key, (), grid.first_start_minute,
+                            grid.last_start_minute + 1)
 
 
 def _wrap(grid: Era5Grid, lon: Array, origin: Array = 0.0) -> Array:
