@@ -294,6 +294,40 @@ def vertical_step(altitude: Array, ascent_rate: Array, duration: Array, *,
   return altitude + dh, v
 
 
+def vertical_step_varying(
+    altitude: Array, ascent_rate: Array, duration: Array, *, mass: Array,
+    forces_at: Callable[[Array, Array], Tuple[Array, Array]]
+) -> Tuple[Array, Array]:
+  """`vertical_step` with the lift too varying along the path (realistic).
+
+  The lift force F(h) (helium over- or under-pressure and temperature) and
+  the drag factor k(h, hdot) (c_d of the Reynolds number) are evaluated
+  where `vertical_step` evaluates k: a predictor with (F, k) at the start,
+  the altitude change with them at the predicted midpoint (altitude and
+  mean rate), the new rate with them at the new altitude; each piece solved
+  exactly by `relax` with F and k frozen.
+
+  Args:
+    altitude: Initial h. # [m]
+    ascent_rate: Initial hdot. # [m/s]
+    duration: Step length. # [s]
+    mass: Total mass. # [kg]
+    forces_at: Pure (h, hdot) -> (F_b - F_w [N], k [kg/m]).
+
+  Returns:
+    (final altitude [m], final ascent rate [m/s]).
+  """
+  def solve(forces):
+    f, k = forces
+    return relax(ascent_rate, duration, lift_force=f, mass=mass, drag_k=k)
+
+  dh_pred, v_pred = solve(forces_at(altitude, ascent_rate))
+  dh, v_mid = solve(forces_at(altitude + 0.5 * dh_pred,
+                              0.5 * (ascent_rate + v_pred)))
+  _, v = solve(forces_at(altitude + dh, v_mid))
+  return altitude + dh, v
+
+
 def num_vertical_steps(duration: float, max_step: float = 60.0) -> int:
   """Steps of `integrate_vertical` for a concrete duration (as NumPy)."""
   return max(1, int(math.ceil(float(duration) / max_step - 1e-9)))
