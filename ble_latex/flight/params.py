@@ -598,3 +598,40 @@ def flight_params_from_gin(**overrides: Any) -> FlightParams:
   """
   return make_flight_params(**{**launch(), **controller(), **simulation(),
                                **overrides})
+
+
+# The realistic latex physics (issue 28), as `make_flight_params` arguments:
+# the one home of these values; gin_configs/latex_realistic.gin spells them
+# out (a test checks they agree). Sources: docs/physics.md.
+REALISTIC = {
+    # ASTRA's c_d(Re) (astra/simulator.py:811-814, flight_tools.py:209-218).
+    'drag_model': 'smooth',
+    'drag_coefficient_subcritical': 0.425,  # [.]
+    'drag_coefficient_supercritical': 0.225,  # [.]
+    'reynolds_transition': 3.296e5,  # [.]
+    'reynolds_band': 0.363e5,  # [.]
+    # Latex overpressure, the commonly cited ~150 Pa. # [Pa]
+    'overpressure_pa': 150.0,
+    # ASTRA's TA-1200 burst diameter, Weibull (available_balloons_
+    # parachutes.py:32; mean 1.081 x the nominal 8.63 m). # [m], [.]
+    'burst_weibull_scale_m': 9.6758,
+    'burst_weibull_shape': 14.3577,
+    # Helium +5 K by day, -2 K at night, over ValBal's sunset window
+    # (src/Utils.h:147-150): ~0.18 kg of lift lost at sunset at 17 km. # [K]
+    'superheat_day_k': 5.0,
+    'cooling_night_k': 2.0,
+    'sun_elevation_night_deg': -16.0,  # [deg]
+    'sun_elevation_day_deg': 24.0,  # [deg]
+    # ValBal's lift random walk, 1.4 g/sqrt(s) (hootl/lasagna/PastaSim.cpp:6,
+    # :41). # [kg/sqrt(s)]
+    'lift_walk_kg_per_sqrt_s': 1.4e-3,
+}
+
+
+def realistic_flight_params(**overrides: Any) -> FlightParams:
+  """`flight_params_from_gin` with `REALISTIC` on top (then `overrides`).
+
+  What `gin_configs/latex_realistic.gin` binds, without touching gin's
+  global configuration (so one process can fly both modes side by side).
+  """
+  return flight_params_from_gin(**{**REALISTIC, **overrides})
