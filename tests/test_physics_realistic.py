@@ -23,6 +23,7 @@ import pytest
 
 from ble_latex import configs
 from ble_latex.flight import atmosphere as atmosphere_lib
+from ble_latex.flight import controller
 from ble_latex.flight import dynamics
 from ble_latex.flight import envelope
 from ble_latex.flight import params as params_lib
@@ -33,7 +34,7 @@ from ble_latex.flight import state as state_lib
 
 PAPER = params_lib.make_flight_params()
 REALISTIC = params_lib.make_flight_params(**params_lib.REALISTIC)
-_FEW = settings(max_examples=25, deadline=None, derandomize=True)
+_FEW = settings(max_examples=15, deadline=None, derandomize=True)
 
 
 def _calm(x_m, y_m, pressure_pa, t_s):
@@ -108,10 +109,11 @@ def test_solar_clock_of_a_date():
 
 
 def test_sutherland_viscosity():
-  # The reference point and the US-1976 table's 1.4216e-5 Pa s at 216.65 K.
+  # The reference point, and near the US-1976 table's 1.4216e-5 Pa s at
+  # 216.65 K (ASTRA's C = 120 K, the standard's 110.4 K: 1.6 % above).
   assert float(physics.air_viscosity(288.15)) == pytest.approx(1.827e-5)
   assert float(physics.air_viscosity(216.65)) == pytest.approx(1.4216e-5,
-                                                               rel=0.01)
+                                                               rel=0.02)
   # ASTRA's Rankine form (astra/weather.py:569-575), written out here.
   for t_k in (190.0, 250.0, 300.0):
     rankine, rankine0 = 1.8 * t_k, 1.8 * 288.15
@@ -144,7 +146,8 @@ def test_station_keeping_is_below_the_drag_crisis():
       amb.density, 0.85, physics.envelope_diameter(envelope.volume(n, g)),
       physics.air_viscosity(amb.temperature))
   assert 1e4 < float(re) < 1e5
-  assert float(envelope.drag_coefficient(REALISTIC, n, g, 0.85)) == 0.425
+  assert float(envelope.drag_coefficient(REALISTIC, n, g, 0.85)) == (
+      pytest.approx(0.425))
 
 
 def test_sun_elevation_matches_bles_solar_calculator():
@@ -309,8 +312,52 @@ def test_one_stride_conserves_and_closes_its_ledgers(
     assert f1.lift_walk_kg == 0.0 and f1.burst_volume_m3 == 336.5
 
 
-def test_realistic_step_vmaps_over_flights(steppers):
-  del steppers
+@pytest.fixture(scope='module')
+def decider():
+  """The realistic controller's actuation and its force balance, jitted."""
+  atm = atmosphere_lib.params_from_alpha(0.5)
+  params = REALISTIC
+
+  def act(h, v, n, s, walk, action, time_s):
+    start = state_lib.initial_state(
+        params, h, atm_params=atm, ascent_rate_mps=v, sand_kg=s,
+        helium_mols=n, time_s=time_s, key=jax.random.PRNGKey(0)).replace(
+            lift_walk_kg=walk)
+    amb = atmosphere_lib.at_height(atm, h)
+    actuation = controller.decide(params, start, action, amb.temperature,
+                                  amb.pressure)
+    after = dynamics.actuate(params, start, actuation)
+    g = envelope.gas(params, amb.temperature, amb.pressure, time_s)
+    rate = actuation.desired_ascent_rate
+    residual = envelope.free_lift_kg(params, after, g) - (
+        envelope.steady_lift_kg(params, after.helium_mols, g, rate))
+    return actuation, after, residual
+  return jax.jit(act)
+
+
+@_FEW
+@given(h=st.floats(13_500.0, 21_500.0), v=st.floats(-3.0, 3.0),
+       n=st.floats(150.0, 190.0), s=st.floats(0.5, 3.0),
+       walk=st.floats(-0.1, 0.1), a0=st.floats(14_000.0, 21_000.0),
+       a1=st.floats(1.0, 5.0), hour=st.floats(0.0, 48.0))
+def test_realistic_commands_balance_forces_where_given(
+    decider, h, v, n, s, walk, a0, a1, hour):
+  # Vent and ballast leave the free lift (sun, overpressure, walk) equal to
+  # the drag (c_d(Re), the gas's volume) at hdot_des: the integrator's
+  # steady state at the command's altitude and time.
+  actuation, after, residual = jax.device_get(decider(
+      jnp.float32(h), jnp.float32(v), jnp.float32(n), jnp.float32(s),
+      jnp.float32(walk), jnp.array([a0, a1, -1.0], jnp.float32),
+      jnp.float32(3600.0 * hour)))
+  if actuation.decision == state_lib.DecisionCode.BALLAST:
+    if after.sand_kg > 0.0:  # Not capped at what is aboard.
+      assert abs(residual) < 1e-4
+  elif actuation.decision == state_lib.DecisionCode.VENT:
+    assert abs(residual) < 1e-4
+
+
+@pytest.mark.slow
+def test_realistic_step_vmaps_over_flights():
   atm = atmosphere_lib.params_from_alpha(0.5)
   keys = jax.random.split(jax.random.PRNGKey(3), 4)
   starts = jax.vmap(lambda k: state_lib.initial_state(
@@ -328,10 +375,10 @@ def test_realistic_step_vmaps_over_flights(steppers):
 
 @pytest.fixture(scope='module')
 def manoeuvres():
-  deterministic = REALISTIC.replace(lift_walk=False)
+  drag_only = PAPER.replace(drag_model='smooth')
   return {name: reference.run_validation(params=p, reference=False)
           for name, p in (('paper', PAPER), ('realistic', REALISTIC),
-                          ('realistic_no_walk', deterministic))}
+                          ('drag_only', drag_only))}
 
 
 @pytest.mark.slow
@@ -339,17 +386,18 @@ def test_manoeuvre_costs_at_least_one_and_a_half_times_the_papers(
     manoeuvres):
   paper = manoeuvres['paper']['lift_spent_kg']
   assert paper > 0.1
-  for mode in ('realistic', 'realistic_no_walk'):
+  for mode in ('realistic', 'drag_only'):
     assert manoeuvres[mode]['lift_spent_kg'] >= 1.5 * paper, mode
 
 
 @pytest.mark.slow
-def test_realistic_commands_reach_their_rate(manoeuvres):
-  # Same gas, lift and drag in the controller as in the integrator: the
-  # rates asked for are reached as in the paper's model (without the random
-  # walk, which moves the lift during the stride by design).
+def test_reynolds_drag_commands_reach_their_rate(manoeuvres):
+  # The controller's c_d(Re) is the integrator's: the rates asked for are
+  # reached at the end of each stride as in the paper's model. (With
+  # overpressure, the sun or the walk the lift itself changes along the
+  # path; test_realistic_commands_balance_forces_where_given checks those.)
   assert manoeuvres['paper']['max_rate_error'] < 0.05
-  assert manoeuvres['realistic_no_walk']['max_rate_error'] < 0.05
+  assert manoeuvres['drag_only']['max_rate_error'] < 0.05
 
 
 @pytest.mark.slow
@@ -362,3 +410,41 @@ def test_a_day_at_float_is_free_only_in_the_papers_model():
     assert day['sand_dropped_kg'] > 0.05 and day['helium_vented_mols'] > 1.0
     assert np.ptp(day['altitude']) > 50.0
     assert day['status'] == 'OK'
+
+
+# -- ble-latex-validate --modes ---------------------------------------------
+
+
+def test_validate_refuses_unknown_modes(capsys):
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import validate
+  # pylint: enable=g-import-not-at-top
+  assert validate.main(['--modes=paper,cubic']) == 2
+  err = capsys.readouterr().err
+  assert err.count('\n') == 1 and "unknown mode 'cubic'" in err
+  assert validate.main(['--modes=paper,paper']) == 2
+  assert 'named twice' in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_validate_draws_both_modes_side_by_side(capsys, tmp_path):
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import validate
+  # pylint: enable=g-import-not-at-top
+  gin.clear_config()
+  try:
+    code = validate.main([f'--output_dir={tmp_path}',
+                          '--modes=paper,realistic',
+                          '--gin_bindings',
+                          'LatexBalloon.lift_walk_kg_per_sqrt_s = None'])
+  finally:
+    gin.clear_config()
+  out = capsys.readouterr().out
+  assert code == 0, out  # The paper's mode reaches its rates.
+  assert (tmp_path / validate.MODES_FILENAME).stat().st_size > 10_000
+  table = {line[:32].strip(): line[32:].split() for line in out.splitlines()}
+  paper, realistic, astra = map(float, table['ascent at 18 km [m/s]'])
+  assert realistic == pytest.approx(astra, rel=0.05)
+  assert paper > 1.25 * astra
+  day = table['day: lift spent [g]']
+  assert float(day[0]) == 0.0 and float(day[1]) > 50.0

@@ -635,3 +635,15 @@ def realistic_flight_params(**overrides: Any) -> FlightParams:
   global configuration (so one process can fly both modes side by side).
   """
   return flight_params_from_gin(**{**REALISTIC, **overrides})
+
+
+def paper_flight_params(**overrides: Any) -> FlightParams:
+  """`flight_params_from_gin` with every realistic switch off (the paper).
+
+  The gin-bound flight system (payload, sand, band, ...) in the paper's
+  model, whatever realistic bindings gin holds.
+  """
+  return flight_params_from_gin(**{
+      'drag_model': 'constant', 'overpressure_pa': None,
+      'burst_weibull_scale_m': None, 'superheat_day_k': None,
+      'lift_walk_kg_per_sqrt_s': None, **overrides})

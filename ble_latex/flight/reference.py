@@ -422,3 +422,48 @@ def reference_params(params: params_lib.FlightParams
   """
   return params.replace(gas_superheat=False, latex_overpressure=False,
                         lift_walk=False)
+
+
+def ascent_profile(params: params_lib.FlightParams,
+                   altitudes_m: Sequence[float]) -> np.ndarray:
+  """The reference system's steady ascent rate at each altitude. # [m/s]
+
+  `steady_ascent_rate` of `REFERENCE_PAYLOAD_KG` with
+  `REFERENCE_FREE_LIFT_KG` at launch (helium kept), float64.
+  """
+  with jax.enable_x64(True):
+    atm = atmosphere_lib.params_from_alpha(jnp.float64(REFERENCE_ALPHA))
+    payload = jnp.float64(REFERENCE_PAYLOAD_KG)
+    helium = (payload + REFERENCE_FREE_LIFT_KG) / physics.LIFT_PER_MOL
+    rates = jax.jit(jax.vmap(
+        lambda h: steady_ascent_rate(params, atm, helium, payload, 0.0, h)))(
+            jnp.asarray(altitudes_m, jnp.float64))
+    return np.asarray(rates)
+
+
+def compare_modes(modes: Dict[str, params_lib.FlightParams], *,
+                  seed: int = 0) -> Dict[str, Dict[str, Any]]:
+  """Flies each mode: the manoeuvre, a day at float, the reference rows.
+
+  Args:
+    modes: Name -> flight system (e.g. {'paper': paper_flight_params(),
+      'realistic': realistic_flight_params()}).
+    seed: Atmosphere (and draw) seed of the flights.
+
+  Returns:
+    Name -> {'manoeuvre': `run_validation`, 'day': `run_day_at_float`,
+    'table': `reference_table(reference_params(p))`, 'altitudes_m',
+    'ascent_mps': `ascent_profile`}.
+  """
+  altitudes = np.arange(0.0, 32_001.0, 1_000.0)
+  out = {}
+  for name, p in modes.items():
+    out[name] = {
+        'manoeuvre': run_validation(seed=seed, reference=not p.realistic,
+                                    params=p),
+        'day': run_day_at_float(p, seed=seed),
+        'table': reference_table(reference_params(p), draws=2000),
+        'altitudes_m': altitudes,
+        'ascent_mps': ascent_profile(reference_params(p), altitudes),
+    }
+  return out
