@@ -448,3 +448,49 @@ def test_validate_draws_both_modes_side_by_side(capsys, tmp_path):
   assert paper > 1.25 * astra
   day = table['day: lift spent [g]']
   assert float(day[0]) == 0.0 and float(day[1]) > 50.0
+
+
+# -- Where realistic physics flies ------------------------------------------
+
+
+@pytest.mark.slow
+def test_functional_env_flies_realistic_physics_reproducibly():
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env
+  # pylint: enable=g-import-not-at-top
+  env = jax_env.LatexBalloonJaxEnv()
+  params = env.default_params.replace(flight=REALISTIC)
+  keys = jax.random.split(jax.random.PRNGKey(5), 3)
+  keys = jnp.stack([keys[0], keys[1], keys[0]])  # Flights 0 and 2: one seed.
+  _, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+  step = jax.jit(jax.vmap(env.step_env, in_axes=(None, 0, 0, None)))
+  hold = jnp.tile(jnp.array([17_000.0, 1.0, 1.0]), (3, 1))
+  for i in range(6):
+    # The step key is ignored: the walk is the flight's own.
+    _, state, _, _, _ = step(jax.random.PRNGKey(i), state, hold, params)
+  f = jax.device_get(state.flight)
+  assert f.altitude_m[0] == f.altitude_m[2]
+  assert f.lift_walk_kg[0] == f.lift_walk_kg[2] != f.lift_walk_kg[1]
+  assert f.burst_volume_m3[0] != f.burst_volume_m3[1]
+  assert np.all(f.helium_vented_mols + f.sand_dropped_kg > 0.0)
+
+
+@pytest.mark.slow
+def test_bles_latex_balloon_refuses_realistic_bindings(atmosphere):
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import errors
+  from ble_latex.ble import balloon
+  import s2sphere as s2
+  # pylint: enable=g-import-not-at-top
+  gin.clear_config()
+  try:
+    gin.parse_config_files_and_bindings(
+        [configs.gin_file('latex_realistic.gin')], [])
+    state = balloon.create_state(
+        center_latlng=s2.LatLng.from_degrees(1.0, -113.0),
+        date_time=dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc),
+        atmosphere=atmosphere)
+    with pytest.raises(errors.ConfigError, match='functional env'):
+      balloon.LatexBalloon(state)
+  finally:
+    gin.clear_config()
