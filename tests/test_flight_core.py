@@ -269,7 +269,9 @@ def test_params_defaults_have_one_home():
   assert params_lib.make_flight_params() == p
   # Numeric constants are leaves, structure is static.
   leaves = jax.tree.leaves(p)
-  assert len(leaves) == 12 and all(isinstance(v, float) for v in leaves)
+  # 12 of the paper's model, 16 of the realistic physics (issue 28).
+  assert len(leaves) == 28 and all(isinstance(v, float) for v in leaves)
+  assert not p.realistic
 
 
 def test_flight_params_from_gin_reads_existing_bindings():

@@ -40,6 +40,7 @@ import jax.numpy as jnp
 import numpy as np
 import s2sphere as s2
 
+from ble_latex import errors
 from ble_latex.ble import wind as wind_lib
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
@@ -408,10 +409,17 @@ class LatexBalloon:
   def params(self) -> params_lib.FlightParams:
     """The core's `FlightParams` of this balloon and its settings."""
     s = self.state
-    return params_lib.make_flight_params(
+    params = params_lib.make_flight_params(
         payload_kg=s.payload_kg, sand_kg=s.sand_kg,
         drag_coefficient=s.drag_coefficient,
         burst_volume_m3=s.burst_volume_m3, **self._settings)
+    if params.realistic:
+      raise errors.ConfigError(
+          'realistic latex physics (gin_configs/latex_realistic.gin: '
+          'LatexBalloon.superheat_day_k / lift_walk_kg_per_sqrt_s) flies in '
+          'the functional env (envs/jax_env.py and its Gymnasium envs), not '
+          "in BLE's LatexBalloon.simulate_step: unbind them for BLE's arena")
+    return params
 
   def simulate_step(
       self,

@@ -86,6 +86,45 @@ _START_BETA = (1.2, 2.0)
 _START_TIME_RANGE_S = 126_230_400
 # ... from this date (a flight's `start_time_offset_s` counts from it).
 START_EPOCH = dt.datetime(2011, 1, 1, tzinfo=dt.timezone.utc)
+# Realistic physics (issue 28): the keys of the burst draw (from the reset
+# key) and of the lift random walk (from the step key) are folded in with
+# these, so the paper's draws stay as they were.
+_BURST_KEY_DATA = 28_001
+_WALK_KEY_DATA = 28_002
+# START_EPOCH's day for the sun's clock (`FlightParams.start_day_j2000`).
+_EPOCH_DAY_J2000 = flight_params_lib.solar_clock(START_EPOCH, 'START_EPOCH')[0]
+
+
+def walk_key(state: 'EnvState') -> Array:
+  """The key of this stride's lift random walk (`FlightParams.lift_walk`).
+
+  A function of the flight's world (its start time and atmosphere, drawn at
+  reset) and the step count, so a seed's flight is the same whoever steps
+  it (the trainer's and the Gymnasium wrapper's step keys are shared by a
+  batch, or None).
+  """
+  alpha_bits = jax.lax.bitcast_convert_type(
+      state.atmosphere.alpha.astype(jnp.float32), jnp.uint32)
+  key = jax.random.fold_in(jax.random.PRNGKey(_WALK_KEY_DATA),
+                           state.start_time_offset_s)
+  return jax.random.fold_in(jax.random.fold_in(key, alpha_bits), state.steps)
+
+
+def flight_params_of(params: 'EnvParams', state: 'EnvState'
+                     ) -> flight_params_lib.FlightParams:
+  """The flight system of this flight: `params.flight`, with the sun's clock
+  set to the flight's start (`start_time_offset_s`) when the helium follows
+  the sun (`FlightParams.gas_superheat`); else `params.flight` itself.
+  """
+  flight = params.flight
+  if not flight.gas_superheat:
+    return flight
+  offset = state.start_time_offset_s  # [s] int32
+  days = offset // 86_400
+  dtype = state.flight.time_s.dtype
+  return flight.replace(
+      start_day_j2000=_EPOCH_DAY_J2000 + days.astype(dtype),
+      start_second_of_day=(offset - days * 86_400).astype(dtype))
 
 
 @flax.struct.dataclass
@@ -450,9 +489,13 @@ class LatexBalloonJaxEnv:
       start_time = (params.wind_grid.first_time_min - _EPOCH_MIN +
                     minute) * 60
 
+    # Realistic physics' burst draw: a key of its own (folded in, so the
+    # paper's draws above are unchanged); unused unless burst_spread.
     flight = state_lib.initial_state(
         params.flight, altitude, jnp.cos(theta) * radius_km * 1000.0,
-        jnp.sin(theta) * radius_km * 1000.0, atm_params=atmosphere)
+        jnp.sin(theta) * radius_km * 1000.0, atm_params=atmosphere,
+        key=(jax.random.fold_in(key, _BURST_KEY_DATA)
+             if params.flight.burst_spread else None))
     state = EnvState(
         flight=flight, atmosphere=atmosphere, forecast=forecast,
         noise_u=noise_u, noise_v=noise_v,
@@ -472,7 +515,8 @@ class LatexBalloonJaxEnv:
     """One 20-minute controller action, without auto-reset.
 
     Args:
-      key: Unused (the world is fixed at reset); gymnax's signature.
+      key: Unused (the world is fixed at reset, realistic physics' lift
+        random walk included: `walk_key`); gymnax's signature.
       state: The env state; a finished flight stays as it is.
       action: (a0 desired altitude [m], a1 time factor, a2 float flag),
         clipped into the Box; an action with a NaN component is flown as
@@ -484,7 +528,6 @@ class LatexBalloonJaxEnv:
       terminal status (out of sand or helium, burst, grounded); `info` is
       `step_info` (its `truncated` is the time limit without one).
     """
-    del key
     wind = self.wind_for(params)
     before = state.flight
     action, invalid = controller_lib.float_if_nan(
@@ -494,8 +537,10 @@ class LatexBalloonJaxEnv:
     def wind_fn(x_m, y_m, pressure_pa, t_s):
       return wind.ground_truth(state, x_m, y_m, pressure_pa, t_s)
 
-    flight = dynamics.step(params.flight, state.atmosphere, before, action,
-                           wind_fn, params.stride_s)
+    flight = dynamics.step(
+        flight_params_of(params, state), state.atmosphere, before, action,
+        wind_fn, params.stride_s,
+        key=walk_key(state) if params.flight.lift_walk else None)
     state = state.replace(
         flight=flight,
         # The state after the step becomes history slot t-1 (jax_features).

@@ -25,6 +25,15 @@ Modules (import them directly; this package imports nothing):
   controller  Eq. fullcontroller (`decide`), Eq. float (`float_actuation`),
               the altitude-band guard as an action filter (`band_guard`) and
               its in-stride test (`heading_out_of_band`).
+  envelope    The helium's temperature and pressure, free lift, c_d(Re) and
+              burst volume under the realistic-physics switches (issue 28;
+              off: the paper's model), shared by the integrator and the
+              controller (`controller.decide_realistic`).
+  solar       The sun's elevation (NOAA, as BLE's solar.py) for the
+              helium's day/night temperature.
+  reference   The validation flight, a fine RK4 reference, and the
+              reference checks of both modes (`reference_table`,
+              `run_day_at_float`, `compare_modes`).
   dynamics    `step`: one controller action and the physics of one stride
               (sub-steps, wind callback, releases, in-stride guard, envelope
               and resource statuses); `make_step` jits it.

@@ -26,13 +26,15 @@ jit): actions are expected inside `ACTION_LOW`..`ACTION_HIGH` (see
 replaced as a whole by the float action (`float_if_nan`).
 """
 
-from typing import Tuple
+import functools
+from typing import Optional, Tuple
 
 from flax import struct
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex.flight import envelope
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
@@ -116,7 +118,9 @@ def desired_ascent_rate(params: params_lib.FlightParams, altitude_m: Array,
 
 
 def float_actuation(state: state_lib.FlightState,
-                    guarded: Array = False) -> Actuation:
+                    guarded: Array = False, *,
+                    lift_kg: Optional[Array] = None,
+                    lift_per_mol: Optional[Array] = None) -> Actuation:
   """Implements Eq. float: vent or drop to neutral buoyancy (drag 0).
 
   With free lift L > 0 vents n - (m_p + m_s)/(M_air - M_He) = L/(M_air -
@@ -126,19 +130,29 @@ def float_actuation(state: state_lib.FlightState,
   Args:
     state: The balloon (helium, sand, free lift).
     guarded: Whether the band guard asked for this float.
+    lift_kg: The realistic free lift (`envelope.free_lift_kg`); None = the
+      paper's, `state.free_lift_kg`. # [kg]
+    lift_per_mol: Its lift per mol of helium (with lift_kg). # [kg/mol]
 
   Returns:
-    The FLOAT actuation.
+    The FLOAT actuation; with lift_kg, `lift_after_kg` is the paper's
+    ledger after the release (the state's `settled_lift_kg`).
   """
-  lift = state.free_lift_kg  # [kg]
+  realistic = lift_kg is not None
+  lift = state.free_lift_kg if lift_kg is None else lift_kg  # [kg]
+  per_mol = physics.LIFT_PER_MOL if lift_per_mol is None else lift_per_mol
   n, sand = state.helium_mols, state.sand_kg
   zero = jnp.zeros_like(lift)
-  vent_needed = lift / physics.LIFT_PER_MOL  # [mol]
+  vent_needed = lift / per_mol  # [mol]
   vent = jnp.where(lift > 0.0, jnp.minimum(vent_needed, n), zero)
   drop = jnp.where(lift < 0.0, jnp.minimum(-lift, sand), zero)
-  lift_after = jnp.where(
-      (lift > 0.0) & (vent_needed > n), lift - n * physics.LIFT_PER_MOL,
-      jnp.where((lift < 0.0) & (-lift > sand), lift + sand, zero))
+  if realistic:
+    lift_after = (state.free_lift_kg - vent * physics.LIFT_PER_MOL +
+                  drop)
+  else:
+    lift_after = jnp.where(
+        (lift > 0.0) & (vent_needed > n), lift - n * physics.LIFT_PER_MOL,
+        jnp.where((lift < 0.0) & (-lift > sand), lift + sand, zero))
   return Actuation(
       decision=jnp.full(lift.shape, DecisionCode.FLOAT, jnp.int32),
       desired_ascent_rate=zero,
@@ -156,7 +170,8 @@ def outside_band_moving_out(params: params_lib.FlightParams,
 
 
 def band_guard(params: params_lib.FlightParams, state: state_lib.FlightState,
-               actuation: Actuation) -> Actuation:
+               actuation: Actuation,
+               floated: Optional[Actuation] = None) -> Actuation:
   """The altitude-band guard as an action filter (Eq. fullcontroller).
 
   Inside [band_low_m, band_high_m] the actuation stands. Outside, it stands
@@ -167,28 +182,34 @@ def band_guard(params: params_lib.FlightParams, state: state_lib.FlightState,
     params: The flight system (band).
     state: The balloon at the action.
     actuation: The controller's non-float decision.
+    floated: The guarded float to substitute; None =
+      `float_actuation(state, guarded=True)` (the paper's lift).
 
   Returns:
     The actuation to apply.
   """
+  if floated is None:
+    floated = float_actuation(state, guarded=True)
   h = state.altitude_m
   in_band = (params.band_low_m <= h) & (h <= params.band_high_m)
   resulting = jnp.where(actuation.decision == DecisionCode.NOTHING,
                         state.ascent_rate_mps, actuation.desired_ascent_rate)
   stands = in_band | ~outside_band_moving_out(params, h, resulting)
-  return select(stands, actuation, float_actuation(state, guarded=True))
+  return select(stands, actuation, floated)
 
 
 def heading_out_of_band(params: params_lib.FlightParams,
-                        state: state_lib.FlightState) -> Array:
+                        state: state_lib.FlightState,
+                        lift_kg: Optional[Array] = None) -> Array:
   """In-stride guard test: outside the band, steady motion pointing out.
 
   The direction is that of the free lift (the terminal velocity), or of the
   current velocity when |L| <= 1e-9 kg, so a balloon still decelerating after
   a command back into the band is not floated; never while a finite-rate
-  release is pending (`LatexBalloon._heading_out_of_band`).
+  release is pending (`LatexBalloon._heading_out_of_band`). `lift_kg`: the
+  realistic free lift (None = the paper's `state.free_lift_kg`).
   """
-  lift = state.free_lift_kg
+  lift = state.free_lift_kg if lift_kg is None else lift_kg
   pending = (state.pending_vent_mols > 0.0) | (state.pending_drop_kg > 0.0)
   direction = jnp.where(jnp.abs(lift) > NEUTRAL_LIFT_KG, lift,
                         state.ascent_rate_mps)
@@ -200,9 +221,13 @@ def decide(params: params_lib.FlightParams, state: state_lib.FlightState,
            action: Array, temperature: Array, pressure: Array) -> Actuation:
   """Implements Eq. fullcontroller for one action.
 
+  With any realistic switch on (`params.realistic`) the equations use the
+  same gas temperature and pressure, lift and drag as the integrator
+  (`decide_realistic`).
+
   Args:
     params: The flight system.
-    state: The balloon at the action (h, hdot, n, m_s, L).
+    state: The balloon at the action (h, hdot, n, m_s, L, time).
     action: (a0 [m], a1 [.], a2 [.]), shape (3,), inside the action Box.
     temperature: Ambient T at the balloon. # [K]
     pressure: Ambient P at the balloon. # [Pa]
@@ -210,6 +235,8 @@ def decide(params: params_lib.FlightParams, state: state_lib.FlightState,
   Returns:
     The actuation (amounts capped at what is aboard).
   """
+  if params.realistic:
+    return decide_realistic(params, state, action, temperature, pressure)
   action = jnp.asarray(action)
   a0, a1, a2 = action[..., 0], action[..., 1], action[..., 2]
   h, v = state.altitude_m, state.ascent_rate_mps
@@ -247,3 +274,68 @@ def decide(params: params_lib.FlightParams, state: state_lib.FlightState,
                             jnp.where(venting, lift_after_vent, lift)))
   actuation = band_guard(params, state, actuation)
   return select(a2 > 0.0, float_actuation(state), actuation)
+
+
+def decide_realistic(params: params_lib.FlightParams,
+                     state: state_lib.FlightState, action: Array,
+                     temperature: Array, pressure: Array) -> Actuation:
+  """Eq. fullcontroller with the realistic gas, lift and drag (`envelope`).
+
+  The same decisions as `decide`, with
+    * the free lift L = `envelope.free_lift_kg` (helium at T_gas, P_gas, the
+      random walk W) and its lift per mol M_air beta - M_He;
+    * Eq. ballast: drop = k(n, hdot_des) |hdot_des| hdot_des / g - L, k with
+      c_d(Re) at hdot_des and A of V = n R T_gas / P_gas;
+    * Eq. vent: `envelope.vent_target` (the cubic with these a3, b, c; c_d
+      at the new helium's diameter), vent = (L - L_vent) / (M_air beta -
+      M_He);
+    * Eq. float: L -> 0 with this L.
+  `lift_after_kg` is the paper's ledger after the release (the state's
+  `settled_lift_kg`): L_paper - vent (M_air - M_He) + drop.
+
+  Args:
+    params: The flight system.
+    state: The balloon at the action (its time_s sets the sun).
+    action: (a0 [m], a1 [.], a2 [.]) inside the action Box.
+    temperature: Ambient T at the balloon. # [K]
+    pressure: Ambient P at the balloon. # [Pa]
+
+  Returns:
+    The actuation.
+  """
+  action = jnp.asarray(action)
+  a0, a1, a2 = action[..., 0], action[..., 1], action[..., 2]
+  h, v = state.altitude_m, state.ascent_rate_mps
+  n, sand = state.helium_mols, state.sand_kg
+  g = envelope.gas(params, temperature, pressure, state.time_s)
+  lift = envelope.free_lift_kg(params, state, g)
+  per_mol = envelope.lift_per_mol(params, g)
+  rate = desired_ascent_rate(params, h, a0, a1)
+
+  lift_ballast = envelope.steady_lift_kg(params, n, g, rate)
+  drop_needed = lift_ballast - lift  # [kg]
+  drop = jnp.minimum(drop_needed, sand)
+  ballast = (rate > v) & (drop >= params.min_drop_kg) & (drop > 0.0)
+  lift_vent = envelope.vent_target(params, params.payload_kg, sand,
+                                   state.lift_walk_kg, n, g, rate)
+  vent_needed = (lift - lift_vent) / per_mol  # [mol]
+  vent = jnp.minimum(vent_needed, n)
+  venting = (rate < v) & (vent >= params.min_vent_mols) & (vent > 0.0)
+
+  zero = jnp.zeros_like(rate)
+  vent = jnp.where(venting & ~ballast, vent, zero)
+  drop = jnp.where(ballast, drop, zero)
+  decision = jnp.where(ballast, DecisionCode.BALLAST,
+                       jnp.where(venting, DecisionCode.VENT,
+                                 DecisionCode.NOTHING)).astype(jnp.int32)
+  actuation = Actuation(
+      decision=decision, desired_ascent_rate=rate,
+      vent_mols=jnp.maximum(vent, 0.0), drop_kg=jnp.maximum(drop, 0.0),
+      guarded=jnp.zeros(rate.shape, bool),
+      lift_after_kg=(state.free_lift_kg - vent * physics.LIFT_PER_MOL +
+                     drop))
+  floated = functools.partial(float_actuation, lift_kg=lift,
+                              lift_per_mol=per_mol)
+  actuation = band_guard(params, state, actuation,
+                         floated=floated(state, guarded=True))
+  return select(a2 > 0.0, floated(state), actuation)

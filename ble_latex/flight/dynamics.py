@@ -41,7 +41,7 @@ exactly. `step` is vmappable over states, actions and atmosphere/flight paramete
 import datetime as dt
 import functools
 import math
-from typing import Callable, NamedTuple, Tuple, Union
+from typing import Callable, NamedTuple, Optional, Tuple, Union
 
 import jax
 import jax.numpy as jnp
@@ -49,6 +49,7 @@ import numpy as np
 
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
+from ble_latex.flight import envelope
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
@@ -231,8 +232,25 @@ def actuate(params: params_lib.FlightParams, state: FlightState,
 
 def _integrate(params: params_lib.FlightParams,
                atm: atmosphere_lib.AtmosphereParams, f: FlightState,
-               duration: Array) -> FlightState:
-  """Eq. fullN2L over `duration` (one `physics.vertical_step`)."""
+               duration: Array, time_s: Array = None) -> FlightState:
+  """Eq. fullN2L over `duration` (one `physics.vertical_step`).
+
+  With realistic physics (`params.realistic`) the lift and the drag factor
+  are those of `envelope` at the altitude (gas at `time_s`) and, for c_d(Re),
+  the speed (`physics.vertical_step_varying`).
+  """
+  if params.realistic:
+    def forces_at(h, v):
+      ambient = atmosphere_lib.at_height(atm, _clamp(h))
+      g = envelope.gas(params, ambient.temperature, ambient.pressure, time_s)
+      return (envelope.free_lift_kg(params, f, g) * physics.GRAVITY,
+              envelope.drag_factor(params, f.helium_mols, g, v))
+
+    mass = physics.total_mass(params.payload_kg, f.sand_kg, f.helium_mols)
+    h, v = physics.vertical_step_varying(
+        f.altitude_m, f.ascent_rate_mps, duration, mass=mass,
+        forces_at=forces_at)
+    return _keep(f.replace(altitude_m=h, ascent_rate_mps=v), f)
 
   def drag_k_at(h):
     ambient = atmosphere_lib.at_height(atm, _clamp(h))
@@ -249,25 +267,37 @@ def _integrate(params: params_lib.FlightParams,
 
 def envelope_status(params: params_lib.FlightParams,
                     atm: atmosphere_lib.AtmosphereParams,
-                    state: FlightState) -> Array:
-  """GROUNDED (h <= 0), BURST (nRT/P > burst volume) or the current status."""
+                    state: FlightState, time_s: Array = None) -> Array:
+  """GROUNDED (h <= 0), BURST (nRT/P > burst volume) or the current status.
+
+  Realistic physics: V = n R T_gas / P_gas (gas at `time_s`) against this
+  flight's burst volume (`envelope.burst_volume_m3`).
+  """
   ambient = atmosphere_lib.at_height(atm, _clamp(state.altitude_m))
-  volume = physics.volume(state.helium_mols, ambient.temperature,
-                          ambient.pressure)
+  if params.realistic:
+    volume = envelope.volume(state.helium_mols, envelope.gas(
+        params, ambient.temperature, ambient.pressure, time_s))
+    burst = envelope.burst_volume_m3(params, state)
+  else:
+    volume = physics.volume(state.helium_mols, ambient.temperature,
+                            ambient.pressure)
+    burst = params.burst_volume_m3
   return jnp.where(
       state.altitude_m <= 0.0, FlightStatus.GROUNDED,
-      jnp.where(volume > params.burst_volume_m3, FlightStatus.BURST,
+      jnp.where(volume > burst, FlightStatus.BURST,
                 state.status)).astype(jnp.int32)
 
 
 def resource_status(params: params_lib.FlightParams,
-                    state: FlightState) -> Array:
+                    state: FlightState, lift_kg: Array = None) -> Array:
   """OUT_OF_HELIUM (n (M_air - M_He) < m_p), OUT_OF_SAND (m_s < m_s_min), OK.
 
   n (M_air - M_He) - m_p is evaluated as L + m_s from the carried free lift,
   so a balloon floated exactly with no sand left is not out of helium.
+  `lift_kg`: the realistic free lift (None = the paper's).
   """
-  out_of_helium = state.free_lift_kg + state.sand_kg < 0.0
+  lift = state.free_lift_kg if lift_kg is None else lift_kg
+  out_of_helium = lift + state.sand_kg < 0.0
   out_of_sand = state.sand_kg + 1e-12 < params.min_drop_kg
   return jnp.where(out_of_helium, FlightStatus.OUT_OF_HELIUM,
                    jnp.where(out_of_sand, FlightStatus.OUT_OF_SAND,
@@ -276,14 +306,24 @@ def resource_status(params: params_lib.FlightParams,
 
 def _after_chunk(params: params_lib.FlightParams,
                  atm: atmosphere_lib.AtmosphereParams,
-                 f: FlightState) -> FlightState:
+                 f: FlightState, time_s: Array = None) -> FlightState:
   """Envelope check, then the in-stride band guard (if enabled)."""
-  f = f.replace(status=envelope_status(params, atm, f))
+  f = f.replace(status=envelope_status(params, atm, f, time_s))
   if not params.guard_within_stride:
     return f
-  heading = (f.status == FlightStatus.OK) & (
-      controller_lib.heading_out_of_band(params, f))
-  guard = controller_lib.float_actuation(f, guarded=True)
+  if params.realistic:
+    ambient = atmosphere_lib.at_height(atm, _clamp(f.altitude_m))
+    g = envelope.gas(params, ambient.temperature, ambient.pressure, time_s)
+    lift = envelope.free_lift_kg(params, f, g)
+    heading = (f.status == FlightStatus.OK) & (
+        controller_lib.heading_out_of_band(params, f, lift))
+    guard = controller_lib.float_actuation(
+        f, guarded=True, lift_kg=lift,
+        lift_per_mol=envelope.lift_per_mol(params, g))
+  else:
+    heading = (f.status == FlightStatus.OK) & (
+        controller_lib.heading_out_of_band(params, f))
+    guard = controller_lib.float_actuation(f, guarded=True)
   engage = heading & ((guard.vent_mols > 0.0) | (guard.drop_kg > 0.0))
   guarded = actuate(params, f, guard).replace(
       guard_engaged=jnp.ones_like(f.guard_engaged))
@@ -317,12 +357,13 @@ def _time_to_release(params: params_lib.FlightParams,
 
 def _chunks_static(params: params_lib.FlightParams,
                    atm: atmosphere_lib.AtmosphereParams, f: FlightState,
-                   chunks: Array) -> FlightState:
+                   chunks: Array, time_s: Array = None) -> FlightState:
   """A sub-step on the static chunk grid (instantaneous releases)."""
 
   def body(f, chunk):
     active = (f.status == FlightStatus.OK) & (chunk > 0.0)
-    g = _after_chunk(params, atm, _integrate(params, atm, f, chunk))
+    g = _after_chunk(params, atm, _integrate(params, atm, f, chunk, time_s),
+                     time_s)
     return _select(active, g, f), None
 
   f, _ = jax.lax.scan(body, f, chunks)
@@ -331,7 +372,7 @@ def _chunks_static(params: params_lib.FlightParams,
 
 def _chunks_dynamic(params: params_lib.FlightParams,
                     atm: atmosphere_lib.AtmosphereParams, f: FlightState,
-                    duration: Array) -> FlightState:
+                    duration: Array, time_s: Array = None) -> FlightState:
   """A sub-step with finite-rate releases (NumPy's chunking, while_loop)."""
   eps = jnp.finfo(jnp.result_type(duration)).eps
   tolerance = jnp.maximum(1e-9, 16.0 * eps * duration)  # [s]
@@ -348,16 +389,16 @@ def _chunks_dynamic(params: params_lib.FlightParams,
     releasing = _releasing(params, f)
     piece = jnp.minimum(jnp.minimum(chunk, params.actuation_chunk_s),
                         _time_to_release(params, f))
-    whole = _integrate(params, atm, f, chunk)
-    half = _integrate(params, atm, f, 0.5 * piece)
+    whole = _integrate(params, atm, f, chunk, time_s)
+    half = _integrate(params, atm, f, 0.5 * piece, time_s)
     half = release(
         half,
         vent=(params.valve_flow_mols_per_s * piece
               if params.finite_valve else zero),
         drop=(params.ballast_rate_kg_per_s * piece
               if params.finite_ballast else zero))
-    half = _integrate(params, atm, half, 0.5 * piece)
-    g = _after_chunk(params, atm, _select(releasing, half, whole))
+    half = _integrate(params, atm, half, 0.5 * piece, time_s)
+    g = _after_chunk(params, atm, _select(releasing, half, whole), time_s)
     done = done + jnp.where(releasing, piece, chunk)
     return _keep(g, f), done, count + 1
 
@@ -370,8 +411,8 @@ def step(params: params_lib.FlightParams,
          state: FlightState,
          action: Array,
          wind_fn: WindFn,
-         time_delta_s: Union[float, Schedule] = DEFAULT_TIME_DELTA_S
-         ) -> FlightState:
+         time_delta_s: Union[float, Schedule] = DEFAULT_TIME_DELTA_S,
+         key: Optional[Array] = None) -> FlightState:
   """One controller action and `time_delta_s` of flight (one stride).
 
   Args:
@@ -386,12 +427,17 @@ def step(params: params_lib.FlightParams,
       grid is built into the program), or its `padded_schedule` (traced:
       one compiled step serves every stride with the same padded shapes;
       the same values but x, y within 1 ulp). # [s]
+    key: PRNG key of the stride's free-lift random walk; needed (and used)
+      only when `params.lift_walk` (one key per stride: split yours).
 
   Returns:
     The state after the stride.
+
+  Raises:
+    ValueError: `params.lift_walk` without a key (at trace time).
   """
   return _step(params, atm_params, state, action, wind_fn, time_delta_s,
-               record=False)[0]
+               record=False, key=key)[0]
 
 
 def step_with_trajectory(
@@ -400,7 +446,8 @@ def step_with_trajectory(
     state: FlightState,
     action: Array,
     wind_fn: WindFn,
-    time_delta_s: Union[float, Schedule] = DEFAULT_TIME_DELTA_S
+    time_delta_s: Union[float, Schedule] = DEFAULT_TIME_DELTA_S,
+    key: Optional[Array] = None
 ) -> Tuple[FlightState, FlightState, FlightState]:
   """`step`, also returning the states inside the stride (plots, checks).
 
@@ -410,12 +457,16 @@ def step_with_trajectory(
     `Schedule`, its padding rows repeat the state after the stride).
   """
   return _step(params, atm_params, state, action, wind_fn, time_delta_s,
-               record=True)
+               record=True, key=key)
 
 
 def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
-          record: bool):
+          record: bool, key: Optional[Array] = None):
   """`step`'s body; `record` also returns the actuated and sub-step states."""
+  if params.lift_walk and key is None:
+    raise ValueError('FlightParams.lift_walk (LatexBalloon.lift_walk_kg_per_'
+                     'sqrt_s) draws a random walk: dynamics.step needs a PRNG '
+                     'key per stride')
   action = _keep(controller_lib.clip_action(action), state.last_action)
   ambient = atmosphere_lib.at_height(atm_params, _clamp(state.altitude_m))
   actuation = controller_lib.decide(params, state, action,
@@ -434,11 +485,20 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
     xs = tuple(jnp.asarray(a, dtype) for a in schedule(
         time_delta_s, params.max_substep_s, params.vertical_step_s))
   finite = params.finite_valve or params.finite_ballast
+  if params.lift_walk:  # One key per sub-step row.
+    xs = xs + (jax.random.split(key, len(xs[0])),)
 
   def substep(carry, x):
     f, elapsed = carry
     start, duration, end, chunk_row = x[:4]
     active = f.status == FlightStatus.OK
+    time_s = state.time_s + start  # The sun's time of this sub-step.
+    f_before = f
+    if params.lift_walk:
+      # dW = sigma sqrt(dt) N(0, 1) (ValBal's PastaSim.cpp:6, :41).
+      f = f.replace(lift_walk_kg=f.lift_walk_kg + (
+          params.lift_walk_kg_per_sqrt_s * jnp.sqrt(duration) *
+          jax.random.normal(x[-1], (), f.lift_walk_kg.dtype)))
     pressure = atmosphere_lib.at_height(atm_params,
                                         _clamp(f.altitude_m)).pressure
     query = (f.x_m, f.y_m, pressure, state.time_s + start)
@@ -451,20 +511,26 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
     else:
       u, v = wind_fn(*query)
     if finite:
-      g = _chunks_dynamic(params, atm_params, f, duration)
+      g = _chunks_dynamic(params, atm_params, f, duration, time_s)
     else:
-      g = _chunks_static(params, atm_params, f, chunk_row)
+      g = _chunks_static(params, atm_params, f, chunk_row, time_s)
     g = g.replace(x_m=g.x_m + u * duration, y_m=g.y_m + v * duration)
-    g = _select(active, g, f)
+    g = _select(active, g, f_before)
     return (g, jnp.where(active, end, elapsed).astype(elapsed.dtype)), (
         g if record else None)
 
   (f, elapsed), samples = jax.lax.scan(substep, (f, jnp.zeros((), dtype)),
                                        xs)
 
-  status = jnp.where(f.status == FlightStatus.OK,
-                     resource_status(params, f), f.status)
   ambient = atmosphere_lib.at_height(atm_params, _clamp(f.altitude_m))
+  if params.realistic:
+    lift = envelope.free_lift_kg(params, f, envelope.gas(
+        params, ambient.temperature, ambient.pressure,
+        state.time_s + elapsed))
+  else:
+    lift = None
+  status = jnp.where(f.status == FlightStatus.OK,
+                     resource_status(params, f, lift), f.status)
   new = f.replace(
       sand_kg=jnp.maximum(f.sand_kg, 0.0),
       time_s=state.time_s + elapsed,

@@ -16,7 +16,7 @@ the jit cache key.
 
 import datetime as dt
 import inspect
-from typing import Any, Dict, Optional
+from typing import Any, Dict, Optional, Tuple
 
 from flax import struct
 import gin
@@ -53,6 +53,46 @@ class FlightParams:
     max_substep_s: Longest physics sub-step; the wind is re-queried at each.
       Static. # [s]
     vertical_step_s: Longest step with the drag factor frozen. Static. # [s]
+    drag_model: 'constant' (c_d = drag_coefficient, the paper and BLE),
+      'two_regime' (ASTRA: drag_coefficient_subcritical below
+      reynolds_transition, drag_coefficient_supercritical above) or
+      'smooth' (ASTRA's linear ramp between them over reynolds_band).
+      Static.
+    drag_coefficient_subcritical: c_d below the drag crisis (ASTRA
+      simulator.py:812, 0.425). # [.]
+    drag_coefficient_supercritical: c_d above the drag crisis (ASTRA
+      simulator.py:811, 0.225). # [.]
+    reynolds_transition: Re where the drag crisis starts (ASTRA
+      simulator.py:813, 3.296e5). # [.]
+    reynolds_band: Width of ASTRA's ramp (simulator.py:814, 0.363e5). # [.]
+    overpressure_pa: Latex overpressure dP of the helium over the air (used
+      when latex_overpressure; ~150 Pa). # [Pa]
+    superheat_day_k: Helium temperature above the air by day (used when
+      gas_superheat). # [K]
+    cooling_night_k: Helium temperature below the air at night (used when
+      gas_superheat). # [K]
+    sun_elevation_night_deg: Sun elevation at and below which the helium
+      has its night temperature. # [deg]
+    sun_elevation_day_deg: Sun elevation at and above which the helium has
+      its day temperature. # [deg]
+    latitude_deg: Latitude of the flight, for the sun. # [deg]
+    longitude_deg: Longitude of the flight (east positive), for the sun.
+      # [deg]
+    start_day_j2000: Julian date of 0h UTC of the flight's start day minus
+      2451545.0 (J2000.0), for the sun. # [day]
+    start_second_of_day: UTC second of the day at time_s = 0. # [s]
+    lift_walk_kg_per_sqrt_s: Intensity sigma of the free-lift random walk,
+      dW = sigma sqrt(dt) N(0, 1) (used when lift_walk). # [kg/sqrt(s)]
+    burst_weibull_scale_m: Weibull scale lambda of the burst diameter
+      (used when burst_spread). # [m]
+    burst_weibull_shape: Weibull shape k of the burst diameter. # [.]
+    gas_superheat: Helium temperature follows the sun (else ambient, the
+      paper). Static.
+    latex_overpressure: Helium at P + overpressure_pa (else P). Static.
+    lift_walk: Random walk of the free lift (needs a PRNG key per stride).
+      Static.
+    burst_spread: Burst diameter drawn per flight from the Weibull law
+      (needs a PRNG key at launch; else burst_volume_m3). Static.
   """
   payload_kg: float = 2.2  # [kg]
   initial_sand_kg: float = 2.0  # [kg]
@@ -74,10 +114,84 @@ class FlightParams:
   max_substep_s: float = struct.field(pytree_node=False, default=180.0)  # [s]
   vertical_step_s: float = struct.field(pytree_node=False,
                                         default=60.0)  # [s]
+  # Realistic latex physics (issue 28); the defaults are the paper's model.
+  drag_coefficient_subcritical: float = 0.425  # [.]
+  drag_coefficient_supercritical: float = 0.225  # [.]
+  reynolds_transition: float = 3.296e5  # [.]
+  reynolds_band: float = 0.363e5  # [.]
+  overpressure_pa: float = 0.0  # [Pa]
+  superheat_day_k: float = 0.0  # [K]
+  cooling_night_k: float = 0.0  # [K]
+  sun_elevation_night_deg: float = -16.0  # [deg]
+  sun_elevation_day_deg: float = 24.0  # [deg]
+  latitude_deg: float = 1.0  # [deg]
+  longitude_deg: float = -113.0  # [deg]
+  start_day_j2000: float = 8339.5  # [day] 2022-11-01 0h UTC
+  start_second_of_day: float = 0.0  # [s]
+  lift_walk_kg_per_sqrt_s: float = 0.0  # [kg/sqrt(s)]
+  burst_weibull_scale_m: float = 9.6758  # [m]
+  burst_weibull_shape: float = 14.3577  # [.]
+  drag_model: str = struct.field(pytree_node=False, default='constant')
+  gas_superheat: bool = struct.field(pytree_node=False, default=False)
+  latex_overpressure: bool = struct.field(pytree_node=False, default=False)
+  lift_walk: bool = struct.field(pytree_node=False, default=False)
+  burst_spread: bool = struct.field(pytree_node=False, default=False)
+
+  @property
+  def realistic_lift(self) -> bool:
+    """The free lift depends on altitude, time or a disturbance. Static."""
+    return self.gas_superheat or self.latex_overpressure or self.lift_walk
+
+  @property
+  def realistic(self) -> bool:
+    """Any of the realistic-physics switches is on. Static."""
+    return (self.realistic_lift or self.burst_spread or
+            self.drag_model != 'constant')
 
 
 # The defaults (the one home of each: the field defaults above).
 DEFAULTS = FlightParams()
+
+# `FlightParams.drag_model` values.
+DRAG_MODELS = ('constant', 'two_regime', 'smooth')
+# J2000.0 (the epoch of `start_day_j2000`), 2000-01-01 12:00 UTC.
+J2000 = dt.datetime(2000, 1, 1, 12, tzinfo=dt.timezone.utc)
+# The default start of the sun's clock (`start_day_j2000` = 8339.5).
+DEFAULT_START_TIME = '2022-11-01T00:00:00'
+
+
+def solar_clock(start_time: Any, name: str) -> Tuple[float, float]:
+  """(start_day_j2000 [day], start_second_of_day [s]) of a UTC start time.
+
+  Args:
+    start_time: A `datetime.datetime` (naive = UTC) or an ISO 8601 string
+      ('2022-11-01T00:00:00').
+    name: What it is in the message.
+
+  Returns:
+    The Julian date of 0h UTC of the start day minus 2451545.0, and the
+    second of that day.
+
+  Raises:
+    ValueError: Naming `name` (not a date).
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import gin_values
+  # pylint: enable=g-import-not-at-top
+  value = start_time
+  if isinstance(value, str):
+    try:
+      value = dt.datetime.fromisoformat(value)
+    except ValueError:
+      value = None
+  gin_values.require(isinstance(value, dt.datetime), name,
+                     "a UTC date, e.g. '2022-11-01T00:00:00'", start_time)
+  if value.tzinfo is None:
+    value = value.replace(tzinfo=dt.timezone.utc)
+  value = value.astimezone(dt.timezone.utc)
+  midnight = value.replace(hour=0, minute=0, second=0, microsecond=0)
+  return ((midnight - J2000).total_seconds() / 86400.0,
+          (value - midnight).total_seconds())
 
 # Shortest duration of a stride, sub-step, vertical step or release chunk:
 # shorter ones only multiply the work (a 20-minute stride in 1 s sub-steps is
@@ -155,6 +269,35 @@ def check_flight_params(params: FlightParams) -> None:
                               why=' (or None: instantaneous)')
   gin_values.check_bool(binding('guard_within_stride'),
                         p.guard_within_stride)
+  gin_values.require(p.drag_model in DRAG_MODELS, binding('drag_model'),
+                     f'one of {", ".join(map(repr, DRAG_MODELS))}',
+                     p.drag_model)
+  for field in ('drag_coefficient_subcritical',
+                'drag_coefficient_supercritical', 'reynolds_transition',
+                'burst_weibull_scale_m', 'burst_weibull_shape'):
+    gin_values.check_number(binding(field), getattr(p, field), above=0.0)
+  for field in ('reynolds_band', 'superheat_day_k', 'cooling_night_k',
+                'lift_walk_kg_per_sqrt_s', 'overpressure_pa'):
+    gin_values.check_number(binding(field), getattr(p, field), minimum=0.0)
+  gin_values.check_number(binding('overpressure_pa'), p.overpressure_pa,
+                          below=5000.0,
+                          why=' (latex holds ~150 Pa; more would burst it)')
+  night = gin_values.check_number(binding('sun_elevation_night_deg'),
+                                  p.sun_elevation_night_deg, minimum=-90.0)
+  gin_values.check_number(
+      binding('sun_elevation_day_deg'), p.sun_elevation_day_deg, above=night,
+      maximum=90.0,
+      why=f': above {gin_name("sun_elevation_night_deg")}')
+  gin_values.check_number(binding('latitude_deg'), p.latitude_deg,
+                          minimum=-90.0, maximum=90.0)
+  gin_values.check_number(binding('longitude_deg'), p.longitude_deg,
+                          minimum=-180.0, maximum=360.0)
+  gin_values.check_number(binding('start_day_j2000'), p.start_day_j2000)
+  gin_values.check_number(binding('start_second_of_day'),
+                          p.start_second_of_day, minimum=0.0, below=86400.0)
+  for flag in ('gas_superheat', 'latex_overpressure', 'lift_walk',
+               'burst_spread'):
+    gin_values.check_bool(f'FlightParams.{flag}', getattr(p, flag))
   for field in ('stride_s', 'actuation_chunk_s', 'max_substep_s',
                 'vertical_step_s'):
     seconds(getattr(p, field), binding(field))
@@ -177,11 +320,34 @@ def make_flight_params(
     actuation_chunk: Any = DEFAULTS.actuation_chunk_s,
     guard_within_stride: bool = DEFAULTS.guard_within_stride,
     max_substep: Any = DEFAULTS.max_substep_s,
-    vertical_step: Any = DEFAULTS.vertical_step_s) -> FlightParams:
+    vertical_step: Any = DEFAULTS.vertical_step_s,
+    drag_model: str = DEFAULTS.drag_model,
+    drag_coefficient_subcritical: float = (
+        DEFAULTS.drag_coefficient_subcritical),
+    drag_coefficient_supercritical: float = (
+        DEFAULTS.drag_coefficient_supercritical),
+    reynolds_transition: float = DEFAULTS.reynolds_transition,
+    reynolds_band: float = DEFAULTS.reynolds_band,
+    overpressure_pa: Optional[float] = None,
+    burst_weibull_scale_m: Optional[float] = None,
+    burst_weibull_shape: float = DEFAULTS.burst_weibull_shape,
+    superheat_day_k: Optional[float] = None,
+    cooling_night_k: float = DEFAULTS.cooling_night_k,
+    sun_elevation_night_deg: float = DEFAULTS.sun_elevation_night_deg,
+    sun_elevation_day_deg: float = DEFAULTS.sun_elevation_day_deg,
+    latitude_deg: float = DEFAULTS.latitude_deg,
+    longitude_deg: float = DEFAULTS.longitude_deg,
+    start_time: Any = DEFAULT_START_TIME,
+    lift_walk_kg_per_sqrt_s: Optional[float] = None) -> FlightParams:
   """Validated `FlightParams` from the NumPy code's argument names.
 
   Durations may be numbers of seconds or `datetime.timedelta`s (at least
   `MIN_DURATION_S`); a rate of None means instantaneous (static flag off).
+  Likewise None switches a realistic-physics effect off (the paper's model):
+  overpressure_pa (latex_overpressure), burst_weibull_scale_m
+  (burst_spread), superheat_day_k (gas_superheat), lift_walk_kg_per_sqrt_s
+  (lift_walk). start_time (a UTC datetime or ISO string) sets the sun's
+  clock (start_day_j2000, start_second_of_day).
 
   Returns:
     The parameters (Python floats, so they follow JAX's default precision).
@@ -194,6 +360,7 @@ def make_flight_params(
   def duration(value: Any, field: str) -> Any:
     return seconds(value, binding(field))
 
+  start_day, start_second = solar_clock(start_time, binding('start_day_j2000'))
   raw = FlightParams(
       payload_kg=payload_kg,
       initial_sand_kg=sand_kg,
@@ -214,7 +381,31 @@ def make_flight_params(
       finite_ballast=ballast_rate_kg_per_s is not None,
       guard_within_stride=guard_within_stride,
       max_substep_s=duration(max_substep, 'max_substep_s'),
-      vertical_step_s=duration(vertical_step, 'vertical_step_s'))
+      vertical_step_s=duration(vertical_step, 'vertical_step_s'),
+      drag_model=drag_model,
+      drag_coefficient_subcritical=drag_coefficient_subcritical,
+      drag_coefficient_supercritical=drag_coefficient_supercritical,
+      reynolds_transition=reynolds_transition,
+      reynolds_band=reynolds_band,
+      overpressure_pa=0.0 if overpressure_pa is None else overpressure_pa,
+      burst_weibull_scale_m=(DEFAULTS.burst_weibull_scale_m
+                             if burst_weibull_scale_m is None else
+                             burst_weibull_scale_m),
+      burst_weibull_shape=burst_weibull_shape,
+      superheat_day_k=0.0 if superheat_day_k is None else superheat_day_k,
+      cooling_night_k=cooling_night_k,
+      sun_elevation_night_deg=sun_elevation_night_deg,
+      sun_elevation_day_deg=sun_elevation_day_deg,
+      latitude_deg=latitude_deg,
+      longitude_deg=longitude_deg,
+      start_day_j2000=start_day,
+      start_second_of_day=start_second,
+      lift_walk_kg_per_sqrt_s=(0.0 if lift_walk_kg_per_sqrt_s is None else
+                               lift_walk_kg_per_sqrt_s),
+      gas_superheat=superheat_day_k is not None,
+      latex_overpressure=overpressure_pa is not None,
+      lift_walk=lift_walk_kg_per_sqrt_s is not None,
+      burst_spread=burst_weibull_scale_m is not None)
   check_flight_params(raw)
   return raw.replace(
       initial_helium_mols=(None if helium_mols is None else
@@ -223,7 +414,14 @@ def make_flight_params(
       **{f: float(getattr(raw, f)) for f in (
           'payload_kg', 'initial_sand_kg', 'drag_coefficient',
           'burst_volume_m3', 'min_vent_mols', 'min_drop_kg', 'band_low_m',
-          'band_high_m', 'valve_flow_mols_per_s', 'ballast_rate_kg_per_s')})
+          'band_high_m', 'valve_flow_mols_per_s', 'ballast_rate_kg_per_s',
+          'drag_coefficient_subcritical', 'drag_coefficient_supercritical',
+          'reynolds_transition', 'reynolds_band', 'overpressure_pa',
+          'burst_weibull_scale_m', 'burst_weibull_shape', 'superheat_day_k',
+          'cooling_night_k', 'sun_elevation_night_deg',
+          'sun_elevation_day_deg', 'latitude_deg', 'longitude_deg',
+          'start_day_j2000', 'start_second_of_day',
+          'lift_walk_kg_per_sqrt_s')})
 
 
 # The gin names of the flight system. Each configurable takes the gin names
@@ -238,7 +436,17 @@ def launch(*, payload_kg: float = DEFAULTS.payload_kg,
            sand_kg: float = DEFAULTS.initial_sand_kg,
            helium_mols: Optional[float] = DEFAULTS.initial_helium_mols,
            drag_coefficient: float = DEFAULTS.drag_coefficient,
-           burst_volume_m3: float = DEFAULTS.burst_volume_m3
+           burst_volume_m3: float = DEFAULTS.burst_volume_m3,
+           drag_model: str = DEFAULTS.drag_model,
+           drag_coefficient_subcritical: float = (
+               DEFAULTS.drag_coefficient_subcritical),
+           drag_coefficient_supercritical: float = (
+               DEFAULTS.drag_coefficient_supercritical),
+           reynolds_transition: float = DEFAULTS.reynolds_transition,
+           reynolds_band: float = DEFAULTS.reynolds_band,
+           overpressure_pa: Optional[float] = None,
+           burst_weibull_scale_m: Optional[float] = None,
+           burst_weibull_shape: float = DEFAULTS.burst_weibull_shape
            ) -> Dict[str, Any]:
   """The balloon at launch (gin `create_state.*`).
 
@@ -246,15 +454,32 @@ def launch(*, payload_kg: float = DEFAULTS.payload_kg,
     payload_kg: m_p, including the latex envelope. # [kg]
     sand_kg: Sand at launch m_s. # [kg]
     helium_mols: Helium at launch; None = neutrally buoyant. # [mol]
-    drag_coefficient: c_d. # [.]
-    burst_volume_m3: Envelope volume at which the latex bursts. # [m^3]
+    drag_coefficient: c_d of drag_model 'constant'. # [.]
+    burst_volume_m3: Envelope volume at which the latex bursts (without
+      burst_weibull_scale_m). # [m^3]
+    drag_model: 'constant' (paper), 'two_regime' or 'smooth' (ASTRA's
+      Reynolds-number drag, `physics.drag_coefficient_of_reynolds`).
+    drag_coefficient_subcritical: c_d below the drag crisis. # [.]
+    drag_coefficient_supercritical: c_d above the drag crisis. # [.]
+    reynolds_transition: Re where the drag crisis starts. # [.]
+    reynolds_band: Width of the 'smooth' ramp. # [.]
+    overpressure_pa: Latex overpressure; None = none (paper). # [Pa]
+    burst_weibull_scale_m: Weibull scale of the burst diameter drawn per
+      flight; None = burst at burst_volume_m3 (paper). # [m]
+    burst_weibull_shape: Weibull shape of the burst diameter. # [.]
 
   Returns:
     These values as `make_flight_params` arguments (unchecked).
   """
   return dict(payload_kg=payload_kg, sand_kg=sand_kg, helium_mols=helium_mols,
               drag_coefficient=drag_coefficient,
-              burst_volume_m3=burst_volume_m3)
+              burst_volume_m3=burst_volume_m3, drag_model=drag_model,
+              drag_coefficient_subcritical=drag_coefficient_subcritical,
+              drag_coefficient_supercritical=drag_coefficient_supercritical,
+              reynolds_transition=reynolds_transition,
+              reynolds_band=reynolds_band, overpressure_pa=overpressure_pa,
+              burst_weibull_scale_m=burst_weibull_scale_m,
+              burst_weibull_shape=burst_weibull_shape)
 
 
 @gin.configurable('AltitudeController', module=_GIN_MODULE)
@@ -287,7 +512,16 @@ def simulation(*, max_substep: Any = DEFAULTS.max_substep_s,
                valve_flow_mols_per_s: Optional[float] = None,
                ballast_rate_kg_per_s: Optional[float] = None,
                actuation_chunk: Any = DEFAULTS.actuation_chunk_s,
-               guard_within_stride: bool = DEFAULTS.guard_within_stride
+               guard_within_stride: bool = DEFAULTS.guard_within_stride,
+               superheat_day_k: Optional[float] = None,
+               cooling_night_k: float = DEFAULTS.cooling_night_k,
+               sun_elevation_night_deg: float = (
+                   DEFAULTS.sun_elevation_night_deg),
+               sun_elevation_day_deg: float = DEFAULTS.sun_elevation_day_deg,
+               latitude_deg: float = DEFAULTS.latitude_deg,
+               longitude_deg: float = DEFAULTS.longitude_deg,
+               start_time: Any = DEFAULT_START_TIME,
+               lift_walk_kg_per_sqrt_s: Optional[float] = None
                ) -> Dict[str, Any]:
   """Actuators and the step structure (gin `LatexBalloon.*`).
 
@@ -299,6 +533,17 @@ def simulation(*, max_substep: Any = DEFAULTS.max_substep_s,
     ballast_rate_kg_per_s: Finite ballast rate; None = instantaneous. # [kg/s]
     actuation_chunk: Longest piece of a finite-rate release. # [s]
     guard_within_stride: Apply the altitude-band guard between actions too.
+    superheat_day_k: Helium above the air temperature by day; None = helium
+      at ambient temperature (paper). # [K]
+    cooling_night_k: Helium below the air temperature at night. # [K]
+    sun_elevation_night_deg: Sun elevation of the full night temperature.
+      # [deg]
+    sun_elevation_day_deg: Sun elevation of the full day temperature. # [deg]
+    latitude_deg: Latitude of the flight (for the sun). # [deg]
+    longitude_deg: Longitude of the flight, east positive. # [deg]
+    start_time: UTC date at time 0 (datetime or ISO string; for the sun).
+    lift_walk_kg_per_sqrt_s: Free-lift random-walk intensity; None = no
+      walk (paper). # [kg/sqrt(s)]
 
   Returns:
     These values as `make_flight_params` arguments (unchecked).
@@ -307,7 +552,14 @@ def simulation(*, max_substep: Any = DEFAULTS.max_substep_s,
               valve_flow_mols_per_s=valve_flow_mols_per_s,
               ballast_rate_kg_per_s=ballast_rate_kg_per_s,
               actuation_chunk=actuation_chunk,
-              guard_within_stride=guard_within_stride)
+              guard_within_stride=guard_within_stride,
+              superheat_day_k=superheat_day_k,
+              cooling_night_k=cooling_night_k,
+              sun_elevation_night_deg=sun_elevation_night_deg,
+              sun_elevation_day_deg=sun_elevation_day_deg,
+              latitude_deg=latitude_deg, longitude_deg=longitude_deg,
+              start_time=start_time,
+              lift_walk_kg_per_sqrt_s=lift_walk_kg_per_sqrt_s)
 
 
 # make_flight_params argument -> FlightParams field (where they differ).
@@ -315,7 +567,8 @@ _ARG_FIELDS = {'sand_kg': 'initial_sand_kg',
                'helium_mols': 'initial_helium_mols', 'stride': 'stride_s',
                'actuation_chunk': 'actuation_chunk_s',
                'max_substep': 'max_substep_s',
-               'vertical_step': 'vertical_step_s'}
+               'vertical_step': 'vertical_step_s',
+               'start_time': 'start_day_j2000'}
 # FlightParams field -> the gin binding that sets it, e.g.
 # 'initial_sand_kg' -> 'create_state.sand_kg'.
 _FIELD_BINDINGS = {
@@ -324,6 +577,7 @@ _FIELD_BINDINGS = {
                      ('AltitudeController', controller),
                      ('LatexBalloon', simulation))
     for arg in inspect.signature(fn).parameters}
+_FIELD_BINDINGS['start_second_of_day'] = 'LatexBalloon.start_time'
 
 
 def flight_params_from_gin(**overrides: Any) -> FlightParams:
@@ -344,3 +598,52 @@ def flight_params_from_gin(**overrides: Any) -> FlightParams:
   """
   return make_flight_params(**{**launch(), **controller(), **simulation(),
                                **overrides})
+
+
+# The realistic latex physics (issue 28), as `make_flight_params` arguments:
+# the one home of these values; gin_configs/latex_realistic.gin spells them
+# out (a test checks they agree). Sources: docs/physics.md.
+REALISTIC = {
+    # ASTRA's c_d(Re) (astra/simulator.py:811-814, flight_tools.py:209-218).
+    'drag_model': 'smooth',
+    'drag_coefficient_subcritical': 0.425,  # [.]
+    'drag_coefficient_supercritical': 0.225,  # [.]
+    'reynolds_transition': 3.296e5,  # [.]
+    'reynolds_band': 0.363e5,  # [.]
+    # Latex overpressure, the commonly cited ~150 Pa. # [Pa]
+    'overpressure_pa': 150.0,
+    # ASTRA's TA-1200 burst diameter, Weibull (available_balloons_
+    # parachutes.py:32; mean 1.081 x the nominal 8.63 m). # [m], [.]
+    'burst_weibull_scale_m': 9.6758,
+    'burst_weibull_shape': 14.3577,
+    # Helium +5 K by day, -2 K at night, over ValBal's sunset window
+    # (src/Utils.h:147-150): ~0.18 kg of lift lost at sunset at 17 km. # [K]
+    'superheat_day_k': 5.0,
+    'cooling_night_k': 2.0,
+    'sun_elevation_night_deg': -16.0,  # [deg]
+    'sun_elevation_day_deg': 24.0,  # [deg]
+    # ValBal's lift random walk, 1.4 g/sqrt(s) (hootl/lasagna/PastaSim.cpp:6,
+    # :41). # [kg/sqrt(s)]
+    'lift_walk_kg_per_sqrt_s': 1.4e-3,
+}
+
+
+def realistic_flight_params(**overrides: Any) -> FlightParams:
+  """`flight_params_from_gin` with `REALISTIC` on top (then `overrides`).
+
+  What `gin_configs/latex_realistic.gin` binds, without touching gin's
+  global configuration (so one process can fly both modes side by side).
+  """
+  return flight_params_from_gin(**{**REALISTIC, **overrides})
+
+
+def paper_flight_params(**overrides: Any) -> FlightParams:
+  """`flight_params_from_gin` with every realistic switch off (the paper).
+
+  The gin-bound flight system (payload, sand, band, ...) in the paper's
+  model, whatever realistic bindings gin holds.
+  """
+  return flight_params_from_gin(**{
+      'drag_model': 'constant', 'overpressure_pa': None,
+      'burst_weibull_scale_m': None, 'superheat_day_k': None,
+      'lift_walk_kg_per_sqrt_s': None, **overrides})

@@ -294,6 +294,40 @@ def vertical_step(altitude: Array, ascent_rate: Array, duration: Array, *,
   return altitude + dh, v
 
 
+def vertical_step_varying(
+    altitude: Array, ascent_rate: Array, duration: Array, *, mass: Array,
+    forces_at: Callable[[Array, Array], Tuple[Array, Array]]
+) -> Tuple[Array, Array]:
+  """`vertical_step` with the lift too varying along the path (realistic).
+
+  The lift force F(h) (helium over- or under-pressure and temperature) and
+  the drag factor k(h, hdot) (c_d of the Reynolds number) are evaluated
+  where `vertical_step` evaluates k: a predictor with (F, k) at the start,
+  the altitude change with them at the predicted midpoint (altitude and
+  mean rate), the new rate with them at the new altitude; each piece solved
+  exactly by `relax` with F and k frozen.
+
+  Args:
+    altitude: Initial h. # [m]
+    ascent_rate: Initial hdot. # [m/s]
+    duration: Step length. # [s]
+    mass: Total mass. # [kg]
+    forces_at: Pure (h, hdot) -> (F_b - F_w [N], k [kg/m]).
+
+  Returns:
+    (final altitude [m], final ascent rate [m/s]).
+  """
+  def solve(forces):
+    f, k = forces
+    return relax(ascent_rate, duration, lift_force=f, mass=mass, drag_k=k)
+
+  dh_pred, v_pred = solve(forces_at(altitude, ascent_rate))
+  dh, v_mid = solve(forces_at(altitude + 0.5 * dh_pred,
+                              0.5 * (ascent_rate + v_pred)))
+  _, v = solve(forces_at(altitude + dh, v_mid))
+  return altitude + dh, v
+
+
 def num_vertical_steps(duration: float, max_step: float = 60.0) -> int:
   """Steps of `integrate_vertical` for a concrete duration (as NumPy)."""
   return max(1, int(math.ceil(float(duration) / max_step - 1e-9)))
@@ -464,3 +498,143 @@ def neutral_helium_mols(payload_kg: Array, sand_kg: Array) -> Array:
 def neutral_sand_kg(helium_mols: Array, payload_kg: Array) -> Array:
   """Eq. float (ballast case): m_s_calc = n (M_air - M_He) - m_p. # [kg]"""
   return helium_mols * LIFT_PER_MOL - payload_kg
+
+
+# -- Realistic latex physics (issue 28; off in the paper's model). ----------
+# Each equation names its source; the code is this project's own.
+
+# Sutherland's law for air as ASTRA uses it (sobester/astra_simulator
+# astra/weather.py:551-553, 569-575: mu0 = 0.01827 cP at 15 C, C = 120, in
+# Rankine; 0.555 T[R] = 0.999 T[K], so it is the kelvin form below).
+SUTHERLAND_VISCOSITY_PA_S = 1.827e-5  # [Pa s] mu0 at T0
+SUTHERLAND_REFERENCE_K = 288.15  # [K] T0 (15 C)
+SUTHERLAND_CONSTANT_K = 120.0  # [K] C
+
+
+def air_viscosity(temperature: Array) -> Array:
+  """Sutherland's law mu = mu0 (T/T0)^(3/2) (T0 + C) / (T + C). # [Pa s]
+
+  ASTRA weather.py:569-575 (constants at :551-553).
+
+  Args:
+    temperature: Air temperature T. # [K]
+  """
+  t = temperature / SUTHERLAND_REFERENCE_K
+  return SUTHERLAND_VISCOSITY_PA_S * t * jnp.sqrt(t) * (
+      SUTHERLAND_REFERENCE_K + SUTHERLAND_CONSTANT_K) / (
+          temperature + SUTHERLAND_CONSTANT_K)
+
+
+def envelope_diameter(envelope_volume: Array) -> Array:
+  """Diameter of a spherical envelope d = (6V/pi)^(1/3). # [m]
+
+  ASTRA simulator.py:1113.
+  """
+  return jnp.cbrt(6.0 * envelope_volume / jnp.pi)
+
+
+def reynolds_number(density: Array, speed: Array, diameter: Array,
+                    viscosity: Array) -> Array:
+  """Re = rho |v| d / mu (ASTRA flight_tools.py:209). # [.]
+
+  Args:
+    density: Air density rho. # [kg/m^3]
+    speed: Speed through the air (sign ignored). # [m/s]
+    diameter: Envelope diameter d. # [m]
+    viscosity: Air viscosity mu. # [Pa s]
+  """
+  return density * jnp.abs(speed) * diameter / viscosity
+
+
+def drag_coefficient_of_reynolds(reynolds: Array, *, subcritical: Array,
+                                 supercritical: Array, transition: Array,
+                                 band: Array, smooth: bool) -> Array:
+  """ASTRA's balloon c_d(Re) (flight_tools.py:211-218). # [.]
+
+  c_d = subcritical (0.425) below Re_t = `transition` (3.296e5) and
+  supercritical (0.225) above; `smooth` ramps linearly between them over
+  [Re_t, Re_t + band] (ASTRA's own model, band = 0.363e5), else steps at Re_t
+  (the two-regime form). Continuous and branch-free when smooth.
+
+  Args:
+    reynolds: Re. # [.]
+    subcritical: c_d below the drag crisis. # [.]
+    supercritical: c_d above it. # [.]
+    transition: Re_t. # [.]
+    band: Ramp width (smooth only). # [.]
+    smooth: Ramp (static).
+  """
+  if not smooth:
+    return jnp.where(reynolds < transition, subcritical, supercritical)
+  x = jnp.clip((reynolds - transition) / jnp.maximum(band, 1e-9), 0.0, 1.0)
+  return subcritical - (subcritical - supercritical) * x
+
+
+def gas_volume(helium_mols: Array, gas_temperature: Array,
+               gas_pressure: Array) -> Array:
+  """V = n R T_gas / P_gas, the helium at its own T and P. # [m^3]
+
+  P_gas = P + dP with a latex overpressure dP; T_gas = T + superheat
+  (ASTRA simulator.py:1105-1112 with excessPressureCoeff = (P + dP) / P).
+  """
+  return helium_mols * GAS_CONSTANT * gas_temperature / gas_pressure
+
+
+def buoyant_lift_per_mol(air_temperature: Array, air_pressure: Array,
+                         gas_temperature: Array,
+                         gas_pressure: Array) -> Array:
+  """Net lift of a mol of helium, M_air beta - M_He. # [kg/mol]
+
+  The displaced air rho V = (P M_air / (R T)) (R T_gas / P_gas) per mol, so
+  beta = (T_gas / T) (P / P_gas); beta = 1 (helium at ambient T and P) is
+  the paper's LIFT_PER_MOL.
+  """
+  beta = (gas_temperature / air_temperature) * (air_pressure / gas_pressure)
+  return AIR_MOLAR_MASS * beta - HELIUM_MOLAR_MASS
+
+
+def gas_temperature_offset(sun_elevation_deg: Array, *, day_k: Array,
+                           night_k: Array, night_deg: Array,
+                           day_deg: Array) -> Array:
+  """Helium minus air temperature: solar superheat / radiative cooling. # [K]
+
+  -night_k at and below a sun elevation of night_deg, +day_k at and above
+  day_deg, a smoothstep 3x^2 - 2x^3 between. The window -16..24 deg is that
+  of ValBal's sunset lift-loss table (stanford-ssi/balloons-VALBAL
+  src/Utils.h:147-150, used in src/Utils.cpp:245-248), whose lift loss
+  sums to ~0.17 kg over a sunset; latex_realistic.gin's 5 K by day and 2 K
+  at night give ~0.18 kg for this project's balloon at 17 km.
+
+  Args:
+    sun_elevation_deg: Sun elevation. # [deg]
+    day_k: Superheat by day. # [K]
+    night_k: Cooling at night (>= 0). # [K]
+    night_deg: Elevation of full night. # [deg]
+    day_deg: Elevation of full day. # [deg]
+  """
+  x = jnp.clip((sun_elevation_deg - night_deg) / (day_deg - night_deg), 0.0,
+               1.0)
+  return -night_k + (day_k + night_k) * x * x * (3.0 - 2.0 * x)
+
+
+def burst_volume_of_diameter(diameter: Array) -> Array:
+  """Burst volume of a sphere of the burst diameter, pi d^3 / 6. # [m^3]"""
+  return jnp.pi * diameter * diameter * diameter / 6.0
+
+
+def draw_burst_diameter(key: Array, scale: Array, shape: Array) -> Array:
+  """A burst diameter from ASTRA's Weibull law (simulator.py:831-833). # [m]
+
+  d = lambda W, W ~ Weibull(k): ASTRA's TA-1200 has lambda = 9.6758 m and
+  k = 14.3577 (available_balloons_parachutes.py:32), mean lambda
+  Gamma(1 + 1/k) = 9.33 m = 1.081 x the nominal 8.63 m (:62).
+
+  Args:
+    key: PRNG key (one per flight).
+    scale: lambda. # [m]
+    shape: k. # [.]
+  """
+  u = jax.random.uniform(key, jnp.shape(scale), jnp.result_type(scale, float),
+                         minval=1e-12, maxval=1.0)
+  # Inverse CDF: F(d) = 1 - exp(-(d/lambda)^k).
+  return scale * (-jnp.log(u))**(1.0 / shape)

@@ -79,7 +79,12 @@ class FlightState:
     guard_engaged: Whether the altitude-band guard floated the balloon
       during the last step (bool).
     pressure_pa: Ambient pressure at the balloon. # [Pa]
-    temperature_k: Ambient (= helium) temperature at the balloon. # [K]
+    temperature_k: Ambient temperature at the balloon (the helium's in the
+      paper's model; `envelope.gas` gives the helium's). # [K]
+    lift_walk_kg: Free lift of the random walk W (0 unless
+      `FlightParams.lift_walk`; `envelope.free_lift_kg`). # [kg]
+    burst_volume_m3: This flight's burst volume (`FlightParams.
+      burst_volume_m3` unless `burst_spread`: drawn at launch). # [m^3]
   """
   x_m: Array
   y_m: Array
@@ -100,6 +105,8 @@ class FlightState:
   guard_engaged: Array
   pressure_pa: Array
   temperature_k: Array
+  lift_walk_kg: Array
+  burst_volume_m3: Array
 
   @property
   def free_lift_kg(self) -> Array:
@@ -127,7 +134,8 @@ def initial_state(params: params_lib.FlightParams,
                   ascent_rate_mps: Array = 0.0,
                   sand_kg: Optional[Array] = None,
                   helium_mols: Optional[Array] = None,
-                  time_s: Array = 0.0) -> FlightState:
+                  time_s: Array = 0.0,
+                  key: Optional[Array] = None) -> FlightState:
   """A new balloon as `balloon.create_state` builds it.
 
   Sand defaults to `params.initial_sand_kg`; helium to
@@ -145,9 +153,14 @@ def initial_state(params: params_lib.FlightParams,
     sand_kg: Initial sand; None = params.initial_sand_kg. # [kg]
     helium_mols: Initial helium; None = params.initial_helium_mols. # [mol]
     time_s: Start time. # [s]
+    key: PRNG key of the burst diameter's draw; needed (and used) only
+      when `params.burst_spread`.
 
   Returns:
     The state (jittable; no validation).
+
+  Raises:
+    ValueError: `params.burst_spread` without a key.
   """
   # The lift is formed before the inputs are cast, so Python / NumPy float64
   # inputs give a float64-accurate lift in float32 too.
@@ -164,6 +177,16 @@ def initial_state(params: params_lib.FlightParams,
   h = _float(altitude_m)
   ambient = atmosphere_lib.at_height(atm_params, h)
   zero = jnp.zeros_like(h)
+  if params.burst_spread:
+    if key is None:
+      raise ValueError('FlightParams.burst_spread (create_state.'
+                       'burst_weibull_scale_m) draws the burst diameter: '
+                       'initial_state needs a PRNG key')
+    burst = physics.burst_volume_of_diameter(physics.draw_burst_diameter(
+        key, params.burst_weibull_scale_m + zero,
+        params.burst_weibull_shape)).astype(h.dtype)
+  else:
+    burst = _float(params.burst_volume_m3) + zero
   return FlightState(
       x_m=_float(x_m) + zero,
       y_m=_float(y_m) + zero,
@@ -183,7 +206,9 @@ def initial_state(params: params_lib.FlightParams,
       desired_ascent_rate_mps=zero,
       guard_engaged=jnp.zeros(h.shape, bool),
       pressure_pa=ambient.pressure,
-      temperature_k=ambient.temperature)
+      temperature_k=ambient.temperature,
+      lift_walk_kg=zero,
+      burst_volume_m3=burst)
 
 
 def with_resources(params: params_lib.FlightParams, state: FlightState, *,

@@ -1,0 +1,167 @@
+# coding=utf-8
+"""The envelope's gas, lift and drag under the flight system's switches.
+
+Where `physics` holds the equations, this module picks them by the static
+switches of `FlightParams` (pure, jittable, vmappable), so that the
+integrator (`dynamics`) and the controller (`controller`) use the same gas
+temperature, gas pressure, lift and drag:
+
+| quantity        | paper model (default)      | realistic switch                 |
+|-----------------|----------------------------|----------------------------------|
+| helium T        | ambient T                  | gas_superheat: T + dT(sun)       |
+| helium P        | ambient P                  | latex_overpressure: P + dP       |
+| free lift       | n (M_air - M_He) - m_p - m_s | n (M_air beta - M_He) - m_p - m_s + W |
+| c_d             | drag_coefficient           | drag_model: ASTRA's c_d(Re)      |
+| burst volume    | burst_volume_m3            | burst_spread: pi d^3 / 6, d drawn |
+
+beta = (T_gas / T) (P / P_gas) (`physics.buoyant_lift_per_mol`), W the
+free-lift random walk carried in `FlightState.lift_walk_kg`, dT
+`physics.gas_temperature_offset` of the sun's elevation (`solar`).
+
+The state carries the paper's lift ledger L_paper = n (M_air - M_He) - m_p
+- m_s (`FlightState.free_lift_kg`, exact in float32); the realistic free lift
+is L_paper + n M_air (beta - 1) + W (`free_lift_kg`).
+"""
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from ble_latex.flight import params as params_lib
+from ble_latex.flight import physics
+from ble_latex.flight import solar
+
+Array = jax.Array
+
+
+class Gas(NamedTuple):
+  """The helium's temperature and pressure (and the air's)."""
+  air_temperature: Array  # [K]
+  air_pressure: Array  # [Pa]
+  temperature: Array  # [K]
+  pressure: Array  # [Pa]
+
+
+def sun_elevation_deg(params: params_lib.FlightParams,
+                      time_s: Array) -> Array:
+  """The sun's elevation at the flight's place and time. # [deg]"""
+  return solar.sun_elevation_deg(params.start_day_j2000,
+                                 params.start_second_of_day, time_s,
+                                 params.latitude_deg, params.longitude_deg)
+
+
+def gas(params: params_lib.FlightParams, air_temperature: Array,
+        air_pressure: Array, time_s: Array) -> Gas:
+  """The helium's T and P around a balloon in air at (T, P) at `time_s`.
+
+  Args:
+    params: The flight system (gas_superheat, latex_overpressure).
+    air_temperature: Ambient T. # [K]
+    air_pressure: Ambient P. # [Pa]
+    time_s: Flight time (for the sun). # [s]
+  """
+  temperature = air_temperature
+  if params.gas_superheat:
+    temperature = air_temperature + physics.gas_temperature_offset(
+        sun_elevation_deg(params, time_s), day_k=params.superheat_day_k,
+        night_k=params.cooling_night_k,
+        night_deg=params.sun_elevation_night_deg,
+        day_deg=params.sun_elevation_day_deg)
+  pressure = air_pressure
+  if params.latex_overpressure:
+    pressure = air_pressure + params.overpressure_pa
+  return Gas(air_temperature, air_pressure, temperature, pressure)
+
+
+def lift_per_mol(params: params_lib.FlightParams, g: Gas) -> Array:
+  """Net lift of a mol of helium, M_air beta - M_He. # [kg/mol]"""
+  if not (params.gas_superheat or params.latex_overpressure):
+    return jnp.asarray(physics.LIFT_PER_MOL, g.air_temperature.dtype)
+  return physics.buoyant_lift_per_mol(g.air_temperature, g.air_pressure,
+                                      g.temperature, g.pressure)
+
+
+def free_lift_kg(params: params_lib.FlightParams, state, g: Gas) -> Array:
+  """The free lift (F_b - F_w) / g of `state` in gas `g`. # [kg]
+
+  L_paper + n (M_air beta - M_He - (M_air - M_He)) + W; the paper's ledger
+  `state.free_lift_kg` itself when no lift switch is on.
+  """
+  lift = state.free_lift_kg
+  if params.gas_superheat or params.latex_overpressure:
+    lift = lift + state.helium_mols * (lift_per_mol(params, g) -
+                                       physics.LIFT_PER_MOL)
+  if params.lift_walk:
+    lift = lift + state.lift_walk_kg
+  return lift
+
+
+def volume(helium_mols: Array, g: Gas) -> Array:
+  """Envelope volume n R T_gas / P_gas. # [m^3]"""
+  return physics.gas_volume(helium_mols, g.temperature, g.pressure)
+
+
+def drag_coefficient(params: params_lib.FlightParams, helium_mols: Array,
+                     g: Gas, speed: Array) -> Array:
+  """c_d of `params.drag_model` at `speed` through the air. # [.]"""
+  if params.drag_model == 'constant':
+    return jnp.asarray(params.drag_coefficient)
+  rho = physics.air_density(g.air_temperature, g.air_pressure)
+  reynolds = physics.reynolds_number(
+      rho, speed, physics.envelope_diameter(volume(helium_mols, g)),
+      physics.air_viscosity(g.air_temperature))
+  return physics.drag_coefficient_of_reynolds(
+      reynolds, subcritical=params.drag_coefficient_subcritical,
+      supercritical=params.drag_coefficient_supercritical,
+      transition=params.reynolds_transition, band=params.reynolds_band,
+      smooth=params.drag_model == 'smooth')
+
+
+def drag_factor(params: params_lib.FlightParams, helium_mols: Array, g: Gas,
+                speed: Array) -> Array:
+  """k = 1/2 rho c_d(Re) A(V), F_d = k |hdot| hdot at `speed`. # [kg/m]"""
+  rho = physics.air_density(g.air_temperature, g.air_pressure)
+  return 0.5 * rho * drag_coefficient(params, helium_mols, g, speed) * (
+      physics.drag_area(volume(helium_mols, g)))
+
+
+def steady_lift_kg(params: params_lib.FlightParams, helium_mols: Array,
+                   g: Gas, rate: Array) -> Array:
+  """Free lift for a steady rate: k(n, rate) |rate| rate / g. # [kg]"""
+  return drag_factor(params, helium_mols, g, rate) * jnp.abs(rate) * rate / (
+      physics.GRAVITY)
+
+
+def vent_target(params: params_lib.FlightParams, payload_kg: Array,
+                sand_kg: Array, walk_kg: Array, helium_mols: Array, g: Gas,
+                rate: Array, refinements: int = 2) -> Array:
+  """Eq. vent with this gas and drag: the free lift after venting. # [kg]
+
+  The helium n_calc = s^3 with a3 s^3 - b s^2 - c = 0, a3 = g (M_air beta -
+  M_He), b = 1/2 rho c_d pi (3 R T_gas / (4 pi P_gas))^(2/3) |hdot| hdot,
+  c = (m_p + m_s - W) g; c_d(Re) is taken at the current helium's diameter,
+  then `refinements - 1` more times at n_calc's. Returns b s^2 / g (the
+  steady lift, as `physics.vent_target_lift_kg`).
+  """
+  rho = physics.air_density(g.air_temperature, g.air_pressure)
+  a3 = physics.GRAVITY * lift_per_mol(params, g)
+  shape = jnp.pi * (3.0 * physics.GAS_CONSTANT * g.temperature / (
+      4.0 * jnp.pi * g.pressure))**(2.0 / 3.0)
+  c = jnp.maximum(payload_kg + sand_kg - walk_kg, 1e-6) * physics.GRAVITY
+  n = helium_mols
+  lift = jnp.zeros_like(rate)
+  for _ in range(refinements if params.drag_model != 'constant' else 1):
+    c_d = drag_coefficient(params, n, g, rate)
+    b = 0.5 * rho * c_d * shape * jnp.abs(rate) * rate
+    s = physics.vent_root(a3 + jnp.zeros_like(b), b, c)
+    n = s * s * s
+    lift = b * s * s / physics.GRAVITY
+  return lift
+
+
+def burst_volume_m3(params: params_lib.FlightParams, state) -> Array:
+  """The volume at which this flight's envelope bursts. # [m^3]"""
+  if params.burst_spread:
+    return state.burst_volume_m3
+  return params.burst_volume_m3
