@@ -72,7 +72,7 @@ setuptools.setup(
     extras_require={
         # SB3 and the CPU torch for tests/test_gymnasium_env.py and examples/.
         # zarr: tests/test_era5_arco.py's local Zarr stores (no gcsfs).
-        'test': ['pytest', 'pytest-timeout', 'hypothesis',
+        'test': ['pytest', 'pytest-timeout', 'pytest-xdist', 'hypothesis',
                  'stable-baselines3', 'torch', 'ray[tune]', 'zarr'],
         # ble-latex-download-era5 --source=arco (Google's ARCO-ERA5 store).
         'arco': ['zarr', 'gcsfs'],
