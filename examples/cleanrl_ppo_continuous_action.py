@@ -22,6 +22,7 @@ Torch on CPU.
 
 import argparse
 import dataclasses
+import json
 import random
 import sys
 import time
@@ -285,7 +286,7 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
   summary = {'episodic_returns': returns, 'global_step': global_step,
              **stats, 'steps_per_second': global_step /
                                          (time.time() - start_time)}
-  print(summary)
+  print(json.dumps(summary))
   return summary
 
 

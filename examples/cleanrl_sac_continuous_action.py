@@ -19,6 +19,7 @@ tanh output is scaled to the env's action Box, so it works with the raw Box
 
 import argparse
 import dataclasses
+import json
 import random
 import sys
 import time
@@ -298,7 +299,7 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
   summary = {'episodic_returns': returns, 'alpha': alpha, **losses,
              'steps_per_second': args.total_timesteps /
                                  (time.time() - start_time)}
-  print(summary)
+  print(json.dumps(summary))
   return summary
 
 

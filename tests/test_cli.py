@@ -505,6 +505,6 @@ def test_a_normal_short_run_prints_no_warnings(tmp_path):
   TF start-up lines, JAX backend line or Dopamine parameter dump)."""
   result = _python(_NO_WARNING_RUN.format(base=tmp_path))
   assert result.returncode == 0, result.stderr[-3000:]
-  lines = [line for line in result.stderr.splitlines()
-           if not line.startswith('eval latex_random')]  # tqdm's bar.
+  lines = [line for line in result.stderr.splitlines()  # tqdm's \r too.
+           if line.strip() and not line.startswith('eval latex_random')]
   assert lines == [], result.stderr[-3000:]
