@@ -95,7 +95,8 @@ def make_env(env_id: str, gamma: float, max_episode_steps: Optional[int]
     env = gym.make(env_id, **kwargs)
     box = env.action_space
     if not (np.all(box.low == -1) and np.all(box.high == 1)):
-      env = gym.wrappers.RescaleAction(env, -1.0, 1.0)
+      one = np.ones(box.shape, np.float32)  # float32: no precision warning.
+      env = gym.wrappers.RescaleAction(env, -one, one)
     env = gym.wrappers.FlattenObservation(env)
     env = gym.wrappers.RecordEpisodeStatistics(env)
     env = gym.wrappers.ClipAction(env)

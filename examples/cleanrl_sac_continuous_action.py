@@ -9,8 +9,8 @@ Written the way CleanRL writes `sac_continuous_action.py` (one file: args,
 `make_env`, the networks, the loop), for Gymnasium 1.x (CleanRL pins 0.29):
 the vector env auto-resets in the same step (`AutoresetMode.SAME_STEP`), so
 the replay buffer stores `infos['final_obs']` as the next observation where an
-episode ended, and episode statistics come from `infos['episode']` with its
-`'_episode'` mask. The id is written `module:id` (`ble_latex:ble_latex/...`),
+episode ended, and episode statistics come from `infos['final_info']`'s
+`'episode'` with its `'_episode'` mask. The id is written `module:id` (`ble_latex:ble_latex/...`),
 which imports ble_latex (registering its ids) inside `gymnasium.make`; with a
 bare `ble_latex/LatexBalloon-v0` add `import ble_latex` instead. The actor's
 tanh output is scaled to the env's action Box, so it works with the raw Box
@@ -232,11 +232,13 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
 
     next_obs, rewards, terminations, truncations, infos = envs.step(actions)
 
-    if '_episode' in infos:
-      for i in np.flatnonzero(infos['_episode']):
-        returns.append(float(infos['episode']['r'][i]))
+    # SAME_STEP: the finished episodes' infos are in infos['final_info'].
+    final = infos.get('final_info', {})
+    if '_episode' in final:
+      for i in np.flatnonzero(final['_episode']):
+        returns.append(float(final['episode']['r'][i]))
         print(f'global_step={global_step}, episodic_return={returns[-1]:.2f}'
-              f', episodic_length={int(infos["episode"]["l"][i])}')
+              f', episodic_length={int(final["episode"]["l"][i])}')
 
     # SAME_STEP auto-reset: next_obs is the new episode's first observation
     # where one ended; the transition's true next observation is final_obs.

@@ -37,7 +37,8 @@ def make_env(max_episode_steps: Optional[int] = None) -> gymnasium.Env:
   env = gymnasium.make(ENV_ID, **kwargs)
   box = env.action_space
   if not (np.all(box.low == -1) and np.all(box.high == 1)):
-    env = gymnasium.wrappers.RescaleAction(env, -1.0, 1.0)
+    one = np.ones(box.shape, np.float32)  # float32: no precision warning.
+    env = gymnasium.wrappers.RescaleAction(env, -one, one)
   return env
 
 
@@ -78,6 +79,7 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
   from stable_baselines3 import PPO
   from stable_baselines3.common.env_util import make_vec_env
   from stable_baselines3.common.evaluation import evaluate_policy
+  from stable_baselines3.common.monitor import Monitor
   # pylint: enable=g-import-not-at-top
   torch.set_num_threads(args.torch_threads)
   start = time.monotonic()
@@ -93,7 +95,8 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
     path = args.model_out or os.path.join(tmp, 'ppo.zip')
     model.save(path)
     loaded = PPO.load(path, device='cpu')
-  eval_env = make_env(args.max_episode_steps)
+  # Monitor: evaluate_policy's episode returns are the env's own.
+  eval_env = Monitor(make_env(args.max_episode_steps))
   mean_reward, std_reward = evaluate_policy(
       loaded, eval_env, n_eval_episodes=args.n_eval_episodes,
       deterministic=True)
@@ -101,8 +104,9 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
   action, _ = loaded.predict(obs, deterministic=True)
   # The action the env flies: RescaleAction maps [-1, 1] onto its Box.
   box = eval_env.unwrapped.action_space
-  flown = (eval_env.action(np.clip(action, -1, 1))
-           if isinstance(eval_env, gymnasium.wrappers.RescaleAction)
+  rescale = eval_env.env  # Inside the Monitor.
+  flown = (rescale.action(np.clip(action, -1, 1))
+           if isinstance(rescale, gymnasium.wrappers.RescaleAction)
            else action)
   eval_env.close()
   vec_env.close()
