@@ -396,9 +396,13 @@ _HOOKS: Dict[str, Tuple[str, _Around, _After]] = {
     # TensorFlow's native start-up lines (oneDNN, CUDA probe), wherever it is
     # imported from (e.g. tensorboard, which torch's SummaryWriter imports).
     'tensorflow': ('quiet_tensorflow_import', _quiet_import, None),
+    # BLE's package import registers its gym env, reading gym's deprecated
+    # `registry.env_specs` (a gym warning), also without `import gym` first.
+    _BLE: ('quiet_ble_import', _quiet_import, None),
 }
 # Hooks that only keep an import quiet (nothing to fix if imported earlier).
-_QUIET_ONLY = ('quiet_import', 'quiet_gym_import', 'quiet_tensorflow_import')
+_QUIET_ONLY = ('quiet_import', 'quiet_gym_import', 'quiet_tensorflow_import',
+               'quiet_ble_import')
 # Top-level packages whose (non-trivial) import first applies the jax fixes.
 _JAX_USERS = (f'{_BLE}.', 'dopamine.', 'tensorflow_probability.substrates')
 # BLE modules that are light and import before the fixes are needed.

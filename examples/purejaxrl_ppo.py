@@ -158,11 +158,11 @@ def make_train(config: Dict[str, Any], env: jax_env.LatexBalloonJaxEnv,
                 jnp.square(value - target),
                 jnp.square(value_clipped - target)).mean()
             ratio = jnp.exp(log_prob - traj.log_prob)
-            gae = (gae - gae.mean()) / (gae.std() + 1e-8)
+            adv = (gae - gae.mean()) / (gae.std() + 1e-8)
             actor_loss = -jnp.minimum(
-                ratio * gae,
+                ratio * adv,
                 jnp.clip(ratio, 1.0 - config['clip_eps'],
-                         1.0 + config['clip_eps']) * gae).mean()
+                         1.0 + config['clip_eps']) * adv).mean()
             entropy = gaussian_entropy(log_std).mean()
             total = (actor_loss + config['vf_coef'] * value_loss -
                      config['ent_coef'] * entropy)
