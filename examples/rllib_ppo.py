@@ -56,6 +56,9 @@ def parse_args(argv: Optional[Sequence[str]]) -> argparse.Namespace:
 def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
   args = parse_args(argv)
   # pylint: disable=g-import-not-at-top
+  # Not needed for the id (module:id imports it in the env runner); first,
+  # so that TensorFlow's start-up lines, when RLlib imports it, stay quiet.
+  import ble_latex  # pylint: disable=unused-import
   import ray
   from ray.rllib.algorithms.ppo import PPOConfig
   # pylint: enable=g-import-not-at-top
@@ -63,6 +66,8 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
                 {'max_episode_steps': args.max_episode_steps})
   config = (
       PPOConfig()
+      .api_stack(enable_rl_module_and_learner=True,
+                 enable_env_runner_and_connector_v2=True)
       .environment(args.env_id, env_config=env_config)
       .framework('torch')
       .env_runners(num_env_runners=0,
