@@ -72,8 +72,10 @@ setuptools.setup(
     extras_require={
         # SB3 and the CPU torch for tests/test_gymnasium_env.py and examples/.
         # zarr: tests/test_era5_arco.py's local Zarr stores (no gcsfs).
+        # lz4: RLlib's sample compression (examples/rllib_ppo.py; RLlib
+        # warns without it).
         'test': ['pytest', 'pytest-timeout', 'pytest-xdist', 'hypothesis',
-                 'stable-baselines3', 'torch', 'ray[tune]', 'zarr'],
+                 'stable-baselines3', 'torch', 'ray[tune]', 'zarr', 'lz4'],
         # ble-latex-download-era5 --source=arco (Google's ARCO-ERA5 store).
         'arco': ['zarr', 'gcsfs'],
         # ble-latex-eval --ray_address and ble-latex-sweep.

@@ -389,7 +389,20 @@ _HOOKS: Dict[str, Tuple[str, _Around, _After]] = {
     'gymnasium': ('gymnasium_register', None, _register_gymnasium_envs),
     'gin.config': ('gin_latex_configurables', None, _gin_finalize_hook),
     'ble_latex.ble.gym_env': ('quiet_import', _quiet_import, None),
+    # gym's own import prints its "unmaintained" notice and loads the gym.envs
+    # plugins, BLE's among them (BLE's env modules, TensorFlow's start-up
+    # lines): quiet wherever gym is imported from (e.g. SB3 imports it).
+    'gym': ('quiet_gym_import', _quiet_import, None),
+    # TensorFlow's native start-up lines (oneDNN, CUDA probe), wherever it is
+    # imported from (e.g. tensorboard, which torch's SummaryWriter imports).
+    'tensorflow': ('quiet_tensorflow_import', _quiet_import, None),
+    # BLE's package import registers its gym env, reading gym's deprecated
+    # `registry.env_specs` (a gym warning), also without `import gym` first.
+    _BLE: ('quiet_ble_import', _quiet_import, None),
 }
+# Hooks that only keep an import quiet (nothing to fix if imported earlier).
+_QUIET_ONLY = ('quiet_import', 'quiet_gym_import', 'quiet_tensorflow_import',
+               'quiet_ble_import')
 # Top-level packages whose (non-trivial) import first applies the jax fixes.
 _JAX_USERS = (f'{_BLE}.', 'dopamine.', 'tensorflow_probability.substrates')
 # BLE modules that are light and import before the fixes are needed.
@@ -458,7 +471,7 @@ def install() -> None:
     if module is None or name in disabled() or applied.get(name):
       continue
     if around is not None:
-      if module_name.startswith('ble_latex.'):
+      if name in _QUIET_ONLY:
         continue  # Integration hooks only; nothing to fix.
       raise ImportError(
           f'{module_name} was imported before ble_latex and is broken on this '

@@ -164,6 +164,62 @@ def _known_log_records_dropped() -> Iterator[None]:
       target.removeFilter(drop)
 
 
+# Logger of JAX's backend start-up (its "Unable to initialize backend 'tpu'"
+# INFO record), filtered while a command runs (`command_logs`).
+JAX_BACKEND_LOGGER = 'jax._src.xla_bridge'
+# Dopamine's modules whose INFO records list an agent's or replay buffer's
+# constructor arguments (~30 lines per agent built).
+DOPAMINE_PARAMETER_DUMPS: Tuple[str, ...] = (
+    os.path.join('dopamine', 'jax', 'agents'),
+    os.path.join('dopamine', 'replay_memory'),
+)
+
+
+@contextlib.contextmanager
+def command_logs() -> Iterator[None]:
+  """While a command runs: drops JAX's known backend start-up record.
+
+  JAX starts its backends at its first computation, wherever that happens, so
+  the record is filtered at its own logger (not the root's handlers) for the
+  command's duration only.
+  """
+  drop = _DropKnownRecords()
+  logger = logging.getLogger(JAX_BACKEND_LOGGER)
+  logger.addFilter(drop)
+  try:
+    yield
+  finally:
+    logger.removeFilter(drop)
+
+
+class _DopamineInfoAtDebug(logging.Filter):
+  """Dopamine's INFO parameter dumps become DEBUG records."""
+
+  def filter(self, record: logging.LogRecord) -> bool:
+    if (record.levelno != logging.INFO or
+        not any(part in record.pathname for part in DOPAMINE_PARAMETER_DUMPS)):
+      return True
+    record.levelno, record.levelname = logging.DEBUG, 'DEBUG'
+    return logging.getLogger('absl').isEnabledFor(logging.DEBUG)
+
+
+@contextlib.contextmanager
+def dopamine_parameters_at_debug() -> Iterator[None]:
+  """Dopamine's constructor-argument dump is logged at DEBUG in the block.
+
+  Dopamine's agents and replay buffers log every constructor argument at INFO
+  (through absl's logger) when built; inside the block those records are
+  DEBUG records, shown only with `--verbosity=1` (absl) or a DEBUG logger.
+  """
+  at_debug = _DopamineInfoAtDebug()
+  logger = logging.getLogger('absl')
+  logger.addFilter(at_debug)
+  try:
+    yield
+  finally:
+    logger.removeFilter(at_debug)
+
+
 def is_known_warning(message: Warning, category: Type[Warning]) -> bool:
   """Whether a warning is one of `KNOWN_WARNINGS` (dropped at start-up)."""
   return any(issubclass(category, known) and re.match(pattern, str(message))

@@ -27,8 +27,10 @@ any of them. `run_absl` gives every command the same contract:
 """
 
 import difflib
+import importlib
 import os
 import sys
+import types
 from typing import (Any, Callable, Iterable, List, NoReturn, Optional,
                     Sequence)
 
@@ -46,6 +48,43 @@ EXIT_USAGE = 2
 EXIT_FAILURE = 1
 # gin's note on an exception raised inside a configurable's call.
 _GIN_CALL_NOTE = 'In call to configurable '
+
+
+class LazyModule(types.ModuleType):
+  """A module imported (inside `quiet.third_party_noise`) on first use.
+
+  Commands name their heavy modules (TensorFlow through BLE's agents and
+  Dopamine, the VAE, matplotlib) with `lazy_module`, so `--help` and usage
+  errors answer before anything heavy is imported.
+  """
+
+  def __init__(self, name: str):
+    super().__init__(name)
+    self.__dict__['_lazy_target'] = None
+
+  def _load(self) -> types.ModuleType:
+    target = self.__dict__['_lazy_target']
+    if target is None:
+      from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+      with quiet.third_party_noise():
+        target = importlib.import_module(self.__name__)
+      self.__dict__['_lazy_target'] = target
+    return target
+
+  def __getattr__(self, attr: str) -> Any:
+    return getattr(self._load(), attr)
+
+  def __setattr__(self, attr: str, value: Any) -> None:
+    setattr(self._load(), attr, value)
+
+  def __delattr__(self, attr: str) -> None:
+    delattr(self._load(), attr)
+
+
+def lazy_module(name: str) -> Any:
+  """The module `name` (dotted), imported quietly on first attribute use."""
+  module = sys.modules.get(name)
+  return module if module is not None else LazyModule(name)
 
 
 class CommandUsageError(Exception):
@@ -146,8 +185,10 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
       usage_error(prog, message)
 
   quiet_init_callbacks()
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   try:
-    app.run(checked_main, argv=[prog])
+    with quiet.command_logs():
+      app.run(checked_main, argv=[prog])
   except SystemExit as e:
     return _exit_status(e.code)
   return 0
@@ -306,10 +347,12 @@ def check_ray_flags(address: Optional[str], num_cpus: Optional[int]) -> None:
 
 
 def check_agent(name: str) -> None:
-  from balloon_learning_environment.agents import agent_registry  # pylint: disable=g-import-not-at-top
-  from ble_latex import agents  # pylint: disable=g-import-not-at-top
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():  # Imports dopamine's SAC, TF's GPU probe.
+    # pylint: disable=g-import-not-at-top
+    from balloon_learning_environment.agents import agent_registry
+    from ble_latex import agents
+    # pylint: enable=g-import-not-at-top
     agents.register()
   if name not in agent_registry.REGISTRY:
     raise CommandUsageError(unknown('agent', name, agent_registry.REGISTRY))

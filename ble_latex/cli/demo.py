@@ -31,18 +31,15 @@ from absl import flags
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import agents
 from ble_latex import configs
-from ble_latex import quiet
 from ble_latex.cli import common as cli
 
-with quiet.third_party_noise():
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.cli import plot
-  from ble_latex.cli import validate
-  from ble_latex.run import eval_lib
-  from ble_latex.run import metrics
-  from ble_latex.run import suites
-  from ble_latex.run import train_lib
-  # pylint: enable=g-import-not-at-top
+# Imported on first use, after the flags are parsed (`--help` stays fast).
+plot = cli.lazy_module('ble_latex.cli.plot')
+validate = cli.lazy_module('ble_latex.cli.validate')
+eval_lib = cli.lazy_module('ble_latex.run.eval_lib')
+metrics = cli.lazy_module('ble_latex.run.metrics')
+suites = cli.lazy_module('ble_latex.run.suites')
+train_lib = cli.lazy_module('ble_latex.run.train_lib')
 
 _SAC = 'ble_latex.agents.sac.SACAgent'
 TRAINED = 'sac_pretrained'

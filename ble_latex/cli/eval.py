@@ -42,15 +42,12 @@ from absl import flags
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex.cli import common as cli
 from ble_latex import configs
-from ble_latex import quiet
 
-with quiet.third_party_noise():
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.run import distributed
-  from ble_latex.run import eval_lib
-  from ble_latex.run import metrics
-  from ble_latex.run import suites
-  # pylint: enable=g-import-not-at-top
+# Imported on first use, after the flags are parsed (`--help` stays fast).
+distributed = cli.lazy_module('ble_latex.run.distributed')
+eval_lib = cli.lazy_module('ble_latex.run.eval_lib')
+metrics = cli.lazy_module('ble_latex.run.metrics')
+suites = cli.lazy_module('ble_latex.run.suites')
 
 # The command's own flags (`cli.run_absl`).
 FLAGS = flags.FlagValues()
@@ -124,7 +121,7 @@ def _main(argv: Sequence[str]) -> None:
   _evaluate(spec, path)
 
 
-def _evaluate(spec: eval_lib.EvalSpec, path: str) -> None:
+def _evaluate(spec: 'eval_lib.EvalSpec', path: str) -> None:
   """Flies the suite's seeds (here or on Ray) and writes `path`."""
   if FLAGS.ray_address is not None:
     # Before JAX starts threads in this process: Ray forks its daemons.
@@ -140,7 +137,7 @@ def _evaluate(spec: eval_lib.EvalSpec, path: str) -> None:
     _fly(spec, path, agent, env)
 
 
-def _fly(spec: eval_lib.EvalSpec, path: str, agent: Any, env: Any) -> None:
+def _fly(spec: 'eval_lib.EvalSpec', path: str, agent: Any, env: Any) -> None:
   """Flies the suite's seeds with `agent` (or on Ray) and writes `path`."""
   suite = suites.get_eval_suite(FLAGS.suite)
   seeds = eval_lib.shard(suite.seeds, FLAGS.num_shards, FLAGS.shard_idx)

@@ -18,10 +18,9 @@ from typing import Optional, Sequence
 from absl import flags
 
 from ble_latex.cli import common as cli
-from ble_latex import quiet
 
-with quiet.third_party_noise():
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+# Imported on first use, after the flags are parsed (`--help` stays fast).
+pretrained = cli.lazy_module('ble_latex.agents.pretrained')
 
 # The command's own flags (`cli.run_absl`).
 FLAGS = flags.FlagValues()

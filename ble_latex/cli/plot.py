@@ -64,9 +64,11 @@ with quiet.third_party_noise():
   from ble_latex import configs
   from ble_latex.plots import figures as plots
   from ble_latex.run import episode_log
-  from ble_latex.run import metrics
   from ble_latex.run import records as records_lib
   # pylint: enable=g-import-not-at-top
+# Imported on first use (BLE's collectors import TensorFlow): `--help` stays
+# fast.
+metrics = cli.lazy_module('ble_latex.run.metrics')
 
 TRAINING_CURVES = 'training_curves.png'
 TERMINAL_CONDITIONS = 'terminal_conditions.png'

@@ -45,14 +45,11 @@ from absl import flags
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex.cli import common as cli
 from ble_latex import configs
-from ble_latex import quiet
 
-with quiet.third_party_noise():
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.run import collectors
-  from ble_latex.run import suites
-  from ble_latex.run import train_lib
-  # pylint: enable=g-import-not-at-top
+# Imported on first use, after the flags are parsed (`--help` stays fast).
+collectors = cli.lazy_module('ble_latex.run.collectors')
+suites = cli.lazy_module('ble_latex.run.suites')
+train_lib = cli.lazy_module('ble_latex.run.train_lib')
 
 # The command's own flags (`cli.run_absl`).
 FLAGS = flags.FlagValues()
@@ -86,7 +83,8 @@ flags.DEFINE_multi_string('gin_bindings', [],
                           'Gin bindings to override default values.',
                           flag_values=FLAGS)
 flags.DEFINE_multi_string('collectors', ['progress', 'episodes', 'tensorboard'],
-                          f'Collectors: {sorted(collectors.AVAILABLE_COLLECTORS)}.',
+                          'Collectors: console, episodes, pickle, progress, tensorboard '
+                          '(ble_latex.run.collectors.AVAILABLE_COLLECTORS).',
                           flag_values=FLAGS)
 flags.DEFINE_integer('seed', 0, 'Seed of the agent (env seeds are episode '
                      'indices).', flag_values=FLAGS)

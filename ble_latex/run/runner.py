@@ -17,12 +17,18 @@ import numpy as np
 
 from ble_latex import agents as latex_agents
 from ble_latex import errors
+from ble_latex import quiet
 from ble_latex.run import metrics
 
 
 def create_agent(name: str, env: gym.Env, seed: int = 0) -> base_agent.Agent:
   """Builds a registered agent for `env` (Box or Discrete actions)."""
   latex_agents.register()
+  with quiet.dopamine_parameters_at_debug():
+    return _create_agent(name, env, seed)
+
+
+def _create_agent(name: str, env: gym.Env, seed: int) -> base_agent.Agent:
   observation_shape = env.observation_space.shape
   space = env.action_space
   if isinstance(space, gym.spaces.Discrete):

@@ -1,0 +1,94 @@
+"""Real RL clients on the ble_latex envs, each its examples/ script's --short
+run in a fresh process (issue 31): SB3 PPO, CleanRL-style SAC and PPO,
+purejaxrl-style PPO on the functional env, RLlib PPO. SB3 SAC is
+tests/test_gymnasium_env.py's. No network. Each compiles the env (JAX) in
+its process, so all are slow tests (docs/clients.md has their times)."""
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import pytest
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _run_example(name: str, *args: str, timeout: float = 1200):
+  """Runs examples/NAME.py --short; returns (last stdout line as JSON, stderr)."""
+  env = {**os.environ, 'PYTHONPATH': REPO + os.pathsep +
+         os.environ.get('PYTHONPATH', '')}
+  result = subprocess.run(
+      [sys.executable, os.path.join(REPO, 'examples', f'{name}.py'),
+       '--short', *args], cwd=REPO, env=env, capture_output=True, text=True,
+      timeout=timeout)
+  assert result.returncode == 0, result.stderr[-4000:]
+  return json.loads(result.stdout.strip().splitlines()[-1]), result.stderr
+
+
+def _no_warnings(stderr: str) -> None:
+  """Nothing of ours or our dependencies warns on a normal run."""
+  flagged = [line for line in stderr.splitlines()
+             if 'warn' in line.lower() or 'deprecat' in line.lower()]
+  assert not flagged, stderr[-4000:]
+
+
+@pytest.mark.slow
+def test_cleanrl_sac_on_the_module_id():
+  summary, stderr = _run_example('cleanrl_sac_continuous_action')
+  # 64 steps of 16-step episodes: the same-step auto-reset ran 4 times.
+  assert len(summary['episodic_returns']) == 4
+  assert all(math.isfinite(r) for r in summary['episodic_returns'])
+  assert math.isfinite(summary['qf_loss']) and summary['alpha'] > 0
+  _no_warnings(stderr)
+
+
+@pytest.mark.slow
+def test_cleanrl_ppo_on_the_module_id():
+  summary, stderr = _run_example('cleanrl_ppo_continuous_action')
+  assert summary['global_step'] == 64
+  # 2 envs x 32 steps of 12-step episodes (next-step auto-reset): 4 or more.
+  assert len(summary['episodic_returns']) >= 4
+  assert all(math.isfinite(summary[k]) for k in ('value_loss', 'policy_loss'))
+  _no_warnings(stderr)
+
+
+@pytest.mark.slow
+def test_purejaxrl_ppo_on_the_functional_env():
+  summary, stderr = _run_example('purejaxrl_ppo')
+  assert summary['updates'] == 2 and summary['env_steps'] == 32
+  # 2 balloons x 16 steps of 6-step episodes, auto-reset inside the scan.
+  assert summary['episodes'] >= 4
+  assert math.isfinite(summary['mean_episode_return'])
+  assert math.isfinite(summary['final_loss'])
+  _no_warnings(stderr)
+
+
+@pytest.mark.slow
+def test_sb3_ppo_vec_env_save_load_evaluate():
+  summary, stderr = _run_example('sb3_ppo')
+  assert summary['env_steps'] == 64
+  assert math.isfinite(summary['eval_mean_reward'])
+  assert summary['action_in_box']
+  _no_warnings(stderr)
+
+
+@pytest.mark.slow
+def test_rllib_ppo():
+  pytest.importorskip('ray.rllib')
+  summary, _ = _run_example('rllib_ppo')  # Ray's own start-up lines vary.
+  assert summary['env_steps'] >= 64
+  assert summary['episodes'] >= 1
+  assert summary['total_loss'] is not None and math.isfinite(
+      summary['total_loss'])
+
+
+def test_examples_name_their_command():
+  """Each example's header gives its command and a --short mode."""
+  for name in ('sb3_ppo', 'cleanrl_sac_continuous_action',
+               'cleanrl_ppo_continuous_action', 'purejaxrl_ppo', 'rllib_ppo'):
+    with open(os.path.join(REPO, 'examples', f'{name}.py'),
+              encoding='utf-8') as f:
+      head = f.read(3000)
+    assert f'python examples/{name}.py' in head and '--short' in head, name
