@@ -349,7 +349,7 @@ class _Compiled:
 @functools.lru_cache(maxsize=2)
 def _generative(batched: bool) -> _Compiled:
   """One compiled set per process for BLE's generative field."""
-  return _Compiled(jax_env.LatexBalloonJaxEnv(), batched)
+  return _Compiled(jax_env.LatexBalloonJaxEnv(raw_actions=True), batched)
 
 
 def _is_core_generative(factory: Any) -> bool:
@@ -412,7 +412,7 @@ class _Balloons(SeedRule):
     self.params = params
     self.state: Optional[jax_env.EnvState] = None
     self._fns = compiled
-    core = jax_env.LatexBalloonJaxEnv()
+    core = jax_env.LatexBalloonJaxEnv(raw_actions=True)
     self._box = core.action_space(params)
     self.normalize_actions = bool(normalize_actions)
     self._from_normalized = None
@@ -492,7 +492,8 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
       # pylint: enable=g-import-not-at-top
       self._wind_field = factory()
       compiled = _Compiled(jax_env.LatexBalloonJaxEnv(
-          ble_wind.callback_wind(self._wind_field)), batched=False)
+          ble_wind.callback_wind(self._wind_field), raw_actions=True),
+          batched=False)
     self._setup(params, episode_steps, normalize_actions, compiled)
     self.action_space = self._single_action_space
     self.observation_space = self._single_observation_space

@@ -59,6 +59,7 @@ from typing import Any, Callable, Dict, Mapping, NamedTuple, Optional, Tuple
 import flax
 import gin
 import jax
+from jax import custom_batching
 import jax.numpy as jnp
 import numpy as np
 
@@ -87,6 +88,20 @@ _START_TIME_RANGE_S = 126_230_400
 START_EPOCH = dt.datetime(2011, 1, 1, tzinfo=dt.timezone.utc)
 
 
+def to_box(normalized: Array) -> Array:
+  """[-1, 1]^3 actions onto the core's Box, affinely (the one mapping).
+
+  low + (u + 1) / 2 * (high - low) of u = clip(normalized, -1, 1), clipped
+  into the Box, in float32: what the normalized `LatexBalloonJaxEnv` and the
+  jitted SAC trainer fly (`sac_trainer.to_box` is this function). A NaN
+  component stays NaN (`step_env` flies the float action).
+  """
+  low = jnp.asarray(ACTION_LOW, jnp.float32)
+  high = jnp.asarray(ACTION_HIGH, jnp.float32)
+  u = jnp.clip(normalized, -1.0, 1.0)
+  return jnp.clip(low + 0.5 * (u + 1.0) * (high - low), low, high)
+
+
 @flax.struct.dataclass
 class EnvParams:
   """Everything that configures the env (gymnax's `EnvParams`).
@@ -109,6 +124,10 @@ class EnvParams:
     wind_grid: None: the winds are the env's `Wind` (BLE's generative field
       by default); an `era5_jax.Era5Grid`: ERA5 winds plus BLE's simplex
       noise (`era5_wind`), the grid shared by every balloon.
+    reset_pool: None: `step` auto-resets a finished flight with the world
+      of its key (`reset(key)`, a full reset computed at every step); a
+      `ResetPool` (`LatexBalloonJaxEnv.with_reset_pool`): `step` auto-resets
+      from the pool's pre-drawn worlds, shared by every balloon (cheap).
   """
   flight: flight_params_lib.FlightParams
   decoder: Any
@@ -124,6 +143,7 @@ class EnvParams:
   episode_steps: int = 216
   stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
   wind_grid: Optional[era5_jax.Era5Grid] = None
+  reset_pool: Optional['ResetPool'] = None
 
   @property
   def max_steps_in_episode(self) -> int:
@@ -160,6 +180,106 @@ class EnvState:
   wind_v: Array
   start_time_offset_s: Array
   steps: Array
+
+
+@flax.struct.dataclass
+class ResetPool:
+  """K pre-drawn worlds that `step` auto-resets from (`EnvParams.reset_pool`).
+
+  Built by `LatexBalloonJaxEnv.with_reset_pool(key, params, size)`: world k
+  is `reset(jax.random.split(key, size)[k], params)` (vmapped), i.e. the
+  world of an explicit reset with that key. A pytree of arrays with a
+  leading axis K, read by every balloon (pass the params unbatched,
+  `in_axes=None`: one copy, not one per balloon).
+
+  Attributes:
+    obs: [K, 71] the worlds' first observations.
+    state: `EnvState` with a leading axis K (measured, `steps` = 0).
+  """
+  obs: Array
+  state: EnvState
+
+  @property
+  def size(self) -> int:
+    """K, the number of worlds."""
+    return self.obs.shape[0]
+
+
+def pool_index(key: Array, size: int) -> Array:
+  """The pool world `step` gives a flight that ends with step key `key`.
+
+  `jax.random.randint(key, (), 0, size)`: uniform over the K worlds, drawn
+  from the step's key (so the same keys give the same worlds).
+  """
+  return jax.random.randint(key, (), 0, size)
+
+
+def _pick(pool: ResetPool, index: Array) -> Tuple[EnvState, Array]:
+  return (jax.tree.map(lambda p: p[index], pool.state), pool.obs[index])
+
+
+def _select(done: Array, index: Array, state: EnvState, obs: Array,
+            pool: ResetPool) -> Tuple[EnvState, Array]:
+  """One balloon: the pool's world `index` where `done`, else unchanged."""
+  new_state, new_obs = _pick(pool, index)
+  state = jax.tree.map(lambda n, s: jnp.where(done, n, s).astype(s.dtype),
+                       new_state, state)
+  return state, jnp.where(done, new_obs, obs)
+
+
+# Balloons reset per iteration of the batched pool reset's loop.
+_RESET_CHUNK = 16
+
+
+@custom_batching.custom_vmap
+def _reset_from_pool(done: Array, index: Array, state: EnvState, obs: Array,
+                     pool: ResetPool) -> Tuple[EnvState, Array]:
+  """Where `done`, the pool's world `index` (one balloon: a real branch).
+
+  Under `jax.vmap` (over balloons, the pool unbatched) only the finished
+  balloons are written, `_RESET_CHUNK` at a time in a `lax.while_loop` that
+  runs zero times when no balloon ended: a select over every balloon's
+  state would copy N forecast grids (~317 kB each) at every step.
+  """
+  return jax.lax.cond(done, lambda: _pick(pool, index), lambda: (state, obs))
+
+
+@_reset_from_pool.def_vmap
+def _reset_from_pool_batched(axis_size, in_batched, done, index, state, obs,
+                             pool):
+  """The batched rule of `_reset_from_pool` (see there)."""
+  done_b, index_b, state_b, obs_b, pool_b = in_batched
+
+  def batch(x, batched):
+    return jax.tree.map(
+        lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
+        x, batched)
+
+  done, index = batch(done, done_b), batch(index, index_b)
+  state, obs = batch(state, state_b), batch(obs, obs_b)
+  if any(jax.tree.leaves(pool_b)):  # A pool per balloon: select.
+    pool = batch(pool, pool_b)
+    out = jax.vmap(_select)(done, index, state, obs, pool)
+  else:
+    n = axis_size
+    chunk = min(n, _RESET_CHUNK)
+    rows = jnp.nonzero(done, size=n, fill_value=n)[0]  # Finished first.
+    count = jnp.sum(done.astype(jnp.int32))
+
+    def body(carry):
+      i, state, obs = carry
+      at = jax.lax.dynamic_slice(rows, (jnp.minimum(i * chunk, n - chunk),),
+                                 (chunk,))
+      new_state, new_obs = _pick(pool, index[jnp.minimum(at, n - 1)])
+      state = jax.tree.map(
+          lambda s, v: s.at[at].set(v.astype(s.dtype), mode='drop'), state,
+          new_state)
+      return i + 1, state, obs.at[at].set(new_obs, mode='drop')
+
+    _, state, obs = jax.lax.while_loop(lambda c: c[0] * chunk < count, body,
+                                       (jnp.zeros((), jnp.int32), state, obs))
+    out = (state, obs)
+  return out, jax.tree.map(lambda _: True, out)
 
 
 def ground_truth_wind(state: EnvState, x_m: Array, y_m: Array,
@@ -355,15 +475,53 @@ class LatexBalloonJaxEnv:
   Args:
     wind: Where the winds come from (static). Default: BLE's generative
       field drawn from the reset key (`GENERATIVE_WIND`).
+    raw_actions: False (default, RL clients' convention): actions are in
+      [-1, 1]^3, mapped onto the core's Box by `to_box`, and
+      `action_space(params)` is [-1, 1]^3. True: actions are the Box's raw
+      (a0 [m], a1, a2) (BLE's arena, the Gymnasium wrappers, the jitted
+      trainer after its own `to_box`).
   """
 
-  action_low = ACTION_LOW
+  action_low = ACTION_LOW  # The core's Box (the raw actions).
   action_high = ACTION_HIGH
   num_features = jax_features.NUM_FEATURES
   num_actions = len(ACTION_LOW)  # gymnax: the action's size.
 
-  def __init__(self, wind: Wind = GENERATIVE_WIND):
+  def __init__(self, wind: Wind = GENERATIVE_WIND, *,
+               raw_actions: bool = False):
     self.wind = wind
+    self.raw_actions = bool(raw_actions)
+
+  def env_action(self, normalized: Array) -> Array:
+    """What to give `step`/`step_env` for a [-1, 1]^3 action (`to_box`'d
+    here if this env takes raw actions; the env maps it otherwise)."""
+    return to_box(normalized) if self.raw_actions else normalized
+
+  def with_reset_pool(self, key: Array, params: EnvParams,
+                      size: int) -> EnvParams:
+    """`params` with a pool of `size` pre-drawn worlds for `step`'s resets.
+
+    World k is `reset(jax.random.split(key, size)[k], params)` (vmapped, one
+    jitted call: `size` VAE decodes, ~0.3 MB each). With the pool, `step`
+    auto-resets a finished flight with world `pool_index(key, size)` of the
+    step's `key` instead of `reset(key)`'s world, and writes only the
+    finished balloons (see `step`). Build it from the params you fly: the
+    worlds are drawn with these params' start band, flight system and
+    winds. Explicit `reset(key, params)` calls are unchanged.
+
+    Args:
+      key: The pool's key.
+      params: The env parameters (any pool they hold is replaced).
+      size: K >= 1 worlds.
+
+    Returns:
+      params.replace(reset_pool=ResetPool(...)).
+    """
+    gin_values.check_int('reset pool size', size, minimum=1)
+    params = params.replace(reset_pool=None)
+    obs, state = jax.jit(jax.vmap(self.reset, in_axes=(0, None)))(
+        jax.random.split(key, int(size)), params)
+    return params.replace(reset_pool=ResetPool(obs=obs, state=state))
 
   @property
   def default_params(self) -> EnvParams:
@@ -377,9 +535,12 @@ class LatexBalloonJaxEnv:
     return gymnasium.spaces.Box(-1.0, 1.0, (self.num_features,), np.float32)
 
   def action_space(self, params: EnvParams) -> Any:
-    """(a0 [m], a1, a2), the controller's Box (a `gymnasium.spaces.Box`)."""
+    """[-1, 1]^3, or (a0 [m], a1, a2) the controller's Box if `raw_actions`
+    (a `gymnasium.spaces.Box`, float32)."""
     del params
     import gymnasium  # pylint: disable=g-import-not-at-top
+    if not self.raw_actions:
+      return gymnasium.spaces.Box(-1.0, 1.0, (self.num_actions,), np.float32)
     return gymnasium.spaces.Box(np.asarray(ACTION_LOW, np.float32),
                                 np.asarray(ACTION_HIGH, np.float32),
                                 dtype=np.float32)
@@ -474,8 +635,9 @@ class LatexBalloonJaxEnv:
       key: Unused (the world is fixed at reset); gymnax's signature.
       state: The env state; a finished flight stays as it is.
       action: (a0 desired altitude [m], a1 time factor, a2 float flag),
-        clipped into the Box; an action with a NaN component is flown as
-        the float action (`info['invalid_action']`).
+        clipped into the Box, if `raw_actions`; else in [-1, 1]^3, clipped
+        there and mapped onto the Box (`to_box`). An action with a NaN
+        component is flown as the float action (`info['invalid_action']`).
       params: The env parameters.
 
     Returns:
@@ -486,6 +648,8 @@ class LatexBalloonJaxEnv:
     del key
     wind = self.wind_for(params)
     before = state.flight
+    if not self.raw_actions:
+      action = to_box(action)
     action, invalid = controller_lib.float_if_nan(
         jnp.asarray(action, before.altitude_m.dtype), before.altitude_m)
     action = jnp.clip(action, ACTION_LOW, ACTION_HIGH)
@@ -516,23 +680,39 @@ class LatexBalloonJaxEnv:
   def step(self, key: Array, state: EnvState, action: Array,
            params: EnvParams
            ) -> Tuple[Array, EnvState, Array, Array, Array, Dict[str, Any]]:
-    """`step_env`, then a new flight from `key` where the episode ended.
+    """`step_env`, then a new flight where the episode ended (auto-reset).
 
     gymnax 1.0's auto-reset: the returned observation and state are the new
     flight's where the episode ended (terminated or truncated); reward,
     terminated, truncated and info are the finished step's, and
     `info['final_observation']` is its observation.
+
+    Which world the new flight is:
+    - `params.reset_pool` None: `reset(key, params)`'s world (the world of
+      an explicit reset with the step's key). Under `jax.vmap` this reset
+      (VAE decode included) is computed for every balloon at every step,
+      ~7x the cost of `step_env`.
+    - a `ResetPool` (`with_reset_pool`): world `pool_index(key, K)` of the
+      pool, i.e. `reset(jax.random.split(pool_key, K)[pool_index(key, K)])`.
+      Under `jax.vmap` (params unbatched) only the finished balloons are
+      written, so a step costs about `step_env`'s. Auto-reset worlds then
+      repeat (K of them); explicit `reset` calls still draw from their key.
     """
     obs, state, reward, terminated, info = self.step_env(key, state, action,
                                                          params)
     truncated = info['truncated']
     done = terminated | truncated
-    reset_obs, reset_state = self.reset(key, params)
-    state = jax.tree.map(lambda r, s: jnp.where(done, r, s), reset_state,
-                         state)
+    pool = params.reset_pool
+    if pool is None:
+      reset_obs, reset_state = self.reset(key, params)
+      state = jax.tree.map(lambda r, s: jnp.where(done, r, s), reset_state,
+                           state)
+      new_obs = jnp.where(done, reset_obs, obs)
+    else:
+      state, new_obs = _reset_from_pool(done, pool_index(key, pool.size),
+                                        state, obs, pool)
     info = {**info, 'final_observation': obs}
-    return (jnp.where(done, reset_obs, obs), state, reward, terminated,
-            truncated, info)
+    return new_obs, state, reward, terminated, truncated, info
 
 
 # The gin binding of each `EnvParams` value (the flight system's are in
