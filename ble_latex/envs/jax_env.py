@@ -168,6 +168,9 @@ class EnvState:
     start_time_offset_s: Start time after `START_EPOCH` (BLE's date; on
       ERA5 winds the flight's start in the data). # [s]
     steps: Strides flown in this episode (the one step count).
+    pending_world: -1; after an auto-reset from `EnvParams.reset_pool`, the
+      pool world whose large leaves (forecast grid, noise permutations)
+      `step_env` installs first (`install_world`).
   """
   flight: state_lib.FlightState
   atmosphere: atmosphere_lib.AtmosphereParams
@@ -180,6 +183,7 @@ class EnvState:
   wind_v: Array
   start_time_offset_s: Array
   steps: Array
+  pending_world: Array
 
 
 @flax.struct.dataclass
@@ -214,72 +218,105 @@ def pool_index(key: Array, size: int) -> Array:
   return jax.random.randint(key, (), 0, size)
 
 
-def _pick(pool: ResetPool, index: Array) -> Tuple[EnvState, Array]:
-  return (jax.tree.map(lambda p: p[index], pool.state), pool.obs[index])
+# Leaves with at least this many elements per balloon (the forecast grid,
+# the noise permutations) are a pool world's "large" part: `step` leaves
+# them to be installed at the start of the next step (`install_world`).
+_LARGE_MIN_SIZE = 256
 
 
-def _select(done: Array, index: Array, state: EnvState, obs: Array,
-            pool: ResetPool) -> Tuple[EnvState, Array]:
-  """One balloon: the pool's world `index` where `done`, else unchanged."""
-  new_state, new_obs = _pick(pool, index)
-  state = jax.tree.map(lambda n, s: jnp.where(done, n, s).astype(s.dtype),
-                       new_state, state)
-  return state, jnp.where(done, new_obs, obs)
-
-
-# Balloons reset per iteration of the batched pool reset's loop.
-_RESET_CHUNK = 16
+def _is_large(leaf: Any, batch: Tuple[int, ...] = ()) -> bool:
+  return int(np.prod(np.shape(leaf)[len(batch):])) >= _LARGE_MIN_SIZE
 
 
 @custom_batching.custom_vmap
-def _reset_from_pool(done: Array, index: Array, state: EnvState, obs: Array,
-                     pool: ResetPool) -> Tuple[EnvState, Array]:
-  """Where `done`, the pool's world `index` (one balloon: a real branch).
+def _install(pending: Array, large: Any, pool_large: Any) -> Any:
+  """The large leaves of pool world `pending` where `pending` >= 0."""
+  return jax.lax.cond(
+      pending >= 0,
+      lambda: jax.tree.map(lambda p: p[jnp.maximum(pending, 0)], pool_large),
+      lambda: large)
 
-  Under `jax.vmap` (over balloons, the pool unbatched) only the finished
-  balloons are written, `_RESET_CHUNK` at a time in a `lax.while_loop` that
-  runs zero times when no balloon ended: a select over every balloon's
-  state would copy N forecast grids (~317 kB each) at every step.
+
+@_install.def_vmap
+def _install_batched(axis_size, in_batched, pending, large, pool_large):
+  """Batched `_install`: only the balloons with a pending world are written.
+
+  One `lax.dynamic_update_slice` per such balloon in a `lax.while_loop`
+  that runs zero times when there is none: a select over every balloon
+  would copy N forecast grids (~317 kB each) at every step, and XLA's
+  scatter on CPU is an element loop. Installed before anything reads the
+  state in the step, so XLA updates the buffers in place (no copy).
   """
-  return jax.lax.cond(done, lambda: _pick(pool, index), lambda: (state, obs))
-
-
-@_reset_from_pool.def_vmap
-def _reset_from_pool_batched(axis_size, in_batched, done, index, state, obs,
-                             pool):
-  """The batched rule of `_reset_from_pool` (see there)."""
-  done_b, index_b, state_b, obs_b, pool_b = in_batched
+  pending_b, large_b, pool_b = in_batched
 
   def batch(x, batched):
     return jax.tree.map(
         lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
         x, batched)
 
-  done, index = batch(done, done_b), batch(index, index_b)
-  state, obs = batch(state, state_b), batch(obs, obs_b)
+  pending, large = batch(pending, pending_b), batch(large, large_b)
   if any(jax.tree.leaves(pool_b)):  # A pool per balloon: select.
-    pool = batch(pool, pool_b)
-    out = jax.vmap(_select)(done, index, state, obs, pool)
-  else:
-    n = axis_size
-    chunk = min(n, _RESET_CHUNK)
-    rows = jnp.nonzero(done, size=n, fill_value=n)[0]  # Finished first.
-    count = jnp.sum(done.astype(jnp.int32))
+    out = jax.vmap(_install.fun)(pending, large, batch(pool_large, pool_b))
+    return out, jax.tree.map(lambda _: True, out)
+  rows = jnp.nonzero(pending >= 0, size=axis_size, fill_value=0)[0]
+  count = jnp.sum((pending >= 0).astype(jnp.int32))
 
-    def body(carry):
-      i, state, obs = carry
-      at = jax.lax.dynamic_slice(rows, (jnp.minimum(i * chunk, n - chunk),),
-                                 (chunk,))
-      new_state, new_obs = _pick(pool, index[jnp.minimum(at, n - 1)])
-      state = jax.tree.map(
-          lambda s, v: s.at[at].set(v.astype(s.dtype), mode='drop'), state,
-          new_state)
-      return i + 1, state, obs.at[at].set(new_obs, mode='drop')
+  def body(carry):
+    i, large = carry
+    row = rows[i]
+    world = pending[row]
+    return i + 1, jax.tree.map(
+        lambda w, p: jax.lax.dynamic_update_slice(
+            w, jax.lax.dynamic_index_in_dim(p, world).astype(w.dtype),
+            (row,) + (0,) * (w.ndim - 1)), large, pool_large)
 
-    _, state, obs = jax.lax.while_loop(lambda c: c[0] * chunk < count, body,
-                                       (jnp.zeros((), jnp.int32), state, obs))
-    out = (state, obs)
+  _, out = jax.lax.while_loop(lambda c: c[0] < count, body,
+                              (jnp.zeros((), jnp.int32), large))
   return out, jax.tree.map(lambda _: True, out)
+
+
+def install_world(state: EnvState, params: EnvParams) -> EnvState:
+  """`state` with its pending pool world's large parts in place.
+
+  After an auto-reset from `EnvParams.reset_pool`, `step` returns the new
+  world's observation and small state leaves at once, and marks its large
+  leaves (forecast grid, noise permutations) as pending
+  (`EnvState.pending_world`): `step_env` installs them first thing, where
+  XLA can write only those balloons' rows in place. Call this to read such
+  a state's winds outside `step_env` (e.g. `ground_truth_wind`). A state
+  with nothing pending (`pending_world` < 0, every state of `reset` and of
+  a step without a pool) is returned as it is.
+
+  Raises:
+    ValueError: `params.reset_pool` is None (nothing could be pending).
+  """
+  pool = params.reset_pool
+  if pool is None:
+    raise ValueError('install_world needs EnvParams.reset_pool (the pool '
+                     'the pending world comes from)')
+  leaves, treedef = jax.tree.flatten(state)
+  pool_leaves = jax.tree.leaves(pool.state)
+  large = [_is_large(x) for x in leaves]
+  new = iter(_install(state.pending_world,
+                      [x for x, b in zip(leaves, large) if b],
+                      [p for p, b in zip(pool_leaves, large) if b]))
+  state = treedef.unflatten([next(new) if b else x
+                             for x, b in zip(leaves, large)])
+  return state.replace(pending_world=jnp.full_like(state.pending_world, -1))
+
+
+def _reset_from_pool(done: Array, index: Array, state: EnvState, obs: Array,
+                     pool: ResetPool) -> Tuple[EnvState, Array]:
+  """Where `done`: pool world `index`'s small leaves and observation now,
+  its large leaves pending (`install_world`); elsewhere unchanged."""
+  leaves, treedef = jax.tree.flatten(state)
+  pool_leaves = jax.tree.leaves(pool.state)
+  leaves = [x if _is_large(x) else jnp.where(done, p[index], x).astype(x.dtype)
+            for x, p in zip(leaves, pool_leaves)]
+  state = treedef.unflatten(leaves)
+  state = state.replace(pending_world=jnp.where(
+      done, index, state.pending_world).astype(state.pending_world.dtype))
+  return state, jnp.where(done, pool.obs[index], obs)
 
 
 def ground_truth_wind(state: EnvState, x_m: Array, y_m: Array,
@@ -622,7 +659,8 @@ class LatexBalloonJaxEnv:
                                           flight.ascent_rate_mps),
         wind_u=jnp.zeros_like(altitude), wind_v=jnp.zeros_like(altitude),
         start_time_offset_s=start_time.astype(jnp.int32),
-        steps=jnp.zeros((), jnp.int32))
+        steps=jnp.zeros((), jnp.int32),
+        pending_world=jnp.full((), -1, jnp.int32))
     return state, {'wind': wind_key, 'location': location_key,
                    'atmosphere': atmosphere_key}
 
@@ -647,6 +685,8 @@ class LatexBalloonJaxEnv:
     """
     del key
     wind = self.wind_for(params)
+    if params.reset_pool is not None:
+      state = install_world(state, params)
     before = state.flight
     if not self.raw_actions:
       action = to_box(action)
@@ -694,9 +734,12 @@ class LatexBalloonJaxEnv:
       ~7x the cost of `step_env`.
     - a `ResetPool` (`with_reset_pool`): world `pool_index(key, K)` of the
       pool, i.e. `reset(jax.random.split(pool_key, K)[pool_index(key, K)])`.
-      Under `jax.vmap` (params unbatched) only the finished balloons are
-      written, so a step costs about `step_env`'s. Auto-reset worlds then
-      repeat (K of them); explicit `reset` calls still draw from their key.
+      The observation and the small state leaves are the world's at once;
+      its large leaves (forecast grid, noise permutations) are pending and
+      installed at the start of the next `step_env` (`install_world`), where
+      under `jax.vmap` only those balloons' rows are written: a step costs
+      about `step_env`'s. Auto-reset worlds then repeat (K of them);
+      explicit `reset` calls still draw from their key.
     """
     obs, state, reward, terminated, info = self.step_env(key, state, action,
                                                          params)
