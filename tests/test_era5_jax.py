@@ -226,7 +226,7 @@ def test_wind_grid_and_another_wind_is_an_error(era5_path):
 
 def _jax_flight(params, seeds, actions):
   """Observations and (x, y, altitude) of balloons flown by the JAX env."""
-  env = jax_env.LatexBalloonJaxEnv(raw_actions=True)
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
 
   @jax.jit
   def fly(keys, params):

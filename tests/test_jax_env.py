@@ -28,7 +28,7 @@ def _setup():
   gin.clear_config()
   gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
   try:
-    env = jax_env.LatexBalloonJaxEnv(raw_actions=True)
+    env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
     params = env.default_params
   finally:
     gin.clear_config()

@@ -4,8 +4,10 @@
   import jax
   from ble_latex.envs import jax_env
 
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv()   # actions in [-1, 1]^3
   params = env.default_params                       # gin-bound constants
+  # Optional: auto-reset from 256 pre-drawn worlds (cheap `step`).
+  params = env.with_reset_pool(jax.random.PRNGKey(1), params, 256)
   keys = jax.random.split(jax.random.PRNGKey(0), 1024)
   obs, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
   obs, state, reward, terminated, truncated, info = jax.vmap(
@@ -14,7 +16,8 @@
 gymnax 1.0's contract: `reset(key, params) -> (obs, state)`;
 `step(key, state, action, params) -> (obs, state, reward, terminated,
 truncated, info)` resets a finished episode from `key` (the finished step's
-observation in `info['final_observation']`); `step_env` is the step without
+observation in `info['final_observation']`; the world of `reset(key)`, or
+with `EnvParams.reset_pool` a world of the pool, see `step`); `step_env` is the step without
 reset, `(obs, state, reward, terminated, info)`. All are pure: jit them,
 vmap them over balloons, scan them over time (`rollout`). `terminated`: out
 of sand or helium, burst or grounded; `truncated`: the time limit
@@ -39,8 +42,11 @@ ground-truth wind (forecast + noise) re-queried every <= 3 simulated minutes.
 Observations are the 71 features (`jax_features`), the reward BLE's
 Perciatelli reward minus the optional resource penalties.
 
-Actions are clipped into the Box (the host envs validate at their
-boundary; +-inf clip onto the Box's edges), and an action with any NaN
+Actions are in [-1, 1]^3 by default, mapped affinely onto the controller's
+Box by `to_box` (`LatexBalloonJaxEnv(normalize_actions=False)`: the Box's raw
+(a0 [m], a1, a2), as BLE's arena, the Gymnasium wrappers and the jitted
+trainer fly it). Actions are clipped into the Box (the host envs validate
+at their boundary; +-inf clip onto the Box's edges), and an action with any NaN
 component, which no clipping can place, is flown as the float (hold) action
 (clip(h), 1, +1) (`flight.controller.float_if_nan`), flagged by
 `info['invalid_action']`, so NaN never reaches the state or the features.
@@ -512,11 +518,11 @@ class LatexBalloonJaxEnv:
   Args:
     wind: Where the winds come from (static). Default: BLE's generative
       field drawn from the reset key (`GENERATIVE_WIND`).
-    raw_actions: False (default, RL clients' convention): actions are in
-      [-1, 1]^3, mapped onto the core's Box by `to_box`, and
-      `action_space(params)` is [-1, 1]^3. True: actions are the Box's raw
-      (a0 [m], a1, a2) (BLE's arena, the Gymnasium wrappers, the jitted
-      trainer after its own `to_box`).
+    normalize_actions: True (default, RL clients' convention): actions are
+      in [-1, 1]^3, mapped onto the core's Box by `to_box`, and
+      `action_space(params)` is [-1, 1]^3. False: actions are the Box's raw
+      (a0 [m], a1, a2) (BLE's arena and the Gymnasium wrappers, which check
+      and map actions at their boundary; the jitted trainer).
   """
 
   action_low = ACTION_LOW  # The core's Box (the raw actions).
@@ -525,14 +531,14 @@ class LatexBalloonJaxEnv:
   num_actions = len(ACTION_LOW)  # gymnax: the action's size.
 
   def __init__(self, wind: Wind = GENERATIVE_WIND, *,
-               raw_actions: bool = False):
+               normalize_actions: bool = True):
     self.wind = wind
-    self.raw_actions = bool(raw_actions)
+    self.normalize_actions = bool(normalize_actions)
 
   def env_action(self, normalized: Array) -> Array:
     """What to give `step`/`step_env` for a [-1, 1]^3 action (`to_box`'d
     here if this env takes raw actions; the env maps it otherwise)."""
-    return to_box(normalized) if self.raw_actions else normalized
+    return normalized if self.normalize_actions else to_box(normalized)
 
   def with_reset_pool(self, key: Array, params: EnvParams,
                       size: int) -> EnvParams:
@@ -572,11 +578,11 @@ class LatexBalloonJaxEnv:
     return gymnasium.spaces.Box(-1.0, 1.0, (self.num_features,), np.float32)
 
   def action_space(self, params: EnvParams) -> Any:
-    """[-1, 1]^3, or (a0 [m], a1, a2) the controller's Box if `raw_actions`
-    (a `gymnasium.spaces.Box`, float32)."""
+    """[-1, 1]^3 (`normalize_actions`), else (a0 [m], a1, a2) the
+    controller's Box; a float32 `gymnasium.spaces.Box`."""
     del params
     import gymnasium  # pylint: disable=g-import-not-at-top
-    if not self.raw_actions:
+    if self.normalize_actions:
       return gymnasium.spaces.Box(-1.0, 1.0, (self.num_actions,), np.float32)
     return gymnasium.spaces.Box(np.asarray(ACTION_LOW, np.float32),
                                 np.asarray(ACTION_HIGH, np.float32),
@@ -673,9 +679,10 @@ class LatexBalloonJaxEnv:
       key: Unused (the world is fixed at reset); gymnax's signature.
       state: The env state; a finished flight stays as it is.
       action: (a0 desired altitude [m], a1 time factor, a2 float flag),
-        clipped into the Box, if `raw_actions`; else in [-1, 1]^3, clipped
-        there and mapped onto the Box (`to_box`). An action with a NaN
-        component is flown as the float action (`info['invalid_action']`).
+        clipped into the Box, without `normalize_actions`; with it, in
+        [-1, 1]^3, clipped there and mapped onto the Box (`to_box`). An
+        action with a NaN component is flown as the float action
+        (`info['invalid_action']`).
       params: The env parameters.
 
     Returns:
@@ -688,7 +695,7 @@ class LatexBalloonJaxEnv:
     if params.reset_pool is not None:
       state = install_world(state, params)
     before = state.flight
-    if not self.raw_actions:
+    if self.normalize_actions:
       action = to_box(action)
     action, invalid = controller_lib.float_if_nan(
         jnp.asarray(action, before.altitude_m.dtype), before.altitude_m)
