@@ -27,9 +27,14 @@ TensorFlow; both read the env's gin names (`jax_env.params_from_gin`).
 - Actions are checked at the boundary: shape (3,) (vector: (N, 3)), finite,
   inside the Box, or [-1, 1]^3 with `normalize_actions=True` (mapped affinely
   onto the Box with gymnasium's `rescale_box`); anything else is a
-  ValueError naming the balloon and component, and nothing changes.
+  ValueError naming the balloon and component, and nothing changes. The
+  registered ids default to `normalize_actions=True` (the spec's kwargs;
+  `gymnasium.make(ID, normalize_actions=False)` for the raw Box) and
+  `spec.max_episode_steps` = 216; the classes themselves default to the raw
+  Box (BLE's arena builds them).
 - The single env stops at the end of an episode (stepping it again is a
-  RuntimeError); `render_mode='rgb_array'` draws the flight so far. The
+  RuntimeError); `render_mode='rgb_array'` draws the flight so far (with an
+  inset around the station once the path is far away, `draw_flight`). The
   vector env resets ended balloons in the same step
   (`AutoresetMode.SAME_STEP`, the core's gymnax convention) from seeds drawn
   from `np_random`, with `info['final_obs']` / `info['final_info']`.
