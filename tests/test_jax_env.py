@@ -466,8 +466,8 @@ def test_normalized_actions_are_the_one_to_box_mapping():
   assert env.action_space(params) == gymnasium_box(-1.0, 1.0)
   assert raw_env.action_space(params).low[0] == 14_000.0
   unit = jnp.array([[-1.0, 1.0, 0.3], [0.25, -0.5, -1.0], [2.0, -3.0, 0.0]])
-  np.testing.assert_array_equal(jax_env.to_box(unit[0]),
-                                [14_000.0, 5.0, 0.3])
+  np.testing.assert_allclose(jax_env.to_box(unit[0]), [14_000.0, 5.0, 0.3],
+                             rtol=1e-6)  # float32
   keys = _keys([3, 4, 5])
   _, state = batch_reset(keys, params)
   norm_step = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, 0, None)))
