@@ -250,7 +250,7 @@ def _jax_flight(params, seeds, actions):
 def _gymnasium_flight(params, path, seed, actions, episode_hours=24.0):
   """The same from the Gymnasium env flying `Era5WindField` (callbacks)."""
   env = gymnasium.make(
-      'ble_latex/LatexBalloon-v0', params=params,
+      'ble_latex/LatexBalloon-v0', params=params, normalize_actions=False,
       wind_field_factory=functools.partial(era5.Era5WindField, path=path,
                                            episode_hours=episode_hours))
   obs, _ = env.reset(seed=seed)
