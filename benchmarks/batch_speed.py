@@ -75,7 +75,7 @@ def jax_worker(batch: int, steps: int, repeats: int, wind: str = 'vae',
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
 
   configs.bind_gin(None, None, [], [])
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   grid_shape = None
   if wind == 'era5':
@@ -131,7 +131,7 @@ def profile_worker(batch: int, repeats: int) -> dict:
   from ble_latex.flight import dynamics  # pylint: disable=g-import-not-at-top
 
   configs.bind_gin(None, None, [], [])
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   keys = jax.random.split(jax.random.PRNGKey(0), batch)
   _, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)

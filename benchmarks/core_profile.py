@@ -54,7 +54,7 @@ def _parts(batch: int) -> Dict[str, Any]:
   from ble_latex.wind import generative  # pylint: disable=g-import-not-at-top
 
   configs.bind_gin(None, None, [], [])
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   single = batch == 1
   key = jax.random.PRNGKey(0)

@@ -65,7 +65,7 @@ def measure(batch: int, repeats: int) -> dict:
   from ble_latex.wind import simplex  # pylint: disable=g-import-not-at-top
 
   configs.bind_gin(None, None, [], [])
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   keys = jax.random.split(jax.random.PRNGKey(0), batch)
   _, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)

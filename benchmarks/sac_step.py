@@ -232,7 +232,7 @@ def _time_env_steps(args) -> dict:
     fly(args.env_steps)
     agent_ms.append((time.perf_counter() - start) / args.env_steps * 1e3)
 
-  env_j = jax_env.LatexBalloonJaxEnv()
+  env_j = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env_j.default_params
   steps = int(params.episode_steps)
   n, k = args.num_envs, args.updates_per_step

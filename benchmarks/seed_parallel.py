@@ -61,7 +61,7 @@ def _setup(num_envs: int, updates_per_step: int, rounds: int,
   from ble_latex.agents import sac_trainer
   from ble_latex.envs import jax_env
   # pylint: enable=g-import-not-at-top
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   steps = int(params.episode_steps)
   config = sac_trainer.TrainerConfig(

@@ -245,7 +245,7 @@ def test_every_env_flies_era5_from_the_gin_binding(gin_era5):
   from ble_latex.envs import gymnasium_env  # pylint: disable=g-import-not-at-top
   params = jax_env.params_from_gin()
   assert params.wind_grid is not None
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   keys = jnp.stack([jax.random.PRNGKey(s) for s in _SEEDS])
   # The functional env, from gin: positions after each stride.
   obs0, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)

@@ -226,7 +226,7 @@ def test_wind_grid_and_another_wind_is_an_error(era5_path):
 
 def _jax_flight(params, seeds, actions):
   """Observations and (x, y, altitude) of balloons flown by the JAX env."""
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
 
   @jax.jit
   def fly(keys, params):
@@ -256,7 +256,7 @@ class HostEra5WindField(era5.Era5WindField):
 def _gymnasium_flight(params, path, seed, actions, episode_hours=24.0):
   """The same from the Gymnasium env flying `Era5WindField` (callbacks)."""
   env = gymnasium.make(
-      'ble_latex/LatexBalloon-v0', params=params,
+      'ble_latex/LatexBalloon-v0', params=params, normalize_actions=False,
       wind_field_factory=functools.partial(HostEra5WindField, path=path,
                                            episode_hours=episode_hours))
   assert env.unwrapped._wind_field is not None  # pylint: disable=protected-access

@@ -37,7 +37,7 @@ def _python(code: str, timeout: float = 300, **env_changes):
 
 @pytest.fixture(scope='module')
 def env():
-  e = gymnasium.make(ID)
+  e = gymnasium.make(ID, normalize_actions=False)
   yield e
   e.close()
 
@@ -148,7 +148,7 @@ def test_reset_refuses_options(env):
 
 
 def test_time_limit_is_truncation():
-  env = gymnasium.make(ID, episode_steps=2)
+  env = gymnasium.make(ID, episode_steps=2, normalize_actions=False)
   env.reset(seed=1)
   action = np.array([17000.0, 1.0, 1.0])
   assert env.step(action)[2:4] == (False, False)
@@ -156,7 +156,7 @@ def test_time_limit_is_truncation():
   assert (terminated, truncated) == (False, True)
   assert info['time_limit']
   # A shorter TimeLimit from make() works too.
-  env = gymnasium.make(ID, max_episode_steps=1)
+  env = gymnasium.make(ID, max_episode_steps=1, normalize_actions=False)
   env.reset(seed=1)
   assert env.step(action)[2:4] == (False, True)
 
@@ -176,7 +176,7 @@ def test_done_maps_to_terminated_or_truncated(done, info, expected):
 
 
 def test_step_after_the_end_raises():
-  env = gymnasium.make(ID, episode_steps=2)
+  env = gymnasium.make(ID, episode_steps=2, normalize_actions=False)
   env.reset(seed=1)
   action = np.array([17000.0, 1.0, 1.0])
   env.step(action)
@@ -190,7 +190,7 @@ def test_step_after_the_end_raises():
 # -- normalize_actions. -------------------------------------------------------
 def test_normalize_actions_maps_unit_cube_onto_the_box():
   env = gymnasium.make(ID, normalize_actions=True)
-  raw = gymnasium.make(ID)
+  raw = gymnasium.make(ID, normalize_actions=False)
   box = raw.action_space
   assert env.action_space == gymnasium.spaces.Box(-1, 1, (3,), np.float32)
   base = env.unwrapped
@@ -211,9 +211,57 @@ def test_normalize_actions_maps_unit_cube_onto_the_box():
     gymnasium.make(DISCRETE_ID, normalize_actions=True)
 
 
+# -- Conventional defaults of the ids (issue 31). ---------------------------
+def test_ids_default_to_normalized_actions_and_a_216_step_spec():
+  env = gymnasium.make(ID)
+  assert env.action_space == gymnasium.spaces.Box(-1, 1, (3,), np.float32)
+  assert env.unwrapped.normalize_actions
+  assert env.spec.max_episode_steps == 216
+  assert env.spec.kwargs == {'normalize_actions': True}
+  assert gymnasium.spec(DISCRETE_ID).max_episode_steps == 216
+  raw = gymnasium.make(ID, normalize_actions=False)
+  assert raw.action_space.low[0] == 14000.0
+  # CleanRL's form: the module is imported by gymnasium itself.
+  assert gymnasium.make(f'ble_latex:{ID}').spec.id == ID
+
+
+def test_spec_time_limit_ends_with_the_core_not_twice():
+  """make()'s TimeLimit(216) and the core's 216 strides end one episode."""
+  env = gymnasium.make(ID, episode_steps=3)  # The core's own limit.
+  assert env.spec.max_episode_steps == 216
+  env.reset(seed=1)
+  ends = [env.step(np.zeros(3, np.float32))[2:4] for _ in range(3)]
+  assert ends == [(False, False), (False, False), (False, True)]
+  env.reset(seed=1)  # The wrapper's count restarts with the core's.
+  assert env.step(np.zeros(3, np.float32))[2:4] == (False, False)
+  # make_vec hands the spec's limit to the batched core (no wrapper).
+  envs = gymnasium.make_vec(ID, num_envs=2, max_episode_steps=2)
+  assert envs.unwrapped.params.episode_steps == 2
+  envs.reset(seed=0)
+  envs.step(np.zeros((2, 3), np.float32))
+  assert np.all(envs.step(np.zeros((2, 3), np.float32))[3])
+  envs.close()
+
+
+def test_render_keeps_the_station_visible_far_away():
+  """A path 3 000 km wide: the 50 km circle gets a zoomed inset."""
+  from matplotlib import patches  # pylint: disable=g-import-not-at-top
+  near = [(0.0, 10.0, 0.0, 15.0), (1.0, 20.0, 5.0, 15.0)]
+  far = near + [(2.0, 1500.0, -900.0, 16.0)]
+  fig = gymnasium_env.draw_flight(None, near, 50.0)
+  assert len(fig.axes) == 2  # No inset needed.
+  fig = gymnasium_env.draw_flight(fig, far, 50.0)
+  inset = [a for a in fig.axes[0].child_axes]
+  assert len(inset) == 1
+  assert inset[0].get_xlim() == (-150.0, 150.0)
+  assert any(isinstance(p, patches.Circle) and p.get_radius() == 50.0
+             for p in inset[0].patches)
+  assert gymnasium_env.figure_rgb(fig).shape == (320, 640, 3)
+
+
 # -- Rendering. ---------------------------------------------------------------
 def test_render_rgb_array_draws_the_flight():
-  env = gymnasium.make(ID, render_mode='rgb_array')
+  env = gymnasium.make(ID, render_mode='rgb_array', normalize_actions=False)
   env.reset(seed=4)
   first = env.render()
   assert first.dtype == np.uint8 and first.shape == (320, 640, 3)
@@ -246,7 +294,7 @@ _EXPECTED = {
 @pytest.mark.parametrize('env_id, normalize', list(_EXPECTED))
 def test_gymnasium_and_sb3_env_checkers(env_id, normalize):
   from stable_baselines3.common import env_checker as sb3_checker  # pylint: disable=g-import-not-at-top
-  kwargs = {'normalize_actions': True} if normalize else {}
+  kwargs = {} if env_id == DISCRETE_ID else {'normalize_actions': normalize}
   env = gymnasium.make(env_id, **kwargs)
   with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter('always')
@@ -313,7 +361,7 @@ def test_gin_bound_station_radius_is_checked():
     gin.parse_config('LatexBalloonEnv.station_keeping_radius_km = -5.0')
     with pytest.raises(ValueError, match='^gin binding LatexBalloonEnv.'
                        'station_keeping_radius_km must be a finite number > 0'):
-      gymnasium.make(ID)
+      gymnasium.make(ID, normalize_actions=False)
   finally:
     gin.clear_config()
 
@@ -340,7 +388,7 @@ def test_forked_worker_fails_loudly_instead_of_hanging(monkeypatch):
   gymnasium_env._note_fork_in_child()  # pylint: disable=protected-access
   assert gymnasium_env._forked_after_jax  # pylint: disable=protected-access
   with pytest.raises(RuntimeError, match="spawn"):
-    gymnasium.make(ID)
+    gymnasium.make(ID, normalize_actions=False)
 
 
 _ASYNC = '''

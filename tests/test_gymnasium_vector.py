@@ -24,14 +24,15 @@ TOL = dict(rtol=1e-5, atol=1e-5)
 @pytest.fixture(scope='module')
 def single():
   """The single env (default params: shares the other tests' compilations)."""
-  e = gymnasium.make(ID)
+  e = gymnasium.make(ID, normalize_actions=False)
   yield e
   e.close()
 
 
 @pytest.fixture(scope='module')
 def envs():
-  e = gymnasium.make_vec(ID, num_envs=N, episode_steps=STEPS)
+  e = gymnasium.make_vec(ID, num_envs=N, episode_steps=STEPS,
+                         normalize_actions=False)
   yield e
   e.close()
 

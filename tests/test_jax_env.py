@@ -28,7 +28,7 @@ def _setup():
   gin.clear_config()
   gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
   try:
-    env = jax_env.LatexBalloonJaxEnv()
+    env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
     params = env.default_params
   finally:
     gin.clear_config()
@@ -405,3 +405,80 @@ def test_gymnax_client_loop_without_a_wrapper():
   np.testing.assert_array_equal(np.asarray(truncated | terminated),
                                 np.asarray(steps) == 2)
   np.testing.assert_array_equal(np.asarray(state.steps), [0, 0])
+
+
+# -- Reset pool and normalized actions (issue 31). ----------------------------
+@pytest.mark.slow
+def test_reset_pool_gives_pool_worlds_and_only_resets_the_ended():
+  """`step` with a pool: ended balloons get world pool_index(key), small
+  leaves at once, the large ones installed by the next step; the others
+  fly on exactly as `step_env` flies them; one balloon (a real cond) too."""
+  env, params, batch_reset, _ = _setup()
+  short = params.replace(episode_steps=3)
+  pooled = env.with_reset_pool(jax.random.PRNGKey(7), short, 4)
+  pool = pooled.reset_pool
+  assert pool.size == 4 and pool.obs.shape == (4, 71)
+  # World k is the explicit reset of key k of the pool's split.
+  o, _ = jax.jit(env.reset)(jax.random.split(jax.random.PRNGKey(7), 4)[2],
+                            short)
+  np.testing.assert_allclose(pool.obs[2], o, atol=5e-5)
+  keys = _keys([3, 4, 5])
+  _, state = batch_reset(keys, short)
+  state = state.replace(steps=jnp.array([0, 2, 1], jnp.int32))
+  action = jnp.tile(jnp.array([18_000.0, 2.0, -1.0]), (3, 1))
+  step_keys = _keys([11, 12, 13])
+  step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+  step_env = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, 0, None)))
+  install = jax.jit(jax.vmap(jax_env.install_world, in_axes=(0, None)))
+  obs, new, _, terminated, truncated, info = step(step_keys, state, action,
+                                                  pooled)
+  flown, flown_state, _, _, _ = step_env(step_keys, state, action, pooled)
+  np.testing.assert_array_equal(info['final_observation'], flown)
+  assert list(np.asarray(terminated | truncated)) == [False, True, False]
+  k = int(jax_env.pool_index(step_keys[1], 4))
+  assert list(np.asarray(new.pending_world)) == [-1, k, -1]
+  np.testing.assert_array_equal(obs[1], pool.obs[k])
+  installed = install(new, pooled)
+  for i in (0, 2):
+    np.testing.assert_array_equal(obs[i], flown[i])
+    jax.tree.map(lambda a, b: np.testing.assert_array_equal(a[i], b[i]),
+                 new, flown_state)
+  jax.tree.map(lambda a, b: np.testing.assert_array_equal(a[1], b[k]),
+               installed, pool.state)
+  # The next step flies the installed world (the pending one is installed).
+  nxt = step_env(step_keys, new, action, pooled)
+  jax.tree.map(np.testing.assert_array_equal, nxt,
+               step_env(step_keys, installed, action, pooled))
+  # One balloon, unbatched: the same world.
+  one = jax.tree.map(lambda a: a[1], state)
+  o1, s1, *_ = jax.jit(env.step)(step_keys[1], one, action[1], pooled)
+  np.testing.assert_array_equal(o1, pool.obs[k])
+  assert int(s1.pending_world) == k
+
+
+@pytest.mark.slow
+def test_normalized_actions_are_the_one_to_box_mapping():
+  """The default env flies to_box(a) of a in [-1, 1]^3, bit for bit."""
+  from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
+  raw_env, params, batch_reset, batch_step = _setup()
+  env = jax_env.LatexBalloonJaxEnv()
+  assert sac_trainer.to_box is jax_env.to_box
+  assert env.action_space(params) == gymnasium_box(-1.0, 1.0)
+  assert raw_env.action_space(params).low[0] == 14_000.0
+  unit = jnp.array([[-1.0, 1.0, 0.3], [0.25, -0.5, -1.0], [2.0, -3.0, 0.0]])
+  np.testing.assert_allclose(jax_env.to_box(unit[0]), [14_000.0, 5.0, 0.3],
+                             rtol=1e-6)  # float32
+  keys = _keys([3, 4, 5])
+  _, state = batch_reset(keys, params)
+  norm_step = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, 0, None)))
+  jax.tree.map(np.testing.assert_array_equal,
+               norm_step(keys, state, unit, params),
+               batch_step(keys, state, jax_env.to_box(unit), params))
+  assert env.env_action(unit) is unit
+  np.testing.assert_array_equal(raw_env.env_action(unit),
+                                jax_env.to_box(unit))
+
+
+def gymnasium_box(low, high):
+  import gymnasium  # pylint: disable=g-import-not-at-top
+  return gymnasium.spaces.Box(low, high, (3,), np.float32)

@@ -458,7 +458,7 @@ def test_functional_env_flies_realistic_physics_reproducibly():
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env
   # pylint: enable=g-import-not-at-top
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params.replace(flight=REALISTIC)
   keys = jax.random.split(jax.random.PRNGKey(5), 3)
   keys = jnp.stack([keys[0], keys[1], keys[0]])  # Flights 0 and 2: one seed.

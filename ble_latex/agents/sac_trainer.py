@@ -224,12 +224,9 @@ def make_learner(config: TrainerConfig, key: Array
   return learner, state
 
 
-def to_box(normalized: Array) -> Array:
-  """[-1, 1]^3 actions onto the env's Box (as `sac.SACAgent._to_box`)."""
-  low = jnp.asarray(jax_env.ACTION_LOW, jnp.float32)
-  high = jnp.asarray(jax_env.ACTION_HIGH, jnp.float32)
-  u = jnp.clip(normalized, -1.0, 1.0)
-  return jnp.clip(low + 0.5 * (u + 1.0) * (high - low), low, high)
+# [-1, 1]^3 actions onto the env's Box (as `sac.SACAgent._to_box`): the
+# functional env's one mapping.
+to_box = jax_env.to_box
 
 
 def _add(replay: Replay, obs: Array, action: Array, reward: Array,
@@ -325,7 +322,7 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
         ~jnp.isfinite(action) & active[:, None])
     next_obs, env_state, reward, terminated, info = jax.vmap(
         env.step_env, in_axes=(None, 0, 0, None))(
-            act_key, env_state, to_box(action), params)
+            act_key, env_state, env.env_action(action), params)
     done = terminated | info['time_limit']
     terminal = terminated.astype(jnp.float32)
     state = state.replace(
@@ -393,7 +390,7 @@ def validate(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
     env_state, obs, active, within, steps = carry
     obs, env_state, _, terminated, info = jax.vmap(
         env.step_env, in_axes=(None, 0, 0, None))(
-            None, env_state, to_box(mean_action(obs)), params)
+            None, env_state, env.env_action(mean_action(obs)), params)
     done = terminated | info['time_limit']
     within = within + (active & (info['distance_km'] <= params.radius_km))
     steps = steps + active

@@ -27,9 +27,14 @@ TensorFlow; both read the env's gin names (`jax_env.params_from_gin`).
 - Actions are checked at the boundary: shape (3,) (vector: (N, 3)), finite,
   inside the Box, or [-1, 1]^3 with `normalize_actions=True` (mapped affinely
   onto the Box with gymnasium's `rescale_box`); anything else is a
-  ValueError naming the balloon and component, and nothing changes.
+  ValueError naming the balloon and component, and nothing changes. The
+  registered ids default to `normalize_actions=True` (the spec's kwargs;
+  `gymnasium.make(ID, normalize_actions=False)` for the raw Box) and
+  `spec.max_episode_steps` = 216; the classes themselves default to the raw
+  Box (BLE's arena builds them).
 - The single env stops at the end of an episode (stepping it again is a
-  RuntimeError); `render_mode='rgb_array'` draws the flight so far. The
+  RuntimeError); `render_mode='rgb_array'` draws the flight so far (with an
+  inset around the station once the path is far away, `draw_flight`). The
   vector env resets ended balloons in the same step
   (`AutoresetMode.SAME_STEP`, the core's gymnax convention) from seeds drawn
   from `np_random`, with `info['final_obs']` / `info['final_info']`.
@@ -351,7 +356,7 @@ class _Compiled:
 @functools.lru_cache(maxsize=2)
 def _generative(batched: bool) -> _Compiled:
   """One compiled set per process for BLE's generative field."""
-  return _Compiled(jax_env.LatexBalloonJaxEnv(), batched)
+  return _Compiled(jax_env.LatexBalloonJaxEnv(normalize_actions=False), batched)
 
 
 def _is_core_generative(factory: Any) -> bool:
@@ -414,7 +419,7 @@ class _Balloons(SeedRule):
     self.params = params
     self.state: Optional[jax_env.EnvState] = None
     self._fns = compiled
-    core = jax_env.LatexBalloonJaxEnv()
+    core = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
     self._box = core.action_space(params)
     self.normalize_actions = bool(normalize_actions)
     self._from_normalized = None
@@ -504,7 +509,8 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
         # pylint: enable=g-import-not-at-top
         self._wind_field = field
         compiled = _Compiled(jax_env.LatexBalloonJaxEnv(
-            ble_wind.callback_wind(field)), batched=False)
+            ble_wind.callback_wind(field), normalize_actions=False),
+            batched=False)
     if grid is not None and params is not None:
       params = params.replace(wind_grid=grid)
     self._setup(params, episode_steps, normalize_actions, compiled)
@@ -610,9 +616,18 @@ def flight_point(flight: Mapping[str, Any]) -> Tuple[float, float, float,
           float(flight['y_m']) / 1000.0, float(flight['altitude_m']) / 1000.0)
 
 
+# `draw_flight` adds an inset around the station when the x/y view is wider
+# than this many station radii, spanning +-_INSET_HALF radii.
+_INSET_ABOVE = 6.0
+_INSET_HALF = 3.0
+
+
 def draw_flight(figure: Any, path: Sequence[Tuple[float, float, float, float]],
                 radius_km: float) -> Any:
   """Draws a flight path (`flight_point`s) and the station circle.
+
+  When the path spans more than `_INSET_ABOVE` station radii, an inset
+  zoomed on the station (+-`_INSET_HALF` radii) keeps the circle visible.
 
   Args:
     figure: A matplotlib Figure to draw on, or None for a new one.
@@ -649,6 +664,23 @@ def draw_flight(figure: Any, path: Sequence[Tuple[float, float, float, float]],
   ax_xy.set_xlabel('x [km]')
   ax_xy.set_ylabel('y [km]')
   ax_xy.set_title(f'{radius_km:g} km station', fontsize=9)
+  if half > _INSET_ABOVE * radius_km:
+    # The circle would be a few pixels: an inset zoomed on the station.
+    zoom = _INSET_HALF * radius_km
+    inset = ax_xy.inset_axes((0.62, 0.62, 0.36, 0.36))
+    inset.add_patch(mpl_patches.Circle((0.0, 0.0), radius_km, fill=False,
+                                       color='k', ls='--', lw=1.0))
+    inset.plot(0.0, 0.0, marker='+', color='k')
+    if len(x):
+      inset.plot(x, y, color='tab:blue', lw=1.0)
+      inset.plot(x[-1], y[-1], marker='o', color='tab:red', ms=3)
+    inset.set_xlim(-zoom, zoom)
+    inset.set_ylim(-zoom, zoom)
+    inset.set_aspect('equal')
+    inset.set_xticks([])
+    inset.set_yticks([])
+    inset.set_title(f'+-{zoom:g} km', fontsize=7, pad=2)
+    ax_xy.indicate_inset_zoom(inset, edgecolor='0.5')
   if len(t):
     ax_alt.plot(t, alt, color='tab:blue', lw=1.5)
   ax_alt.set_xlabel('time [h]')

@@ -4,8 +4,10 @@
   import jax
   from ble_latex.envs import jax_env
 
-  env = jax_env.LatexBalloonJaxEnv()
+  env = jax_env.LatexBalloonJaxEnv()   # actions in [-1, 1]^3
   params = env.default_params                       # gin-bound constants
+  # Optional: auto-reset from 256 pre-drawn worlds (cheap `step`).
+  params = env.with_reset_pool(jax.random.PRNGKey(1), params, 256)
   keys = jax.random.split(jax.random.PRNGKey(0), 1024)
   obs, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
   obs, state, reward, terminated, truncated, info = jax.vmap(
@@ -14,7 +16,8 @@
 gymnax 1.0's contract: `reset(key, params) -> (obs, state)`;
 `step(key, state, action, params) -> (obs, state, reward, terminated,
 truncated, info)` resets a finished episode from `key` (the finished step's
-observation in `info['final_observation']`); `step_env` is the step without
+observation in `info['final_observation']`; the world of `reset(key)`, or
+with `EnvParams.reset_pool` a world of the pool, see `step`); `step_env` is the step without
 reset, `(obs, state, reward, terminated, info)`. All are pure: jit them,
 vmap them over balloons, scan them over time (`rollout`). `terminated`: out
 of sand or helium, burst or grounded; `truncated`: the time limit
@@ -39,8 +42,11 @@ ground-truth wind (forecast + noise) re-queried every <= 3 simulated minutes.
 Observations are the 71 features (`jax_features`), the reward BLE's
 Perciatelli reward minus the optional resource penalties.
 
-Actions are clipped into the Box (the host envs validate at their
-boundary; +-inf clip onto the Box's edges), and an action with any NaN
+Actions are in [-1, 1]^3 by default, mapped affinely onto the controller's
+Box by `to_box` (`LatexBalloonJaxEnv(normalize_actions=False)`: the Box's raw
+(a0 [m], a1, a2), as BLE's arena, the Gymnasium wrappers and the jitted
+trainer fly it). Actions are clipped into the Box (the host envs validate
+at their boundary; +-inf clip onto the Box's edges), and an action with any NaN
 component, which no clipping can place, is flown as the float (hold) action
 (clip(h), 1, +1) (`flight.controller.float_if_nan`), flagged by
 `info['invalid_action']`, so NaN never reaches the state or the features.
@@ -59,6 +65,7 @@ from typing import Any, Callable, Dict, Mapping, NamedTuple, Optional, Tuple
 import flax
 import gin
 import jax
+from jax import custom_batching
 import jax.numpy as jnp
 import numpy as np
 
@@ -127,6 +134,20 @@ def flight_params_of(params: 'EnvParams', state: 'EnvState'
       start_second_of_day=(offset - days * 86_400).astype(dtype))
 
 
+def to_box(normalized: Array) -> Array:
+  """[-1, 1]^3 actions onto the core's Box, affinely (the one mapping).
+
+  low + (u + 1) / 2 * (high - low) of u = clip(normalized, -1, 1), clipped
+  into the Box, in float32: what the normalized `LatexBalloonJaxEnv` and the
+  jitted SAC trainer fly (`sac_trainer.to_box` is this function). A NaN
+  component stays NaN (`step_env` flies the float action).
+  """
+  low = jnp.asarray(ACTION_LOW, jnp.float32)
+  high = jnp.asarray(ACTION_HIGH, jnp.float32)
+  u = jnp.clip(normalized, -1.0, 1.0)
+  return jnp.clip(low + 0.5 * (u + 1.0) * (high - low), low, high)
+
+
 @flax.struct.dataclass
 class EnvParams:
   """Everything that configures the env (gymnax's `EnvParams`).
@@ -149,6 +170,10 @@ class EnvParams:
     wind_grid: None: the winds are the env's `Wind` (BLE's generative field
       by default); an `era5_jax.Era5Grid`: ERA5 winds plus BLE's simplex
       noise (`era5_wind`), the grid shared by every balloon.
+    reset_pool: None: `step` auto-resets a finished flight with the world
+      of its key (`reset(key)`, a full reset computed at every step); a
+      `ResetPool` (`LatexBalloonJaxEnv.with_reset_pool`): `step` auto-resets
+      from the pool's pre-drawn worlds, shared by every balloon (cheap).
   """
   flight: flight_params_lib.FlightParams
   decoder: Any
@@ -164,6 +189,7 @@ class EnvParams:
   episode_steps: int = 216
   stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
   wind_grid: Optional[era5_jax.Era5Grid] = None
+  reset_pool: Optional['ResetPool'] = None
 
   @property
   def max_steps_in_episode(self) -> int:
@@ -188,6 +214,9 @@ class EnvState:
     start_time_offset_s: Start time after `START_EPOCH` (BLE's date; on
       ERA5 winds the flight's start in the data). # [s]
     steps: Strides flown in this episode (the one step count).
+    pending_world: -1; after an auto-reset from `EnvParams.reset_pool`, the
+      pool world whose large leaves (forecast grid, noise permutations)
+      `step_env` installs first (`install_world`).
   """
   flight: state_lib.FlightState
   atmosphere: atmosphere_lib.AtmosphereParams
@@ -200,6 +229,140 @@ class EnvState:
   wind_v: Array
   start_time_offset_s: Array
   steps: Array
+  pending_world: Array
+
+
+@flax.struct.dataclass
+class ResetPool:
+  """K pre-drawn worlds that `step` auto-resets from (`EnvParams.reset_pool`).
+
+  Built by `LatexBalloonJaxEnv.with_reset_pool(key, params, size)`: world k
+  is `reset(jax.random.split(key, size)[k], params)` (vmapped), i.e. the
+  world of an explicit reset with that key. A pytree of arrays with a
+  leading axis K, read by every balloon (pass the params unbatched,
+  `in_axes=None`: one copy, not one per balloon).
+
+  Attributes:
+    obs: [K, 71] the worlds' first observations.
+    state: `EnvState` with a leading axis K (measured, `steps` = 0).
+  """
+  obs: Array
+  state: EnvState
+
+  @property
+  def size(self) -> int:
+    """K, the number of worlds."""
+    return self.obs.shape[0]
+
+
+def pool_index(key: Array, size: int) -> Array:
+  """The pool world `step` gives a flight that ends with step key `key`.
+
+  `jax.random.randint(key, (), 0, size)`: uniform over the K worlds, drawn
+  from the step's key (so the same keys give the same worlds).
+  """
+  return jax.random.randint(key, (), 0, size)
+
+
+# Leaves with at least this many elements per balloon (the forecast grid,
+# the noise permutations) are a pool world's "large" part: `step` leaves
+# them to be installed at the start of the next step (`install_world`).
+_LARGE_MIN_SIZE = 256
+
+
+def _is_large(leaf: Any, batch: Tuple[int, ...] = ()) -> bool:
+  return int(np.prod(np.shape(leaf)[len(batch):])) >= _LARGE_MIN_SIZE
+
+
+@custom_batching.custom_vmap
+def _install(pending: Array, large: Any, pool_large: Any) -> Any:
+  """The large leaves of pool world `pending` where `pending` >= 0."""
+  return jax.lax.cond(
+      pending >= 0,
+      lambda: jax.tree.map(lambda p: p[jnp.maximum(pending, 0)], pool_large),
+      lambda: large)
+
+
+@_install.def_vmap
+def _install_batched(axis_size, in_batched, pending, large, pool_large):
+  """Batched `_install`: only the balloons with a pending world are written.
+
+  One `lax.dynamic_update_slice` per such balloon in a `lax.while_loop`
+  that runs zero times when there is none: a select over every balloon
+  would copy N forecast grids (~317 kB each) at every step, and XLA's
+  scatter on CPU is an element loop. Installed before anything reads the
+  state in the step, so XLA updates the buffers in place (no copy).
+  """
+  pending_b, large_b, pool_b = in_batched
+
+  def batch(x, batched):
+    return jax.tree.map(
+        lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
+        x, batched)
+
+  pending, large = batch(pending, pending_b), batch(large, large_b)
+  if any(jax.tree.leaves(pool_b)):  # A pool per balloon: select.
+    out = jax.vmap(_install.fun)(pending, large, batch(pool_large, pool_b))
+    return out, jax.tree.map(lambda _: True, out)
+  rows = jnp.nonzero(pending >= 0, size=axis_size, fill_value=0)[0]
+  count = jnp.sum((pending >= 0).astype(jnp.int32))
+
+  def body(carry):
+    i, large = carry
+    row = rows[i]
+    world = pending[row]
+    return i + 1, jax.tree.map(
+        lambda w, p: jax.lax.dynamic_update_slice(
+            w, jax.lax.dynamic_index_in_dim(p, world).astype(w.dtype),
+            (row,) + (0,) * (w.ndim - 1)), large, pool_large)
+
+  _, out = jax.lax.while_loop(lambda c: c[0] < count, body,
+                              (jnp.zeros((), jnp.int32), large))
+  return out, jax.tree.map(lambda _: True, out)
+
+
+def install_world(state: EnvState, params: EnvParams) -> EnvState:
+  """`state` with its pending pool world's large parts in place.
+
+  After an auto-reset from `EnvParams.reset_pool`, `step` returns the new
+  world's observation and small state leaves at once, and marks its large
+  leaves (forecast grid, noise permutations) as pending
+  (`EnvState.pending_world`): `step_env` installs them first thing, where
+  XLA can write only those balloons' rows in place. Call this to read such
+  a state's winds outside `step_env` (e.g. `ground_truth_wind`). A state
+  with nothing pending (`pending_world` < 0, every state of `reset` and of
+  a step without a pool) is returned as it is.
+
+  Raises:
+    ValueError: `params.reset_pool` is None (nothing could be pending).
+  """
+  pool = params.reset_pool
+  if pool is None:
+    raise ValueError('install_world needs EnvParams.reset_pool (the pool '
+                     'the pending world comes from)')
+  leaves, treedef = jax.tree.flatten(state)
+  pool_leaves = jax.tree.leaves(pool.state)
+  large = [_is_large(x) for x in leaves]
+  new = iter(_install(state.pending_world,
+                      [x for x, b in zip(leaves, large) if b],
+                      [p for p, b in zip(pool_leaves, large) if b]))
+  state = treedef.unflatten([next(new) if b else x
+                             for x, b in zip(leaves, large)])
+  return state.replace(pending_world=jnp.full_like(state.pending_world, -1))
+
+
+def _reset_from_pool(done: Array, index: Array, state: EnvState, obs: Array,
+                     pool: ResetPool) -> Tuple[EnvState, Array]:
+  """Where `done`: pool world `index`'s small leaves and observation now,
+  its large leaves pending (`install_world`); elsewhere unchanged."""
+  leaves, treedef = jax.tree.flatten(state)
+  pool_leaves = jax.tree.leaves(pool.state)
+  leaves = [x if _is_large(x) else jnp.where(done, p[index], x).astype(x.dtype)
+            for x, p in zip(leaves, pool_leaves)]
+  state = treedef.unflatten(leaves)
+  state = state.replace(pending_world=jnp.where(
+      done, index, state.pending_world).astype(state.pending_world.dtype))
+  return state, jnp.where(done, pool.obs[index], obs)
 
 
 def ground_truth_wind(state: EnvState, x_m: Array, y_m: Array,
@@ -395,15 +558,53 @@ class LatexBalloonJaxEnv:
   Args:
     wind: Where the winds come from (static). Default: BLE's generative
       field drawn from the reset key (`GENERATIVE_WIND`).
+    normalize_actions: True (default, RL clients' convention): actions are
+      in [-1, 1]^3, mapped onto the core's Box by `to_box`, and
+      `action_space(params)` is [-1, 1]^3. False: actions are the Box's raw
+      (a0 [m], a1, a2) (BLE's arena and the Gymnasium wrappers, which check
+      and map actions at their boundary; the jitted trainer).
   """
 
-  action_low = ACTION_LOW
+  action_low = ACTION_LOW  # The core's Box (the raw actions).
   action_high = ACTION_HIGH
   num_features = jax_features.NUM_FEATURES
   num_actions = len(ACTION_LOW)  # gymnax: the action's size.
 
-  def __init__(self, wind: Wind = GENERATIVE_WIND):
+  def __init__(self, wind: Wind = GENERATIVE_WIND, *,
+               normalize_actions: bool = True):
     self.wind = wind
+    self.normalize_actions = bool(normalize_actions)
+
+  def env_action(self, normalized: Array) -> Array:
+    """What to give `step`/`step_env` for a [-1, 1]^3 action (`to_box`'d
+    here if this env takes raw actions; the env maps it otherwise)."""
+    return normalized if self.normalize_actions else to_box(normalized)
+
+  def with_reset_pool(self, key: Array, params: EnvParams,
+                      size: int) -> EnvParams:
+    """`params` with a pool of `size` pre-drawn worlds for `step`'s resets.
+
+    World k is `reset(jax.random.split(key, size)[k], params)` (vmapped, one
+    jitted call: `size` VAE decodes, ~0.3 MB each). With the pool, `step`
+    auto-resets a finished flight with world `pool_index(key, size)` of the
+    step's `key` instead of `reset(key)`'s world, and writes only the
+    finished balloons (see `step`). Build it from the params you fly: the
+    worlds are drawn with these params' start band, flight system and
+    winds. Explicit `reset(key, params)` calls are unchanged.
+
+    Args:
+      key: The pool's key.
+      params: The env parameters (any pool they hold is replaced).
+      size: K >= 1 worlds.
+
+    Returns:
+      params.replace(reset_pool=ResetPool(...)).
+    """
+    gin_values.check_int('reset pool size', size, minimum=1)
+    params = params.replace(reset_pool=None)
+    obs, state = jax.jit(jax.vmap(self.reset, in_axes=(0, None)))(
+        jax.random.split(key, int(size)), params)
+    return params.replace(reset_pool=ResetPool(obs=obs, state=state))
 
   @property
   def default_params(self) -> EnvParams:
@@ -417,9 +618,12 @@ class LatexBalloonJaxEnv:
     return gymnasium.spaces.Box(-1.0, 1.0, (self.num_features,), np.float32)
 
   def action_space(self, params: EnvParams) -> Any:
-    """(a0 [m], a1, a2), the controller's Box (a `gymnasium.spaces.Box`)."""
+    """[-1, 1]^3 (`normalize_actions`), else (a0 [m], a1, a2) the
+    controller's Box; a float32 `gymnasium.spaces.Box`."""
     del params
     import gymnasium  # pylint: disable=g-import-not-at-top
+    if self.normalize_actions:
+      return gymnasium.spaces.Box(-1.0, 1.0, (self.num_actions,), np.float32)
     return gymnasium.spaces.Box(np.asarray(ACTION_LOW, np.float32),
                                 np.asarray(ACTION_HIGH, np.float32),
                                 dtype=np.float32)
@@ -505,7 +709,8 @@ class LatexBalloonJaxEnv:
                                           flight.ascent_rate_mps),
         wind_u=jnp.zeros_like(altitude), wind_v=jnp.zeros_like(altitude),
         start_time_offset_s=start_time.astype(jnp.int32),
-        steps=jnp.zeros((), jnp.int32))
+        steps=jnp.zeros((), jnp.int32),
+        pending_world=jnp.full((), -1, jnp.int32))
     return state, {'wind': wind_key, 'location': location_key,
                    'atmosphere': atmosphere_key}
 
@@ -519,8 +724,10 @@ class LatexBalloonJaxEnv:
         random walk included: `walk_key`); gymnax's signature.
       state: The env state; a finished flight stays as it is.
       action: (a0 desired altitude [m], a1 time factor, a2 float flag),
-        clipped into the Box; an action with a NaN component is flown as
-        the float action (`info['invalid_action']`).
+        clipped into the Box, without `normalize_actions`; with it, in
+        [-1, 1]^3, clipped there and mapped onto the Box (`to_box`). An
+        action with a NaN component is flown as the float action
+        (`info['invalid_action']`).
       params: The env parameters.
 
     Returns:
@@ -529,7 +736,11 @@ class LatexBalloonJaxEnv:
       `step_info` (its `truncated` is the time limit without one).
     """
     wind = self.wind_for(params)
+    if params.reset_pool is not None:
+      state = install_world(state, params)
     before = state.flight
+    if self.normalize_actions:
+      action = to_box(action)
     action, invalid = controller_lib.float_if_nan(
         jnp.asarray(action, before.altitude_m.dtype), before.altitude_m)
     action = jnp.clip(action, ACTION_LOW, ACTION_HIGH)
@@ -562,23 +773,42 @@ class LatexBalloonJaxEnv:
   def step(self, key: Array, state: EnvState, action: Array,
            params: EnvParams
            ) -> Tuple[Array, EnvState, Array, Array, Array, Dict[str, Any]]:
-    """`step_env`, then a new flight from `key` where the episode ended.
+    """`step_env`, then a new flight where the episode ended (auto-reset).
 
     gymnax 1.0's auto-reset: the returned observation and state are the new
     flight's where the episode ended (terminated or truncated); reward,
     terminated, truncated and info are the finished step's, and
     `info['final_observation']` is its observation.
+
+    Which world the new flight is:
+    - `params.reset_pool` None: `reset(key, params)`'s world (the world of
+      an explicit reset with the step's key). Under `jax.vmap` this reset
+      (VAE decode included) is computed for every balloon at every step,
+      ~7x the cost of `step_env`.
+    - a `ResetPool` (`with_reset_pool`): world `pool_index(key, K)` of the
+      pool, i.e. `reset(jax.random.split(pool_key, K)[pool_index(key, K)])`.
+      The observation and the small state leaves are the world's at once;
+      its large leaves (forecast grid, noise permutations) are pending and
+      installed at the start of the next `step_env` (`install_world`), where
+      under `jax.vmap` only those balloons' rows are written: a step costs
+      about `step_env`'s. Auto-reset worlds then repeat (K of them);
+      explicit `reset` calls still draw from their key.
     """
     obs, state, reward, terminated, info = self.step_env(key, state, action,
                                                          params)
     truncated = info['truncated']
     done = terminated | truncated
-    reset_obs, reset_state = self.reset(key, params)
-    state = jax.tree.map(lambda r, s: jnp.where(done, r, s), reset_state,
-                         state)
+    pool = params.reset_pool
+    if pool is None:
+      reset_obs, reset_state = self.reset(key, params)
+      state = jax.tree.map(lambda r, s: jnp.where(done, r, s), reset_state,
+                           state)
+      new_obs = jnp.where(done, reset_obs, obs)
+    else:
+      state, new_obs = _reset_from_pool(done, pool_index(key, pool.size),
+                                        state, obs, pool)
     info = {**info, 'final_observation': obs}
-    return (jnp.where(done, reset_obs, obs), state, reward, terminated,
-            truncated, info)
+    return new_obs, state, reward, terminated, truncated, info
 
 
 # The gin binding of each `EnvParams` value (the flight system's are in

@@ -463,7 +463,7 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
   with contextlib.ExitStack() as locks:  # One writer per run directory.
     for _, base_dir in runs:
       locks.enter_context(run_dir.locked(base_dir, wait_s=lock_wait_s))
-    env = jax_env.LatexBalloonJaxEnv()
+    env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
     params = (jax_env.check_params(env_params) if env_params is not None
               else env.default_params)
     window = int(params.episode_steps)
