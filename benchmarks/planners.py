@@ -9,7 +9,7 @@ Flies the suite's first --num_seeds seeds --batch at a time with the JAX env
 for the same seeds): one vmapped `planners.plan_batch` call per decision
 plans for the whole batch, then the batch flies `replan_every` strides.
 Writes OUTPUT_DIR/SUITE/NAME.json in `ble-latex-eval`'s record format
-(`benchmarks/results_table.py` reads it) and OUTPUT_DIR/SUITE/NAME.timing.json
+(`benchmarks/results_table.py` reads it) and OUTPUT_DIR/SUITE/timing/NAME.json
 (seconds per decision and per episode, compile time, load). Resumable: the
 records of finished batches are kept in NAME.partial.json and skipped when
 the command runs again. --short flies 2 seeds for 12 strides (a smoke test).
@@ -202,7 +202,9 @@ def _main(argv: Sequence[str]) -> int:
   cli.prepare_output_dir(folder, '--output_dir')
   path = os.path.join(folder, f'{name}.json')
   partial = os.path.join(folder, f'{name}.partial.json')
-  timing_path = os.path.join(folder, f'{name}.timing.json')
+  # Not beside the records: results_table.py reads SUITE/*.json.
+  timing_path = os.path.join(folder, 'timing', f'{name}.json')
+  os.makedirs(os.path.dirname(timing_path), exist_ok=True)
   records: List[Dict[str, Any]] = []
   timing: Dict[str, Any] = {}
   if os.path.exists(partial):

@@ -24,7 +24,8 @@ same core the env flies, and act through the same altitude controller:
 A plan is piecewise constant: `num_segments` altitude targets a0 [m] and
 float flags a2 in {-1, +1} over `horizon` strides, flown with a fixed time
 factor a1. The objective, per stride t of the plan (discounted):
-sigmoid((R - d_t) / w) + shaping * 2^(-d_t / halflife), minus a resource
+sigmoid((R - d_t) / w) + shaping * 2^(-d_t / halflife), plus progress *
+(d_0 - d_end) / R (the approach over the plan), minus a resource
 cost (sand dropped and helium vented, as lift [kg], divided by the fraction
 of the launch sand margin left and scaled by the fraction of the episode
 left: spending is cheap at the end and dear when little is left), minus a
@@ -81,6 +82,8 @@ class PlannerConfig:
     radius_width_km: Width of its sigmoid. # [km]
     shaping: Weight of the 2^(-d / halflife) term. # [.]
     halflife_km: Its half-life distance. # [km]
+    progress: Weight of the approach over the plan, (d_0 - d_end) / radius
+      (a constant pull towards the station, also from far away). # [.]
     discount: Per-stride discount of the objective. # [.]
     sand_cost: Cost per kg of sand dropped (at a full margin). # [1/kg]
     helium_cost: Cost per kg of lift vented (at a full margin). # [1/kg]
@@ -110,6 +113,7 @@ class PlannerConfig:
   radius_width_km: float = 3.0
   shaping: float = 0.3
   halflife_km: float = 100.0
+  progress: float = 2.0
   discount: float = 0.98
   sand_cost: float = 2.0
   helium_cost: float = 2.0
@@ -160,7 +164,7 @@ class PlannerConfig:
     for field in ('init_std_m', 'min_std_m', 'radius_km', 'radius_width_km',
                   'halflife_km', 'wind_correction_pa', 'grad_step_m'):
       gin_values.check_number(name(field), getattr(self, field), above=0.0)
-    for field in ('shaping', 'sand_cost', 'helium_cost', 'terminal_cost',
+    for field in ('shaping', 'progress', 'sand_cost', 'helium_cost', 'terminal_cost',
                   'wind_correction_hours'):
       gin_values.check_number(name(field), getattr(self, field), minimum=0.0)
     gin_values.check_bool(name('plan_float'), self.plan_float)
@@ -271,6 +275,10 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
   shaping = config.shaping * jnp.exp2(-distance_km / config.halflife_km)
   value = jnp.sum(jnp.where(alive, config.discount ** t * (within + shaping),
                             0.0).astype(dtype))
+  d0 = jnp.hypot(f0.x_m, f0.y_m) / 1000.0
+  d_end = distance_km[jnp.clip(jnp.minimum(left, config.horizon) - 1, 0,
+                               config.horizon - 1)]
+  value = value + config.progress * (d0 - d_end) / config.radius_km
   # Resource margins as a fraction of the launch sand (both start near it).
   initial = jnp.maximum(params.flight.initial_sand_kg, 1e-3)
   sand_margin = jnp.maximum(f0.sand_kg - params.flight.min_drop_kg, 0.0)
