@@ -68,7 +68,7 @@ class PlannerConfig:
     num_samples: Plans sampled per CEM iteration.
     iterations: CEM iterations (1: random shooting around the warm start).
     elite_fraction: Fraction of the samples that refit the CEM distribution.
-    horizon: Strides planned ahead (18 = 6 h).
+    horizon: Strides planned ahead (24 = 8 h).
     num_segments: Piecewise-constant pieces of a plan (horizon split evenly).
     replan_every: Strides flown from a plan before planning again.
     time_factor: a1 of every planned action. # [.]
@@ -96,11 +96,11 @@ class PlannerConfig:
     grad_step_m: GRADIENT: length of a normalised step of the targets. # [m]
   """
   mode: str = FORECAST
-  num_samples: int = 64
+  num_samples: int = 128
   iterations: int = 2
   elite_fraction: float = 0.125
-  horizon: int = 18
-  num_segments: int = 3
+  horizon: int = 24
+  num_segments: int = 4
   replan_every: int = 2
   time_factor: float = 2.0
   plan_float: bool = True
@@ -115,13 +115,13 @@ class PlannerConfig:
   halflife_km: float = 100.0
   progress: float = 2.0
   discount: float = 0.98
-  sand_cost: float = 2.0
-  helium_cost: float = 2.0
+  sand_cost: float = 0.3
+  helium_cost: float = 0.3
   terminal_cost: float = 20.0
   wind_correction_hours: float = 3.0
   wind_correction_pa: float = 1_000.0
-  grad_starts: int = 8
-  grad_steps: int = 10
+  grad_starts: int = 4
+  grad_steps: int = 5
   grad_step_m: float = 150.0
 
   def checked(self) -> 'PlannerConfig':
@@ -560,9 +560,12 @@ _FIELDS = [f.name for f in dataclasses.fields(PlannerConfig)
            if f.name != 'mode']
 
 
-def _configurable(name: str, mode: str, doc: str):
-  """A gin-configurable `PlannerAgent` of `mode`, every config field a kwarg."""
-  defaults = PlannerConfig(mode=mode)
+def _configurable(name: str, mode: str, doc: str, **overrides: Any):
+  """A gin-configurable `PlannerAgent` of `mode`, every config field a kwarg.
+
+  `overrides` are the class's own defaults (else `PlannerConfig`'s).
+  """
+  defaults = PlannerConfig(mode=mode, **overrides)
 
   def __init__(self, num_actions, observation_shape, *, action_low,
                action_high, seed: int = 0, **config):
@@ -601,10 +604,12 @@ LatexMpcAgent = _configurable(
     'CEM MPC on the forecast (agent latex_mpc); never reads the noise.')
 LatexMpcOracleAgent = _configurable(
     'LatexMpcOracleAgent', ORACLE,
-    'CEM MPC on the true wind (agent latex_mpc_oracle): an upper bound.')
+    'CEM MPC on the true wind (agent latex_mpc_oracle): an upper bound.',
+    num_samples=128, iterations=3, horizon=36, num_segments=6)
 LatexMpcGradAgent = _configurable(
     'LatexMpcGradAgent', GRADIENT,
-    'First-order MPC on the forecast (agent latex_mpc_grad).')
+    'First-order MPC on the forecast (agent latex_mpc_grad).',
+    iterations=1)
 AGENTS: Dict[str, Any] = {'latex_mpc': LatexMpcAgent,
                           'latex_mpc_oracle': LatexMpcOracleAgent,
                           'latex_mpc_grad': LatexMpcGradAgent}
