@@ -54,11 +54,10 @@ flags.DEFINE_boolean('short', False, '2 seeds, 12 strides (smoke test).',
                      flag_values=FLAGS)
 
 
-def _fly_functions(config, env, params, wind):
-  """Jitted: fly `replan_every` strides of [N] plans from [N] states."""
+def _fly_functions(config, env):
+  """Jitted: [N] new flights; [N] plans flown `replan_every` strides."""
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
 
   def fly(states, plans, params):
@@ -81,7 +80,6 @@ def _fly_functions(config, env, params, wind):
     info = jax.vmap(jax_env.step_info, in_axes=(0, None))(states, params)
     return states, info, states.flight
 
-  del planners, wind
   return jax.jit(start), jax.jit(fly)
 
 
@@ -105,7 +103,7 @@ def _flight_arrays(flight) -> Dict[str, np.ndarray]:
   return {k: np.asarray(jax.device_get(getattr(flight, k))) for k in keys}
 
 
-def fly_batch(agent_name: str, config, seeds: Sequence[int], max_steps: int,
+def fly_batch(config, seeds: Sequence[int], max_steps: int,
               agent_seed: int, timing: Dict[str, Any]) -> List[Dict[str, Any]]:
   """Flies `seeds` together; returns their eval records (in seed order)."""
   import jax  # pylint: disable=g-import-not-at-top
@@ -117,7 +115,7 @@ def fly_batch(agent_name: str, config, seeds: Sequence[int], max_steps: int,
   env = jax_env.LatexBalloonJaxEnv()
   params = jax_env.params_from_gin()
   wind = env.wind_for(params)
-  start, fly = _fly_functions(config, env, params, wind)
+  start, fly = _fly_functions(config, env)
   n = len(seeds)
   keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
   states, info0, flight0 = start(keys, params)
@@ -224,7 +222,7 @@ def _main(argv: Sequence[str]) -> int:
   with safe_io.locked_file(path, what='planner output'):
     for b in range(0, len(todo), FLAGS.batch):
       chunk = todo[b:b + FLAGS.batch]
-      records += fly_batch(FLAGS.agent, config, chunk, max_steps, FLAGS.seed,
+      records += fly_batch(config, chunk, max_steps, FLAGS.seed,
                            timing)
       timing['loadavg'].append(os.getloadavg())
       safe_io.atomic_write(partial, json.dumps(records))

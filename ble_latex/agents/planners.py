@@ -39,7 +39,10 @@ classes are thin BLE `Agent`s that read the core state of the env they fly
 
 import dataclasses
 import functools
-from typing import Any, Callable, Dict, NamedTuple, Optional, Sequence, Tuple
+import inspect
+import time
+from typing import (Any, Callable, Dict, List, NamedTuple, Optional,
+                    Sequence, Tuple)
 
 from balloon_learning_environment.agents import agent
 import gin
@@ -520,7 +523,7 @@ class PlannerAgent(agent.Agent):
     self._wind = None
     self._plan: Optional[Plan] = None
     self._since = 0
-    self.decision_seconds: list = []
+    self.decision_seconds: List[float] = []  # Wall time of each plan. # [s]
 
   def attach_env(self, env: Any) -> None:
     """Flies `env`'s core from now on (see `core_of`)."""
@@ -529,7 +532,6 @@ class PlannerAgent(agent.Agent):
   def _act(self) -> np.ndarray:
     if self._driver is None:
       raise RuntimeError('PlannerAgent.attach_env(env) was not called')
-    import time  # pylint: disable=g-import-not-at-top
     if self._plan is None or self._since >= self.config.replan_every:
       start = time.perf_counter()
       state = jax.tree.map(lambda a: a[None], self._driver.state)
@@ -582,7 +584,6 @@ def _configurable(name: str, mode: str, doc: str, **overrides: Any):
   cls = type(name, (PlannerAgent,), {'mode': mode, '__doc__': doc,
                                      '__init__': __init__})
   # gin sees the config fields as keyword arguments of the constructor.
-  import inspect  # pylint: disable=g-import-not-at-top
   parameters = [
       inspect.Parameter('self', inspect.Parameter.POSITIONAL_OR_KEYWORD),
       inspect.Parameter('num_actions', inspect.Parameter.POSITIONAL_OR_KEYWORD),
