@@ -46,16 +46,25 @@ clean:
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.cli.eval --suite=latex_small --output_dir=$(RESULTS)
 
-.PHONY: baselines results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac
+.PHONY: baselines planners results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac
 baselines: venv
 	$(EVAL) --agent=latex_random
 	$(EVAL) --agent=latex_station_seeker
 	$(EVAL) --agent=station_seeker --env_name=LatexBalloonDiscrete-v0 --name_override=ble_station_seeker_discrete
 	$(EVAL) --agent=sac --name_override=sac_untrained
 
-results: baselines
+# Issue 29: the planners on the same 100 seeds, balloons batched (resumable;
+# docs/planners.md). Their records join the table.
+PLANNERS ?= benchmarks/planners/results
+planners: venv
+	$(PY) benchmarks/planners.py --agent=latex_mpc --suite=latex_small --output_dir=$(PLANNERS)
+	$(PY) benchmarks/planners.py --agent=latex_mpc_oracle --suite=latex_small --output_dir=$(PLANNERS)
+	$(PY) benchmarks/planners.py --agent=latex_mpc_grad --suite=latex_small --output_dir=$(PLANNERS)
+
+results: baselines planners
 	$(EVAL) --agent=sac_pretrained
-	$(PY) benchmarks/results_table.py --json=benchmarks/results.json $(RESULTS)/latex_small/*.json | tee benchmarks/results.md
+	$(PY) benchmarks/results_table.py --json=benchmarks/results.json $(RESULTS)/latex_small/*.json \
+		$(PLANNERS)/latex_small/*.json | tee benchmarks/results.md
 
 env-speed: venv
 	$(PY) benchmarks/env_speed.py --episodes 3 --repeats 3 --profile --json benchmarks/env_speed.json

@@ -7,6 +7,11 @@
   shipped in `agents/policies/sac_latex.msgpack`.
 - 'latex_random', 'latex_station_seeker': the Box baselines of
   `baselines.py` (no gin file).
+- 'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad': the planners of
+  `planners.py` (forecast CEM MPC, the same on the true wind as an upper
+  bound, first-order MPC); no gin file (gin `LatexMpcAgent.*`, ...). They
+  read the env's core state (`attach_env`, called by
+  `run.runner.create_agent`).
 
 Importing this package is cheap; `register()` imports BLE's registry and the
 agents (TensorFlow, JAX, Dopamine).
@@ -19,7 +24,11 @@ SAC_GIN_FILE = 'sac.gin'
 # Registered agents that take a Box action (constructor keywords action_low,
 # action_high, seed); the others are BLE's discrete-action agents.
 BOX_AGENTS: FrozenSet[str] = frozenset(
-    {'sac', 'sac_pretrained', 'latex_random', 'latex_station_seeker'})
+    {'sac', 'sac_pretrained', 'latex_random', 'latex_station_seeker',
+     'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad'})
+# Box agents that plan on the env's core state (`attach_env(env)`).
+PLANNER_AGENTS: FrozenSet[str] = frozenset(
+    {'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad'})
 
 
 def register() -> None:
@@ -32,6 +41,7 @@ def register() -> None:
   # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.agents import agent_registry
   from ble_latex.agents import baselines
+  from ble_latex.agents import planners
   from ble_latex.agents import pretrained
   from ble_latex.agents import sac
   from ble_latex import configs
@@ -43,3 +53,5 @@ def register() -> None:
   agent_registry.REGISTRY['latex_random'] = (baselines.LatexRandomAgent, None)
   agent_registry.REGISTRY['latex_station_seeker'] = (
       baselines.GeometricStationSeeker, None)
+  for name, constructor in planners.AGENTS.items():
+    agent_registry.REGISTRY[name] = (constructor, None)

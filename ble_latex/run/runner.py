@@ -40,8 +40,11 @@ def _create_agent(name: str, env: gym.Env, seed: int) -> base_agent.Agent:
         f'Agent {name!r} only supports discrete actions; use it with '
         "--env_name=LatexBalloonDiscrete-v0, or a Box agent "
         f'({sorted(latex_agents.BOX_AGENTS)}) with LatexBalloon-v0.')
-  return constructor(space.shape[0], observation_shape=observation_shape,
-                     action_low=space.low, action_high=space.high, seed=seed)
+  agent = constructor(space.shape[0], observation_shape=observation_shape,
+                      action_low=space.low, action_high=space.high, seed=seed)
+  if getattr(agent, 'needs_env', False):  # The planners read the core state.
+    agent.attach_env(env)
+  return agent
 
 
 def flight_point(env: gym.Env) -> Dict[str, Any]:

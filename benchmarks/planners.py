@@ -1,0 +1,265 @@
+"""The planners (`ble_latex.agents.planners`) on a suite, balloons batched.
+
+  python benchmarks/planners.py --agent=latex_mpc --suite=latex_small \
+      --output_dir=benchmarks/planners/results [--num_seeds=100] [--batch=25] \
+      [--gin_bindings='LatexMpcAgent.num_samples=64']
+
+Flies the suite's first --num_seeds seeds --batch at a time with the JAX env
+(`jax_env.LatexBalloonJaxEnv`, the same worlds as `ble-latex-eval`'s gym env
+for the same seeds): one vmapped `planners.plan_batch` call per decision
+plans for the whole batch, then the batch flies `replan_every` strides.
+Writes OUTPUT_DIR/SUITE/NAME.json in `ble-latex-eval`'s record format
+(`benchmarks/results_table.py` reads it) and OUTPUT_DIR/SUITE/timing/NAME.json
+(seconds per decision and per episode, compile time, load). Resumable: the
+records of finished batches are kept in NAME.partial.json and skipped when
+the command runs again. --short flies 2 seeds for 12 strides (a smoke test).
+"""
+
+import json
+import os
+import sys
+import time
+from typing import Any, Dict, List, Optional, Sequence
+
+from absl import flags
+import numpy as np
+
+import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex import quiet
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('agent', 'latex_mpc', 'latex_mpc, latex_mpc_oracle or '
+                    'latex_mpc_grad.', flag_values=FLAGS)
+flags.DEFINE_string('suite', 'latex_small', 'Evaluation suite.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('output_dir', 'benchmarks/planners/results',
+                    'Output folder (SUITE/NAME.json inside).',
+                    flag_values=FLAGS)
+flags.DEFINE_string('name_override', None, 'Name of the output files.',
+                    flag_values=FLAGS)
+flags.DEFINE_integer('num_seeds', None, 'First seeds of the suite (default: '
+                     'all).', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('batch', 25, 'Balloons planned in one call.',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('max_episode_length', None, 'Cap on the strides.',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('seed', 0, 'Agent seed.', flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_file', [], 'Extra gin files.',
+                          flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings.',
+                          flag_values=FLAGS)
+flags.DEFINE_boolean('short', False, '2 seeds, 12 strides (smoke test).',
+                     flag_values=FLAGS)
+
+
+def _fly_functions(config, env):
+  """Jitted: [N] new flights; [N] plans flown `replan_every` strides."""
+  import jax  # pylint: disable=g-import-not-at-top
+  import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+
+  def fly(states, plans, params):
+    segment = jnp.asarray((np.arange(config.replan_every) * config.num_segments
+               ) // config.horizon)
+
+    def stride(states, k):
+      a0 = plans.targets_m[:, segment[k]]
+      a2 = plans.floats[:, segment[k]]
+      actions = jnp.stack([a0, jnp.full_like(a0, config.time_factor), a2], -1)
+      _, states, reward, _, info = jax.vmap(
+          env.step_env, in_axes=(None, 0, 0, None))(None, states, actions,
+                                                    params)
+      return states, (reward, info, states.flight)
+
+    return jax.lax.scan(stride, states, jnp.arange(config.replan_every))
+
+  def start(keys, params):
+    _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    info = jax.vmap(jax_env.step_info, in_axes=(0, None))(states, params)
+    return states, info, states.flight
+
+  return jax.jit(start), jax.jit(fly)
+
+
+def _point(flight: Dict[str, np.ndarray], i: int) -> Dict[str, Any]:
+  from ble_latex.flight import state as state_lib  # pylint: disable=g-import-not-at-top
+  return {'t_s': float(flight['time_s'][i]),
+          'x_km': float(flight['x_m'][i]) / 1000.0,
+          'y_km': float(flight['y_m'][i]) / 1000.0,
+          'altitude_m': float(flight['altitude_m'][i]),
+          'ascent_rate_mps': float(flight['ascent_rate_mps'][i]),
+          'decision': state_lib.DecisionCode(
+              int(flight['last_decision'][i])).name.lower(),
+          'helium_mols': float(flight['helium_mols'][i]),
+          'sand_kg': float(flight['sand_kg'][i])}
+
+
+def _flight_arrays(flight) -> Dict[str, np.ndarray]:
+  import jax  # pylint: disable=g-import-not-at-top
+  keys = ('time_s', 'x_m', 'y_m', 'altitude_m', 'ascent_rate_mps',
+          'last_decision', 'helium_mols', 'sand_kg')
+  return {k: np.asarray(jax.device_get(getattr(flight, k))) for k in keys}
+
+
+def fly_batch(config, seeds: Sequence[int], max_steps: int,
+              agent_seed: int, timing: Dict[str, Any]) -> List[Dict[str, Any]]:
+  """Flies `seeds` together; returns their eval records (in seed order)."""
+  import jax  # pylint: disable=g-import-not-at-top
+  import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
+
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  params = jax_env.params_from_gin()
+  wind = env.wind_for(params)
+  start, fly = _fly_functions(config, env)
+  n = len(seeds)
+  keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
+  states, info0, flight0 = start(keys, params)
+  window = min(int(params.episode_steps), max_steps)
+  trackers = [metrics.EpisodeTracker(i, s, params.station_keeping_radius_km,
+                                     window_steps=window)
+              for i, s in enumerate(seeds)]
+  f0 = _flight_arrays(flight0)
+  paths = [[_point(f0, i)] for i in range(n)]
+  done = np.zeros(n, bool)
+  previous = planners.initial_plans(config, states)
+  seed = jnp.int32(agent_seed)
+  steps = 0
+  plan_s, first, episode_start = [], None, time.perf_counter()
+  while steps < max_steps and not done.all():
+    t0 = time.perf_counter()
+    plans = jax.block_until_ready(
+        planners.plan_batch(config, params, states, seed, previous, wind))
+    elapsed = time.perf_counter() - t0
+    if first is None:
+      first = elapsed  # The batch's first call (compilation in the first).
+    else:
+      plan_s.append(elapsed)
+    states, (reward, info, flight) = fly(states, plans, params)
+    previous = plans
+    reward, info = jax.device_get((reward, info))
+    flight = _flight_arrays(flight)
+    for k in range(config.replan_every):
+      if steps >= max_steps:
+        break
+      steps += 1
+      for i in range(n):
+        if done[i]:
+          continue
+        one = {key: np.asarray(v)[k, i] for key, v in info.items()}
+        info_i = jax_env.info_dict(one)
+        trackers[i].step(float(reward[k, i]), info_i)
+        paths[i].append(_point({key: v[k] for key, v in flight.items()}, i))
+        if (info_i['out_of_resources'] or info_i['envelope_burst'] or
+            info_i['terminal_reason'] != 'ok' or info_i['time_limit'] or
+            steps >= max_steps):
+          done[i] = True
+  wall = time.perf_counter() - episode_start
+  timing.setdefault('batches', []).append({
+      'seeds': [int(s) for s in seeds], 'wall_s': wall, 'first_plan_s': first,
+      'plan_calls': len(plan_s) + 1, 'plan_s_sum_after_first': sum(plan_s),
+      'plan_s_mean_after_first': float(np.mean(plan_s)) if plan_s else None})
+  records = []
+  for i, tracker in enumerate(trackers):
+    summary = tracker.summary(bool(done[i]))
+    record = summary.to_json()
+    del record['episode'], record['wall_time_s']
+    record['flight_path'] = paths[i]
+    records.append(record)
+  return records
+
+
+def _main(argv: Sequence[str]) -> int:
+  del argv
+  from ble_latex import agents  # pylint: disable=g-import-not-at-top
+  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise():
+    from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+    from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
+    from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
+  if FLAGS.agent not in planners.AGENTS:
+    raise cli.CommandUsageError(
+        f'--agent={FLAGS.agent!r}: one of {sorted(planners.AGENTS)}')
+  del agents
+  configs.bind_gin(None, None, FLAGS.gin_file, FLAGS.gin_bindings)
+  config = planners.AGENTS[FLAGS.agent](
+      3, (71,), action_low=jax_env.ACTION_LOW,
+      action_high=jax_env.ACTION_HIGH).config
+  suite = suites.get_eval_suite(FLAGS.suite)
+  seeds = list(suite.seeds)[:FLAGS.num_seeds]
+  max_steps = FLAGS.max_episode_length or suite.max_episode_length
+  if FLAGS.short:
+    seeds, max_steps = seeds[:2], min(max_steps, 12)
+  name = FLAGS.name_override or FLAGS.agent
+  folder = os.path.join(FLAGS.output_dir, FLAGS.suite)
+  cli.prepare_output_dir(folder, '--output_dir')
+  path = os.path.join(folder, f'{name}.json')
+  partial = os.path.join(folder, f'{name}.partial.json')
+  # Not beside the records: results_table.py reads SUITE/*.json.
+  timing_path = os.path.join(folder, 'timing', f'{name}.json')
+  os.makedirs(os.path.dirname(timing_path), exist_ok=True)
+  records: List[Dict[str, Any]] = []
+  timing: Dict[str, Any] = {}
+  if os.path.exists(partial):
+    with open(partial) as f:
+      records = json.load(f)
+    if os.path.exists(timing_path):
+      with open(timing_path) as f:
+        timing = json.load(f)
+    print(f'resuming: {len(records)} seeds done', file=sys.stderr)
+  done = {r['seed'] for r in records}
+  todo = [s for s in seeds if s not in done]
+  timing.update({'agent': FLAGS.agent, 'config': vars(config),
+                 'batch': FLAGS.batch, 'max_steps': max_steps,
+                 'cpus': os.cpu_count(),
+                 'gin_bindings': list(FLAGS.gin_bindings)})
+  timing.setdefault('loadavg', []).append(os.getloadavg())
+  with safe_io.locked_file(path, what='planner output'):
+    for b in range(0, len(todo), FLAGS.batch):
+      chunk = todo[b:b + FLAGS.batch]
+      records += fly_batch(config, chunk, max_steps, FLAGS.seed,
+                           timing)
+      timing['loadavg'].append(os.getloadavg())
+      safe_io.atomic_write(partial, json.dumps(records))
+      safe_io.atomic_write(timing_path, json.dumps(timing, indent=1))
+      stats = metrics.summarize(records)
+      print(f'{len(records)}/{len(seeds)} seeds: tw50_window '
+            f'{stats["tw50_window_mean"]:.3f}, out of resources '
+            f'{stats["out_of_resources_pct"]:.0f} %', file=sys.stderr)
+    records.sort(key=lambda r: r['seed'])
+    batches = timing.get('batches', [])
+    flown = sum(len(b['seeds']) for b in batches)
+    calls = sum(b['plan_calls'] - 1 for b in batches)
+    plan_sum = sum(b['plan_s_sum_after_first'] for b in batches)
+    # Seconds per decision of one balloon: a batched call's wall / balloons.
+    per_call = [b['plan_s_mean_after_first'] / len(b['seeds'])
+                for b in batches if b['plan_s_mean_after_first']]
+    timing['summary'] = {
+        'seeds': len(records),
+        's_per_decision_per_balloon': (float(np.mean(per_call)) if per_call
+                                       else None),
+        's_per_batched_call': plan_sum / calls if calls else None,
+        's_per_episode_per_balloon': (
+            sum(b['wall_s'] for b in batches) / flown if flown else None),
+    }
+    safe_io.atomic_write(timing_path, json.dumps(timing, indent=1))
+    safe_io.atomic_write(path, json.dumps(records))
+    if os.path.exists(partial) and len(records) == len(seeds):
+      os.remove(partial)
+  print(json.dumps({'output': path, **metrics.summarize(records),
+                    **timing['summary']}))
+  return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/planners.py', FLAGS, argv,
+                      doc=__doc__)
+
+
+if __name__ == '__main__':
+  sys.exit(main())

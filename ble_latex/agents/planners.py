@@ -1,0 +1,616 @@
+# coding=utf-8
+"""Planning baselines over the batched JAX flight core (issue 29).
+
+Three model-predictive controllers plan over `flight.dynamics.step`, the
+same core the env flies, and act through the same altitude controller:
+
+- `latex_mpc`: CEM (cross-entropy method; one iteration is random shooting)
+  on the **forecast** only. Its winds are the flight's forecast field
+  (`Wind.forecast_column` at the balloon's pressure), corrected near the
+  balloon by the wind it measures (the observation's measured wind, decaying
+  with time and pressure away from the balloon). The noise of the flight is
+  removed from the state before the planner sees it (`blind`), so the plan
+  cannot depend on the noise or the future truth.
+- `latex_mpc_oracle`: the same planner on the **true** wind (forecast +
+  noise): a clairvoyant upper bound for any controller, not a controller.
+- `latex_mpc_grad`: first-order MPC on the forecast: the best sampled plans
+  (one CEM iteration) are refined by normalised gradient ascent
+  (`jax.grad` through the core's `lax.scan`) on their altitude targets. The
+  one decision that needs relaxing for gradients, "inside the radius", is a
+  sigmoid; the controller's branches (ballast / vent / nothing) keep their
+  `jnp.where` selects, so gradients flow through the active branch, and the
+  plan's float flags stay those of the sampled start (discrete).
+
+A plan is piecewise constant: `num_segments` altitude targets a0 [m] and
+float flags a2 in {-1, +1} over `horizon` strides, flown with a fixed time
+factor a1. The objective, per stride t of the plan (discounted):
+sigmoid((R - d_t) / w) + shaping * 2^(-d_t / halflife), plus progress *
+(d_0 - d_end) / R (the approach over the plan), minus a resource
+cost (sand dropped and helium vented, as lift [kg], divided by the fraction
+of the launch sand margin left and scaled by the fraction of the episode
+left: spending is cheap at the end and dear when little is left), minus a
+terminal cost where the plan ends the flight.
+
+The pure functions (`plan`, `plan_batch`, `objective`) take the env's
+`EnvState` of one balloon (vmap them over balloons: `plan_batch`); the agent
+classes are thin BLE `Agent`s that read the core state of the env they fly
+(`attach_env`, called by `run.runner.create_agent`).
+"""
+
+import dataclasses
+import functools
+import inspect
+import time
+from typing import (Any, Callable, Dict, List, NamedTuple, Optional,
+                    Sequence, Tuple)
+
+from balloon_learning_environment.agents import agent
+import gin
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ble_latex import errors
+from ble_latex import gin_values
+from ble_latex.envs import jax_env
+from ble_latex.flight import dynamics
+from ble_latex.flight import physics
+from ble_latex.flight import state as state_lib
+
+Array = jax.Array
+FORECAST, ORACLE, GRADIENT = 'forecast', 'oracle', 'gradient'
+MODES = (FORECAST, ORACLE, GRADIENT)
+
+
+@dataclasses.dataclass(frozen=True)
+class PlannerConfig:
+  """Everything that shapes a planner (hashable: a static jit argument).
+
+  Attributes:
+    mode: FORECAST, ORACLE or GRADIENT (see the module docstring).
+    num_samples: Plans sampled per CEM iteration.
+    iterations: CEM iterations (1: random shooting around the warm start).
+    elite_fraction: Fraction of the samples that refit the CEM distribution.
+    horizon: Strides planned ahead (24 = 8 h).
+    num_segments: Piecewise-constant pieces of a plan (horizon split evenly).
+    replan_every: Strides flown from a plan before planning again.
+    time_factor: a1 of every planned action. # [.]
+    plan_float: Whether plans choose float flags (else never float).
+    float_probability: Initial probability of a float segment.
+    altitude_low_m: Lowest altitude target. # [m]
+    altitude_high_m: Highest altitude target. # [m]
+    init_std_m: Initial CEM standard deviation of a target. # [m]
+    min_std_m: Floor of the CEM standard deviation. # [m]
+    radius_km: Radius of the in-radius term. # [km]
+    radius_width_km: Width of its sigmoid. # [km]
+    shaping: Weight of the 2^(-d / halflife) term. # [.]
+    halflife_km: Its half-life distance. # [km]
+    progress: Weight of the approach over the plan, (d_0 - d_end) / radius
+      (a constant pull towards the station, also from far away). # [.]
+    discount: Per-stride discount of the objective. # [.]
+    sand_cost: Cost per kg of sand dropped (at a full margin). # [1/kg]
+    helium_cost: Cost per kg of lift vented (at a full margin). # [1/kg]
+    terminal_cost: Cost of a plan that ends the flight. # [.]
+    wind_correction_hours: e-folding time of the measured-wind correction
+      of the forecast (0: none; FORECAST and GRADIENT only). # [h]
+    wind_correction_pa: e-folding pressure distance of that correction. # [Pa]
+    grad_starts: GRADIENT: best samples refined by gradient ascent.
+    grad_steps: GRADIENT: gradient steps per start.
+    grad_step_m: GRADIENT: length of a normalised step of the targets. # [m]
+  """
+  mode: str = FORECAST
+  num_samples: int = 128
+  iterations: int = 2
+  elite_fraction: float = 0.125
+  horizon: int = 24
+  num_segments: int = 4
+  replan_every: int = 2
+  time_factor: float = 2.0
+  plan_float: bool = True
+  float_probability: float = 0.5
+  altitude_low_m: float = 14_000.0
+  altitude_high_m: float = 21_000.0
+  init_std_m: float = 2_000.0
+  min_std_m: float = 150.0
+  radius_km: float = 50.0
+  radius_width_km: float = 3.0
+  shaping: float = 0.3
+  halflife_km: float = 100.0
+  progress: float = 2.0
+  discount: float = 0.98
+  sand_cost: float = 0.3
+  helium_cost: float = 0.3
+  terminal_cost: float = 20.0
+  wind_correction_hours: float = 3.0
+  wind_correction_pa: float = 1_000.0
+  grad_starts: int = 4
+  grad_steps: int = 5
+  grad_step_m: float = 150.0
+
+  def checked(self) -> 'PlannerConfig':
+    """This config with its values checked (one line per bad value).
+
+    Raises:
+      errors.ConfigError: Naming the planner's gin parameter.
+    """
+    def name(field):
+      return f'planner parameter {field}'
+    gin_values.require(self.mode in MODES, name('mode'), f'one of {MODES}',
+                       self.mode)
+    for field in ('num_samples', 'iterations', 'horizon', 'num_segments',
+                  'replan_every'):
+      gin_values.check_int(name(field), getattr(self, field), minimum=1)
+    for field in ('grad_starts', 'grad_steps'):
+      gin_values.check_int(name(field), getattr(self, field), minimum=0)
+    gin_values.require(self.num_segments <= self.horizon, name('num_segments'),
+                       f'at most horizon ({self.horizon})', self.num_segments)
+    gin_values.require(self.replan_every <= self.horizon, name('replan_every'),
+                       f'at most horizon ({self.horizon})', self.replan_every)
+    gin_values.require(self.grad_starts <= self.num_samples,
+                       name('grad_starts'),
+                       f'at most num_samples ({self.num_samples})',
+                       self.grad_starts)
+    gin_values.check_number(name('elite_fraction'), self.elite_fraction,
+                            above=0.0, maximum=1.0)
+    gin_values.check_number(name('float_probability'), self.float_probability,
+                            minimum=0.0, maximum=1.0)
+    gin_values.check_number(name('discount'), self.discount, above=0.0,
+                            maximum=1.0)
+    low, high = float(jax_env.ACTION_LOW[1]), float(jax_env.ACTION_HIGH[1])
+    gin_values.check_number(name('time_factor'), self.time_factor,
+                            minimum=low, maximum=high)
+    low, high = float(jax_env.ACTION_LOW[0]), float(jax_env.ACTION_HIGH[0])
+    gin_values.check_number(name('altitude_low_m'), self.altitude_low_m,
+                            minimum=low, maximum=high)
+    gin_values.check_number(name('altitude_high_m'), self.altitude_high_m,
+                            minimum=self.altitude_low_m, maximum=high)
+    for field in ('init_std_m', 'min_std_m', 'radius_km', 'radius_width_km',
+                  'halflife_km', 'wind_correction_pa', 'grad_step_m'):
+      gin_values.check_number(name(field), getattr(self, field), above=0.0)
+    for field in ('shaping', 'progress', 'sand_cost', 'helium_cost', 'terminal_cost',
+                  'wind_correction_hours'):
+      gin_values.check_number(name(field), getattr(self, field), minimum=0.0)
+    gin_values.check_bool(name('plan_float'), self.plan_float)
+    return self
+
+  @property
+  def num_elites(self) -> int:
+    return max(1, int(round(self.elite_fraction * self.num_samples)))
+
+
+class Plan(NamedTuple):
+  """A piecewise-constant plan and the CEM distribution it came from.
+
+  Attributes:
+    targets_m: [num_segments] altitude targets a0. # [m]
+    floats: [num_segments] float flags a2 in {-1, +1}.
+    mean_m: [num_segments] CEM mean of the targets (the next warm start). # [m]
+    float_p: [num_segments] CEM probability of a float segment.
+    score: The plan's objective.
+  """
+  targets_m: Array
+  floats: Array
+  mean_m: Array
+  float_p: Array
+  score: Array
+
+
+def blind(state: jax_env.EnvState) -> jax_env.EnvState:
+  """The state without its noise (what a forecast planner may read).
+
+  The simplex noise of the flight (and with it the future true wind) is
+  replaced by zeros; the forecast, the balloon and its measured wind (an
+  observation) stay.
+  """
+  zeros = lambda tree: jax.tree.map(jnp.zeros_like, tree)
+  return state.replace(noise_u=zeros(state.noise_u),
+                       noise_v=zeros(state.noise_v))
+
+
+def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
+                  state: jax_env.EnvState
+                  ) -> Callable[[Array, Array, Array, Array], Tuple[Array,
+                                                                   Array]]:
+  """The wind a planner flies its plans in: (x, y, P, t) -> (u, v). # [m/s]
+
+  ORACLE: the ground truth (`wind.ground_truth`). Otherwise the forecast
+  (`wind.forecast_column` at one pressure) of the `blind` state, plus the
+  measured-minus-forecast wind at the balloon, decaying as
+  exp(-|t - t0| / wind_correction_hours - |P - P0| / wind_correction_pa).
+  """
+  if config.mode == ORACLE:
+    return functools.partial(wind.ground_truth, state)
+  state = blind(state)
+  f = state.flight
+
+  def forecast(x_m, y_m, pressure_pa, t_s):
+    return wind.forecast_column(state, x_m, y_m, pressure_pa, t_s)
+
+  if config.wind_correction_hours <= 0.0:
+    return forecast
+  u0, v0 = forecast(f.x_m, f.y_m, f.pressure_pa, f.time_s)
+  du, dv = state.wind_u - u0, state.wind_v - v0
+
+  def corrected(x_m, y_m, pressure_pa, t_s):
+    u, v = forecast(x_m, y_m, pressure_pa, t_s)
+    weight = jnp.exp(
+        -jnp.abs(t_s - f.time_s) / (3600.0 * config.wind_correction_hours)
+        - jnp.abs(pressure_pa - f.pressure_pa) / config.wind_correction_pa)
+    return u + weight * du, v + weight * dv
+
+  return corrected
+
+
+def plan_actions(config: PlannerConfig, targets_m: Array,
+                 floats: Array) -> Array:
+  """[horizon, 3] actions (a0, a1, a2) of a piecewise-constant plan."""
+  segment = (np.arange(config.horizon) * config.num_segments) // config.horizon
+  a0 = targets_m[segment]
+  a2 = floats[segment]
+  a1 = jnp.full_like(a0, config.time_factor)
+  return jnp.stack([a0, a1, a2], axis=-1)
+
+
+def objective(config: PlannerConfig, params: jax_env.EnvParams,
+              state: jax_env.EnvState, wind_fn: Callable[..., Any],
+              targets_m: Array, floats: Array) -> Array:
+  """The planning objective of one plan from `state` (see module docstring).
+
+  Differentiable in `targets_m` (the core's `lax.scan`, smooth within a
+  controller branch). `state.steps` and `params.episode_steps` mask strides
+  past the end of the episode and scale the resource cost.
+  """
+  f0 = state.flight
+  actions = plan_actions(config, targets_m, floats)
+
+  def stride(f, action):
+    f = dynamics.step(params.flight, state.atmosphere, f, action, wind_fn,
+                      params.stride_s)
+    return f, (jnp.hypot(f.x_m, f.y_m) / 1000.0, f.status)
+
+  f_end, (distance_km, status) = jax.lax.scan(stride, f0, actions)
+  dtype = distance_km.dtype
+  t = jnp.arange(config.horizon)
+  left = params.episode_steps - state.steps  # Strides left in the episode.
+  alive = (status == state_lib.FlightStatus.OK) & (t < left)
+  within = jax.nn.sigmoid((config.radius_km - distance_km) /
+                          config.radius_width_km)
+  shaping = config.shaping * jnp.exp2(-distance_km / config.halflife_km)
+  value = jnp.sum(jnp.where(alive, config.discount ** t * (within + shaping),
+                            0.0).astype(dtype))
+  d0 = jnp.hypot(f0.x_m, f0.y_m) / 1000.0
+  d_end = distance_km[jnp.clip(jnp.minimum(left, config.horizon) - 1, 0,
+                               config.horizon - 1)]
+  value = value + config.progress * (d0 - d_end) / config.radius_km
+  # Resource margins as a fraction of the launch sand (both start near it).
+  initial = jnp.maximum(params.flight.initial_sand_kg, 1e-3)
+  sand_margin = jnp.maximum(f0.sand_kg - params.flight.min_drop_kg, 0.0)
+  helium_margin = jnp.maximum(f0.free_lift_kg + f0.sand_kg, 0.0)
+  time_left = jnp.clip(left / params.episode_steps, 0.0, 1.0)
+  dropped = f_end.sand_dropped_kg - f0.sand_dropped_kg
+  vented = (f_end.helium_vented_mols - f0.helium_vented_mols) * (
+      physics.LIFT_PER_MOL)
+  cost = time_left * (
+      config.sand_cost * dropped / jnp.maximum(sand_margin / initial, 0.05) +
+      config.helium_cost * vented / jnp.maximum(helium_margin / initial, 0.05))
+  # The flight ended inside the plan (before the episode's end).
+  last = jnp.clip(jnp.minimum(left, config.horizon) - 1, 0, config.horizon - 1)
+  ended = status[last] != state_lib.FlightStatus.OK
+  return value - cost - config.terminal_cost * ended.astype(dtype)
+
+
+def initial_plan(config: PlannerConfig, state: jax_env.EnvState) -> Plan:
+  """The first warm start: hold the current altitude, floats at the prior."""
+  h = jnp.clip(state.flight.altitude_m, config.altitude_low_m,
+               config.altitude_high_m)
+  shape = (config.num_segments,)
+  targets = jnp.broadcast_to(h, shape)
+  return Plan(targets_m=targets, floats=jnp.ones(shape, h.dtype),
+              mean_m=targets,
+              float_p=jnp.full(shape, config.float_probability, h.dtype),
+              score=jnp.zeros((), h.dtype))
+
+
+def shift(config: PlannerConfig, previous: Plan) -> Plan:
+  """The previous plan moved on by `replan_every` strides (warm start)."""
+  k = int(round(config.replan_every * config.num_segments / config.horizon))
+  if k == 0:
+    return previous
+  def move(a):
+    return jnp.concatenate([a[k:], jnp.repeat(a[-1:], k)])
+  return previous._replace(targets_m=move(previous.targets_m),
+                           floats=move(previous.floats),
+                           mean_m=move(previous.mean_m),
+                           float_p=move(previous.float_p))
+
+
+def plan(config: PlannerConfig, params: jax_env.EnvParams,
+         state: jax_env.EnvState, key: Array, previous: Plan,
+         wind: jax_env.Wind = jax_env.GENERATIVE_WIND) -> Plan:
+  """Plans from one balloon's state (pure; vmap over balloons).
+
+  Args:
+    config: The planner (static).
+    params: The env parameters.
+    state: The balloon's env state (FORECAST and GRADIENT read it `blind`).
+    key: PRNG key of the samples.
+    previous: The last plan (`initial_plan` at the start of a flight); its
+      shifted CEM mean and best plan seed this one (warm start).
+    wind: The env's wind (`LatexBalloonJaxEnv.wind_for(params)`).
+
+  Returns:
+    The best plan found and the CEM distribution for the next warm start.
+  """
+  wind_fn = planning_wind(config, wind, state)
+  if config.mode != ORACLE:
+    state = blind(state)
+  dtype = state.flight.altitude_m.dtype
+  warm = shift(config, previous)
+  score_fn = functools.partial(objective, config, params, state, wind_fn)
+  scores_of = jax.vmap(score_fn)
+  n, m = config.num_samples, config.num_segments
+  low, high = config.altitude_low_m, config.altitude_high_m
+  h = jnp.clip(state.flight.altitude_m, low, high)
+  fixed_targets = jnp.stack([warm.targets_m, jnp.broadcast_to(h, (m,))])
+  fixed_floats = jnp.stack([warm.floats, jnp.ones((m,), dtype)])
+  if not config.plan_float:
+    fixed_floats = -jnp.ones_like(fixed_floats)
+
+  def sample(key, mean, std, float_p):
+    k_targets, k_floats = jax.random.split(key)
+    targets = mean + std * jax.random.normal(k_targets, (n, m), dtype)
+    targets = jnp.clip(targets, low, high).at[:2].set(fixed_targets)
+    floats = jnp.where(jax.random.uniform(k_floats, (n, m)) < float_p, 1.0,
+                       -1.0).astype(dtype)
+    if not config.plan_float:
+      floats = -jnp.ones_like(floats)
+    floats = floats.at[:2].set(fixed_floats)
+    return targets, floats
+
+  def iteration(carry, key):
+    mean, std, float_p, best = carry
+    targets, floats = sample(key, mean, std, float_p)
+    scores = scores_of(targets, floats)
+    scores = jnp.where(jnp.isfinite(scores), scores, -jnp.inf)
+    elite = jnp.argsort(-scores)[:config.num_elites]
+    mean = jnp.mean(targets[elite], axis=0)
+    std = jnp.maximum(jnp.std(targets[elite], axis=0), config.min_std_m)
+    float_p = jnp.clip(jnp.mean(floats[elite] > 0.0, axis=0), 0.05, 0.95)
+    i = elite[0]
+    candidate = (targets[i], floats[i], scores[i])
+    best = jax.tree.map(lambda a, b: jnp.where(scores[i] > best[2], a, b),
+                        candidate, best)
+    return (mean, std, float_p, best), (targets, floats, scores)
+
+  std0 = jnp.full((m,), config.init_std_m, dtype)
+  best0 = (warm.targets_m, warm.floats, jnp.asarray(-jnp.inf, dtype))
+  keys = jax.random.split(key, config.iterations)
+  (mean, std, float_p, best), (targets, floats, scores) = jax.lax.scan(
+      iteration, (warm.mean_m, std0, warm.float_p, best0), keys)
+  del std
+  if config.mode == GRADIENT and config.grad_starts and config.grad_steps:
+    # Refine the best samples of the last iteration by gradient ascent.
+    order = jnp.argsort(-scores[-1])[:config.grad_starts]
+    starts, start_floats = targets[-1][order], floats[-1][order]
+    grad_fn = jax.grad(score_fn)
+
+    def ascend(x, flags):
+      def one(x, _):
+        g = grad_fn(x, flags)
+        g = jnp.where(jnp.isfinite(g), g, 0.0)
+        step = config.grad_step_m * g / (jnp.linalg.norm(g) + 1e-12)
+        return jnp.clip(x + step, low, high), None
+      x, _ = jax.lax.scan(one, x, None, length=config.grad_steps)
+      return x
+
+    refined = jax.vmap(ascend)(starts, start_floats)
+    refined_scores = scores_of(refined, start_floats)
+    refined_scores = jnp.where(jnp.isfinite(refined_scores), refined_scores,
+                               -jnp.inf)
+    i = jnp.argmax(refined_scores)
+    candidate = (refined[i], start_floats[i], refined_scores[i])
+    best = jax.tree.map(
+        lambda a, b: jnp.where(refined_scores[i] > best[2], a, b),
+        candidate, best)
+  return Plan(targets_m=best[0], floats=best[1], mean_m=mean,
+              float_p=float_p, score=best[2])
+
+
+def plan_key(seed: Any, state: jax_env.EnvState) -> Array:
+  """The planner's key at a state: its seed, the flight and the stride.
+
+  The flight is told apart by its start time (drawn from the env seed), so
+  the agent in `ble-latex-eval` and `plan_batch` sample the same plans for
+  the same env seed and agent seed.
+  """
+  key = jax.random.fold_in(jax.random.PRNGKey(seed), state.start_time_offset_s)
+  return jax.random.fold_in(key, state.steps)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 5))
+def plan_batch(config: PlannerConfig, params: jax_env.EnvParams,
+               states: jax_env.EnvState, seed: Array, previous: Plan,
+               wind: jax_env.Wind = jax_env.GENERATIVE_WIND) -> Plan:
+  """`plan` for a batch of balloons in one vmapped call (jitted).
+
+  Args:
+    config: The planner (static).
+    params: The env parameters (shared).
+    states: [N] env states.
+    seed: The agent seed (int32 scalar).
+    previous: [N] plans (the warm starts).
+    wind: The env's wind (static).
+
+  Returns:
+    [N] plans.
+  """
+  def one(state, prev):
+    return plan(config, params, state, plan_key(seed, state), prev, wind)
+  return jax.vmap(one)(states, previous)
+
+
+@functools.partial(jax.jit, static_argnums=0)
+def initial_plans(config: PlannerConfig, states: jax_env.EnvState) -> Plan:
+  """`initial_plan` of [N] states (jitted)."""
+  return jax.vmap(functools.partial(initial_plan, config))(states)
+
+
+def next_action(config: PlannerConfig, current: Plan,
+                strides_since_plan: int) -> np.ndarray:
+  """The action of stride `strides_since_plan` of a plan (host NumPy)."""
+  segment = (strides_since_plan * config.num_segments) // config.horizon
+  segment = min(segment, config.num_segments - 1)
+  targets, floats = jax.device_get((current.targets_m, current.floats))
+  return np.array([targets[segment], config.time_factor, floats[segment]],
+                  np.float64)
+
+
+# ---------------------------------------------------------------------------
+# Agents (BLE's Agent API, Box actions).
+
+
+def core_of(env: Any) -> Tuple[Any, jax_env.Wind]:
+  """The core balloon an env flies, and its JAX wind.
+
+  Accepts BLE's `LatexBalloon-v0` (its arena's driver) or the Gymnasium
+  `LatexBalloonGymnasiumEnv` (anything with `state` and `params`).
+
+  Raises:
+    errors.ConfigError: An env without a JAX core state, or one that flies
+      a BLE wind field through host callbacks (a planner needs JAX winds).
+  """
+  env = getattr(env, 'unwrapped', env)
+  arena = getattr(env, 'arena', None)
+  driver = getattr(arena, 'driver', None) if arena is not None else None
+  driver = driver if driver is not None else env
+  if not (hasattr(driver, 'state') and hasattr(driver, 'params')):
+    raise errors.ConfigError(
+        f'the planners fly LatexBalloon-v0 (a JAX core state); {env!r} has '
+        'none')
+  if getattr(driver, '_wind_field', None) is not None:
+    raise errors.ConfigError(
+        'the planners need JAX winds (the generative field, or ERA5 in the '
+        'env params); this env flies a BLE wind field through host callbacks')
+  return driver, jax_env.LatexBalloonJaxEnv().wind_for(driver.params)
+
+
+class PlannerAgent(agent.Agent):
+  """An MPC agent over the core state of the env it is attached to.
+
+  `run.runner.create_agent` calls `attach_env(env)`; the agent then reads
+  the env's `EnvState` at every decision (FORECAST and GRADIENT read it
+  without the noise, `blind`), plans every `replan_every` strides and flies
+  the plan's actions in between. The observation is not used.
+  """
+
+  supports_box_actions = True
+  needs_env = True
+  mode = FORECAST
+
+  def __init__(self, num_actions: int, observation_shape: Sequence[int], *,
+               action_low: Sequence[float], action_high: Sequence[float],
+               seed: int = 0, **config: Any):
+    super().__init__(num_actions, observation_shape)
+    if num_actions != 3:
+      raise errors.ConfigError(
+          f'the planners act in the (a0, a1, a2) Box; got {num_actions} '
+          'actions')
+    self._low = np.asarray(action_low, np.float64)
+    self._high = np.asarray(action_high, np.float64)
+    self.config = PlannerConfig(mode=self.mode, **config).checked()
+    self._seed = int(seed)
+    self._driver = None
+    self._wind = None
+    self._plan: Optional[Plan] = None
+    self._since = 0
+    self.decision_seconds: List[float] = []  # Wall time of each plan. # [s]
+
+  def attach_env(self, env: Any) -> None:
+    """Flies `env`'s core from now on (see `core_of`)."""
+    self._driver, self._wind = core_of(env)
+
+  def _act(self) -> np.ndarray:
+    if self._driver is None:
+      raise RuntimeError('PlannerAgent.attach_env(env) was not called')
+    if self._plan is None or self._since >= self.config.replan_every:
+      start = time.perf_counter()
+      state = jax.tree.map(lambda a: a[None], self._driver.state)
+      previous = (initial_plans(self.config, state) if self._plan is None
+                  else jax.tree.map(lambda a: a[None], self._plan))
+      new = plan_batch(self.config, self._driver.params, state,
+                       jnp.int32(self._seed), previous, self._wind)
+      self._plan = jax.tree.map(lambda a: a[0], jax.block_until_ready(new))
+      self.decision_seconds.append(time.perf_counter() - start)
+      self._since = 0
+    action = next_action(self.config, self._plan, self._since)
+    self._since += 1
+    return np.clip(action, self._low, self._high)
+
+  def begin_episode(self, observation: np.ndarray) -> np.ndarray:
+    self._plan, self._since = None, 0
+    return self._act()
+
+  def step(self, reward: float, observation: np.ndarray) -> np.ndarray:
+    return self._act()
+
+  def end_episode(self, reward: float, terminal: bool = True) -> None:
+    self._plan = None
+
+
+_DENY = ['num_actions', 'observation_shape', 'action_low', 'action_high']
+_FIELDS = [f.name for f in dataclasses.fields(PlannerConfig)
+           if f.name != 'mode']
+
+
+def _configurable(name: str, mode: str, doc: str, **overrides: Any):
+  """A gin-configurable `PlannerAgent` of `mode`, every config field a kwarg.
+
+  `overrides` are the class's own defaults (else `PlannerConfig`'s).
+  """
+  defaults = PlannerConfig(mode=mode, **overrides)
+
+  def __init__(self, num_actions, observation_shape, *, action_low,
+               action_high, seed: int = 0, **config):
+    for key in config:
+      if key not in _FIELDS:
+        raise errors.ConfigError(f'{name}: unknown parameter {key!r} (one of '
+                                 f'{_FIELDS})')
+    merged = {f: getattr(defaults, f) for f in _FIELDS}
+    merged.update(config)
+    PlannerAgent.__init__(self, num_actions, observation_shape,
+                          action_low=action_low, action_high=action_high,
+                          seed=seed, **merged)
+
+  cls = type(name, (PlannerAgent,), {'mode': mode, '__doc__': doc,
+                                     '__init__': __init__})
+  # gin sees the config fields as keyword arguments of the constructor.
+  parameters = [
+      inspect.Parameter('self', inspect.Parameter.POSITIONAL_OR_KEYWORD),
+      inspect.Parameter('num_actions', inspect.Parameter.POSITIONAL_OR_KEYWORD),
+      inspect.Parameter('observation_shape',
+                        inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+  parameters += [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY)
+                 for k in ('action_low', 'action_high')]
+  parameters.append(inspect.Parameter('seed', inspect.Parameter.KEYWORD_ONLY,
+                                      default=0))
+  parameters += [inspect.Parameter(f, inspect.Parameter.KEYWORD_ONLY,
+                                   default=getattr(defaults, f))
+                 for f in _FIELDS]
+  __init__.__signature__ = inspect.Signature(parameters)
+  return gin.configurable(name, denylist=_DENY)(cls)
+
+
+LatexMpcAgent = _configurable(
+    'LatexMpcAgent', FORECAST,
+    'CEM MPC on the forecast (agent latex_mpc); never reads the noise.')
+LatexMpcOracleAgent = _configurable(
+    'LatexMpcOracleAgent', ORACLE,
+    'CEM MPC on the true wind (agent latex_mpc_oracle): an upper bound.',
+    num_samples=128, iterations=3, horizon=36, num_segments=6)
+LatexMpcGradAgent = _configurable(
+    'LatexMpcGradAgent', GRADIENT,
+    'First-order MPC on the forecast (agent latex_mpc_grad).',
+    iterations=1)
+AGENTS: Dict[str, Any] = {'latex_mpc': LatexMpcAgent,
+                          'latex_mpc_oracle': LatexMpcOracleAgent,
+                          'latex_mpc_grad': LatexMpcGradAgent}

@@ -1,0 +1,232 @@
+"""The planners (`ble_latex.agents.planners`): registry, flight, determinism,
+noise-blindness of the forecast MPC, gradients through the core.
+
+Small configurations, compiled once per module (fixtures below).
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from ble_latex import errors
+from ble_latex.agents import planners
+from ble_latex.envs import jax_env
+
+SMALL = dict(num_samples=8, iterations=1, horizon=4, num_segments=2,
+             replan_every=2)
+
+
+@pytest.fixture(scope='module')
+def world():
+  """Env, params and the reset states of two suite seeds ([1] batches)."""
+  env = jax_env.LatexBalloonJaxEnv()
+  params = env.default_params
+  reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
+  states = []
+  for seed in (1_000_000, 1_000_003):
+    _, state = reset(jax.random.PRNGKey(seed)[None], params)
+    states.append(state)
+  return env, params, states
+
+
+def _config(mode=planners.FORECAST, **kw):
+  return planners.PlannerConfig(mode=mode, **{**SMALL, **kw}).checked()
+
+
+def _plan(config, params, state, seed=0):
+  previous = planners.initial_plans(config, state)
+  return jax.device_get(planners.plan_batch(config, params, state,
+                                            jnp.int32(seed), previous))
+
+
+def test_registered_as_box_agents():
+  from balloon_learning_environment.agents import agent_registry  # pylint: disable=g-import-not-at-top
+  from ble_latex import agents  # pylint: disable=g-import-not-at-top
+  agents.register()
+  for name in ('latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad'):
+    assert name in agents.BOX_AGENTS and name in agents.PLANNER_AGENTS
+    constructor, gin_file = agent_registry.REGISTRY[name]
+    assert constructor is planners.AGENTS[name] and gin_file is None
+    assert constructor.supports_box_actions and constructor.needs_env
+  assert planners.LatexMpcOracleAgent.mode == planners.ORACLE
+
+
+class _Driver:
+  """What `planners.core_of` reads of an env: the core state and params."""
+
+  def __init__(self, state, params):
+    self.state, self.params = state, params
+
+
+def test_agent_replans_every_period(world):
+  """The agent on a core state: the batched planner's plan, every 2 strides."""
+  _, params, states = world
+  state = jax.tree.map(lambda a: a[0], states[0])
+  driver = _Driver(state, params)
+  agent = planners.LatexMpcAgent(
+      3, (71,), action_low=jax_env.ACTION_LOW,
+      action_high=jax_env.ACTION_HIGH, seed=0, **SMALL)
+  with pytest.raises(RuntimeError, match='attach_env'):
+    agent.begin_episode(np.zeros(71))
+  agent.attach_env(driver)
+  actions = [agent.begin_episode(np.zeros(71))]
+  for k in range(1, 5):
+    driver.state = state.replace(steps=state.steps + k)
+    actions.append(agent.step(0.0, np.zeros(71)))
+  assert len(agent.decision_seconds) == 3  # Strides 0, 2 and 4.
+  plan = _plan(_config(), params, states[0])
+  segment_0 = [plan.targets_m[0, 0], SMALL.get('time_factor', 2.0),
+               plan.floats[0, 0]]
+  np.testing.assert_allclose(actions[0], segment_0)
+  np.testing.assert_allclose(actions[1], actions[0])  # Same segment.
+  with pytest.raises(errors.ConfigError, match='JAX core state'):
+    agent.attach_env(object())
+
+
+@pytest.mark.slow
+def test_agent_flies_a_few_strides(world):
+  """Through the runner (attach_env) on the Gymnasium env of the core."""
+  from ble_latex.envs import gymnasium_env  # pylint: disable=g-import-not-at-top
+  _, params, _ = world
+  env = gymnasium_env.LatexBalloonGymnasiumEnv(params=params)
+  agent = planners.LatexMpcAgent(
+      3, (71,), action_low=jax_env.ACTION_LOW,
+      action_high=jax_env.ACTION_HIGH, seed=0, **SMALL)
+  with pytest.raises(RuntimeError, match='attach_env'):
+    agent.begin_episode(np.zeros(71))
+  agent.attach_env(env)
+  obs, _ = env.reset(seed=1_000_000)
+  actions = [agent.begin_episode(obs)]
+  for _ in range(4):
+    obs, reward, terminated, truncated, _ = env.step(actions[-1])
+    assert np.isfinite(reward) and not terminated and not truncated
+    actions.append(agent.step(reward, obs))
+  actions = np.array(actions)
+  assert np.all(actions >= jax_env.ACTION_LOW) and np.all(
+      actions <= jax_env.ACTION_HIGH)
+  assert np.all(actions[:, 1] == SMALL.get('time_factor', 2.0))
+  assert len(agent.decision_seconds) == 3  # Replans every 2 strides.
+  # The agent's plan is the batched planner's (same key rule).
+  again = planners.LatexMpcAgent(
+      3, (71,), action_low=jax_env.ACTION_LOW,
+      action_high=jax_env.ACTION_HIGH, seed=0, **SMALL)
+  again.attach_env(env)
+  env.reset(seed=1_000_000)
+  np.testing.assert_array_equal(again.begin_episode(obs), actions[0])
+
+
+def test_deterministic_under_a_seed(world):
+  _, params, states = world
+  config = _config()
+  a = _plan(config, params, states[0], seed=0)
+  b = _plan(config, params, states[0], seed=0)
+  jax.tree.map(np.testing.assert_array_equal, a, b)
+  c = _plan(config, params, states[0], seed=1)
+  assert not np.array_equal(a.targets_m, c.targets_m)
+  assert np.all(a.targets_m >= config.altitude_low_m)
+  assert np.all(a.targets_m <= config.altitude_high_m)
+  assert set(np.unique(a.floats)) <= {-1.0, 1.0}
+
+
+def test_forecast_mpc_never_reads_the_noise(world):
+  """Another flight's noise, same forecast and measurement: same plan."""
+  _, params, (state, other) = world
+  swapped = state.replace(noise_u=other.noise_u, noise_v=other.noise_v)
+  assert any(not np.array_equal(a, b) for a, b in zip(
+      jax.tree.leaves(state.noise_u), jax.tree.leaves(other.noise_u)))
+  config = _config()
+  jax.tree.map(np.testing.assert_array_equal,
+               _plan(config, params, state), _plan(config, params, swapped))
+
+
+@pytest.mark.slow
+def test_oracle_reads_the_noise(world):
+  """The oracle's plan changes with the noise (the test above can fail)."""
+  _, params, (state, other) = world
+  swapped = state.replace(noise_u=other.noise_u, noise_v=other.noise_v)
+  oracle = _config(planners.ORACLE)
+  a = _plan(oracle, params, state)
+  b = _plan(oracle, params, swapped)
+  assert not np.array_equal(a.score, b.score)
+
+
+def test_controller_gradient_matches_finite_differences(world):
+  """d(sand dropped)/d(a0) of the controller (no scan: fast)."""
+  from ble_latex.flight import atmosphere  # pylint: disable=g-import-not-at-top
+  from ble_latex.flight import controller  # pylint: disable=g-import-not-at-top
+  _, params, states = world
+  state = jax.tree.map(lambda a: a[0], states[0])
+  f0 = state.flight
+  ambient = atmosphere.at_height(state.atmosphere, f0.altitude_m)
+
+  def drop(a0):
+    action = jnp.stack([a0, jnp.float32(2.0), jnp.float32(-1.0)])
+    return controller.decide(params.flight.replace(min_drop_kg=0.0), f0,
+                             action, ambient.temperature,
+                             ambient.pressure).drop_kg
+
+  a0 = f0.altitude_m + 1000.0  # Ballast branch, smooth in a0.
+  g = float(jax.grad(drop)(a0))
+  eps = 10.0
+  fd = float((drop(a0 + eps) - drop(a0 - eps)) / (2 * eps))
+  assert g > 0.0
+  np.testing.assert_allclose(g, fd, rtol=0.02)
+
+
+@pytest.mark.slow
+def test_gradient_matches_finite_differences(world):
+  """jax.grad of the objective through the core vs central differences.
+
+  A smooth stretch: two strides towards targets far from the balloon (the
+  controller's branch does not change within +-25 m of the targets).
+  """
+  _, params, states = world
+  state = jax.tree.map(lambda a: a[0], states[0])
+  config = _config(planners.GRADIENT, horizon=2, num_segments=2,
+                   replan_every=1, radius_width_km=20.0)
+  wind_fn = planners.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  floats = -jnp.ones(2)
+  f = jax.jit(lambda x: planners.objective(config, params,
+                                           planners.blind(state), wind_fn, x,
+                                           floats))
+  grad = jax.jit(jax.grad(lambda x: planners.objective(
+      config, params, planners.blind(state), wind_fn, x, floats)))
+  h0 = float(state.flight.altitude_m)
+  x = jnp.asarray([h0 - 1500.0, h0 - 800.0], jnp.float32)
+  g = np.asarray(grad(x))
+  eps = 25.0
+  fd = np.array([(f(x.at[i].add(eps)) - f(x.at[i].add(-eps))) / (2 * eps)
+                 for i in range(2)])
+  assert np.all(np.isfinite(g)) and np.any(np.abs(g) > 0)
+  np.testing.assert_allclose(g, fd, rtol=0.05, atol=1e-3 * np.abs(fd).max())
+
+
+def test_bad_config_is_one_line():
+  with pytest.raises(errors.ConfigError, match='planner parameter horizon'):
+    planners.PlannerConfig(horizon=0).checked()
+  with pytest.raises(errors.ConfigError, match='num_segments'):
+    planners.PlannerConfig(horizon=2, num_segments=3,
+                           replan_every=1).checked()
+  with pytest.raises(errors.ConfigError, match='mode'):
+    planners.PlannerConfig(mode='magic').checked()
+  with pytest.raises(errors.ConfigError, match='unknown parameter'):
+    planners.LatexMpcAgent(3, (71,), action_low=jax_env.ACTION_LOW,
+                           action_high=jax_env.ACTION_HIGH, samples=3)
+
+
+def test_gin_configures_the_agent():
+  import gin  # pylint: disable=g-import-not-at-top
+  with gin.unlock_config():
+    gin.parse_config(['LatexMpcAgent.num_samples = 16',
+                      'LatexMpcGradAgent.grad_steps = 3'])
+  try:
+    mpc = planners.LatexMpcAgent(3, (71,), action_low=jax_env.ACTION_LOW,
+                                 action_high=jax_env.ACTION_HIGH)
+    grad = planners.LatexMpcGradAgent(3, (71,),
+                                      action_low=jax_env.ACTION_LOW,
+                                      action_high=jax_env.ACTION_HIGH)
+  finally:
+    gin.clear_config()
+  assert mpc.config.num_samples == 16 and mpc.config.mode == planners.FORECAST
+  assert grad.config.grad_steps == 3 and grad.config.mode == planners.GRADIENT
