@@ -265,7 +265,7 @@ def test_every_env_flies_era5_from_the_gin_binding(gin_era5):
   data = era5.load(gin_era5)
 
   # gymnasium.make, single balloon.
-  single = gymnasium.make('ble_latex/LatexBalloon-v0')
+  single = gymnasium.make('ble_latex/LatexBalloon-v0', normalize_actions=False)
   assert single.unwrapped.params.wind_grid is params.wind_grid
   assert single.unwrapped._wind_field is None  # pylint: disable=protected-access  # No callbacks.
   for i, seed in enumerate(_SEEDS):
@@ -283,7 +283,7 @@ def test_every_env_flies_era5_from_the_gin_binding(gin_era5):
 
   # gymnasium.make_vec: N balloons in one call.
   envs = gymnasium.make_vec('ble_latex/LatexBalloon-v0',
-                            num_envs=len(_SEEDS))
+                            num_envs=len(_SEEDS), normalize_actions=False)
   assert envs.unwrapped.params.wind_grid is params.wind_grid
   obs, _ = envs.reset(seed=_SEEDS[0])
   np.testing.assert_allclose(obs, observations[:, 0], atol=1e-4)
