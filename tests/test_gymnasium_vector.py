@@ -201,12 +201,17 @@ def test_partial_resets_chunked_and_selected(monkeypatch, single):
   """Only the ended balloons get new flights (both reset paths)."""
   envs = gymnasium_env.LatexBalloonVectorEnv(N, episode_steps=STEPS)
   for chunk in (N, 2):  # N: whole batch + select; 2: padded chunk + scatter.
-    monkeypatch.setattr(gymnasium_vector, 'RESET_CHUNK', chunk)
+    monkeypatch.setattr(gymnasium_env, 'RESET_CHUNK', chunk)
     before, _ = envs.reset(seed=20)
     ended = np.array([False, True, False])
-    obs, raw = envs._reset_some(ended, np.array([42]))  # pylint: disable=protected-access
-    np.testing.assert_allclose(obs[0], single.reset(seed=42)[0], **TOL)
-    assert raw['steps'].shape == (1,)
+    # The step's host buffers, written in place where `ended`.
+    _, obs, raw = envs._new_flights(np.array([7, 8, 9]))  # pylint: disable=protected-access
+    obs, raw = np.array(obs), {k: np.array(v) for k, v in raw.items()}
+    kept = obs[[0, 2]].copy()
+    envs._reset_some(ended, np.array([42]), obs, raw)  # pylint: disable=protected-access
+    np.testing.assert_allclose(obs[1], single.reset(seed=42)[0], **TOL)
+    np.testing.assert_array_equal(obs[[0, 2]], kept)
+    assert raw['steps'].shape == (N,) and raw['steps'][1] == 0
     state = jax.device_get(envs.state)
     start_x = np.asarray(state.flight.x_m)
     for i, seed in ((0, 20), (1, 42), (2, 22)):
