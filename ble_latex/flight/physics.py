@@ -75,7 +75,15 @@ def volume(helium_mols: Array, temperature: Array, pressure: Array) -> Array:
 
 
 def air_density(temperature: Array, pressure: Array) -> Array:
-  """Dry-air density rho = P M_a / (R T). # [kg/m^3]"""
+  """Dry-air density rho = P M_a / (R T). # [kg/m^3]
+
+  Args:
+    temperature: Air temperature T. # [K]
+    pressure: Air pressure P. # [Pa]
+
+  Returns:
+    Air density rho. # [kg/m^3]
+  """
   return pressure * AIR_MOLAR_MASS / (GAS_CONSTANT * temperature)
 
 
@@ -85,36 +93,91 @@ def drag_area(envelope_volume: Array) -> Array:
 
 
 def buoyancy_force(density: Array, envelope_volume: Array) -> Array:
-  """F_b = rho V g. # [N]"""
+  """F_b = rho V g. # [N]
+
+  Args:
+    density: Air density rho. # [kg/m^3]
+    envelope_volume: Envelope volume V. # [m^3]
+
+  Returns:
+    Buoyancy force F_b. # [N]
+  """
   return density * envelope_volume * GRAVITY
 
 
 def drag_force(density: Array, drag_coefficient: Array, area: Array,
                ascent_rate: Array) -> Array:
-  """F_d = 1/2 rho c_d A |hdot| hdot (opposes the motion). # [N]"""
+  """F_d = 1/2 rho c_d A |hdot| hdot (opposes the motion). # [N]
+
+  Args:
+    density: Air density rho. # [kg/m^3]
+    drag_coefficient: c_d. # [.]
+    area: Cross-section A. # [m^2]
+    ascent_rate: hdot (positive upwards). # [m/s]
+
+  Returns:
+    Drag force F_d, with the sign of hdot. # [N]
+  """
   return 0.5 * density * drag_coefficient * area * jnp.abs(
       ascent_rate) * ascent_rate
 
 
 def total_mass(payload_kg: Array, sand_kg: Array, helium_mols: Array) -> Array:
-  """F_w / g: m = m_p + m_s + n M_He (payload includes the envelope). # [kg]"""
+  """F_w / g: m = m_p + m_s + n M_He (payload includes the envelope). # [kg]
+
+  Args:
+    payload_kg: m_p, including the envelope. # [kg]
+    sand_kg: m_s. # [kg]
+    helium_mols: n. # [mol]
+
+  Returns:
+    Total mass m. # [kg]
+  """
   return payload_kg + sand_kg + helium_mols * HELIUM_MOLAR_MASS
 
 
 def weight_force(payload_kg: Array, sand_kg: Array,
                  helium_mols: Array) -> Array:
-  """F_w = (m_p + m_h + m_s) g. # [N]"""
+  """F_w = (m_p + m_h + m_s) g. # [N]
+
+  Args:
+    payload_kg: m_p, including the envelope. # [kg]
+    sand_kg: m_s. # [kg]
+    helium_mols: n (m_h = n M_He). # [mol]
+
+  Returns:
+    Weight F_w. # [N]
+  """
   return total_mass(payload_kg, sand_kg, helium_mols) * GRAVITY
 
 
 def free_lift(helium_mols: Array, payload_kg: Array, sand_kg: Array) -> Array:
-  """Free lift L = (F_b - F_w) / g = n (M_air - M_He) - m_p - m_s. # [kg]"""
+  """Free lift L = (F_b - F_w) / g = n (M_air - M_He) - m_p - m_s. # [kg]
+
+  Args:
+    helium_mols: n. # [mol]
+    payload_kg: m_p, including the envelope. # [kg]
+    sand_kg: m_s. # [kg]
+
+  Returns:
+    Free lift L (helium at ambient T and P). # [kg]
+  """
   return helium_mols * LIFT_PER_MOL - payload_kg - sand_kg
 
 
 def drag_factor(helium_mols: Array, drag_coefficient: Array,
                 temperature: Array, pressure: Array) -> Array:
-  """k = 1/2 rho c_d A, so that F_d = k |hdot| hdot. # [kg/m]"""
+  """k = 1/2 rho c_d A, so that F_d = k |hdot| hdot. # [kg/m]
+
+  Args:
+    helium_mols: n. # [mol]
+    drag_coefficient: c_d. # [.]
+    temperature: Ambient (= helium) temperature T. # [K]
+    pressure: Ambient (= helium) pressure P. # [Pa]
+
+  Returns:
+    Drag factor k. # [kg/m]
+  """
   v = volume(helium_mols, temperature, pressure)
   return 0.5 * air_density(temperature, pressure) * drag_coefficient * (
       drag_area(v))
@@ -146,7 +209,20 @@ def force_balance_residual(ascent_rate: Array, helium_mols: Array,
                            payload_kg: Array, sand_kg: Array,
                            drag_coefficient: Array, temperature: Array,
                            pressure: Array) -> Array:
-  """Net force m hddot of Eq. fullN2L; 0 at steady state. # [N]"""
+  """Net force m hddot of Eq. fullN2L; 0 at steady state. # [N]
+
+  Args:
+    ascent_rate: hdot. # [m/s]
+    helium_mols: n. # [mol]
+    payload_kg: m_p, including the envelope. # [kg]
+    sand_kg: m_s. # [kg]
+    drag_coefficient: c_d. # [.]
+    temperature: Ambient temperature T. # [K]
+    pressure: Ambient pressure P. # [Pa]
+
+  Returns:
+    Net force F_b - F_d - F_w. # [N]
+  """
   m = total_mass(payload_kg, sand_kg, helium_mols)
   return m * acceleration(ascent_rate, helium_mols, payload_kg, sand_kg,
                           drag_coefficient, temperature, pressure)
@@ -329,7 +405,15 @@ def vertical_step_varying(
 
 
 def num_vertical_steps(duration: float, max_step: float = 60.0) -> int:
-  """Steps of `integrate_vertical` for a concrete duration (as NumPy)."""
+  """Steps of `integrate_vertical` for a concrete duration (as NumPy).
+
+  Args:
+    duration: Time to advance (a concrete number, not traced). # [s]
+    max_step: Longest step. # [s]
+
+  Returns:
+    ceil(duration / max_step), at least 1.
+  """
   return max(1, int(math.ceil(float(duration) / max_step - 1e-9)))
 
 
@@ -379,6 +463,14 @@ def vent_coefficients(payload_kg: Array, sand_kg: Array, ascent_rate: Array,
     a3 = g (M_air - M_He),
     b = 1/2 rho c_d pi (3RT / (4 pi P))^(2/3) |hdot| hdot,
     c = (m_p + m_s) g.
+
+  Args:
+    payload_kg: m_p. # [kg]
+    sand_kg: m_s aboard. # [kg]
+    ascent_rate: Desired steady hdot. # [m/s]
+    drag_coefficient: c_d. # [.]
+    temperature: T at the balloon. # [K]
+    pressure: P at the balloon. # [Pa]
 
   Returns:
     (a3 [N/mol], b [N/mol^(2/3)], c [N]).
@@ -456,6 +548,17 @@ def vent_target_lift_kg(payload_kg: Array, sand_kg: Array, ascent_rate: Array,
   From the cubic, g (M_air - M_He) n_calc - (m_p + m_s) g = b s*^2, i.e. the
   steady drag k(n_calc) hdot |hdot| / g; computed this way it keeps full
   relative precision (n_calc (M_air - M_He) - m_p - m_s cancels).
+
+  Args:
+    payload_kg: m_p. # [kg]
+    sand_kg: m_s aboard (unchanged by venting). # [kg]
+    ascent_rate: Desired steady hdot. # [m/s]
+    drag_coefficient: c_d. # [.]
+    temperature: T at the balloon. # [K]
+    pressure: P at the balloon. # [Pa]
+
+  Returns:
+    Free lift L at n_calc. # [kg]
   """
   _, b, _ = coeffs = vent_coefficients(payload_kg, sand_kg, ascent_rate,
                                        drag_coefficient, temperature, pressure)
@@ -470,6 +573,17 @@ def ballast_target_sand(helium_mols: Array, payload_kg: Array,
 
   m_s_calc = rho V - rho c_d A |hdot| hdot / (2 g) - m_p - n M_He (may be
   negative when the rate cannot be reached even with all sand dropped).
+
+  Args:
+    helium_mols: n aboard (unchanged by dropping sand). # [mol]
+    payload_kg: m_p. # [kg]
+    ascent_rate: Desired steady hdot. # [m/s]
+    drag_coefficient: c_d. # [.]
+    temperature: T at the balloon. # [K]
+    pressure: P at the balloon. # [Pa]
+
+  Returns:
+    m_s_calc (not clipped to the sand aboard). # [kg]
   """
   rho = air_density(temperature, pressure)
   v = volume(helium_mols, temperature, pressure)
@@ -485,18 +599,44 @@ def ballast_target_lift_kg(helium_mols: Array, ascent_rate: Array,
 
   n (M_air - M_He) - m_p - m_s_calc = k(n) |hdot| hdot / g (rho V = n M_air),
   without the cancellation of the difference.
+
+  Args:
+    helium_mols: n aboard. # [mol]
+    ascent_rate: Desired steady hdot. # [m/s]
+    drag_coefficient: c_d. # [.]
+    temperature: T at the balloon. # [K]
+    pressure: P at the balloon. # [Pa]
+
+  Returns:
+    Free lift L at m_s_calc. # [kg]
   """
   k = drag_factor(helium_mols, drag_coefficient, temperature, pressure)
   return k * jnp.abs(ascent_rate) * ascent_rate / GRAVITY
 
 
 def neutral_helium_mols(payload_kg: Array, sand_kg: Array) -> Array:
-  """Eq. float (vent case): n_calc = (m_s + m_p) / (M_air - M_He). # [mol]"""
+  """Eq. float (vent case): n_calc = (m_s + m_p) / (M_air - M_He). # [mol]
+
+  Args:
+    payload_kg: m_p. # [kg]
+    sand_kg: m_s. # [kg]
+
+  Returns:
+    Helium n_calc for zero free lift. # [mol]
+  """
   return (payload_kg + sand_kg) / LIFT_PER_MOL
 
 
 def neutral_sand_kg(helium_mols: Array, payload_kg: Array) -> Array:
-  """Eq. float (ballast case): m_s_calc = n (M_air - M_He) - m_p. # [kg]"""
+  """Eq. float (ballast case): m_s_calc = n (M_air - M_He) - m_p. # [kg]
+
+  Args:
+    helium_mols: n. # [mol]
+    payload_kg: m_p. # [kg]
+
+  Returns:
+    Sand m_s_calc for zero free lift (may be negative). # [kg]
+  """
   return helium_mols * LIFT_PER_MOL - payload_kg
 
 
@@ -576,6 +716,14 @@ def gas_volume(helium_mols: Array, gas_temperature: Array,
 
   P_gas = P + dP with a latex overpressure dP; T_gas = T + superheat
   (ASTRA simulator.py:1105-1112 with excessPressureCoeff = (P + dP) / P).
+
+  Args:
+    helium_mols: n. # [mol]
+    gas_temperature: Helium temperature T_gas. # [K]
+    gas_pressure: Helium pressure P_gas. # [Pa]
+
+  Returns:
+    Helium volume V. # [m^3]
   """
   return helium_mols * GAS_CONSTANT * gas_temperature / gas_pressure
 
@@ -588,6 +736,15 @@ def buoyant_lift_per_mol(air_temperature: Array, air_pressure: Array,
   The displaced air rho V = (P M_air / (R T)) (R T_gas / P_gas) per mol, so
   beta = (T_gas / T) (P / P_gas); beta = 1 (helium at ambient T and P) is
   the paper's LIFT_PER_MOL.
+
+  Args:
+    air_temperature: Ambient air temperature T. # [K]
+    air_pressure: Ambient air pressure P. # [Pa]
+    gas_temperature: Helium temperature T_gas. # [K]
+    gas_pressure: Helium pressure P_gas. # [Pa]
+
+  Returns:
+    Net lift per mol of helium. # [kg/mol]
   """
   beta = (gas_temperature / air_temperature) * (air_pressure / gas_pressure)
   return AIR_MOLAR_MASS * beta - HELIUM_MOLAR_MASS
