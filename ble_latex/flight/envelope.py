@@ -45,7 +45,16 @@ class Gas(NamedTuple):
 
 def sun_elevation_deg(params: params_lib.FlightParams,
                       time_s: Array) -> Array:
-  """The sun's elevation at the flight's place and time. # [deg]"""
+  """The sun's elevation at the flight's place and time. # [deg]
+
+  Args:
+    params: The flight system (start day and second of day, latitude and
+      longitude).
+    time_s: Flight time since the start. # [s]
+
+  Returns:
+    The sun's elevation above the horizon. # [deg]
+  """
   return solar.sun_elevation_deg(params.start_day_j2000,
                                  params.start_second_of_day, time_s,
                                  params.latitude_deg, params.longitude_deg)
@@ -75,7 +84,16 @@ def gas(params: params_lib.FlightParams, air_temperature: Array,
 
 
 def lift_per_mol(params: params_lib.FlightParams, g: Gas) -> Array:
-  """Net lift of a mol of helium, M_air beta - M_He. # [kg/mol]"""
+  """Net lift of a mol of helium, M_air beta - M_He. # [kg/mol]
+
+  Args:
+    params: The flight system (gas_superheat, latex_overpressure).
+    g: The helium's and the air's T and P (`gas`).
+
+  Returns:
+    Net lift per mol; `physics.LIFT_PER_MOL` when neither switch is on.
+    # [kg/mol]
+  """
   if not (params.gas_superheat or params.latex_overpressure):
     return jnp.asarray(physics.LIFT_PER_MOL, g.air_temperature.dtype)
   return physics.buoyant_lift_per_mol(g.air_temperature, g.air_pressure,
@@ -87,6 +105,15 @@ def free_lift_kg(params: params_lib.FlightParams, state, g: Gas) -> Array:
 
   L_paper + n (M_air beta - M_He - (M_air - M_He)) + W; the paper's ledger
   `state.free_lift_kg` itself when no lift switch is on.
+
+  Args:
+    params: The flight system (gas_superheat, latex_overpressure,
+      lift_walk).
+    state: The flight state (free_lift_kg, helium_mols, lift_walk_kg).
+    g: The helium's and the air's T and P (`gas`).
+
+  Returns:
+    The free lift. # [kg]
   """
   lift = state.free_lift_kg
   if params.gas_superheat or params.latex_overpressure:
@@ -98,13 +125,32 @@ def free_lift_kg(params: params_lib.FlightParams, state, g: Gas) -> Array:
 
 
 def volume(helium_mols: Array, g: Gas) -> Array:
-  """Envelope volume n R T_gas / P_gas. # [m^3]"""
+  """Envelope volume n R T_gas / P_gas. # [m^3]
+
+  Args:
+    helium_mols: Helium in the envelope n. # [mol]
+    g: The helium's and the air's T and P (`gas`).
+
+  Returns:
+    The envelope volume. # [m^3]
+  """
   return physics.gas_volume(helium_mols, g.temperature, g.pressure)
 
 
 def drag_coefficient(params: params_lib.FlightParams, helium_mols: Array,
                      g: Gas, speed: Array) -> Array:
-  """c_d of `params.drag_model` at `speed` through the air. # [.]"""
+  """c_d of `params.drag_model` at `speed` through the air. # [.]
+
+  Args:
+    params: The flight system (drag_model and its coefficients).
+    helium_mols: Helium in the envelope n (sets the diameter). # [mol]
+    g: The helium's and the air's T and P (`gas`).
+    speed: Speed through the air (sign ignored). # [m/s]
+
+  Returns:
+    The drag coefficient c_d; `params.drag_coefficient` for the
+    'constant' model. # [.]
+  """
   if params.drag_model == 'constant':
     return jnp.asarray(params.drag_coefficient)
   rho = physics.air_density(g.air_temperature, g.air_pressure)
@@ -120,7 +166,17 @@ def drag_coefficient(params: params_lib.FlightParams, helium_mols: Array,
 
 def drag_factor(params: params_lib.FlightParams, helium_mols: Array, g: Gas,
                 speed: Array) -> Array:
-  """k = 1/2 rho c_d(Re) A(V), F_d = k |hdot| hdot at `speed`. # [kg/m]"""
+  """k = 1/2 rho c_d(Re) A(V), F_d = k |hdot| hdot at `speed`. # [kg/m]
+
+  Args:
+    params: The flight system (drag_model and its coefficients).
+    helium_mols: Helium in the envelope n. # [mol]
+    g: The helium's and the air's T and P (`gas`).
+    speed: Speed through the air (sign ignored). # [m/s]
+
+  Returns:
+    The drag factor k. # [kg/m]
+  """
   rho = physics.air_density(g.air_temperature, g.air_pressure)
   return 0.5 * rho * drag_coefficient(params, helium_mols, g, speed) * (
       physics.drag_area(volume(helium_mols, g)))
@@ -128,7 +184,17 @@ def drag_factor(params: params_lib.FlightParams, helium_mols: Array, g: Gas,
 
 def steady_lift_kg(params: params_lib.FlightParams, helium_mols: Array,
                    g: Gas, rate: Array) -> Array:
-  """Free lift for a steady rate: k(n, rate) |rate| rate / g. # [kg]"""
+  """Free lift for a steady rate: k(n, rate) |rate| rate / g. # [kg]
+
+  Args:
+    params: The flight system (drag_model and its coefficients).
+    helium_mols: Helium in the envelope n. # [mol]
+    g: The helium's and the air's T and P (`gas`).
+    rate: Steady ascent rate hdot. # [m/s]
+
+  Returns:
+    The free lift that holds `rate` steady. # [kg]
+  """
   return drag_factor(params, helium_mols, g, rate) * jnp.abs(rate) * rate / (
       physics.GRAVITY)
 
@@ -143,6 +209,20 @@ def vent_target(params: params_lib.FlightParams, payload_kg: Array,
   c = (m_p + m_s - W) g; c_d(Re) is taken at the current helium's diameter,
   then `refinements - 1` more times at n_calc's. Returns b s^2 / g (the
   steady lift, as `physics.vent_target_lift_kg`).
+
+  Args:
+    params: The flight system (lift and drag switches).
+    payload_kg: m_p. # [kg]
+    sand_kg: m_s aboard (unchanged by venting). # [kg]
+    walk_kg: Free-lift random walk W. # [kg]
+    helium_mols: Current helium n (first c_d(Re) estimate). # [mol]
+    g: The helium's and the air's T and P (`gas`).
+    rate: Desired steady ascent rate hdot. # [m/s]
+    refinements: Evaluations of c_d(Re) (static; 1 for the 'constant'
+      drag model).
+
+  Returns:
+    The free lift after venting to n_calc. # [kg]
   """
   rho = physics.air_density(g.air_temperature, g.air_pressure)
   a3 = physics.GRAVITY * lift_per_mol(params, g)
@@ -161,7 +241,15 @@ def vent_target(params: params_lib.FlightParams, payload_kg: Array,
 
 
 def burst_volume_m3(params: params_lib.FlightParams, state) -> Array:
-  """The volume at which this flight's envelope bursts. # [m^3]"""
+  """The volume at which this flight's envelope bursts. # [m^3]
+
+  Args:
+    params: The flight system (burst_spread, burst_volume_m3).
+    state: The flight state (its drawn burst_volume_m3 when burst_spread).
+
+  Returns:
+    The burst volume. # [m^3]
+  """
   if params.burst_spread:
     return state.burst_volume_m3
   return params.burst_volume_m3
