@@ -218,6 +218,16 @@ def actuate(params: params_lib.FlightParams, state: FlightState,
 
   What was still pending is abandoned (as NumPy); the settled lift becomes
   the actuation's target lift.
+
+  Args:
+    params: The flight system (finite_valve, finite_ballast).
+    state: The balloon before the actuation.
+    actuation: The controller's decision (`controller.decide`).
+
+  Returns:
+    The state with the new pending vent and drop (each capped at what is
+    aboard) and settled lift; amounts without a finite rate
+    (`params.finite_valve`, `params.finite_ballast`) are already released.
   """
   f = _keep(state.replace(
       pending_vent_mols=jnp.minimum(actuation.vent_mols, state.helium_mols),
@@ -272,6 +282,16 @@ def envelope_status(params: params_lib.FlightParams,
 
   Realistic physics: V = n R T_gas / P_gas (gas at `time_s`) against this
   flight's burst volume (`envelope.burst_volume_m3`).
+
+  Args:
+    params: The flight system (realistic switches, burst_volume_m3).
+    atm: The atmosphere.
+    state: The balloon.
+    time_s: Flight time for the gas temperature (realistic physics only;
+      None otherwise). # [s]
+
+  Returns:
+    The `FlightStatus` code. # int32
   """
   ambient = atmosphere_lib.at_height(atm, _clamp(state.altitude_m))
   if params.realistic:
@@ -295,6 +315,15 @@ def resource_status(params: params_lib.FlightParams,
   n (M_air - M_He) - m_p is evaluated as L + m_s from the carried free lift,
   so a balloon floated exactly with no sand left is not out of helium.
   `lift_kg`: the realistic free lift (None = the paper's).
+
+  Args:
+    params: The flight system (min_drop_kg).
+    state: The balloon (free_lift_kg, sand_kg).
+    lift_kg: The realistic free lift; None uses `state.free_lift_kg`.
+      # [kg]
+
+  Returns:
+    The `FlightStatus` code (OUT_OF_HELIUM, OUT_OF_SAND or OK). # int32
   """
   lift = state.free_lift_kg if lift_kg is None else lift_kg
   out_of_helium = lift + state.sand_kg < 0.0
@@ -450,6 +479,22 @@ def step_with_trajectory(
     key: Optional[Array] = None
 ) -> Tuple[FlightState, FlightState, FlightState]:
   """`step`, also returning the states inside the stride (plots, checks).
+
+  Args:
+    params: The flight system (its static fields shape the computation).
+    atm_params: The atmosphere (`atmosphere.reset(key)`).
+    state: The balloon; a terminal status is returned unchanged.
+    action: (a0 desired altitude [m], a1 time factor [.], a2 float flag [.]),
+      shape (3,); clipped into the action Box.
+    wind_fn: Pure JAX (x [m], y [m], pressure [Pa], time [s]) -> (u, v)
+      [m/s], queried at the start of every sub-step at the balloon.
+    time_delta_s: Simulated time to advance, a static number or its
+      `padded_schedule` (as in `step`). # [s]
+    key: PRNG key of the stride's free-lift random walk; needed (and used)
+      only when `params.lift_walk`.
+
+  Raises:
+    ValueError: `params.lift_walk` without a key (at trace time).
 
   Returns:
     (state after the stride, state right after the controller's actuation,
