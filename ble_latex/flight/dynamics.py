@@ -493,13 +493,13 @@ def step_with_trajectory(
     key: PRNG key of the stride's free-lift random walk; needed (and used)
       only when `params.lift_walk`.
 
-  Raises:
-    ValueError: `params.lift_walk` without a key (at trace time).
-
   Returns:
     (state after the stride, state right after the controller's actuation,
     states after each physics sub-step stacked on a leading axis; with a
     `Schedule`, its padding rows repeat the state after the stride).
+
+  Raises:
+    ValueError: `params.lift_walk` without a key (at trace time).
   """
   return _step(params, atm_params, state, action, wind_fn, time_delta_s,
                record=True, key=key)
