@@ -122,6 +122,14 @@ def flight_params_of(params: 'EnvParams', state: 'EnvState'
   """The flight system of this flight: `params.flight`, with the sun's clock
   set to the flight's start (`start_time_offset_s`) when the helium follows
   the sun (`FlightParams.gas_superheat`); else `params.flight` itself.
+
+  Args:
+    params: The env parameters (their `flight` system).
+    state: The env state (its `start_time_offset_s`, int32 seconds after
+      `START_EPOCH`).
+
+  Returns:
+    The flight parameters to fly this flight with.
   """
   flight = params.flight
   if not flight.gas_superheat:
@@ -260,6 +268,13 @@ def pool_index(key: Array, size: int) -> Array:
 
   `jax.random.randint(key, (), 0, size)`: uniform over the K worlds, drawn
   from the step's key (so the same keys give the same worlds).
+
+  Args:
+    key: The step's PRNG key.
+    size: K, the number of worlds in the pool.
+
+  Returns:
+    The world's index in [0, K), int32 scalar.
   """
   return jax.random.randint(key, (), 0, size)
 
@@ -333,6 +348,14 @@ def install_world(state: EnvState, params: EnvParams) -> EnvState:
   with nothing pending (`pending_world` < 0, every state of `reset` and of
   a step without a pool) is returned as it is.
 
+  Args:
+    state: The env state, possibly with a pending world.
+    params: The env parameters holding the `reset_pool`.
+
+  Returns:
+    The state with the pending world's large leaves installed and
+    `pending_world` set to -1.
+
   Raises:
     ValueError: `params.reset_pool` is None (nothing could be pending).
   """
@@ -394,7 +417,19 @@ def _add_noise(state: EnvState, u: Array, v: Array, x_m: Array, y_m: Array,
 
 def forecast_column(state: EnvState, x_m: Array, y_m: Array,
                     pressures_pa: Array, t_s: Array) -> Tuple[Array, Array]:
-  """BLE's `WindField.get_forecast_column` of this flight's forecast. # [m/s]"""
+  """BLE's `WindField.get_forecast_column` of this flight's forecast. # [m/s]
+
+  Args:
+    state: The env state (its forecast).
+    x_m: East of the station. # [m]
+    y_m: North of the station. # [m]
+    pressures_pa: The column's pressure levels. # [Pa]
+    t_s: Time since the start of the flight. # [s]
+
+  Returns:
+    (u, v) eastward and northward wind columns, one value per pressure
+    level. # [m/s]
+  """
   return generative.forecast_column(state.forecast, x_m, y_m, pressures_pa,
                                     t_s)
 
@@ -456,7 +491,16 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
 
 def observation(state: EnvState, params: EnvParams,
                 wind: Wind = GENERATIVE_WIND) -> Array:
-  """The 71 features of `state` (`jax_features` order), float32."""
+  """The 71 features of `state` (`jax_features` order), float32.
+
+  Args:
+    state: The env state (its flight, measured wind and history).
+    params: The env parameters (the payload mass).
+    wind: Where the forecast columns come from.
+
+  Returns:
+    The observation, shape (71,), float32.
+  """
   f = state.flight
   column_u, column_v = wind.forecast_column(
       state, f.x_m, f.y_m,
@@ -469,7 +513,16 @@ def observation(state: EnvState, params: EnvParams,
 
 
 def measure(state: EnvState, wind: Wind = GENERATIVE_WIND) -> EnvState:
-  """The arena's measurement: the ground-truth wind at the balloon."""
+  """The arena's measurement: the ground-truth wind at the balloon.
+
+  Args:
+    state: The env state.
+    wind: Where the ground-truth wind comes from.
+
+  Returns:
+    `state` with `wind_u`, `wind_v` set to the wind at the balloon.
+    # [m/s]
+  """
   f = state.flight
   u, v = wind.ground_truth(state, f.x_m, f.y_m, f.pressure_pa, f.time_s)
   return state.replace(wind_u=u, wind_v=v)
@@ -487,6 +540,15 @@ def step_info(state: EnvState, params: EnvParams,
   `time_limit` (steps reached `episode_steps`), `truncated` (time limit
   without a terminal status), `invalid_action` (the step's action had a NaN
   component and was flown as the float action; False after a reset).
+
+  Args:
+    state: The env state after the reset or step.
+    params: The env parameters (`episode_steps`, the flight system).
+    invalid_action: The step's `invalid_action` flag (bool array or
+      False).
+
+  Returns:
+    The dict above, of arrays.
   """
   f = state.flight
   terminal = f.status != state_lib.FlightStatus.OK
@@ -793,6 +855,23 @@ class LatexBalloonJaxEnv:
       under `jax.vmap` only those balloons' rows are written: a step costs
       about `step_env`'s. Auto-reset worlds then repeat (K of them);
       explicit `reset` calls still draw from their key.
+
+    Args:
+      key: The step's PRNG key (and the new flight's world, see above).
+      state: The env state.
+      action: As in `step_env` (raw Box, or [-1, 1]^3 with
+        `normalize_actions`).
+      params: The env parameters.
+
+    Returns:
+      (observation, state, reward, terminated, truncated, info): the new
+      flight's observation and state where the episode ended; reward,
+      terminated, truncated and info (with `final_observation`) of the
+      finished step.
+
+    Raises:
+      ValueError: `params.wind_grid` set on an env given another `Wind`
+        (`wind_for`).
     """
     obs, state, reward, terminated, info = self.step_env(key, state, action,
                                                          params)
@@ -844,6 +923,13 @@ def start_volume_m3(flight: flight_params_lib.FlightParams,
   or neutral buoyancy) in BLE's atmosphere at that height, the largest over
   the atmosphere blends `_CHECK_ALPHAS`. On the host, before the env
   compiles (`_start_volumes`).
+
+  Args:
+    flight: The flight system (payload, initial helium and sand).
+    altitude_m: The start altitude. # [m]
+
+  Returns:
+    The largest start volume over the atmosphere blends. # [m^3]
   """
   helium = flight.initial_helium_mols
   if helium is None:
