@@ -184,6 +184,11 @@ def validate_each(actions: Any,
   balloon i's action goes through `checks[i]`, the single env's own check,
   so a bad action for one balloon leaves every balloon unstepped.
 
+  Args:
+    actions: One action per balloon (a sequence of length N).
+    checks: The N single envs' action checks, each raising ValueError on a
+      bad action.
+
   Raises:
     ValueError: Not one action per balloon, or `actions[i]: <the single
       env's message>` for the first bad one.
@@ -471,6 +476,11 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
     start_date_time: Date and time of the flight's start (BLE's draw, or
       the external wind field's own).
     location_key: The key of BLE's station location draw.
+
+  Raises:
+    ValueError: An unknown `render_mode`, or a bad `episode_steps`,
+      `station_keeping_radius_km` or `params` (`errors.ConfigError`).
+    RuntimeError: Built in a process forked after JAX started.
   """
 
   metadata = {'render_modes': ['rgb_array'], 'render_fps': 4}
@@ -530,7 +540,19 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
   def reset(self, *, seed: Optional[int] = None,
             options: Optional[Mapping[str, Any]] = None
             ) -> Tuple[np.ndarray, Dict[str, Any]]:
-    """Starts a new flight; see the module docstring for seeding."""
+    """Starts a new flight; see the module docstring for seeding.
+
+    Args:
+      seed: None (a training seed drawn from `np_random`) or an int s in
+        [0, 2**32): the flight of s.
+      options: Must be empty or None (the env takes no options).
+
+    Returns:
+      (observation [71] float32, info).
+
+    Raises:
+      ValueError: A bad `seed` or any `options`; nothing is changed.
+    """
     seed = int(self._episode_seeds(seed, options)[0])
     return self.start(jax_env.arena_key(jax.random.PRNGKey(seed)))
 
@@ -711,6 +733,12 @@ class LatexBalloonVectorEnv(_Balloons, gymnasium.vector.VectorEnv):
 
   Attributes:
     episode_seeds: Each balloon's current seed.
+
+  Raises:
+    ValueError: `num_envs` not an int >= 1, a `render_mode` other than
+      None, or a bad `episode_steps`, `max_episode_steps` or `params`
+      (`errors.ConfigError`).
+    RuntimeError: Built in a process forked after JAX started.
   """
 
   metadata = {'autoreset_mode': AutoresetMode.SAME_STEP, 'render_modes': []}
@@ -749,7 +777,19 @@ class LatexBalloonVectorEnv(_Balloons, gymnasium.vector.VectorEnv):
   def reset(self, *, seed: Optional[int] = None,
             options: Optional[Mapping[str, Any]] = None
             ) -> Tuple[np.ndarray, Dict[str, Any]]:
-    """New flights for all balloons (seed s: balloon i flies seed s + i)."""
+    """New flights for all balloons (seed s: balloon i flies seed s + i).
+
+    Args:
+      seed: None (training seeds drawn from `np_random`) or an int s with
+        s + N - 1 < 2**32.
+      options: Must be empty or None (the env takes no options).
+
+    Returns:
+      (observations [N, 71] float32, vector info).
+
+    Raises:
+      ValueError: A bad `seed` or any `options`; nothing is changed.
+    """
     seeds = self._episode_seeds(seed, options)
     self.state, obs, raw = self._new_flights(seeds)
     self.episode_seeds = np.asarray(seeds, np.int64)
@@ -873,6 +913,18 @@ def make_vector_latex_balloon(num_envs: int = 1, *, asynchronous: bool = False,
 
   `LatexBalloonVectorEnv`; with `asynchronous=True` an `AsyncVectorEnv` of
   single envs (`make_vector_env`).
+
+  Args:
+    num_envs: Number of balloons N.
+    asynchronous: One worker process per balloon (`AsyncVectorEnv`)
+      instead of the batched `LatexBalloonVectorEnv`.
+    context: multiprocessing start method of the workers (asynchronous
+      only; see `make_vector_env`).
+    **env_kwargs: Passed to `LatexBalloonVectorEnv`, or to
+      `gymnasium.make` for each balloon when asynchronous.
+
+  Returns:
+    A gymnasium vector env; `reset(seed=s)` seeds balloon i with s + i.
   """
   if asynchronous:
     return make_vector_env('ble_latex/LatexBalloon-v0', num_envs,
