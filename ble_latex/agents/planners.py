@@ -217,6 +217,15 @@ def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
   (`wind.forecast_column` at one pressure) of the `blind` state, plus the
   measured-minus-forecast wind at the balloon, decaying as
   exp(-|t - t0| / wind_correction_hours - |P - P0| / wind_correction_pa).
+
+  Args:
+    config: The planner (mode, wind_correction_hours, wind_correction_pa).
+    wind: The env's wind.
+    state: The balloon's env state (its measured wind at the balloon).
+
+  Returns:
+    A pure JAX function (x [m], y [m], pressure [Pa], time [s]) -> (u, v)
+    eastward and northward wind. # [m/s]
   """
   if config.mode == ORACLE:
     return functools.partial(wind.ground_truth, state)
@@ -243,7 +252,17 @@ def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
 
 def plan_actions(config: PlannerConfig, targets_m: Array,
                  floats: Array) -> Array:
-  """[horizon, 3] actions (a0, a1, a2) of a piecewise-constant plan."""
+  """[horizon, 3] actions (a0, a1, a2) of a piecewise-constant plan.
+
+  Args:
+    config: The planner (horizon, num_segments, time_factor).
+    targets_m: [num_segments] altitude targets a0. # [m]
+    floats: [num_segments] float flags a2.
+
+  Returns:
+    [horizon, 3] actions: each segment's a0 and a2 repeated over its
+    strides, a1 = `config.time_factor`.
+  """
   segment = (np.arange(config.horizon) * config.num_segments) // config.horizon
   a0 = targets_m[segment]
   a2 = floats[segment]
@@ -259,6 +278,19 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
   Differentiable in `targets_m` (the core's `lax.scan`, smooth within a
   controller branch). `state.steps` and `params.episode_steps` mask strides
   past the end of the episode and scale the resource cost.
+
+  Args:
+    config: The planner (horizon, reward shaping and costs).
+    params: The env parameters (flight system, stride, episode_steps).
+    state: The balloon's env state the plan starts from.
+    wind_fn: (x [m], y [m], pressure [Pa], time [s]) -> (u, v) [m/s], the
+      wind the plan is flown in (`planning_wind`).
+    targets_m: [num_segments] altitude targets a0. # [m]
+    floats: [num_segments] float flags a2.
+
+  Returns:
+    The objective (a scalar, higher is better): discounted in-radius value
+    plus shaping and progress, minus resource and terminal costs.
   """
   f0 = state.flight
   actions = plan_actions(config, targets_m, floats)
@@ -300,7 +332,16 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
 
 
 def initial_plan(config: PlannerConfig, state: jax_env.EnvState) -> Plan:
-  """The first warm start: hold the current altitude, floats at the prior."""
+  """The first warm start: hold the current altitude, floats at the prior.
+
+  Args:
+    config: The planner (altitude band, num_segments, float_probability).
+    state: The balloon's env state.
+
+  Returns:
+    A `Plan` whose targets are the current altitude clipped into
+    [altitude_low_m, altitude_high_m], score 0.
+  """
   h = jnp.clip(state.flight.altitude_m, config.altitude_low_m,
                config.altitude_high_m)
   shape = (config.num_segments,)
@@ -312,7 +353,16 @@ def initial_plan(config: PlannerConfig, state: jax_env.EnvState) -> Plan:
 
 
 def shift(config: PlannerConfig, previous: Plan) -> Plan:
-  """The previous plan moved on by `replan_every` strides (warm start)."""
+  """The previous plan moved on by `replan_every` strides (warm start).
+
+  Args:
+    config: The planner (replan_every, num_segments, horizon).
+    previous: The last plan.
+
+  Returns:
+    `previous` with its segments shifted forward and the last one
+    repeated; `previous` itself when less than a segment has passed.
+  """
   k = int(round(config.replan_every * config.num_segments / config.horizon))
   if k == 0:
     return previous
@@ -422,6 +472,13 @@ def plan_key(seed: Any, state: jax_env.EnvState) -> Array:
   The flight is told apart by its start time (drawn from the env seed), so
   the agent in `ble-latex-eval` and `plan_batch` sample the same plans for
   the same env seed and agent seed.
+
+  Args:
+    seed: The agent seed (int or int32 scalar).
+    state: The balloon's env state (start_time_offset_s, steps).
+
+  Returns:
+    A PRNG key.
   """
   key = jax.random.fold_in(jax.random.PRNGKey(seed), state.start_time_offset_s)
   return jax.random.fold_in(key, state.steps)
@@ -451,13 +508,31 @@ def plan_batch(config: PlannerConfig, params: jax_env.EnvParams,
 
 @functools.partial(jax.jit, static_argnums=0)
 def initial_plans(config: PlannerConfig, states: jax_env.EnvState) -> Plan:
-  """`initial_plan` of [N] states (jitted)."""
+  """`initial_plan` of [N] states (jitted).
+
+  Args:
+    config: The planner (static).
+    states: [N] env states.
+
+  Returns:
+    [N] plans.
+  """
   return jax.vmap(functools.partial(initial_plan, config))(states)
 
 
 def next_action(config: PlannerConfig, current: Plan,
                 strides_since_plan: int) -> np.ndarray:
-  """The action of stride `strides_since_plan` of a plan (host NumPy)."""
+  """The action of stride `strides_since_plan` of a plan (host NumPy).
+
+  Args:
+    config: The planner (horizon, num_segments, time_factor).
+    current: The plan being flown.
+    strides_since_plan: Strides since `current` was made (past the last
+      segment, the last segment is flown).
+
+  Returns:
+    The action (a0 [m], a1, a2), float64 shape (3,).
+  """
   segment = (strides_since_plan * config.num_segments) // config.horizon
   segment = min(segment, config.num_segments - 1)
   targets, floats = jax.device_get((current.targets_m, current.floats))
@@ -501,6 +576,17 @@ class PlannerAgent(agent.Agent):
   the env's `EnvState` at every decision (FORECAST and GRADIENT read it
   without the noise, `blind`), plans every `replan_every` strides and flies
   the plan's actions in between. The observation is not used.
+
+  Args:
+    num_actions: Size of the action (must be 3: a0, a1, a2).
+    observation_shape: The observation's shape (unused).
+    action_low: The action Box's lower bounds; actions are clipped to it.
+    action_high: The action Box's upper bounds.
+    seed: The agent seed (with the flight and stride, `plan_key`).
+    **config: `PlannerConfig` fields (checked, `PlannerConfig.checked`).
+
+  Raises:
+    errors.ConfigError: `num_actions` other than 3, or a bad config value.
   """
 
   supports_box_actions = True
@@ -547,13 +633,42 @@ class PlannerAgent(agent.Agent):
     return np.clip(action, self._low, self._high)
 
   def begin_episode(self, observation: np.ndarray) -> np.ndarray:
+    """Drops the last plan and plans from the env's new flight.
+
+    Args:
+      observation: Unused (the agent reads the env's core state).
+
+    Returns:
+      The first action (a0 [m], a1, a2), clipped into the Box.
+
+    Raises:
+      RuntimeError: `attach_env` was not called.
+    """
     self._plan, self._since = None, 0
     return self._act()
 
   def step(self, reward: float, observation: np.ndarray) -> np.ndarray:
+    """The next action of the plan (replanning every `replan_every`).
+
+    Args:
+      reward: Unused.
+      observation: Unused (the agent reads the env's core state).
+
+    Returns:
+      The action (a0 [m], a1, a2), clipped into the Box.
+
+    Raises:
+      RuntimeError: `attach_env` was not called.
+    """
     return self._act()
 
   def end_episode(self, reward: float, terminal: bool = True) -> None:
+    """Drops the current plan.
+
+    Args:
+      reward: Unused.
+      terminal: Unused.
+    """
     self._plan = None
 
 
