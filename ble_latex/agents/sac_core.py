@@ -61,7 +61,16 @@ def to_numpy(tree: Any) -> Any:
 
 @jax.jit
 def polyak_update(online_params: Any, target_params: Any, tau: float) -> Any:
-  """Soft target update tau * online + (1 - tau) * target, one XLA call."""
+  """Soft target update tau * online + (1 - tau) * target, one XLA call.
+
+  Args:
+    online_params: The online network's parameters.
+    target_params: The target network's parameters (same tree).
+    tau: Step size of the update, in (0, 1].
+
+  Returns:
+    The new target parameters.
+  """
   return optax.incremental_update(online_params, target_params, tau)
 
 
@@ -160,6 +169,26 @@ def update(network_def: networks.LatexSACNetwork,
   (`sac_trainer`) both call it. `tests/test_sac_agent.py` checks it against
   Dopamine's `sac_agent.train` on the same inputs.
 
+  Args:
+    network_def: The actor-critic network (static).
+    optimizer: The network optimizer (`make_optimizers`; static).
+    alpha_optimizer: The temperature optimizer (static).
+    optimizer_state: The network optimizer's state.
+    alpha_optimizer_state: The temperature optimizer's state.
+    network_params: The online network's parameters.
+    target_params: The target network's parameters (unused by CrossQ
+      critics, which have no target network).
+    log_alpha: Log of the entropy temperature alpha.
+    key: PRNG key of the batch (split per transition).
+    states: [B, ...] observations.
+    actions: [B, ...] actions taken.
+    next_states: [B, ...] next observations.
+    rewards: [B] rewards.
+    terminals: [B] terminal flags (no bootstrap where set).
+    cumulative_gamma: Discount of the bootstrap, gamma^n.
+    target_entropy: The temperature loss's target entropy.
+    reward_scale_factor: Multiplies the rewards in the critic target.
+
   Returns:
     Dopamine's dict: new `network_params`, `log_alpha`, `optimizer_state`,
     `alpha_optimizer_state` and the `Losses/*`, `Values/*` scalars.
@@ -201,7 +230,17 @@ def update(network_def: networks.LatexSACNetwork,
 def make_optimizers(params: Any, actor_learning_rate: float,
                     critic_learning_rate: float, alpha_learning_rate: float
                     ) -> tuple:
-  """(network optimizer, temperature optimizer): Adam per actor / critics."""
+  """(network optimizer, temperature optimizer): Adam per actor / critics.
+
+  Args:
+    params: The network parameters (labelled by `param_labels`).
+    actor_learning_rate: Adam step size of the actor.
+    critic_learning_rate: Adam step size of the critics.
+    alpha_learning_rate: Adam step size of log alpha.
+
+  Returns:
+    (network optimizer, temperature optimizer), optax transformations.
+  """
   network = optax.multi_transform(
       {'actor': optax.adam(actor_learning_rate),
        'critic': optax.adam(critic_learning_rate)}, param_labels(params))
@@ -258,13 +297,29 @@ def check_hyperparameters(owner: str, **values: Any) -> None:
 
 
 def checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:
-  """The checkpoint file of `iteration_number` (BLE's numbering)."""
+  """The checkpoint file of `iteration_number` (BLE's numbering).
+
+  Args:
+    checkpoint_dir: Folder of the checkpoints.
+    iteration_number: The iteration.
+
+  Returns:
+    `<checkpoint_dir>/checkpoint_<iteration, 5 digits>.msgpack`.
+  """
   return os.path.join(checkpoint_dir,
                       f'checkpoint_{iteration_number:05d}.msgpack')
 
 
 def legacy_checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:
-  """The pickle checkpoint an older ble_latex wrote for `iteration_number`."""
+  """The pickle checkpoint an older ble_latex wrote for `iteration_number`.
+
+  Args:
+    checkpoint_dir: Folder of the checkpoints.
+    iteration_number: The iteration.
+
+  Returns:
+    `<checkpoint_dir>/checkpoint_<iteration, 5 digits>.pkl`.
+  """
   return os.path.join(checkpoint_dir, f'checkpoint_{iteration_number:05d}.pkl')
 
 
