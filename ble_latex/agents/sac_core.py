@@ -185,7 +185,8 @@ def update(network_def: networks.LatexSACNetwork,
     next_states: [B, ...] next observations.
     rewards: [B] rewards.
     terminals: [B] terminal flags (no bootstrap where set).
-    cumulative_gamma: Discount of the bootstrap, gamma^n.
+    cumulative_gamma: Discount of the next-state value (Dopamine's
+      gamma ** update_horizon).
     target_entropy: The temperature loss's target entropy.
     reward_scale_factor: Multiplies the rewards in the critic target.
 

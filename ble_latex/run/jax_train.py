@@ -70,7 +70,23 @@ def episode_records(out: sac_trainer.RoundOutput, seeds: Sequence[int],
                     first_episode: int, window_steps: int,
                     wall_time_s: float
                     ) -> List[Tuple[metrics.EpisodeSummary, Dict[str, Any]]]:
-  """The round's (`EpisodeSummary`, last info) pairs, in balloon order."""
+  """The round's (`EpisodeSummary`, last info) pairs, in balloon order.
+
+  Args:
+    out: One seed's round output (per-balloon reward, steps, info).
+    seeds: The env seed of each balloon's episode (`round_seeds`).
+    first_episode: The number of the round's first episode.
+    window_steps: Steps of the TW50 window.
+    wall_time_s: The round's wall time, shared equally among its episodes.
+      # [s]
+
+  Returns:
+    One (summary, info dict) pair per balloon.
+
+  Raises:
+    ValueError: Step counts that are negative or inconsistent
+      (`metrics.tw50_fractions`).
+  """
   out = jax.device_get(out)
   records = []
   for i, seed in enumerate(seeds):
@@ -154,6 +170,15 @@ def load_checkpoint(path: str, template: sac_trainer.TrainState
                     ) -> Tuple[sac_trainer.TrainState, float]:
   """A checkpoint's state (checked against `template`) and elapsed [s].
 
+  Args:
+    path: The checkpoint file.
+    template: A train state whose tree, shapes and dtypes the checkpoint
+      must match.
+
+  Returns:
+    (train state, training wall time so far [s]; 0 in a checkpoint
+    without one).
+
   Raises:
     errors.BadFileError: The file is unreadable, or an entry is missing, of
       another shape or dtype, non-finite or out of range (named with the
@@ -226,7 +251,15 @@ def recorded_config(config: Mapping[str, Any]) -> Dict[str, Any]:
 
 
 def round_seeds(iteration: int, num_envs: int) -> List[int]:
-  """Env seeds of a round's episodes: episode e flies `train_seed(e)`."""
+  """Env seeds of a round's episodes: episode e flies `train_seed(e)`.
+
+  Args:
+    iteration: The round (0-based).
+    num_envs: Episodes per round (balloons).
+
+  Returns:
+    The seeds of episodes iteration * num_envs + i, i < num_envs.
+  """
   return [suites.train_seed(iteration * num_envs + i)
           for i in range(num_envs)]
 
