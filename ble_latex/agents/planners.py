@@ -311,8 +311,9 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
   value = jnp.sum(jnp.where(alive, config.discount ** t * (within + shaping),
                             0.0).astype(dtype))
   d0 = jnp.hypot(f0.x_m, f0.y_m) / 1000.0
-  d_end = distance_km[jnp.clip(jnp.minimum(left, config.horizon) - 1, 0,
-                               config.horizon - 1)]
+  # The plan's last stride inside the episode.
+  last = jnp.clip(jnp.minimum(left, config.horizon) - 1, 0, config.horizon - 1)
+  d_end = distance_km[last]
   value = value + config.progress * (d0 - d_end) / config.radius_km
   # Resource margins as a fraction of the launch sand (both start near it).
   initial = jnp.maximum(params.flight.initial_sand_kg, 1e-3)
@@ -326,7 +327,6 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
       config.sand_cost * dropped / jnp.maximum(sand_margin / initial, 0.05) +
       config.helium_cost * vented / jnp.maximum(helium_margin / initial, 0.05))
   # The flight ended inside the plan (before the episode's end).
-  last = jnp.clip(jnp.minimum(left, config.horizon) - 1, 0, config.horizon - 1)
   ended = status[last] != state_lib.FlightStatus.OK
   return value - cost - config.terminal_cost * ended.astype(dtype)
 
