@@ -63,6 +63,10 @@ flags.DEFINE_integer('checkpoint_period', 10, 'train: rounds between '
                      'checkpoints.', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_multi_string('gin_bindings', [], 'train: gin bindings.',
                           flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_file', [], 'train and report: extra gin files '
+                          '(e.g. gin_configs/latex_realistic.gin: trained, '
+                          'validated and flown held out under them).',
+                          flag_values=FLAGS)
 flags.DEFINE_float('max_oor_pct', 5.0, 'report: most % of validation '
                    'episodes out of resources of a chosen snapshot.',
                    flag_values=FLAGS)
@@ -95,7 +99,7 @@ flags.DEFINE_string('ship', None, 'report: also write the best-validated '
 def train(base_dir: str, seeds: List[int], num_iterations: int,
           snapshot_period: int, checkpoint_period: int,
           gin_bindings: List[str], parallel: int = 1,
-          vmap_seeds: bool = False) -> None:
+          vmap_seeds: bool = False, gin_files: Sequence[str] = ()) -> None:
   """Runs (or resumes) `ble-latex-train --trainer=jax --seeds=...`.
 
   With `parallel` > 1 the seeds are dealt round-robin to that many
@@ -113,6 +117,7 @@ def train(base_dir: str, seeds: List[int], num_iterations: int,
        '--collectors=progress', '--collectors=episodes',
        '--collectors=tensorboard',
        *(['--vmap_seeds'] if vmap_seeds and len(group) > 1 else []),
+       *[f'--gin_file={f}' for f in gin_files],
        *[f'--gin_bindings={b}' for b in gin_bindings]]
       for group in groups if group]
   processes = []
@@ -188,8 +193,8 @@ def compare(run_dirs: Sequence[str], max_oor_pct: float,
   return rows
 
 
-def _held_out(suite_name: str, policy_path: str,
-              output: str) -> Dict[str, float]:
+def _held_out(suite_name: str, policy_path: str, output: str,
+              gin_files: Sequence[str] = ()) -> Dict[str, float]:
   """Flies a policy on the held-out suite in the gym env; its summary."""
   # pylint: disable=g-import-not-at-top
   import gym
@@ -199,7 +204,7 @@ def _held_out(suite_name: str, policy_path: str,
   from ble_latex.run import metrics
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
-  configs.bind_gin('sac_pretrained', None, [], [])
+  configs.bind_gin('sac_pretrained', None, list(gin_files), [])
   suite = suites.get_eval_suite(suite_name)
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
@@ -250,7 +255,8 @@ def _chosen_policy(run: str, seed: int, chosen: Dict[str, Any],
 def report(base_dir: str, seeds: List[int], max_oor_pct: float,
            max_minutes: Optional[float], max_iteration: Optional[int],
            results_dir: str, ship: Optional[str], parallel: int = 1,
-           held_out_suite: str = 'latex_small') -> int:
+           held_out_suite: str = 'latex_small',
+           gin_files: Sequence[str] = ()) -> int:
   """Chooses, evaluates and tabulates each seed; returns the exit status."""
   # pylint: disable=g-import-not-at-top
   from ble_latex.run import episode_log
@@ -280,7 +286,8 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
     held_outs = list(pool.map(_held_out,
                               [held_out_suite] * len(chosen_rows),
                               [c[2] for c in chosen_rows],
-                              [c[3] for c in chosen_rows]))
+                              [c[3] for c in chosen_rows],
+                              [tuple(gin_files)] * len(chosen_rows)))
   rows = []
   for (seed, chosen, policy_path, output), held_out in zip(chosen_rows,
                                                            held_outs):
@@ -368,11 +375,11 @@ def _main(argv: Sequence[str]) -> int:
   if argv[1] == 'train':
     train(args.base_dir, seeds, args.num_iterations, args.snapshot_period,
           args.checkpoint_period, args.gin_bindings, args.parallel,
-          args.vmap_seeds)
+          args.vmap_seeds, args.gin_file)
     return 0
   return report(args.base_dir, seeds, args.max_oor_pct, args.max_minutes,
                 args.max_iteration, args.results_dir, args.ship,
-                args.parallel, args.held_out_suite)
+                args.parallel, args.held_out_suite, args.gin_file)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
