@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.ble_latex-installed
 OUT ?= demo_output
 
-.PHONY: venv demo test test-slow test-all docs docs-serve clean
+.PHONY: venv demo test test-clients test-slow test-all docs docs-serve clean
 
 venv: $(STAMP)
 
@@ -24,6 +24,11 @@ demo: venv
 # Default test suite (slow tests excluded; see pytest.ini).
 test: venv
 	$(PY) -m pytest
+
+# The real RL clients (SB3 PPO, CleanRL-style SAC/PPO, purejaxrl PPO, RLlib
+# PPO), each its examples/ script's --short run; CI runs them after `test`.
+test-clients: venv
+	$(PY) -m pytest -m clients
 
 test-slow: venv
 	$(PY) -m pytest -m slow
@@ -46,12 +51,41 @@ clean:
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.cli.eval --suite=latex_small --output_dir=$(RESULTS)
 
-.PHONY: baselines planners results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac
+.PHONY: baselines baselines-realistic long-flights physics-results planners results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac
 baselines: venv
 	$(EVAL) --agent=latex_random
 	$(EVAL) --agent=latex_station_seeker
 	$(EVAL) --agent=station_seeker --env_name=LatexBalloonDiscrete-v0 --name_override=ble_station_seeker_discrete
 	$(EVAL) --agent=sac --name_override=sac_untrained
+
+# Issue 28: the same evals under realistic latex physics, and 7-day flights
+# (504 strides) in both modes; `physics-results` tabulates them side by side
+# (benchmarks/physics_results.md). The realistic SAC seeds: benchmarks/sac_seeds.py
+# with --gin_file=gin_configs/latex_realistic.gin (docs/physics.md).
+REALISTIC_GIN := --gin_file=gin_configs/latex_realistic.gin
+RESULTS_REALISTIC ?= benchmarks/results_realistic
+LONG := --max_episode_length=504 --gin_bindings=LatexBalloonEnv.episode_steps=504
+baselines-realistic: venv
+	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=latex_random
+	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=latex_station_seeker
+	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=station_seeker \
+		--env_name=LatexBalloonDiscrete-v0 --name_override=ble_station_seeker_discrete
+	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=sac_pretrained
+	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=sac_pretrained \
+		--gin_bindings='SACPretrainedAgent.policy_path="ble_latex/agents/policies/sac_latex.msgpack"' \
+		--name_override=sac_pretrained_paper_policy
+
+long-flights: venv
+	$(EVAL) --output_dir=benchmarks/results_7day $(LONG) --agent=latex_station_seeker
+	$(EVAL) --output_dir=benchmarks/results_7day $(LONG) --agent=sac_pretrained
+	$(EVAL) --output_dir=benchmarks/results_7day_realistic $(LONG) $(REALISTIC_GIN) --agent=latex_station_seeker
+	$(EVAL) --output_dir=benchmarks/results_7day_realistic $(LONG) $(REALISTIC_GIN) --agent=sac_pretrained
+
+physics-results:
+	$(PY) benchmarks/physics_results.py --json=benchmarks/physics_results.json \
+		--paper=$(RESULTS)/latex_small --realistic=$(RESULTS_REALISTIC)/latex_small \
+		--paper_long=benchmarks/results_7day/latex_small \
+		--realistic_long=benchmarks/results_7day_realistic/latex_small | tee benchmarks/physics_results.md
 
 # Issue 29: the planners on the same 100 seeds, balloons batched (resumable;
 # docs/planners.md). Their records join the table.

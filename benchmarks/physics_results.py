@@ -1,0 +1,197 @@
+"""Paper physics vs realistic latex physics, side by side (issue 28).
+
+  make baselines results-realistic long-flights   # the evals (Makefile)
+  python benchmarks/physics_results.py --json=benchmarks/physics_results.json \
+      --paper=benchmarks/results/latex_small \
+      --realistic=benchmarks/results_realistic/latex_small \
+      --paper_long=benchmarks/results_7day/latex_small \
+      --realistic_long=benchmarks/results_7day_realistic/latex_small
+
+Reads `ble-latex-eval` JSON files (one per agent, the file name is the
+agent's) and prints two Markdown tables:
+
+1. The 3-day suite: per agent, TW50 over the window (mean ± std), % of
+   episodes out of resources, helium vented and sand dropped, in the paper's
+   model and under gin_configs/latex_realistic.gin. Files named
+   `<prefix>_seed_<s>.json` (several training seeds of one setting, e.g.
+   `benchmarks/sac_seeds.py report`'s) also give one row of the mean ± std
+   over seeds of their per-seed means.
+2. Long flights (`--max_episode_length=504`, 7 days): days aloft before the
+   episode ended (mean ± std; an episode that reaches the time limit counts
+   its 7 days), % of flights aloft for all 7 days, TW50 over the 7 days.
+"""
+
+import collections
+import json
+import os
+import re
+import statistics
+import sys
+from typing import Any, Dict, List, Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
+from ble_latex.flight import params as params_lib
+from ble_latex.run import metrics
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('paper', None, '3-day evals, paper physics (a folder).',
+                    flag_values=FLAGS)
+flags.DEFINE_string('realistic', None, '3-day evals, realistic physics.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('paper_long', None, '7-day evals, paper physics.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('realistic_long', None, '7-day evals, realistic physics.',
+                    flag_values=FLAGS)
+flags.DEFINE_string('json', None, 'Also write the rows here.',
+                    flag_values=FLAGS)
+
+SECONDS_PER_DAY = 86_400.0  # [s]
+_SEED_FILE = re.compile(r'^(?P<prefix>.+)_seed_(?P<seed>\d+)$')
+
+
+def _load(folder: Optional[str]) -> Dict[str, List[Dict[str, Any]]]:
+  """The eval records of every `*.json` in `folder`, by agent (file) name."""
+  if folder is None or not os.path.isdir(folder):
+    return {}
+  out = {}
+  for name in sorted(os.listdir(folder)):
+    if not name.endswith('.json') or name.endswith('.partial.json'):
+      continue
+    path = os.path.join(folder, name)
+    with open(path, encoding='utf-8') as f:
+      records = json.load(f)
+    if not isinstance(records, list) or not records:
+      raise ValueError(f'{path}: not a non-empty ble-latex-eval result list')
+    out[name[:-len('.json')]] = records
+  return out
+
+
+def days_aloft(record: Dict[str, Any],
+               stride_s: float = params_lib.DEFAULTS.stride_s) -> float:
+  """Days the episode flew: its strides times the stride. # [day]"""
+  return record['steps'] * stride_s / SECONDS_PER_DAY
+
+
+def summary(records: List[Dict[str, Any]]) -> Dict[str, Any]:
+  """`metrics.summarize` plus days aloft and the share flying the window."""
+  s = metrics.summarize(records)
+  days = [days_aloft(r) for r in records]
+  s['days_aloft_mean'] = statistics.mean(days)
+  s['days_aloft_std'] = statistics.pstdev(days)
+  s['full_window_pct'] = 100.0 * statistics.mean(
+      r['terminal_reason'] == 'time_limit' for r in records)
+  s['seeds'] = [min(r['seed'] for r in records),
+                max(r['seed'] for r in records)]
+  return s
+
+
+def over_seeds(rows: Dict[str, Dict[str, Any]]) -> Dict[str, Dict[str, Any]]:
+  """Rows `<prefix> (N seeds)`: mean ± std over seeds of per-seed means."""
+  groups = collections.defaultdict(list)
+  for agent, s in rows.items():
+    match = _SEED_FILE.match(agent)
+    if match:
+      groups[match['prefix']].append(s)
+  out = {}
+  for prefix, seeds in groups.items():
+    if len(seeds) < 2:
+      continue
+    agg = {}
+    for key in ('tw50_window_mean', 'out_of_resources_pct',
+                'helium_vented_mols_mean', 'sand_dropped_kg_mean',
+                'days_aloft_mean', 'full_window_pct'):
+      values = [s[key] for s in seeds]
+      agg[key] = statistics.mean(values)
+      agg[key + '_over_seeds_std'] = statistics.stdev(values)
+    agg['tw50_window_std'] = agg['tw50_window_mean_over_seeds_std']
+    agg['episodes'] = sum(s['episodes'] for s in seeds)
+    agg['num_seeds'] = len(seeds)
+    out[f'{prefix} ({len(seeds)} seeds)'] = agg
+  return out
+
+
+def _rows(folder: Optional[str]) -> Dict[str, Dict[str, Any]]:
+  rows = {agent: summary(r) for agent, r in _load(folder).items()}
+  rows.update(over_seeds(rows))
+  return rows
+
+
+def _pct(s: Optional[Dict[str, Any]], key: str = 'tw50_window') -> str:
+  if s is None:
+    return '—'
+  spread = ('± {:.1f} (seeds)'.format(100 * s[key + '_std'])
+            if 'num_seeds' in s else f'± {100 * s[key + "_std"]:.1f}')
+  return f'{100 * s[key + "_mean"]:.1f} % {spread}'
+
+
+def _cost(s: Optional[Dict[str, Any]]) -> str:
+  if s is None:
+    return '—'
+  return (f'{s["out_of_resources_pct"]:.0f} % / '
+          f'{s["helium_vented_mols_mean"]:.1f} mol / '
+          f'{s["sand_dropped_kg_mean"]:.2f} kg')
+
+
+def side_by_side(paper: Dict[str, Dict[str, Any]],
+                 realistic: Dict[str, Dict[str, Any]]) -> str:
+  """Table 1: the 3-day suite in both physics."""
+  lines = ['| agent | TW50 window, paper | TW50 window, realistic '
+           '| out of resources / helium / sand, paper '
+           '| out of resources / helium / sand, realistic | episodes |',
+           '|---|---|---|---|---|---|']
+  agents = sorted(set(paper) | set(realistic), key=lambda a: -max(
+      paper.get(a, {}).get('tw50_window_mean', -1),
+      realistic.get(a, {}).get('tw50_window_mean', -1)))
+  for a in agents:
+    p, r = paper.get(a), realistic.get(a)
+    episodes = '/'.join(str(s['episodes']) for s in (p, r) if s)
+    lines.append(f'| {a} | {_pct(p)} | {_pct(r)} | {_cost(p)} | {_cost(r)} '
+                 f'| {episodes} |')
+  return '\n'.join(lines)
+
+
+def long_flights(paper: Dict[str, Dict[str, Any]],
+                 realistic: Dict[str, Dict[str, Any]]) -> str:
+  """Table 2: 7-day flights, days aloft before resources ran out."""
+  lines = ['| agent | physics | days aloft (mean ± std) | aloft all 7 days '
+           '| TW50 over 7 days | out of resources | episodes |',
+           '|---|---|---|---|---|---|---|']
+  for mode, rows in (('paper', paper), ('realistic', realistic)):
+    for a, s in sorted(rows.items(), key=lambda x: -x[1]['days_aloft_mean']):
+      lines.append(
+          f'| {a} | {mode} | {s["days_aloft_mean"]:.2f} ± '
+          f'{s.get("days_aloft_std", s.get("days_aloft_mean_over_seeds_std")):.2f} '
+          f'| {s["full_window_pct"]:.0f} % | {_pct(s)} '
+          f'| {s["out_of_resources_pct"]:.0f} % | {s["episodes"]} |')
+  return '\n'.join(lines)
+
+
+def _main(argv: Sequence[str]) -> int:
+  if len(argv) != 1:
+    raise cli.CommandUsageError('takes flags only')
+  args = FLAGS
+  tables = {'paper': _rows(args.paper), 'realistic': _rows(args.realistic),
+            'paper_long': _rows(args.paper_long),
+            'realistic_long': _rows(args.realistic_long)}
+  if not any(tables.values()):
+    raise cli.CommandUsageError('no eval files in the folders given')
+  print('3-day suite (latex_small):\n')
+  print(side_by_side(tables['paper'], tables['realistic']))
+  if tables['paper_long'] or tables['realistic_long']:
+    print('\n7-day flights (504 strides, latex_small seeds):\n')
+    print(long_flights(tables['paper_long'], tables['realistic_long']))
+  if args.json:
+    safe_io.atomic_write(args.json, json.dumps(tables, indent=1) + '\n')
+  return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/physics_results.py', FLAGS, argv,
+                      doc=__doc__, positional=True)
+
+
+if __name__ == '__main__':
+  sys.exit(main())
