@@ -141,6 +141,25 @@ def test_forecast_mpc_never_reads_the_noise(world):
 
 
 @pytest.mark.slow
+def test_plans_under_realistic_physics(world):
+  """Realistic latex physics: plans fly the expected dynamics (no new random
+  walk steps, so no key is needed), the same plan as with the walk off."""
+  from ble_latex.flight import params as params_lib  # pylint: disable=g-import-not-at-top
+  _, params, (state, _) = world
+  realistic = params.replace(flight=params_lib.realistic_flight_params())
+  assert realistic.flight.lift_walk
+  no_walk = params.replace(flight=params_lib.realistic_flight_params(
+      lift_walk_kg_per_sqrt_s=None))
+  config = _config()
+  a = _plan(config, realistic, state)
+  b = _plan(config, no_walk, state)
+  assert np.all(np.isfinite(a.score))
+  jax.tree.map(np.testing.assert_array_equal, a, b)
+  # And the realistic physics is what it plans with: not the paper's plan.
+  assert not np.array_equal(a.score, _plan(config, params, state).score)
+
+
+@pytest.mark.slow
 def test_oracle_reads_the_noise(world):
   """The oracle's plan changes with the noise (the test above can fail)."""
   _, params, (state, other) = world

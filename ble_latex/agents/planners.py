@@ -294,9 +294,13 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
   """
   f0 = state.flight
   actions = plan_actions(config, targets_m, floats)
+  # Realistic physics' free-lift random walk is a disturbance no controller
+  # foresees: plans fly the expected dynamics (the walk so far held, no new
+  # steps); the sun, overpressure, drag and burst are flown as they are.
+  flight = params.flight.replace(lift_walk=False)
 
   def stride(f, action):
-    f = dynamics.step(params.flight, state.atmosphere, f, action, wind_fn,
+    f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,
                       params.stride_s)
     return f, (jnp.hypot(f.x_m, f.y_m) / 1000.0, f.status)
 
