@@ -4,11 +4,16 @@ r"""The SAC policy shipped with ble_latex, registered as agent `sac_pretrained`.
 `export_policy` strips a training checkpoint (replay buffer, optimiser states,
 PRNG key, target networks) down to what acting needs: the config, the network
 parameters and the temperature. Policies are msgpack data files
-(`ble_latex.safe_io`; reading one cannot run code). The shipped one is package
-data (`ble_latex/agents/policies/sac_latex.msgpack`) and
-`sac.SACPretrainedAgent` (the BLE agent) loads it:
+(`ble_latex.safe_io`; reading one cannot run code). Two are shipped as package
+data: `policies/sac_latex.msgpack`, trained on the paper's physics, and
+`policies/sac_latex_realistic.msgpack`, trained on the realistic latex physics
+(gin_configs/latex_realistic.gin). `sac.SACPretrainedAgent` (the BLE agent)
+loads the one of the physics gin binds (`shipped_policy`), or the file its
+`policy_path` names:
 
   ble-latex-eval --agent=sac_pretrained --suite=latex_small
+  ble-latex-eval --agent=sac_pretrained --suite=latex_small \
+      --gin_file=gin_configs/latex_realistic.gin
 
   ble-latex-export-policy \
       --checkpoint=RUN/checkpoints/checkpoint_00049.msgpack \
@@ -32,9 +37,24 @@ LEGACY_POLICY_FORMAT = 'ble_latex-sac-policy-v1'  # Pickles of ble_latex <= 0.1.
 POLICY_SUFFIX = '.msgpack'
 DEFAULT_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
                               'sac_latex' + POLICY_SUFFIX)
+REALISTIC_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
+                                'sac_latex_realistic' + POLICY_SUFFIX)
 _KEPT = ('config', 'iteration', 'training_steps', 'network_params',
          'log_alpha')
 _TEXT = ('source', 'note')
+
+
+def shipped_policy(realistic: bool) -> str:
+  """The shipped policy trained on the paper's or the realistic physics.
+
+  Args:
+    realistic: The env flies realistic latex physics
+      (`flight.params.FlightParams.realistic`).
+
+  Returns:
+    `REALISTIC_POLICY` or `DEFAULT_POLICY`.
+  """
+  return REALISTIC_POLICY if realistic else DEFAULT_POLICY
 
 
 def _is_pickle_path(path: str) -> bool:

@@ -62,6 +62,7 @@ import numpy as np
 from ble_latex.agents import networks
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac_core
+from ble_latex.flight import params as params_lib
 from ble_latex import safe_io
 
 _STORE_PREFIX = circular_replay_buffer.STORE_FILENAME_PREFIX
@@ -880,7 +881,7 @@ class SACPretrainedAgent(SACAgent):
   def __init__(self, num_actions: int, observation_shape: Sequence[int], *,
                action_low: Optional[Sequence[float]] = None,
                action_high: Optional[Sequence[float]] = None,
-               seed: int = 0, policy_path: str = pretrained.DEFAULT_POLICY,
+               seed: int = 0, policy_path: Optional[str] = None,
                trust_legacy_pickle: bool = False,
                **kwargs: Any):
     """Loads the policy, then builds the agent around it.
@@ -891,7 +892,9 @@ class SACPretrainedAgent(SACAgent):
       action_low: Lower bounds of the Box action space.
       action_high: Upper bounds of the Box action space.
       seed: Agent seed (only used if the agent is fine-tuned).
-      policy_path: Policy file (`.msgpack`; default: the shipped policy).
+      policy_path: Policy file (`.msgpack`). None: the shipped policy of
+        the physics gin binds (`pretrained.shipped_policy`: the realistic
+        one under gin_configs/latex_realistic.gin, else the paper's).
       trust_legacy_pickle: Also read a legacy `.pkl` policy or checkpoint.
         Unpickling can run code: only for files you made.
       **kwargs: Further `SACAgent` arguments.
@@ -900,6 +903,9 @@ class SACPretrainedAgent(SACAgent):
       ValueError: If the policy file is bad or does not fit the env (checked
         before the agent's networks are built).
     """
+    if policy_path is None:
+      policy_path = pretrained.shipped_policy(
+          params_lib.flight_params_from_gin().realistic)
     policy = pretrained.load_policy(policy_path, trust_legacy_pickle)
     config = policy['config']  # Checked by `sac_core.file_config`.
     for key in ('num_layers', 'hidden_units', 'critic'):
