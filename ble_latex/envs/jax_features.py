@@ -256,9 +256,9 @@ def features(column_u: Any, column_v: Any, x_m: Any, y_m: Any,
   Returns:
     float32 [71] features, clipped to [-1, 1].
   """
-  dtype = simplex.float_dtype(column_u, column_v, x_m, y_m, altitude_m,
-                       ascent_rate_mps, wind_u, wind_v, helium_mols, sand_kg,
-                       payload_kg, temperature_k, pressure_pa)
+  dtype = simplex.float_dtype(
+      column_u, column_v, x_m, y_m, altitude_m, ascent_rate_mps, wind_u,
+      wind_v, helium_mols, sand_kg, payload_kg, temperature_k, pressure_pa)
   (column_u, column_v, x_m, y_m, altitude_m, ascent_rate_mps, wind_u, wind_v,
    helium_mols, sand_kg, payload_kg, temperature_k, pressure_pa) = (
        jnp.asarray(a, dtype) for a in (
@@ -336,8 +336,8 @@ def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
   Returns:
     The step reward, in (-inf, 1].
   """
-  dtype = simplex.float_dtype(distance_km, radius_km, dropoff, halflife_km, vented,
-                       dropped, helium_penalty, sand_penalty)
+  dtype = simplex.float_dtype(distance_km, radius_km, dropoff, halflife_km,
+                              vented, dropped, helium_penalty, sand_penalty)
   (distance_km, radius_km, dropoff, halflife_km, vented, dropped,
    helium_penalty, sand_penalty) = (
        jnp.asarray(a, dtype) for a in (

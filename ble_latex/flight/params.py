@@ -14,6 +14,7 @@ lengths, the initial helium rule) is static (`pytree_node=False`) and part of
 the jit cache key.
 """
 
+import dataclasses
 import datetime as dt
 import inspect
 from typing import Any, Dict, Optional, Tuple
@@ -404,17 +405,9 @@ def make_flight_params(
       initial_helium_mols=(None if helium_mols is None else
                            float(helium_mols)),
       guard_within_stride=bool(guard_within_stride),
-      **{f: float(getattr(raw, f)) for f in (
-          'payload_kg', 'initial_sand_kg', 'drag_coefficient',
-          'burst_volume_m3', 'min_vent_mols', 'min_drop_kg', 'band_low_m',
-          'band_high_m', 'valve_flow_mols_per_s', 'ballast_rate_kg_per_s',
-          'drag_coefficient_subcritical', 'drag_coefficient_supercritical',
-          'reynolds_transition', 'reynolds_band', 'overpressure_pa',
-          'burst_weibull_scale_m', 'burst_weibull_shape', 'superheat_day_k',
-          'cooling_night_k', 'sun_elevation_night_deg',
-          'sun_elevation_day_deg', 'latitude_deg', 'longitude_deg',
-          'start_day_j2000', 'start_second_of_day',
-          'lift_walk_kg_per_sqrt_s')})
+      **{f.name: float(getattr(raw, f.name))
+         for f in dataclasses.fields(FlightParams)
+         if f.type in (float, 'float')})
 
 
 # The gin names of the flight system. Each configurable takes the gin names
