@@ -11,7 +11,7 @@ The fixes are applied lazily by an import hook (`install()`, called by
 executes, so `import ble_latex` itself stays cheap (no TF/JAX/BLE import) and the
 gym entry point can install the hook at `import gym` time. Where possible a fix
 is local to the broken third-party module; the few global changes are listed
-in `GLOBAL_CHANGES` (and in docs/ble-compat.md).
+in docs/ble-compat.md.
 
 | # | breakage (see shared ble-compat-notes)             | fix                         |
 |---|----------------------------------------------------|-----------------------------|
@@ -42,17 +42,6 @@ import os
 import sys
 import types
 from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Tuple
-
-# Global (process-wide) changes a user's own code can observe. Everything else
-# is confined to the BLE/dopamine/gym module it fixes.
-GLOBAL_CHANGES = (
-    'jax.config jax_threefry_partitionable=False (BLE seeded streams; opt out '
-    'with BLE_LATEX_COMPAT_DISABLE=jax_threefry)',
-    'jax.tree_map re-added as an alias of jax.tree.map',
-    'jax.interpreters.xla.pytype_aval_mappings re-added as an alias of '
-    'jax.core.pytype_aval_mappings',
-    "a 'flax.optim' module (GradientDescent only) is importable",
-)
 
 _BLE = 'balloon_learning_environment'
 

@@ -26,7 +26,7 @@ import re
 import sys
 import tempfile
 import warnings
-from typing import Iterator, Optional, Tuple, Type
+from typing import Any, Iterator, Optional, Tuple, Type
 
 # (message regex, category) of warnings BLE 1.0.1 / gym 0.25.2 raise at import
 # or construction on today's stack; none is actionable by a user.
@@ -150,18 +150,23 @@ def _known_log_records_dropped() -> Iterator[None]:
   handlers without passing the root logger's own filters, so the filter goes
   on the handlers (absl's is on the root logger) and on logging.lastResort.
   """
-  drop = _DropKnownRecords()
   targets = [logging.getLogger('absl'), logging.lastResort,
              *logging.getLogger().handlers,
              *logging.getLogger('absl').handlers]
-  targets = [t for t in targets if t is not None]
+  with log_filter(_DropKnownRecords(), *[t for t in targets if t is not None]):
+    yield
+
+
+@contextlib.contextmanager
+def log_filter(record_filter: Any, *targets: Any) -> Iterator[None]:
+  """`record_filter` on each target (loggers, handlers) during the block."""
   for target in targets:
-    target.addFilter(drop)
+    target.addFilter(record_filter)
   try:
     yield
   finally:
     for target in targets:
-      target.removeFilter(drop)
+      target.removeFilter(record_filter)
 
 
 # Logger of JAX's backend start-up (its "Unable to initialize backend 'tpu'"
@@ -183,13 +188,8 @@ def command_logs() -> Iterator[None]:
   the record is filtered at its own logger (not the root's handlers) for the
   command's duration only.
   """
-  drop = _DropKnownRecords()
-  logger = logging.getLogger(JAX_BACKEND_LOGGER)
-  logger.addFilter(drop)
-  try:
+  with log_filter(_DropKnownRecords(), logging.getLogger(JAX_BACKEND_LOGGER)):
     yield
-  finally:
-    logger.removeFilter(drop)
 
 
 class _DopamineInfoAtDebug(logging.Filter):
@@ -211,13 +211,8 @@ def dopamine_parameters_at_debug() -> Iterator[None]:
   (through absl's logger) when built; inside the block those records are
   DEBUG records, shown only with `--verbosity=1` (absl) or a DEBUG logger.
   """
-  at_debug = _DopamineInfoAtDebug()
-  logger = logging.getLogger('absl')
-  logger.addFilter(at_debug)
-  try:
+  with log_filter(_DopamineInfoAtDebug(), logging.getLogger('absl')):
     yield
-  finally:
-    logger.removeFilter(at_debug)
 
 
 def is_known_warning(message: Warning, category: Type[Warning]) -> bool:

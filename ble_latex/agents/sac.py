@@ -768,9 +768,7 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
                                 shape=(2,)).astype(np.uint32)
     state = np.array(safe_io.checked_array(
         bundle['state'], f'{what}: state', shape=np.shape(self.state)))
-    old_replay = self._replay
     self._restore_replay(bundle['replay'])  # Raises before replacing.
-    del old_replay
     self.training_steps = training_steps
     self._rng = jnp.asarray(rng)
     self.state = state

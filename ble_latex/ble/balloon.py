@@ -210,14 +210,10 @@ def write_flight(state: LatexBalloonState, flight: Mapping[str, Any], *,
   s = state
   s.x = units.Distance(m=get('x_m'))
   s.y = units.Distance(m=get('y_m'))
-  s.altitude_m = get('altitude_m')
-  s.ascent_rate_mps = get('ascent_rate_mps')
-  s.helium_mols = get('helium_mols')
-  s.sand_kg = get('sand_kg')
-  s.helium_vented_mols = get('helium_vented_mols')
-  s.sand_dropped_kg = get('sand_dropped_kg')
-  s.pending_vent_mols = get('pending_vent_mols')
-  s.pending_drop_kg = get('pending_drop_kg')
+  for name in ('altitude_m', 'ascent_rate_mps', 'helium_mols', 'sand_kg',
+               'helium_vented_mols', 'sand_dropped_kg', 'pending_vent_mols',
+               'pending_drop_kg', 'desired_ascent_rate_mps'):
+    setattr(s, name, get(name))
   s.date_time = start_date_time + elapsed
   s.time_elapsed = elapsed
   s.latex_status = status
@@ -228,7 +224,6 @@ def write_flight(state: LatexBalloonState, flight: Mapping[str, Any], *,
   action = np.asarray(flight['last_action'], np.float64)
   s.last_action = tuple(float(v) for v in action)
   s.last_float_action = float(action[2])
-  s.desired_ascent_rate_mps = get('desired_ascent_rate_mps')
   s.guard_engaged = bool(np.asarray(flight['guard_engaged']))
   s.last_command = control.AltitudeControlCommand.STAY
   s.pressure = get('pressure_pa')
@@ -361,12 +356,7 @@ def _jitted_step(wind: Any) -> Callable[..., Any]:
     # A non-finite wind makes the step's position non-finite: simulate_step
     # raises then (an exception in the callback would surface as an XLA
     # runtime error).
-    host = wind_lib.host_ground_truth(wind)
-
-    def wind_fn(x, y, p, t):
-      uv = jax.pure_callback(host, jax.ShapeDtypeStruct((2,), x.dtype),
-                             x, y, p, t)
-      return uv[0], uv[1]
+    wind_fn = wind_lib.callback_wind_fn(wind)
   return dynamics.make_scheduled_step(wind_fn)
 
 

@@ -9,7 +9,6 @@ so this subclass swaps in that range and keeps everything else of BLE's.
 """
 
 import contextlib
-import logging
 import types
 from typing import Iterator
 
@@ -21,6 +20,7 @@ from balloon_learning_environment.utils import units
 import gin
 import numpy as np
 
+from ble_latex import quiet
 from ble_latex.ble import balloon as balloon_lib
 from ble_latex.flight import params as params_lib
 
@@ -56,7 +56,9 @@ class LatexPerciatelliFeatureConstructor(
     pressure = self._last_balloon_state.pressure
     outside = not self.min_pressure <= pressure <= self.max_pressure
     if outside and getattr(self, '_range_warned', False):
-      with _drop_absl_warning(_RANGE_WARNING):
+      with quiet.log_filter(
+          lambda record: not str(record.msg).startswith(_RANGE_WARNING),
+          absl_logging.get_absl_logger()):
         return super().get_features()
     self._range_warned = outside or getattr(self, '_range_warned', False)
     return super().get_features()
@@ -68,28 +70,6 @@ class LatexPerciatelliFeatureConstructor(
 
 # The start of BLE's warning (features.PerciatelliFeatureConstructor).
 _RANGE_WARNING = 'Balloon pressure %.2f not fully represented'
-
-
-class _DropMessage(logging.Filter):
-
-  def __init__(self, prefix: str):
-    super().__init__()
-    self._prefix = prefix
-
-  def filter(self, record: logging.LogRecord) -> bool:
-    return not str(record.msg).startswith(self._prefix)
-
-
-@contextlib.contextmanager
-def _drop_absl_warning(prefix: str) -> Iterator[None]:
-  """Drops absl log records starting with `prefix` during the block."""
-  logger = absl_logging.get_absl_logger()
-  drop = _DropMessage(prefix)
-  logger.addFilter(drop)
-  try:
-    yield
-  finally:
-    logger.removeFilter(drop)
 
 
 @contextlib.contextmanager

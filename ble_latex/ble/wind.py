@@ -18,7 +18,7 @@
 """
 
 import datetime as dt
-from typing import Any, Callable, List, Optional, Sequence
+from typing import Any, Callable, List, Optional, Sequence, Tuple
 
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.utils import units
@@ -42,24 +42,29 @@ def _uv(vectors: Sequence[wind_field.WindVector], dtype: Any) -> np.ndarray:
                    [w.v.meters_per_second for w in vectors]], dtype=dtype)
 
 
-def host_ground_truth(
+def callback_wind_fn(
     ground_truth: Callable[..., wind_field.WindVector]
-) -> Callable[..., np.ndarray]:
-  """A host function (x, y, p, t) -> [2] (u, v) of a BLE ground-truth call.
+) -> Callable[..., Tuple[jax.Array, jax.Array]]:
+  """A pure JAX wind function that asks a BLE ground-truth call on the host.
 
   Args:
     ground_truth: (x, y, pressure [Pa], time elapsed) -> WindVector, e.g. a
       BLE `WindField.get_ground_truth`.
 
   Returns:
-    The function on array scalars (x [m], y [m], p [Pa], t [s]), in x's
-    dtype, for `jax.pure_callback`.
+    (x [m], y [m], p [Pa], t [s]) -> (u, v) [m/s] in x's dtype, through
+    `jax.pure_callback` (the core stays jittable).
   """
   def host(x, y, p, t):
     w = ground_truth(units.Distance(m=float(x)), units.Distance(m=float(y)),
                      float(p), dt.timedelta(seconds=float(t)))
     return _uv([w], np.asarray(x).dtype)[:, 0]
-  return host
+
+  def wind_fn(x, y, p, t):
+    uv = jax.pure_callback(host, jax.ShapeDtypeStruct((2,), x.dtype),
+                           x, y, p, t)
+    return uv[0], uv[1]
+  return wind_fn
 
 
 def callback_wind(field: wind_field.WindField) -> jax_env.Wind:
@@ -72,7 +77,7 @@ def callback_wind(field: wind_field.WindField) -> jax_env.Wind:
     The wind: `get_ground_truth` and `get_forecast_column` of the object,
     called through `jax.pure_callback` (the core stays jittable).
   """
-  host_truth = host_ground_truth(field.get_ground_truth)
+  truth = callback_wind_fn(field.get_ground_truth)
 
   def host_column(x, y, pressures, t):
     column = field.get_forecast_column(
@@ -83,9 +88,7 @@ def callback_wind(field: wind_field.WindField) -> jax_env.Wind:
 
   def ground_truth(state, x, y, p, t):
     del state
-    uv = jax.pure_callback(host_truth, jax.ShapeDtypeStruct((2,), x.dtype),
-                           x, y, p, t)
-    return uv[0], uv[1]
+    return truth(x, y, p, t)
 
   def forecast_column(state, x, y, pressures, t):
     del state

@@ -672,17 +672,21 @@ def draw_flight(figure: Any, path: Sequence[Tuple[float, float, float, float]],
   ax_xy, ax_alt = figure.subplots(1, 2, width_ratios=(1.0, 1.4))
   t, x, y, alt = (np.array(c, dtype=float).reshape(-1)
                   for c in zip(*path)) if path else (np.zeros(0),) * 4
-  ax_xy.add_patch(mpl_patches.Circle((0.0, 0.0), radius_km, fill=False,
-                                     color='k', ls='--', lw=1.0))
-  ax_xy.plot(0.0, 0.0, marker='+', color='k')
-  if len(x):
-    ax_xy.plot(x, y, color='tab:blue', lw=1.5)
-    ax_xy.plot(x[-1], y[-1], marker='o', color='tab:red', ms=5)
+
+  def draw_path(ax, half, lw, ms):  # Station circle and path, +-half km.
+    ax.add_patch(mpl_patches.Circle((0.0, 0.0), radius_km, fill=False,
+                                    color='k', ls='--', lw=1.0))
+    ax.plot(0.0, 0.0, marker='+', color='k')
+    if len(x):
+      ax.plot(x, y, color='tab:blue', lw=lw)
+      ax.plot(x[-1], y[-1], marker='o', color='tab:red', ms=ms)
+    ax.set_xlim(-half, half)
+    ax.set_ylim(-half, half)
+    ax.set_aspect('equal')
+
   half = max(np.abs(np.concatenate([x, y])).max() if len(x) else 0.0,
              radius_km) * 1.1
-  ax_xy.set_xlim(-half, half)
-  ax_xy.set_ylim(-half, half)
-  ax_xy.set_aspect('equal')
+  draw_path(ax_xy, half, lw=1.5, ms=5)
   ax_xy.set_xlabel('x [km]')
   ax_xy.set_ylabel('y [km]')
   ax_xy.set_title(f'{radius_km:g} km station', fontsize=9)
@@ -690,15 +694,7 @@ def draw_flight(figure: Any, path: Sequence[Tuple[float, float, float, float]],
     # The circle would be a few pixels: an inset zoomed on the station.
     zoom = _INSET_HALF * radius_km
     inset = ax_xy.inset_axes((0.62, 0.62, 0.36, 0.36))
-    inset.add_patch(mpl_patches.Circle((0.0, 0.0), radius_km, fill=False,
-                                       color='k', ls='--', lw=1.0))
-    inset.plot(0.0, 0.0, marker='+', color='k')
-    if len(x):
-      inset.plot(x, y, color='tab:blue', lw=1.0)
-      inset.plot(x[-1], y[-1], marker='o', color='tab:red', ms=3)
-    inset.set_xlim(-zoom, zoom)
-    inset.set_ylim(-zoom, zoom)
-    inset.set_aspect('equal')
+    draw_path(inset, zoom, lw=1.0, ms=3)
     inset.set_xticks([])
     inset.set_yticks([])
     inset.set_title(f'+-{zoom:g} km', fontsize=7, pad=2)

@@ -1144,8 +1144,7 @@ def resource_penalties(
   Returns:
     The values by `EnvParams` field (unchecked).
   """
-  return dict(helium_penalty_per_mol=helium_penalty_per_mol,
-              sand_penalty_per_kg=sand_penalty_per_kg)
+  return dict(locals())  # The arguments above, by name.
 
 
 @gin.configurable('LatexBalloonArena', module=_GIN_MODULE)
@@ -1188,9 +1187,7 @@ def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
     `episode_steps` and `station_keeping_radius_km` by `EnvParams` field
     (unchecked) and `wind_field_factory`.
   """
-  return dict(episode_steps=episode_steps,
-              station_keeping_radius_km=station_keeping_radius_km,
-              wind_field_factory=wind_field_factory)
+  return dict(locals())  # The arguments above, by name.
 
 
 def params_from_gin() -> EnvParams:

@@ -63,6 +63,7 @@ import numpy as np
 
 from ble_latex.envs import task
 from ble_latex.flight import physics
+from ble_latex.wind import simplex
 
 N_LEVELS = 25
 NUM_FEATURES = 2 * N_LEVELS + 21
@@ -110,14 +111,6 @@ class InitialResources(NamedTuple):
   helium_mols: jnp.ndarray
 
 
-def _float_dtype(*values: Any) -> Any:
-  """The floating dtype of the inputs (the default float for integers)."""
-  dtype = jnp.result_type(*values)
-  if not jnp.issubdtype(dtype, jnp.floating):
-    dtype = jnp.result_type(float)
-  return dtype
-
-
 def initial_resources(payload_kg: Any, sand_kg: Any,
                       helium_mols: Any) -> InitialResources:
   """`LatexFeatureConstructor.observe`'s references at the first observation.
@@ -130,7 +123,7 @@ def initial_resources(payload_kg: Any, sand_kg: Any,
   Returns:
     InitialResources(total mass, max(sand, 1e-5), max(helium, 1e-5)).
   """
-  dtype = _float_dtype(payload_kg, sand_kg, helium_mols)
+  dtype = simplex.float_dtype(payload_kg, sand_kg, helium_mols)
   payload_kg, sand_kg, helium_mols = (jnp.asarray(v, dtype) for v in
                                       (payload_kg, sand_kg, helium_mols))
   return InitialResources(
@@ -151,7 +144,7 @@ def init_history(altitude_m: Any, ascent_rate_mps: Any) -> History:
   Returns:
     The History ([..., 3] each).
   """
-  dtype = _float_dtype(altitude_m, ascent_rate_mps)
+  dtype = simplex.float_dtype(altitude_m, ascent_rate_mps)
   altitude_m = jnp.asarray(altitude_m, dtype)
   ascent_rate_mps = jnp.asarray(ascent_rate_mps, dtype)
   slots = altitude_m.shape + (HISTORY,)
@@ -214,7 +207,7 @@ def bearing_errors(u: Any, v: Any, x_m: Any, y_m: Any) -> jnp.ndarray:
   Returns:
     Bearing errors in [0, pi]. # [rad]
   """
-  dtype = _float_dtype(u, v, x_m, y_m)
+  dtype = simplex.float_dtype(u, v, x_m, y_m)
   u, v, x_m, y_m = (jnp.asarray(a, dtype) for a in (u, v, x_m, y_m))
   dot = -x_m * u - y_m * v
   cross = -x_m * v + y_m * u
@@ -263,9 +256,9 @@ def features(column_u: Any, column_v: Any, x_m: Any, y_m: Any,
   Returns:
     float32 [71] features, clipped to [-1, 1].
   """
-  dtype = _float_dtype(column_u, column_v, x_m, y_m, altitude_m,
-                       ascent_rate_mps, wind_u, wind_v, helium_mols, sand_kg,
-                       payload_kg, temperature_k, pressure_pa)
+  dtype = simplex.float_dtype(
+      column_u, column_v, x_m, y_m, altitude_m, ascent_rate_mps, wind_u,
+      wind_v, helium_mols, sand_kg, payload_kg, temperature_k, pressure_pa)
   (column_u, column_v, x_m, y_m, altitude_m, ascent_rate_mps, wind_u, wind_v,
    helium_mols, sand_kg, payload_kg, temperature_k, pressure_pa) = (
        jnp.asarray(a, dtype) for a in (
@@ -307,7 +300,7 @@ def features(column_u: Any, column_v: Any, x_m: Any, y_m: Any,
 
 def distance_km(x_m: Any, y_m: Any) -> jnp.ndarray:
   """BLE's `units.relative_distance(x, y)` in km (the 2-norm). # [km]"""
-  dtype = _float_dtype(x_m, y_m)
+  dtype = simplex.float_dtype(x_m, y_m)
   return jnp.hypot(jnp.asarray(x_m, dtype), jnp.asarray(y_m, dtype)) / 1000.0
 
 
@@ -343,8 +336,8 @@ def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
   Returns:
     The step reward, in (-inf, 1].
   """
-  dtype = _float_dtype(distance_km, radius_km, dropoff, halflife_km, vented,
-                       dropped, helium_penalty, sand_penalty)
+  dtype = simplex.float_dtype(distance_km, radius_km, dropoff, halflife_km,
+                              vented, dropped, helium_penalty, sand_penalty)
   (distance_km, radius_km, dropoff, halflife_km, vented, dropped,
    helium_penalty, sand_penalty) = (
        jnp.asarray(a, dtype) for a in (

@@ -14,12 +14,15 @@ lengths, the initial helium rule) is static (`pytree_node=False`) and part of
 the jit cache key.
 """
 
+import dataclasses
 import datetime as dt
 import inspect
 from typing import Any, Dict, Optional, Tuple
 
 from flax import struct
 import gin
+
+from ble_latex import gin_values
 
 
 @struct.dataclass
@@ -175,9 +178,6 @@ def solar_clock(start_time: Any, name: str) -> Tuple[float, float]:
   Raises:
     ValueError: Naming `name` (not a date).
   """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex import gin_values
-  # pylint: enable=g-import-not-at-top
   value = start_time
   if isinstance(value, str):
     try:
@@ -213,9 +213,6 @@ def seconds(value: Any, name: str) -> float:
   Raises:
     ValueError: Naming `name` (not a duration, non-finite or too short).
   """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex import gin_values
-  # pylint: enable=g-import-not-at-top
   if isinstance(value, dt.timedelta):
     value = value.total_seconds()
   gin_values.require(
@@ -245,9 +242,6 @@ def check_flight_params(params: FlightParams) -> None:
       string or None where a number belongs, a non-finite, non-positive or
       inconsistent value).
   """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex import gin_values
-  # pylint: enable=g-import-not-at-top
   p = params
   for field in ('payload_kg', 'drag_coefficient', 'burst_volume_m3'):
     gin_values.check_number(binding(field), getattr(p, field), above=0.0)
@@ -411,17 +405,9 @@ def make_flight_params(
       initial_helium_mols=(None if helium_mols is None else
                            float(helium_mols)),
       guard_within_stride=bool(guard_within_stride),
-      **{f: float(getattr(raw, f)) for f in (
-          'payload_kg', 'initial_sand_kg', 'drag_coefficient',
-          'burst_volume_m3', 'min_vent_mols', 'min_drop_kg', 'band_low_m',
-          'band_high_m', 'valve_flow_mols_per_s', 'ballast_rate_kg_per_s',
-          'drag_coefficient_subcritical', 'drag_coefficient_supercritical',
-          'reynolds_transition', 'reynolds_band', 'overpressure_pa',
-          'burst_weibull_scale_m', 'burst_weibull_shape', 'superheat_day_k',
-          'cooling_night_k', 'sun_elevation_night_deg',
-          'sun_elevation_day_deg', 'latitude_deg', 'longitude_deg',
-          'start_day_j2000', 'start_second_of_day',
-          'lift_walk_kg_per_sqrt_s')})
+      **{f.name: float(getattr(raw, f.name))
+         for f in dataclasses.fields(FlightParams)
+         if f.type in (float, 'float')})
 
 
 # The gin names of the flight system. Each configurable takes the gin names
@@ -471,15 +457,7 @@ def launch(*, payload_kg: float = DEFAULTS.payload_kg,
   Returns:
     These values as `make_flight_params` arguments (unchecked).
   """
-  return dict(payload_kg=payload_kg, sand_kg=sand_kg, helium_mols=helium_mols,
-              drag_coefficient=drag_coefficient,
-              burst_volume_m3=burst_volume_m3, drag_model=drag_model,
-              drag_coefficient_subcritical=drag_coefficient_subcritical,
-              drag_coefficient_supercritical=drag_coefficient_supercritical,
-              reynolds_transition=reynolds_transition,
-              reynolds_band=reynolds_band, overpressure_pa=overpressure_pa,
-              burst_weibull_scale_m=burst_weibull_scale_m,
-              burst_weibull_shape=burst_weibull_shape)
+  return dict(locals())  # The arguments above, by name.
 
 
 @gin.configurable('AltitudeController', module=_GIN_MODULE)
@@ -501,9 +479,7 @@ def controller(*, stride: Any = DEFAULTS.stride_s,
   Returns:
     These values as `make_flight_params` arguments (unchecked).
   """
-  return dict(stride=stride, min_vent_mols=min_vent_mols,
-              min_drop_kg=min_drop_kg, band_low_m=band_low_m,
-              band_high_m=band_high_m)
+  return dict(locals())  # The arguments above, by name.
 
 
 @gin.configurable('LatexBalloon', module=_GIN_MODULE)
@@ -548,18 +524,7 @@ def simulation(*, max_substep: Any = DEFAULTS.max_substep_s,
   Returns:
     These values as `make_flight_params` arguments (unchecked).
   """
-  return dict(max_substep=max_substep, vertical_step=vertical_step,
-              valve_flow_mols_per_s=valve_flow_mols_per_s,
-              ballast_rate_kg_per_s=ballast_rate_kg_per_s,
-              actuation_chunk=actuation_chunk,
-              guard_within_stride=guard_within_stride,
-              superheat_day_k=superheat_day_k,
-              cooling_night_k=cooling_night_k,
-              sun_elevation_night_deg=sun_elevation_night_deg,
-              sun_elevation_day_deg=sun_elevation_day_deg,
-              latitude_deg=latitude_deg, longitude_deg=longitude_deg,
-              start_time=start_time,
-              lift_walk_kg_per_sqrt_s=lift_walk_kg_per_sqrt_s)
+  return dict(locals())  # The arguments above, by name.
 
 
 # make_flight_params argument -> FlightParams field (where they differ).

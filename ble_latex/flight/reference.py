@@ -24,6 +24,7 @@ import numpy as np
 
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import dynamics
+from ble_latex.flight import envelope
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
@@ -301,9 +302,6 @@ def _bisect(fn, low, high, iterations: int = _BISECTIONS):
 
 
 def _gas(params, atm, altitude_m, time_s):
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.flight import envelope
-  # pylint: enable=g-import-not-at-top
   ambient = atmosphere_lib.at_height(atm, altitude_m)
   return envelope.gas(params, ambient.temperature, ambient.pressure, time_s)
 
@@ -319,9 +317,6 @@ def steady_ascent_rate(params: params_lib.FlightParams,
   model that is `physics.terminal_velocity`. The balloon keeps its helium on
   the way up (the ascent of the references), no random walk.
   """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.flight import envelope
-  # pylint: enable=g-import-not-at-top
   g = _gas(params, atm, altitude_m, time_s)
   lift = (helium_mols * envelope.lift_per_mol(params, g) - payload_kg -
           sand_kg)
@@ -339,9 +334,6 @@ def burst_altitude_m(params: params_lib.FlightParams,
 
   Bisection on [5, 60] km (V grows with altitude).
   """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.flight import envelope
-  # pylint: enable=g-import-not-at-top
   def residual(h):
     return burst_volume_m3 - envelope.volume(helium_mols,
                                              _gas(params, atm, h, time_s))
@@ -402,9 +394,6 @@ def reference_table(params: params_lib.FlightParams, *,
           params, atm, helium, jnp.float64(params.burst_volume_m3), time_s))
     station_helium = (params.payload_kg + params.initial_sand_kg) / (
         physics.LIFT_PER_MOL)
-    # pylint: disable=g-import-not-at-top
-    from ble_latex.flight import envelope
-    # pylint: enable=g-import-not-at-top
     rows['station_lift_kg'] = float(envelope.steady_lift_kg(
         params, jnp.float64(station_helium),
         _gas(params, atm, jnp.float64(STATION_ALTITUDE_M), time_s),

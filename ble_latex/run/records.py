@@ -129,10 +129,6 @@ VALIDATION_SCHEMA: Mapping[str, FieldType] = {
     'tw50_mean': FRACTION,
     'out_of_resources_pct': NUMBER,
 }
-# Required keys (the schemas' fields).
-EPISODE_KEYS = tuple(EPISODE_SCHEMA)
-EVAL_KEYS = tuple(EVAL_SCHEMA)
-FLIGHT_POINT_KEYS = tuple(FLIGHT_POINT_SCHEMA)
 
 
 def _json_type(value: Any) -> str:

@@ -439,7 +439,7 @@ def _dispentachoron_code(xins: jnp.ndarray, yins: jnp.ndarray,
           _sel(b_big, 512, 0))
 
 
-def _float_dtype(*values: Any) -> Any:
+def float_dtype(*values: Any) -> Any:
   """The floating dtype of the inputs (the default float for integers)."""
   dtype = jnp.result_type(*values)
   if not jnp.issubdtype(dtype, jnp.floating):
@@ -482,7 +482,7 @@ def noise4d(perm: jnp.ndarray, x: Any, y: Any, z: Any, w: Any) -> jnp.ndarray:
     Noise values (about -1 to 1), of the broadcast shape and floating dtype
     of the coordinates.
   """
-  dtype = _float_dtype(x, y, z, w)
+  dtype = float_dtype(x, y, z, w)
   x, y, z, w = jnp.broadcast_arrays(*(jnp.asarray(v, dtype)
                                       for v in (x, y, z, w)))
   perm = jnp.asarray(perm, jnp.int32)
@@ -715,7 +715,7 @@ def _weighted(noise: jnp.ndarray,
 
 def _noise_points(*coordinates: Any) -> Tuple[Tuple[jnp.ndarray, ...], Any]:
   """The coordinates, broadcast, in their floating dtype; and that dtype."""
-  dtype = _float_dtype(*coordinates)
+  dtype = float_dtype(*coordinates)
   return jnp.broadcast_arrays(*(jnp.asarray(v, dtype)
                                 for v in coordinates)), dtype
 
