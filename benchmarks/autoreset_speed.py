@@ -19,7 +19,7 @@ call: the N forecast grids (~317 kB per balloon) are updated in place.
 Two more variants time the form of earlier runs, where the final state is
 dropped and the input kept (`..., state dropped`): there XLA copies the
 input state into the scan once per call wherever the scan writes a leaf,
-i.e. the pool's forecast grids and noise permutations (330 MB at N = 1024),
+i.e. the pool's forecast grids and noise permutations (336 MB at N = 1024),
 a cost of that harness, not of the step; `step_env` never writes them.
 
 Episodes are staggered: balloon i starts at a step drawn uniformly in
