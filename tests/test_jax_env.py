@@ -457,6 +457,49 @@ def test_reset_pool_gives_pool_worlds_and_only_resets_the_ended():
 
 
 @pytest.mark.slow
+def test_reset_pool_step_where_no_episode_ended_is_step_env():
+  """The pooled `step`'s skipped branches: a batch where no balloon ended
+  gives exactly `step_env`'s observation and state (nothing pending); a
+  state with one pending world gets exactly that balloon's large leaves."""
+  env, params, batch_reset, _ = _setup()
+  pooled = env.with_reset_pool(jax.random.PRNGKey(7),
+                               params.replace(episode_steps=3), 4)
+  _, state = batch_reset(_keys([3, 4, 5]), pooled)
+  state = state.replace(steps=jnp.array([0, 1, 0], jnp.int32))
+  action = jnp.tile(jnp.array([18_000.0, 2.0, -1.0]), (3, 1))
+  step_keys = _keys([11, 12, 13])
+  step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
+  step_env = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, 0, None)))
+  obs, new, _, terminated, truncated, info = step(step_keys, state, action,
+                                                  pooled)
+  assert not np.any(np.asarray(terminated | truncated))
+  flown, flown_state, *_ = step_env(step_keys, state, action, pooled)
+  np.testing.assert_array_equal(obs, flown)
+  np.testing.assert_array_equal(info['final_observation'], flown)
+  jax.tree.map(np.testing.assert_array_equal, new, flown_state)
+  assert list(np.asarray(new.pending_world)) == [-1, -1, -1]
+  # One pending world (2, balloon 1): only its row of the large leaves.
+  install = jax.jit(jax.vmap(jax_env.install_world, in_axes=(0, None)))
+  pending = state.replace(pending_world=jnp.array([-1, 2, -1], jnp.int32))
+  installed = install(pending, pooled)
+  assert list(np.asarray(installed.pending_world)) == [-1, -1, -1]
+  pool = pooled.reset_pool.state
+  large = lambda s: (s.forecast.grid, s.noise_u.perm, s.noise_v.perm)
+  for got, was, world in zip(large(installed), large(state), large(pool)):
+    np.testing.assert_array_equal(got[0], was[0])
+    np.testing.assert_array_equal(got[2], was[2])
+    np.testing.assert_array_equal(got[1], world[2])
+    assert not np.array_equal(was[1], world[2])
+  def rest(s):  # The other leaves, unchanged.
+    return s.replace(
+        forecast=state.forecast,
+        noise_u=s.noise_u.replace(perm=state.noise_u.perm),
+        noise_v=s.noise_v.replace(perm=state.noise_v.perm),
+        pending_world=state.pending_world)
+  jax.tree.map(np.testing.assert_array_equal, rest(installed), rest(pending))
+
+
+@pytest.mark.slow
 def test_normalized_actions_are_the_one_to_box_mapping():
   """The default env flies to_box(a) of a in [-1, 1]^3, bit for bit."""
   from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top

@@ -319,20 +319,25 @@ def _install_batched(axis_size, in_batched, pending, large, pool_large):
   if any(jax.tree.leaves(pool_b)):  # A pool per balloon: select.
     out = jax.vmap(_install.fun)(pending, large, batch(pool_large, pool_b))
     return out, jax.tree.map(lambda _: True, out)
-  rows = jnp.nonzero(pending >= 0, size=axis_size, fill_value=0)[0]
-  count = jnp.sum((pending >= 0).astype(jnp.int32))
+  def install(large):
+    rows = jnp.nonzero(pending >= 0, size=axis_size, fill_value=0)[0]
+    count = jnp.sum((pending >= 0).astype(jnp.int32))
 
-  def body(carry):
-    i, large = carry
-    row = rows[i]
-    world = pending[row]
-    return i + 1, jax.tree.map(
-        lambda w, p: jax.lax.dynamic_update_slice(
-            w, jax.lax.dynamic_index_in_dim(p, world).astype(w.dtype),
-            (row,) + (0,) * (w.ndim - 1)), large, pool_large)
+    def body(carry):
+      i, large = carry
+      row = rows[i]
+      world = pending[row]
+      return i + 1, jax.tree.map(
+          lambda w, p: jax.lax.dynamic_update_slice(
+              w, jax.lax.dynamic_index_in_dim(p, world).astype(w.dtype),
+              (row,) + (0,) * (w.ndim - 1)), large, pool_large)
 
-  _, out = jax.lax.while_loop(lambda c: c[0] < count, body,
-                              (jnp.zeros((), jnp.int32), large))
+    return jax.lax.while_loop(lambda c: c[0] < count, body,
+                              (jnp.zeros((), jnp.int32), large))[1]
+
+  # Nothing pending (most steps at small N): not even the row search.
+  out = jax.lax.cond(jnp.any(pending >= 0), install, lambda large: large,
+                     large)
   return out, jax.tree.map(lambda _: True, out)
 
 
@@ -374,18 +379,60 @@ def install_world(state: EnvState, params: EnvParams) -> EnvState:
   return state.replace(pending_world=jnp.full_like(state.pending_world, -1))
 
 
+@custom_batching.custom_vmap
+def _select_reset(done: Array, index: Array, small: Any,
+                  pool_small: Any) -> Any:
+  """Each leaf of `small` replaced by row `index` of its [K, ...] pool leaf
+  in `pool_small` where `done`."""
+  return jax.tree.map(
+      lambda x, p: jnp.where(done, p[index], x).astype(x.dtype), small,
+      pool_small)
+
+
+@_select_reset.def_vmap
+def _select_reset_batched(axis_size, in_batched, done, index, small,
+                          pool_small):
+  """Batched `_select_reset`: the same selects, skipped (`lax.cond`) in a
+  step where no balloon's episode ended, so that the common step reads and
+  writes none of the reset leaves."""
+  done_b, index_b, small_b, pool_b = in_batched
+
+  def batch(x, batched):
+    return jax.tree.map(
+        lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
+        x, batched)
+
+  done, index = batch(done, done_b), batch(index, index_b)
+  small = batch(small, small_b)
+  if any(jax.tree.leaves(pool_b)):  # A pool per balloon: no shared test.
+    out = jax.vmap(_select_reset.fun)(done, index, small,
+                                      batch(pool_small, pool_b))
+  else:
+    out = jax.lax.cond(
+        jnp.any(done),
+        lambda s: jax.vmap(_select_reset.fun, in_axes=(0, 0, 0, None))(
+            done, index, s, pool_small),
+        lambda s: s, small)
+  return out, jax.tree.map(lambda _: True, out)
+
+
 def _reset_from_pool(done: Array, index: Array, state: EnvState, obs: Array,
                      pool: ResetPool) -> Tuple[EnvState, Array]:
   """Where `done`: pool world `index`'s small leaves and observation now,
   its large leaves pending (`install_world`); elsewhere unchanged."""
   leaves, treedef = jax.tree.flatten(state)
   pool_leaves = jax.tree.leaves(pool.state)
-  leaves = [x if _is_large(x) else jnp.where(done, p[index], x).astype(x.dtype)
-            for x, p in zip(leaves, pool_leaves)]
-  state = treedef.unflatten(leaves)
-  state = state.replace(pending_world=jnp.where(
-      done, index, state.pending_world).astype(state.pending_world.dtype))
-  return state, jnp.where(done, pool.obs[index], obs)
+  small = [not _is_large(x) for x in leaves]
+  # `pending_world` becomes `index` (row `index` of 0..K-1).
+  pending_at, = [i for i, x in enumerate(leaves)
+                 if x is state.pending_world]
+  pool_leaves[pending_at] = jnp.arange(pool.size, dtype=jnp.int32)
+  new_leaves, new_obs = _select_reset(
+      done, index, ([x for x, b in zip(leaves, small) if b], obs),
+      ([p for p, b in zip(pool_leaves, small) if b], pool.obs))
+  new = iter(new_leaves)
+  return (treedef.unflatten([next(new) if b else x
+                             for x, b in zip(leaves, small)]), new_obs)
 
 
 def ground_truth_wind(state: EnvState, x_m: Array, y_m: Array,
