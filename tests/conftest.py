@@ -24,6 +24,45 @@ if 'JAX_COMPILATION_CACHE_DIR' not in os.environ:
 
 import ble_latex  # noqa: E402,F401  pylint: disable=g-import-not-at-top,unused-import
 
+# $BLE_LATEX_TEST_COMPILES=DIR: each test process appends one JSON line per
+# test to DIR/<worker>.jsonl: {"test", "compiles", "compile_s", "wall_s"}
+# (JAX's backend compiles, persistent-cache reads included, and their
+# seconds; subprocesses are not counted). Measurement only: finds tests that
+# recompile (e.g. per hypothesis example); off by default.
+_COMPILE_LOG = os.environ.get('BLE_LATEX_TEST_COMPILES')
+_COMPILES = {'count': 0, 'seconds': 0.0}
+
+
+def _count_compile(event: str, duration_s: float, **kwargs) -> None:
+  del kwargs
+  if event == '/jax/core/compile/backend_compile_duration':
+    _COMPILES['count'] += 1
+    _COMPILES['seconds'] += duration_s
+
+
+if _COMPILE_LOG:
+  import jax.monitoring  # pylint: disable=g-import-not-at-top
+  jax.monitoring.register_event_duration_secs_listener(_count_compile)
+
+  @pytest.hookimpl(hookwrapper=True)
+  def pytest_runtest_protocol(item, nextitem):
+    """Logs the test's compiles (setup and teardown included)."""
+    del nextitem
+    import json  # pylint: disable=g-import-not-at-top
+    import time  # pylint: disable=g-import-not-at-top
+    before = dict(_COMPILES)
+    began = time.monotonic()
+    yield
+    record = {'test': item.nodeid,
+              'compiles': _COMPILES['count'] - before['count'],
+              'compile_s': round(_COMPILES['seconds'] - before['seconds'], 3),
+              'wall_s': round(time.monotonic() - began, 3)}
+    os.makedirs(_COMPILE_LOG, exist_ok=True)
+    worker = os.environ.get('PYTEST_XDIST_WORKER', 'main')
+    with open(os.path.join(_COMPILE_LOG, f'{worker}.jsonl'), 'a',
+              encoding='utf-8') as f:
+      f.write(json.dumps(record) + '\n')
+
 
 @pytest.fixture(autouse=True, scope='module')
 def _free_compiled_code():

@@ -37,6 +37,13 @@ def _setup():
   return env, params, batch_reset, batch_step
 
 
+@functools.lru_cache(maxsize=None)
+def _single():
+  """One balloon, jitted once for the module: (reset, step_env, step)."""
+  env = _setup()[0]
+  return jax.jit(env.reset), jax.jit(env.step_env), jax.jit(env.step)
+
+
 def _keys(seeds):
   return jnp.stack([jax.random.PRNGKey(s) for s in seeds])
 
@@ -78,7 +85,7 @@ def _fly_golden(source):
 
 def test_gym_env_is_the_batched_env():
   """`gym.make('LatexBalloon-v0')` flies the core: same world, same steps."""
-  env, params, batch_reset, batch_step = _setup()
+  _, params, batch_reset, batch_step = _setup()
   seeds = [0, 7, 1_000_003]
   keys = _keys(seeds)
   obs, state = batch_reset(keys, params)
@@ -109,7 +116,7 @@ def test_gym_env_is_the_batched_env():
   np.testing.assert_allclose(np.array(gym_rewards),
                              np.stack(batch_rewards, 1), atol=1e-5, rtol=0)
   # One balloon of the functional env, jitted alone: the gym env's numbers.
-  reset, step = jax.jit(env.reset), jax.jit(env.step_env)
+  reset, step, _ = _single()
   for i, seed in enumerate(seeds):
     obs, one = reset(jax.random.PRNGKey(seed), params)
     single = [np.asarray(obs)]
@@ -183,8 +190,8 @@ def _restored(state, i, before, step):
     'random', pytest.param('scripted', marks=pytest.mark.slow)])
 def test_single_steps_from_recorded_states(source):
   """Given the recorded state and action, one step matches the recording."""
-  env, params, batch_reset, _ = _setup()
-  step = jax.jit(env.step_env)
+  _, params, batch_reset, _ = _setup()
+  _, step, _ = _single()
   golden = test_golden.load_golden(source)
   _, state = batch_reset(_keys(golden.seeds), params)
   checked = 0
@@ -208,30 +215,32 @@ def test_single_steps_from_recorded_states(source):
 
 
 def test_batched_equals_single_and_auto_reset():
-  env, params, batch_reset, batch_step = _setup()
-  seeds = [3, 4]
+  """(A batch of 3: test_gym_env_is_the_batched_env's compilation.)"""
+  _, params, batch_reset, batch_step = _setup()
+  reset, step_env, step = _single()
+  seeds = [3, 4, 5]
   keys = _keys(seeds)
   obs, state = batch_reset(keys, params)
-  action = jnp.array([[20_000.0, 1.0, -1.0], [14_000.0, 2.0, -1.0]])
+  action = jnp.array([[20_000.0, 1.0, -1.0], [14_000.0, 2.0, -1.0],
+                      [17_000.0, 3.0, 1.0]])
   b_obs, b_state, b_reward, _, _ = batch_step(keys, state, action, params)
   for i, seed in enumerate(seeds):
-    o, s = jax.jit(env.reset)(jax.random.PRNGKey(seed), params)
+    o, s = reset(jax.random.PRNGKey(seed), params)
     # vmap decodes the VAE with batched products (~1e-4 m/s apart).
     np.testing.assert_allclose(o, obs[i], atol=5e-5, rtol=0)
-    o, s, r, _, _ = jax.jit(env.step_env)(keys[i], s, action[i], params)
+    o, s, r, _, _ = step_env(keys[i], s, action[i], params)
     np.testing.assert_allclose(o, b_obs[i], atol=5e-5)
     assert float(r) == pytest.approx(float(b_reward[i]), abs=1e-5)
   # A finished episode is replaced by the flight of the step's key.
   short = params.replace(episode_steps=1)
-  o, s = jax.jit(env.reset)(keys[0], short)
+  o, s = reset(keys[0], short)
   new_key = jax.random.PRNGKey(99)
-  o2, s2, _, terminated, truncated, info = jax.jit(env.step)(
-      new_key, s, action[0], short)
+  o2, s2, _, terminated, truncated, info = step(new_key, s, action[0], short)
   assert bool(truncated) and not bool(terminated)
-  fresh_obs, fresh = jax.jit(env.reset)(new_key, short)
+  fresh_obs, fresh = reset(new_key, short)
   np.testing.assert_array_equal(o2, fresh_obs)
   # gymnax 1.0: the finished step's observation is in the info.
-  last, _, _, _, _ = jax.jit(env.step_env)(new_key, s, action[0], short)
+  last, _, _, _, _ = step_env(new_key, s, action[0], short)
   np.testing.assert_array_equal(info['final_observation'], last)
   assert int(s2.steps) == 0
   assert float(s2.flight.x_m) == float(fresh.flight.x_m)
@@ -254,16 +263,18 @@ _KINDS = ('finite', 'nan', 'inf', '-inf')
 
 
 @settings(max_examples=8, deadline=None, derandomize=True)
-@given(kinds=st.lists(st.tuples(*[st.sampled_from(_KINDS)] * 3), min_size=2,
-                      max_size=2))
+@given(kinds=st.lists(st.tuples(*[st.sampled_from(_KINDS)] * 3), min_size=3,
+                      max_size=3))
 def test_nan_actions_fly_the_float_action(kinds):
   """Any NaN component: the step flies (clip(h), 1, +1) and says so in
   info['invalid_action']; +-inf clip onto the Box; never NaN in the state
-  or the features (batch of 2: test_batched_equals_single's compilation)."""
+  or the features (batch of 3: test_gym_env_is_the_batched_env's
+  compilation)."""
   _, params, batch_reset, batch_step = _setup()
-  keys = _keys([3, 4])
+  keys = _keys([3, 4, 5])
   _, state = batch_reset(keys, params)
-  base = np.array([[20_000.0, 2.0, -1.0], [15_000.0, 3.0, 0.5]], np.float32)
+  base = np.array([[20_000.0, 2.0, -1.0], [15_000.0, 3.0, 0.5],
+                   [17_000.0, 1.0, 1.0]], np.float32)
   action = base.copy()
   expected = base.copy()
   h = np.asarray(state.flight.altitude_m)
@@ -395,7 +406,8 @@ def test_gymnax_client_loop_without_a_wrapper():
             jax.random.split(step_key, n), state, action, params)
     return (obs, state), (reward, terminated, truncated, info['steps'])
 
-  obs, state = jax.vmap(env.reset, in_axes=(0, None))(
+  # Jitted, as such loops are (op by op, the reset costs ~340 compiles).
+  obs, state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(
       jax.random.split(jax.random.PRNGKey(0), n), params)
   (obs, state), (reward, terminated, truncated, steps) = jax.jit(
       lambda c, k: jax.lax.scan(one, c, k))(
