@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.ble_latex-installed
 OUT ?= demo_output
 
-.PHONY: venv demo test test-clients test-slow test-all docs docs-serve clean
+.PHONY: venv demo test test-ci test-slow test-all docs docs-serve clean
 
 venv: $(STAMP)
 
@@ -25,10 +25,11 @@ demo: venv
 test: venv
 	$(PY) -m pytest
 
-# The real RL clients (SB3 PPO, CleanRL-style SAC/PPO, purejaxrl PPO, RLlib
-# PPO), each its examples/ script's --short run; CI runs them after `test`.
-test-clients: venv
-	$(PY) -m pytest -m clients
+# Slow tests CI runs after `test` (marked `ci`): the real RL clients (SB3 PPO,
+# CleanRL-style SAC/PPO, purejaxrl PPO, RLlib PPO; each its examples/
+# script's --short run) and the Ray sweep killed and resumed.
+test-ci: venv
+	$(PY) -m pytest -m ci
 
 test-slow: venv
 	$(PY) -m pytest -m slow

@@ -5,8 +5,8 @@ purejaxrl-style PPO on the functional env, RLlib PPO; ERA5 end to end
 on Ray. SB3 SAC is
 tests/test_gymnasium_env.py's. No network. Each compiles the env (JAX) in
 its process, so all are slow tests (docs/clients.md has their times); the
-five RL clients are also marked `clients`: CI runs them (`make test-clients`)
-after the default suite."""
+five RL clients are also marked `ci`: CI runs them (`make test-ci`) after
+the default suite."""
 
 import json
 import math
@@ -39,7 +39,7 @@ def _no_warnings(stderr: str) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.clients
+@pytest.mark.ci
 def test_cleanrl_sac_on_the_module_id():
   summary, stderr = _run_example('cleanrl_sac_continuous_action')
   # 64 steps of 16-step episodes: the same-step auto-reset ran 4 times.
@@ -50,7 +50,7 @@ def test_cleanrl_sac_on_the_module_id():
 
 
 @pytest.mark.slow
-@pytest.mark.clients
+@pytest.mark.ci
 def test_cleanrl_ppo_on_the_module_id():
   summary, stderr = _run_example('cleanrl_ppo_continuous_action')
   assert summary['global_step'] == 64
@@ -61,7 +61,7 @@ def test_cleanrl_ppo_on_the_module_id():
 
 
 @pytest.mark.slow
-@pytest.mark.clients
+@pytest.mark.ci
 def test_purejaxrl_ppo_on_the_functional_env():
   summary, stderr = _run_example('purejaxrl_ppo')
   assert summary['updates'] == 2 and summary['env_steps'] == 32
@@ -73,7 +73,7 @@ def test_purejaxrl_ppo_on_the_functional_env():
 
 
 @pytest.mark.slow
-@pytest.mark.clients
+@pytest.mark.ci
 def test_sb3_ppo_vec_env_save_load_evaluate():
   summary, stderr = _run_example('sb3_ppo')
   assert summary['env_steps'] == 64
@@ -83,7 +83,7 @@ def test_sb3_ppo_vec_env_save_load_evaluate():
 
 
 @pytest.mark.slow
-@pytest.mark.clients
+@pytest.mark.ci
 def test_rllib_ppo():
   pytest.importorskip('ray.rllib')
   summary, _ = _run_example('rllib_ppo')  # Ray's own start-up lines vary.

@@ -231,6 +231,8 @@ def test_sweep_directory_has_one_driver(tmp_path):
   assert os.listdir(sweep_dir) == [safe_io.LOCK_FILE]
 
 
+@pytest.mark.slow  # 6-7 min on 2 cores: CI runs it in `make test-ci`.
+@pytest.mark.ci
 def test_sweep_killed_resumes_and_writes_table_and_best_gin(tmp_path):
   """A 2-trial sweep, killed during its first trial, then re-run: both trials
   finish with no episode lost or repeated, and the outputs are written."""
