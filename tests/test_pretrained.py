@@ -112,6 +112,28 @@ def test_shipped_policy_flies_the_latex_env():
                                 agent.begin_episode(obs))
 
 
+@pytest.mark.parametrize('gin_files, source', [
+    ((), 'benchmarks/sac_jax/n32/seed_'),
+    (('latex_realistic.gin',), 'benchmarks/sac_jax/realistic/seed_')])
+def test_sac_pretrained_loads_the_policy_of_the_bound_physics(gin_files,
+                                                              source):
+  """The paper's policy by default; the realistic one under its gin file."""
+  import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  gin.clear_config()
+  try:
+    configs.bind_gin('sac_pretrained', None,
+                     [configs.gin_file(f) for f in gin_files], [])
+    agent = sac.SACPretrainedAgent(3, (71,), action_low=_LOW,
+                                   action_high=_HIGH)
+  finally:
+    gin.clear_config()
+  assert agent.policy_info['source'].startswith(source)
+  expected = pretrained.shipped_policy(bool(gin_files))
+  assert os.path.basename(expected) == (
+      'sac_latex_realistic.msgpack' if gin_files else 'sac_latex.msgpack')
+
+
 # How far the shipped policy's row may move between machines: XLA's CPU float
 # paths differ (e.g. 61.25 % recorded on the machine of 2026-11-24, 61.16 %
 # on that of 2026-11-25, the same file), and 3-day flights are chaotic.
