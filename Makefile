@@ -82,7 +82,7 @@ long-flights: venv
 	$(EVAL) --output_dir=benchmarks/results_7day_realistic $(LONG) $(REALISTIC_GIN) --agent=latex_station_seeker
 	$(EVAL) --output_dir=benchmarks/results_7day_realistic $(LONG) $(REALISTIC_GIN) --agent=sac_pretrained
 
-physics-results:
+physics-results: venv
 	$(PY) benchmarks/physics_results.py --json=benchmarks/physics_results.json \
 		--paper=$(RESULTS)/latex_small --realistic=$(RESULTS_REALISTIC)/latex_small \
 		--paper_long=benchmarks/results_7day/latex_small \

@@ -35,6 +35,7 @@ from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.flight import params as params_lib
 from ble_latex.run import metrics
+from ble_latex.run import records
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('paper', None, '3-day evals, paper physics (a folder).',
@@ -60,12 +61,7 @@ def _load(folder: Optional[str]) -> Dict[str, List[Dict[str, Any]]]:
   for name in sorted(os.listdir(folder)):
     if not name.endswith('.json') or name.endswith('.partial.json'):
       continue
-    path = os.path.join(folder, name)
-    with open(path, encoding='utf-8') as f:
-      records = json.load(f)
-    if not isinstance(records, list) or not records:
-      raise ValueError(f'{path}: not a non-empty ble-latex-eval result list')
-    out[name[:-len('.json')]] = records
+    out[name[:-len('.json')]] = records.load_eval(os.path.join(folder, name))
   return out
 
 
@@ -107,6 +103,7 @@ def over_seeds(rows: Dict[str, Dict[str, Any]]) -> Dict[str, Dict[str, Any]]:
       agg[key] = statistics.mean(values)
       agg[key + '_over_seeds_std'] = statistics.stdev(values)
     agg['tw50_window_std'] = agg['tw50_window_mean_over_seeds_std']
+    agg['days_aloft_std'] = agg['days_aloft_mean_over_seeds_std']
     agg['episodes'] = sum(s['episodes'] for s in seeds)
     agg['num_seeds'] = len(seeds)
     out[f'{prefix} ({len(seeds)} seeds)'] = agg
@@ -163,7 +160,7 @@ def long_flights(paper: Dict[str, Dict[str, Any]],
     for a, s in sorted(rows.items(), key=lambda x: -x[1]['days_aloft_mean']):
       lines.append(
           f'| {a} | {mode} | {s["days_aloft_mean"]:.2f} ± '
-          f'{s.get("days_aloft_std", s.get("days_aloft_mean_over_seeds_std")):.2f} '
+          f'{s["days_aloft_std"]:.2f} '
           f'| {s["full_window_pct"]:.0f} % | {_pct(s)} '
           f'| {s["out_of_resources_pct"]:.0f} % | {s["episodes"]} |')
   return '\n'.join(lines)

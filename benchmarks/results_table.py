@@ -18,6 +18,7 @@ from absl import flags
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.run import metrics
+from ble_latex.run import records as records_lib
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('json', None, 'Also write the rows here.',
@@ -26,10 +27,7 @@ flags.DEFINE_string('json', None, 'Also write the rows here.',
 
 def row(path: str) -> dict:
   """One table row: `metrics.summarize` of an eval file, plus its name/seeds."""
-  with open(path) as f:
-    records = json.load(f)
-  if not isinstance(records, list) or not records:
-    raise ValueError(f'{path}: not a non-empty ble-latex-eval result list')
+  records = records_lib.load_eval(path)
   s = metrics.summarize(records)
   return {
       'agent': os.path.splitext(os.path.basename(path))[0],
