@@ -289,6 +289,15 @@ def _is_large(leaf: Any, batch: Tuple[int, ...] = ()) -> bool:
   return int(np.prod(np.shape(leaf)[len(batch):])) >= _LARGE_MIN_SIZE
 
 
+def _broadcast_unbatched(axis_size: int, x: Any, batched: Any) -> Any:
+  """`x`'s leaves with a leading batch axis of `axis_size`: the batched ones
+  (`batched`: custom_vmap's per-leaf flags) as they are, the others
+  broadcast."""
+  return jax.tree.map(
+      lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
+      x, batched)
+
+
 @custom_batching.custom_vmap
 def _install(pending: Array, large: Any, pool_large: Any) -> Any:
   """The large leaves of pool world `pending` where `pending` >= 0."""
@@ -310,11 +319,7 @@ def _install_batched(axis_size, in_batched, pending, large, pool_large):
   """
   pending_b, large_b, pool_b = in_batched
 
-  def batch(x, batched):
-    return jax.tree.map(
-        lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
-        x, batched)
-
+  batch = functools.partial(_broadcast_unbatched, axis_size)
   pending, large = batch(pending, pending_b), batch(large, large_b)
   if any(jax.tree.leaves(pool_b)):  # A pool per balloon: select.
     out = jax.vmap(_install.fun)(pending, large, batch(pool_large, pool_b))
@@ -397,11 +402,7 @@ def _select_reset_batched(axis_size, in_batched, done, index, small,
   writes none of the reset leaves."""
   done_b, index_b, small_b, pool_b = in_batched
 
-  def batch(x, batched):
-    return jax.tree.map(
-        lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
-        x, batched)
-
+  batch = functools.partial(_broadcast_unbatched, axis_size)
   done, index = batch(done, done_b), batch(index, index_b)
   small = batch(small, small_b)
   if any(jax.tree.leaves(pool_b)):  # A pool per balloon: no shared test.
