@@ -27,7 +27,9 @@ test: venv
 
 # Slow tests CI runs after `test` (marked `ci`): the real RL clients (SB3 PPO,
 # CleanRL-style SAC/PPO, purejaxrl PPO, RLlib PPO; each its examples/
-# script's --short run) and the Ray sweep killed and resumed.
+# script's --short run), the Ray sweep killed and resumed, and the tests that
+# start several processes (a trainer killed and resumed, a second trainer on
+# one run directory, the eval command on Ray).
 test-ci: venv
 	$(PY) -m pytest -m ci
 

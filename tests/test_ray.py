@@ -67,6 +67,8 @@ def test_ray_missing_and_unreachable_cluster_are_named(monkeypatch):
     distributed.require_ray()
 
 
+@pytest.mark.slow  # Two eval processes, one starting Ray (~40 s); Ray eval in-process stays in the default suite: CI runs it in `make test-ci`.
+@pytest.mark.ci
 def test_eval_command_writes_the_same_file_on_ray(tmp_path):
   base = [sys.executable, '-m', 'ble_latex.cli.eval',
           '--agent=latex_station_seeker', '--suite=latex_tiny',

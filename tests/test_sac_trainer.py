@@ -206,6 +206,8 @@ _JAX_TRAIN = [
 _ENV = dict(os.environ, TF_CPP_MIN_LOG_LEVEL='3', JAX_PLATFORMS='cpu')
 
 
+@pytest.mark.slow  # Two trainer processes (~40 s); in-process refusal stays in the default suite: CI runs it in `make test-ci`.
+@pytest.mark.ci
 def test_second_trainer_process_on_a_run_directory_is_refused(tmp_path):
   """Two `ble-latex-train --trainer=jax` on one --base_dir: the second exits
   with status 1 and one line naming the first, whose logs stay whole."""

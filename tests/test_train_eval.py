@@ -43,6 +43,8 @@ def _comparable(records):
   return [{k: v for k, v in r.items() if k != 'wall_time_s'} for r in records]
 
 
+@pytest.mark.slow  # Three training processes (~45 s): CI runs it in `make test-ci`.
+@pytest.mark.ci
 def test_train_killed_and_resumed_equals_uninterrupted_run(tmp_path):
   full, killed = tmp_path / 'full', tmp_path / 'killed'
   _run(_train_cmd(full, 4))
