@@ -129,6 +129,29 @@ def test_deterministic_under_a_seed(world):
   assert set(np.unique(a.floats)) <= {-1.0, 1.0}
 
 
+def test_altitude_grid_plans_are_scored(world):
+  """With no random samples left (num_samples = 2 + 2 * grid_levels), the
+  plan is the best of warm start, hold and the grid's fixed plans."""
+  _, params, states = world
+  config = _config(num_samples=6, grid_levels=2)
+  state = jax.tree.map(lambda a: a[0], states[0])
+  best = jax.tree.map(lambda a: a[0], _plan(config, params, states[0]))
+  low, high = config.altitude_low_m, config.altitude_high_m
+  wind_fn = planners.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  blind = planners.blind(state)
+  h = jnp.clip(state.flight.altitude_m, low, high)
+  scores = [planners.objective(config, params, blind, wind_fn,
+                               jnp.full((2,), h), jnp.ones((2,)))]  # Hold.
+  for level in (low, high):
+    for floats in ([-1.0, -1.0], [-1.0, 1.0]):
+      scores.append(planners.objective(
+          config, params, blind, wind_fn, jnp.full((2,), level),
+          jnp.asarray(floats)))
+  assert float(best.score) == pytest.approx(float(max(scores)), rel=1e-6)
+  with pytest.raises(errors.ConfigError, match='grid_levels'):
+    _config(num_samples=6, grid_levels=3)
+
+
 def test_forecast_mpc_never_reads_the_noise(world):
   """Another flight's noise, same forecast and measurement: same plan."""
   _, params, (state, other) = world

@@ -97,6 +97,12 @@ class PlannerConfig:
     grad_starts: GRADIENT: best samples refined by gradient ascent.
     grad_steps: GRADIENT: gradient steps per start.
     grad_step_m: GRADIENT: length of a normalised step of the targets. # [m]
+    grid_levels: Altitudes of a fixed grid over [altitude_low_m,
+      altitude_high_m] scored at every iteration besides the samples: for
+      each, "go there and stay" (every segment targets it, no float) and
+      "go there and float" (first segment targets it, then floats); 0: no
+      grid. The grid keeps every layer of the band in the search when the
+      CEM distribution has narrowed around one.
   """
   mode: str = FORECAST
   num_samples: int = 128
@@ -126,6 +132,7 @@ class PlannerConfig:
   grad_starts: int = 4
   grad_steps: int = 5
   grad_step_m: float = 150.0
+  grid_levels: int = 0
 
   def checked(self) -> 'PlannerConfig':
     """This config with its values checked (one line per bad value).
@@ -140,12 +147,16 @@ class PlannerConfig:
     for field in ('num_samples', 'iterations', 'horizon', 'num_segments',
                   'replan_every'):
       gin_values.check_int(name(field), getattr(self, field), minimum=1)
-    for field in ('grad_starts', 'grad_steps'):
+    for field in ('grad_starts', 'grad_steps', 'grid_levels'):
       gin_values.check_int(name(field), getattr(self, field), minimum=0)
     gin_values.require(self.num_segments <= self.horizon, name('num_segments'),
                        f'at most horizon ({self.horizon})', self.num_segments)
     gin_values.require(self.replan_every <= self.horizon, name('replan_every'),
                        f'at most horizon ({self.horizon})', self.replan_every)
+    gin_values.require(2 + 2 * self.grid_levels <= self.num_samples,
+                       name('grid_levels'),
+                       f'at most (num_samples - 2) / 2 '
+                       f'({(self.num_samples - 2) // 2})', self.grid_levels)
     gin_values.require(self.grad_starts <= self.num_samples,
                        name('grad_starts'),
                        f'at most num_samples ({self.num_samples})',
@@ -407,18 +418,26 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
   h = jnp.clip(state.flight.altitude_m, low, high)
   fixed_targets = jnp.stack([warm.targets_m, jnp.broadcast_to(h, (m,))])
   fixed_floats = jnp.stack([warm.floats, jnp.ones((m,), dtype)])
+  if config.grid_levels:
+    levels = jnp.linspace(low, high, config.grid_levels, dtype=dtype)
+    grid = jnp.broadcast_to(levels[:, None], (config.grid_levels, m))
+    stay = -jnp.ones((config.grid_levels, m), dtype)
+    go_float = stay.at[:, 1:].set(1.0)
+    fixed_targets = jnp.concatenate([fixed_targets, grid, grid])
+    fixed_floats = jnp.concatenate([fixed_floats, stay, go_float])
+  num_fixed = fixed_targets.shape[0]
   if not config.plan_float:
     fixed_floats = -jnp.ones_like(fixed_floats)
 
   def sample(key, mean, std, float_p):
     k_targets, k_floats = jax.random.split(key)
     targets = mean + std * jax.random.normal(k_targets, (n, m), dtype)
-    targets = jnp.clip(targets, low, high).at[:2].set(fixed_targets)
+    targets = jnp.clip(targets, low, high).at[:num_fixed].set(fixed_targets)
     floats = jnp.where(jax.random.uniform(k_floats, (n, m)) < float_p, 1.0,
                        -1.0).astype(dtype)
     if not config.plan_float:
       floats = -jnp.ones_like(floats)
-    floats = floats.at[:2].set(fixed_floats)
+    floats = floats.at[:num_fixed].set(fixed_floats)
     return targets, floats
 
   def iteration(carry, key):
