@@ -152,15 +152,20 @@ def test_altitude_grid_plans_are_scored(world):
     _config(num_samples=6, grid_levels=3)
 
 
-def test_forecast_mpc_never_reads_the_noise(world):
-  """Another flight's noise, same forecast and measurement: same plan."""
+@pytest.mark.parametrize('scenarios', [0, 2])
+def test_forecast_mpc_never_reads_the_noise(world, scenarios):
+  """Another flight's noise, same forecast and measurement: same plan (also
+  when plans are scored over noise scenarios the planner draws itself)."""
   _, params, (state, other) = world
   swapped = state.replace(noise_u=other.noise_u, noise_v=other.noise_v)
   assert any(not np.array_equal(a, b) for a, b in zip(
       jax.tree.leaves(state.noise_u), jax.tree.leaves(other.noise_u)))
-  config = _config()
-  jax.tree.map(np.testing.assert_array_equal,
-               _plan(config, params, state), _plan(config, params, swapped))
+  config = _config(scenarios=scenarios)
+  plan = _plan(config, params, state)
+  jax.tree.map(np.testing.assert_array_equal, plan,
+               _plan(config, params, swapped))
+  if scenarios:  # The scenarios change the scores (the plans' winds).
+    assert plan.score != _plan(_config(), params, state).score
 
 
 @pytest.mark.slow

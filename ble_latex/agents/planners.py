@@ -56,6 +56,7 @@ from ble_latex.envs import jax_env
 from ble_latex.flight import dynamics
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
+from ble_latex.wind import simplex
 
 Array = jax.Array
 FORECAST, ORACLE, GRADIENT = 'forecast', 'oracle', 'gradient'
@@ -103,6 +104,13 @@ class PlannerConfig:
       "go there and float" (first segment targets it, then floats); 0: no
       grid. The grid keeps every layer of the band in the search when the
       CEM distribution has narrowed around one.
+    scenarios: FORECAST and GRADIENT: 0 plans on the forecast alone; K > 0
+      scores each plan by its mean objective over K wind scenarios, the
+      forecast plus K simplex noise fields drawn afresh from BLE's noise
+      model (`simplex.reset_uv_noise_params` of the planner's own keys, the
+      same K for every plan of a decision: never the flight's noise), each
+      corrected near the balloon to the wind it measures (as the forecast
+      is). ORACLE ignores it (it flies the one true wind).
   """
   mode: str = FORECAST
   num_samples: int = 128
@@ -133,6 +141,7 @@ class PlannerConfig:
   grad_steps: int = 5
   grad_step_m: float = 150.0
   grid_levels: int = 0
+  scenarios: int = 0
 
   def checked(self) -> 'PlannerConfig':
     """This config with its values checked (one line per bad value).
@@ -147,7 +156,7 @@ class PlannerConfig:
     for field in ('num_samples', 'iterations', 'horizon', 'num_segments',
                   'replan_every'):
       gin_values.check_int(name(field), getattr(self, field), minimum=1)
-    for field in ('grad_starts', 'grad_steps', 'grid_levels'):
+    for field in ('grad_starts', 'grad_steps', 'grid_levels', 'scenarios'):
       gin_values.check_int(name(field), getattr(self, field), minimum=0)
     gin_values.require(self.num_segments <= self.horizon, name('num_segments'),
                        f'at most horizon ({self.horizon})', self.num_segments)
@@ -219,20 +228,23 @@ def blind(state: jax_env.EnvState) -> jax_env.EnvState:
 
 
 def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
-                  state: jax_env.EnvState
+                  state: jax_env.EnvState, noise: Optional[Tuple[Any, Any]] = None
                   ) -> Callable[[Array, Array, Array, Array], Tuple[Array,
                                                                    Array]]:
   """The wind a planner flies its plans in: (x, y, P, t) -> (u, v). # [m/s]
 
   ORACLE: the ground truth (`wind.ground_truth`). Otherwise the forecast
-  (`wind.forecast_column` at one pressure) of the `blind` state, plus the
-  measured-minus-forecast wind at the balloon, decaying as
-  exp(-|t - t0| / wind_correction_hours - |P - P0| / wind_correction_pa).
+  (`wind.forecast_column` at one pressure) of the `blind` state (with
+  `noise`: the ground truth of the state given that noise instead, one
+  scenario), plus the measured-minus-planned wind at the balloon, decaying
+  as exp(-|t - t0| / wind_correction_hours - |P - P0| / wind_correction_pa).
 
   Args:
     config: The planner (mode, wind_correction_hours, wind_correction_pa).
     wind: The env's wind.
     state: The balloon's env state (its measured wind at the balloon).
+    noise: (noise_u, noise_v) simplex parameters of a scenario (drawn by
+      the planner, `scenario_noise`), or None: the forecast alone.
 
   Returns:
     A pure JAX function (x [m], y [m], pressure [Pa], time [s]) -> (u, v)
@@ -243,8 +255,12 @@ def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
   state = blind(state)
   f = state.flight
 
-  def forecast(x_m, y_m, pressure_pa, t_s):
-    return wind.forecast_column(state, x_m, y_m, pressure_pa, t_s)
+  if noise is None:
+    def forecast(x_m, y_m, pressure_pa, t_s):
+      return wind.forecast_column(state, x_m, y_m, pressure_pa, t_s)
+  else:
+    forecast = functools.partial(
+        wind.ground_truth, state.replace(noise_u=noise[0], noise_v=noise[1]))
 
   if config.wind_correction_hours <= 0.0:
     return forecast
@@ -259,6 +275,20 @@ def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
     return u + weight * du, v + weight * dv
 
   return corrected
+
+
+def scenario_noise(config: PlannerConfig, key: Array) -> Tuple[Any, Any]:
+  """`config.scenarios` simplex noise fields of BLE's model (stacked).
+
+  Args:
+    config: The planner (scenarios > 0).
+    key: The planner's key for them (never the flight's noise key).
+
+  Returns:
+    (noise_u, noise_v) with a leading axis of `config.scenarios`.
+  """
+  return jax.vmap(simplex.reset_uv_noise_params)(
+      jax.random.split(key, config.scenarios))
 
 
 def plan_actions(config: PlannerConfig, targets_m: Array,
@@ -407,11 +437,23 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
     The best plan found and the CEM distribution for the next warm start.
   """
   wind_fn = planning_wind(config, wind, state)
+  measured = state
   if config.mode != ORACLE:
     state = blind(state)
   dtype = state.flight.altitude_m.dtype
   warm = shift(config, previous)
-  score_fn = functools.partial(objective, config, params, state, wind_fn)
+  if config.mode != ORACLE and config.scenarios:
+    key, noise_key = jax.random.split(key)
+    noises = scenario_noise(config, noise_key)
+
+    def score_fn(targets_m, floats):
+      def one(noise):
+        return objective(config, params, state,
+                         planning_wind(config, wind, measured, noise),
+                         targets_m, floats)
+      return jnp.mean(jax.vmap(one)(noises))
+  else:
+    score_fn = functools.partial(objective, config, params, state, wind_fn)
   scores_of = jax.vmap(score_fn)
   n, m = config.num_samples, config.num_segments
   low, high = config.altitude_low_m, config.altitude_high_m
