@@ -99,11 +99,12 @@ class PlannerConfig:
     grad_steps: GRADIENT: gradient steps per start.
     grad_step_m: GRADIENT: length of a normalised step of the targets. # [m]
     grid_levels: Altitudes of a fixed grid over [altitude_low_m,
-      altitude_high_m] scored at every iteration besides the samples: for
-      each, "go there and stay" (every segment targets it, no float) and
-      "go there and float" (first segment targets it, then floats); 0: no
-      grid. The grid keeps every layer of the band in the search when the
-      CEM distribution has narrowed around one.
+      altitude_high_m] whose plans are scored at every iteration besides
+      the `num_samples` samples: for each, "go there and stay" (every
+      segment targets it, no float) and "go there and float" (first segment
+      targets it, then floats); 0: no grid. The grid keeps every layer of
+      the band in the search when the CEM distribution has narrowed around
+      one.
     scenarios: FORECAST and GRADIENT: 0 plans on the forecast alone; K > 0
       scores each plan by its mean objective over K wind scenarios, the
       forecast plus K simplex noise fields drawn afresh from BLE's noise
@@ -113,7 +114,7 @@ class PlannerConfig:
       is). ORACLE ignores it (it flies the one true wind).
   """
   mode: str = FORECAST
-  num_samples: int = 128
+  num_samples: int = 256
   iterations: int = 2
   elite_fraction: float = 0.125
   horizon: int = 24
@@ -132,15 +133,15 @@ class PlannerConfig:
   halflife_km: float = 100.0
   progress: float = 2.0
   discount: float = 0.98
-  sand_cost: float = 0.3
-  helium_cost: float = 0.3
+  sand_cost: float = 0.1
+  helium_cost: float = 0.1
   terminal_cost: float = 20.0
   wind_correction_hours: float = 3.0
   wind_correction_pa: float = 1_000.0
   grad_starts: int = 4
   grad_steps: int = 5
   grad_step_m: float = 150.0
-  grid_levels: int = 0
+  grid_levels: int = 15
   scenarios: int = 0
 
   def checked(self) -> 'PlannerConfig':
@@ -153,19 +154,16 @@ class PlannerConfig:
       return f'planner parameter {field}'
     gin_values.require(self.mode in MODES, name('mode'), f'one of {MODES}',
                        self.mode)
-    for field in ('num_samples', 'iterations', 'horizon', 'num_segments',
-                  'replan_every'):
+    for field in ('iterations', 'horizon', 'num_segments', 'replan_every'):
       gin_values.check_int(name(field), getattr(self, field), minimum=1)
+    # Two of the samples are always the warm start and "float here".
+    gin_values.check_int(name('num_samples'), self.num_samples, minimum=2)
     for field in ('grad_starts', 'grad_steps', 'grid_levels', 'scenarios'):
       gin_values.check_int(name(field), getattr(self, field), minimum=0)
     gin_values.require(self.num_segments <= self.horizon, name('num_segments'),
                        f'at most horizon ({self.horizon})', self.num_segments)
     gin_values.require(self.replan_every <= self.horizon, name('replan_every'),
                        f'at most horizon ({self.horizon})', self.replan_every)
-    gin_values.require(2 + 2 * self.grid_levels <= self.num_samples,
-                       name('grid_levels'),
-                       f'at most (num_samples - 2) / 2 '
-                       f'({(self.num_samples - 2) // 2})', self.grid_levels)
     gin_values.require(self.grad_starts <= self.num_samples,
                        name('grad_starts'),
                        f'at most num_samples ({self.num_samples})',
@@ -460,27 +458,26 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
   h = jnp.clip(state.flight.altitude_m, low, high)
   fixed_targets = jnp.stack([warm.targets_m, jnp.broadcast_to(h, (m,))])
   fixed_floats = jnp.stack([warm.floats, jnp.ones((m,), dtype)])
-  if config.grid_levels:
-    levels = jnp.linspace(low, high, config.grid_levels, dtype=dtype)
-    grid = jnp.broadcast_to(levels[:, None], (config.grid_levels, m))
-    stay = -jnp.ones((config.grid_levels, m), dtype)
-    go_float = stay.at[:, 1:].set(1.0)
-    fixed_targets = jnp.concatenate([fixed_targets, grid, grid])
-    fixed_floats = jnp.concatenate([fixed_floats, stay, go_float])
-  num_fixed = fixed_targets.shape[0]
+  levels = jnp.linspace(low, high, config.grid_levels, dtype=dtype)
+  grid = jnp.broadcast_to(levels[:, None], (config.grid_levels, m))
+  stay = -jnp.ones((config.grid_levels, m), dtype)
+  grid_targets = jnp.concatenate([grid, grid])
+  grid_floats = jnp.concatenate([stay, stay.at[:, 1:].set(1.0)])
   if not config.plan_float:
     fixed_floats = -jnp.ones_like(fixed_floats)
+    grid_floats = -jnp.ones_like(grid_floats)
 
   def sample(key, mean, std, float_p):
     k_targets, k_floats = jax.random.split(key)
     targets = mean + std * jax.random.normal(k_targets, (n, m), dtype)
-    targets = jnp.clip(targets, low, high).at[:num_fixed].set(fixed_targets)
+    targets = jnp.clip(targets, low, high).at[:2].set(fixed_targets)
     floats = jnp.where(jax.random.uniform(k_floats, (n, m)) < float_p, 1.0,
                        -1.0).astype(dtype)
     if not config.plan_float:
       floats = -jnp.ones_like(floats)
-    floats = floats.at[:num_fixed].set(fixed_floats)
-    return targets, floats
+    floats = floats.at[:2].set(fixed_floats)
+    return (jnp.concatenate([targets, grid_targets]),
+            jnp.concatenate([floats, grid_floats]))
 
   def iteration(carry, key):
     mean, std, float_p, best = carry
