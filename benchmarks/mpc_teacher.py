@@ -75,17 +75,12 @@ def collect_demos(config, env, params, num_episodes: int, batch: int
 
   low = jnp.asarray(jax_env.ACTION_LOW, jnp.float32)
   high = jnp.asarray(jax_env.ACTION_HIGH, jnp.float32)
-  segment = jnp.asarray((np.arange(config.replan_every) *
-                         config.num_segments) // config.horizon)
   wind = env.wind_for(params)
 
   @jax.jit
   def fly(states, obs, active, plans, params):
-    def stride(carry, k):
+    def stride(carry, action):
       states, obs, active = carry
-      a0 = plans.targets_m[:, segment[k]]
-      a2 = plans.floats[:, segment[k]]
-      action = jnp.stack([a0, jnp.full_like(a0, config.time_factor), a2], -1)
       next_obs, states, reward, terminated, info = jax.vmap(
           env.step_env, in_axes=(None, 0, 0, None))(None, states, action,
                                                     params)
@@ -96,7 +91,7 @@ def collect_demos(config, env, params, num_episodes: int, batch: int
       active = active & ~(terminated | info['time_limit'])
       return (states, next_obs, active), row
     return jax.lax.scan(stride, (states, obs, active),
-                        jnp.arange(config.replan_every))
+                        planners.flown_actions(config, plans))
 
   reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
   seeds = [suites.train_seed(DEMO_EPISODE_OFFSET + i)

@@ -57,23 +57,17 @@ flags.DEFINE_boolean('short', False, '2 seeds, 12 strides (smoke test).',
 def _fly_functions(config, env):
   """Jitted: [N] new flights; [N] plans flown `replan_every` strides."""
   import jax  # pylint: disable=g-import-not-at-top
-  import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
 
   def fly(states, plans, params):
-    segment = jnp.asarray((np.arange(config.replan_every) * config.num_segments
-               ) // config.horizon)
-
-    def stride(states, k):
-      a0 = plans.targets_m[:, segment[k]]
-      a2 = plans.floats[:, segment[k]]
-      actions = jnp.stack([a0, jnp.full_like(a0, config.time_factor), a2], -1)
+    def stride(states, actions):
       _, states, reward, _, info = jax.vmap(
           env.step_env, in_axes=(None, 0, 0, None))(None, states, actions,
                                                     params)
       return states, (reward, info, states.flight)
 
-    return jax.lax.scan(stride, states, jnp.arange(config.replan_every))
+    return jax.lax.scan(stride, states, planners.flown_actions(config, plans))
 
   def start(keys, params):
     _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)

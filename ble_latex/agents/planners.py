@@ -434,7 +434,6 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
   Returns:
     The best plan found and the CEM distribution for the next warm start.
   """
-  wind_fn = planning_wind(config, wind, state)
   measured = state
   if config.mode != ORACLE:
     state = blind(state)
@@ -451,7 +450,8 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
                          targets_m, floats)
       return jnp.mean(jax.vmap(one)(noises))
   else:
-    score_fn = functools.partial(objective, config, params, state, wind_fn)
+    score_fn = functools.partial(objective, config, params, state,
+                                 planning_wind(config, wind, measured))
   scores_of = jax.vmap(score_fn)
   n, m = config.num_samples, config.num_segments
   low, high = config.altitude_low_m, config.altitude_high_m
@@ -580,6 +580,22 @@ def initial_plans(config: PlannerConfig, states: jax_env.EnvState) -> Plan:
     [N] plans.
   """
   return jax.vmap(functools.partial(initial_plan, config))(states)
+
+
+def flown_actions(config: PlannerConfig, plans: Plan) -> Array:
+  """The actions [N] plans fly before the next replan (`plan_actions`).
+
+  Args:
+    config: The planner (replan_every, horizon, num_segments, time_factor).
+    plans: [N] plans (`plan_batch`).
+
+  Returns:
+    [replan_every, N, 3] actions (a0 [m], a1, a2), stride first (what a
+    `lax.scan` over the strides reads).
+  """
+  actions = jax.vmap(functools.partial(plan_actions, config))(
+      plans.targets_m, plans.floats)
+  return jnp.swapaxes(actions[:, :config.replan_every], 0, 1)
 
 
 def next_action(config: PlannerConfig, current: Plan,
