@@ -9,6 +9,8 @@ import sys
 import time
 
 import ble_latex  # noqa: F401
+from ble_latex.cli import eval as eval_command
+from ble_latex.cli import train
 from ble_latex.run import episode_log
 from ble_latex.run import eval_lib
 from ble_latex.run import suites
@@ -26,16 +28,39 @@ _TINY = [*_TINY_SAC, '--max_episode_length=12', '--episodes_per_iteration=2']
 _ENV = dict(os.environ, TF_CPP_MIN_LOG_LEVEL='3', JAX_PLATFORMS='cpu')
 
 
+def _train_args(base_dir, iterations):
+  return [f'--base_dir={base_dir}', f'--num_iterations={iterations}',
+          '--collectors=episodes', '--collectors=pickle',
+          '--collectors=tensorboard', *_TINY]
+
+
 def _train_cmd(base_dir, iterations):
-  return [sys.executable, '-m', 'ble_latex.cli.train', f'--base_dir={base_dir}',
-          f'--num_iterations={iterations}', '--collectors=episodes',
-          '--collectors=pickle', '--collectors=tensorboard', *_TINY]
+  return [sys.executable, '-m', 'ble_latex.cli.train',
+          *_train_args(base_dir, iterations)]
 
 
 def _run(cmd):
   out = subprocess.run(cmd, env=_ENV, capture_output=True, text=True,
                        timeout=600)
   assert out.returncode == 0, out.stderr[-3000:]
+  return out
+
+
+def _command(main, argv, capsys):
+  """Runs a command's `main(argv)` in this process (no interpreter start).
+
+  Returns:
+    (exit status, stdout, stderr) of the command.
+  """
+  capsys.readouterr()
+  status = main(argv)
+  out, err = capsys.readouterr()
+  return status, out, err
+
+
+def _ok(main, argv, capsys):
+  status, out, err = _command(main, argv, capsys)
+  assert status == 0, err[-3000:]
   return out
 
 
@@ -74,27 +99,25 @@ def test_train_killed_and_resumed_equals_uninterrupted_run(tmp_path):
                                                     'tensorboard']
 
 
-def _train_short(base_dir, iterations, per_iteration=2):
-  return subprocess.run(
-      [sys.executable, '-m', 'ble_latex.cli.train', f'--base_dir={base_dir}',
-       f'--num_iterations={iterations}',
-       f'--episodes_per_iteration={per_iteration}', *_TINY_SAC,
-       '--max_episode_length=6', '--collectors=episodes'],
-      env=_ENV, capture_output=True, text=True, timeout=600)
+def _train_short(base_dir, iterations, capsys, per_iteration=2):
+  return _command(train.main, [
+      f'--base_dir={base_dir}', f'--num_iterations={iterations}',
+      f'--episodes_per_iteration={per_iteration}', *_TINY_SAC,
+      '--max_episode_length=6', '--collectors=episodes'], capsys)
 
 
-def test_resume_finds_numbered_checkpoints_among_stray_files(tmp_path):
+def test_resume_finds_numbered_checkpoints_among_stray_files(tmp_path, capsys):
   run = tmp_path / 'run'
-  first = _train_short(run, 2)
-  assert first.returncode == 0, first.stderr[-2000:]
+  status, _, err = _train_short(run, 2, capsys)
+  assert status == 0, err[-2000:]
   log_path = run / episode_log.EPISODE_LOG
   before = episode_log.read(str(log_path))
   assert len(before) == 4
   for stray in ('checkpoint_backup.pkl', 'checkpoint_00002 (copy).pkl',
                 'checkpoint_00009 (copy).msgpack', 'checkpoint_.msgpack'):
     (run / 'checkpoints' / stray).write_bytes(b'junk')
-  second = _train_short(run, 3)
-  assert second.returncode == 0, second.stderr[-2000:]
+  status, _, err = _train_short(run, 3, capsys)
+  assert status == 0, err[-2000:]
   after = episode_log.read(str(log_path))
   assert [r['episode'] for r in after] == list(range(6))
   assert after[:4] == before  # Resumed after checkpoint 1, kept the log.
@@ -102,10 +125,10 @@ def test_resume_finds_numbered_checkpoints_among_stray_files(tmp_path):
   # Another --episodes_per_iteration is refused, naming both values, and the
   # run directory is left exactly as it was.
   snapshot = log_path.read_bytes()
-  third = _train_short(run, 4, per_iteration=3)
-  assert third.returncode != 0
-  assert 'episodes_per_iteration=2' in third.stderr
-  assert 'episodes_per_iteration=3' in third.stderr
+  status, _, err = _train_short(run, 4, capsys, per_iteration=3)
+  assert status != 0
+  assert 'episodes_per_iteration=2' in err
+  assert 'episodes_per_iteration=3' in err
   assert log_path.read_bytes() == snapshot
 
 
@@ -159,42 +182,41 @@ def test_eval_writes_per_episode_json_with_flight_path(tmp_path):
       'helium_mols', 'sand_kg'}
 
 
-def test_eval_loads_a_trained_checkpoint_and_shards(tmp_path):
+def test_eval_loads_a_trained_checkpoint_and_shards(tmp_path, capsys):
   run = tmp_path / 'run'
-  _run(_train_cmd(run, 1))
-  _run([sys.executable, '-m', 'ble_latex.cli.eval', '--agent=sac',
-        '--suite=latex_tiny', f'--output_dir={tmp_path}', '--num_shards=5',
-        '--shard_idx=1', f'--checkpoint_dir={run / "checkpoints"}',
-        '--checkpoint_idx=0', '--max_episode_length=3', *_TINY[:3]])
+  _ok(train.main, _train_args(run, 1), capsys)
+  _ok(eval_command.main, [
+      '--agent=sac', '--suite=latex_tiny', f'--output_dir={tmp_path}',
+      '--num_shards=5', '--shard_idx=1',
+      f'--checkpoint_dir={run / "checkpoints"}', '--checkpoint_idx=0',
+      '--max_episode_length=3', *_TINY[:3]], capsys)
   records = json.loads((tmp_path / 'latex_tiny' / 'sac_0_1.json').read_text())
   assert [r['seed'] for r in records] == [suites.EVAL_SEED_OFFSET + 2,
                                           suites.EVAL_SEED_OFFSET + 3]
 
 
-def test_missing_checkpoint_is_an_error(tmp_path):
-  out = subprocess.run(
-      [sys.executable, '-m', 'ble_latex.cli.eval', '--agent=sac',
-       '--suite=latex_micro', f'--output_dir={tmp_path}',
-       f'--checkpoint_dir={tmp_path}', '--checkpoint_idx=3'],
-      env=_ENV, capture_output=True, text=True, timeout=600)
-  assert out.returncode != 0
-  assert 'checkpoint' in out.stderr.lower()
+def test_missing_checkpoint_is_an_error(tmp_path, capsys):
+  status, _, err = _command(eval_command.main, [
+      '--agent=sac', '--suite=latex_micro', f'--output_dir={tmp_path}',
+      f'--checkpoint_dir={tmp_path}', '--checkpoint_idx=3'], capsys)
+  assert status != 0
+  assert len(err.splitlines()) == 1 and 'checkpoint' in err.lower(), err
 
 
-def test_discrete_agent_on_box_env_is_a_clear_error(tmp_path):
-  out = subprocess.run(
-      [sys.executable, '-m', 'ble_latex.cli.train', '--agent=station_seeker',
-       f'--base_dir={tmp_path}', '--num_iterations=1'],
-      env=_ENV, capture_output=True, text=True, timeout=600)
-  assert out.returncode != 0
-  assert 'LatexBalloonDiscrete-v0' in out.stderr
+def test_discrete_agent_on_box_env_is_a_clear_error(tmp_path, capsys):
+  status, _, err = _command(train.main, [
+      '--agent=station_seeker', f'--base_dir={tmp_path}',
+      '--num_iterations=1'], capsys)
+  assert status != 0
+  assert len(err.splitlines()) == 1 and 'LatexBalloonDiscrete-v0' in err, err
 
 
-def test_ble_agent_trains_on_discrete_latex_env(tmp_path):
-  _run([sys.executable, '-m', 'ble_latex.cli.train', '--agent=random',
-        '--env_name=LatexBalloonDiscrete-v0', f'--base_dir={tmp_path}',
-        '--num_iterations=1', '--episodes_per_iteration=1',
-        '--max_episode_length=3', '--collectors=episodes'])
+def test_ble_agent_trains_on_discrete_latex_env(tmp_path, capsys):
+  _ok(train.main, [
+      '--agent=random', '--env_name=LatexBalloonDiscrete-v0',
+      f'--base_dir={tmp_path}', '--num_iterations=1',
+      '--episodes_per_iteration=1', '--max_episode_length=3',
+      '--collectors=episodes'], capsys)
   (record,) = episode_log.read(str(tmp_path / episode_log.EPISODE_LOG))
   assert record['steps'] == 3
 
@@ -233,10 +255,11 @@ def test_suites_are_registered_explicitly_not_at_import():
   assert result.returncode == 0, result.stderr[-2000:]
 
 
-def test_policy_snapshots_and_validation_selection(tmp_path):
+def test_policy_snapshots_and_validation_selection(tmp_path, capsys,
+                                                  benchmark_script):
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
   run = tmp_path / 'run'
-  _run(_train_cmd(run, 2) + ['--policy_snapshot_period=1'])
+  _ok(train.main, _train_args(run, 2) + ['--policy_snapshot_period=1'], capsys)
   for iteration in (0, 1):
     policy = pretrained.load_policy(
         str(run / 'policies' / f'policy_{iteration:05d}.msgpack'))
@@ -248,32 +271,29 @@ def test_policy_snapshots_and_validation_selection(tmp_path):
                     for p in (bundle, policy))):
     np.testing.assert_array_equal(a, b)
 
-  script = os.path.join(os.path.dirname(__file__), '..', 'benchmarks',
-                        'train_sac.py')
   output = tmp_path / 'best.msgpack'
-  out = _run([sys.executable, script, 'select', f'--base_dir={run}',
-              '--every=1', '--include_newest', '--validation_episodes=1',
-              f'--output={output}'])
+  out = _ok(benchmark_script('train_sac.py').main, [
+      'select', f'--base_dir={run}', '--every=1', '--include_newest',
+      '--validation_episodes=1', f'--output={output}'], capsys)
   results = json.loads((run / 'validation.json').read_text())
   assert sorted(results) == ['policy_00000.msgpack', 'policy_00001.msgpack']
   assert all(r['seeds'] == [suites.VALIDATION_SEED_OFFSET] * 2
              for r in results.values())
   chosen = max(results, key=lambda k: (results[k]['tw50_window_mean'],
                                        results[k]['reward_mean']))
-  assert f'best: {chosen}' in out.stdout
+  assert f'best: {chosen}' in out
   best = pretrained.load_policy(str(output))
   assert best['iteration'] == results[chosen]['iteration']
   assert 'latex_validation' in best['note']
 
 
-def test_policy_snapshots_need_a_sac_agent(tmp_path):
-  out = subprocess.run(
-      [sys.executable, '-m', 'ble_latex.cli.train', f'--base_dir={tmp_path}',
-       '--agent=latex_random', '--num_iterations=1',
-       '--policy_snapshot_period=1', '--collectors=episodes'],
-      env=_ENV, capture_output=True, text=True, timeout=600)
-  assert out.returncode != 0
-  assert 'policy snapshots need a SAC agent' in out.stderr
+def test_policy_snapshots_need_a_sac_agent(tmp_path, capsys):
+  status, _, err = _command(train.main, [
+      f'--base_dir={tmp_path}', '--agent=latex_random', '--num_iterations=1',
+      '--policy_snapshot_period=1', '--collectors=episodes'], capsys)
+  assert status == 2
+  assert err == ("ble-latex-train: policy snapshots need a SAC agent, not "
+                 "'latex_random'\n"), err
 
 
 def test_train_sac_candidates_and_best(tmp_path, benchmark_script):

@@ -13,6 +13,7 @@ from balloon_learning_environment.agents import agent as base_agent
 import gin
 import gym
 
+from ble_latex import errors
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
@@ -84,7 +85,7 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
     env = gym.make(env_name).unwrapped
     agent = runner.create_agent(agent_name, env, seed=seed)
     if policy_snapshot_period and not isinstance(agent, sac.SACAgent):
-      raise ValueError(
+      raise errors.ConfigError(
           f'policy snapshots need a SAC agent, not {agent_name!r}')
     checkpoint_dir = run_dir.checkpoint_dir(base_dir)
     start_iteration = _reload_latest(agent, checkpoint_dir) + 1
