@@ -1,6 +1,7 @@
 """Command-line contract: --help lists flags and exits 0; usage errors are one
 line naming the valid choices, with exit status 2 (README "Commands")."""
 
+import importlib
 import os
 import subprocess
 import sys
@@ -32,30 +33,28 @@ def test_gin_usage_message():
   assert cli.gin_usage_message(ValueError('other')) is None
 
 
-# One process per command (a clean start, as from the shell); each case is
-# run with main(argv) and reported as "CASE <i> EXIT <code>" on stdout, its
-# stderr between "CASE <i>" markers.
-_ABSL_CASES = '''
-import sys
-from ble_latex.cli import {module} as command
-for i, argv in enumerate({cases!r}):
-  print(f'CASE {{i}}', file=sys.stderr, flush=True)
-  code = command.main(argv)
-  print(f'CASE {{i}} EXIT {{code}}', flush=True)
-'''
+def _absl_cases(module: str, cases, capsys):
+  """Runs `ble_latex.cli.<module>.main(argv)` for each case in this process.
+
+  Commands reset their flags to the defaults on every call (`run_absl`), so
+  the cases are independent; the commands' first start from a shell is
+  covered by the console-script tests below.
+
+  Returns:
+    (exit codes, each case's stderr, all cases' stdout).
+  """
+  command = importlib.import_module(f'ble_latex.cli.{module}')
+  capsys.readouterr()
+  codes, errors, stdout = [], [], []
+  for argv in cases:
+    codes.append(command.main(list(argv)))
+    out, err = capsys.readouterr()
+    stdout.append(out)
+    errors.append(err)
+  return codes, errors, ''.join(stdout)
 
 
-def _absl_cases(module: str, cases):
-  result = _python(_ABSL_CASES.format(module=module, cases=cases))
-  assert result.returncode == 0, result.stderr[-3000:]
-  codes = [int(line.rsplit(' ', 1)[1]) for line in result.stdout.splitlines()
-           if line.startswith('CASE ')]
-  errors = [part.split('\n', 1)[1] if '\n' in part else ''
-            for part in result.stderr.split('CASE ')[1:]]
-  return codes, errors, result.stdout
-
-
-def test_eval_help_and_usage_errors():
+def test_eval_help_and_usage_errors(capsys):
   cases = [['--help'], ['--agent=nope'],
            ['--agent=latex_random', '--suite=latex_tinyy'],
            ['--agent=latex_random', '--gin_file=nope.gin'],
@@ -63,7 +62,7 @@ def test_eval_help_and_usage_errors():
            ['--agent=latex_random', '--env_name=Nope-v0'],
            ['--nope'],
            ['--agent=latex_random', '--checkpoint_idx=3']]
-  codes, errors, stdout = _absl_cases('eval', cases)
+  codes, errors, stdout = _absl_cases('eval', cases, capsys)
   assert codes == [0, 2, 2, 2, 2, 2, 2, 2]
   for flag in ('--agent', '--suite', '--output_dir', '--checkpoint_dir',
                '--gin_bindings', '--max_episode_length'):
@@ -80,7 +79,7 @@ def test_eval_help_and_usage_errors():
   assert '--checkpoint_dir and --checkpoint_idx' in errors[7]
 
 
-def test_sweep_and_ray_eval_usage_errors(tmp_path):
+def test_sweep_and_ray_eval_usage_errors(tmp_path, capsys):
   space = tmp_path / 'space.json'
   space.write_text('{"bindings": {"sac_trainer_config.gamma": {"normal": 1}}}')
   d = f'--sweep_dir={tmp_path}/sweep'
@@ -91,7 +90,7 @@ def test_sweep_and_ray_eval_usage_errors(tmp_path):
            [d, '--grid=sac_trainer_config.gamma=0.9', '--seeds=0,0'],
            [d, '--grid=sac_trainer_config.gamma=0.9',
             '--ray_address=127.0.0.1:9']]
-  codes, errors, stdout = _absl_cases('sweep', cases)
+  codes, errors, stdout = _absl_cases('sweep', cases, capsys)
   assert codes == [0] + [2] * 7
   for flag in ('--sweep_dir', '--space', '--grid', '--seeds', '--asha',
                '--ray_address'):
@@ -108,18 +107,17 @@ def test_sweep_and_ray_eval_usage_errors(tmp_path):
   codes, errors, _ = _absl_cases('eval', [
       ['--agent=latex_random', '--ray_address=nowhere'],
       ['--agent=latex_random', '--ray_num_cpus=2'],
-      ['--agent=latex_random', '--ray_address=127.0.0.1:9']])
+      ['--agent=latex_random', '--ray_address=127.0.0.1:9']], capsys)
   assert codes == [2, 2, 2]
   assert 'HOST:PORT' in errors[0] and '--ray_address=local' in errors[1]
   assert 'cannot reach the Ray cluster' in errors[2]
 
 
-@pytest.mark.slow
-def test_train_and_export_policy_help_and_usage_errors():
+def test_train_and_export_policy_help_and_usage_errors(capsys):
   codes, errors, stdout = _absl_cases(
       'train', [['--help'], ['--agent=sac'],
                 ['--base_dir=/tmp/x', '--agent=nope'],
-                ['--base_dir=/tmp/x', '--collectors=nope']])
+                ['--base_dir=/tmp/x', '--collectors=nope']], capsys)
   assert codes == [0, 2, 2, 2]
   assert '--base_dir' in stdout and '--episodes_per_iteration' in stdout
   assert 'base_dir' in errors[1] and 'dqn' in errors[2]
@@ -135,7 +133,7 @@ def test_train_and_export_policy_help_and_usage_errors():
                  '--validation_episodes=101'],
                 ['--base_dir=/tmp/x', '--trainer=nope'],
                 ['--base_dir=/tmp/x', '--trainer=jax', '--vmap_seeds'],
-                ['--base_dir=/tmp/x', '--seeds=0,1', '--vmap_seeds']])
+                ['--base_dir=/tmp/x', '--seeds=0,1', '--vmap_seeds']], capsys)
   assert codes == [2] * 8
   assert 'episodes_per_iteration is not used by --trainer=jax' in errors[0]
   assert '--agent=sac' in errors[1]
@@ -143,7 +141,8 @@ def test_train_and_export_policy_help_and_usage_errors():
   assert 'validation_episodes' in errors[4] and 'trainer' in errors[5]
   assert all('--vmap_seeds needs --trainer=jax and --seeds' in e
              for e in errors[6:])
-  codes, errors, stdout = _absl_cases('export_policy', [['--help'], []])
+  codes, errors, stdout = _absl_cases('export_policy', [['--help'], []],
+                                      capsys)
   assert codes == [0, 2]
   assert '--checkpoint' in stdout and '--output' in stdout
   assert errors[1].startswith('ble-latex-export-policy: ')
@@ -241,7 +240,7 @@ def _one_error_line(stderr: str, prog: str) -> str:
   return lines[0]
 
 
-def test_eval_refused_input_is_one_line(tmp_path):
+def test_eval_refused_input_is_one_line(tmp_path, capsys):
   a_file = tmp_path / 'a_file'
   a_file.write_text('')
   truncated = tmp_path / 'truncated.msgpack'
@@ -263,7 +262,7 @@ def test_eval_refused_input_is_one_line(tmp_path):
       ['--agent=sac_pretrained', *short,
        f"--gin_bindings=SACPretrainedAgent.policy_path = '{truncated}'"],
   ]
-  codes, errors, _ = _absl_cases('eval', cases)
+  codes, errors, _ = _absl_cases('eval', cases, capsys)
   assert codes == [2, 2, 1, 1, 2, 2, 1, 1]
   lines = [_one_error_line(e, 'ble-latex-eval') for e in errors]
   for line, agent in zip(lines[:2], ('station_seeker', 'dqn')):
