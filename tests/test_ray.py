@@ -16,6 +16,7 @@ import pytest
 
 ray = pytest.importorskip('ray')
 
+from ble_latex.cli import sweep as sweep_command  # noqa: E402
 from ble_latex.run import distributed  # noqa: E402
 from ble_latex.run import eval_lib  # noqa: E402
 from ble_latex.run import sweep_lib  # noqa: E402
@@ -210,7 +211,7 @@ def _episode_seeds(run_dir):
     return [json.loads(line)['seed'] for line in f]
 
 
-def test_sweep_directory_has_one_driver(tmp_path):
+def test_sweep_directory_has_one_driver(tmp_path, capsys):
   """A sweep directory another driver holds: `run` and `ble-latex-sweep`
   refuse it (exit status 1, one line naming the holder), before Ray starts
   and before sweep.json is written."""
@@ -223,13 +224,15 @@ def test_sweep_directory_has_one_driver(tmp_path):
   with sweep_lib.lock(settings):
     with pytest.raises(safe_io.InUseError, match=message):
       sweep_lib.run(settings)
-    result = _sweep(sweep_dir, '--grid=sac_trainer_config.gamma=0.9',
-                    '--num_iterations=2', timeout=600)
-  assert result.returncode == 1, result.stderr[-3000:]
-  last = result.stderr.splitlines()[-1]
-  assert last.startswith(f'ble-latex-sweep: {message}'), result.stderr[-3000:]
-  assert last.endswith('; one writer per sweep directory')
-  assert 'Traceback' not in result.stderr
+    capsys.readouterr()
+    status = sweep_command.main([
+        f'--sweep_dir={sweep_dir}', *_TINY_TRIALS,
+        '--grid=sac_trainer_config.gamma=0.9', '--num_iterations=2'])
+  err = capsys.readouterr().err
+  assert status == 1, err[-3000:]
+  (line,) = err.splitlines()
+  assert line.startswith(f'ble-latex-sweep: {message}'), err[-3000:]
+  assert line.endswith('; one writer per sweep directory')
   assert os.listdir(sweep_dir) == [safe_io.LOCK_FILE]
 
 
