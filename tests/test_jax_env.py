@@ -537,3 +537,20 @@ def test_normalized_actions_are_the_one_to_box_mapping():
 def gymnasium_box(low, high):
   import gymnasium  # pylint: disable=g-import-not-at-top
   return gymnasium.spaces.Box(low, high, (3,), np.float32)
+
+
+def test_equal_envs_share_one_compiled_function():
+  """Envs are compared by value (wind, action convention), so a function
+  jitted with the env static compiles once for equal envs (e.g. two
+  training runs in one process)."""
+  a, b = jax_env.LatexBalloonJaxEnv(), jax_env.LatexBalloonJaxEnv()
+  raw = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  assert a == b and hash(a) == hash(b) and a != raw
+
+  @functools.partial(jax.jit, static_argnums=0)
+  def low(env, x):
+    return x + env.action_low[0]
+
+  for env in (a, b, raw):
+    low(env, 1.0)
+  assert low._cache_size() == 2  # pylint: disable=protected-access

@@ -685,6 +685,19 @@ class LatexBalloonJaxEnv:
     self.wind = wind
     self.normalize_actions = bool(normalize_actions)
 
+  # Equal envs are one static jit argument: a jitted function of the env
+  # (the trainer's round, the planners) compiles once per process, not once
+  # per env object.
+  def _key(self) -> Tuple[Any, ...]:
+    return type(self), self.wind, self.normalize_actions
+
+  def __eq__(self, other: Any) -> bool:
+    return (isinstance(other, LatexBalloonJaxEnv) and
+            self._key() == other._key())
+
+  def __hash__(self) -> int:
+    return hash(self._key())
+
   def env_action(self, normalized: Array) -> Array:
     """What to give `step`/`step_env` for a [-1, 1]^3 action (`to_box`'d
     here if this env takes raw actions; the env maps it otherwise)."""
