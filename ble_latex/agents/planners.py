@@ -61,6 +61,8 @@ from ble_latex.wind import simplex
 Array = jax.Array
 FORECAST, ORACLE, GRADIENT = 'forecast', 'oracle', 'gradient'
 MODES = (FORECAST, ORACLE, GRADIENT)
+CEM, BEAM = 'cem', 'beam'
+SEARCHES = (CEM, BEAM)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -112,6 +114,9 @@ class PlannerConfig:
       same K for every plan of a decision: never the flight's noise), each
       corrected near the balloon to the wind it measures (as the forecast
       is). ORACLE ignores it (it flies the one true wind).
+    search: CEM (the cross-entropy method over whole plans) or BEAM (a
+      beam search over the plan's segments, `beam_search`).
+    beam_width: BEAM: partial plans kept after each segment.
   """
   mode: str = FORECAST
   num_samples: int = 256
@@ -143,6 +148,8 @@ class PlannerConfig:
   grad_step_m: float = 150.0
   grid_levels: int = 15
   scenarios: int = 0
+  search: str = CEM
+  beam_width: int = 32
 
   def checked(self) -> 'PlannerConfig':
     """This config with its values checked (one line per bad value).
@@ -189,6 +196,17 @@ class PlannerConfig:
                   'wind_correction_hours'):
       gin_values.check_number(name(field), getattr(self, field), minimum=0.0)
     gin_values.check_bool(name('plan_float'), self.plan_float)
+    gin_values.require(self.search in SEARCHES, name('search'),
+                       f'one of {SEARCHES}', self.search)
+    gin_values.check_int(name('beam_width'), self.beam_width, minimum=1)
+    if self.search == BEAM:
+      gin_values.require(
+          self.horizon % self.num_segments == 0, name('num_segments'),
+          f'a divisor of horizon ({self.horizon}) for search={BEAM!r}',
+          self.num_segments)
+      gin_values.require(self.grid_levels >= 1, name('grid_levels'),
+                         f'>= 1 for search={BEAM!r} (its choices)',
+                         self.grid_levels)
     return self
 
   @property
@@ -333,10 +351,7 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
   """
   f0 = state.flight
   actions = plan_actions(config, targets_m, floats)
-  # Realistic physics' free-lift random walk is a disturbance no controller
-  # foresees: plans fly the expected dynamics (the walk so far held, no new
-  # steps); the sun, overpressure, drag and burst are flown as they are.
-  flight = params.flight.replace(lift_walk=False)
+  flight = _planned_flight(params)
 
   def stride(f, action):
     f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,
@@ -344,24 +359,84 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
     return f, (jnp.hypot(f.x_m, f.y_m) / 1000.0, f.status)
 
   f_end, (distance_km, status) = jax.lax.scan(stride, f0, actions)
-  dtype = distance_km.dtype
   t = jnp.arange(config.horizon)
+  value = jnp.sum(_stride_values(config, params, state, distance_km, status,
+                                 t))
   left = params.episode_steps - state.steps  # Strides left in the episode.
-  alive = (status == state_lib.FlightStatus.OK) & (t < left)
+  # The plan's last stride inside the episode.
+  last = jnp.clip(jnp.minimum(left, config.horizon) - 1, 0, config.horizon - 1)
+  # The flight ended inside the plan (before the episode's end).
+  ended = status[last] != state_lib.FlightStatus.OK
+  return _total(value, _end_terms(config, params, state, f_end,
+                                  distance_km[last], ended))
+
+
+def _total(value: Array, end_terms: Tuple[Array, Array, Array]) -> Array:
+  """The objective: value + progress - resource cost - terminal cost."""
+  progress, cost, terminal = end_terms
+  return value + progress - cost - terminal
+
+
+def _planned_flight(params: jax_env.EnvParams) -> Any:
+  """The flight system plans fly: the expected dynamics.
+
+  Realistic physics' free-lift random walk is a disturbance no controller
+  foresees: plans fly the walk so far held, no new steps; the sun,
+  overpressure, drag and burst are flown as they are.
+  """
+  return params.flight.replace(lift_walk=False)
+
+
+def _stride_values(config: PlannerConfig, params: jax_env.EnvParams,
+                   state: jax_env.EnvState, distance_km: Array,
+                   status: Array, t: Array) -> Array:
+  """The objective's per-stride terms: discount^t (in-radius + shaping).
+
+  Args:
+    config: The planner (radius, shaping, discount).
+    params: The env parameters (episode_steps).
+    state: The state the plan starts from (its `steps`).
+    distance_km: Distances to the station after strides t. # [km]
+    status: `FlightStatus` after strides t.
+    t: Stride indices in the plan (0 is the first).
+
+  Returns:
+    The terms (0 where the flight has ended or the episode is over).
+  """
+  alive = ((status == state_lib.FlightStatus.OK) &
+           (t < params.episode_steps - state.steps))
   within = jax.nn.sigmoid((config.radius_km - distance_km) /
                           config.radius_width_km)
   shaping = config.shaping * jnp.exp2(-distance_km / config.halflife_km)
-  value = jnp.sum(jnp.where(alive, config.discount ** t * (within + shaping),
-                            0.0).astype(dtype))
+  return jnp.where(alive, config.discount ** t * (within + shaping),
+                   0.0).astype(distance_km.dtype)
+
+
+def _end_terms(config: PlannerConfig, params: jax_env.EnvParams,
+               state: jax_env.EnvState, f_end: Any, d_end_km: Array,
+               ended: Array) -> Tuple[Array, Array, Array]:
+  """Progress, resource cost and terminal cost of a (partial) plan.
+
+  Args:
+    config: The planner (progress, costs).
+    params: The env parameters (launch sand, episode length).
+    state: The state the plan starts from.
+    f_end: The flight where the plan (so far) ends.
+    d_end_km: Its distance at the last stride inside the episode. # [km]
+    ended: Whether the flight ended (before the episode's end).
+
+  Returns:
+    (progress * (d_0 - d_end) / R, cost, terminal_cost * ended).
+  """
+  f0 = state.flight
+  dtype = d_end_km.dtype
   d0 = jnp.hypot(f0.x_m, f0.y_m) / 1000.0
-  # The plan's last stride inside the episode.
-  last = jnp.clip(jnp.minimum(left, config.horizon) - 1, 0, config.horizon - 1)
-  d_end = distance_km[last]
-  value = value + config.progress * (d0 - d_end) / config.radius_km
+  progress = config.progress * (d0 - d_end_km) / config.radius_km
   # Resource margins as a fraction of the launch sand (both start near it).
   initial = jnp.maximum(params.flight.initial_sand_kg, 1e-3)
   sand_margin = jnp.maximum(f0.sand_kg - params.flight.min_drop_kg, 0.0)
   helium_margin = jnp.maximum(f0.free_lift_kg + f0.sand_kg, 0.0)
+  left = params.episode_steps - state.steps
   time_left = jnp.clip(left / params.episode_steps, 0.0, 1.0)
   dropped = f_end.sand_dropped_kg - f0.sand_dropped_kg
   vented = (f_end.helium_vented_mols - f0.helium_vented_mols) * (
@@ -369,9 +444,100 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
   cost = time_left * (
       config.sand_cost * dropped / jnp.maximum(sand_margin / initial, 0.05) +
       config.helium_cost * vented / jnp.maximum(helium_margin / initial, 0.05))
-  # The flight ended inside the plan (before the episode's end).
-  ended = status[last] != state_lib.FlightStatus.OK
-  return value - cost - config.terminal_cost * ended.astype(dtype)
+  return progress, cost, config.terminal_cost * ended.astype(dtype)
+
+
+def beam_search(config: PlannerConfig, params: jax_env.EnvParams,
+                state: jax_env.EnvState, wind_fn: Callable[..., Any]
+                ) -> Tuple[Array, Array]:
+  """Plans segment by segment, keeping the `beam_width` best partial plans.
+
+  Each segment (horizon / num_segments strides) of each kept plan is
+  extended by every choice: "go to level k and stay" for the `grid_levels`
+  altitudes over [altitude_low_m, altitude_high_m], and "float" (when
+  `plan_float`). A partial plan is scored by the objective as if it ended
+  there (its strides' terms, plus progress and costs so far); the best
+  `beam_width` children are kept. Tree search over the whole horizon, where
+  CEM samples whole plans: the choices late in a plan are searched from
+  the states that the early ones reach.
+
+  Args:
+    config: The planner (search=BEAM; horizon divisible by num_segments).
+    params: The env parameters.
+    state: The balloon's env state the plans start from.
+    wind_fn: The wind plans are flown in (`planning_wind`).
+
+  Returns:
+    [beam_width, num_segments] targets a0 [m] and float flags a2 of the
+    final beam (score them with `objective`).
+  """
+  m, width = config.num_segments, config.beam_width
+  length = config.horizon // m
+  f0 = state.flight
+  dtype = f0.altitude_m.dtype
+  h = jnp.clip(f0.altitude_m, config.altitude_low_m, config.altitude_high_m)
+  levels = jnp.linspace(config.altitude_low_m, config.altitude_high_m,
+                        config.grid_levels, dtype=dtype)
+  stay = -jnp.ones((config.grid_levels,), dtype)
+  if config.plan_float:
+    choice_targets = jnp.concatenate([levels, h[None]])
+    choice_floats = jnp.concatenate([stay, jnp.ones((1,), dtype)])
+  else:
+    choice_targets, choice_floats = levels, stay
+  c = choice_targets.shape[0]
+  flight = _planned_flight(params)
+  left = params.episode_steps - state.steps
+
+  def fly(f, target, flag):
+    action = jnp.stack([target, jnp.asarray(config.time_factor, dtype), flag])
+
+    def stride(f, _):
+      f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,
+                        params.stride_s)
+      return f, (jnp.hypot(f.x_m, f.y_m) / 1000.0, f.status)
+
+    return jax.lax.scan(stride, f, None, length=length)
+
+  def segment(beam, j):
+    flights, value, d_last, ended, score, targets, floats = beam
+    parent = jnp.repeat(jnp.arange(width), c)
+    choice = jnp.tile(jnp.arange(c), width)
+    f, (distance_km, status) = jax.vmap(fly)(
+        jax.tree.map(lambda a: a[parent], flights), choice_targets[choice],
+        choice_floats[choice])
+    t = j * length + jnp.arange(length)
+    value = value[parent] + jnp.sum(jax.vmap(
+        lambda d, s: _stride_values(config, params, state, d, s, t))(
+            distance_km, status), axis=-1)
+    # The last stride inside the episode (none: the parent's values hold).
+    inside = t < left
+    last = jnp.clip(jnp.sum(inside) - 1, 0, length - 1)
+    d_last = jnp.where(inside.any(), distance_km[:, last], d_last[parent])
+    ended = jnp.where(inside.any(),
+                      status[:, last] != state_lib.FlightStatus.OK,
+                      ended[parent])
+    scores = _total(value, jax.vmap(
+        lambda f, d, e: _end_terms(config, params, state, f, d, e))(
+            f, d_last, ended))
+    scores = jnp.where(jnp.isfinite(scores) & (score[parent] > -jnp.inf),
+                       scores, -jnp.inf)
+    score, keep = jax.lax.top_k(scores, width)
+    source = parent[keep]
+    targets = targets[source].at[:, j].set(choice_targets[choice[keep]])
+    floats = floats[source].at[:, j].set(choice_floats[choice[keep]])
+    beam = (jax.tree.map(lambda a: a[keep], f), value[keep], d_last[keep],
+            ended[keep], score, targets, floats)
+    return beam, None
+
+  d0 = jnp.hypot(f0.x_m, f0.y_m) / 1000.0
+  # One root: the other rows start at -inf and their children are dropped.
+  beam0 = (jax.tree.map(lambda a: jnp.broadcast_to(a, (width,) + a.shape), f0),
+           jnp.zeros((width,), dtype), jnp.full((width,), d0, dtype),
+           jnp.zeros((width,), bool),
+           jnp.full((width,), -jnp.inf, dtype).at[0].set(0.0),
+           jnp.broadcast_to(h, (width, m)), -jnp.ones((width, m), dtype))
+  beam, _ = jax.lax.scan(segment, beam0, jnp.arange(m))
+  return beam[5], beam[6]
 
 
 def initial_plan(config: PlannerConfig, state: jax_env.EnvState) -> Plan:
@@ -494,12 +660,25 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
                         candidate, best)
     return (mean, std, float_p, best), (targets, floats, scores)
 
-  std0 = jnp.full((m,), config.init_std_m, dtype)
-  best0 = (warm.targets_m, warm.floats, jnp.asarray(-jnp.inf, dtype))
-  keys = jax.random.split(key, config.iterations)
-  (mean, std, float_p, best), (targets, floats, scores) = jax.lax.scan(
-      iteration, (warm.mean_m, std0, warm.float_p, best0), keys)
-  del std
+  if config.search == BEAM:
+    # The final beam, the warm start and "float here", scored exactly.
+    targets, floats = beam_search(config, params, state,
+                                  planning_wind(config, wind, measured))
+    targets = jnp.concatenate([targets, fixed_targets])[None]
+    floats = jnp.concatenate([floats, fixed_floats])[None]
+    scores = scores_of(targets[0], floats[0])
+    scores = jnp.where(jnp.isfinite(scores), scores, -jnp.inf)[None]
+    i = jnp.argmax(scores[0])
+    best = (targets[0, i], floats[0, i], scores[0, i])
+    mean = best[0]
+    float_p = jnp.clip(jnp.where(best[1] > 0.0, 1.0, 0.0), 0.05, 0.95)
+  else:
+    std0 = jnp.full((m,), config.init_std_m, dtype)
+    best0 = (warm.targets_m, warm.floats, jnp.asarray(-jnp.inf, dtype))
+    keys = jax.random.split(key, config.iterations)
+    (mean, std, float_p, best), (targets, floats, scores) = jax.lax.scan(
+        iteration, (warm.mean_m, std0, warm.float_p, best0), keys)
+    del std
   if config.mode == GRADIENT and config.grad_starts and config.grad_steps:
     # Refine the best samples of the last iteration by gradient ascent.
     order = jnp.argsort(-scores[-1])[:config.grad_starts]
