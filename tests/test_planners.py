@@ -155,15 +155,49 @@ def test_altitude_grid_plans_are_scored(world):
     _config(num_samples=1)
 
 
-@pytest.mark.parametrize('scenarios', [0, 2])
-def test_forecast_mpc_never_reads_the_noise(world, scenarios):
+def test_beam_as_wide_as_the_tree_finds_the_best_plan(world):
+  """Two segments, three choices each (low, high, float) and a beam of 9:
+  the search is exhaustive, so its plan is the best of the 9 plans."""
+  _, params, states = world
+  config = _config(search=planners.BEAM, beam_width=9, grid_levels=2,
+                   grad_starts=0)
+  state = jax.tree.map(lambda a: a[0], states[0])
+  best = jax.tree.map(lambda a: a[0], _plan(config, params, states[0]))
+  low, high = config.altitude_low_m, config.altitude_high_m
+  wind_fn = planners.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  blind = planners.blind(state)
+  h = float(jnp.clip(state.flight.altitude_m, low, high))
+  choices = [(low, -1.0), (high, -1.0), (h, 1.0)]
+  scores = {(a, b): float(planners.objective(
+      config, params, blind, wind_fn, jnp.asarray([a[0], b[0]]),
+      jnp.asarray([a[1], b[1]]))) for a in choices for b in choices}
+  top = max(scores, key=scores.get)
+  assert float(best.score) == pytest.approx(scores[top], rel=1e-6)
+  assert len(set(round(v, 6) for v in scores.values())) > 1  # Not all tied.
+  # A narrower beam keeps fewer partial plans: never a better plan.
+  narrow = jax.tree.map(lambda a: a[0], _plan(
+      _config(search=planners.BEAM, beam_width=1, grid_levels=2,
+              grad_starts=0), params, states[0]))
+  assert float(narrow.score) <= float(best.score) + 1e-6
+  with pytest.raises(errors.ConfigError, match='divisor of horizon'):
+    _config(search=planners.BEAM, horizon=4, num_segments=3)
+  with pytest.raises(errors.ConfigError, match='grid_levels'):
+    _config(search=planners.BEAM, grid_levels=0)
+  with pytest.raises(errors.ConfigError, match='search'):
+    _config(search='bfs')
+
+
+@pytest.mark.parametrize('scenarios, search', [
+    (0, planners.CEM), (2, planners.CEM), (0, planners.BEAM)])
+def test_forecast_mpc_never_reads_the_noise(world, scenarios, search):
   """Another flight's noise, same forecast and measurement: same plan (also
-  when plans are scored over noise scenarios the planner draws itself)."""
+  when plans are scored over noise scenarios the planner draws itself, and
+  when they are searched by a beam)."""
   _, params, (state, other) = world
   swapped = state.replace(noise_u=other.noise_u, noise_v=other.noise_v)
   assert any(not np.array_equal(a, b) for a, b in zip(
       jax.tree.leaves(state.noise_u), jax.tree.leaves(other.noise_u)))
-  config = _config(scenarios=scenarios)
+  config = _config(scenarios=scenarios, search=search)
   plan = _plan(config, params, state)
   jax.tree.map(np.testing.assert_array_equal, plan,
                _plan(config, params, swapped))

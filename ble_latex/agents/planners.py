@@ -31,6 +31,13 @@ of the launch sand margin left and scaled by the fraction of the episode
 left: spending is cheap at the end and dear when little is left), minus a
 terminal cost where the plan ends the flight.
 
+Plans are searched by CEM (`search='cem'`: whole plans sampled around a
+distribution refit to the best) or by a beam search (`search='beam'`,
+`beam_search`: the plan built segment by segment from a fixed set of
+choices, keeping the `beam_width` best partial plans). Either way the fixed
+altitude grid, the warm start and "float here" are scored too, and the best
+plan by `objective` is flown.
+
 The pure functions (`plan`, `plan_batch`, `objective`) take the env's
 `EnvState` of one balloon (vmap them over balloons: `plan_batch`); the agent
 classes are thin BLE `Agent`s that read the core state of the env they fly
@@ -977,8 +984,9 @@ LatexMpcAgent = _configurable(
     'CEM MPC on the forecast (agent latex_mpc); never reads the noise.')
 LatexMpcOracleAgent = _configurable(
     'LatexMpcOracleAgent', ORACLE,
-    'CEM MPC on the true wind (agent latex_mpc_oracle): an upper bound.',
-    num_samples=128, iterations=3, horizon=36, num_segments=6)
+    'Beam-search MPC on the true wind (agent latex_mpc_oracle): an upper '
+    'bound.',
+    search=BEAM, num_samples=128, iterations=3, horizon=36, num_segments=6)
 LatexMpcGradAgent = _configurable(
     'LatexMpcGradAgent', GRADIENT,
     'First-order MPC on the forecast (agent latex_mpc_grad).',
