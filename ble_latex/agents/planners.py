@@ -356,16 +356,9 @@ def objective(config: PlannerConfig, params: jax_env.EnvParams,
     The objective (a scalar, higher is better): discounted in-radius value
     plus shaping and progress, minus resource and terminal costs.
   """
-  f0 = state.flight
   actions = plan_actions(config, targets_m, floats)
-  flight = _planned_flight(params)
-
-  def stride(f, action):
-    f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,
-                      params.stride_s)
-    return f, (jnp.hypot(f.x_m, f.y_m) / 1000.0, f.status)
-
-  f_end, (distance_km, status) = jax.lax.scan(stride, f0, actions)
+  f_end, (distance_km, status) = _fly(params, state, wind_fn, state.flight,
+                                      actions)
   t = jnp.arange(config.horizon)
   value = jnp.sum(_stride_values(config, params, state, distance_km, status,
                                  t))
@@ -384,14 +377,27 @@ def _total(value: Array, end_terms: Tuple[Array, Array, Array]) -> Array:
   return value + progress - cost - terminal
 
 
-def _planned_flight(params: jax_env.EnvParams) -> Any:
-  """The flight system plans fly: the expected dynamics.
+def _fly(params: jax_env.EnvParams, state: jax_env.EnvState,
+         wind_fn: Callable[..., Any], f: Any, actions: Array
+         ) -> Tuple[Any, Tuple[Array, Array]]:
+  """Flies `actions` ([T, 3], one per stride) from flight `f` on the core.
 
-  Realistic physics' free-lift random walk is a disturbance no controller
-  foresees: plans fly the walk so far held, no new steps; the sun,
-  overpressure, drag and burst are flown as they are.
+  Plans fly the expected dynamics: realistic physics' free-lift random walk
+  is a disturbance no controller foresees, so the walk so far is held, with
+  no new steps; the sun, overpressure, drag and burst are flown as they are.
+
+  Returns:
+    The flight after the last stride, and per stride its distance to the
+    station [km] and its `FlightStatus`.
   """
-  return params.flight.replace(lift_walk=False)
+  flight = params.flight.replace(lift_walk=False)
+
+  def stride(f, action):
+    f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,
+                      params.stride_s)
+    return f, (jnp.hypot(f.x_m, f.y_m) / 1000.0, f.status)
+
+  return jax.lax.scan(stride, f, actions)
 
 
 def _stride_values(config: PlannerConfig, params: jax_env.EnvParams,
@@ -492,18 +498,12 @@ def beam_search(config: PlannerConfig, params: jax_env.EnvParams,
   else:
     choice_targets, choice_floats = levels, stay
   c = choice_targets.shape[0]
-  flight = _planned_flight(params)
   left = params.episode_steps - state.steps
 
   def fly(f, target, flag):
     action = jnp.stack([target, jnp.asarray(config.time_factor, dtype), flag])
-
-    def stride(f, _):
-      f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,
-                        params.stride_s)
-      return f, (jnp.hypot(f.x_m, f.y_m) / 1000.0, f.status)
-
-    return jax.lax.scan(stride, f, None, length=length)
+    return _fly(params, state, wind_fn, f,
+                jnp.broadcast_to(action, (length, 3)))
 
   def segment(beam, j):
     flights, value, d_last, ended, score, targets, floats = beam
