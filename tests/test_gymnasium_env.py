@@ -5,14 +5,17 @@ import logging
 import os
 import subprocess
 import sys
+import threading
 import warnings
 
 import gym
 import gymnasium
 from gymnasium.utils import env_checker as gymnasium_checker
+import jax
 import numpy as np
 import pytest
 
+from ble_latex import jax_cache
 from ble_latex.ble import gymnasium_discrete
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import gymnasium_registration
@@ -612,3 +615,49 @@ def test_params_from_gin_without_the_gym_modules():
   assert lines[-2].split() == ['7', '16000.0', '17000.0', '100.0', '2.5',
                                '0.5', '0.3']
   assert lines[-1] == 'refused: True'
+
+
+# -- Compilation (issue 26). --------------------------------------------------
+def _fresh_env():
+  """A single env whose programs are new to jit (compiled by this test)."""
+  env = gymnasium_env.LatexBalloonGymnasiumEnv()
+  env._fns = gymnasium_env._Compiled(  # pylint: disable=protected-access
+      jax_env.LatexBalloonJaxEnv(normalize_actions=False), batched=False)
+  return env
+
+
+@pytest.mark.skipif(jax.default_backend() != 'cpu', reason='CPU options')
+def test_programs_compile_with_the_fast_cpu_options(monkeypatch):
+  monkeypatch.setattr(jax_cache, 'CPU_FAST_COMPILE',
+                      {'ble_latex_no_such_option': True})
+  env = _fresh_env()
+  key = jax_env.arena_key(jax.random.PRNGKey(0))
+  with pytest.raises(Exception, match='ble_latex_no_such_option'):
+    env._fns.draw.lower(key, env.params).compile()  # pylint: disable=protected-access
+
+
+def test_first_reset_compiles_start_and_step_ahead_once():
+  compiles = []
+
+  def listen(event, seconds, **kwargs):
+    del seconds
+    if event == '/jax/core/compile/backend_compile_duration':
+      compiles.append((str(kwargs.get('fun_name')),
+                       threading.current_thread().name))
+
+  env = _fresh_env()
+  jax.monitoring.register_event_duration_secs_listener(listen)
+  try:
+    env.reset(seed=0)
+    env._fns.wait('step')  # pylint: disable=protected-access
+    before_step = list(compiles)
+    env.step(np.array([16_000.0, 1.0, 0.0], np.float32))
+  finally:
+    jax.monitoring.unregister_event_duration_listener(listen)
+  programs = {name: [t for f, t in compiles if f == f'jit({name})']
+              for name in ('draw', 'start', 'step')}
+  assert programs['draw'] == ['MainThread'], compiles
+  assert len(programs['start']) == 1, compiles
+  assert len(programs['step']) == 1, compiles
+  assert programs['step'][0].startswith('ble_latex-compile'), compiles
+  assert compiles == before_step, 'the first step compiled again'

@@ -48,6 +48,7 @@ The ids are registered with gymnasium by `ble_latex.envs.gymnasium_registration`
 when `ble_latex` is imported.
 """
 
+import concurrent.futures
 import datetime as dt
 import functools
 import os
@@ -320,10 +321,16 @@ class _Compiled:
   `step(state, actions, params)` returns (changed state parts, packed (obs,
   reward, terminated, step_info, flight)); `unpack(name, packed)` splits a
   packed array on the host.
+
+  A first reset compiles all three: `ahead` compiles `start` and `step` in
+  a background thread while the caller's `draw` compiles (XLA compiles
+  without holding the GIL), and `wait(name)` blocks until that compile has
+  ended (the call then finds the program in jit's cache).
   """
 
   def __init__(self, env: jax_env.LatexBalloonJaxEnv, batched: bool):
     self._layouts: Dict[str, _Layout] = {}
+    self._ahead: Dict[Tuple[int, ...], Tuple[Any, Dict[str, Any]]] = {}
 
     def over(fn, in_axes):
       return jax.vmap(fn, in_axes=in_axes) if batched else fn
@@ -350,12 +357,56 @@ class _Compiled:
       return parts, pack('step', (obs, reward, terminated, info,
                                   state.flight), reward.shape)
 
-    self.draw = jax.jit(over(env.draw, (0, None)))
-    self.start = jax.jit(start)
-    self.step = jax.jit(step)
+    jit = functools.partial(jax.jit,
+                            compiler_options=jax_cache.fast_compile_options())
+    self.draw = jit(over(env.draw, (0, None)))
+    self.start = jit(start)
+    self.step = jit(step)
 
   def unpack(self, name: str, packed: Any) -> Any:
     return self._layouts[name].unpack(packed)
+
+  def ahead(self, keys: Any, params: jax_env.EnvParams) -> None:
+    """Compiles `start` and `step` for the flights of `draw(keys, params)`.
+
+    In a background thread, once per batch shape and params object; a
+    failure there is dropped (the call itself then compiles, or raises).
+    """
+    lead = tuple(np.shape(keys))[:-1]
+    done = self._ahead.get(lead)
+    if done is not None and done[0] is params:
+      return
+    actions = jax.ShapeDtypeStruct(lead + (3,), np.float32)
+
+    def compile_start():
+      drawn, _ = jax.eval_shape(self.draw, keys, params)
+      self.start.lower(drawn, params).compile()
+      return jax.eval_shape(self.start, drawn, params)[0]
+
+    pool = _compile_pool()
+    started = pool.submit(compile_start)
+    stepped = pool.submit(
+        lambda: self.step.lower(started.result(), actions, params).compile())
+    self._ahead[lead] = (params, {'start': started, 'step': stepped})
+
+  def wait(self, name: str) -> None:
+    """Blocks until `ahead`'s compile of `name` ('start' or 'step') ended."""
+    for _, futures in self._ahead.values():
+      future = futures.get(name)
+      if future is not None:
+        concurrent.futures.wait([future])
+
+
+_pool: Optional[Tuple[int, concurrent.futures.ThreadPoolExecutor]] = None
+
+
+def _compile_pool() -> concurrent.futures.ThreadPoolExecutor:
+  """The process's compile thread (a new one in a forked child)."""
+  global _pool
+  if _pool is None or _pool[0] != os.getpid():
+    _pool = (os.getpid(), concurrent.futures.ThreadPoolExecutor(
+        max_workers=1, thread_name_prefix='ble_latex-compile'))
+  return _pool[1]
 
 
 @functools.lru_cache(maxsize=2)
@@ -563,6 +614,7 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
     time; one that chooses its own start time (ERA5's `start_date_time`)
     sets the flight's date.
     """
+    self._fns.ahead(arena_key, self.params)
     state, keys = self._fns.draw(arena_key, self.params)
     start = jax_env.START_EPOCH + dt.timedelta(
         seconds=int(state.start_time_offset_s))
@@ -570,6 +622,7 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
       self._wind_field.reset(keys['wind'], start)
       start = getattr(self._wind_field, 'start_date_time', None) or start
     self.start_date_time, self.location_key = start, keys['location']
+    self._fns.wait('start')
     self.state, packed = self._fns.start(state, self.params)
     obs, raw, flight = self._fns.unpack('start', packed)
     self._set_flight(flight, first=True)
@@ -589,6 +642,7 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
       raise RuntimeError('step() called on a finished episode; call reset().')
     if self.state is None:
       raise RuntimeError('reset() must be called before step()')
+    self._fns.wait('step')
     parts, packed = self._fns.step(self.state, box.astype(np.float32),
                                    self.params)
     self.state = self.state.replace(**parts)
@@ -787,7 +841,7 @@ class LatexBalloonVectorEnv(_Balloons, gymnasium.vector.VectorEnv):
       ValueError: A bad `seed` or any `options`; nothing is changed.
     """
     seeds = self._episode_seeds(seed, options)
-    self.state, obs, raw = self._new_flights(seeds)
+    self.state, obs, raw = self._new_flights(seeds, ahead=True)
     self.episode_seeds = np.asarray(seeds, np.int64)
     return obs, info_arrays(raw)
 
@@ -797,6 +851,7 @@ class LatexBalloonVectorEnv(_Balloons, gymnasium.vector.VectorEnv):
     box = self.box_actions(actions)
     if self.state is None:
       raise RuntimeError('reset() must be called before step()')
+    self._fns.wait('step')
     parts, packed = self._fns.step(self.state, box.astype(np.float32),
                                    self.params)
     self.state = self.state.replace(**parts)
@@ -823,10 +878,17 @@ class LatexBalloonVectorEnv(_Balloons, gymnasium.vector.VectorEnv):
     del kwargs
     self.state = None
 
-  def _new_flights(self, seeds: np.ndarray) -> Tuple[Any, np.ndarray, Any]:
-    """(state, obs, step_info) of new flights from seeds, batched."""
+  def _new_flights(self, seeds: np.ndarray, ahead: bool = False
+                   ) -> Tuple[Any, np.ndarray, Any]:
+    """(state, obs, step_info) of new flights from seeds, batched.
+
+    `ahead`: also compile this batch's `step` (`_Compiled.ahead`).
+    """
     keys = _arena_keys(jnp.asarray(np.asarray(seeds, np.uint32)))
+    if ahead:
+      self._fns.ahead(keys, self.params)
     state, _ = self._fns.draw(keys, self.params)
+    self._fns.wait('start')
     state, packed = self._fns.start(state, self.params)
     obs, raw, _ = self._fns.unpack('start', packed)
     return state, obs, raw
