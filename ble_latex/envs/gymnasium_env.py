@@ -369,25 +369,29 @@ class _Compiled:
   def ahead(self, keys: Any, params: jax_env.EnvParams) -> None:
     """Compiles `start` and `step` for the flights of `draw(keys, params)`.
 
-    In a background thread, once per batch shape and params object; a
-    failure there is dropped (the call itself then compiles, or raises).
+    Traces `draw` here (jit keeps the trace for the call that follows),
+    then compiles the two in a background thread, once per batch shape and
+    params object; a failure there is dropped (the call itself then
+    compiles, or raises).
     """
     lead = tuple(np.shape(keys))[:-1]
     done = self._ahead.get(lead)
     if done is not None and done[0] is params:
       return
-    actions = jax.ShapeDtypeStruct(lead + (3,), np.float32)
-
-    def compile_start():
+    try:
       drawn, _ = jax.eval_shape(self.draw, keys, params)
-      self.start.lower(drawn, params).compile()
-      return jax.eval_shape(self.start, drawn, params)[0]
-
+    except Exception:  # pylint: disable=broad-except
+      return  # `draw` raises it.
+    # `start` returns the drawn state without weak types (`_strong`).
+    started = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype),
+                           drawn)
+    actions = jax.ShapeDtypeStruct(lead + (3,), np.float32)
     pool = _compile_pool()
-    started = pool.submit(compile_start)
-    stepped = pool.submit(
-        lambda: self.step.lower(started.result(), actions, params).compile())
-    self._ahead[lead] = (params, {'start': started, 'step': stepped})
+    self._ahead[lead] = (params, {
+        'start': pool.submit(
+            lambda: self.start.lower(drawn, params).compile()),
+        'step': pool.submit(
+            lambda: self.step.lower(started, actions, params).compile())})
 
   def wait(self, name: str) -> None:
     """Blocks until `ahead`'s compile of `name` ('start' or 'step') ended."""
@@ -604,8 +608,8 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
     Raises:
       ValueError: A bad `seed` or any `options`; nothing is changed.
     """
-    seed = int(self._episode_seeds(seed, options)[0])
-    return self.start(jax_env.arena_key(jax.random.PRNGKey(seed)))
+    seeds = self._episode_seeds(seed, options)
+    return self.start(np.asarray(_arena_keys(seeds.astype(np.uint32)))[0])
 
   def start(self, arena_key: jax.Array) -> Tuple[np.ndarray, Dict[str, Any]]:
     """The flight of BLE's arena key (`reset(seed=s)` flies s's arena key).
@@ -918,6 +922,7 @@ class LatexBalloonVectorEnv(_Balloons, gymnasium.vector.VectorEnv):
 
 @jax.jit
 def _arena_keys(seeds: jax.Array) -> jax.Array:
+  """`jax_env.arena_key(jax.random.PRNGKey(s))` of each seed (one program)."""
   return jax.vmap(lambda s: jax_env.arena_key(jax.random.PRNGKey(s)))(seeds)
 
 

@@ -71,6 +71,7 @@ import numpy as np
 
 from ble_latex import errors
 from ble_latex import gin_values
+from ble_latex import jax_cache
 from ble_latex.envs import jax_features
 from ble_latex.envs import task
 from ble_latex.flight import atmosphere as atmosphere_lib
@@ -996,11 +997,17 @@ def start_volume_m3(flight: flight_params_lib.FlightParams,
   if helium is None:
     helium = physics.neutral_helium_mols(flight.payload_kg,
                                          flight.initial_sand_kg)
-  volume = _start_volumes(jnp.float32(helium), jnp.float32(altitude_m))
+  volume = _start_volumes_compiled()(np.float32(helium), np.float32(altitude_m))
   return float(np.max(np.asarray(volume)))
 
 
-@jax.jit
+@functools.lru_cache(maxsize=None)
+def _start_volumes_compiled() -> Callable[..., jax.Array]:
+  """`_start_volumes` jitted (with the envs' fast compile options)."""
+  return jax.jit(_start_volumes,
+                 compiler_options=jax_cache.fast_compile_options())
+
+
 def _start_volumes(helium: jax.Array, altitude_m: jax.Array) -> jax.Array:
   """`physics.volume` of `helium` at `altitude_m` per `_CHECK_ALPHAS`.
 
