@@ -29,9 +29,11 @@ test: venv
 # CleanRL-style SAC/PPO, purejaxrl PPO, RLlib PPO; each its examples/
 # script's --short run), the Ray sweep killed and resumed, and the tests that
 # start several processes (a trainer killed and resumed, a second trainer on
-# one run directory, the eval command on Ray).
+# one run directory, the eval command on Ray). XLA_FLAGS empty: compiled with
+# XLA's defaults, as users compile (`make test` uses the loop emitters, see
+# tests/conftest.py).
 test-ci: venv
-	$(PY) -m pytest -m ci
+	XLA_FLAGS= $(PY) -m pytest -m ci
 
 test-slow: venv
 	$(PY) -m pytest -m slow
