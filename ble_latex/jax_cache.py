@@ -76,13 +76,12 @@ def enable() -> Optional[str]:
   return path
 
 
-# XLA's CPU compiler options for programs that run once per episode or per
-# 20-minute step of one balloon (the Gymnasium envs' draw/start/step): the
-# loop emitters instead of the fusion emitters compile them in about half the
-# time (6.1 s -> 3.5 s for the single env's three programs, 2026-11-25,
-# `benchmarks/start_time.py`) and run as fast; values agree to ~1e-9 (not
-# bit for bit) with the default compile. Per program (`jax.jit`'s
-# `compiler_options`), not process-wide.
+# XLA's CPU compiler options for the Gymnasium envs' programs (draw, start,
+# step): the loop emitters instead of the fusion emitters compile the single
+# env's three in 3.1 s instead of 4.5 s (7.2 -> 4.4 s of CPU) and its step
+# runs as fast (`benchmarks/compile_options.py`, docs/benchmarks.md); values
+# agree with the default compile to float32 rounding (not bit for bit). Per
+# program (`jax.jit`'s `compiler_options`), not process-wide.
 CPU_FAST_COMPILE = {'xla_cpu_use_fusion_emitters': False}
 
 

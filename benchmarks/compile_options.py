@@ -1,0 +1,141 @@
+"""The Gymnasium env's three programs compiled with XLA's defaults and fast.
+
+Lowers the single env's `draw`, `start` and `step` (`gymnasium_env._Compiled`)
+jitted with XLA's defaults and with `jax_cache.CPU_FAST_COMPILE`, then
+compiles each lowering, `--repeats` rounds alternating the two (no
+persistent cache, in-process caches cleared: every compile is a real one), and records wall and process CPU seconds per
+compile, the best call of each compiled `step`, the machine's load average,
+and how far a 216-step episode's observations and rewards flown with the
+fast programs are from the default ones:
+
+  python benchmarks/compile_options.py --repeats 3 --json benchmarks/compile_options.json
+"""
+
+import argparse
+import json
+import os
+import resource
+import time
+from typing import Any, Dict
+
+import gymnasium
+import jax
+import numpy as np
+
+import ble_latex  # noqa: F401  pylint: disable=unused-import
+from ble_latex import jax_cache
+from ble_latex.envs import gymnasium_env
+from ble_latex.envs import jax_env
+
+SETS = ('XLA defaults', 'fast (jax_cache.CPU_FAST_COMPILE)')
+
+
+def _cpu_s() -> float:
+  usage = resource.getrusage(resource.RUSAGE_SELF)
+  return usage.ru_utime + usage.ru_stime
+
+
+def _episode(programs, params, seed: int = 3, steps: int = 216):
+  """Observations and rewards of one episode of fixed random actions."""
+  draw, start, step = programs
+  key = jax_env.arena_key(jax.random.PRNGKey(seed))
+  state, _ = draw(key, params)
+  state, packed = start(state, params)
+  rng = np.random.default_rng(0)
+  out = [np.asarray(packed)]
+  for _ in range(steps):
+    action = np.array([rng.uniform(14_000, 21_000), rng.uniform(0, 2),
+                       rng.uniform(-1, 1)], np.float32)
+    parts, packed = step(state, action, params)
+    state = state.replace(**parts)
+    out.append(np.asarray(packed))
+  return np.concatenate([o.ravel() for o in out]).astype(np.float64)
+
+
+def main() -> None:
+  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+  parser.add_argument('--repeats', type=int, default=3)
+  parser.add_argument('--json', default='', help='Also write the report here.')
+  args = parser.parse_args()
+  env = gymnasium.make('ble_latex/LatexBalloon-v0').unwrapped
+  params = env.params
+  core = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  fast_options = dict(jax_cache.CPU_FAST_COMPILE)
+  try:  # The same programs, jitted without the fast options.
+    jax_cache.CPU_FAST_COMPILE = {}
+    default_fns = gymnasium_env._Compiled(core, batched=False)  # pylint: disable=protected-access
+  finally:
+    jax_cache.CPU_FAST_COMPILE = fast_options
+  fast_fns = gymnasium_env._Compiled(core, batched=False)  # pylint: disable=protected-access
+  key = jax_env.arena_key(jax.random.PRNGKey(0))
+
+  def lower(fns):
+    """Fresh lowerings (a lowering keeps the program it compiled)."""
+    drawn = jax.eval_shape(fns.draw, key, params)[0]
+    started = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype),
+                           drawn)
+    return {'draw': fns.draw.lower(key, params),
+            'start': fns.start.lower(drawn, params),
+            'step': fns.step.lower(
+                started, jax.ShapeDtypeStruct((3,), np.float32), params)}
+
+  report: Dict[str, Any] = {'loadavg_before': os.getloadavg(),
+                            'jax': jax.__version__, 'repeats': args.repeats,
+                            'fast_options': fast_options,
+                            'runs': {name: [] for name in SETS}}
+  compiled = {}
+  for _ in range(args.repeats):
+    for name in SETS:
+      run = {}
+      programs = []
+      jax.clear_caches()  # A real compile every time.
+      lowered = lower(default_fns if name == SETS[0] else fast_fns)
+      for part, lowering in lowered.items():
+        wall, cpu = time.perf_counter(), _cpu_s()
+        program = lowering.compile()
+        run[part] = {'wall_s': round(time.perf_counter() - wall, 3),
+                     'cpu_s': round(_cpu_s() - cpu, 3)}
+        programs.append(program)
+      state, _ = programs[0](key, params)
+      state, _ = programs[1](state, params)
+      action = np.array([16_000.0, 1.0, 0.0], np.float32)
+      jax.block_until_ready(programs[2](state, action, params))
+      calls = []
+      for _ in range(200):
+        begun = time.perf_counter()
+        jax.block_until_ready(programs[2](state, action, params))
+        calls.append(time.perf_counter() - begun)
+      run['step_best_call_ms'] = round(1000 * min(calls), 4)
+      run['step_median_call_ms'] = round(1000 * float(np.median(calls)), 4)
+      report['runs'][name].append(run)
+      compiled[name] = programs
+      print(name, json.dumps(run), flush=True)
+  default, fast = (_episode(compiled[name], params) for name in SETS)
+  differing, worst = 0, 0.0
+  for seed in range(20):
+    seed_key = jax_env.arena_key(jax.random.PRNGKey(seed))
+    for a, b in zip(*(jax.tree.leaves(compiled[name][0](seed_key, params))
+                      for name in SETS)):
+      a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+      if not np.array_equal(a, b):
+        differing += 1
+        worst = max(worst, float(np.max(np.abs(a - b) /
+                                        np.maximum(np.abs(a), 1e-30))))
+  report['draw_leaves_differing_20_seeds'] = differing
+  report['draw_max_relative_diff'] = worst
+  report['episode_max_abs_diff'] = float(np.max(np.abs(default - fast)))
+  report['episode_bitwise_equal'] = bool(np.array_equal(default, fast))
+  report['loadavg_after'] = os.getloadavg()
+  for name, runs in report['runs'].items():
+    print(name, 'median wall s:', {
+        part: float(np.median([r[part]['wall_s'] for r in runs]))
+        for part in ('draw', 'start', 'step')})
+  print('episode: max |default - fast|', report['episode_max_abs_diff'],
+        '; draw, 20 seeds:', differing, 'leaves differ, max relative', worst)
+  if args.json:
+    with open(args.json, 'w', encoding='utf-8') as f:
+      json.dump(report, f, indent=1)
+
+
+if __name__ == '__main__':
+  main()
