@@ -5,8 +5,10 @@ jitted with XLA's defaults and with `jax_cache.CPU_FAST_COMPILE`, then
 compiles each lowering, `--repeats` rounds alternating the two (no
 persistent cache, in-process caches cleared: every compile is a real one), and records wall and process CPU seconds per
 compile, the best call of each compiled `step`, the machine's load average,
-and how far a 216-step episode's observations and rewards flown with the
-fast programs are from the default ones:
+how far a 216-step episode's observations and rewards flown with the
+fast programs are from the default ones, and (`--batch_sizes`) the vector
+env's batched step flown both ways, alternated, in balloon-steps/s (why the
+vector env keeps XLA's defaults):
 
   python benchmarks/compile_options.py --repeats 3 --json benchmarks/compile_options.json
 """
@@ -52,21 +54,47 @@ def _episode(programs, params, seed: int = 3, steps: int = 216):
   return np.concatenate([o.ravel() for o in out]).astype(np.float64)
 
 
+def _vector_speeds(core, params, batch_sizes, seconds):
+  """Batched step rates [balloon-steps/s], both ways, two alternated rounds."""
+  speeds = {}
+  for n in batch_sizes:
+    keys = gymnasium_env._arena_keys(np.arange(n, dtype=np.uint32))  # pylint: disable=protected-access
+    actions = np.tile(np.array([16_000.0, 1.0, 0.0], np.float32), (n, 1))
+    ways = dict(zip(SETS, (gymnasium_env._Compiled(core, True, fast)  # pylint: disable=protected-access
+                           for fast in (False, True))))
+    rates = {name: [] for name in SETS}
+    for _ in range(2):
+      for name, fns in ways.items():
+        state, _ = fns.draw(keys, params)
+        state, _ = fns.start(state, params)
+        jax.block_until_ready(fns.step(state, actions, params))
+        begun, strides = time.perf_counter(), 0
+        while time.perf_counter() - begun < seconds:
+          parts, packed = fns.step(state, actions, params)
+          state = state.replace(**parts)
+          jax.block_until_ready(packed)
+          strides += 1
+        rates[name].append(round(n * strides / (time.perf_counter() - begun)))
+    speeds[str(n)] = rates
+    print(f'N = {n}:', json.dumps(rates), flush=True)
+  return speeds
+
+
 def main() -> None:
   parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
   parser.add_argument('--repeats', type=int, default=3)
+  parser.add_argument('--batch_sizes', default='64,1024',
+                      help='Vector env batch sizes to time ("" for none).')
+  parser.add_argument('--seconds', type=float, default=3.0,
+                      help='Stepping time per batch size, set and round.')
   parser.add_argument('--json', default='', help='Also write the report here.')
   args = parser.parse_args()
   env = gymnasium.make('ble_latex/LatexBalloon-v0').unwrapped
   params = env.params
   core = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   fast_options = dict(jax_cache.CPU_FAST_COMPILE)
-  try:  # The same programs, jitted without the fast options.
-    jax_cache.CPU_FAST_COMPILE = {}
-    default_fns = gymnasium_env._Compiled(core, batched=False)  # pylint: disable=protected-access
-  finally:
-    jax_cache.CPU_FAST_COMPILE = fast_options
-  fast_fns = gymnasium_env._Compiled(core, batched=False)  # pylint: disable=protected-access
+  default_fns, fast_fns = (gymnasium_env._Compiled(core, False, fast)  # pylint: disable=protected-access
+                           for fast in (False, True))
   key = jax_env.arena_key(jax.random.PRNGKey(0))
 
   def lower(fns):
@@ -125,6 +153,9 @@ def main() -> None:
   report['draw_max_relative_diff'] = worst
   report['episode_max_abs_diff'] = float(np.max(np.abs(default - fast)))
   report['episode_bitwise_equal'] = bool(np.array_equal(default, fast))
+  report['vector_steps_per_s'] = _vector_speeds(
+      core, params, [int(n) for n in args.batch_sizes.split(',') if n],
+      args.seconds)
   report['loadavg_after'] = os.getloadavg()
   for name, runs in report['runs'].items():
     print(name, 'median wall s:', {

@@ -8,8 +8,8 @@ subprocesses would otherwise compile it again each time. Only this test
 session uses the directory; the package itself never turns the cache on.
 
 Unless $XLA_FLAGS is set (even empty), the suite compiles with XLA's CPU
-loop emitters (`--xla_cpu_use_fusion_emitters=false`, what the Gymnasium
-envs' own programs use, `jax_cache.CPU_FAST_COMPILE`): the default suite is
+loop emitters (`--xla_cpu_use_fusion_emitters=false`, what the single
+Gymnasium env's programs use, `jax_cache.CPU_FAST_COMPILE`): the default suite is
 compile-bound, and this takes a quarter of its CPU time off (860 s -> 650 s
 of user CPU, 7 min 52 s -> 5 min 55 s, run back to back on 2026-11-26);
 values agree with the default compile to float32 rounding, within every
