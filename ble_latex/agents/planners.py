@@ -4,8 +4,8 @@
 Three model-predictive controllers plan over `flight.dynamics.step`, the
 same core the env flies, and act through the same altitude controller:
 
-- `latex_mpc`: CEM (cross-entropy method; one iteration is random shooting)
-  on the **forecast** only. Its winds are the flight's forecast field
+- `latex_mpc`: a beam search over plans (`search='cem'`: the cross-entropy
+  method; one iteration is random shooting) on the **forecast** only. Its winds are the flight's forecast field
   (`Wind.forecast_column` at the balloon's pressure), corrected near the
   balloon by the wind it measures (the observation's measured wind, decaying
   with time and pressure away from the balloon). The noise of the flight is
@@ -981,7 +981,8 @@ def _configurable(name: str, mode: str, doc: str, **overrides: Any):
 
 LatexMpcAgent = _configurable(
     'LatexMpcAgent', FORECAST,
-    'CEM MPC on the forecast (agent latex_mpc); never reads the noise.')
+    'Beam-search MPC on the forecast (agent latex_mpc); never reads the '
+    'noise.', search=BEAM)
 LatexMpcOracleAgent = _configurable(
     'LatexMpcOracleAgent', ORACLE,
     'Beam-search MPC on the true wind (agent latex_mpc_oracle): an upper '
