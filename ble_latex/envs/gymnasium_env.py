@@ -340,7 +340,9 @@ class _Compiled:
         defaults at N = 64 and 1024, which a long run pays back).
     """
     self._layouts: Dict[str, _Layout] = {}
-    self._ahead: Dict[Tuple[int, ...], Tuple[Any, Dict[str, Any]]] = {}
+    # Batch shape -> (id of the params, futures); the id, not the params:
+    # the process-wide compiled sets must not keep an env's ERA5 grid.
+    self._ahead: Dict[Tuple[int, ...], Tuple[int, Dict[str, Any]]] = {}
 
     def over(fn, in_axes):
       return jax.vmap(fn, in_axes=in_axes) if batched else fn
@@ -383,12 +385,13 @@ class _Compiled:
 
     Traces `draw` here (jit keeps the trace for the call that follows),
     then compiles the two in a background thread, once per batch shape and
-    params object; a failure there is dropped (the call itself then
+    params object (a params object with a reused id is skipped: its calls
+    then compile); a failure there is dropped (the call itself then
     compiles, or raises).
     """
     lead = tuple(np.shape(keys))[:-1]
     done = self._ahead.get(lead)
-    if done is not None and done[0] is params:
+    if done is not None and done[0] == id(params):
       return
     try:
       drawn, _ = jax.eval_shape(self.draw, keys, params)
@@ -399,7 +402,7 @@ class _Compiled:
                            drawn)
     actions = jax.ShapeDtypeStruct(lead + (3,), np.float32)
     pool = _compile_pool()
-    self._ahead[lead] = (params, {
+    self._ahead[lead] = (id(params), {
         'start': pool.submit(
             lambda: self.start.lower(drawn, params).compile()),
         'step': pool.submit(
