@@ -3,8 +3,9 @@
 Lowers the single env's `draw`, `start` and `step` (`gymnasium_env._Compiled`)
 jitted with XLA's defaults and with `jax_cache.CPU_FAST_COMPILE`, then
 compiles each lowering, `--repeats` rounds alternating the two (no
-persistent cache, in-process caches cleared: every compile is a real one), and records wall and process CPU seconds per
-compile, the best call of each compiled `step`, the machine's load average,
+persistent cache, in-process caches cleared: every compile is a real one),
+and records wall and process CPU seconds per compile, the best call of
+each compiled `step`, the machine's load average,
 how far a 216-step episode's observations and rewards flown with the
 fast programs are from the default ones, and (`--batch_sizes`) the vector
 env's batched step flown both ways, alternated, in balloon-steps/s (why the

@@ -78,11 +78,12 @@ def enable() -> Optional[str]:
 
 # XLA's CPU compiler options for the single Gymnasium env's programs (draw,
 # start, step; the vector env's batched step runs ~10 % faster with XLA's
-# defaults and keeps them): the loop emitters instead of the fusion emitters compile the single
-# env's three in 3.1 s instead of 4.5 s (7.2 -> 4.4 s of CPU) and its step
-# runs as fast (`benchmarks/compile_options.py`, docs/benchmarks.md); values
-# agree with the default compile to float32 rounding (not bit for bit). Per
-# program (`jax.jit`'s `compiler_options`), not process-wide.
+# defaults and keeps them): with the loop emitters instead of the fusion
+# emitters the single env's three compile in 3.6 s instead of 4.8 s (5.1 s
+# instead of 7.7 s of CPU) and its step runs as fast
+# (`benchmarks/compile_options.py`, docs/benchmarks.md); values agree with
+# the default compile to float32 rounding (not bit for bit). Per program
+# (`jax.jit`'s `compiler_options`), not process-wide.
 CPU_FAST_COMPILE = {'xla_cpu_use_fusion_emitters': False}
 
 
@@ -94,4 +95,3 @@ def fast_compile_options() -> Optional[dict]:
   """
   import jax  # pylint: disable=g-import-not-at-top
   return dict(CPU_FAST_COMPILE) if jax.default_backend() == 'cpu' else None
-

@@ -9,9 +9,10 @@ session uses the directory; the package itself never turns the cache on.
 
 Unless $XLA_FLAGS is set (even empty), the suite compiles with XLA's CPU
 loop emitters (`--xla_cpu_use_fusion_emitters=false`, what the single
-Gymnasium env's programs use, `jax_cache.CPU_FAST_COMPILE`): the default suite is
-compile-bound, and this takes a quarter of its CPU time off (860 s -> 650 s
-of user CPU, 7 min 52 s -> 5 min 55 s, run back to back on 2026-11-26);
+Gymnasium env's programs use, `jax_cache.CPU_FAST_COMPILE`): the default
+suite is compile-bound, and this takes a quarter of its CPU time off
+(860 s -> 650 s of user CPU, 7 min 52 s -> 5 min 55 s, run back to back on
+2026-11-26);
 values agree with the default compile to float32 rounding, within every
 tolerance here. `make test-ci` sets XLA_FLAGS empty, so CI also runs the
 real clients compiled as users compile them.

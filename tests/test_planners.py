@@ -182,6 +182,11 @@ def test_beam_as_wide_as_the_tree_finds_the_best_plan(world):
                        [[a[1], b[1]] for a, b in pairs])
   assert float(best.score) == pytest.approx(float(max(scores)), rel=1e-6)
   assert len(set(np.round(scores, 6))) > 1  # Not all tied.
+  # A narrower beam keeps fewer partial plans: never a better plan.
+  narrow = jax.tree.map(lambda a: a[0], _plan(
+      _config(search=planners.BEAM, beam_width=1, grid_levels=2,
+              grad_starts=0), params, states[0]))
+  assert float(narrow.score) <= float(best.score) + 1e-6
   with pytest.raises(errors.ConfigError, match='divisor of horizon'):
     _config(search=planners.BEAM, horizon=4, num_segments=3)
   with pytest.raises(errors.ConfigError, match='grid_levels'):

@@ -5,7 +5,8 @@ Three model-predictive controllers plan over `flight.dynamics.step`, the
 same core the env flies, and act through the same altitude controller:
 
 - `latex_mpc`: a beam search over plans (`search='cem'`: the cross-entropy
-  method; one iteration is random shooting) on the **forecast** only. Its winds are the flight's forecast field
+  method; one iteration is random shooting) on the **forecast** only. Its
+  winds are the flight's forecast field
   (`Wind.forecast_column` at the balloon's pressure), corrected near the
   balloon by the wind it measures (the observation's measured wind, decaying
   with time and pressure away from the balloon). The noise of the flight is

@@ -409,9 +409,12 @@ class _Compiled:
             lambda: self.step.lower(started, actions, params).compile())})
 
   def wait(self, name: str) -> None:
-    """Blocks until `ahead`'s compile of `name` ('start' or 'step') ended."""
+    """Blocks until `ahead`'s compile of `name` ('start' or 'step') ended.
+
+    A compile waited for is forgotten, so later steps only look it up.
+    """
     for _, futures in self._ahead.values():
-      future = futures.get(name)
+      future = futures.pop(name, None)
       if future is not None:
         concurrent.futures.wait([future])
 
