@@ -17,7 +17,9 @@ functions), and recording whether TensorFlow was imported. The cases:
 - vector: `gymnasium.make_vec(ID, num_envs=--num_envs)` + reset + step, warm.
 
 The machine's load average (`os.getloadavg`) is recorded before and after
-each run: on a shared machine it explains most of the spread.
+each run: on a shared machine it explains most of the spread. So is each
+child's CPU time (user + system, `cpu_s`): on 2 cores a start cannot take
+less wall time than about half of it, which bounds the cold ratio.
 
   python benchmarks/start_time.py --repeats 5 --json benchmarks/start_time.json
 """
@@ -25,6 +27,7 @@ each run: on a shared machine it explains most of the spread.
 import json
 import os
 import platform
+import resource
 import subprocess
 import sys
 import tempfile
@@ -90,15 +93,19 @@ def run_once(cache_dir: Optional[str], num_envs: int = 0,
     env.update(BLE_LATEX_JAX_CACHE='1', BLE_LATEX_JAX_CACHE_DIR=cache_dir)
   code = _BLE_CHILD if ble else _CHILD.format(id=ID, num_envs=num_envs)
   load_before = os.getloadavg()
+  cpu_before = resource.getrusage(resource.RUSAGE_CHILDREN)
   start = time.perf_counter()
   result = subprocess.run(
       [sys.executable, '-c', code],
       env=env, cwd=REPO, capture_output=True, text=True, timeout=1200)
   wall = time.perf_counter() - start
+  cpu_after = resource.getrusage(resource.RUSAGE_CHILDREN)
+  cpu = (cpu_after.ru_utime + cpu_after.ru_stime -
+         cpu_before.ru_utime - cpu_before.ru_stime)
   if result.returncode != 0:
     raise RuntimeError(result.stderr[-3000:])
   out = json.loads(result.stdout.strip().splitlines()[-1])
-  out.update(process_wall_s=wall, stderr_empty=result.stderr == '',
+  out.update(process_wall_s=wall, cpu_s=cpu, stderr_empty=result.stderr == '',
              load_before=load_before[0], load_after=os.getloadavg()[0])
   return out
 
@@ -134,8 +141,10 @@ def _main(argv: Sequence[str]) -> int:
 
   def summary(rows):
     totals = sorted(r['total_s'] for r in rows)
+    cpu = sorted(r['cpu_s'] for r in rows)
     return {'min_s': totals[0], 'median_s': totals[len(totals) // 2],
             'max_s': totals[-1], 'n': len(totals),
+            'cpu_median_s': cpu[len(cpu) // 2],
             'tensorflow_imported': any(r['tensorflow_imported'] for r in rows),
             'stderr_empty': all(r['stderr_empty'] for r in rows)}
 
