@@ -41,6 +41,9 @@ flags.DEFINE_string('name_override', None, 'Name of the output files.',
                     flag_values=FLAGS)
 flags.DEFINE_integer('num_seeds', None, 'First seeds of the suite (default: '
                      'all).', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_list('seeds', None, 'These seeds of the suite only (after '
+                  '--num_seeds), e.g. a diagnostic re-flight of chosen '
+                  'flights.', flag_values=FLAGS)
 flags.DEFINE_integer('batch', 25, 'Balloons planned in one call.',
                      lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('max_episode_length', None, 'Cap on the strides.',
@@ -186,6 +189,17 @@ def _main(argv: Sequence[str]) -> int:
       action_high=jax_env.ACTION_HIGH).config
   suite = suites.get_eval_suite(FLAGS.suite)
   seeds = list(suite.seeds)[:FLAGS.num_seeds]
+  if FLAGS.seeds is not None:
+    try:
+      chosen = [int(s) for s in FLAGS.seeds]
+    except ValueError as e:
+      raise cli.CommandUsageError(f'--seeds: integers, got {FLAGS.seeds}') from e
+    missing = sorted(set(chosen) - set(seeds))
+    if missing or not chosen:
+      raise cli.CommandUsageError(
+          f'--seeds: {missing or "none given"} not among the '
+          f'{len(seeds)} seeds of {FLAGS.suite}')
+    seeds = [s for s in seeds if s in set(chosen)]
   max_steps = FLAGS.max_episode_length or suite.max_episode_length
   if FLAGS.short:
     seeds, max_steps = seeds[:2], min(max_steps, 12)
