@@ -6,6 +6,9 @@ Small configurations, compiled once per module (fixtures below).
 
 import functools
 
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -193,6 +196,58 @@ def test_beam_as_wide_as_the_tree_finds_the_best_plan(world):
     _config(search=planners.BEAM, grid_levels=0)
   with pytest.raises(errors.ConfigError, match='search'):
     _config(search='bfs')
+
+
+_best_per_cell = jax.jit(planners.best_per_cell, static_argnums=(4, 5))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(-3, 3), st.integers(-3, 3),
+                          st.integers(0, 2),
+                          st.one_of(st.floats(-5.0, 5.0, width=32),
+                                    st.just(-np.inf))),
+                min_size=1, max_size=24))
+def test_best_per_cell_keeps_the_best_of_each_cell(entries):
+  """Property: of the entries in one cell exactly the best-scored keeps
+  its score (cells with only -inf keep none); every other gets -inf."""
+  # Cells of 10 km x 10 km x 250 m; points near each cell's centre.
+  x = np.array([e[0] * 10_000.0 + 5_000.0 for e in entries], np.float32)
+  y = np.array([e[1] * 10_000.0 + 5_000.0 for e in entries], np.float32)
+  h = np.array([14_000.0 + e[2] * 250.0 + 125.0 for e in entries], np.float32)
+  scores = np.array([e[3] for e in entries], np.float32)
+  out = np.asarray(_best_per_cell(x, y, h, scores, 10.0, 250.0))
+  cells = {}
+  for i, e in enumerate(entries):
+    cells.setdefault(e[:3], []).append(i)
+  for members in cells.values():
+    kept = [i for i in members if out[i] > -np.inf]
+    best = max(scores[members])
+    if best == -np.inf:
+      assert not kept
+    else:
+      assert len(kept) == 1 and out[kept[0]] == best
+  assert np.all((out == scores) | (out == -np.inf))
+
+
+def test_beam_with_cells_keeps_one_plan_per_cell(world):
+  """With beam_cell_km the kept partial plans end in distinct cells: a
+  cell larger than any flight's reach keeps one plan per altitude bin, and
+  the plan found is still among the scored plans (finite score)."""
+  _, params, states = world
+  config = _config(search=planners.BEAM, beam_width=9, grid_levels=2,
+                   grad_starts=0, beam_cell_km=10_000.0, beam_cell_m=50_000.0)
+  best = jax.tree.map(lambda a: a[0], _plan(config, params, states[0]))
+  wide = jax.tree.map(lambda a: a[0], _plan(
+      _config(search=planners.BEAM, beam_width=9, grid_levels=2,
+              grad_starts=0), params, states[0]))
+  # One cell: the beam holds one plan, the exhaustive beam's first pick
+  # is at least as good (it saw every plan).
+  assert np.isfinite(float(best.score))
+  assert float(best.score) <= float(wide.score) + 1e-6
+  with pytest.raises(errors.ConfigError, match='beam_cell_km'):
+    _config(search=planners.BEAM, beam_cell_km=-1.0)
+  with pytest.raises(errors.ConfigError, match='beam_cell_m'):
+    _config(search=planners.BEAM, beam_cell_m=0.0)
 
 
 @pytest.mark.parametrize('scenarios, search', [

@@ -125,6 +125,13 @@ class PlannerConfig:
     search: CEM (the cross-entropy method over whole plans) or BEAM (a
       beam search over the plan's segments, `beam_search`).
     beam_width: BEAM: partial plans kept after each segment.
+    beam_cell_km: BEAM: 0 keeps the `beam_width` best partial plans; > 0
+      keeps at most one per cell first (the best of those whose flights end
+      in the same beam_cell_km x beam_cell_km square and `beam_cell_m`
+      altitude bin, `best_per_cell`), so that the beam is not spent on
+      near-copies of one flight: dynamic programming's rule that of two
+      paths to one state only the better one matters, on a coarse state. # [km]
+    beam_cell_m: BEAM: the altitude bin of those cells. # [m]
   """
   mode: str = FORECAST
   num_samples: int = 256
@@ -158,6 +165,8 @@ class PlannerConfig:
   scenarios: int = 0
   search: str = CEM
   beam_width: int = 32
+  beam_cell_km: float = 0.0
+  beam_cell_m: float = 250.0
 
   def checked(self) -> 'PlannerConfig':
     """This config with its values checked (one line per bad value).
@@ -207,6 +216,9 @@ class PlannerConfig:
     gin_values.require(self.search in SEARCHES, name('search'),
                        f'one of {SEARCHES}', self.search)
     gin_values.check_int(name('beam_width'), self.beam_width, minimum=1)
+    gin_values.check_number(name('beam_cell_km'), self.beam_cell_km,
+                            minimum=0.0)
+    gin_values.check_number(name('beam_cell_m'), self.beam_cell_m, above=0.0)
     if self.search == BEAM:
       gin_values.require(
           self.horizon % self.num_segments == 0, name('num_segments'),
@@ -461,6 +473,38 @@ def _end_terms(config: PlannerConfig, params: jax_env.EnvParams,
   return progress, cost, config.terminal_cost * ended.astype(dtype)
 
 
+def best_per_cell(x_m: Array, y_m: Array, altitude_m: Array, scores: Array,
+                  cell_km: float, cell_m: float) -> Array:
+  """`scores` with all but the best of each cell set to -inf.
+
+  A cell is a cell_km x cell_km square of (x, y) and a cell_m bin of
+  altitude; of the entries in one cell, the one with the highest score
+  keeps it (ties: the first in order), the others get -inf.
+
+  Args:
+    x_m: [n] eastward positions. # [m]
+    y_m: [n] northward positions. # [m]
+    altitude_m: [n] altitudes. # [m]
+    scores: [n] scores (-inf: already dropped).
+    cell_km: Side of a cell's square. # [km]
+    cell_m: Height of its altitude bin. # [m]
+
+  Returns:
+    [n] scores, -inf for every entry but the best of its cell.
+  """
+  cell = [jnp.floor(a / size).astype(jnp.int32) for a, size in
+          ((x_m, 1000.0 * cell_km), (y_m, 1000.0 * cell_km),
+           (altitude_m, cell_m))]
+  # Sorted by cell, best score first within a cell (a stable sort).
+  order = jnp.lexsort((-scores, cell[2], cell[1], cell[0]))
+  sorted_cells = [c[order] for c in cell]
+  new = jnp.zeros(order.shape, bool).at[0].set(True)
+  for c in sorted_cells:
+    new = new.at[1:].set(new[1:] | (c[1:] != c[:-1]))
+  best = jnp.zeros(order.shape, bool).at[order].set(new)
+  return jnp.where(best, scores, -jnp.inf)
+
+
 def beam_search(config: PlannerConfig, params: jax_env.EnvParams,
                 state: jax_env.EnvState, wind_fn: Callable[..., Any]
                 ) -> Tuple[Array, Array]:
@@ -529,6 +573,9 @@ def beam_search(config: PlannerConfig, params: jax_env.EnvParams,
             f, d_last, ended))
     scores = jnp.where(jnp.isfinite(scores) & (score[parent] > -jnp.inf),
                        scores, -jnp.inf)
+    if config.beam_cell_km > 0.0:
+      scores = best_per_cell(f.x_m, f.y_m, f.altitude_m, scores,
+                             config.beam_cell_km, config.beam_cell_m)
     score, keep = jax.lax.top_k(scores, width)
     source = parent[keep]
     targets = targets[source].at[:, j].set(choice_targets[choice[keep]])
