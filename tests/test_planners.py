@@ -250,22 +250,32 @@ def test_beam_with_cells_keeps_one_plan_per_cell(world):
     _config(search=planners.BEAM, beam_cell_m=0.0)
 
 
-@pytest.mark.parametrize('scenarios, search', [
-    (0, planners.CEM), (2, planners.CEM), (0, planners.BEAM)])
-def test_forecast_mpc_never_reads_the_noise(world, scenarios, search):
+@pytest.mark.parametrize('scenarios, search, memory', [
+    (0, planners.CEM, 0), (2, planners.CEM, 0), (0, planners.BEAM, 0),
+    (0, planners.BEAM, 3)])
+def test_forecast_mpc_never_reads_the_noise(world, scenarios, search, memory):
   """Another flight's noise, same forecast and measurement: same plan (also
-  when plans are scored over noise scenarios the planner draws itself, and
-  when they are searched by a beam)."""
+  when plans are scored over noise scenarios the planner draws itself, when
+  they are searched by a beam, and with the Gaussian-process memory of
+  measured winds)."""
   _, params, (state, other) = world
   swapped = state.replace(noise_u=other.noise_u, noise_v=other.noise_v)
   assert any(not np.array_equal(a, b) for a, b in zip(
       jax.tree.leaves(state.noise_u), jax.tree.leaves(other.noise_u)))
-  config = _config(scenarios=scenarios, search=search)
+  config = _config(scenarios=scenarios, search=search, wind_memory=memory)
   plan = _plan(config, params, state)
   jax.tree.map(np.testing.assert_array_equal, plan,
                _plan(config, params, swapped))
   if scenarios:  # The scenarios change the scores (the plans' winds).
     assert plan.score != _plan(_config(), params, state).score
+  if memory:  # The measurement went into the memory: the newest row.
+    point, du, dv = planners.measurement(jax_env.GENERATIVE_WIND,
+                                         jax.tree.map(lambda a: a[0], state))
+    np.testing.assert_array_equal(plan.memory.valid[0], [False, False, True])
+    np.testing.assert_allclose(plan.memory.points[0, -1], point, rtol=1e-6)
+    np.testing.assert_allclose([plan.memory.du[0, -1], plan.memory.dv[0, -1]],
+                               [du, dv], rtol=1e-6)
+    assert plan.score != _plan(_config(search=search), params, state).score
 
 
 @pytest.mark.slow
@@ -357,6 +367,10 @@ def test_bad_config_is_one_line():
                            replan_every=1).checked()
   with pytest.raises(errors.ConfigError, match='mode'):
     planners.PlannerConfig(mode='magic').checked()
+  with pytest.raises(errors.ConfigError, match='wind_memory'):
+    planners.PlannerConfig(wind_memory=4, scenarios=2).checked()
+  with pytest.raises(errors.ConfigError, match='wind_memory'):
+    planners.PlannerConfig(wind_memory=-1).checked()
   with pytest.raises(errors.ConfigError, match='unknown parameter'):
     planners.LatexMpcAgent(3, (71,), action_low=jax_env.ACTION_LOW,
                            action_high=jax_env.ACTION_HIGH, samples=3)

@@ -64,6 +64,7 @@ from ble_latex.envs import jax_env
 from ble_latex.flight import dynamics
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
+from ble_latex.wind import noise_gp
 from ble_latex.wind import simplex
 
 Array = jax.Array
@@ -132,6 +133,11 @@ class PlannerConfig:
       near-copies of one flight: dynamic programming's rule that of two
       paths to one state only the better one matters, on a coarse state. # [km]
     beam_cell_m: BEAM: the altitude bin of those cells. # [m]
+    wind_memory: FORECAST and GRADIENT: 0 corrects the forecast by the
+      current measurement with the exp-decay above; K > 0 by the Gaussian-
+      process posterior mean of BLE's noise given the last K measurements,
+      one per decision (`wind.noise_gp`: the covariance of BLE's simplex
+      noise harmonics; the wind_correction_* fields are then unused).
   """
   mode: str = FORECAST
   num_samples: int = 256
@@ -167,6 +173,7 @@ class PlannerConfig:
   beam_width: int = 32
   beam_cell_km: float = 0.0
   beam_cell_m: float = 250.0
+  wind_memory: int = 0
 
   def checked(self) -> 'PlannerConfig':
     """This config with its values checked (one line per bad value).
@@ -182,7 +189,8 @@ class PlannerConfig:
       gin_values.check_int(name(field), getattr(self, field), minimum=1)
     # Two of the samples are always the warm start and "float here".
     gin_values.check_int(name('num_samples'), self.num_samples, minimum=2)
-    for field in ('grad_starts', 'grad_steps', 'grid_levels', 'scenarios'):
+    for field in ('grad_starts', 'grad_steps', 'grid_levels', 'scenarios',
+                  'wind_memory'):
       gin_values.check_int(name(field), getattr(self, field), minimum=0)
     gin_values.require(self.num_segments <= self.horizon, name('num_segments'),
                        f'at most horizon ({self.horizon})', self.num_segments)
@@ -219,6 +227,9 @@ class PlannerConfig:
     gin_values.check_number(name('beam_cell_km'), self.beam_cell_km,
                             minimum=0.0)
     gin_values.check_number(name('beam_cell_m'), self.beam_cell_m, above=0.0)
+    gin_values.require(not (self.wind_memory and self.scenarios),
+                       name('wind_memory'),
+                       f'0 with scenarios ({self.scenarios})', self.wind_memory)
     if self.search == BEAM:
       gin_values.require(
           self.horizon % self.num_segments == 0, name('num_segments'),
@@ -243,12 +254,15 @@ class Plan(NamedTuple):
     mean_m: [num_segments] CEM mean of the targets (the next warm start). # [m]
     float_p: [num_segments] CEM probability of a float segment.
     score: The plan's objective.
+    memory: The measured winds so far (`wind_memory` rows, at least one;
+      none valid while `wind_memory` is 0).
   """
   targets_m: Array
   floats: Array
   mean_m: Array
   float_p: Array
   score: Array
+  memory: noise_gp.Measurements
 
 
 def blind(state: jax_env.EnvState) -> jax_env.EnvState:
@@ -263,8 +277,29 @@ def blind(state: jax_env.EnvState) -> jax_env.EnvState:
                        noise_v=zeros(state.noise_v))
 
 
+def measurement(wind: jax_env.Wind, state: jax_env.EnvState
+                ) -> Tuple[Array, Array, Array]:
+  """Where the balloon is and its measured-minus-forecast wind there.
+
+  Args:
+    wind: The env's wind.
+    state: The balloon's env state (its measured wind at the balloon; the
+      forecast is read from the `blind` state).
+
+  Returns:
+    (point (x [km], y [km], pressure [Pa], time [h]), du, dv [m/s]).
+  """
+  f = state.flight
+  u0, v0 = wind.forecast_column(blind(state), f.x_m, f.y_m, f.pressure_pa,
+                                f.time_s)
+  point = jnp.stack([f.x_m / 1000.0, f.y_m / 1000.0, f.pressure_pa,
+                     f.time_s / 3600.0])
+  return point, state.wind_u - u0, state.wind_v - v0
+
+
 def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
-                  state: jax_env.EnvState, noise: Optional[Tuple[Any, Any]] = None
+                  state: jax_env.EnvState, noise: Optional[Tuple[Any, Any]] = None,
+                  memory: Optional[noise_gp.Measurements] = None
                   ) -> Callable[[Array, Array, Array, Array], Tuple[Array,
                                                                    Array]]:
   """The wind a planner flies its plans in: (x, y, P, t) -> (u, v). # [m/s]
@@ -272,8 +307,11 @@ def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
   ORACLE: the ground truth (`wind.ground_truth`). Otherwise the forecast
   (`wind.forecast_column` at one pressure) of the `blind` state (with
   `noise`: the ground truth of the state given that noise instead, one
-  scenario), plus the measured-minus-planned wind at the balloon, decaying
-  as exp(-|t - t0| / wind_correction_hours - |P - P0| / wind_correction_pa).
+  scenario), plus a correction from the measured wind: with `memory`
+  (`wind_memory` > 0) the Gaussian-process posterior mean of the noise given
+  the measurements (`noise_gp.posterior_mean`); else the measured-minus-
+  planned wind at the balloon, decaying as
+  exp(-|t - t0| / wind_correction_hours - |P - P0| / wind_correction_pa).
 
   Args:
     config: The planner (mode, wind_correction_hours, wind_correction_pa).
@@ -281,6 +319,8 @@ def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
     state: The balloon's env state (its measured wind at the balloon).
     noise: (noise_u, noise_v) simplex parameters of a scenario (drawn by
       the planner, `scenario_noise`), or None: the forecast alone.
+    memory: The measurements (the current one included) for the Gaussian-
+      process correction, or None.
 
   Returns:
     A pure JAX function (x [m], y [m], pressure [Pa], time [s]) -> (u, v)
@@ -298,6 +338,17 @@ def planning_wind(config: PlannerConfig, wind: jax_env.Wind,
     forecast = functools.partial(
         wind.ground_truth, state.replace(noise_u=noise[0], noise_v=noise[1]))
 
+  if memory is not None:
+    weights = noise_gp.fit(memory)
+
+    def expected(x_m, y_m, pressure_pa, t_s):
+      u, v = forecast(x_m, y_m, pressure_pa, t_s)
+      point = jnp.stack([x_m / 1000.0, y_m / 1000.0, pressure_pa,
+                         t_s / 3600.0]).astype(memory.du.dtype)
+      du, dv = noise_gp.posterior_mean(memory, weights, point)
+      return u + du.astype(u.dtype), v + dv.astype(v.dtype)
+
+    return expected
   if config.wind_correction_hours <= 0.0:
     return forecast
   u0, v0 = forecast(f.x_m, f.y_m, f.pressure_pa, f.time_s)
@@ -613,7 +664,8 @@ def initial_plan(config: PlannerConfig, state: jax_env.EnvState) -> Plan:
   return Plan(targets_m=targets, floats=jnp.ones(shape, h.dtype),
               mean_m=targets,
               float_p=jnp.full(shape, config.float_probability, h.dtype),
-              score=jnp.zeros((), h.dtype))
+              score=jnp.zeros((), h.dtype),
+              memory=noise_gp.empty(max(config.wind_memory, 1), h.dtype))
 
 
 def shift(config: PlannerConfig, previous: Plan) -> Plan:
@@ -660,6 +712,9 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
     state = blind(state)
   dtype = state.flight.altitude_m.dtype
   warm = shift(config, previous)
+  memory = None
+  if config.mode != ORACLE and config.wind_memory:
+    memory = noise_gp.add(previous.memory, *measurement(wind, measured))
   if config.mode != ORACLE and config.scenarios:
     key, noise_key = jax.random.split(key)
     noises = scenario_noise(config, noise_key)
@@ -672,7 +727,8 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
       return jnp.mean(jax.vmap(one)(noises))
   else:
     score_fn = functools.partial(objective, config, params, state,
-                                 planning_wind(config, wind, measured))
+                                 planning_wind(config, wind, measured,
+                                               memory=memory))
   scores_of = jax.vmap(score_fn)
   n, m = config.num_samples, config.num_segments
   low, high = config.altitude_low_m, config.altitude_high_m
@@ -718,7 +774,8 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
   if config.search == BEAM:
     # The final beam, the warm start and "float here", scored exactly.
     targets, floats = beam_search(config, params, state,
-                                  planning_wind(config, wind, measured))
+                                  planning_wind(config, wind, measured,
+                                                memory=memory))
     targets = jnp.concatenate([targets, fixed_targets])[None]
     floats = jnp.concatenate([floats, fixed_floats])[None]
     scores = scores_of(targets[0], floats[0])
@@ -759,7 +816,8 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
         lambda a, b: jnp.where(refined_scores[i] > best[2], a, b),
         candidate, best)
   return Plan(targets_m=best[0], floats=best[1], mean_m=mean,
-              float_p=float_p, score=best[2])
+              float_p=float_p, score=best[2],
+              memory=previous.memory if memory is None else memory)
 
 
 def plan_key(seed: Any, state: jax_env.EnvState) -> Array:
