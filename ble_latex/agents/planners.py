@@ -1088,7 +1088,7 @@ def _configurable(name: str, mode: str, doc: str, **overrides: Any):
 LatexMpcAgent = _configurable(
     'LatexMpcAgent', FORECAST,
     'Beam-search MPC on the forecast (agent latex_mpc); never reads the '
-    'noise.', search=BEAM)
+    'noise.', search=BEAM, wind_memory=16)
 LatexMpcOracleAgent = _configurable(
     'LatexMpcOracleAgent', ORACLE,
     'Beam-search MPC on the true wind (agent latex_mpc_oracle): an upper '
