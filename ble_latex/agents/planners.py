@@ -7,9 +7,11 @@ same core the env flies, and act through the same altitude controller:
 - `latex_mpc`: a beam search over plans (`search='cem'`: the cross-entropy
   method; one iteration is random shooting) on the **forecast** only. Its
   winds are the flight's forecast field
-  (`Wind.forecast_column` at the balloon's pressure), corrected near the
-  balloon by the wind it measures (the observation's measured wind, decaying
-  with time and pressure away from the balloon). The noise of the flight is
+  (`Wind.forecast_column` at the balloon's pressure), corrected by the winds
+  it measures: with `wind_memory` > 0 (16 for `latex_mpc`) the Gaussian-
+  process posterior mean of BLE's noise given its last `wind_memory`
+  measurements (`wind.noise_gp`); with 0 the current measurement, decaying
+  with time and pressure away from the balloon. The noise of the flight is
   removed from the state before the planner sees it (`blind`), so the plan
   cannot depend on the noise or the future truth.
 - `latex_mpc_oracle`: the same planner on the **true** wind (forecast +
