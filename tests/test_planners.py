@@ -229,10 +229,11 @@ def test_best_per_cell_keeps_the_best_of_each_cell(entries):
   assert np.all((out == scores) | (out == -np.inf))
 
 
-def test_beam_with_cells_keeps_one_plan_per_cell(world):
-  """With beam_cell_km the kept partial plans end in distinct cells: a
-  cell larger than any flight's reach keeps one plan per altitude bin, and
-  the plan found is still among the scored plans (finite score)."""
+def test_beam_with_one_cell_is_greedy(world):
+  """A cell larger than any flight's reach (beam_cell_km, beam_cell_m)
+  leaves one partial plan per piece: a greedy search, whose plan is scored
+  (finite) and never better than the exhaustive beam's. Which entry of a
+  cell survives is `test_best_per_cell_keeps_the_best_of_each_cell`."""
   _, params, states = world
   config = _config(search=planners.BEAM, beam_width=9, grid_levels=2,
                    grad_starts=0, beam_cell_km=10_000.0, beam_cell_m=50_000.0)
@@ -240,8 +241,7 @@ def test_beam_with_cells_keeps_one_plan_per_cell(world):
   wide = jax.tree.map(lambda a: a[0], _plan(
       _config(search=planners.BEAM, beam_width=9, grid_levels=2,
               grad_starts=0), params, states[0]))
-  # One cell: the beam holds one plan, the exhaustive beam's first pick
-  # is at least as good (it saw every plan).
+  # The exhaustive beam saw every plan, the greedy one among them.
   assert np.isfinite(float(best.score))
   assert float(best.score) <= float(wide.score) + 1e-6
   with pytest.raises(errors.ConfigError, match='beam_cell_km'):

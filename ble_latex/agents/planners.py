@@ -548,13 +548,13 @@ def best_per_cell(x_m: Array, y_m: Array, altitude_m: Array, scores: Array,
   cell = [jnp.floor(a / size).astype(jnp.int32) for a, size in
           ((x_m, 1000.0 * cell_km), (y_m, 1000.0 * cell_km),
            (altitude_m, cell_m))]
-  # Sorted by cell, best score first within a cell (a stable sort).
+  # Sorted by cell, best score first within a cell (a stable sort); the
+  # first entry of each run of one cell is its best.
   order = jnp.lexsort((-scores, cell[2], cell[1], cell[0]))
-  sorted_cells = [c[order] for c in cell]
-  new = jnp.zeros(order.shape, bool).at[0].set(True)
-  for c in sorted_cells:
-    new = new.at[1:].set(new[1:] | (c[1:] != c[:-1]))
-  best = jnp.zeros(order.shape, bool).at[order].set(new)
+  cells = jnp.stack(cell)[:, order]
+  first = jnp.concatenate([jnp.ones((1,), bool),
+                           jnp.any(cells[:, 1:] != cells[:, :-1], axis=0)])
+  best = jnp.zeros(order.shape, bool).at[order].set(first)
   return jnp.where(best, scores, -jnp.inf)
 
 
@@ -717,6 +717,9 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
   memory = None
   if config.mode != ORACLE and config.wind_memory:
     memory = noise_gp.add(previous.memory, *measurement(wind, measured))
+  # The wind of the beam search and of the plans' scores (one Gaussian-
+  # process fit per decision); scenarios score over their own winds.
+  wind_fn = planning_wind(config, wind, measured, memory=memory)
   if config.mode != ORACLE and config.scenarios:
     key, noise_key = jax.random.split(key)
     noises = scenario_noise(config, noise_key)
@@ -728,9 +731,7 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
                          targets_m, floats)
       return jnp.mean(jax.vmap(one)(noises))
   else:
-    score_fn = functools.partial(objective, config, params, state,
-                                 planning_wind(config, wind, measured,
-                                               memory=memory))
+    score_fn = functools.partial(objective, config, params, state, wind_fn)
   scores_of = jax.vmap(score_fn)
   n, m = config.num_samples, config.num_segments
   low, high = config.altitude_low_m, config.altitude_high_m
@@ -775,9 +776,7 @@ def plan(config: PlannerConfig, params: jax_env.EnvParams,
 
   if config.search == BEAM:
     # The final beam, the warm start and "float here", scored exactly.
-    targets, floats = beam_search(config, params, state,
-                                  planning_wind(config, wind, measured,
-                                                memory=memory))
+    targets, floats = beam_search(config, params, state, wind_fn)
     targets = jnp.concatenate([targets, fixed_targets])[None]
     floats = jnp.concatenate([floats, fixed_floats])[None]
     scores = scores_of(targets[0], floats[0])

@@ -123,7 +123,7 @@ def covariance(which: str, a: Array, b: Array) -> Array:
   total = 0.0
   for weight, *spacing in simplex.ble_harmonics(which):
     r2 = jnp.sum((diff / jnp.asarray(spacing, diff.dtype))**2, axis=-1)
-    total = total + weight**2 * jnp.exp(-r2 / (2 * CORRELATION_LENGTH**2))
+    total = total + weight**2 * _gaussian(r2)
   return _scale(which) * total
 
 
@@ -178,7 +178,12 @@ def posterior_mean(memory: Measurements, weights: Tuple[Array, Array],
   return out[0], out[1]
 
 
+def _gaussian(r2: Array) -> Array:
+  """exp(-r^2 / (2 l^2)) of a squared distance r^2 in lattice units."""
+  return jnp.exp(-r2 / (2 * CORRELATION_LENGTH**2))
+
+
 def correlation(r: Array) -> Array:
   """The Gaussian stand-in for OpenSimplex's autocorrelation at r. # [.]"""
-  return jnp.exp(-jnp.asarray(r)**2 / (2 * CORRELATION_LENGTH**2))
+  return _gaussian(jnp.asarray(r)**2)
 
