@@ -1,7 +1,11 @@
 """The planner runs made on a lent GPU, inside a fixed time budget.
 
-What produced the "On a GPU" figures of `docs/planners.md` (an NVIDIA H100,
-2026-11-26; records in `benchmarks/planners/gpu_h100/`). Each run is
+The runs behind the "On a GPU" figures of `docs/planners.md` (an NVIDIA
+H100, 2026-11-26; records and both runs' logs in
+`benchmarks/planners/gpu_h100/`). This is a tidied copy of the driver that
+ran there: the same runs, order, time limits and selection rule, with flags
+where that one read environment variables (BUDGET, NVAL) and had the worst
+seeds written in. Each run is
 `benchmarks/planners.py` in a subprocess (through `boot_no_tensorflow.py`
 with --no_tensorflow), its records and timing under --output_dir; runs are
 started in order while --budget_s lasts, and one cut by its time limit
@@ -178,7 +182,10 @@ def main(argv: Sequence[str]) -> None:
                       capture_output=True, text=True).stdout)
   import jax  # pylint: disable=g-import-not-at-top
   _log('jax', jax.__version__, jax.devices())
-  _sweep() if FLAGS.plan == 'sweep' else _worst()
+  if FLAGS.plan == 'sweep':
+    _sweep()
+  else:
+    _worst()
   _log('done', time.time() - _T0)
 
 
