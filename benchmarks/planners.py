@@ -101,8 +101,15 @@ def _flight_arrays(flight) -> Dict[str, np.ndarray]:
 
 
 def fly_batch(config, seeds: Sequence[int], max_steps: int,
-              agent_seed: int, timing: Dict[str, Any]) -> List[Dict[str, Any]]:
-  """Flies `seeds` together; returns their eval records (in seed order)."""
+              agent_seed: int, timing: Dict[str, Any],
+              compiled: Optional[set] = None) -> List[Dict[str, Any]]:
+  """Flies `seeds` together; returns their eval records (in seed order).
+
+  `compiled`: the batch sizes whose planning call this process has already
+  compiled (updated); a batch's first call counts as a warm decision when
+  its size is among them (a planner that plans once per episode has no
+  other).
+  """
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
@@ -126,6 +133,8 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   previous = planners.initial_plans(config, states)
   seed = jnp.int32(agent_seed)
   steps = 0
+  compiled = set() if compiled is None else compiled
+  warm_first = n in compiled
   plan_s, first, episode_start = [], None, time.perf_counter()
   while steps < max_steps and not done.all():
     t0 = time.perf_counter()
@@ -159,7 +168,10 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   timing.setdefault('batches', []).append({
       'seeds': [int(s) for s in seeds], 'wall_s': wall, 'first_plan_s': first,
       'plan_calls': len(plan_s) + 1, 'plan_s_sum_after_first': sum(plan_s),
-      'plan_s_mean_after_first': float(np.mean(plan_s)) if plan_s else None})
+      'plan_s_mean_after_first': float(np.mean(plan_s)) if plan_s else None,
+      # The calls without compilation (the first one too when warm).
+      'plan_s_warm': ([first] if warm_first else []) + plan_s})
+  compiled.add(n)
   records = []
   for i, tracker in enumerate(trackers):
     summary = tracker.summary(bool(done[i]))
@@ -227,11 +239,12 @@ def _main(argv: Sequence[str]) -> int:
                  'cpus': os.cpu_count(),
                  'gin_bindings': list(FLAGS.gin_bindings)})
   timing.setdefault('loadavg', []).append(os.getloadavg())
+  compiled = set()
   with safe_io.locked_file(path, what='planner output'):
     for b in range(0, len(todo), FLAGS.batch):
       chunk = todo[b:b + FLAGS.batch]
       records += fly_batch(config, chunk, max_steps, FLAGS.seed,
-                           timing)
+                           timing, compiled)
       timing['loadavg'].append(os.getloadavg())
       safe_io.atomic_write(partial, json.dumps(records))
       safe_io.atomic_write(timing_path, json.dumps(timing, indent=1))
@@ -242,11 +255,14 @@ def _main(argv: Sequence[str]) -> int:
     records.sort(key=lambda r: r['seed'])
     batches = timing.get('batches', [])
     flown = sum(len(b['seeds']) for b in batches)
-    calls = sum(b['plan_calls'] - 1 for b in batches)
-    plan_sum = sum(b['plan_s_sum_after_first'] for b in batches)
+    # Warm calls (records of older runs: the calls after each first).
+    warm = [b.get('plan_s_warm', [b['plan_s_mean_after_first']] *
+                  (b['plan_calls'] - 1)) for b in batches]
+    calls = sum(len(w) for w in warm)
+    plan_sum = sum(sum(w) for w in warm)
     # Seconds per decision of one balloon: a batched call's wall / balloons.
-    per_call = [b['plan_s_mean_after_first'] / len(b['seeds'])
-                for b in batches if b['plan_s_mean_after_first']]
+    per_call = [float(np.mean(w)) / len(b['seeds'])
+                for b, w in zip(batches, warm) if w]
     timing['summary'] = {
         'seeds': len(records),
         's_per_decision_per_balloon': (float(np.mean(per_call)) if per_call

@@ -54,3 +54,26 @@ def test_no_tensorflow_stand_ins_fail_loudly():
   assert out[1].startswith('refused: tensorflow_probability.substrates.jax.'
                            'distributions')
   assert out[2].startswith('refused: flax.metrics.tensorboard.SummaryWriter')
+
+
+@pytest.mark.slow
+def test_planners_times_a_planner_that_plans_once(tmp_path):
+  """One plan per episode (the oracle's way): the batches after the first
+  compiled one still give seconds per decision, and the first is left out."""
+  import json  # pylint: disable=g-import-not-at-top
+  planners = _load('bench_planners_once', ROOT / 'benchmarks' / 'planners.py')
+  bindings = [f'--gin_bindings=LatexMpcOracleAgent.{b}' for b in (
+      'horizon=12', 'num_segments=4', 'replan_every=12', 'beam_width=2',
+      'grid_levels=2', 'beam_cell_km=0')]
+  rc = planners.main(['--agent=latex_mpc_oracle', '--suite=latex_small',
+                      '--short', '--batch=1', f'--output_dir={tmp_path}',
+                      *bindings])
+  assert rc == 0
+  timing = json.loads(
+      (tmp_path / 'latex_small' / 'timing' / 'latex_mpc_oracle.json')
+      .read_text())
+  first, second = timing['batches']
+  assert first['plan_calls'] == second['plan_calls'] == 1
+  assert first['plan_s_warm'] == [] and len(second['plan_s_warm']) == 1
+  assert timing['summary']['s_per_decision_per_balloon'] == pytest.approx(
+      second['plan_s_warm'][0])

@@ -4,6 +4,7 @@ noise-blindness of the forecast MPC, gradients through the core.
 Small configurations, compiled once per module (fixtures below).
 """
 
+import dataclasses
 import functools
 
 from hypothesis import given
@@ -250,6 +251,42 @@ def test_beam_with_one_cell_is_greedy(world):
     _config(search=planners.BEAM, beam_cell_m=0.0)
 
 
+def test_beam_resource_value_keeps_the_frugal_plan(world):
+  """One piece, a beam of 1: with beam_resource_value = 0 the kept choice
+  is the best by the objective; with a large value, the one that keeps the
+  most resources (`resource_margins`), here another choice."""
+  _, params, states = world
+  state = jax.tree.map(lambda a: a[0], states[0])
+  config = _config(planners.ORACLE, search=planners.BEAM, horizon=6,
+                   num_segments=1, replan_every=6, beam_width=1,
+                   grid_levels=5)
+  wind_fn = planners.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  h = jnp.clip(state.flight.altitude_m, config.altitude_low_m,
+               config.altitude_high_m)
+  targets = jnp.concatenate([jnp.linspace(config.altitude_low_m,
+                                          config.altitude_high_m, 5), h[None]])
+  floats = jnp.array([-1.0] * 5 + [1.0])
+  scores = _objectives(config, params, state, wind_fn, targets[:, None],
+                       floats[:, None])
+
+  @jax.jit
+  def margins(target, flag):
+    actions = planners.plan_actions(config, target[None], flag[None])
+    f = planners._fly(params, state, wind_fn, state.flight, actions)[0]  # pylint: disable=protected-access
+    return sum(planners.resource_margins(params, f))
+
+  kept_margins = np.asarray(jax.vmap(margins)(targets, floats))
+  assert np.argmax(scores) != np.argmax(kept_margins)  # The test can fail.
+  search = jax.jit(planners.beam_search, static_argnums=(0, 3))
+  for value, best in ((0.0, np.argmax(scores)),
+                      (1e4, np.argmax(kept_margins))):
+    chosen, _ = search(dataclasses.replace(config, beam_resource_value=value),
+                       params, state, wind_fn)
+    assert float(chosen[0, 0]) == pytest.approx(float(targets[best]))
+  with pytest.raises(errors.ConfigError, match='beam_resource_value'):
+    _config(search=planners.BEAM, beam_resource_value=-1.0)
+
+
 @pytest.mark.parametrize('scenarios, search, memory', [
     (0, planners.CEM, 0), (2, planners.CEM, 0), (0, planners.BEAM, 0),
     (0, planners.BEAM, 3)])
@@ -306,6 +343,40 @@ def test_oracle_reads_the_noise(world):
   a = _plan(oracle, params, state)
   b = _plan(oracle, params, swapped)
   assert not np.array_equal(a.score, b.score)
+
+
+def test_oracle_plan_is_the_flight(world):
+  """Under the paper's physics the env flies the oracle's plan exactly: the
+  distances its objective scores are the env's, stride by stride (why the
+  oracle may plan the whole episode once)."""
+  _, params, (_, state) = world
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  config = _config(planners.ORACLE, search=planners.BEAM, horizon=12,
+                   num_segments=4, replan_every=12, beam_width=4,
+                   grid_levels=3)
+  plan = _plan(config, params, state)
+  one = jax.tree.map(lambda a: a[0], state)
+  actions = planners.plan_actions(config, jnp.asarray(plan.targets_m[0]),
+                                  jnp.asarray(plan.floats[0]))
+  wind_fn = planners.planning_wind(config, env.wind_for(params), one)
+
+  @jax.jit
+  def planned(s, a):
+    return planners._fly(params, s, wind_fn, s.flight, a)[1][0]  # pylint: disable=protected-access
+
+  @jax.jit
+  def flown(s, a):
+    def stride(s, action):
+      s = env.step_env(None, s, action, params)[1]
+      return s, jnp.hypot(s.flight.x_m, s.flight.y_m) / 1000.0
+    return jax.lax.scan(stride, s, a)[1]
+
+  expected = np.asarray(planned(one, actions))
+  np.testing.assert_allclose(np.asarray(flown(one, actions)), expected,
+                             rtol=1e-5)
+  # The check can fail: another plan is another flight.
+  other = actions.at[:, 0].set(actions[0, 0] + 3000.0)
+  assert np.abs(np.asarray(flown(one, other)) - expected).max() > 0.1
 
 
 def test_controller_gradient_matches_finite_differences(world):

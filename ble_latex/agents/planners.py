@@ -16,6 +16,13 @@ same core the env flies, and act through the same altitude controller:
   cannot depend on the noise or the future truth.
 - `latex_mpc_oracle`: the same planner on the **true** wind (forecast +
   noise): a clairvoyant upper bound for any controller, not a controller.
+  Its beam search plans the whole episode at once (`horizon` 216 strides,
+  one plan per 216 strides): on the true wind and the paper's physics the
+  env flies a plan exactly (the planner flies the same core in the same
+  wind), so nothing is gained by replanning, and a plan that reaches the
+  episode's end sees every later consequence of spending sand or helium.
+  Under realistic physics the free-lift random walk is not foreseen (set
+  `replan_every` lower there).
 - `latex_mpc_grad`: first-order MPC on the forecast: the best sampled plans
   (one CEM iteration) are refined by normalised gradient ascent
   (`jax.grad` through the core's `lax.scan`) on their altitude targets. The
@@ -135,6 +142,13 @@ class PlannerConfig:
       near-copies of one flight: dynamic programming's rule that of two
       paths to one state only the better one matters, on a coarse state. # [km]
     beam_cell_m: BEAM: the altitude bin of those cells. # [m]
+    beam_resource_value: BEAM: 0 ranks partial plans by their objective;
+      v > 0 adds v x (sand margin + helium margin, `resource_margins`) x
+      the fraction of the episode left where they end: what the resources
+      kept are worth to the strides after them, which a plan reaching to
+      the episode's end (the oracle's) cannot otherwise see, so that the
+      beam keeps frugal plans beside greedy ones. The plan flown is still
+      the best final plan by `objective`. # [1/kg]
     wind_memory: FORECAST and GRADIENT: 0 corrects the forecast by the
       current measurement with the exp-decay above; K > 0 by the Gaussian-
       process posterior mean of BLE's noise given the last K measurements,
@@ -175,6 +189,7 @@ class PlannerConfig:
   beam_width: int = 32
   beam_cell_km: float = 0.0
   beam_cell_m: float = 250.0
+  beam_resource_value: float = 0.0
   wind_memory: int = 0
 
   def checked(self) -> 'PlannerConfig':
@@ -229,6 +244,8 @@ class PlannerConfig:
     gin_values.check_number(name('beam_cell_km'), self.beam_cell_km,
                             minimum=0.0)
     gin_values.check_number(name('beam_cell_m'), self.beam_cell_m, above=0.0)
+    gin_values.check_number(name('beam_resource_value'),
+                            self.beam_resource_value, minimum=0.0)
     gin_values.require(not (self.wind_memory and self.scenarios),
                        name('wind_memory'),
                        f'0 with scenarios ({self.scenarios})', self.wind_memory)
@@ -513,8 +530,7 @@ def _end_terms(config: PlannerConfig, params: jax_env.EnvParams,
   progress = config.progress * (d0 - d_end_km) / config.radius_km
   # Resource margins as a fraction of the launch sand (both start near it).
   initial = jnp.maximum(params.flight.initial_sand_kg, 1e-3)
-  sand_margin = jnp.maximum(f0.sand_kg - params.flight.min_drop_kg, 0.0)
-  helium_margin = jnp.maximum(f0.free_lift_kg + f0.sand_kg, 0.0)
+  sand_margin, helium_margin = resource_margins(params, f0)
   left = params.episode_steps - state.steps
   time_left = jnp.clip(left / params.episode_steps, 0.0, 1.0)
   dropped = f_end.sand_dropped_kg - f0.sand_dropped_kg
@@ -524,6 +540,20 @@ def _end_terms(config: PlannerConfig, params: jax_env.EnvParams,
       config.sand_cost * dropped / jnp.maximum(sand_margin / initial, 0.05) +
       config.helium_cost * vented / jnp.maximum(helium_margin / initial, 0.05))
   return progress, cost, config.terminal_cost * ended.astype(dtype)
+
+
+def resource_margins(params: jax_env.EnvParams, f: Any) -> Tuple[Array, Array]:
+  """The sand that can still be dropped and the lift that can be vented.
+
+  Args:
+    params: The env parameters (`flight.min_drop_kg`).
+    f: A `FlightState`.
+
+  Returns:
+    (sand_kg - min_drop_kg, free_lift_kg + sand_kg), each at least 0. # [kg]
+  """
+  return (jnp.maximum(f.sand_kg - params.flight.min_drop_kg, 0.0),
+          jnp.maximum(f.free_lift_kg + f.sand_kg, 0.0))
 
 
 def best_per_cell(x_m: Array, y_m: Array, altitude_m: Array, scores: Array,
@@ -626,6 +656,12 @@ def beam_search(config: PlannerConfig, params: jax_env.EnvParams,
             f, d_last, ended))
     scores = jnp.where(jnp.isfinite(scores) & (score[parent] > -jnp.inf),
                        scores, -jnp.inf)
+    if config.beam_resource_value > 0.0:
+      # What the resources kept are worth to the rest of the episode.
+      after = jnp.clip((left - (j + 1) * length) / params.episode_steps,
+                       0.0, 1.0)
+      sand, helium = jax.vmap(lambda f: resource_margins(params, f))(f)
+      scores = scores + config.beam_resource_value * after * (sand + helium)
     if config.beam_cell_km > 0.0:
       scores = best_per_cell(f.x_m, f.y_m, f.altitude_m, scores,
                              config.beam_cell_km, config.beam_cell_m)
@@ -1092,9 +1128,10 @@ LatexMpcAgent = _configurable(
     'noise.', search=BEAM, wind_memory=16)
 LatexMpcOracleAgent = _configurable(
     'LatexMpcOracleAgent', ORACLE,
-    'Beam-search MPC on the true wind (agent latex_mpc_oracle): an upper '
-    'bound.',
-    search=BEAM, num_samples=128, iterations=3, horizon=36, num_segments=6)
+    'Beam search over the whole episode on the true wind (agent '
+    'latex_mpc_oracle): an upper bound.',
+    search=BEAM, horizon=216, num_segments=72, replan_every=216,
+    beam_width=256, beam_cell_km=10.0, discount=1.0)
 LatexMpcGradAgent = _configurable(
     'LatexMpcGradAgent', GRADIENT,
     'First-order MPC on the forecast (agent latex_mpc_grad).',
