@@ -59,7 +59,12 @@ flags.DEFINE_bool('no_tensorflow', False, 'Run the scripts through '
                   'boot_no_tensorflow.py (a Python without TensorFlow).')
 
 O = 'LatexMpcOracleAgent'
-ORACLE_CONFIGS: List[Tuple[str, List[str]]] = [
+# The oracle's defaults when these runs were made (2026-11-26): a receding-
+# horizon beam search, 12 h ahead, replanning every 2 strides. Its default
+# now plans the whole episode; these bindings fly the runs as they were.
+RECEDING = [f'{O}.horizon=36', f'{O}.num_segments=6', f'{O}.replan_every=2',
+            f'{O}.beam_width=32', f'{O}.beam_cell_km=0', f'{O}.discount=0.98']
+_SEARCHES = [
     ('o_default', []),
     ('o_h72_d1', [f'{O}.horizon=72', f'{O}.num_segments=12',
                   f'{O}.discount=1.0']),
@@ -69,8 +74,11 @@ ORACLE_CONFIGS: List[Tuple[str, List[str]]] = [
     ('o_h72_b128_d1', [f'{O}.horizon=72', f'{O}.num_segments=12',
                        f'{O}.discount=1.0', f'{O}.beam_width=128']),
 ]
-HUGE = [f'{O}.horizon=108', f'{O}.num_segments=18', f'{O}.discount=1.0',
-        f'{O}.beam_width=256', f'{O}.replan_every=4']
+ORACLE_CONFIGS: List[Tuple[str, List[str]]] = [
+    (name, RECEDING + bindings) for name, bindings in _SEARCHES]
+HUGE = RECEDING + [f'{O}.horizon=108', f'{O}.num_segments=18',
+                   f'{O}.discount=1.0', f'{O}.beam_width=256',
+                   f'{O}.replan_every=4']
 HERE = os.path.dirname(os.path.abspath(__file__))
 _T0 = time.time()
 

@@ -597,7 +597,8 @@ def beam_search(config: PlannerConfig, params: jax_env.EnvParams,
   extended by every choice: "go to level k and stay" for the `grid_levels`
   altitudes over [altitude_low_m, altitude_high_m], and "float" (when
   `plan_float`). A partial plan is scored by the objective as if it ended
-  there (its strides' terms, plus progress and costs so far); the best
+  there (its strides' terms, plus progress and costs so far; plus the
+  worth of its resource margins when `beam_resource_value` > 0); the best
   `beam_width` children are kept. Tree search over the whole horizon, where
   CEM samples whole plans: the choices late in a plan are searched from
   the states that the early ones reach.
@@ -1130,8 +1131,9 @@ LatexMpcOracleAgent = _configurable(
     'LatexMpcOracleAgent', ORACLE,
     'Beam search over the whole episode on the true wind (agent '
     'latex_mpc_oracle): an upper bound.',
-    search=BEAM, horizon=216, num_segments=72, replan_every=216,
-    beam_width=256, beam_cell_km=10.0, discount=1.0)
+    search=BEAM, horizon=216, num_segments=216, replan_every=216,
+    beam_width=512, beam_cell_km=10.0, beam_resource_value=20.0,
+    discount=1.0)
 LatexMpcGradAgent = _configurable(
     'LatexMpcGradAgent', GRADIENT,
     'First-order MPC on the forecast (agent latex_mpc_grad).',
