@@ -102,7 +102,7 @@ def _flight_arrays(flight) -> Dict[str, np.ndarray]:
 
 def fly_batch(config, seeds: Sequence[int], max_steps: int,
               agent_seed: int, timing: Dict[str, Any],
-              compiled: Optional[set] = None) -> List[Dict[str, Any]]:
+              compiled: set) -> List[Dict[str, Any]]:
   """Flies `seeds` together; returns their eval records (in seed order).
 
   `compiled`: the batch sizes whose planning call this process has already
@@ -133,7 +133,6 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   previous = planners.initial_plans(config, states)
   seed = jnp.int32(agent_seed)
   steps = 0
-  compiled = set() if compiled is None else compiled
   warm_first = n in compiled
   plan_s, first, episode_start = [], None, time.perf_counter()
   while steps < max_steps and not done.all():

@@ -661,7 +661,7 @@ def beam_search(config: PlannerConfig, params: jax_env.EnvParams,
       # What the resources kept are worth to the rest of the episode.
       after = jnp.clip((left - (j + 1) * length) / params.episode_steps,
                        0.0, 1.0)
-      sand, helium = jax.vmap(lambda f: resource_margins(params, f))(f)
+      sand, helium = resource_margins(params, f)  # Elementwise: batched.
       scores = scores + config.beam_resource_value * after * (sand + helium)
     if config.beam_cell_km > 0.0:
       scores = best_per_cell(f.x_m, f.y_m, f.altitude_m, scores,
