@@ -585,7 +585,7 @@ heavy = [m for m in ('tensorflow', 'ble_latex.ble.gym_env',
          if m in sys.modules]
 assert not heavy, heavy
 gin.clear_config()
-import ble_latex.envs.gym_env  # The old gin-file import (BLE, TF) changes nothing.
+import ble_latex.ble.gym_env  # The gin-file import (BLE, TF) changes nothing.
 assert same(light, jax_env.params_from_gin()), 'defaults differ'
 gin.parse_config([
     'LatexBalloonEnv.episode_steps = 7',

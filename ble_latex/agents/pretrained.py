@@ -199,11 +199,3 @@ def load_policy(path: str, trust_legacy_pickle: bool = False
     raise errors.BadFileError(f'SAC policy {path} misses {missing}')
   with safe_io.checking():
     return check_policy(policy, f'SAC policy {path}')
-
-
-def __getattr__(name: str) -> Any:
-  """`pretrained.SACPretrainedAgent`, the agent's old path (BLE, Dopamine)."""
-  if name == 'SACPretrainedAgent':
-    from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
-    return sac.SACPretrainedAgent
-  raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
