@@ -1,0 +1,229 @@
+"""The import layers of the package, read statically (docs/layout.md).
+
+Every `import` in every module of `ble_latex/` is read with `ast`, those
+inside functions too (a lazy import is still a dependency), and held against
+the layer rules:
+
+- a module imports only modules on its own floor or below (`FLOORS`);
+- `flight/` and `wind/` never import `envs/`;
+- `envs/`, `flight/` and `wind/` never import `ble_latex.ble`, TensorFlow,
+  Dopamine or BLE's env/agent modules (`HEAVY`);
+- `agents/` never imports `run/`; nothing imports `cli/`;
+- no module is over 800 lines;
+- the modules import each other in no circle.
+
+Nothing is imported or run: the test reads source text only.
+"""
+
+import ast
+import pathlib
+from typing import Dict, List, Set, Tuple
+
+import pytest
+
+PACKAGE = pathlib.Path(__file__).resolve().parent.parent / 'ble_latex'
+
+# Floors, ground first: a module may import its own floor or lower ones.
+# A top-level module (`ble_latex/x.py`) or a folder (`ble_latex/x/`) is named
+# by its first component.
+FLOORS = (
+    ('errors', 'quiet', 'jax_cache'),
+    ('gin_values', 'safe_io', 'configs'),
+    ('wind', 'flight'),
+    ('envs',),
+    ('ble', 'compat'),
+    ('agents',),
+    ('run',),
+    ('plots',),
+    ('cli',),
+)
+# What the light layers (the functional env, the Gymnasium envs, physics and
+# winds) never import, even lazily.
+LIGHT = ('envs', 'flight', 'wind')
+HEAVY = ('ble_latex.ble', 'tensorflow', 'dopamine',
+         'balloon_learning_environment.agents',
+         'balloon_learning_environment.env.balloon',
+         'balloon_learning_environment.env.balloon_env',
+         'balloon_learning_environment.env.balloon_arena',
+         'balloon_learning_environment.env.features',
+         'balloon_learning_environment.env.wind_field',
+         'balloon_learning_environment.env.gym',
+         'balloon_learning_environment.train_lib',
+         'balloon_learning_environment.eval')
+MAX_LINES = 800
+
+
+def _module_name(path: pathlib.Path) -> str:
+  parts = path.relative_to(PACKAGE.parent).with_suffix('').parts
+  if parts[-1] == '__init__':
+    parts = parts[:-1]
+  return '.'.join(parts)
+
+
+def _imports(path: pathlib.Path, package: str = '') -> Set[str]:
+  """Absolute names of every module `path` imports (anywhere in it).
+
+  Args:
+    path: A Python source file.
+    package: The package its relative imports start from (default: its own).
+  """
+  tree = ast.parse(path.read_text(encoding='utf-8'), str(path))
+  if not package:
+    package = _module_name(path)
+    if path.name != '__init__.py':
+      package = package.rpartition('.')[0]
+  names = set()
+  for node in ast.walk(tree):
+    if isinstance(node, ast.Import):
+      names.update(alias.name for alias in node.names)
+    elif isinstance(node, ast.ImportFrom):
+      if node.level:
+        base = package.split('.')
+        base = base[:len(base) - node.level + 1]
+        module = '.'.join(base + ([node.module] if node.module else []))
+      else:
+        module = node.module or ''
+      # `from ble_latex.envs import jax_env` imports ble_latex.envs.jax_env
+      # (the package's face only hands it on); `from x import name` imports x.
+      submodules = {f'{module}.{alias.name}' for alias in node.names}
+      if module.split('.')[0] == 'ble_latex':
+        known = {s for s in submodules if _is_source(s)}
+        names.update(known or {module})
+      else:  # A third-party name may be a module or an attribute: both.
+        names.update({module} | submodules)
+  return names
+
+
+def _is_source(module: str) -> bool:
+  path = PACKAGE.parent.joinpath(*module.split('.'))
+  return path.with_suffix('.py').is_file() or (path / '__init__.py').is_file()
+
+
+def _sources() -> Dict[str, pathlib.Path]:
+  return {_module_name(p): p for p in sorted(PACKAGE.rglob('*.py'))}
+
+
+def _internal_edges() -> Dict[str, Set[str]]:
+  """Module -> the package's modules it imports (packages' faces dropped)."""
+  sources = _sources()
+  edges = {}
+  for name, path in sources.items():
+    targets = set()
+    for imported in _imports(path):
+      if imported in sources and imported != name and imported != 'ble_latex':
+        targets.add(imported)
+    edges[name] = targets
+  return edges
+
+
+def _floor(module: str) -> Tuple[int, str]:
+  parts = module.split('.')
+  if len(parts) < 2:
+    return -1, ''
+  top = parts[1]
+  for i, floor in enumerate(FLOORS):
+    if top in floor:
+      return i, top
+  raise AssertionError(
+      f'{module}: {top!r} is on no floor of tests/test_layers.py FLOORS')
+
+
+def test_every_module_is_on_a_floor_and_imports_none_above():
+  upward = []
+  for module, targets in _internal_edges().items():
+    floor, _ = _floor(module)
+    if floor < 0:
+      continue
+    for target in targets:
+      target_floor, _ = _floor(target)
+      if target_floor > floor:
+        upward.append(f'{module} -> {target}')
+  assert not upward, upward
+
+
+def test_light_layers_import_nothing_heavy():
+  found = []
+  for module, path in _sources().items():
+    if _floor(module)[1] not in LIGHT:
+      continue
+    for imported in _imports(path):
+      if any(imported == h or imported.startswith(h + '.') for h in HEAVY):
+        found.append(f'{module} imports {imported}')
+  assert not found, found
+
+
+def test_physics_and_winds_never_import_envs_and_agents_never_run():
+  found = []
+  for module, targets in _internal_edges().items():
+    top = _floor(module)[1]
+    for target in targets:
+      target_top = _floor(target)[1]
+      if top in ('flight', 'wind') and target_top == 'envs':
+        found.append(f'{module} -> {target}')
+      if top == 'agents' and target_top == 'run':
+        found.append(f'{module} -> {target}')
+      if target_top == 'cli' and top != 'cli':
+        found.append(f'{module} -> {target}')
+  assert not found, found
+
+
+def _cycles(edges: Dict[str, Set[str]]) -> List[List[str]]:
+  """Strongly connected components of more than one module (Tarjan)."""
+  index, low, on_stack, stack, found = {}, {}, set(), [], []
+  counter = [0]
+
+  def visit(v: str) -> None:
+    index[v] = low[v] = counter[0]
+    counter[0] += 1
+    stack.append(v)
+    on_stack.add(v)
+    for w in sorted(edges.get(v, ())):
+      if w not in index:
+        visit(w)
+        low[v] = min(low[v], low[w])
+      elif w in on_stack:
+        low[v] = min(low[v], index[w])
+    if low[v] == index[v]:
+      component = []
+      while True:
+        w = stack.pop()
+        on_stack.discard(w)
+        component.append(w)
+        if w == v:
+          break
+      if len(component) > 1:
+        found.append(sorted(component))
+
+  for v in sorted(edges):
+    if v not in index:
+      visit(v)
+  return found
+
+
+def test_no_import_circles():
+  assert not _cycles(_internal_edges())
+
+
+def test_the_cycle_finder_finds_a_circle():
+  # The check above cannot pass vacuously.
+  assert _cycles({'a': {'b'}, 'b': {'c'}, 'c': {'a'}, 'd': {'a'}}) == [
+      ['a', 'b', 'c']]
+  assert not _cycles({'a': {'b'}, 'b': set()})
+
+
+def test_the_import_reader_sees_lazy_and_relative_imports(tmp_path):
+  source = tmp_path / 'probe.py'
+  source.write_text('import os\n'
+                    'def f():\n  from ble_latex.ble import wind\n'
+                    'def g():\n  from . import physics\n'
+                    '  from ..wind import simplex\n', encoding='utf-8')
+  imports = _imports(source, package='ble_latex.flight')
+  assert {'os', 'ble_latex.ble.wind', 'ble_latex.flight.physics',
+          'ble_latex.wind.simplex'} <= imports
+
+
+@pytest.mark.parametrize('path', sorted(PACKAGE.rglob('*.py')),
+                         ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_module_is_over_800_lines(path):
+  lines = len(path.read_text(encoding='utf-8').splitlines())
+  assert lines <= MAX_LINES, f'{path.name}: {lines} lines'
