@@ -25,7 +25,7 @@ from ble_latex.flight import state as state_lib
 _SETTINGS = settings(max_examples=25, deadline=None)
 STRIDE = dt.timedelta(seconds=params_lib.DEFAULTS.stride_s)
 Status = balloon_lib.LatexBalloonStatus
-Decision = balloon_lib.Decision
+Decision = state_lib.DecisionCode
 CALM = wind_field.WindVector(units.Velocity(mps=0.0), units.Velocity(mps=0.0))
 
 

@@ -24,7 +24,6 @@ burst (V > burst volume; BLE's `status` becomes BURST too) and grounded
 
 import dataclasses
 import datetime as dt
-import enum
 import functools
 import math
 import numbers
@@ -63,14 +62,6 @@ WindSource = Union[wind_field.WindVector,
                              dt.timedelta], wind_field.WindVector]]
 
 LatexBalloonStatus = state_lib.FlightStatus
-
-
-class Decision(enum.Enum):
-  """The controller's decision at an action (values are `info`'s strings)."""
-  NOTHING = 'nothing'
-  FLOAT = 'float'
-  VENT = 'vent'
-  BALLAST = 'ballast'
 
 
 @dataclasses.dataclass
@@ -119,7 +110,7 @@ class LatexBalloonState(balloon.BalloonState):
   pending_vent_mols: float = 0.0  # [mol]
   pending_drop_kg: float = 0.0  # [kg]
   latex_status: LatexBalloonStatus = LatexBalloonStatus.OK
-  last_decision: Decision = Decision.NOTHING
+  last_decision: state_lib.DecisionCode = state_lib.DecisionCode.NOTHING
   last_action: Tuple[float, float, float] = (0.0, 0.0, 0.0)
   last_float_action: float = 0.0  # [.]
   desired_ascent_rate_mps: float = 0.0  # [m/s]
@@ -219,8 +210,8 @@ def write_flight(state: LatexBalloonState, flight: Mapping[str, Any], *,
   s.latex_status = status
   s.status = (balloon.BalloonStatus.BURST if
               status == LatexBalloonStatus.BURST else balloon.BalloonStatus.OK)
-  s.last_decision = Decision[state_lib.DecisionCode(
-      int(np.asarray(flight['last_decision']))).name]
+  s.last_decision = state_lib.DecisionCode(
+      int(np.asarray(flight['last_decision'])))
   action = np.asarray(flight['last_action'], np.float64)
   s.last_action = tuple(float(v) for v in action)
   s.last_float_action = float(action[2])

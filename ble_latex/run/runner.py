@@ -64,7 +64,7 @@ def flight_point(env: gym.Env) -> Dict[str, Any]:
       'y_km': s.y.kilometers,
       'altitude_m': s.altitude_m,
       'ascent_rate_mps': s.ascent_rate_mps,
-      'decision': s.last_decision.value,
+      'decision': s.last_decision.name.lower(),
       'helium_mols': s.helium_mols,
       'sand_kg': s.sand_kg,
   }
