@@ -9,6 +9,7 @@ install) and is skipped, saying so, where mkdocs is not installed.
 """
 
 import importlib.util
+import json
 import os
 import pathlib
 import re
@@ -108,3 +109,36 @@ def test_site_builds_strictly(tmp_path):
   assert 'ble_latex.envs.jax_env.LatexBalloonJaxEnv' in reference
   changelog = (site / 'changelog' / 'index.html').read_text()
   assert 'Keep a Changelog' in changelog  # CHANGELOG.md is included
+
+
+def _tables():
+  spec = importlib.util.spec_from_file_location(
+      'docs_tables', DOCS / 'hooks' / 'tables.py')
+  module = importlib.util.module_from_spec(spec)
+  spec.loader.exec_module(module)
+  return module
+
+
+def test_result_tables_are_the_records():
+  """README's and the docs' result tables equal what the records give."""
+  tables = _tables()
+  pages = {str(p.relative_to(ROOT)) for p in tables.pages()}
+  assert {'README.md', 'docs/results.md', 'docs/planners.md'} <= pages
+  assert not tables.stale(), 'run python docs/hooks/tables.py'
+
+
+def test_a_result_table_follows_its_record(tmp_path, monkeypatch):
+  tables = _tables()
+  rows = json.loads(tables.RESULTS.read_text(encoding='utf-8'))
+  for row in rows:
+    if row['agent'] == 'latex_random':
+      row['tw50_window'] = [0.5, 0.25]
+  changed = tmp_path / 'results.json'
+  changed.write_text(json.dumps(rows), encoding='utf-8')
+  text = '<!-- table: agents-short -->\nold\n<!-- end table -->\n'
+  monkeypatch.setattr(tables, 'RESULTS', changed)
+  assert '| `latex_random` | 50.0 % ± 25.0 |' in tables.fill(text)
+  with pytest.raises(ValueError, match='unknown table'):
+    tables.fill('<!-- table: nosuch -->\n<!-- end table -->')
+  # The site's hook regenerates the blocks too.
+  assert 'old' not in _hook().on_page_markdown(text)

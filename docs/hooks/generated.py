@@ -11,6 +11,10 @@ generated Markdown there:
     `console_scripts`, each with the module it runs and that module's first
     docstring line.
 
+Result tables (`<!-- table: NAME -->` ... `<!-- end table -->`) are made
+from the committed records by `tables.py` beside this file; the hook
+regenerates them in every page it builds.
+
 The parsers read source text with `ast` only, so the site builds without
 JAX, TensorFlow or BLE. tests/test_docs.py uses them too.
 """
@@ -135,4 +139,15 @@ def on_page_markdown(markdown: str, **kwargs) -> str:  # pylint: disable=unused-
                        f'{sorted(_GENERATORS)}')
     return _GENERATORS[name]()
 
-  return _MARKER.sub(generate, markdown)
+  return _tables().fill(_MARKER.sub(generate, markdown),
+                       kwargs.get('page', 'page'))
+
+
+def _tables():
+  """`tables.py` beside this file (MkDocs loads hooks by path, not package)."""
+  import importlib.util  # pylint: disable=g-import-not-at-top
+  spec = importlib.util.spec_from_file_location(
+      'ble_latex_docs_tables', pathlib.Path(__file__).with_name('tables.py'))
+  module = importlib.util.module_from_spec(spec)
+  spec.loader.exec_module(module)
+  return module

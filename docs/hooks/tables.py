@@ -1,0 +1,229 @@
+# coding=utf-8
+"""Result tables made from the committed records (nothing typed by hand).
+
+README and the docs hold each table between two marker lines:
+
+  <!-- table: NAME -->
+  ...generated Markdown...
+  <!-- end table -->
+
+`python docs/hooks/tables.py` rewrites every such block in README.md and
+docs/*.md from the records; `python docs/hooks/tables.py --check` exits 1
+naming the first stale block (tests/test_docs.py runs the same check, and
+the MkDocs hook `generated.py` regenerates the blocks of the site's pages at
+build time). Standard library only: the records are JSON.
+
+Records read (all committed):
+  * `benchmarks/results.json`: the eval rows `benchmarks/results_table.py`
+    writes (`make results`), one per agent, mean and std over the suite.
+  * `benchmarks/planners/**/SUITE/NAME.json`: the per-seed records of
+    `benchmarks/planners.py`, and `.../timing/NAME.json` its timing summary.
+
+Means and standard deviations are over episodes (population std, as
+`ble_latex.run.metrics.summarize`).
+"""
+
+import json
+import math
+import pathlib
+import re
+import sys
+from typing import Callable, Dict, List, Sequence, Tuple
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+RESULTS = ROOT / 'benchmarks' / 'results.json'
+PLANNERS = ROOT / 'benchmarks' / 'planners'
+OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
+BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
+                   re.DOTALL)
+
+# (record name in benchmarks/results.json, label).
+AGENTS = (
+    ('sac_pretrained', '`sac_pretrained` (jitted trainer, seed 2, 6880 training '
+     'episodes)'),
+    ('ble_station_seeker_discrete',
+     'BLE `station_seeker` on `LatexBalloonDiscrete-v0`'),
+    ('latex_station_seeker', '`latex_station_seeker` (Du et al., geometric)'),
+    ('sac_untrained', '`sac` untrained'),
+    ('latex_random', '`latex_random`'),
+)
+# (record path under benchmarks/planners/, label, what s / decision means).
+PLANNER_ROWS = (
+    ('latex_small/latex_mpc', '`latex_mpc` (beam search on the forecast, '
+     'corrected by a Gaussian process of its last 16 measured winds)', ''),
+    ('latex_small/latex_mpc_exp_correction', '`latex_mpc` with the exp-decay '
+     'correction of the current measurement only (`wind_memory=0`, its '
+     'previous default)', ''),
+    ('latex_small/latex_mpc_oracle', '`latex_mpc_oracle` (one beam search over '
+     'the whole 3-day episode on the true winds: an upper bound, not a '
+     'controller)', ' (one per episode)'),
+    ('latex_small/latex_mpc_oracle_receding', '`latex_mpc_oracle`, receding '
+     'horizon (12 h plans remade every 40 min; its previous default)', ''),
+    ('gpu_h100/latex_small/o_h72_b128_d1_small', '`latex_mpc_oracle`, receding, '
+     'wide search (beam 128, 24 h horizon; `make planners-wide`; flown on an '
+     'H100)', ' (H100)'),
+    ('latex_small/latex_mpc_grad', '`latex_mpc_grad` (first-order MPC, '
+     '`jax.grad` through the core)', ''),
+)
+
+
+def _pct(mean: float, std: float) -> str:
+  return f'{100 * mean:.1f} % ± {100 * std:.1f}'
+
+
+def _mean_std(values: Sequence[float]) -> Tuple[float, float]:
+  mean = sum(values) / len(values)
+  return mean, math.sqrt(sum((v - mean) ** 2 for v in values) / len(values))
+
+
+def _load(path: pathlib.Path):
+  with open(path, encoding='utf-8') as f:
+    return json.load(f)
+
+
+def _agent_rows() -> Dict[str, dict]:
+  rows = {r['agent']: r for r in _load(RESULTS)}
+  missing = [name for name, _ in AGENTS if name not in rows]
+  if missing:
+    raise ValueError(f'{RESULTS}: no rows for {missing}')
+  return rows
+
+
+def agents_short() -> str:
+  """README's table: both TW50s, reward, out of resources."""
+  rows = _agent_rows()
+  lines = ['| agent | TW50 window | TW50 flown (BLE\'s) | reward | '
+           'out of resources |', '|---|---|---|---|---|']
+  for name, label in AGENTS:
+    r = rows[name]
+    lines.append(f'| {label} | {_pct(*r["tw50_window"])} | {_pct(*r["tw50"])} '
+                 f'| {r["reward"][0]:.1f} ± {r["reward"][1]:.1f} '
+                 f'| {r["out_of_resources_pct"]:.0f} % |')
+  return '\n'.join(lines)
+
+
+def agents_full() -> str:
+  """docs/results.md's table: also resources spent and episodes."""
+  rows = _agent_rows()
+  lines = ['| agent | TW50 window (mean ± std) | TW50 flown (BLE\'s) | reward '
+           '(mean ± std) | helium vented [mol] | sand dropped [kg] | out of '
+           'resources | episodes |', '|---|---|---|---|---|---|---|---|']
+  for name, label in AGENTS:
+    r = rows[name]
+    lines.append(f'| {label} | {_pct(*r["tw50_window"])} | {_pct(*r["tw50"])} '
+                 f'| {r["reward"][0]:.1f} ± {r["reward"][1]:.1f} '
+                 f'| {r["helium"]:.1f} | {r["sand"]:.2f} '
+                 f'| {r["out_of_resources_pct"]:.0f} % | {r["episodes"]} |')
+  return '\n'.join(lines)
+
+
+def planner_summary(path: str) -> dict:
+  """Mean/std of a planners' record and its timing summary."""
+  record = PLANNERS / f'{path}.json'
+  timing = record.parent / 'timing' / record.name
+  flights = _load(record)
+  if not flights:
+    raise ValueError(f'{record}: no flights')
+  seconds = _load(timing)['summary']
+  return {
+      'seeds': len(flights),
+      'tw50_window': _mean_std([f['tw50_window'] for f in flights]),
+      'out_of_resources_pct': 100.0 * sum(
+          f['terminal_reason'] in OUT_OF_RESOURCES for f in flights) /
+                              len(flights),
+      'sand': _mean_std([f['sand_dropped_kg'] for f in flights])[0],
+      'helium': _mean_std([f['helium_vented_mols'] for f in flights])[0],
+      's_per_decision': seconds['s_per_decision_per_balloon'],
+      's_per_episode': seconds['s_per_episode_per_balloon'],
+  }
+
+
+def _seconds(value: float) -> str:
+  return f'{value:.3g}'
+
+
+def planners_short() -> str:
+  """README's planners table."""
+  lines = ['| planner | seeds | TW50 window | out of resources | s / decision |',
+           '|---|---|---|---|---|']
+  for path, label, note in PLANNER_ROWS:
+    s = planner_summary(path)
+    lines.append(f'| {label} | {s["seeds"]} | {_pct(*s["tw50_window"])} '
+                 f'| {s["out_of_resources_pct"]:.0f} % '
+                 f'| {_seconds(s["s_per_decision"])}{note} |')
+  return '\n'.join(lines)
+
+
+def planners_full() -> str:
+  """docs/planners.md's table: also resources and seconds per episode."""
+  lines = ['| agent | seeds | TW50 window (mean ± std) | out of resources | '
+           'sand dropped [kg] | helium vented [mol] | s / decision | '
+           's / episode |', '|---|---|---|---|---|---|---|---|']
+  for path, label, note in PLANNER_ROWS:
+    s = planner_summary(path)
+    lines.append(f'| {label} | {s["seeds"]} | {_pct(*s["tw50_window"])} '
+                 f'| {s["out_of_resources_pct"]:.0f} % | {s["sand"]:.2f} '
+                 f'| {s["helium"]:.1f} | {_seconds(s["s_per_decision"])}{note} '
+                 f'| {_seconds(s["s_per_episode"])} |')
+  return '\n'.join(lines)
+
+
+TABLES: Dict[str, Callable[[], str]] = {
+    'agents-short': agents_short,
+    'agents-full': agents_full,
+    'planners-short': planners_short,
+    'planners-full': planners_full,
+}
+
+
+def fill(text: str, where: str = 'text') -> str:
+  """`text` with every table block regenerated.
+
+  Raises:
+    ValueError: A block names no known table.
+  """
+  def replace(match: re.Match) -> str:
+    name = match.group(2)
+    if name not in TABLES:
+      raise ValueError(f'{where}: unknown table {name!r} (known: '
+                       f'{sorted(TABLES)})')
+    return f'{match.group(1)}{TABLES[name]()}\n{match.group(4)}'
+  return BLOCK.sub(replace, text)
+
+
+def pages() -> List[pathlib.Path]:
+  """README and the docs pages that hold a table block."""
+  candidates = [ROOT / 'README.md', *sorted((ROOT / 'docs').glob('*.md'))]
+  return [p for p in candidates
+          if BLOCK.search(p.read_text(encoding='utf-8'))]
+
+
+def stale() -> List[str]:
+  """Pages whose table blocks differ from the records."""
+  return [str(p.relative_to(ROOT)) for p in pages()
+          if fill(p.read_text(encoding='utf-8'), str(p)) !=
+          p.read_text(encoding='utf-8')]
+
+
+def main(argv: Sequence[str]) -> int:
+  if argv[1:] == ['--check']:
+    out_of_date = stale()
+    if out_of_date:
+      print(f'tables out of date in {out_of_date}: run python '
+            'docs/hooks/tables.py', file=sys.stderr)
+      return 1
+    return 0
+  if argv[1:]:
+    print('usage: python docs/hooks/tables.py [--check]', file=sys.stderr)
+    return 2
+  for page in pages():
+    text = page.read_text(encoding='utf-8')
+    new = fill(text, str(page))
+    if new != text:
+      page.write_text(new, encoding='utf-8')
+      print(f'rewrote {page.relative_to(ROOT)}')
+  return 0
+
+
+if __name__ == '__main__':
+  sys.exit(main(sys.argv))
