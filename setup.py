@@ -31,6 +31,9 @@ _INSTALL_REQUIRES = [
     'matplotlib',
     'xarray',
     'netCDF4',
+    # GRIB2 analyses (GFS) through xarray: cfgrib and ECMWF's eccodes wheels.
+    'cfgrib',
+    'eccodes',
     'cdsapi',
     'tqdm',
 ]
