@@ -1,0 +1,203 @@
+# coding=utf-8
+"""Radiosonde soundings as wind columns (University of Wyoming text and CSV).
+
+A sounding is one column of the atmosphere over a launch site: pressure,
+geopotential height and the wind measured by the radiosonde on its ascent.
+`read` turns the University of Wyoming's two formats into a `Sounding`:
+
+  * the fixed-width text of weather.uwyo.edu ("TEXT:LIST"): a dashed rule,
+    a row of column names (PRES HGHT TEMP ... DRCT SKNT ...), a row of units
+    (hPa m C ... deg knot ...), a rule, then one row per level, each column
+    7 characters wide, blank where nothing was measured;
+  * the CSV export: a header row of the same names, one row per level.
+
+Units: PRES [hPa] -> [Pa]; HGHT [m]; SKNT [knot] -> [m/s] (1 knot = 1852 m /
+3600 s exactly); DRCT [deg], the direction the wind blows FROM, clockwise
+from north (the meteorological convention, WMO No. 306). The components are
+u = -speed * sin(DRCT) (towards east) and v = -speed * cos(DRCT) (towards
+north).
+
+Only levels with pressure, height, direction and speed are kept; levels are
+ordered by pressure, descending with height. Real files list a level twice
+where a mandatory level is also a significant one (Boise 2010-12-09: 115 hPa
+at 15 240 and 15 237 m): the first listed is kept. A height that does not
+grow as pressure falls is refused (a file that is not a sounding). A column that flies must cover the flight band: winds
+from 15 to 25 km at least (`FLIGHT_BAND_M`).
+"""
+
+import csv
+import dataclasses
+import io
+import os
+from typing import Dict, List, Sequence, Tuple
+
+import numpy as np
+
+from ble_latex import errors
+
+KNOT_MPS = 1852.0 / 3600.0  # [m/s] One knot (exact).
+HPA_PA = 100.0  # [Pa] One hectopascal.
+# The altitudes a latex station-keeping flight uses; a column must hold
+# winds over all of it. # [m]
+FLIGHT_BAND_M = (15_000.0, 25_000.0)
+MAX_FILE_BYTES = 4 * 1024 * 1024  # A sounding is ~10 kB; refuse anything big.
+MIN_LEVELS = 2
+_COLUMNS = ('PRES', 'HGHT', 'DRCT', 'SKNT')
+_WIDTH = 7  # Characters per column of the fixed-width text.
+
+
+@dataclasses.dataclass(frozen=True)
+class Sounding:
+  """One radiosonde column, ordered by pressure from the ground up.
+
+  Attributes:
+    pressure_pa: Pressure of each level, descending. # [Pa]
+    height_m: Geopotential height of each level, ascending. # [m]
+    u_mps: Wind towards east. # [m/s]
+    v_mps: Wind towards north. # [m/s]
+    source: The file read.
+  """
+  pressure_pa: np.ndarray
+  height_m: np.ndarray
+  u_mps: np.ndarray
+  v_mps: np.ndarray
+  source: str
+
+
+def wind_components(direction_deg: np.ndarray, speed_mps: np.ndarray
+                    ) -> Tuple[np.ndarray, np.ndarray]:
+  """u, v of a wind blowing FROM `direction_deg` (clockwise from north).
+
+  Args:
+    direction_deg: Meteorological direction (0 = from the north). # [deg]
+    speed_mps: Wind speed. # [m/s]
+
+  Returns:
+    (u towards east, v towards north). # [m/s]
+  """
+  radians = np.deg2rad(direction_deg)
+  return -speed_mps * np.sin(radians), -speed_mps * np.cos(radians)
+
+
+def _float(cell: str) -> float:
+  cell = cell.strip()
+  return float(cell) if cell else float('nan')
+
+
+def _text_rows(lines: Sequence[str], path: str) -> List[Dict[str, float]]:
+  """Rows of the fixed-width text (University of Wyoming TEXT:LIST)."""
+  for i, line in enumerate(lines):
+    names = line.split()
+    if all(c in names for c in _COLUMNS):
+      break
+  else:
+    raise errors.BadFileError(
+        f'{path}: not a University of Wyoming sounding: no header row naming '
+        f'{", ".join(_COLUMNS)}')
+  header = lines[i]
+  # Each name is right-aligned in its 7-character column.
+  spans = {}
+  for name in _COLUMNS:
+    end = header.index(name) + len(name)
+    spans[name] = (max(0, end - _WIDTH), end)
+  rows = []
+  for line in lines[i + 1:]:
+    stripped = line.strip()
+    if not stripped or set(stripped) <= set('-'):
+      continue
+    if not stripped[0].isdigit():
+      if rows:  # The station's indices follow the levels.
+        break
+      continue  # The units row.
+    try:
+      rows.append({name: _float(line[a:b]) for name, (a, b) in spans.items()})
+    except ValueError as e:
+      raise errors.BadFileError(
+          f'{path}: unreadable sounding row {stripped[:40]!r}') from e
+  return rows
+
+
+def _csv_rows(text: str, path: str) -> List[Dict[str, float]]:
+  reader = csv.DictReader(io.StringIO(text))
+  names = [n.strip() for n in (reader.fieldnames or [])]
+  missing = [c for c in _COLUMNS if c not in names]
+  if missing:
+    raise errors.BadFileError(
+        f'{path}: not a University of Wyoming sounding CSV: no column(s) '
+        f'{", ".join(missing)}')
+  rows = []
+  for n, row in enumerate(reader, start=2):
+    row = {k.strip(): v for k, v in row.items() if k is not None}
+    try:
+      rows.append({c: _float(row.get(c) or '') for c in _COLUMNS})
+    except ValueError as e:
+      raise errors.BadFileError(
+          f'{path}: line {n}: a value that is not a number') from e
+  return rows
+
+
+def read(path: str) -> Sounding:
+  """Reads a University of Wyoming sounding (text or CSV).
+
+  Args:
+    path: The file.
+
+  Returns:
+    The levels with a full wind measurement.
+
+  Raises:
+    errors.BadFileError: Not a sounding, unreadable, too big, levels out of
+      order, or winds that do not cover `FLIGHT_BAND_M` (one line naming
+      the file).
+  """
+  try:
+    size = os.path.getsize(path)
+    if size > MAX_FILE_BYTES:
+      raise errors.BadFileError(
+          f'{path}: {size} bytes is no sounding (at most {MAX_FILE_BYTES})')
+    with open(path, 'rb') as f:
+      raw = f.read()
+  except OSError as e:
+    raise errors.BadFileError(f'{path}: cannot read: {e.strerror or e}') from e
+  try:
+    text = raw.decode('utf-8')
+  except UnicodeDecodeError as e:
+    raise errors.BadFileError(f'{path}: not a text file') from e
+  first = next((l for l in text.splitlines() if l.strip()), '')
+  if ',' in first:
+    rows = _csv_rows(text, path)
+  else:
+    rows = _text_rows(text.splitlines(), path)
+  return _column(rows, path)
+
+
+def _column(rows: Sequence[Dict[str, float]], path: str) -> Sounding:
+  table = np.array([[r[c] for c in _COLUMNS] for r in rows], np.float64)
+  if table.size:
+    table = table[np.all(np.isfinite(table), axis=1)]
+  if len(table) < MIN_LEVELS:
+    raise errors.BadFileError(
+        f'{path}: {len(table)} level(s) with pressure, height and wind; a '
+        f'column needs at least {MIN_LEVELS}')
+  pressure_hpa, height_m, direction, speed_kt = table.T
+  if np.any(pressure_hpa <= 0) or np.any(speed_kt < 0) or np.any(
+      (direction < 0) | (direction > 360)):
+    raise errors.BadFileError(
+        f'{path}: a pressure <= 0, a negative speed or a direction outside '
+        '0-360 deg')
+  order = np.argsort(-pressure_hpa, kind='stable')
+  # The first listed level of each pressure (a stable sort keeps file order).
+  first = np.concatenate([[True], np.diff(pressure_hpa[order]) != 0])
+  order = order[first]
+  pressure_hpa, height_m = pressure_hpa[order], height_m[order]
+  if np.any(np.diff(height_m) <= 0):
+    raise errors.BadFileError(
+        f'{path}: heights do not grow as pressure falls')
+  low, high = FLIGHT_BAND_M
+  if height_m[0] > low or height_m[-1] < high:
+    raise errors.BadFileError(
+        f'{path}: winds cover {height_m[0]:.0f}-{height_m[-1]:.0f} m; a '
+        f'flight needs {low:.0f}-{high:.0f} m')
+  u, v = wind_components(direction[order], speed_kt[order] * KNOT_MPS)
+  return Sounding(pressure_pa=pressure_hpa * HPA_PA, height_m=height_m,
+                  u_mps=u, v_mps=v, source=str(path))
