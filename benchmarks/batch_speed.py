@@ -71,10 +71,10 @@ def jax_worker(batch: int, steps: int, repeats: int, wind: str = 'vae',
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
-  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
 
-  configs.bind_gin(None, None, [], [])
+  gin_binding.bind_gin(None, None, [], [])
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   grid_shape = None
@@ -126,11 +126,11 @@ def profile_worker(batch: int, repeats: int) -> dict:
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
-  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.flight import dynamics  # pylint: disable=g-import-not-at-top
 
-  configs.bind_gin(None, None, [], [])
+  gin_binding.bind_gin(None, None, [], [])
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   keys = jax.random.split(jax.random.PRNGKey(0), batch)

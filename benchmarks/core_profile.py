@@ -48,12 +48,12 @@ def _parts(batch: int) -> Dict[str, Any]:
   """{part: (function, args)} for `batch` balloons (1: unbatched)."""
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.flight import dynamics  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import generative  # pylint: disable=g-import-not-at-top
 
-  configs.bind_gin(None, None, [], [])
+  gin_binding.bind_gin(None, None, [], [])
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   single = batch == 1

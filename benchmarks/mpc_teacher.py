@@ -174,7 +174,7 @@ def run_arm(arm: str, demos, learner, env, params, rounds: int, seed: int,
 
 def _main(argv: Sequence[str]) -> int:
   del argv
-  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
     import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
@@ -182,7 +182,7 @@ def _main(argv: Sequence[str]) -> int:
     from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
     from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
     from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
-  configs.bind_gin(None, None, [], FLAGS.gin_bindings)
+  gin_binding.bind_gin(None, None, [], FLAGS.gin_bindings)
   planner = planners.LatexMpcAgent(
       3, (71,), action_low=jax_env.ACTION_LOW,
       action_high=jax_env.ACTION_HIGH).config

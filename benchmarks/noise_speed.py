@@ -60,11 +60,11 @@ def measure(batch: int, repeats: int) -> dict:
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # pylint: disable=g-import-not-at-top
-  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import simplex  # pylint: disable=g-import-not-at-top
 
-  configs.bind_gin(None, None, [], [])
+  gin_binding.bind_gin(None, None, [], [])
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   keys = jax.random.split(jax.random.PRNGKey(0), batch)

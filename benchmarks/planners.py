@@ -184,7 +184,7 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
 def _main(argv: Sequence[str]) -> int:
   del argv
   from ble_latex import agents  # pylint: disable=g-import-not-at-top
-  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
     from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
@@ -194,7 +194,7 @@ def _main(argv: Sequence[str]) -> int:
     raise cli.CommandUsageError(
         f'--agent={FLAGS.agent!r}: one of {sorted(planners.AGENTS)}')
   del agents
-  configs.bind_gin(None, None, FLAGS.gin_file, FLAGS.gin_bindings)
+  gin_binding.bind_gin(None, None, FLAGS.gin_file, FLAGS.gin_bindings)
   config = planners.AGENTS[FLAGS.agent](
       3, (71,), action_low=jax_env.ACTION_LOW,
       action_high=jax_env.ACTION_HIGH).config

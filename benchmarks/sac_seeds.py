@@ -199,12 +199,12 @@ def _held_out(suite_name: str, policy_path: str, output: str,
   # pylint: disable=g-import-not-at-top
   import gym
   from ble_latex.agents import sac
-  from ble_latex import configs
+  from ble_latex.run import gin_binding
   from ble_latex.run import eval_lib
   from ble_latex.run import metrics
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
-  configs.bind_gin('sac_pretrained', None, list(gin_files), [])
+  gin_binding.bind_gin('sac_pretrained', None, list(gin_files), [])
   suite = suites.get_eval_suite(suite_name)
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space

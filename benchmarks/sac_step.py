@@ -200,13 +200,13 @@ def _time_env_steps(args) -> dict:
   # pylint: disable=g-import-not-at-top
   import gym
   from ble_latex.agents import sac_trainer
-  from ble_latex import configs
+  from ble_latex.run import gin_binding
   from ble_latex.envs import jax_env
   from ble_latex.run import runner
   import jax
   import jax.numpy as jnp
   # pylint: enable=g-import-not-at-top
-  configs.bind_gin('sac', None, [], [])
+  gin_binding.bind_gin('sac', None, [], [])
   env = gym.make('LatexBalloon-v0').unwrapped
   agent = runner.create_agent('sac', env, seed=0)
   obs = env.reset(seed=0)

@@ -63,10 +63,10 @@ flags.DEFINE_string('era5_path', None, 'select: fly the validation on this '
 def train(base_dir: str, episodes: int, episodes_per_iteration: int,
           seed: int, gin_bindings: List[str]) -> None:
   """Runs (or resumes) `ble-latex-train` with policy snapshots."""
-  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
   from ble_latex.run import train_lib  # pylint: disable=g-import-not-at-top
-  configs.bind_gin('sac', None, [], gin_bindings)
+  gin_binding.bind_gin('sac', None, [], gin_bindings)
   train_lib.train(
       agent_name='sac', env_name='LatexBalloon-v0', base_dir=base_dir,
       num_iterations=math.ceil(episodes / episodes_per_iteration),
@@ -118,7 +118,7 @@ def select(base_dir: str, every: int, include_newest: bool,
   import gym  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
-  from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
@@ -136,11 +136,11 @@ def select(base_dir: str, every: int, include_newest: bool,
       results = {k: v for k, v in json.load(f).items()
                  if v.get('seeds') == [seeds[0], seeds[-1]] and
                  'tw50_window_mean' in v}
-  configs.bind_gin('sac_pretrained', None, [], [])
+  gin_binding.bind_gin('sac_pretrained', None, [], [])
   era5 = cli.era5_bindings(era5_path, None,
                            suites.era5_dates('latex_validation'))
   if era5:
-    configs.bind_gin('sac_pretrained', None, [], era5)
+    gin_binding.bind_gin('sac_pretrained', None, [], era5)
     results_path = os.path.join(base_dir, 'validation_era5.json')
     results = {}
     if os.path.exists(results_path):

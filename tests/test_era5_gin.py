@@ -27,6 +27,7 @@ from ble_latex import configs
 from ble_latex import errors
 from ble_latex.cli import common as cli
 from ble_latex.envs import jax_env
+from ble_latex.run import gin_binding
 from ble_latex.run import suites
 from ble_latex.wind import era5
 from ble_latex.wind import era5_jax
@@ -59,8 +60,8 @@ def fixture_era5_path(tmp_path_factory):
 def fixture_gin_era5(era5_path):
   """gin_configs/paper_era5.gin with the synthetic file (cleared after)."""
   gin.clear_config()
-  configs.bind_gin(None, None, [configs.gin_file('paper_era5.gin')],
-                   [f"Era5WindField.path = '{era5_path}'"])
+  gin_binding.bind_gin(None, None, [configs.gin_file('paper_era5.gin')],
+                       [f"Era5WindField.path = '{era5_path}'"])
   yield era5_path
   gin.clear_config()
 
@@ -197,7 +198,7 @@ def test_paper_gin_puts_the_grid_in_the_params(gin_era5):
 def test_era5_factory_without_a_path_is_one_line():
   gin.clear_config()
   try:
-    configs.bind_gin(None, None, [], [
+    gin_binding.bind_gin(None, None, [], [
         'import ble_latex.wind.era5',
         'LatexBalloonEnv.wind_field_factory = @Era5WindField'])
     with pytest.raises(errors.ConfigError, match='Era5WindField.path'):
@@ -209,7 +210,7 @@ def test_era5_factory_without_a_path_is_one_line():
 def test_flags_bind_the_path_and_the_commands_dates(era5_path):
   gin.clear_config()
   try:
-    configs.bind_gin(None, None, [], [])
+    gin_binding.bind_gin(None, None, [], [])
     assert cli.era5_bindings(None, None, 'train') == []  # No ERA5: none.
     with pytest.raises(cli.CommandUsageError, match='--era5_dates needs'):
       cli.era5_bindings(None, 'eval', 'train')
@@ -225,8 +226,8 @@ def test_flags_bind_the_path_and_the_commands_dates(era5_path):
     with pytest.raises(cli.CommandUsageError, match='--era5_dates'):
       cli.era5_bindings(era5_path, 'later', 'train')
     # A range the user's gin chose stays.
-    configs.bind_gin(None, None, [configs.gin_file('paper_era5.gin')],
-                     ["Era5WindField.start_dates = 'validation'"])
+    gin_binding.bind_gin(None, None, [configs.gin_file('paper_era5.gin')],
+                         ["Era5WindField.start_dates = 'validation'"])
     assert cli.era5_bindings(None, None, 'eval') == []
   finally:
     gin.clear_config()

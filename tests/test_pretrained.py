@@ -120,10 +120,11 @@ def test_sac_pretrained_loads_the_policy_of_the_bound_physics(gin_files,
   """The paper's policy by default; the realistic one under its gin file."""
   import gin  # pylint: disable=g-import-not-at-top
   from ble_latex import configs  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   gin.clear_config()
   try:
-    configs.bind_gin('sac_pretrained', None,
-                     [configs.gin_file(f) for f in gin_files], [])
+    gin_binding.bind_gin('sac_pretrained', None,
+                         [configs.gin_file(f) for f in gin_files], [])
     agent = sac.SACPretrainedAgent(3, (71,), action_low=_LOW,
                                    action_high=_HIGH)
   finally:

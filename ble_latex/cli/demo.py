@@ -30,8 +30,8 @@ from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import agents
-from ble_latex import configs
 from ble_latex.cli import common as cli
+from ble_latex.run import gin_binding
 
 # Imported on first use, after the flags are parsed (`--help` stays fast).
 plot = cli.lazy_module('ble_latex.cli.plot')
@@ -70,7 +70,7 @@ flags.DEFINE_integer('train_episodes', 0,
 def _train(run_dir: str, episodes: int) -> None:
   """A short SAC training run (paper settings, learning after 2 episodes)."""
   gin_bindings = [f'{_SAC}.min_replay_history = 432']
-  configs.bind_gin('sac', None, [], gin_bindings)
+  gin_binding.bind_gin('sac', None, [], gin_bindings)
   train_lib.train(agent_name='sac', env_name='LatexBalloon-v0',
                   base_dir=run_dir, num_iterations=1,
                   episodes_per_iteration=episodes,

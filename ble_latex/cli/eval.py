@@ -41,7 +41,7 @@ from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex.cli import common as cli
-from ble_latex import configs
+from ble_latex.run import gin_binding
 
 # Imported on first use, after the flags are parsed (`--help` stays fast).
 distributed = cli.lazy_module('ble_latex.run.distributed')
@@ -103,8 +103,8 @@ def _main(argv: Sequence[str]) -> None:
     raise app.UsageError('--checkpoint_dir and --checkpoint_idx go together.')
   # ERA5 (--era5_path, or a gin file binding it): the suite's dates; the
   # bindings travel in the spec (Ray workers bind the same).
-  configs.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
-                   FLAGS.gin_bindings)
+  gin_binding.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
+                       FLAGS.gin_bindings)
   era5_bindings = cli.era5_bindings(FLAGS.era5_path, FLAGS.era5_dates,
                                     suites.era5_dates(FLAGS.suite))
   spec = eval_lib.EvalSpec(

@@ -61,7 +61,7 @@ from ble_latex import safe_io
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
-  from ble_latex import configs
+  from ble_latex.run import gin_binding
   from ble_latex.plots import figures as plots
   from ble_latex.run import episode_log
   from ble_latex.run import records as records_lib
@@ -387,7 +387,7 @@ def run(f: flags.FlagValues) -> List[str]:
   rows = None
   if wind_seeds:
     with quiet.third_party_noise():
-      configs.bind_gin(None, None, f.gin_file, f.gin_bindings)
+      gin_binding.bind_gin(None, None, f.gin_file, f.gin_bindings)
     rows = wind_rows(wind_seeds, pressures, env_name=f.env_name,
                      hours=f.wind_hours, extent_km=f.wind_extent_km,
                      num_points=f.wind_grid)

@@ -45,6 +45,7 @@ from absl import flags
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex.cli import common as cli
 from ble_latex import configs
+from ble_latex.run import gin_binding
 
 # Imported on first use, after the flags are parsed (`--help` stays fast).
 collectors = cli.lazy_module('ble_latex.run.collectors')
@@ -137,13 +138,13 @@ def _main(argv: Sequence[str]) -> None:
   agent_gin_file = FLAGS.agent_gin_file
   if jax_trainer and agent_gin_file is None:
     agent_gin_file = configs.gin_file('sac_jax.gin')
-  configs.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
-                  FLAGS.gin_bindings)
+  gin_binding.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
+                       FLAGS.gin_bindings)
   era5_bindings = cli.era5_bindings(FLAGS.era5_path, FLAGS.era5_dates,
                                     suites.TRAIN_DATES)
   if era5_bindings:  # ERA5: the file, and the training dates.
-    configs.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
-                     [*FLAGS.gin_bindings, *era5_bindings])
+    gin_binding.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
+                         [*FLAGS.gin_bindings, *era5_bindings])
   cli.check_env_config()
   cli.prepare_output_dir(FLAGS.base_dir, '--base_dir')
   if jax_trainer:

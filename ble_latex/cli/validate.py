@@ -39,6 +39,7 @@ from absl import flags
 from ble_latex import configs
 from ble_latex import quiet
 from ble_latex.cli import common as cli
+from ble_latex.run import gin_binding
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
@@ -249,8 +250,8 @@ def _main(argv: Sequence[str]) -> int:
   if 'realistic' in args.modes:  # Its values, under the user's bindings.
     gin_files = [configs.gin_file(REALISTIC_GIN_FILE), *gin_files]
   if gin_files or args.gin_bindings:
-    configs.bind_gin(None, None, gin_files, args.gin_bindings,
-                     env_defaults=False)
+    gin_binding.bind_gin(None, None, gin_files, args.gin_bindings,
+                         env_defaults=False)
   cli.prepare_output_dir(args.output_dir, '--output_dir')
   if args.modes:
     return _compare_modes(args)

@@ -18,8 +18,8 @@ import gin
 import gym
 import tqdm
 
-from ble_latex import configs
 from ble_latex import quiet
+from ble_latex.run import gin_binding
 from ble_latex.run import metrics
 from ble_latex.run import runner
 from ble_latex import safe_io
@@ -57,8 +57,8 @@ def build(spec: EvalSpec) -> Tuple[base_agent.Agent, gym.Env]:
   bound before is cleared first.
   """
   gin.clear_config()
-  configs.bind_gin(spec.agent, spec.agent_gin_file, spec.gin_files,
-                  spec.gin_bindings)
+  gin_binding.bind_gin(spec.agent, spec.agent_gin_file, spec.gin_files,
+                       spec.gin_bindings)
   with quiet.third_party_noise():
     env = gym.make(spec.env_name).unwrapped
   agent = runner.create_agent(spec.agent, env, seed=spec.seed)

@@ -332,12 +332,13 @@ def bind_trial_gin(settings: SweepSettings, index: int) -> None:
   # pylint: disable=g-import-not-at-top
   import gin
   from ble_latex import configs
+  from ble_latex.run import gin_binding
   # pylint: enable=g-import-not-at-top
   gin.clear_config()
-  configs.bind_gin('sac', configs.gin_file('sac_jax.gin'),
-                  settings.gin_files,
-                  [*settings.gin_bindings,
-                   *binding_lines(settings.points[index])])
+  gin_binding.bind_gin('sac', configs.gin_file('sac_jax.gin'),
+                       settings.gin_files,
+                       [*settings.gin_bindings,
+                        *binding_lines(settings.points[index])])
 
 
 def check_points(settings: SweepSettings) -> None:
