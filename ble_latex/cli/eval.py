@@ -44,6 +44,7 @@ from ble_latex.cli import common as cli
 from ble_latex.run import gin_binding
 
 # Imported on first use, after the flags are parsed (`--help` stays fast).
+batch_eval = cli.lazy_module('ble_latex.run.batch_eval')
 distributed = cli.lazy_module('ble_latex.run.distributed')
 eval_lib = cli.lazy_module('ble_latex.run.eval_lib')
 metrics = cli.lazy_module('ble_latex.run.metrics')
@@ -147,10 +148,14 @@ def _fly(spec: 'eval_lib.EvalSpec', path: str, agent: Any, env: Any) -> None:
     results = eval_lib.evaluate(agent, env, seeds, max_steps,
                                 description=description)
   else:
+    # JAX-core agents fly batched on the workers too (`batch_eval`).
+    batch_size = (batch_eval.BATCH_SIZE if batch_eval.flies_batched(agent, env)
+                  else 1)
     del agent, env  # Workers build their own.
     try:
       results = distributed.evaluate(spec, seeds, max_steps,
-                                     description=description)
+                                     description=description,
+                                     batch_size=batch_size)
     except distributed.SeedsFailedError as e:
       partial = path[:-len('.json')] + '.partial.json'
       eval_lib.write_results(partial, e.completed, FLAGS.pretty_json)

@@ -131,8 +131,13 @@ def shutdown() -> None:
     ray.shutdown()
 
 
-def _fly_seed(spec_json: str, seed: int, max_steps: int) -> Dict[str, Any]:
-  """Ray task body: the eval record of one seed (agent built once per worker)."""
+def _fly_seeds(spec_json: str, seeds: List[int], max_steps: int
+               ) -> List[Dict[str, Any]]:
+  """Ray task body: the eval records of seeds (agent built once per worker).
+
+  One seed: `eval_lib.fly`; several (agents flown batched): one
+  `batch_eval.evaluate` batch.
+  """
   # pylint: disable=g-import-not-at-top
   import ble_latex  # pylint: disable=unused-import  # Fixes first.
   from ble_latex.run import eval_lib
@@ -142,12 +147,22 @@ def _fly_seed(spec_json: str, seed: int, max_steps: int) -> Dict[str, Any]:
     spec = eval_lib.EvalSpec(**json.loads(spec_json))
     _WORKER_CACHE[spec_json] = eval_lib.build(spec)
   agent, env = _WORKER_CACHE[spec_json]
-  return eval_lib.fly(agent, env, seed, max_steps)
+  if len(seeds) == 1:
+    return [eval_lib.fly(agent, env, seeds[0], max_steps)]
+  from ble_latex.run import batch_eval  # pylint: disable=g-import-not-at-top
+  return batch_eval.evaluate(agent, env, seeds, max_steps,
+                             batch_size=len(seeds))
 
 
 def evaluate(spec: Any, seeds: Sequence[int], max_steps: int,
-             description: str = 'eval') -> List[Dict[str, Any]]:
-  """Flies each seed as a Ray task; the records in seed order.
+             description: str = 'eval', batch_size: int = 1
+             ) -> List[Dict[str, Any]]:
+  """Flies the seeds as Ray tasks; the records in seed order.
+
+  A task flies one seed, or with `batch_size` > 1 (an agent flown batched,
+  `batch_eval`) up to `batch_size` seeds at once, in no fewer tasks than
+  the cluster's CPUs (while there are seeds); a failed task fails each of
+  its seeds.
 
   The records equal `eval_lib.evaluate`'s for agents whose eval episodes do
   not depend on earlier ones (every deterministic policy; not
@@ -159,6 +174,7 @@ def evaluate(spec: Any, seeds: Sequence[int], max_steps: int,
     seeds: Env seeds.
     max_steps: Steps per episode.
     description: Progress-bar label.
+    batch_size: Seeds per task at most (1: one seed per task).
 
   Returns:
     One record per seed, in the order of `seeds`.
@@ -174,9 +190,13 @@ def evaluate(spec: Any, seeds: Sequence[int], max_steps: int,
   # pylint: enable=g-import-not-at-top
   ray = require_ray()
   spec_json = json.dumps(dataclasses.asdict(spec.absolute()))
-  task = ray.remote(max_retries=MAX_RETRIES)(_fly_seed)
-  refs = {task.remote(spec_json, int(s), max_steps): i
-          for i, s in enumerate(seeds)}
+  task = ray.remote(max_retries=MAX_RETRIES)(_fly_seeds)
+  cpus = max(1, int(ray.cluster_resources().get('CPU', 1)))
+  size = max(1, min(batch_size, -(-len(seeds) // cpus)))
+  chunks = [list(range(i, min(i + size, len(seeds))))
+            for i in range(0, len(seeds), size)]
+  refs = {task.remote(spec_json, [int(seeds[i]) for i in chunk],
+                      max_steps): chunk for chunk in chunks}
   records: List[Optional[Dict[str, Any]]] = [None] * len(seeds)
   failures: Dict[int, str] = {}
   pending = list(refs)
@@ -184,12 +204,13 @@ def evaluate(spec: Any, seeds: Sequence[int], max_steps: int,
                  unit='episode', dynamic_ncols=True) as bar:
     while pending:
       ready, pending = ray.wait(pending, num_returns=1)
-      i = refs[ready[0]]
+      chunk = refs[ready[0]]
       try:
-        records[i] = ray.get(ready[0])
+        for i, record in zip(chunk, ray.get(ready[0])):
+          records[i] = record
       except ray.exceptions.RayError as e:
-        failures[int(seeds[i])] = _error_line(e)
-      bar.update(1)
+        failures.update({int(seeds[i]): _error_line(e) for i in chunk})
+      bar.update(len(chunk))
       done = [r for r in records if r is not None]
       if done:
         bar.set_postfix(eval_lib.progress_postfix(done))

@@ -98,9 +98,18 @@ def progress_postfix(results: List[Dict[str, Any]]) -> Dict[str, str]:
 
 
 def evaluate(agent: base_agent.Agent, env: gym.Env, seeds: Sequence[int],
-             max_steps: int, description: str = 'eval'
+             max_steps: int, description: str = 'eval', batched: bool = True
              ) -> List[Dict[str, Any]]:
-  """Flies one deterministic episode per seed, in order; returns the records."""
+  """Flies one deterministic episode per seed, in order; returns the records.
+
+  Agents that fly the JAX core fly `batch_eval.BATCH_SIZE` seeds at once
+  (`batch_eval`; equal records per seed within float32 noise) unless
+  `batched` is False; every other agent one balloon at a time.
+  """
+  if batched and batch_eval.flies_batched(agent, env):
+    return batch_eval.evaluate(agent, env, seeds, max_steps,
+                               description=description,
+                               postfix=progress_postfix)
   results = []
   bar = tqdm.tqdm(seeds, desc=description, unit='episode', dynamic_ncols=True)
   for i, seed in enumerate(bar):
