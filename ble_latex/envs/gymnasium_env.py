@@ -610,6 +610,16 @@ class LatexBalloonGymnasiumEnv(_Balloons, gymnasium.Env):
 
   check_action = _Balloons.box_actions  # `CheckedSyncVectorEnv`'s check.
 
+  @property
+  def host_wind_field(self) -> Any:
+    """The BLE `WindField` flown through host callbacks, or None.
+
+    None when the env's winds are JAX winds (the core's generative field,
+    or ERA5 in `params.wind_grid`), which pure JAX code such as the
+    planners can fly themselves (`wind_for(params)`).
+    """
+    return self._wind_field
+
   def reset(self, *, seed: Optional[int] = None,
             options: Optional[Mapping[str, Any]] = None
             ) -> Tuple[np.ndarray, Dict[str, Any]]:
