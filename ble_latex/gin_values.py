@@ -97,9 +97,24 @@ def is_real(value: Any) -> bool:
   return shape == () and dtype is not None and np.dtype(dtype).kind in 'iuf'
 
 
+# The flight core computes in float32: a value finite in float64 but beyond
+# float32's largest (3.4e38) is inf there (and NaN once multiplied by 0).
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
 def is_number(value: Any) -> bool:
-  """A finite real number (`is_real`)."""
-  return is_real(value) and math.isfinite(float(value))
+  """A real number (`is_real`) that is finite in float32 (the core's float).
+
+  1e39 is finite in float64 but inf in float32; every check of a configured
+  number refuses it, as it refuses inf and NaN.
+  """
+  if not is_real(value):
+    return False
+  try:
+    x = float(value)
+  except OverflowError:  # An int beyond float64 (10**400).
+    return False
+  return math.isfinite(x) and abs(x) <= FLOAT32_MAX
 
 
 def check_number(name: str, value: Any, *, minimum: Optional[float] = None,
@@ -130,6 +145,8 @@ def check_number(name: str, value: Any, *, minimum: Optional[float] = None,
            if bound is not None]
   requirement = 'a finite number' + (' ' + ' and '.join(parts) if parts
                                      else '')
+  if is_real(value) and not is_number(value) and _finite64(value):
+    requirement += ' (finite in float32: |x| <= 3.4e38)'
   ok = is_number(value)
   if ok:
     x = float(value)
@@ -138,6 +155,14 @@ def check_number(name: str, value: Any, *, minimum: Optional[float] = None,
           (below is None or x < below))
   require(ok, name, requirement, value, why)
   return float(value)
+
+
+def _finite64(value: Any) -> bool:
+  """Not NaN or inf (an int beyond float64, 10**400, is finite)."""
+  try:
+    return math.isfinite(float(value))
+  except OverflowError:
+    return True
 
 
 def check_int(name: str, value: Any, *, minimum: int,

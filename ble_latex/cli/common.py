@@ -40,6 +40,7 @@ import gin
 
 from ble_latex import configs
 from ble_latex import errors
+from ble_latex import gin_values
 from ble_latex import safe_io
 
 HELP_FLAGS = ('-h', '--help', '-help', '--helpshort', '--helpfull',
@@ -166,6 +167,10 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
     return usage(prog, f'{e} (try --help)')
   if not positional and len(args) > 1:
     return usage(prog, f'unexpected arguments: {args[1:]}')
+  message = number_flags_message(flag_values)
+  if message is not None:
+    return usage(prog, message)
+  gin.clear_config()  # A command run twice in one process binds afresh.
 
   def checked_main(unused_argv: Sequence[str]) -> Optional[int]:
     try:
@@ -192,6 +197,37 @@ def run_absl(main: Callable[[Sequence[str]], Optional[int]], prog: str,
   except SystemExit as e:
     return _exit_status(e.code)
   return 0
+
+
+def number_flags_message(flag_values: flags.FlagValues) -> Optional[str]:
+  """The usage message of a number flag the core cannot hold, else None.
+
+  absl parses `--x=nan`, `--x=inf` and `--x=1e39` as floats and any integer
+  as a Python int; every float flag of every command must be finite in
+  float32 (`gin_values.is_number`: the core's float), every integer flag
+  within int64.
+
+  Args:
+    flag_values: The command's parsed flags.
+
+  Returns:
+    'NAME must be ..., got VALUE' for the first bad flag, or None.
+  """
+  for name in flag_values:
+    flag = flag_values[name]
+    value = flag.value
+    if value is None or isinstance(value, bool):
+      continue
+    if isinstance(flag.parser, flags.FloatParser):
+      values = value if isinstance(value, list) else [value]
+      if not all(gin_values.is_number(v) for v in values):
+        return (f'--{name} must be a finite number (in float32: |x| <= '
+                f'3.4e38), got {flag.value!r}')
+    elif isinstance(flag.parser, flags.IntegerParser):
+      values = value if isinstance(value, list) else [value]
+      if not all(-2**63 <= v < 2**63 for v in values):
+        return f'--{name} must be an integer within int64, got {value!r}'
+  return None
 
 
 def quiet_init_callbacks() -> None:
@@ -328,6 +364,35 @@ def era5_dates_value(dates: str) -> Any:
 
 
 # -- Checks shared by train and eval. ----------------------------------------
+def training_seeds(values: Sequence[str], flag: str = '--seeds'
+                   ) -> List[int]:
+  """A --seeds list of training seeds: distinct ints in [0, 2**32).
+
+  Raises:
+    CommandUsageError: One line naming the flag and the bad value.
+  """
+  try:
+    seeds = [int(s) for s in values]
+  except ValueError as e:
+    raise CommandUsageError(f'{flag} takes integers, got {values}') from e
+  if not seeds or len(set(seeds)) != len(seeds):
+    raise CommandUsageError(f'{flag} takes distinct integers >= 0, got '
+                            f'{values}')
+  for seed in seeds:
+    training_seed(seed, flag)
+  return seeds
+
+
+def training_seed(seed: int, flag: str = '--seed') -> int:
+  """A training seed (`run_dir.check_training_seed`) or a usage error."""
+  from ble_latex.run import run_dir  # pylint: disable=g-import-not-at-top
+  try:
+    return run_dir.check_training_seed(seed, flag)
+  except errors.ConfigError as e:
+    raise CommandUsageError(str(e)) from e
+
+
+
 def check_ray_flags(address: Optional[str], num_cpus: Optional[int]) -> None:
   """--ray_address / --ray_num_cpus: Ray installed, address well formed."""
   from ble_latex.run import distributed  # pylint: disable=g-import-not-at-top

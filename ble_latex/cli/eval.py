@@ -82,7 +82,8 @@ flags.DEFINE_integer('checkpoint_idx', None, 'Checkpoint iteration to load.',
 flags.DEFINE_string('name_override', None, 'Name of the json output file.',
                     flag_values=FLAGS)
 flags.DEFINE_integer('max_episode_length', None,
-                     'Override the suite\'s episode length.', flag_values=FLAGS)
+                     'Override the suite\'s episode length.', lower_bound=1,
+                     flag_values=FLAGS)
 flags.DEFINE_integer('seed', 0, 'Agent seed.', flag_values=FLAGS)
 flags.DEFINE_string('ray_address', None,
                     'Fly the seeds as Ray tasks: local (an embedded Ray on '
@@ -176,6 +177,7 @@ def check() -> None:
   cli.check_env_name(FLAGS.env_name)
   cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
   cli.check_ray_flags(FLAGS.ray_address, FLAGS.ray_num_cpus)
+  eval_lib.shard([], FLAGS.num_shards, FLAGS.shard_idx)  # Before any lock.
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

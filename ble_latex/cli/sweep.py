@@ -83,13 +83,7 @@ def settings_from_flags() -> sweep_lib.SweepSettings:
   space = sweep_lib.load_space(FLAGS.space) if FLAGS.space else None
   space = sweep_lib.merge(space, [sweep_lib.parse_grid_flag(g)
                                   for g in FLAGS.grid], FLAGS.num_samples)
-  try:
-    seeds = tuple(int(s) for s in FLAGS.seeds)
-  except ValueError as e:
-    raise ValueError(f'--seeds takes integers, got {FLAGS.seeds}') from e
-  if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
-    raise ValueError(f'--seeds takes distinct integers >= 0, got '
-                     f'{FLAGS.seeds}')
+  seeds = tuple(cli.training_seeds(FLAGS.seeds))
   return sweep_lib.SweepSettings(
       sweep_dir=os.path.abspath(FLAGS.sweep_dir),
       points=tuple(sweep_lib.points(space, FLAGS.search_seed, len(seeds))),

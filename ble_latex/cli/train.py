@@ -64,13 +64,13 @@ flags.DEFINE_string('agent', 'sac', 'Type of agent to create.',
 flags.DEFINE_string('env_name', 'LatexBalloon-v0',
                     'Name of environment to create.', flag_values=FLAGS)
 flags.DEFINE_integer('num_iterations', 50, 'Number of iterations to train.',
-                     flag_values=FLAGS)
+                     lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('episodes_per_iteration', 10,
                      'Episodes per iteration; a checkpoint is written after '
-                     'each iteration.', flag_values=FLAGS)
+                     'each iteration.', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('max_episode_length', suites.EPISODE_STEPS,
                      'Maximum steps per episode (216 x 20 min = 3 days).',
-                     flag_values=FLAGS)
+                     lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_string('base_dir', None,
                     'Directory for checkpoints, episodes.jsonl and metrics.',
                     flag_values=FLAGS)
@@ -196,14 +196,9 @@ def check() -> None:
   cli.check_agent(FLAGS.agent)
   cli.check_env_name(FLAGS.env_name)
   if FLAGS.seeds is not None:
-    try:
-      seeds = [int(s) for s in FLAGS.seeds]
-    except ValueError as e:
-      raise cli.CommandUsageError(
-          f'--seeds takes integers, got {FLAGS.seeds}') from e
-    if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
-      raise cli.CommandUsageError(
-          f'--seeds takes distinct integers >= 0, got {FLAGS.seeds}')
+    cli.training_seeds(FLAGS.seeds)
+  else:
+    cli.training_seed(FLAGS.seed)
   if FLAGS.vmap_seeds and (FLAGS.trainer != 'jax' or FLAGS.seeds is None):
     raise cli.CommandUsageError('--vmap_seeds needs --trainer=jax and --seeds')
   if FLAGS.trainer == 'jax':

@@ -18,6 +18,7 @@ import gin
 import gym
 import tqdm
 
+from ble_latex import errors
 from ble_latex import quiet
 from ble_latex.run import gin_binding
 from ble_latex.run import metrics
@@ -70,7 +71,9 @@ def build(spec: EvalSpec) -> Tuple[base_agent.Agent, gym.Env]:
 def shard(seeds: Sequence[int], num_shards: int, shard_idx: int) -> List[int]:
   """BLE's sharding of a suite's seeds."""
   if not 0 <= shard_idx < num_shards:
-    raise ValueError(f'shard_idx must be in [0, {num_shards}), got {shard_idx}')
+    raise errors.ConfigError(
+        f'--shard_idx must be in [0, --num_shards={num_shards}), got '
+        f'{shard_idx}')
   start = int(len(seeds) * shard_idx / num_shards)
   end = int(len(seeds) * (shard_idx + 1) / num_shards)
   return list(seeds[start:end])

@@ -490,7 +490,7 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
   if num_iterations < 1 or checkpoint_period < 1 or policy_snapshot_period < 0:
     raise ValueError('num_iterations and checkpoint_period must be >= 1, '
                      'policy_snapshot_period >= 0')
-  seeds_of_runs = [seed for seed, _ in runs]
+  seeds_of_runs = [run_dir.check_training_seed(seed) for seed, _ in runs]
   if not runs or len(set(seeds_of_runs)) != len(seeds_of_runs):
     raise ValueError(f'runs need distinct training seeds, got {seeds_of_runs}')
   with contextlib.ExitStack() as locks:  # One writer per run directory.

@@ -14,12 +14,29 @@ import re
 from typing import Any, Iterator, Mapping, Optional
 
 from ble_latex.agents import sac_core
+from ble_latex.envs import seeds as seeds_lib
 from ble_latex.run import episode_log
 from ble_latex import errors
+from ble_latex import gin_values
 from ble_latex import safe_io
 
 RUN_INFO = 'run.json'  # What a resumed run must agree with.
 POLICY_SNAPSHOT_PATTERN = re.compile(r'^policy_(\d{5,})\.msgpack$')
+
+
+def check_training_seed(seed: Any, name: str = 'training seed') -> int:
+  """A training seed in [0, 2**32), as int (the check of every trainer).
+
+  `jax.random.PRNGKey` takes seeds modulo 2**32: seed 2**32 + s would train
+  the run of seed s, and seeds beyond int64 overflow (the env refuses the
+  same, `envs.seeds.MAX_SEED`). Both trainers, `ble-latex-train` and the
+  sweep check their seeds here, before any directory is made.
+
+  Raises:
+    errors.ConfigError: Naming `name` and the value (one line, exit 2).
+  """
+  return gin_values.check_int(name, seed, minimum=0,
+                              maximum=seeds_lib.MAX_SEED - 1)
 
 
 def checkpoint_dir(base_dir: str) -> str:

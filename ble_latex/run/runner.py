@@ -31,10 +31,14 @@ def create_agent(name: str, env: gym.Env, seed: int = 0) -> base_agent.Agent:
 def _create_agent(name: str, env: gym.Env, seed: int) -> base_agent.Agent:
   observation_shape = env.observation_space.shape
   space = env.action_space
+  constructor = agent_registry.agent_constructor(name)
   if isinstance(space, gym.spaces.Discrete):
+    if getattr(constructor, 'supports_box_actions', False):  # Box only.
+      raise errors.ConfigError(
+          f'Agent {name!r} acts in the Box ([-1, 1] altitude actions); use '
+          'it with --env_name=LatexBalloon-v0, not a discrete-action env')
     return run_helpers.create_agent(name, space.n,
                                     observation_shape=observation_shape)
-  constructor = agent_registry.agent_constructor(name)
   if not getattr(constructor, 'supports_box_actions', False):
     raise errors.ConfigError(
         f'Agent {name!r} only supports discrete actions; use it with '

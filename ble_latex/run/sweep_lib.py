@@ -54,6 +54,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from ble_latex import errors
+from ble_latex import gin_values
 from ble_latex.run import distributed
 from ble_latex.run import episode_log
 from ble_latex import safe_io
@@ -110,8 +111,12 @@ def check_size(space: Space, source: str, num_seeds: int = 1) -> None:
 def _literal(value: Any, where: str) -> Literal:
   if isinstance(value, np.generic):
     value = value.item()
-  if isinstance(value, float) and not math.isfinite(value):
-    raise SpaceError(f'{where}: {value!r} is not a finite number')
+  if isinstance(value, float) and not gin_values.is_number(value):
+    raise SpaceError(f'{where}: {value!r} is not a finite number (the '
+                     'core computes in float32: |x| <= 3.4e38)')
+  if (isinstance(value, int) and not isinstance(value, bool) and
+      not -2**63 <= value < 2**63):
+    raise SpaceError(f'{where}: {value!r} is beyond int64')
   if not isinstance(value, (bool, int, float, str)):
     raise SpaceError(f'{where}: {value!r} is not a gin literal (number, '
                      'boolean or string)')
@@ -351,6 +356,9 @@ def check_points(settings: SweepSettings) -> None:
   # pylint: disable=g-import-not-at-top
   from ble_latex import quiet
   from ble_latex.envs import jax_env
+  from ble_latex.run import run_dir
+  for seed in settings.seeds:
+    run_dir.check_training_seed(seed)
   with quiet.third_party_noise():  # Binding imports TF, dopamine, BLE.
     from ble_latex.agents import sac_trainer
     # pylint: enable=g-import-not-at-top

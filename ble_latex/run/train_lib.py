@@ -74,13 +74,14 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
     safe_io.InUseError: If another process (or another run in this one)
       trains in `base_dir` (`safe_io.locked_dir`, held for the whole run).
   """
+  run_dir.check_training_seed(seed)
   collectors_lib.check_collectors(collectors)
   if num_iterations < 1 or episodes_per_iteration < 1 or max_episode_length < 1:
-    raise ValueError('num_iterations, episodes_per_iteration and '
-                     'max_episode_length must be >= 1')
+    raise errors.ConfigError('num_iterations, episodes_per_iteration and '
+                             'max_episode_length must be >= 1')
   if policy_snapshot_period < 0:
-    raise ValueError('policy_snapshot_period must be >= 0, got '
-                     f'{policy_snapshot_period}')
+    raise errors.ConfigError('policy_snapshot_period must be >= 0, got '
+                             f'{policy_snapshot_period}')
   with run_dir.locked(base_dir):  # Creates it.
     env = gym.make(env_name).unwrapped
     agent = runner.create_agent(agent_name, env, seed=seed)

@@ -869,13 +869,14 @@ def start_dates_range(start_dates: Any, what: str = 'Era5WindField.start_dates'
         when = dt.datetime(value.year, value.month, value.day)
       else:
         when = dt.datetime.fromisoformat(str(value))
-    except ValueError as e:
+      if when.tzinfo is None:
+        when = when.replace(tzinfo=dt.timezone.utc)
+      # OverflowError: a date whose UTC time leaves years 1..9999.
+      pair.append(when.astimezone(dt.timezone.utc))
+    except (ValueError, OverflowError) as e:
       raise errors.ConfigError(
           f'{what} = {given!r}: {value!r} is not an ISO date (YYYY-MM-DD '
-          'or YYYY-MM-DDTHH:MM)') from e
-    if when.tzinfo is None:
-      when = when.replace(tzinfo=dt.timezone.utc)
-    pair.append(when.astimezone(dt.timezone.utc))
+          'or YYYY-MM-DDTHH:MM) in years 1..9999 (UTC)') from e
   if not pair[0] < pair[1]:
     raise errors.ConfigError(f'{what} = {given!r}: the first date must come '
                              'before the end')
