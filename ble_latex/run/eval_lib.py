@@ -20,6 +20,7 @@ import tqdm
 
 from ble_latex import errors
 from ble_latex import quiet
+from ble_latex.run import batch_eval
 from ble_latex.run import gin_binding
 from ble_latex.run import metrics
 from ble_latex.run import runner
