@@ -297,6 +297,14 @@ def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
     found = tree.get(FORMAT_KEY) if isinstance(tree, dict) else None
     raise errors.BadFileError(f'{path} is not a {what} (format {file_format!r} '
                               f'expected, found {found!r})')
+  # Only what `write_tree` stores: a msgpack ext type (which would load and
+  # then fail when the tree is used or written again) or a non-string key
+  # is refused here, naming the file.
+  try:
+    _check_tree(tree, 'top level')
+  except TypeError as e:
+    raise errors.BadFileError(f'{what} {path}: {e} (not written by '
+                              'ble_latex)') from e
   return tree
 
 

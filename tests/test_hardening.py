@@ -2,6 +2,7 @@
 place every entry point goes through; each test fails without its fix."""
 
 import os
+import pathlib
 
 from absl import flags
 import gin
@@ -187,3 +188,48 @@ def test_era5_dates_that_overflow_are_a_config_error():
                ('2022-01-01', '9999-12-31T23:00-05:00')):
     with pytest.raises(errors.ConfigError, match='years 1..9999'):
       era5.start_dates_range(pair)
+
+
+# -- Items 18, 19: policy files hold only what write_tree stores. -----------
+_SHIPPED_POLICY = (pathlib.Path(__file__).resolve().parents[1] / 'ble_latex' /
+                   'agents' / 'policies' / 'sac_latex.msgpack')
+
+
+def _crafted_policy(tmp_path, name, extra):
+  """The shipped policy's bytes with `extra` entries added (msgpack)."""
+  import msgpack  # pylint: disable=g-import-not-at-top
+  # flax's arrays stay msgpack ext types here: repacked byte for byte.
+  raw = msgpack.unpackb(_SHIPPED_POLICY.read_bytes(), raw=False,
+                        strict_map_key=False)
+  raw.update(extra)
+  path = tmp_path / name
+  path.write_bytes(msgpack.packb(raw))
+  return path
+
+
+@pytest.mark.parametrize('extra', [
+    {'note': 'EXT'}, {7: 'an int key'}])
+def test_policy_with_ext_type_or_int_key_is_refused_naming_it(
+    extra, tmp_path, capsys):
+  import msgpack  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import export_policy  # pylint: disable=g-import-not-at-top
+  if extra.get('note') == 'EXT':
+    extra = {'note': msgpack.ExtType(42, b'x')}
+  path = _crafted_policy(tmp_path, 'crafted.msgpack', extra)
+  with pytest.raises(errors.BadFileError, match=str(path)):
+    pretrained.load_policy(str(path))
+  out = tmp_path / 'out.msgpack'
+  assert export_policy.main([f'--checkpoint={path}', f'--output={out}']) == 1
+  assert str(path) in _one_line(capsys, 'ble-latex-export-policy')
+  assert not out.exists()
+
+
+def test_export_policy_to_a_pickle_name_is_a_usage_error(tmp_path, capsys):
+  from ble_latex.cli import export_policy  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'x.pkl'
+  assert export_policy.main([
+      f'--checkpoint={_SHIPPED_POLICY}',
+      f'--output={out}']) == 2
+  assert 'msgpack' in _one_line(capsys, 'ble-latex-export-policy')
+  assert not out.exists()

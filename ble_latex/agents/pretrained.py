@@ -159,9 +159,9 @@ def write_policy(policy: Dict[str, Any], output_file: str) -> None:
   """Writes a policy dict (from `export_policy`/`load_policy`) atomically."""
   if policy.get('format') != POLICY_FORMAT:
     raise ValueError(f'not a {POLICY_FORMAT} policy')
-  if _is_pickle_path(output_file):
-    raise ValueError(f'{output_file}: policies are msgpack files; use a '
-                     f'{POLICY_SUFFIX} name')
+  if _is_pickle_path(output_file):  # A usage error: one line, exit 2.
+    raise errors.ConfigError(f'{output_file}: policies are msgpack files; '
+                             f'use a {POLICY_SUFFIX} name')
   safe_io.write_tree(output_file, policy, file_format=POLICY_FORMAT)
 
 
