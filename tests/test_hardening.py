@@ -233,3 +233,26 @@ def test_export_policy_to_a_pickle_name_is_a_usage_error(tmp_path, capsys):
       f'--output={out}']) == 2
   assert 'msgpack' in _one_line(capsys, 'ble-latex-export-policy')
   assert not out.exists()
+
+
+# -- Item 7: levels outside a wind source are refused, not clamped. ---------
+def test_wind_stats_levels_outside_the_file_are_refused(tmp_path, capsys):
+  import test_era5  # pylint: disable=g-import-not-at-top
+  import jax  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import stats  # pylint: disable=g-import-not-at-top
+  era5_file = test_era5.write_era5(tmp_path / 'era5.nc')  # 5000..10000 Pa.
+  for levels in ([1.0, 2.0], [5000.0, 20000.0], [float('nan'), 5000.0]):
+    with pytest.raises(errors.ConfigError, match='outside ERA5 file'):
+      stats.sample_era5(era5_file, levels, num_samples=5)
+  with pytest.raises(errors.ConfigError, match="outside the VAE"):
+    stats.sample_vae(jax.random.PRNGKey(0), [1.0, 5000.0], num_fields=1,
+                     points_per_field=1)
+  out = tmp_path / 'plots'
+  for against in ([], [f'--wind_stats_against={era5_file}']):
+    assert plot.main([f'--output_dir={out}', '--wind_stats',
+                      f'--era5_path={era5_file}',
+                      '--wind_stats_pressures_pa=1,2', *against]) == 2
+    assert 'pressure levels [1.0, 2.0] Pa are outside' in _one_line(
+        capsys, 'ble-latex-plot')
+  assert not out.exists() or not list(out.iterdir())

@@ -43,6 +43,7 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.stats
 
+from ble_latex import errors
 from ble_latex.wind import era5
 from ble_latex.wind import generative
 
@@ -99,6 +100,32 @@ def band_levels(pressures_pa: Sequence[float],
   return pressures[(pressures >= band[0]) & (pressures <= band[1])]
 
 
+def check_levels(pressures_pa: Sequence[float], low: float, high: float,
+                 source: str) -> np.ndarray:
+  """Levels inside a source's pressure range, as float64.
+
+  Outside it a source's winds are its edge level's (clamped), which would
+  be reported under levels the source does not hold.
+
+  Args:
+    pressures_pa: The levels asked for. # [Pa]
+    low: The source's lowest pressure. # [Pa]
+    high: The source's highest pressure. # [Pa]
+    source: The source, for the message.
+
+  Raises:
+    errors.ConfigError: A level outside [low, high] or not finite (one line).
+  """
+  pressures = np.asarray(pressures_pa, dtype=np.float64)
+  bad = pressures[~(np.isfinite(pressures) & (pressures >= low) &
+                    (pressures <= high))]
+  if bad.size:
+    raise errors.ConfigError(
+        f'pressure levels {bad.tolist()} Pa are outside {source} '
+        f'({low:g}..{high:g} Pa): its winds there would be clamped')
+  return pressures
+
+
 def _annulus(uniform_radius: np.ndarray, uniform_angle: np.ndarray,
              radius_km: Sequence[float]) -> Any:
   """(x, y) [km] uniform over an annulus' area from two uniforms in [0, 1)."""
@@ -128,6 +155,7 @@ def sample_vae(key: jnp.ndarray, pressures_pa: Sequence[float], *,
   if num_fields < 1 or points_per_field < 1:
     raise ValueError(f'num_fields and points_per_field must be >= 1, got '
                      f'{num_fields}, {points_per_field}')
+  check_levels(pressures_pa, BAND_PA[0], BAND_PA[1], "the VAE forecast's grid")
   params = generative.decoder_params() if params is None else params
   field_key, point_key = jax.random.split(key)
   fields = generative.reset_forecasts(
@@ -181,6 +209,9 @@ def sample_era5(path: Union[str, Sequence[str]],
           f'{where} hold {pressures_pa.size} pressure level(s) in '
           f'{BAND_PA[0]:g}..{BAND_PA[1]:g} Pa (levels {list(data.pressure)} '
           'Pa); the comparison needs 2 or more')
+  else:
+    check_levels(pressures_pa, float(np.min(data.pressure)),
+                 float(np.max(data.pressure)), where)
   center_lat = 0.5 * (data.latitude[0] + data.latitude[-1])
   center_lon = 0.5 * (data.longitude[0] + data.longitude[-1])
   field = era5.Era5WindField(path=path, center_lat=center_lat,
