@@ -863,7 +863,7 @@ def test_output_directory_is_a_usage_error(monkeypatch, capsys, tmp_path,
     captured = capsys.readouterr()
     assert captured.out == ''
     assert captured.err == (
-        f'error: --output {output} is a directory; give a file name such as '
+        f'ble-latex-download-era5: error: --output {output} is a directory; give a file name such as '
         f'{os.path.join(output, "era5_paper.nc")}\n')
   assert not calls
   assert [p.name for p in tmp_path.iterdir()] == ['existing']
@@ -879,7 +879,7 @@ def test_output_under_a_file_is_a_usage_error(monkeypatch, capsys, tmp_path):
   output = str(tmp_path / 'file' / 'era5.nc')
   assert download_era5.main(['--output', output]) == 2
   assert capsys.readouterr().err == (
-      f'error: --output {output}: {tmp_path / "file"} is not a directory\n')
+      f'ble-latex-download-era5: error: --output {output}: {tmp_path / "file"} is not a directory\n')
   assert not calls
 
 
@@ -892,7 +892,7 @@ def test_monthly_target_directory_is_a_usage_error(monkeypatch, capsys,
   (tmp_path / 'era5_2022-12.nc').mkdir()
   assert download_era5.main(['--output', str(tmp_path / 'era5.nc')]) == 2
   assert capsys.readouterr().err == (
-      f'error: {tmp_path / "era5_2022-12.nc"} (the file for 2022-12) is a '
+      f'ble-latex-download-era5: error: {tmp_path / "era5_2022-12.nc"} (the file for 2022-12) is a '
       'directory\n')
   assert not calls
 
@@ -945,7 +945,7 @@ def test_failed_merge_leaves_no_part_file(monkeypatch, capsys, tmp_path):
   assert download_era5.main(['--output', output, '--start_date', '2022-11-01',
                              '--end_date', '2022-12-31']) == 1
   assert capsys.readouterr().err.startswith(
-      f'error: could not write {output} (OSError: [Errno 28] No space left')
+      f'ble-latex-download-era5: error: could not write {output} (OSError: [Errno 28] No space left')
   assert sorted(p.name for p in tmp_path.iterdir()) == [
       'era5_2022-11.nc', 'era5_2022-12.nc']
 

@@ -36,7 +36,8 @@ AREA = ['--half_width_deg=2']
 def write_store(path, *, lat=np.arange(4.0, -2.01, -0.25),
                 lon=np.arange(240.0, 254.01, 0.25), hours=HOURS,
                 levels_hpa=LEVELS_HPA, level_units='millibars',
-                wind_units='m s**-1', drop=(), nan_at=None, attrs=None):
+                wind_units='m s**-1', drop=(), nan_at=None, attrs=None,
+                level_labels=None):
   """Writes a synthetic ARCO-ERA5-like Zarr store; returns its path as str."""
   times = T0 + np.arange(hours) * np.timedelta64(1, 'h')
   t_h = (times - test_era5.T0) / np.timedelta64(1, 'h')
@@ -52,7 +53,8 @@ def write_store(path, *, lat=np.arange(4.0, -2.01, -0.25),
   variables['temperature'] = (dims, np.full(tt.shape, 210.0, 'float32'),
                               {'units': 'K'})
   dataset = xr.Dataset(variables, coords={
-      'time': times, 'level': ('level', levels_hpa, {'units': level_units}),
+      'time': times, 'level': ('level', levels_hpa if level_labels is None
+                               else level_labels, {'units': level_units}),
       'latitude': lat, 'longitude': lon}, attrs=attrs or {})
   with warnings.catch_warnings():  # Consolidated metadata in Zarr v3.
     warnings.simplefilter('ignore', UserWarning)
@@ -162,6 +164,12 @@ def test_store_without_arco_is_a_usage_error(capsys):
 
 
 BAD_STORES = {
+    # Issue 48 items 17, 21: a string level, a NaN latitude (was dropped).
+    'string level': (dict(level_labels=LEVELS_HPA.astype(int).astype(str)),
+                     "coordinate 'level' must hold finite numbers"),
+    'nan latitude': (dict(lat=np.concatenate([np.arange(4.0, -2.01, -0.25)[:-1],
+                                              [np.nan]])),
+                     "coordinate 'latitude' must hold finite numbers"),
     'missing variable': (dict(drop=('v_component_of_wind',)),
                          "has no variable 'v_component_of_wind'"),
     'wind units': (dict(wind_units='km h**-1'),
@@ -218,3 +226,35 @@ def test_unreachable_store_is_a_one_line_error(tmp_path, capsys, store):
                           f'{store} could not be opened ('), error
   assert error.count('\n') == 1, error
   assert not os.path.exists(output)
+
+
+@pytest.mark.parametrize('flag, message', [
+    ('--center_lat=91', '--center_lat must be in [-90, 90] deg, got 91'),
+    ('--start_date=0001-01-01', '--start_date: ERA5 covers 1940 to now, got '
+     'year 1'),
+    ('--end_date=9999-12-31', '--end_date: ERA5 covers 1940 to now, got year '
+     '9999'),
+])
+def test_absurd_places_and_years_are_usage_errors_even_dry(flag, message,
+                                                           capsys):
+  """Issue 48 item 21: refused before any request, in a dry run too."""
+  for source in ('--source=cds', '--source=arco'):
+    assert download_era5.main(['--dry_run', source, flag]) == 2
+    assert capsys.readouterr().err == (
+        f'ble-latex-download-era5: {message}\n')
+
+
+def test_full_disk_is_one_line(store, tmp_path, capsys, monkeypatch):
+  """Issue 48 item 16: netCDF4 reports a full disk as RuntimeError."""
+  def full(*unused_args, **unused_kwargs):
+    raise RuntimeError('NetCDF: HDF error')
+  monkeypatch.setattr(xr.Dataset, 'to_netcdf', full)
+  output = tmp_path / 'era5.nc'
+  assert download_era5.main(['--source=arco', f'--store={store}',
+                             f'--output={output}', *DAY, *AREA]) == 1
+  error = capsys.readouterr().err
+  assert error.count('\n') == 1, error
+  assert error.startswith(f'ble-latex-download-era5: error: could not write '
+                          f'{output} (RuntimeError: NetCDF: HDF error; is the '
+                          'disk full?)')
+  assert not list(tmp_path.iterdir())

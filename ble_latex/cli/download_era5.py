@@ -218,9 +218,19 @@ def _date(name: str) -> dt.date:
         f'--{name}: expected a date YYYY-MM-DD, got {text!r}') from error
 
 
+# ERA5 reaches back to 1940 (Hersbach et al. 2020, with the back extension).
+_FIRST_YEAR = 1940
+
+
 def _check() -> None:
-  _date('start_date')
-  _date('end_date')
+  for name in ('start_date', 'end_date'):
+    year = _date(name).year
+    if not _FIRST_YEAR <= year <= dt.date.today().year + 1:
+      raise cli.CommandUsageError(
+          f'--{name}: ERA5 covers {_FIRST_YEAR} to now, got year {year}')
+  if not -90.0 <= FLAGS.center_lat <= 90.0:
+    raise cli.CommandUsageError(
+        f'--center_lat must be in [-90, 90] deg, got {FLAGS.center_lat:g}')
   if FLAGS.source == 'arco':
     for name, why in (('grid_deg', "ARCO-ERA5 keeps the store's native grid "
                        '(0.25 deg)'),
@@ -244,7 +254,7 @@ def _main(argv: Sequence[str]) -> int:
         min_pressure_hpa=args.min_pressure_hpa,
         max_pressure_hpa=args.max_pressure_hpa)
   except ValueError as error:
-    print(f'error: {error}', file=sys.stderr)
+    print(f'{_PROG}: error: {error}', file=sys.stderr)
     return 2
   if args.source == 'arco':
     return _arco_main(requests)
@@ -252,7 +262,7 @@ def _main(argv: Sequence[str]) -> int:
           for month, request in requests]
   problem = _output_error(args.output, jobs)
   if problem:
-    print(f'error: {problem}', file=sys.stderr)
+    print(f'{_PROG}: error: {problem}', file=sys.stderr)
     return 2
   if args.dry_run:
     print(json.dumps({
@@ -266,7 +276,7 @@ def _main(argv: Sequence[str]) -> int:
   if todo:
     problem = _credentials_error()
     if problem:
-      print(f'error: {problem}', file=sys.stderr)
+      print(f'{_PROG}: error: {problem}', file=sys.stderr)
       return 2
     import cdsapi  # pylint: disable=g-import-not-at-top
     client = cdsapi.Client()
@@ -278,7 +288,7 @@ def _main(argv: Sequence[str]) -> int:
         try:
           client.retrieve(era5.DATASET, request, partial)
         except Exception as error:  # pylint: disable=broad-except
-          print(f'error: CDS request for {month} failed '
+          print(f'{_PROG}: error: CDS request for {month} failed '
                 f'({type(error).__name__}: {error}). Check your token in '
                 '~/.cdsapirc and that you accepted the ERA5 licence on the '
                 'dataset page.', file=sys.stderr)
@@ -294,7 +304,7 @@ def _main(argv: Sequence[str]) -> int:
       merge_files(targets, args.output)
       data = era5.load(args.output)
   except (OSError, ValueError) as error:
-    print(f'error: {error}', file=sys.stderr)
+    print(f'{_PROG}: error: {error}', file=sys.stderr)
     return 1
   _print_written(args.output if not args.no_merge else targets, data)
   return 0

@@ -184,6 +184,12 @@ def _variable(dataset: xr.Dataset, name: str, store: str) -> xr.DataArray:
     if dim not in array.coords:
       raise ValueError(f'ARCO-ERA5 store {store} has no coordinate values '
                        f'for dimension {dim!r}')
+  for dim in wanted[1:]:  # Level, latitude, longitude: finite numbers.
+    values = np.asarray(array[dim].values)
+    if values.dtype.kind not in 'iuf' or not np.all(np.isfinite(values)):
+      raise ValueError(
+          f'ARCO-ERA5 store {store}: coordinate {dim!r} must hold finite '
+          f'numbers, got {values.dtype} values {values[:5].tolist()}')
   return array.transpose(*wanted)
 
 
@@ -369,9 +375,10 @@ def write(selected: xr.Dataset, output: str, store: str) -> str:
   try:
     try:
       loaded.to_netcdf(partial, encoding=encoding)
-    except OSError as error:
+    except (OSError, RuntimeError) as error:  # netCDF4: RuntimeError (full
+      # disk: 'NetCDF: HDF error').
       raise OSError(f'could not write {output} ({type(error).__name__}: '
-                    f'{error})') from error
+                    f'{_first_line(error)}; is the disk full?)') from error
     try:
       era5.load(partial)
     except ValueError as error:
