@@ -1,6 +1,7 @@
 """The Gymnasium env's three programs compiled with XLA's defaults and fast.
 
-Lowers the single env's `draw`, `start` and `step` (`gymnasium_env._Compiled`)
+Lowers the single env's `draw`, `start` and `step`
+(`gymnasium_compile.Compiled`)
 jitted with XLA's defaults and with `jax_cache.CPU_FAST_COMPILE`, then
 compiles each lowering, `--repeats` rounds alternating the two (no
 persistent cache, in-process caches cleared: every compile is a real one),
@@ -27,7 +28,7 @@ import numpy as np
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 from ble_latex import jax_cache
-from ble_latex.envs import gymnasium_env
+from ble_latex.envs import gymnasium_compile
 from ble_latex.envs import jax_env
 
 SETS = ('XLA defaults', 'fast (jax_cache.CPU_FAST_COMPILE)')
@@ -59,19 +60,19 @@ def _vector_speeds(core, params, batch_sizes, seconds):
   """Batched step rates [balloon-steps/s], both ways, two alternated rounds."""
   speeds = {}
   for n in batch_sizes:
-    keys = gymnasium_env._arena_keys(np.arange(n, dtype=np.uint32))  # pylint: disable=protected-access
+    keys = gymnasium_compile.arena_keys(np.arange(n, dtype=np.uint32))
     actions = np.tile(np.array([16_000.0, 1.0, 0.0], np.float32), (n, 1))
-    ways = dict(zip(SETS, (gymnasium_env._Compiled(core, True, fast)  # pylint: disable=protected-access
+    ways = dict(zip(SETS, (gymnasium_compile.Compiled(core, True, fast)
                            for fast in (False, True))))
     rates = {name: [] for name in SETS}
     for _ in range(2):
       for name, fns in ways.items():
         state, _ = fns.draw(keys, params)
         state, _ = fns.start(state, params)
-        jax.block_until_ready(fns.step(state, actions, params))
+        jax.block_until_ready(fns.step(state, actions, params, False))
         begun, strides = time.perf_counter(), 0
         while time.perf_counter() - begun < seconds:
-          parts, packed = fns.step(state, actions, params)
+          parts, packed = fns.step(state, actions, params, False)
           state = state.replace(**parts)
           jax.block_until_ready(packed)
           strides += 1
@@ -94,7 +95,7 @@ def main() -> None:
   params = env.params
   core = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   fast_options = dict(jax_cache.CPU_FAST_COMPILE)
-  default_fns, fast_fns = (gymnasium_env._Compiled(core, False, fast)  # pylint: disable=protected-access
+  default_fns, fast_fns = (gymnasium_compile.Compiled(core, False, fast)
                            for fast in (False, True))
   key = jax_env.arena_key(jax.random.PRNGKey(0))
 
@@ -106,7 +107,8 @@ def main() -> None:
     return {'draw': fns.draw.lower(key, params),
             'start': fns.start.lower(drawn, params),
             'step': fns.step.lower(
-                started, jax.ShapeDtypeStruct((3,), np.float32), params)}
+                started, jax.ShapeDtypeStruct((3,), np.float32), params,
+                False)}
 
   report: Dict[str, Any] = {'loadavg_before': os.getloadavg(),
                             'jax': jax.__version__, 'repeats': args.repeats,

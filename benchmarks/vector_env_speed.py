@@ -2,7 +2,7 @@
 
 `gymnasium.make_vec('ble_latex/LatexBalloon-v0', num_envs=N)` (the default
 vector entry point: all N balloons in one jitted, vmapped core call,
-`gymnasium_env.LatexBalloonVectorEnv`) against
+`gymnasium_vector.LatexBalloonVectorEnv`) against
 `make_vec(..., vectorization_mode='sync')` (a `SyncVectorEnv` of N single
 envs, each stepping its balloon through the same compiled step), side by
 side in one run. Each (mode, N) runs in its own fresh subprocess: build,

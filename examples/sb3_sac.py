@@ -34,6 +34,7 @@ with quiet.third_party_noise():
   import stable_baselines3
   import torch
   from ble_latex.ble import gym_env as ble_gym_env
+  from ble_latex.envs import jax_env
   from ble_latex.run import eval_lib
   from ble_latex.run import metrics
   from ble_latex.run import suites
@@ -47,18 +48,18 @@ class SB3PolicyAgent(base_agent.Agent):
 
   It flies BLE's gym env `LatexBalloon-v0` (the same core and gin-bound
   params), so `eval_lib.evaluate` builds exactly `ble-latex-eval`'s records;
-  normalized actions are mapped to the Box by the gymnasium env.
+  normalized actions are mapped onto the Box by the env's one mapping
+  (`jax_env.to_box`).
   """
 
   def __init__(self, model: Any, env: gymnasium.Env):
     self._model = model
-    self._env = env.unwrapped
     super().__init__(num_actions=int(np.prod(env.action_space.shape)),
                      observation_shape=env.observation_space.shape)
 
   def _act(self, observation: np.ndarray) -> np.ndarray:
     action, _ = self._model.predict(observation, deterministic=True)
-    return self._env.box_actions(action)
+    return np.asarray(jax_env.to_box(np.asarray(action, np.float32)))
 
   def begin_episode(self, observation: np.ndarray) -> np.ndarray:
     return self._act(observation)

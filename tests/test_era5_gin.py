@@ -243,7 +243,7 @@ _ACTIONS = np.array([[18_000.0, 1.0, -1.0], [15_500.0, 1.0, 1.0],
 def test_every_env_flies_era5_from_the_gin_binding(gin_era5):
   import gym  # pylint: disable=g-import-not-at-top
   import gymnasium  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import gymnasium_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import gymnasium_vector  # pylint: disable=g-import-not-at-top
   params = jax_env.params_from_gin()
   assert params.wind_grid is not None
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
@@ -292,7 +292,7 @@ def test_every_env_flies_era5_from_the_gin_binding(gin_era5):
     obs = envs.step(np.broadcast_to(action, (len(_SEEDS), 3)))[0]
     np.testing.assert_allclose(obs, observations[:, t + 1], atol=1e-4)
   envs.close()
-  assert isinstance(envs.unwrapped, gymnasium_env.LatexBalloonVectorEnv)
+  assert isinstance(envs.unwrapped, gymnasium_vector.LatexBalloonVectorEnv)
 
   # gym.make('LatexBalloon-v0'): BLE's env over the core.
   ble_env = gym.make('LatexBalloon-v0').unwrapped

@@ -255,10 +255,11 @@ class HostEra5WindField(era5.Era5WindField):
 
 def _gymnasium_flight(params, path, seed, actions, episode_hours=24.0):
   """The same from the Gymnasium env flying `Era5WindField` (callbacks)."""
+  from ble_latex.ble import wind as ble_wind  # pylint: disable=g-import-not-at-top
   env = gymnasium.make(
       'ble_latex/LatexBalloon-v0', params=params, normalize_actions=False,
-      wind_field_factory=functools.partial(HostEra5WindField, path=path,
-                                           episode_hours=episode_hours))
+      host_wind=ble_wind.host_wind(HostEra5WindField(
+          path=path, episode_hours=episode_hours)))
   assert env.unwrapped._wind_field is not None  # pylint: disable=protected-access
   obs, _ = env.reset(seed=seed)
   all_obs, where = [obs], []
@@ -287,11 +288,11 @@ def test_flight_is_the_gymnasium_envs_on_era5_wind_field(era5_path):
 
 def test_vector_env_flies_the_grid_in_its_params(era5_path):
   """The batched Gymnasium env flies ERA5 from `params.wind_grid` too."""
-  from ble_latex.envs import gymnasium_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import gymnasium_vector  # pylint: disable=g-import-not-at-top
   _, with_grid = _params(era5_path)
   actions = jnp.asarray(_ACTIONS, jnp.float32)
   obs, _ = _jax_flight(with_grid, _ENV_SEEDS, actions)
-  envs = gymnasium_env.LatexBalloonVectorEnv(len(_ENV_SEEDS),
+  envs = gymnasium_vector.LatexBalloonVectorEnv(len(_ENV_SEEDS),
                                              params=with_grid)
   first, _ = envs.reset(seed=_ENV_SEEDS[0])
   assert list(_ENV_SEEDS) == list(range(_ENV_SEEDS[0],

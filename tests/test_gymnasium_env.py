@@ -15,10 +15,14 @@ import jax
 import numpy as np
 import pytest
 
+from ble_latex import errors
 from ble_latex import jax_cache
 from ble_latex.ble import gymnasium_discrete
+from ble_latex.envs import gymnasium_compile
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import gymnasium_registration
+from ble_latex.envs import gymnasium_render
+from ble_latex.envs import gymnasium_vector
 from ble_latex.envs import jax_env
 from ble_latex import quiet
 
@@ -192,20 +196,24 @@ def test_step_after_the_end_raises():
 
 # -- normalize_actions. -------------------------------------------------------
 def test_normalize_actions_maps_unit_cube_onto_the_box():
+  """[-1, 1]^3 flies as the raw env flies `jax_env.to_box` of it."""
   env = gymnasium.make(ID, normalize_actions=True)
   raw = gymnasium.make(ID, normalize_actions=False)
   box = raw.action_space
   assert env.action_space == gymnasium.spaces.Box(-1, 1, (3,), np.float32)
-  base = env.unwrapped
-  np.testing.assert_allclose(base.box_actions(-np.ones(3)), box.low)
-  np.testing.assert_allclose(base.box_actions(np.ones(3)), box.high)
-  np.testing.assert_allclose(base.box_actions(np.zeros(3)),
+  np.testing.assert_allclose(jax_env.to_box(-np.ones(3)), box.low)
+  np.testing.assert_allclose(jax_env.to_box(np.ones(3)), box.high)
+  np.testing.assert_allclose(jax_env.to_box(np.zeros(3)),
                              (box.low + box.high) / 2, rtol=1e-6)
   obs, _ = env.reset(seed=2)
   np.testing.assert_array_equal(obs, raw.reset(seed=2)[0])
   for a in (np.array([0.5, -1.0, -0.2]), np.array([1.0, 1.0, 1.0])):
-    np.testing.assert_array_equal(env.step(a)[0],
-                                  raw.step(base.box_actions(a))[0])
+    mapped = np.asarray(jax_env.to_box(a.astype(np.float32)))
+    np.testing.assert_allclose(env.step(a)[0], raw.step(mapped)[0],
+                               atol=1e-6, rtol=0)
+    np.testing.assert_allclose(env.unwrapped.flight['altitude_m'],
+                               raw.unwrapped.flight['altitude_m'],
+                               atol=1e-3, rtol=0)
   for bad in (np.array([1.01, 0.0, 0.0]), np.array([np.nan, 0, 0]),
               np.zeros(2)):
     with pytest.raises(ValueError, match='normalize_actions'):
@@ -251,15 +259,15 @@ def test_render_keeps_the_station_visible_far_away():
   from matplotlib import patches  # pylint: disable=g-import-not-at-top
   near = [(0.0, 10.0, 0.0, 15.0), (1.0, 20.0, 5.0, 15.0)]
   far = near + [(2.0, 1500.0, -900.0, 16.0)]
-  fig = gymnasium_env.draw_flight(None, near, 50.0)
+  fig = gymnasium_render.draw_flight(None, near, 50.0)
   assert len(fig.axes) == 2  # No inset needed.
-  fig = gymnasium_env.draw_flight(fig, far, 50.0)
+  fig = gymnasium_render.draw_flight(fig, far, 50.0)
   inset = [a for a in fig.axes[0].child_axes]
   assert len(inset) == 1
   assert inset[0].get_xlim() == (-150.0, 150.0)
   assert any(isinstance(p, patches.Circle) and p.get_radius() == 50.0
              for p in inset[0].patches)
-  assert gymnasium_env.figure_rgb(fig).shape == (320, 640, 3)
+  assert gymnasium_render.figure_rgb(fig).shape == (320, 640, 3)
 
 
 # -- Rendering. ---------------------------------------------------------------
@@ -313,7 +321,7 @@ def test_gymnasium_and_sb3_env_checkers(env_id, normalize):
 def test_make_vec_is_the_batched_core_and_discrete_is_sync():
   """make_vec's default: one batched env (ID), SyncVectorEnv (DISCRETE_ID)."""
   envs = gymnasium.make_vec(ID, num_envs=3, normalize_actions=True)
-  assert isinstance(envs, gymnasium_env.LatexBalloonVectorEnv)
+  assert isinstance(envs, gymnasium_vector.LatexBalloonVectorEnv)
   assert envs.num_envs == 3
   assert envs.single_action_space == gymnasium.spaces.Box(-1, 1, (3,),
                                                           np.float32)
@@ -369,6 +377,74 @@ def test_gin_bound_station_radius_is_checked():
     gin.clear_config()
 
 
+class _HostField:
+  """A wind field the core cannot fly in JAX (never built here)."""
+
+
+def test_gin_bound_host_wind_field_is_refused_not_ignored():
+  """The Gymnasium envs never import ble/: a BLE field bound in gin is a
+  one-line error (it was flown through ble.wind's callbacks), not dropped."""
+  import gin  # pylint: disable=g-import-not-at-top
+  gin.clear_config()
+  try:
+    gin.bind_parameter('LatexBalloonEnv.wind_field_factory', _HostField)
+    for make in (lambda: gymnasium.make(ID),
+                 lambda: gymnasium.make_vec(ID, num_envs=2)):
+      with pytest.raises(errors.ConfigError,
+                         match='^gin binding LatexBalloonEnv.wind_field_'
+                         'factory = .*_HostField.*host_wind='):
+        make()
+  finally:
+    gin.clear_config()
+  with pytest.raises(ValueError, match='^host_wind must be None or a '
+                     'gymnasium_env.HostWind'):
+    gymnasium.make(ID, host_wind=_HostField)
+
+
+@pytest.mark.parametrize('options', [[1], 1, 'x', {'x': 1}])
+def test_reset_refuses_options_in_one_line(env, discrete_env, options):
+  """Issue 48 item 20: options=[1] was an unrelated TypeError."""
+  for e in (env, discrete_env):  # Unwrapped: gymnasium's checker wrapper
+    # breaks later steps when the first reset through it raises.
+    with pytest.raises(ValueError, match='^reset takes no options'):
+      e.unwrapped.reset(seed=0, options=options)
+  envs = gymnasium.make_vec(DISCRETE_ID, num_envs=1)
+  try:
+    with pytest.raises(ValueError, match='^reset takes no options'):
+      envs.reset(seed=0, options=options)
+  finally:
+    envs.close()
+
+
+@pytest.mark.parametrize('env_id, kwargs', [
+    (DISCRETE_ID, {}), (ID, {}), (ID, {'asynchronous': True})])
+@pytest.mark.parametrize('num_envs', [0, -2, 1.5, True])
+def test_make_vec_refuses_bad_num_envs_in_one_line(env_id, kwargs, num_envs):
+  """Issue 48 item 20: the discrete id's num_envs=0 was an IndexError."""
+  with pytest.raises(ValueError, match='^num_envs must be an int >= 1, got '):
+    gymnasium.make_vec(env_id, num_envs=num_envs, **kwargs)
+
+
+def test_discrete_make_vec_takes_gymnasiums_seeds():
+  """An int (NumPy's too) or one seed or None per balloon (issue 48 item 23);
+  each checked by the single env's seed rule."""
+  envs = gymnasium.make_vec(DISCRETE_ID, num_envs=2)
+  try:
+    by_list, _ = envs.reset(seed=[8, 3])
+    by_int, _ = envs.reset(seed=np.int64(3))
+    np.testing.assert_array_equal(by_list[1], by_int[0])
+    envs.reset(seed=[None, 4])
+    for bad, match in (([1], 'one seed per balloon'),
+                       ([1, 2, 3], 'one seed per balloon'),
+                       ([1, -1], r'seed must be in \[0, 2\*\*32\)'),
+                       ([1, 1.5], 'seed must be None or an int'),
+                       (True, 'seed must be None or an int')):
+      with pytest.raises(ValueError, match=match):
+        envs.reset(seed=bad)
+  finally:
+    envs.close()
+
+
 @pytest.mark.parametrize('change, binding', [
     (dict(radius_km=float('nan')),
      'perciatelli_reward_function.station_keeping_radius_km'),
@@ -387,9 +463,9 @@ def test_given_params_are_checked(env, change, binding):
 def test_forked_worker_fails_loudly_instead_of_hanging(monkeypatch):
   jax = pytest.importorskip('jax')
   jax.numpy.zeros(1).block_until_ready()  # JAX has started here.
-  monkeypatch.setattr(gymnasium_env, '_forked_after_jax', False)
-  gymnasium_env._note_fork_in_child()  # pylint: disable=protected-access
-  assert gymnasium_env._forked_after_jax  # pylint: disable=protected-access
+  monkeypatch.setattr(gymnasium_compile, '_forked_after_jax', False)
+  gymnasium_compile._note_fork_in_child()  # pylint: disable=protected-access
+  assert gymnasium_compile._forked_after_jax  # pylint: disable=protected-access
   with pytest.raises(RuntimeError, match="spawn"):
     gymnasium.make(ID, normalize_actions=False)
 
@@ -472,6 +548,7 @@ def test_core_imports_no_tensorflow_dopamine_or_ble_agents():
   """
   code = ('import sys, ble_latex, gymnasium\n'
           'import ble_latex.envs.jax_env, ble_latex.envs.gymnasium_env\n'
+          'import ble_latex.envs.gymnasium_vector\n'
           'import ble_latex.agents.sac_trainer, ble_latex.run.jax_train\n'
           f'gymnasium.make({ID!r}, normalize_actions=True)\n'
           f'gymnasium.make_vec({ID!r}, num_envs=2)\n'
@@ -621,7 +698,7 @@ def test_params_from_gin_without_the_gym_modules():
 def _fresh_env():
   """A single env whose programs are new to jit (compiled by this test)."""
   env = gymnasium_env.LatexBalloonGymnasiumEnv()
-  env._fns = gymnasium_env._Compiled(  # pylint: disable=protected-access
+  env._fns = gymnasium_compile.Compiled(  # pylint: disable=protected-access
       jax_env.LatexBalloonJaxEnv(normalize_actions=False), batched=False)
   return env
 

@@ -9,7 +9,7 @@ import jax
 import numpy as np
 import pytest
 
-from ble_latex.envs import gymnasium_env
+from ble_latex.envs import gymnasium_vector
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
 
@@ -59,7 +59,7 @@ def _check_info(vector_info, i, info, mask_key=True):
 
 def test_equals_per_balloon_flights_and_autoresets(envs, single):
   """Balloon i flies seed s + i as the single env; time limit -> new flight."""
-  assert isinstance(envs, gymnasium_env.LatexBalloonVectorEnv)
+  assert isinstance(envs, gymnasium_vector.LatexBalloonVectorEnv)
   assert envs.metadata['autoreset_mode'] == AutoresetMode.SAME_STEP
   obs0, info0 = envs.reset(seed=7)
   assert obs0.shape == (N, 71) and obs0.dtype == np.float32
@@ -132,15 +132,29 @@ def test_bad_actions_raise_and_change_nothing(envs, bad, match):
   assert envs.unwrapped.state is state  # The step count is the core's.
 
 
-def test_normalize_actions_maps_like_the_single_env(single):
-  norm = gymnasium_env.LatexBalloonVectorEnv(N, normalize_actions=True)
-  one = gymnasium.make(ID, normalize_actions=True).unwrapped
+def test_normalize_actions_checks_the_unit_cube():
+  norm = gymnasium_vector.LatexBalloonVectorEnv(N, normalize_actions=True)
   a = np.array([[0.5, -1.0, -0.2], [1.0, 1.0, 1.0], [-1.0, 0.0, 0.0]])
-  np.testing.assert_allclose(norm.box_actions(a),
-                             np.stack([one.box_actions(x) for x in a]))
+  np.testing.assert_array_equal(norm.check_action(a), a.astype(np.float32))
   with pytest.raises(ValueError, match=r'normalize_actions=True.*1\.5'):
-    norm.box_actions(a * 1.5)
-  del single
+    norm.check_action(a * 1.5)
+
+
+@pytest.mark.slow
+def test_normalize_actions_flies_like_the_single_env():
+  """Both map [-1, 1]^3 with `jax_env.to_box` inside the compiled step."""
+  norm = gymnasium_vector.LatexBalloonVectorEnv(N, normalize_actions=True)
+  one = gymnasium.make(ID, normalize_actions=True)
+  a = np.array([[0.5, -1.0, -0.2], [1.0, 1.0, 1.0], [-1.0, 0.0, 0.0]])
+  norm.reset(seed=5)
+  obs = norm.step(a)[0]
+  for i in range(N):
+    one.reset(seed=5 + i)
+    np.testing.assert_allclose(obs[i], one.step(a[i])[0], **TOL)
+  with pytest.raises(ValueError, match=r'normalize_actions=True.*1\.5'):
+    norm.step(a * 1.5)
+  norm.close()
+  one.close()
 
 
 def test_reset_refuses_bad_seeds_and_options(envs):
@@ -150,7 +164,51 @@ def test_reset_refuses_bad_seeds_and_options(envs):
   with pytest.raises(ValueError, match='options'):
     envs.reset(seed=0, options={'x': 1})
   with pytest.raises(ValueError, match='render'):
-    gymnasium_env.LatexBalloonVectorEnv(2, render_mode='rgb_array')
+    gymnasium_vector.LatexBalloonVectorEnv(2, render_mode='rgb_array')
+
+
+def test_reset_takes_one_seed_per_balloon(envs, single):
+  """gymnasium's VectorEnv.reset takes a list (issue 48 item 23)."""
+  seeds = [7, 2, 2**32 - 1]
+  obs, _ = envs.reset(seed=seeds)
+  np.testing.assert_array_equal(envs.unwrapped.episode_seeds, seeds)
+  for i, seed in enumerate(seeds):
+    np.testing.assert_allclose(obs[i], single.reset(seed=seed)[0], **TOL)
+  # None: a training seed from np_random, which the given seeds seed.
+  drawn = []
+  for seed in ([None, 5, None], (None, 5, None), np.array([None, 5, None])):
+    envs.reset(seed=seed)
+    drawn.append(envs.unwrapped.episode_seeds.copy())
+  np.testing.assert_array_equal(drawn[0], drawn[1])
+  np.testing.assert_array_equal(drawn[0], drawn[2])
+  assert drawn[0][1] == 5 and np.all(drawn[0] < 1_000_000)
+  envs.reset(seed=np.array([1, 2, 3], np.uint32))
+  np.testing.assert_array_equal(envs.unwrapped.episode_seeds, [1, 2, 3])
+
+
+@pytest.mark.parametrize('seed, match', [
+    ([1, 2], r'^seed must be None, an int or a list of one seed per balloon '
+     r'\(3\)'),
+    ([[1, 2, 3]], 'one seed per balloon'),
+    ([1, -1, 2], r'^seed\[1\]: seed must be in \[0, 2\*\*32\)'),
+    ([1, 2, 2**32], r'^seed\[2\]: seed must be in'),
+    ([1, 1.5, 2], r'^seed\[1\]: seed must be None or an int'),
+    ([True, 1, 2], r'^seed\[0\]: seed must be None or an int'),
+    (['a', 1, 2], r'^seed\[0\]: '),
+])
+def test_reset_refuses_bad_seed_lists(envs, seed, match):
+  envs.reset(seed=0)
+  state = envs.unwrapped.state
+  with pytest.raises(ValueError, match=match):
+    envs.reset(seed=seed)
+  assert envs.unwrapped.state is state
+
+
+@pytest.mark.parametrize('options', [[1], 1, {'x': 1}])
+def test_reset_refuses_options_in_one_line(envs, options):
+  """Issue 48 item 20: options=[1] was an unrelated TypeError."""
+  with pytest.raises(ValueError, match='^reset takes no options'):
+    envs.reset(seed=0, options=options)
 
 
 def test_keys_of_large_seeds_match_the_host_keys():
@@ -182,7 +240,7 @@ def test_info_arrays_are_info_dict_per_balloon():
   rng = np.random.default_rng(0)
   raw = _random_raw(rng, 64)
   mask = rng.random(64) < 0.5
-  out = gymnasium_env.info_arrays(raw, mask)
+  out = gymnasium_vector.info_arrays(raw, mask)
   for i in range(64):
     expected = jax_env.info_dict({k: v[i] for k, v in raw.items()})
     expected.pop('TimeLimit.truncated', None)
@@ -199,9 +257,9 @@ def test_info_arrays_are_info_dict_per_balloon():
 @pytest.mark.slow
 def test_partial_resets_chunked_and_selected(monkeypatch, single):
   """Only the ended balloons get new flights (both reset paths)."""
-  envs = gymnasium_env.LatexBalloonVectorEnv(N, episode_steps=STEPS)
+  envs = gymnasium_vector.LatexBalloonVectorEnv(N, episode_steps=STEPS)
   for chunk in (N, 2):  # N: whole batch + select; 2: padded chunk + scatter.
-    monkeypatch.setattr(gymnasium_env, 'RESET_CHUNK', chunk)
+    monkeypatch.setattr(gymnasium_vector, 'RESET_CHUNK', chunk)
     before, _ = envs.reset(seed=20)
     ended = np.array([False, True, False])
     # The step's host buffers, written in place where `ended`.
@@ -253,7 +311,7 @@ class _CountingEnv(gymnasium.Env):
 ])
 def test_checked_sync_vector_env_steps_no_balloon_on_a_bad_action(bad, match):
   """gymnasium's SyncVectorEnv would have stepped balloon 0 already."""
-  envs = gymnasium_env.CheckedSyncVectorEnv([_CountingEnv] * 3)
+  envs = gymnasium_vector.CheckedSyncVectorEnv([_CountingEnv] * 3)
   envs.reset(seed=0)
   with pytest.raises(ValueError, match=match):
     envs.step(np.asarray(bad))
@@ -277,4 +335,4 @@ def test_given_params_are_checked(change, binding):
   params = jax_env.EnvParams(
       flight=jax_env.flight_params_lib.FlightParams(), decoder=None)
   with pytest.raises(ValueError, match=f'^gin binding {binding} must be'):
-    gymnasium_env.LatexBalloonVectorEnv(2, params=params.replace(**change))
+    gymnasium_vector.LatexBalloonVectorEnv(2, params=params.replace(**change))

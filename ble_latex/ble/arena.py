@@ -49,6 +49,7 @@ from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import features as latex_features
 from ble_latex.ble import wind as ble_wind
 from ble_latex.envs import gymnasium_env
+from ble_latex.envs import gymnasium_render
 from ble_latex.envs import jax_env
 from ble_latex.flight import physics as core_physics
 
@@ -105,9 +106,8 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     core_wind = isinstance(wind_field_instance,
                            ble_wind.CoreGenerativeWindField)
     self._env = gymnasium_env.LatexBalloonGymnasiumEnv(
-        params=params, wind_field_factory=(
-            ble_wind.CoreGenerativeWindField if core_wind else
-            lambda: wind_field_instance))
+        params=params, host_wind=(
+            None if core_wind else ble_wind.host_wind(wind_field_instance)))
     if core_wind:
       wind_field_instance.attach(lambda: self._env.state,
                                  lambda: self._env.params)
@@ -166,7 +166,7 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
   def step(self, action: np.ndarray) -> np.ndarray:
     """Applies one controller action (a0, a1, a2) for one stride.
 
-    The action must already be valid (the env validates it once).
+    The driver's step checks it (ValueError, nothing changed).
     """
     observation, self.reward, _, truncated, self.info = self._env.step(action)
     if truncated:  # gym's info says it.
@@ -183,7 +183,7 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     flight = self._env.state.flight
     if flight is self._flight_of:
       return self._env.flight
-    return gymnasium_env.flight_values(jax.device_get(flight))
+    return gymnasium_render.flight_values(jax.device_get(flight))
 
   def _observe(self, core_observation: np.ndarray) -> np.ndarray:
     if self._core_features:

@@ -185,7 +185,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
     Returns:
       (observation, reward, done, info); `info`: docs/environment.md.
     """
-    action = self.arena.driver.box_actions(action)  # The one check.
+    # The action's one check is the arena driver's step (`check_action`).
     if self.arena.info['time_limit'] or self._is_terminal():
       raise RuntimeError('step() called on a finished episode; call reset().')
     before = self.arena.flight() if self._reward_fn is not None else None

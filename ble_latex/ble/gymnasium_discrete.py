@@ -6,7 +6,8 @@
 need BLE's modules and TensorFlow); its vector entry point
 (`make_vector_latex_balloon_discrete`) is a `SyncVectorEnv`. Seeding,
 `(obs, info)` / five-tuple steps, `render_mode='rgb_array'` and the fork
-check are the continuous env's (`ble_latex.envs.gymnasium_env`).
+check are the continuous env's (`ble_latex.envs.gymnasium_env`, its
+rendering `gymnasium_render`, its vector envs `gymnasium_vector`).
 """
 
 import functools
@@ -16,7 +17,10 @@ import gymnasium
 import numpy as np
 
 from ble_latex import quiet
+from ble_latex.envs import gymnasium_compile
 from ble_latex.envs import gymnasium_env
+from ble_latex.envs import gymnasium_render
+from ble_latex.envs import gymnasium_vector
 
 ENV_ID = 'ble_latex/LatexBalloonDiscrete-v0'
 
@@ -56,9 +60,9 @@ class LatexBalloonDiscreteGymnasiumEnv(gymnasium_env.SeedRule,
     if 'normalize_actions' in env_kwargs:
       raise ValueError('normalize_actions is for the Box action of '
                        'ble_latex/LatexBalloon-v0; this env is Discrete(3)')
-    gymnasium_env._check_render_mode(self, render_mode)  # pylint: disable=protected-access
+    gymnasium_render.check_render_mode(self, render_mode)
     self.render_mode = render_mode
-    gymnasium_env._check_not_forked_after_jax()  # pylint: disable=protected-access
+    gymnasium_compile.check_not_forked_after_jax()
     with quiet.third_party_noise():
       from ble_latex.ble import gym_env as gym_env_lib  # pylint: disable=g-import-not-at-top
       self._env = gym_env_lib.LatexBalloonDiscreteEnv(**env_kwargs)
@@ -106,15 +110,16 @@ class LatexBalloonDiscreteGymnasiumEnv(gymnasium_env.SeedRule,
 
   def _record(self) -> None:
     if self.render_mode is not None:
-      self._path.append(gymnasium_env.flight_point(self._env.arena.flight()))
+      self._path.append(
+          gymnasium_render.flight_point(self._env.arena.flight()))
 
   def render(self) -> Optional[np.ndarray]:
     """The flight so far as an (H, W, 3) uint8 image ('rgb_array'), or None."""
     if self.render_mode != 'rgb_array':
       return None
-    self._figure = gymnasium_env.draw_flight(self._figure, self._path,
-                                             self._env.radius.kilometers)
-    return gymnasium_env.figure_rgb(self._figure)
+    self._figure = gymnasium_render.draw_flight(self._figure, self._path,
+                                                self._env.radius.kilometers)
+    return gymnasium_render.figure_rgb(self._figure)
 
   def close(self) -> None:
     self._env.close()
@@ -127,4 +132,4 @@ class LatexBalloonDiscreteGymnasiumEnv(gymnasium_env.SeedRule,
 
 # `gymnasium.make_vec(ENV_ID, num_envs=N)`: N independent envs.
 make_vector_latex_balloon_discrete = functools.partial(
-    gymnasium_env.make_vector_env, ENV_ID)
+    gymnasium_vector.make_vector_env, ENV_ID)

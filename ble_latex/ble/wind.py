@@ -14,7 +14,8 @@
   would give `WindField.reset`.
 - `callback_wind`: the core's `jax_env.Wind` over any BLE `WindField` object
   (e.g. `ble_latex.wind.era5.Era5WindField`), asked on the host through
-  `jax.pure_callback` at every physics sub-step.
+  `jax.pure_callback` at every physics sub-step; `host_wind`: the same, with
+  its reset, as the Gymnasium env's `host_wind=`.
 """
 
 import datetime as dt
@@ -26,6 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
 
 
@@ -98,6 +100,25 @@ def callback_wind(field: wind_field.WindField) -> jax_env.Wind:
     return uv[0], uv[1]
 
   return jax_env.Wind(ground_truth, forecast_column)
+
+
+def host_wind(field: wind_field.WindField) -> gymnasium_env.HostWind:
+  """The Gymnasium env's `host_wind` of a BLE `WindField` object.
+
+  Args:
+    field: A BLE `wind_field.WindField`.
+
+  Returns:
+    Its `callback_wind`, and a reset that resets the field with the
+    arena's wind key and start time at every start and returns the field's
+    own start time (`start_date_time`, ERA5's) if it has one.
+  """
+
+  def reset(key: jax.Array, start: dt.datetime) -> Optional[dt.datetime]:
+    field.reset(key, start)
+    return getattr(field, 'start_date_time', None)
+
+  return gymnasium_env.HostWind(callback_wind(field), reset)
 
 
 def _wind(grid: Any) -> jax_env.Wind:

@@ -17,12 +17,13 @@ Defaults: actions in [-1, 1]^3 (`normalize_actions=False` for the raw Box),
 
 String entry points: the env modules load on `make` (JAX and the flight core;
 BLE's env modules and TensorFlow only for the discrete id). `make_vec` of the
-continuous id is one batched env (`gymnasium_env.LatexBalloonVectorEnv`),
+continuous id is one batched env (`gymnasium_vector.LatexBalloonVectorEnv`),
 of the discrete id a `SyncVectorEnv`.
 """
 
 NAMESPACE = 'ble_latex'
 _MODULE = 'ble_latex.envs.gymnasium_env'
+_VECTOR = 'ble_latex.envs.gymnasium_vector'
 _DISCRETE = 'ble_latex.ble.gymnasium_discrete'  # BLE's features: at the edge.
 # env id -> entry point.
 ENV_IDS = {
@@ -33,7 +34,7 @@ ENV_IDS = {
 # env id -> vector entry point (`gymnasium.make_vec`'s default mode): the
 # batched core for the continuous id, a SyncVectorEnv for the discrete one.
 VECTOR_ENTRY_POINTS = {
-    f'{NAMESPACE}/LatexBalloon-v0': f'{_MODULE}:make_vector_latex_balloon',
+    f'{NAMESPACE}/LatexBalloon-v0': f'{_VECTOR}:make_vector_latex_balloon',
     f'{NAMESPACE}/LatexBalloonDiscrete-v0':
         f'{_DISCRETE}:make_vector_latex_balloon_discrete',
 }
