@@ -37,8 +37,13 @@ def write_store(path, *, lat=np.arange(4.0, -2.01, -0.25),
                 lon=np.arange(240.0, 254.01, 0.25), hours=HOURS,
                 levels_hpa=LEVELS_HPA, level_units='millibars',
                 wind_units='m s**-1', drop=(), nan_at=None, attrs=None,
-                level_labels=None):
-  """Writes a synthetic ARCO-ERA5-like Zarr store; returns its path as str."""
+                level_labels=None, missing_chunk_fill=None):
+  """Writes a synthetic ARCO-ERA5-like Zarr store; returns its path as str.
+
+  `missing_chunk_fill`: chunk the winds by time step, set the Zarr arrays'
+  `fill_value` to it and delete u's chunk of time step 6 (a store with a
+  chunk never written).
+  """
   times = T0 + np.arange(hours) * np.timedelta64(1, 'h')
   t_h = (times - test_era5.T0) / np.timedelta64(1, 'h')
   tt, pp, la, lo = np.meshgrid(t_h, levels_hpa, lat, lon, indexing='ij')
@@ -56,9 +61,23 @@ def write_store(path, *, lat=np.arange(4.0, -2.01, -0.25),
       'time': times, 'level': ('level', levels_hpa if level_labels is None
                                else level_labels, {'units': level_units}),
       'latitude': lat, 'longitude': lon}, attrs=attrs or {})
+  encoding = ({} if missing_chunk_fill is None else
+              {name: {'chunks': (1, *value[1].shape[1:])}
+               for name, value in variables.items()})
   with warnings.catch_warnings():  # Consolidated metadata in Zarr v3.
     warnings.simplefilter('ignore', UserWarning)
-    dataset.to_zarr(str(path), mode='w')
+    dataset.to_zarr(str(path), mode='w', encoding=encoding)
+    if missing_chunk_fill is not None:
+      import json  # pylint: disable=g-import-not-at-top
+      import shutil  # pylint: disable=g-import-not-at-top
+      import zarr  # pylint: disable=g-import-not-at-top
+      for name in variables:
+        meta_path = path / name / 'zarr.json'
+        meta = json.loads(meta_path.read_text())
+        meta['fill_value'] = missing_chunk_fill
+        meta_path.write_text(json.dumps(meta))
+      shutil.rmtree(path / 'u_component_of_wind' / 'c' / '6')
+      zarr.consolidate_metadata(str(path))
   return str(path)
 
 
@@ -178,6 +197,11 @@ BAD_STORES = {
                     "pressure coordinate 'level' has units 'Pa' but values"),
     'missing level': (dict(levels_hpa=np.array([10.0, 20.0, 50.0, 100.0])),
                       'has no pressure level 30 hPa'),
+    # Issue 48 item 6: a chunk never written reads as its fill value.
+    'missing chunk, fill 0': (dict(missing_chunk_fill=0.0),
+                              "'u_component_of_wind' at 2022-11-01 06:00, "),
+    'missing chunk, fill 7': (dict(missing_chunk_fill=7.0),
+                              'hPa is one value (7) over the whole area'),
     'nan': (dict(nan_at=(6, 3, 5, 20)),
             'fail the ERA5 checks, nothing written: ERA5 file'),
     'area': (dict(lon=np.arange(250.0, 260.01, 0.25)),

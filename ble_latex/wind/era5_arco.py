@@ -344,6 +344,41 @@ def select(dataset: xr.Dataset, wanted: Dict[str, Any],
       'source': f'ARCO-ERA5 {store}', 'ble_latex_grid': 'native store grid'})
 
 
+def check_no_constant_slab(selected: xr.Dataset, store: str) -> None:
+  """Refuses a time and level whose wind is one value over the whole area.
+
+  A Zarr chunk missing from a store reads as the array's `fill_value`
+  (zarr's rule for chunks never written), silently: with a NaN fill the
+  ERA5 checks refuse it, with `fill_value = 0` it would be written as a calm
+  atmosphere. Real winds at one pressure level are never one exact value
+  over an area of several grid points, whatever the fill, so a constant
+  (time, level) slab of u or v is refused.
+
+  Args:
+    selected: The loaded selection (`select(...).load()`), dims (valid_time,
+      pressure_level, latitude, longitude).
+    store: The store (for errors).
+
+  Raises:
+    ValueError: naming the first constant slab's variable, time and level.
+  """
+  for key in VARIABLES:
+    values = np.asarray(selected[key].values)
+    if values.shape[2] * values.shape[3] < 2:
+      continue
+    flat = values.reshape(values.shape[0], values.shape[1], -1)
+    constant = np.all(flat == flat[:, :, :1], axis=2)
+    if np.any(constant):
+      t, level = (int(i) for i in np.argwhere(constant)[0])
+      time = selected['valid_time'].values[t]
+      hpa = float(selected['pressure_level'].values[level])
+      raise ValueError(
+          f'ARCO-ERA5 store {store}: {VARIABLES[key]!r} at {_date(time)}, '
+          f'{hpa:g} hPa is one value ({float(flat[t, level, 0]):g}) over the '
+          'whole area: a missing chunk read as its fill value? nothing '
+          'written')
+
+
 def write(selected: xr.Dataset, output: str, store: str) -> str:
   """Reads the selection, writes it atomically, checks it with `era5.load`.
 
@@ -367,6 +402,7 @@ def write(selected: xr.Dataset, output: str, store: str) -> str:
     raise ValueError(
         f'ARCO-ERA5 store {store}: reading the winds failed '
         f'({type(error).__name__}: {_first_line(error)})') from error
+  check_no_constant_slab(loaded, store)
   encoding = {name: {'dtype': 'float32', 'zlib': True, 'complevel': 4}
               for name in VARIABLES}
   folder = os.path.dirname(os.path.abspath(output))
