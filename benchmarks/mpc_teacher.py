@@ -69,7 +69,7 @@ def collect_demos(config, env, params, num_episodes: int, batch: int
   """
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import planning  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
 
@@ -91,7 +91,7 @@ def collect_demos(config, env, params, num_episodes: int, batch: int
       active = active & ~(terminated | info['time_limit'])
       return (states, next_obs, active), row
     return jax.lax.scan(stride, (states, obs, active),
-                        planners.flown_actions(config, plans))
+                        planning.flown_actions(config, plans))
 
   reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
   seeds = [suites.train_seed(DEMO_EPISODE_OFFSET + i)
@@ -102,9 +102,9 @@ def collect_demos(config, env, params, num_episodes: int, batch: int
     keys = jnp.stack([jax.random.PRNGKey(s) for s in chunk])
     obs, states = reset(keys, params)
     active = jnp.ones((len(chunk),), bool)
-    previous = planners.initial_plans(config, states)
+    previous = planning.initial_plans(config, states)
     for _ in range(0, int(params.episode_steps), config.replan_every):
-      plans = planners.plan_batch(config, params, states, jnp.int32(0),
+      plans = planning.plan_batch(config, params, states, jnp.int32(0),
                                   previous, wind)
       (states, obs, active), row = fly(states, obs, active, plans, params)
       previous = plans
@@ -178,14 +178,14 @@ def _main(argv: Sequence[str]) -> int:
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
     import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-    from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+    from ble_latex.agents import plan_config  # pylint: disable=g-import-not-at-top
     from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
     from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
     from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
   gin_binding.bind_gin(None, None, [], FLAGS.gin_bindings)
-  planner = planners.LatexMpcAgent(
-      3, (71,), action_low=jax_env.ACTION_LOW,
-      action_high=jax_env.ACTION_HIGH).config
+  planner = plan_config.from_gin('latex_mpc')
+  plan_config.check_batch(planner, FLAGS.demo_batch, 'LatexMpcAgent',
+                          '--demo_batch')
   trainer = sac_trainer.TrainerConfig()
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = jax_env.params_from_gin()

@@ -1,4 +1,4 @@
-"""The planners (`ble_latex.agents.planners`) on a suite, balloons batched.
+"""The planners (`ble_latex.agents.planning`) on a suite, balloons batched.
 
   python benchmarks/planners.py --agent=latex_mpc --suite=latex_small \
       --output_dir=benchmarks/planners/results [--num_seeds=100] [--batch=25] \
@@ -6,7 +6,7 @@
 
 Flies the suite's first --num_seeds seeds --batch at a time with the JAX env
 (`jax_env.LatexBalloonJaxEnv`, the same worlds as `ble-latex-eval`'s gym env
-for the same seeds): one vmapped `planners.plan_batch` call per decision
+for the same seeds): one vmapped `planning.plan_batch` call per decision
 plans for the whole batch, then the batch flies `replan_every` strides.
 Writes OUTPUT_DIR/SUITE/NAME.json in `ble-latex-eval`'s record format
 (`benchmarks/results_table.py` reads it) and OUTPUT_DIR/SUITE/timing/NAME.json
@@ -60,7 +60,7 @@ flags.DEFINE_boolean('short', False, '2 seeds, 12 strides (smoke test).',
 def _fly_functions(config, env):
   """Jitted: [N] new flights; [N] plans flown `replan_every` strides."""
   import jax  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import planning  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
 
   def fly(states, plans, params):
@@ -70,7 +70,7 @@ def _fly_functions(config, env):
                                                     params)
       return states, (reward, info, states.flight)
 
-    return jax.lax.scan(stride, states, planners.flown_actions(config, plans))
+    return jax.lax.scan(stride, states, planning.flown_actions(config, plans))
 
   def start(keys, params):
     _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
@@ -112,7 +112,7 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   """
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import planning  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
 
@@ -130,7 +130,7 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   f0 = _flight_arrays(flight0)
   paths = [[_point(f0, i)] for i in range(n)]
   done = np.zeros(n, bool)
-  previous = planners.initial_plans(config, states)
+  previous = planning.initial_plans(config, states)
   seed = jnp.int32(agent_seed)
   steps = 0
   warm_first = n in compiled
@@ -138,7 +138,7 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   while steps < max_steps and not done.all():
     t0 = time.perf_counter()
     plans = jax.block_until_ready(
-        planners.plan_batch(config, params, states, seed, previous, wind))
+        planning.plan_batch(config, params, states, seed, previous, wind))
     elapsed = time.perf_counter() - t0
     if first is None:
       first = elapsed  # The batch's first call (compilation in the first).
@@ -183,21 +183,16 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
 
 def _main(argv: Sequence[str]) -> int:
   del argv
-  from ble_latex import agents  # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
-    from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+    from ble_latex.agents import plan_config  # pylint: disable=g-import-not-at-top
     from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
     from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
-  if FLAGS.agent not in planners.AGENTS:
+  if FLAGS.agent not in plan_config.PLANNERS:
     raise cli.CommandUsageError(
-        f'--agent={FLAGS.agent!r}: one of {sorted(planners.AGENTS)}')
-  del agents
+        f'--agent={FLAGS.agent!r}: one of {sorted(plan_config.PLANNERS)}')
   gin_binding.bind_gin(None, None, FLAGS.gin_file, FLAGS.gin_bindings)
-  config = planners.AGENTS[FLAGS.agent](
-      3, (71,), action_low=jax_env.ACTION_LOW,
-      action_high=jax_env.ACTION_HIGH).config
+  config = plan_config.from_gin(FLAGS.agent)
   suite = suites.get_eval_suite(FLAGS.suite)
   seeds = list(suite.seeds)[:FLAGS.num_seeds]
   if FLAGS.seeds is not None:
@@ -214,6 +209,10 @@ def _main(argv: Sequence[str]) -> int:
   max_steps = FLAGS.max_episode_length or suite.max_episode_length
   if FLAGS.short:
     seeds, max_steps = seeds[:2], min(max_steps, 12)
+  # Before anything is compiled: the batched call's size (one line).
+  plan_config.check_batch(config, min(FLAGS.batch, len(seeds)),
+                          plan_config.PLANNERS[FLAGS.agent].__name__,
+                          '--batch')
   name = FLAGS.name_override or FLAGS.agent
   folder = os.path.join(FLAGS.output_dir, FLAGS.suite)
   cli.prepare_output_dir(folder, '--output_dir')

@@ -1,5 +1,5 @@
 """The planner benchmark scripts' own checks (benchmarks/planners.py --seeds,
-benchmarks/gpu/boot_no_tensorflow.py's stand-in modules)."""
+the batch's size, benchmarks/gpu/boot_no_tensorflow.py's stand-in modules)."""
 
 import importlib.util
 import pathlib
@@ -54,6 +54,22 @@ def test_no_tensorflow_stand_ins_fail_loudly():
   assert out[1].startswith('refused: tensorflow_probability.substrates.jax.'
                            'distributions')
   assert out[2].startswith('refused: flax.metrics.tensorboard.SummaryWriter')
+
+
+def test_planners_refuse_a_batch_too_big_for_one_call(tmp_path, capsys):
+  """Issue 48 item 15: a batched call that would fly more plan strides at
+  once than `plan_config.MAX_PLAN_STRIDES` is refused in one line naming the
+  binding and --batch, before anything is compiled or written."""
+  planners = _load('bench_planners_batch', ROOT / 'benchmarks' / 'planners.py')
+  rc = planners.main(['--agent=latex_mpc_oracle', '--suite=latex_small',
+                      '--batch=100', f'--output_dir={tmp_path}',
+                      '--gin_bindings=LatexMpcOracleAgent.beam_width=8192'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 2 and len(err) == 1, err
+  assert err[0].startswith('benchmarks/planners.py: gin binding '
+                           'LatexMpcOracleAgent.beam_width = 8192')
+  assert 'with --batch = 100 would fly' in err[0]
+  assert not list(tmp_path.rglob('*.json'))  # Nothing written.
 
 
 @pytest.mark.slow

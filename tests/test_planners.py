@@ -1,11 +1,14 @@
-"""The planners (`ble_latex.agents.planners`): registry, flight, determinism,
-noise-blindness of the forecast MPC, gradients through the core.
+"""The planners (`ble_latex.agents.planners` and the pure planning modules):
+registry, flight, determinism, noise-blindness of the forecast MPC, gradients
+through the core, size limits, imports without TensorFlow.
 
 Small configurations, compiled once per module (fixtures below).
 """
 
 import dataclasses
 import functools
+import subprocess
+import sys
 
 from hypothesis import given
 from hypothesis import settings
@@ -16,7 +19,11 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
+from ble_latex.agents import beam
+from ble_latex.agents import plan_config
+from ble_latex.agents import plan_objective
 from ble_latex.agents import planners
+from ble_latex.agents import planning
 from ble_latex.envs import jax_env
 
 SMALL = dict(num_samples=8, iterations=1, horizon=4, num_segments=2,
@@ -36,22 +43,22 @@ def world():
   return env, params, states
 
 
-def _config(mode=planners.FORECAST, **kw):
-  return planners.PlannerConfig(mode=mode, **{**SMALL, **kw}).checked()
+def _config(mode=plan_config.FORECAST, **kw):
+  return plan_config.PlannerConfig(mode=mode, **{**SMALL, **kw}).checked()
 
 
 def _objectives(config, params, state, wind_fn, targets, floats):
-  """`planners.objective` of each plan (rows of targets and floats), in one
+  """`plan_objective.objective` of each plan (rows of targets and floats), in one
   jitted call."""
   score = jax.jit(jax.vmap(functools.partial(
-      planners.objective, config, params, state, wind_fn)))
+      plan_objective.objective, config, params, state, wind_fn)))
   return np.asarray(score(jnp.asarray(targets, jnp.float32),
                           jnp.asarray(floats, jnp.float32)))
 
 
 def _plan(config, params, state, seed=0):
-  previous = planners.initial_plans(config, state)
-  return jax.device_get(planners.plan_batch(config, params, state,
+  previous = planning.initial_plans(config, state)
+  return jax.device_get(planning.plan_batch(config, params, state,
                                             jnp.int32(seed), previous))
 
 
@@ -64,7 +71,7 @@ def test_registered_as_box_agents():
     constructor, gin_file = agent_registry.REGISTRY[name]
     assert constructor is planners.AGENTS[name] and gin_file is None
     assert constructor.supports_box_actions and constructor.needs_env
-  assert planners.LatexMpcOracleAgent.mode == planners.ORACLE
+  assert planners.LatexMpcOracleAgent.planner == 'latex_mpc_oracle'
 
 
 class _Driver:
@@ -152,8 +159,8 @@ def test_altitude_grid_plans_are_scored(world):
   state = jax.tree.map(lambda a: a[0], states[0])
   best = jax.tree.map(lambda a: a[0], _plan(config, params, states[0]))
   low, high = config.altitude_low_m, config.altitude_high_m
-  wind_fn = planners.planning_wind(config, jax_env.GENERATIVE_WIND, state)
-  blind = planners.blind(state)
+  wind_fn = plan_objective.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  blind = plan_objective.blind(state)
   h = jnp.clip(state.flight.altitude_m, low, high)
   targets = [[h, h]] + [[level, level] for level in (low, high)
                         for _ in range(2)]
@@ -171,13 +178,13 @@ def test_beam_as_wide_as_the_tree_finds_the_best_plan(world):
   """Two segments, three choices each (low, high, float) and a beam of 9:
   the search is exhaustive, so its plan is the best of the 9 plans."""
   _, params, states = world
-  config = _config(search=planners.BEAM, beam_width=9, grid_levels=2,
+  config = _config(search=plan_config.BEAM, beam_width=9, grid_levels=2,
                    grad_starts=0)
   state = jax.tree.map(lambda a: a[0], states[0])
   best = jax.tree.map(lambda a: a[0], _plan(config, params, states[0]))
   low, high = config.altitude_low_m, config.altitude_high_m
-  wind_fn = planners.planning_wind(config, jax_env.GENERATIVE_WIND, state)
-  blind = planners.blind(state)
+  wind_fn = plan_objective.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  blind = plan_objective.blind(state)
   h = float(jnp.clip(state.flight.altitude_m, low, high))
   choices = [(low, -1.0), (high, -1.0), (h, 1.0)]
   pairs = [(a, b) for a in choices for b in choices]
@@ -188,18 +195,18 @@ def test_beam_as_wide_as_the_tree_finds_the_best_plan(world):
   assert len(set(np.round(scores, 6))) > 1  # Not all tied.
   # A narrower beam keeps fewer partial plans: never a better plan.
   narrow = jax.tree.map(lambda a: a[0], _plan(
-      _config(search=planners.BEAM, beam_width=1, grid_levels=2,
+      _config(search=plan_config.BEAM, beam_width=1, grid_levels=2,
               grad_starts=0), params, states[0]))
   assert float(narrow.score) <= float(best.score) + 1e-6
   with pytest.raises(errors.ConfigError, match='divisor of horizon'):
-    _config(search=planners.BEAM, horizon=4, num_segments=3)
+    _config(search=plan_config.BEAM, horizon=4, num_segments=3)
   with pytest.raises(errors.ConfigError, match='grid_levels'):
-    _config(search=planners.BEAM, grid_levels=0)
+    _config(search=plan_config.BEAM, grid_levels=0)
   with pytest.raises(errors.ConfigError, match='search'):
     _config(search='bfs')
 
 
-_best_per_cell = jax.jit(planners.best_per_cell, static_argnums=(4, 5))
+_best_per_cell = jax.jit(beam.best_per_cell, static_argnums=(4, 5))
 
 
 @settings(max_examples=40, deadline=None)
@@ -236,19 +243,19 @@ def test_beam_with_one_cell_is_greedy(world):
   (finite) and never better than the exhaustive beam's. Which entry of a
   cell survives is `test_best_per_cell_keeps_the_best_of_each_cell`."""
   _, params, states = world
-  config = _config(search=planners.BEAM, beam_width=9, grid_levels=2,
+  config = _config(search=plan_config.BEAM, beam_width=9, grid_levels=2,
                    grad_starts=0, beam_cell_km=10_000.0, beam_cell_m=50_000.0)
   best = jax.tree.map(lambda a: a[0], _plan(config, params, states[0]))
   wide = jax.tree.map(lambda a: a[0], _plan(
-      _config(search=planners.BEAM, beam_width=9, grid_levels=2,
+      _config(search=plan_config.BEAM, beam_width=9, grid_levels=2,
               grad_starts=0), params, states[0]))
   # The exhaustive beam saw every plan, the greedy one among them.
   assert np.isfinite(float(best.score))
   assert float(best.score) <= float(wide.score) + 1e-6
   with pytest.raises(errors.ConfigError, match='beam_cell_km'):
-    _config(search=planners.BEAM, beam_cell_km=-1.0)
+    _config(search=plan_config.BEAM, beam_cell_km=-1.0)
   with pytest.raises(errors.ConfigError, match='beam_cell_m'):
-    _config(search=planners.BEAM, beam_cell_m=0.0)
+    _config(search=plan_config.BEAM, beam_cell_m=0.0)
 
 
 def test_beam_resource_value_keeps_the_frugal_plan(world):
@@ -257,10 +264,10 @@ def test_beam_resource_value_keeps_the_frugal_plan(world):
   most resources (`resource_margins`), here another choice."""
   _, params, states = world
   state = jax.tree.map(lambda a: a[0], states[0])
-  config = _config(planners.ORACLE, search=planners.BEAM, horizon=6,
+  config = _config(plan_config.ORACLE, search=plan_config.BEAM, horizon=6,
                    num_segments=1, replan_every=6, beam_width=1,
                    grid_levels=5)
-  wind_fn = planners.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  wind_fn = plan_objective.planning_wind(config, jax_env.GENERATIVE_WIND, state)
   h = jnp.clip(state.flight.altitude_m, config.altitude_low_m,
                config.altitude_high_m)
   targets = jnp.concatenate([jnp.linspace(config.altitude_low_m,
@@ -271,25 +278,25 @@ def test_beam_resource_value_keeps_the_frugal_plan(world):
 
   @jax.jit
   def margins(target, flag):
-    actions = planners.plan_actions(config, target[None], flag[None])
-    f = planners._fly(params, state, wind_fn, state.flight, actions)[0]  # pylint: disable=protected-access
-    return sum(planners.resource_margins(params, f))
+    actions = plan_objective.plan_actions(config, target[None], flag[None])
+    f = plan_objective.fly(params, state, wind_fn, state.flight, actions)[0]
+    return sum(plan_objective.resource_margins(params, f))
 
   kept_margins = np.asarray(jax.vmap(margins)(targets, floats))
   assert np.argmax(scores) != np.argmax(kept_margins)  # The test can fail.
-  search = jax.jit(planners.beam_search, static_argnums=(0, 3))
+  search = jax.jit(beam.beam_search, static_argnums=(0, 3))
   for value, best in ((0.0, np.argmax(scores)),
                       (1e4, np.argmax(kept_margins))):
     chosen, _ = search(dataclasses.replace(config, beam_resource_value=value),
                        params, state, wind_fn)
     assert float(chosen[0, 0]) == pytest.approx(float(targets[best]))
   with pytest.raises(errors.ConfigError, match='beam_resource_value'):
-    _config(search=planners.BEAM, beam_resource_value=-1.0)
+    _config(search=plan_config.BEAM, beam_resource_value=-1.0)
 
 
 @pytest.mark.parametrize('scenarios, search, memory', [
-    (0, planners.CEM, 0), (2, planners.CEM, 0), (0, planners.BEAM, 0),
-    (0, planners.BEAM, 3)])
+    (0, plan_config.CEM, 0), (2, plan_config.CEM, 0), (0, plan_config.BEAM, 0),
+    (0, plan_config.BEAM, 3)])
 def test_forecast_mpc_never_reads_the_noise(world, scenarios, search, memory):
   """Another flight's noise, same forecast and measurement: same plan (also
   when plans are scored over noise scenarios the planner draws itself, when
@@ -306,7 +313,7 @@ def test_forecast_mpc_never_reads_the_noise(world, scenarios, search, memory):
   if scenarios:  # The scenarios change the scores (the plans' winds).
     assert plan.score != _plan(_config(), params, state).score
   if memory:  # The measurement went into the memory: the newest row.
-    point, du, dv = planners.measurement(jax_env.GENERATIVE_WIND,
+    point, du, dv = plan_objective.measurement(jax_env.GENERATIVE_WIND,
                                          jax.tree.map(lambda a: a[0], state))
     np.testing.assert_array_equal(plan.memory.valid[0], [False, False, True])
     np.testing.assert_allclose(plan.memory.points[0, -1], point, rtol=1e-6)
@@ -339,7 +346,7 @@ def test_oracle_reads_the_noise(world):
   """The oracle's plan changes with the noise (the test above can fail)."""
   _, params, (state, other) = world
   swapped = state.replace(noise_u=other.noise_u, noise_v=other.noise_v)
-  oracle = _config(planners.ORACLE)
+  oracle = _config(plan_config.ORACLE)
   a = _plan(oracle, params, state)
   b = _plan(oracle, params, swapped)
   assert not np.array_equal(a.score, b.score)
@@ -351,18 +358,18 @@ def test_oracle_plan_is_the_flight(world):
   oracle may plan the whole episode once)."""
   _, params, (_, state) = world
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
-  config = _config(planners.ORACLE, search=planners.BEAM, horizon=12,
+  config = _config(plan_config.ORACLE, search=plan_config.BEAM, horizon=12,
                    num_segments=4, replan_every=12, beam_width=4,
                    grid_levels=3)
   plan = _plan(config, params, state)
   one = jax.tree.map(lambda a: a[0], state)
-  actions = planners.plan_actions(config, jnp.asarray(plan.targets_m[0]),
+  actions = plan_objective.plan_actions(config, jnp.asarray(plan.targets_m[0]),
                                   jnp.asarray(plan.floats[0]))
-  wind_fn = planners.planning_wind(config, env.wind_for(params), one)
+  wind_fn = plan_objective.planning_wind(config, env.wind_for(params), one)
 
   @jax.jit
   def planned(s, a):
-    return planners._fly(params, s, wind_fn, s.flight, a)[1][0]  # pylint: disable=protected-access
+    return plan_objective.fly(params, s, wind_fn, s.flight, a)[1][0]
 
   @jax.jit
   def flown(s, a):
@@ -411,15 +418,15 @@ def test_gradient_matches_finite_differences(world):
   """
   _, params, states = world
   state = jax.tree.map(lambda a: a[0], states[0])
-  config = _config(planners.GRADIENT, horizon=2, num_segments=2,
+  config = _config(plan_config.GRADIENT, horizon=2, num_segments=2,
                    replan_every=1, radius_width_km=20.0)
-  wind_fn = planners.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  wind_fn = plan_objective.planning_wind(config, jax_env.GENERATIVE_WIND, state)
   floats = -jnp.ones(2)
-  f = jax.jit(lambda x: planners.objective(config, params,
-                                           planners.blind(state), wind_fn, x,
+  f = jax.jit(lambda x: plan_objective.objective(config, params,
+                                           plan_objective.blind(state), wind_fn, x,
                                            floats))
-  grad = jax.jit(jax.grad(lambda x: planners.objective(
-      config, params, planners.blind(state), wind_fn, x, floats)))
+  grad = jax.jit(jax.grad(lambda x: plan_objective.objective(
+      config, params, plan_objective.blind(state), wind_fn, x, floats)))
   h0 = float(state.flight.altitude_m)
   x = jnp.asarray([h0 - 1500.0, h0 - 800.0], jnp.float32)
   g = np.asarray(grad(x))
@@ -432,16 +439,16 @@ def test_gradient_matches_finite_differences(world):
 
 def test_bad_config_is_one_line():
   with pytest.raises(errors.ConfigError, match='planner parameter horizon'):
-    planners.PlannerConfig(horizon=0).checked()
+    plan_config.PlannerConfig(horizon=0).checked()
   with pytest.raises(errors.ConfigError, match='num_segments'):
-    planners.PlannerConfig(horizon=2, num_segments=3,
+    plan_config.PlannerConfig(horizon=2, num_segments=3,
                            replan_every=1).checked()
   with pytest.raises(errors.ConfigError, match='mode'):
-    planners.PlannerConfig(mode='magic').checked()
+    plan_config.PlannerConfig(mode='magic').checked()
   with pytest.raises(errors.ConfigError, match='wind_memory'):
-    planners.PlannerConfig(wind_memory=4, scenarios=2).checked()
+    plan_config.PlannerConfig(wind_memory=4, scenarios=2).checked()
   with pytest.raises(errors.ConfigError, match='wind_memory'):
-    planners.PlannerConfig(wind_memory=-1).checked()
+    plan_config.PlannerConfig(wind_memory=-1).checked()
   with pytest.raises(errors.ConfigError, match='unknown parameter'):
     planners.LatexMpcAgent(3, (71,), action_low=jax_env.ACTION_LOW,
                            action_high=jax_env.ACTION_HIGH, samples=3)
@@ -460,5 +467,111 @@ def test_gin_configures_the_agent():
                                       action_high=jax_env.ACTION_HIGH)
   finally:
     gin.clear_config()
-  assert mpc.config.num_samples == 16 and mpc.config.mode == planners.FORECAST
-  assert grad.config.grad_steps == 3 and grad.config.mode == planners.GRADIENT
+  assert mpc.config.num_samples == 16
+  assert mpc.config.mode == plan_config.FORECAST
+  assert grad.config.grad_steps == 3
+  assert grad.config.mode == plan_config.GRADIENT
+  # The gin module the agents always had names the same bindings.
+  with gin.unlock_config():
+    gin.parse_config(
+        ['ble_latex.agents.planners.LatexMpcOracleAgent.beam_width = 7'])
+  try:
+    assert plan_config.from_gin('latex_mpc_oracle').beam_width == 7
+  finally:
+    gin.clear_config()
+
+
+def test_pure_planning_imports_no_tensorflow():
+  """The planning modules import neither TensorFlow, Dopamine nor BLE's
+  agents (only `agents/planners.py`, the BLE agents, does)."""
+  code = ('import sys\n'
+          'import ble_latex.agents.planning, ble_latex.agents.plan_config\n'
+          'import ble_latex.agents.plan_objective, ble_latex.agents.beam\n'
+          'heavy = ("tensorflow", "dopamine", '
+          '"balloon_learning_environment.agents")\n'
+          'print(sorted(h for h in heavy if h in sys.modules))\n')
+  out = subprocess.run([sys.executable, '-c', code], check=True,
+                       capture_output=True, text=True).stdout
+  assert out.splitlines()[-1] == '[]'
+
+
+def _agent(**config):
+  return planners.LatexMpcAgent(3, (71,), action_low=jax_env.ACTION_LOW,
+                                action_high=jax_env.ACTION_HIGH, **config)
+
+
+@pytest.mark.parametrize('field', sorted(plan_config.MAX_SIZES))
+def test_sizes_that_drive_memory_are_bounded(field):
+  """Issue 48 item 15: each size has a stated maximum, checked when the
+  agent is built (nothing compiled); the message names the binding."""
+  maximum = plan_config.MAX_SIZES[field]
+  with pytest.raises(errors.ConfigError) as e:
+    _agent(**{field: maximum + 1})
+  message = str(e.value)
+  assert '\n' not in message
+  assert message.startswith(f'gin binding LatexMpcAgent.{field} must be an '
+                            f'int in [')
+  assert message.endswith(f'{maximum}], got {maximum + 1}')
+
+
+def test_beam_of_1e8_is_refused_before_compiling():
+  """The issue's case (`LatexMpcAgent.beam_width=1e8`: compiled, then 2.26
+  TB), and sizes each within bounds whose product is not: refused in one
+  line naming the binding."""
+  with pytest.raises(errors.ConfigError,
+                     match=r'^gin binding LatexMpcAgent.beam_width must'):
+    _agent(beam_width=10**8)
+  config = dict(beam_width=plan_config.MAX_SIZES['beam_width'],
+                grid_levels=plan_config.MAX_SIZES['grid_levels'])
+  assert (config['beam_width'] * (config['grid_levels'] + 1) * 6 >
+          plan_config.MAX_PLAN_STRIDES)
+  with pytest.raises(errors.ConfigError,
+                     match=r'^gin binding LatexMpcAgent.beam_width = 65536 '
+                     r'.* would fly \d+ plan strides at once; at most'):
+    _agent(**config)
+  # The shipped planners fit with room (a batch of 100 oracles too).
+  for name in plan_config.PLANNERS:
+    assert plan_config.check_batch(plan_config.from_gin(name), 100) == 100
+
+
+def test_an_oversized_batch_is_refused_before_compiling(world, monkeypatch):
+  """`plan_batch` and `initial_plans` check N x plan strides first: the
+  jitted call is never reached (so never compiled)."""
+  _, _, states = world
+  config = _config(search=plan_config.BEAM, beam_width=4096, grid_levels=15,
+                   horizon=216, num_segments=216, replan_every=216)
+  n = plan_config.MAX_PLAN_STRIDES // config.plan_strides() + 1
+  many = jax.tree.map(lambda a: jnp.broadcast_to(a, (n,) + a.shape[1:]),
+                      states[0])
+  reached = []
+  monkeypatch.setattr(planning, '_plan_batch',
+                      lambda *a: reached.append('plan'))
+  monkeypatch.setattr(planning, '_initial_plans',
+                      lambda *a: reached.append('initial'))
+  with pytest.raises(errors.ConfigError, match=f'balloons per call = {n} '):
+    planning.initial_plans(config, many)
+  with pytest.raises(errors.ConfigError, match='would fly'):
+    planning.plan_batch(config, None, many, jnp.int32(0), None)
+  assert not reached
+  planning.initial_plans(config, states[0])  # One balloon: within bounds.
+  assert reached == ['initial']
+
+
+@pytest.mark.parametrize('field', [
+    'sand_cost', 'helium_cost', 'terminal_cost', 'progress', 'shaping',
+    'beam_resource_value', 'halflife_km', 'radius_width_km'])
+def test_values_infinite_in_float32_are_refused(field):
+  """Issue 48 item 3: `sand_cost=1e39` is finite in float64 but inf in the
+  float32 core (every plan would score -inf); the project's number check
+  refuses it, naming the binding."""
+  with pytest.raises(errors.ConfigError,
+                     match=f'^gin binding LatexMpcAgent.{field} must be'):
+    _agent(**{field: 1e39})
+  import gin  # pylint: disable=g-import-not-at-top
+  with gin.unlock_config():
+    gin.parse_config([f'LatexMpcAgent.{field} = 1e39'])
+  try:
+    with pytest.raises(errors.ConfigError, match=f'LatexMpcAgent.{field}'):
+      plan_config.from_gin('latex_mpc')
+  finally:
+    gin.clear_config()

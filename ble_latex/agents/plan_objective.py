@@ -1,0 +1,311 @@
+# coding=utf-8
+"""A plan's objective and the winds it is flown in (pure JAX).
+
+A plan is piecewise constant: `num_segments` altitude targets a0 [m] and
+float flags a2 in {-1, +1} over `horizon` strides, flown with a fixed time
+factor a1 (`plan_actions`) on `flight.dynamics.step`, the core the env flies
+(`fly`). The objective (`objective`), per stride t of the plan (discounted):
+sigmoid((R - d_t) / w) + shaping * 2^(-d_t / halflife), plus progress *
+(d_0 - d_end) / R (the approach over the plan), minus a resource cost (sand
+dropped and helium vented, as lift [kg], divided by the fraction of the
+launch sand margin left and scaled by the fraction of the episode left:
+spending is cheap at the end and dear when little is left), minus a
+terminal cost where the plan ends the flight.
+
+The winds (`planning_wind`): the oracle's is the ground truth; the forecast
+planners' is the forecast of the `blind` state (the flight's noise removed),
+corrected by the winds the balloon measures.
+"""
+
+import functools
+from typing import Any, Callable, Optional, Tuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ble_latex.agents import plan_config
+from ble_latex.envs import jax_env
+from ble_latex.flight import dynamics
+from ble_latex.flight import physics
+from ble_latex.flight import state as state_lib
+from ble_latex.wind import noise_gp
+from ble_latex.wind import simplex
+
+Array = jax.Array
+
+
+def blind(state: jax_env.EnvState) -> jax_env.EnvState:
+  """The state without its noise (what a forecast planner may read).
+
+  The simplex noise of the flight (and with it the future true wind) is
+  replaced by zeros; the forecast, the balloon and its measured wind (an
+  observation) stay.
+  """
+  zeros = lambda tree: jax.tree.map(jnp.zeros_like, tree)
+  return state.replace(noise_u=zeros(state.noise_u),
+                       noise_v=zeros(state.noise_v))
+
+
+def measurement(wind: jax_env.Wind, state: jax_env.EnvState
+                ) -> Tuple[Array, Array, Array]:
+  """Where the balloon is and its measured-minus-forecast wind there.
+
+  Args:
+    wind: The env's wind.
+    state: The balloon's env state (its measured wind at the balloon; the
+      forecast is read from the `blind` state).
+
+  Returns:
+    (point (x [km], y [km], pressure [Pa], time [h]), du, dv [m/s]).
+  """
+  f = state.flight
+  u0, v0 = wind.forecast_column(blind(state), f.x_m, f.y_m, f.pressure_pa,
+                                f.time_s)
+  point = jnp.stack([f.x_m / 1000.0, f.y_m / 1000.0, f.pressure_pa,
+                     f.time_s / 3600.0])
+  return point, state.wind_u - u0, state.wind_v - v0
+
+
+def planning_wind(config: plan_config.PlannerConfig, wind: jax_env.Wind,
+                  state: jax_env.EnvState,
+                  noise: Optional[Tuple[Any, Any]] = None,
+                  memory: Optional[noise_gp.Measurements] = None
+                  ) -> Callable[[Array, Array, Array, Array], Tuple[Array,
+                  Array]]:
+  """The wind a planner flies its plans in: (x, y, P, t) -> (u, v). # [m/s]
+
+  ORACLE: the ground truth (`wind.ground_truth`). Otherwise the forecast
+  (`wind.forecast_column` at one pressure) of the `blind` state (with
+  `noise`: the ground truth of the state given that noise instead, one
+  scenario), plus a correction from the measured wind: with `memory`
+  (`wind_memory` > 0) the Gaussian-process posterior mean of the noise given
+  the measurements (`noise_gp.posterior_mean`); else the measured-minus-
+  planned wind at the balloon, decaying as
+  exp(-|t - t0| / wind_correction_hours - |P - P0| / wind_correction_pa).
+
+  Args:
+    config: The planner (mode, wind_correction_hours, wind_correction_pa).
+    wind: The env's wind.
+    state: The balloon's env state (its measured wind at the balloon).
+    noise: (noise_u, noise_v) simplex parameters of a scenario (drawn by
+      the planner, `scenario_noise`), or None: the forecast alone.
+    memory: The measurements (the current one included) for the Gaussian-
+      process correction, or None.
+
+  Returns:
+    A pure JAX function (x [m], y [m], pressure [Pa], time [s]) -> (u, v)
+    eastward and northward wind. # [m/s]
+  """
+  if config.mode == plan_config.ORACLE:
+    return functools.partial(wind.ground_truth, state)
+  state = blind(state)
+  f = state.flight
+
+  if noise is None:
+    def forecast(x_m, y_m, pressure_pa, t_s):
+      return wind.forecast_column(state, x_m, y_m, pressure_pa, t_s)
+  else:
+    forecast = functools.partial(
+        wind.ground_truth, state.replace(noise_u=noise[0], noise_v=noise[1]))
+
+  if memory is not None:
+    weights = noise_gp.fit(memory)
+
+    def expected(x_m, y_m, pressure_pa, t_s):
+      u, v = forecast(x_m, y_m, pressure_pa, t_s)
+      point = jnp.stack([x_m / 1000.0, y_m / 1000.0, pressure_pa,
+                         t_s / 3600.0]).astype(memory.du.dtype)
+      du, dv = noise_gp.posterior_mean(memory, weights, point)
+      return u + du.astype(u.dtype), v + dv.astype(v.dtype)
+
+    return expected
+  if config.wind_correction_hours <= 0.0:
+    return forecast
+  u0, v0 = forecast(f.x_m, f.y_m, f.pressure_pa, f.time_s)
+  du, dv = state.wind_u - u0, state.wind_v - v0
+
+  def corrected(x_m, y_m, pressure_pa, t_s):
+    u, v = forecast(x_m, y_m, pressure_pa, t_s)
+    weight = jnp.exp(
+        -jnp.abs(t_s - f.time_s) / (3600.0 * config.wind_correction_hours)
+        - jnp.abs(pressure_pa - f.pressure_pa) / config.wind_correction_pa)
+    return u + weight * du, v + weight * dv
+
+  return corrected
+
+
+def scenario_noise(config: plan_config.PlannerConfig,
+                   key: Array) -> Tuple[Any, Any]:
+  """`config.scenarios` simplex noise fields of BLE's model (stacked).
+
+  Args:
+    config: The planner (scenarios > 0).
+    key: The planner's key for them (never the flight's noise key).
+
+  Returns:
+    (noise_u, noise_v) with a leading axis of `config.scenarios`.
+  """
+  return jax.vmap(simplex.reset_uv_noise_params)(
+      jax.random.split(key, config.scenarios))
+
+
+def plan_actions(config: plan_config.PlannerConfig, targets_m: Array,
+                 floats: Array) -> Array:
+  """[horizon, 3] actions (a0, a1, a2) of a piecewise-constant plan.
+
+  Args:
+    config: The planner (horizon, num_segments, time_factor).
+    targets_m: [num_segments] altitude targets a0. # [m]
+    floats: [num_segments] float flags a2.
+
+  Returns:
+    [horizon, 3] actions: each segment's a0 and a2 repeated over its
+    strides, a1 = `config.time_factor`.
+  """
+  segment = (np.arange(config.horizon) * config.num_segments) // config.horizon
+  a0 = targets_m[segment]
+  a2 = floats[segment]
+  a1 = jnp.full_like(a0, config.time_factor)
+  return jnp.stack([a0, a1, a2], axis=-1)
+
+
+def objective(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
+              state: jax_env.EnvState, wind_fn: Callable[..., Any],
+              targets_m: Array, floats: Array) -> Array:
+  """The planning objective of one plan from `state` (see module docstring).
+
+  Differentiable in `targets_m` (the core's `lax.scan`, smooth within a
+  controller branch). `state.steps` and `params.episode_steps` mask strides
+  past the end of the episode and scale the resource cost.
+
+  Args:
+    config: The planner (horizon, reward shaping and costs).
+    params: The env parameters (flight system, stride, episode_steps).
+    state: The balloon's env state the plan starts from.
+    wind_fn: (x [m], y [m], pressure [Pa], time [s]) -> (u, v) [m/s], the
+      wind the plan is flown in (`planning_wind`).
+    targets_m: [num_segments] altitude targets a0. # [m]
+    floats: [num_segments] float flags a2.
+
+  Returns:
+    The objective (a scalar, higher is better): discounted in-radius value
+    plus shaping and progress, minus resource and terminal costs.
+  """
+  actions = plan_actions(config, targets_m, floats)
+  f_end, (distance_km, status) = fly(params, state, wind_fn, state.flight,
+                                     actions)
+  t = jnp.arange(config.horizon)
+  value = jnp.sum(stride_values(config, params, state, distance_km, status,
+                                t))
+  left = params.episode_steps - state.steps  # Strides left in the episode.
+  # The plan's last stride inside the episode.
+  last = jnp.clip(jnp.minimum(left, config.horizon) - 1, 0, config.horizon - 1)
+  # The flight ended inside the plan (before the episode's end).
+  ended = status[last] != state_lib.FlightStatus.OK
+  return total(value, end_terms(config, params, state, f_end,
+                                distance_km[last], ended))
+
+
+def total(value: Array, terms: Tuple[Array, Array, Array]) -> Array:
+  """The objective: value + progress - resource cost - terminal cost."""
+  progress, cost, terminal = terms
+  return value + progress - cost - terminal
+
+
+def fly(params: jax_env.EnvParams, state: jax_env.EnvState,
+        wind_fn: Callable[..., Any], f: Any, actions: Array
+        ) -> Tuple[Any, Tuple[Array, Array]]:
+  """Flies `actions` ([T, 3], one per stride) from flight `f` on the core.
+
+  Plans fly the expected dynamics: realistic physics' free-lift random walk
+  is a disturbance no controller foresees, so the walk so far is held, with
+  no new steps; the sun, overpressure, drag and burst are flown as they are.
+
+  Returns:
+    The flight after the last stride, and per stride its distance to the
+    station [km] and its `FlightStatus`.
+  """
+  flight = params.flight.replace(lift_walk=False)
+
+  def stride(f, action):
+    f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,
+                      params.stride_s)
+    return f, (jnp.hypot(f.x_m, f.y_m) / 1000.0, f.status)
+
+  return jax.lax.scan(stride, f, actions)
+
+
+def stride_values(config: plan_config.PlannerConfig,
+                  params: jax_env.EnvParams,
+                  state: jax_env.EnvState, distance_km: Array,
+                  status: Array, t: Array) -> Array:
+  """The objective's per-stride terms: discount^t (in-radius + shaping).
+
+  Args:
+    config: The planner (radius, shaping, discount).
+    params: The env parameters (episode_steps).
+    state: The state the plan starts from (its `steps`).
+    distance_km: Distances to the station after strides t. # [km]
+    status: `FlightStatus` after strides t.
+    t: Stride indices in the plan (0 is the first).
+
+  Returns:
+    The terms (0 where the flight has ended or the episode is over).
+  """
+  alive = ((status == state_lib.FlightStatus.OK) &
+           (t < params.episode_steps - state.steps))
+  within = jax.nn.sigmoid((config.radius_km - distance_km) /
+                          config.radius_width_km)
+  shaping = config.shaping * jnp.exp2(-distance_km / config.halflife_km)
+  return jnp.where(alive, config.discount ** t * (within + shaping),
+                   0.0).astype(distance_km.dtype)
+
+
+def end_terms(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
+              state: jax_env.EnvState, f_end: Any, d_end_km: Array,
+              ended: Array) -> Tuple[Array, Array, Array]:
+  """Progress, resource cost and terminal cost of a (partial) plan.
+
+  Args:
+    config: The planner (progress, costs).
+    params: The env parameters (launch sand, episode length).
+    state: The state the plan starts from.
+    f_end: The flight where the plan (so far) ends.
+    d_end_km: Its distance at the last stride inside the episode. # [km]
+    ended: Whether the flight ended (before the episode's end).
+
+  Returns:
+    (progress * (d_0 - d_end) / R, cost, terminal_cost * ended).
+  """
+  f0 = state.flight
+  dtype = d_end_km.dtype
+  d0 = jnp.hypot(f0.x_m, f0.y_m) / 1000.0
+  progress = config.progress * (d0 - d_end_km) / config.radius_km
+  # Resource margins as a fraction of the launch sand (both start near it).
+  initial = jnp.maximum(params.flight.initial_sand_kg, 1e-3)
+  sand_margin, helium_margin = resource_margins(params, f0)
+  left = params.episode_steps - state.steps
+  time_left = jnp.clip(left / params.episode_steps, 0.0, 1.0)
+  dropped = f_end.sand_dropped_kg - f0.sand_dropped_kg
+  vented = (f_end.helium_vented_mols - f0.helium_vented_mols) * (
+      physics.LIFT_PER_MOL)
+  cost = time_left * (
+      config.sand_cost * dropped / jnp.maximum(sand_margin / initial, 0.05) +
+      config.helium_cost * vented / jnp.maximum(helium_margin / initial, 0.05))
+  return progress, cost, config.terminal_cost * ended.astype(dtype)
+
+
+def resource_margins(params: jax_env.EnvParams,
+                     f: Any) -> Tuple[Array, Array]:
+  """The sand that can still be dropped and the lift that can be vented.
+
+  Args:
+    params: The env parameters (`flight.min_drop_kg`).
+    f: A `FlightState`.
+
+  Returns:
+    (sand_kg - min_drop_kg, free_lift_kg + sand_kg), each at least 0. # [kg]
+  """
+  return (jnp.maximum(f.sand_kg - params.flight.min_drop_kg, 0.0),
+          jnp.maximum(f.free_lift_kg + f.sand_kg, 0.0))
