@@ -22,9 +22,10 @@ here for the JAX-core agents:
   `tanh(mu(s))` for the batch in one jitted call, mapped onto the Box by the
   agent's own `_to_box`;
 - `planners.PlannerAgent` (`latex_mpc`, `latex_mpc_oracle`,
-  `latex_mpc_grad`): one `planners.plan_batch` call for the batch every
+  `latex_mpc_grad`): one `planning.plan_batch` call for the batch every
   `replan_every` strides (what `benchmarks/planners.py` calls), the actions
-  in between from `planners.next_action`;
+  in between from `planning.next_action`; at most as many balloons as
+  `plan_config.MAX_PLAN_STRIDES` allows in one call;
 - `baselines.GeometricStationSeeker` (`latex_station_seeker`): one copy of
   the agent per balloon (it reads only its observation; a copy per balloon
   runs the agent's own code on it).
@@ -50,7 +51,9 @@ import numpy as np
 import tqdm
 
 from ble_latex.agents import baselines
+from ble_latex.agents import plan_config
 from ble_latex.agents import planners
+from ble_latex.agents import planning
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
 from ble_latex.ble import gym_env
@@ -76,7 +79,12 @@ class CorePolicy:
   each stride (as `Agent.step`); both return the N actions (a0 [m], a1, a2)
   inside the env's Box, shape [N, 3]. Balloons whose episode has ended are
   still passed (their actions are not used).
+
+  Attributes:
+    max_batch: The most balloons it acts for at once (None: no bound).
   """
+
+  max_batch: Optional[int] = None
 
   def begin(self, states: jax_env.EnvState,
             observations: np.ndarray) -> np.ndarray:
@@ -144,7 +152,7 @@ def core_env(env: Any) -> Optional[CoreEnv]:
   if (type(env) is not gym_env.LatexBalloonEnv or  # pylint: disable=unidiomatic-typecheck
       getattr(env, '_reward_fn', True) is not None or
       not getattr(env.arena, '_core_features', False) or
-      getattr(env.arena.driver, '_wind_field', True) is not None):
+      env.arena.driver.host_wind_field is not None):
     return None
   # pylint: enable=protected-access
   core = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
@@ -172,13 +180,18 @@ def flies_batched(agent: base_agent.Agent, env: Any) -> bool:
 @functools.partial(jax.jit, static_argnums=0)
 def _mean_actions(network_def: Any, network_params: Any,
                   observations: jax.Array) -> jax.Array:
-  """SAC's eval action tanh(mu(s)) in [-1, 1]^3 of [N] observations."""
+  """SAC's eval action tanh(mu(s)) in [-1, 1]^3 of [N] observations.
+
+  Row by row (`lax.map`): the agent's own one-observation program, so the
+  actions are its actions bit for bit (a batched matmul sums in another
+  order); the MLP is a small part of a stride's cost.
+  """
   def one(observation):
     # The actor also draws a sample; its key does not change the mean.
     return network_def.apply(network_params, observation,
                              jax.random.PRNGKey(0),
                              method=network_def.actor).mean_action
-  return jax.vmap(one)(observations)
+  return jax.lax.map(one, observations)
 
 
 class _SacPolicy(CorePolicy):
@@ -222,9 +235,11 @@ class _PlannerPolicy(CorePolicy):
     self._low = np.asarray(agent._low)  # pylint: disable=protected-access
     self._high = np.asarray(agent._high)  # pylint: disable=protected-access
     self._core = core
-    self._plans: Optional[planners.Plan] = None
-    self._host: Optional[planners.Plan] = None
+    self._plans: Optional[planning.Plan] = None
+    self._host: Optional[planning.Plan] = None
     self._since = 0
+    self.max_batch = max(
+        1, plan_config.MAX_PLAN_STRIDES // self._config.plan_strides())
 
   def begin(self, states, observations):
     self._plans = None
@@ -233,15 +248,15 @@ class _PlannerPolicy(CorePolicy):
   def step(self, states, observations, rewards):
     config = self._config
     if self._plans is None or self._since >= config.replan_every:
-      previous = (planners.initial_plans(config, states)
+      previous = (planning.initial_plans(config, states)
                   if self._plans is None else self._plans)
-      self._plans = jax.block_until_ready(planners.plan_batch(
+      self._plans = jax.block_until_ready(planning.plan_batch(
           config, self._core.params, states, self._seed, previous,
           self._core.wind))
       self._host = jax.device_get(self._plans)
       self._since = 0
     actions = np.stack([
-        planners.next_action(config, jax.tree.map(lambda a: a[i], self._host),
+        planning.next_action(config, jax.tree.map(lambda a: a[i], self._host),
                              self._since)
         for i in range(len(observations))])
     self._since += 1
@@ -364,7 +379,7 @@ def fly_batch(policy: CorePolicy, env: Any, seeds: Sequence[int],
 
 def evaluate(agent: base_agent.Agent, env: Any, seeds: Sequence[int],
              max_steps: int, description: str = 'eval',
-             batch_size: int = BATCH_SIZE,
+             batch_size: Optional[int] = None,
              postfix: Optional[Callable[[List[Dict[str, Any]]],
                                         Dict[str, str]]] = None
              ) -> List[Dict[str, Any]]:
@@ -376,7 +391,8 @@ def evaluate(agent: base_agent.Agent, env: Any, seeds: Sequence[int],
     seeds: Env seeds.
     max_steps: Strides per episode at most.
     description: Progress-bar label.
-    batch_size: Seeds flown together.
+    batch_size: Seeds flown together (None: `BATCH_SIZE`), at most the
+      policy's `max_batch`.
     postfix: The progress bar's running numbers of the records so far
       (`eval_lib.progress_postfix`), or None.
 
@@ -390,6 +406,8 @@ def evaluate(agent: base_agent.Agent, env: Any, seeds: Sequence[int],
   if policy is None:
     raise ValueError(f'{type(agent).__name__} on {env}: no batched policy '
                      '(use eval_lib.evaluate)')
+  batch_size = batch_size or BATCH_SIZE
+  batch_size = min(batch_size, policy.max_batch or batch_size)
   records: List[Dict[str, Any]] = []
   with tqdm.tqdm(total=len(seeds), desc=f'{description} (batched)',
                  unit='episode', dynamic_ncols=True) as bar:
