@@ -1,6 +1,8 @@
 # coding=utf-8
 """Tests of ble_latex's SAC agent (ble_latex/agents/sac.py)."""
 
+import dataclasses
+import inspect
 import os
 import pickle
 
@@ -23,6 +25,8 @@ from ble_latex.agents import networks
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
+from ble_latex.agents import sac_trainer
+from ble_latex import errors
 from ble_latex import safe_io
 from test_pretrained import _HIGH, _LOW, _sac  # pylint: disable=g-bad-import-order
 from test_pretrained import _crafted_pickle, _train_a_little  # pylint: disable=g-bad-import-order
@@ -359,8 +363,8 @@ def test_registry_and_gin_file():
     assert agent._replay_capacity == 1000  # pylint: disable=protected-access
     assert agent.target_entropy == 0.0
     assert agent.min_replay_history == 1000
-    action = agent.begin_episode(np.zeros(7))  # Default box: [-1, 1]^3.
-    assert np.all(np.abs(action) <= 1.0)
+    action = agent.begin_episode(np.zeros(7))  # Default box: the core's.
+    assert np.all((LOW <= action) & (action <= HIGH))
   finally:
     gin.clear_config()
 
@@ -722,3 +726,53 @@ def test_legacy_pickles_load_only_with_the_opt_in(tmp_path):
 def test_bad_sac_hyperparameters_name_the_binding(name, value):
   with pytest.raises(ValueError, match=f'SACAgent.{name} must be'):
     _sac(**{name: value})
+
+
+# --- One home of the hyperparameters; the replay's counters on load --------
+
+
+def test_both_trainers_default_to_the_one_hyperparameter_record():
+  agent_defaults = inspect.signature(sac.SACAgent.__init__).parameters
+  trainer_defaults = {f.name: f.default for f in
+                      dataclasses.fields(sac_trainer.TrainerConfig)}
+  for name in sac_core.SAC_HYPERPARAMETERS:
+    value = getattr(sac_core.SAC_DEFAULTS, name)
+    assert agent_defaults[name].default == value, name
+    assert trainer_defaults[name] == value, name
+
+
+@pytest.mark.parametrize('value', [2**70, 10**400, 4097])
+def test_agent_sizes_beyond_bounds_are_one_line_config_errors(value):
+  with pytest.raises(errors.ConfigError,
+                     match='SACAgent.hidden_units must be an integer') as e:
+    _agent(hidden_units=value)
+  # One line; gin appends where it was called (commands drop that).
+  assert str(e.value).split('\n')[0].endswith(f'got {value!r}')
+
+
+@pytest.mark.parametrize('field, value, message', [
+    ('add_count', np.array(999), r'add_count 999 in a buffer of capacity'),
+    ('invalid_range', np.array([5, 6]), r'replay invalid_range is \[5, 6\]'),
+    ('episode_end_indices', np.array([500]),
+     r'replay episode_end_indices must be rows of the 21 filled'),
+])
+def test_checkpoint_replay_counters_must_fit_its_arrays(tmp_path, field, value,
+                                                        message):
+  """add_count 999 over 21 stored rows was accepted (issue 48 item 5)."""
+  agent = _sac()
+  _train_a_little(agent)  # 21 transitions.
+  agent.save_checkpoint(str(tmp_path), 0)
+  tree = safe_io.read_tree(sac_core.checkpoint_path(str(tmp_path), 0),
+                           file_format=sac_core.CHECKPOINT_FORMAT)
+  crafted_dir = tmp_path / 'crafted'
+  path = sac_core.checkpoint_path(str(crafted_dir), 0)
+  os.makedirs(crafted_dir)
+  safe_io.write_tree(path, {**tree, 'replay': {**tree['replay'], field: value}},
+                     file_format=sac_core.CHECKPOINT_FORMAT)
+  fresh = _sac()
+  with pytest.raises(errors.BadFileError, match=message) as refused:
+    fresh.load_checkpoint(str(crafted_dir), 0)
+  assert path in str(refused.value) and '\n' not in str(refused.value)
+  assert fresh.replay_size == 0  # Unchanged.
+  fresh.load_checkpoint(str(tmp_path), 0)  # The file as written loads.
+  assert fresh.replay_size == 21

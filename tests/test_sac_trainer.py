@@ -19,6 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
 from ble_latex.envs import jax_env
 from ble_latex.run import episode_log
@@ -26,6 +27,7 @@ from ble_latex.run import jax_train
 from ble_latex.run import records as records_lib
 from ble_latex.run import run_dir
 from ble_latex.run import suites
+from ble_latex import errors
 from ble_latex import safe_io
 
 # Small enough to compile and run in seconds; the capacity makes the replay
@@ -556,3 +558,65 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
   _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
   jax_train.load_checkpoint(run_dir.checkpoint_path(str(tmp_path), 0),
                               template)
+
+
+# -- Sizes that drive memory, and integers beyond int64 (issue 48 item 13). ---
+@pytest.mark.parametrize('name, value', [
+    ('hidden_units', 2**70), ('hidden_units', 10**400),
+    ('hidden_units', sac_core.MAX_HIDDEN_UNITS + 1),
+    ('replay_capacity', sac_core.MAX_REPLAY_CAPACITY + 1),
+    ('batch_size', 2**63), ('num_envs', sac_core.MAX_NUM_ENVS + 1),
+    ('min_replay_history', 2**31), ('updates_per_step', 2**64)])
+def test_sizes_beyond_their_bounds_are_one_line_config_errors(name, value):
+  with pytest.raises(errors.ConfigError,
+                     match=f'sac_trainer_config.{name} must be an integer'
+                     ) as refused:
+    sac_trainer.TrainerConfig(**{name: value})
+  # One line; gin appends where it was called (commands drop that).
+  assert str(refused.value).split('\n')[0].endswith(f'got {value!r}')
+
+
+def test_train_command_refuses_hidden_units_beyond_int64(tmp_path, capsys):
+  import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import train  # pylint: disable=g-import-not-at-top
+  try:
+    status = train.main([
+        f'--base_dir={tmp_path}/run', '--trainer=jax', '--num_iterations=1',
+        '--gin_bindings=sac_trainer_config.hidden_units = '
+        '99999999999999999999999'])
+  finally:
+    gin.clear_config()
+  err = capsys.readouterr().err
+  assert status == 2, err
+  assert err.startswith(
+      'ble-latex-train: sac_trainer_config.hidden_units must be an integer '
+      '>= 1 and <= 4096, got 99999999999999999999999') and (
+          err.count('\n') == 1), err
+  assert not (tmp_path / 'run').exists()  # Refused before anything starts.
+
+
+# -- The replay's counters must fit its arrays (issue 48 item 5). -------------
+def test_checkpoint_replay_cursor_must_fit_its_size(runs, tmp_path):
+  """cursor=39, size=6 was accepted: rows 6-38 zeros sampled, real ones lost."""
+  _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
+  path = runs[0] / 'checkpoints' / 'checkpoint_00002.msgpack'
+  tree = safe_io.read_tree(str(path), file_format=jax_train.CHECKPOINT_FORMAT)
+  replay = dict(tree['replay'])
+  for name in ('obs', 'action', 'reward', 'next_obs', 'terminal'):
+    replay[name] = np.asarray(replay[name])[:6]
+
+  def crafted(cursor):
+    out = tmp_path / f'checkpoint_cursor_{cursor}.msgpack'
+    safe_io.write_tree(str(out), {**tree, 'replay': {**replay, 'size': 6,
+                                                     'cursor': cursor}},
+                       file_format=jax_train.CHECKPOINT_FORMAT)
+    return str(out)
+
+  state, _ = jax_train.load_checkpoint(crafted(6), template)  # Consistent.
+  assert int(state.replay.size) == int(state.replay.cursor) == 6
+  bad = crafted(CONFIG.replay_capacity - 1)
+  with pytest.raises(errors.BadFileError) as refused:
+    jax_train.load_checkpoint(bad, template)
+  message = str(refused.value)
+  assert bad in message and 'replay cursor is 39 but size 6' in message
+  assert '\n' not in message

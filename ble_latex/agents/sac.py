@@ -17,11 +17,12 @@ both are shared with the jitted trainer, which imports no Dopamine.
 
 What this wrapper changes, and why:
 - The policy acts in a normalised box [-1, 1]^d; actions are mapped affinely
-  to the env's Box [low, high] only on the way out. Dopamine would otherwise
-  feed raw actions (e.g. a0 in [14 000, 21 000] m) into the critic MLP, and
-  its entropy (and so the paper's target entropy 0) would depend on the units
-  of the action. The target entropy is therefore that of the normalised
-  action: H = 0 for a [-1, 1]^d box.
+  to the env's Box [low, high] only on the way out, by the functional env's
+  one mapping (`jax_env.to_box`, which the jitted trainer flies too).
+  Dopamine would otherwise feed raw actions (e.g. a0 in [14 000, 21 000] m)
+  into the critic MLP, and its entropy (and so the paper's target entropy 0)
+  would depend on the units of the action. The target entropy is therefore
+  that of the normalised action: H = 0 for a [-1, 1]^d box.
 - Separate learning rates for actor, critics and temperature (Dopamine uses
   one gin-bound `create_optimizer` for all three; `sac_core.make_optimizers`).
 - Eval mode always returns the deterministic policy mean, also before
@@ -30,27 +31,21 @@ What this wrapper changes, and why:
 - Replay sampling uses indices drawn from the agent's explicitly split JAX
   PRNG key (Dopamine samples with NumPy's global RNG), so a seed fixes every
   action and every update.
-- Checkpoints are one msgpack file per iteration (`checkpoint_NNNNN.msgpack`,
-  `ble_latex.safe_io`: data only, reading one cannot run code) holding
-  network, target and optimizer states, temperature and its optimizer state,
-  the PRNG key, the train-step counter and the filled part of the replay
-  buffer; written atomically (temporary file, fsync, rename). Dopamine
-  pickles the bundle and writes the replay buffer as a dozen separate,
-  non-atomic files and does not save the PRNG key. Pickled checkpoints of
-  older ble_latex versions are read only with `trust_legacy_pickle=True`.
+- Checkpoints are one msgpack file per iteration, data only, written
+  atomically and checked when read (`ble_latex.agents.sac_checkpoint`).
 - Observations and rewards are checked: NaN / inf / wrong shape raises a
   ValueError before any state changes.
 
-The critics can be changed (`critic`, `ble_latex.agents.networks`):
-Dopamine's MLPs (default), LayerNorm MLPs, or CrossQ's batch-norm critics
-without target networks; the actor is Dopamine's in every case.
+The hyperparameters' defaults are `sac_core.SACHyperparameters`' (shared
+with the jitted trainer). The critics can be changed (`critic`,
+`ble_latex.agents.networks`): Dopamine's MLPs (default), LayerNorm MLPs, or
+CrossQ's batch-norm critics without target networks; the actor is
+Dopamine's in every case.
 """
 
 import functools
-import os
-from typing import Any, Dict, Mapping, Optional, Sequence, Union
+from typing import Any, Dict, Optional, Sequence, Union
 
-from absl import logging
 from balloon_learning_environment.agents import agent
 from dopamine.jax.agents.sac import sac_agent
 from dopamine.replay_memory import circular_replay_buffer
@@ -61,11 +56,15 @@ import numpy as np
 
 from ble_latex.agents import networks
 from ble_latex.agents import pretrained
+from ble_latex.agents import sac_checkpoint
 from ble_latex.agents import sac_core
+from ble_latex.envs import jax_env
+from ble_latex import errors
 from ble_latex.flight import params as params_lib
-from ble_latex import safe_io
 
-_STORE_PREFIX = circular_replay_buffer.STORE_FILENAME_PREFIX
+_D = sac_core.SAC_DEFAULTS  # The keyword defaults below.
+# The one [-1, 1]^d -> Box mapping (the functional env's), compiled once.
+_to_box = jax.jit(jax_env.to_box)
 
 
 @functools.partial(jax.jit, static_argnums=0)
@@ -172,9 +171,15 @@ class VectorReplayBuffer(circular_replay_buffer.OutOfGraphReplayBuffer):
     return tuple(batch)
 
 
+class _AgentHyperparameters(sac_core.SACHyperparameters):
+  """The record, its errors naming the agent's gin bindings (`SACAgent.*`)."""
+  GIN_NAME = 'SACAgent'
+
+
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
                             'action_high'])
-class SACAgent(agent.Agent, sac_agent.SACAgent):
+class SACAgent(sac_checkpoint.SACCheckpoints, agent.Agent,
+               sac_agent.SACAgent):
   """Soft Actor-Critic with a Box action space, for BLE's train/eval loops."""
 
   supports_box_actions = True
@@ -187,20 +192,20 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       action_low: Optional[Sequence[float]] = None,
       action_high: Optional[Sequence[float]] = None,
       seed: int = 0,
-      num_layers: int = 2,
-      hidden_units: int = 256,
-      critic: str = 'mlp',
-      gamma: float = 0.99,
-      actor_learning_rate: float = 3e-4,
-      critic_learning_rate: float = 3e-4,
-      alpha_learning_rate: float = 3e-4,
-      batch_size: int = 256,
-      replay_capacity: int = 1_000_000,
-      min_replay_history: int = 1000,
+      num_layers: int = _D.num_layers,
+      hidden_units: int = _D.hidden_units,
+      critic: str = _D.critic,
+      gamma: float = _D.gamma,
+      actor_learning_rate: float = _D.actor_learning_rate,
+      critic_learning_rate: float = _D.critic_learning_rate,
+      alpha_learning_rate: float = _D.alpha_learning_rate,
+      batch_size: int = _D.batch_size,
+      replay_capacity: int = _D.replay_capacity,
+      min_replay_history: int = _D.min_replay_history,
       update_period: int = 1,
-      target_smoothing_coefficient: float = 0.005,
-      target_entropy: float = 0.0,
-      reward_scale_factor: float = 1.0,
+      target_smoothing_coefficient: float = _D.target_smoothing_coefficient,
+      target_entropy: float = _D.target_entropy,
+      reward_scale_factor: float = _D.reward_scale_factor,
       checkpoint_duration: Optional[int] = 2,
       summary_writing_frequency: int = 500,
       trust_legacy_pickle: bool = False):
@@ -209,29 +214,18 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     Args:
       num_actions: Dimension of the action vector (3 for LatexBalloon-v0).
       observation_shape: Shape of the observation vector.
-      action_low: Lower bounds of the Box action space, shape (num_actions,).
-        Defaults to -1 in every dimension.
-      action_high: Upper bounds of the Box action space, shape (num_actions,).
-        Defaults to +1 in every dimension.
+      action_low: Lower bounds of the Box action space, shape (num_actions,):
+        the latex core's (`jax_env.ACTION_LOW`, the default), the Box
+        `jax_env.to_box` maps onto.
+      action_high: Upper bounds of the Box action space (`jax_env.ACTION_HIGH`).
       seed: Seed of the agent's JAX PRNG key (network init, exploration,
         replay sampling, policy sampling in the update).
-      num_layers: Hidden layers of the actor and of each critic MLP.
-      hidden_units: Units per hidden layer.
-      critic: The twin critics, one of `networks.CRITICS`: 'mlp' (the
-        paper's), 'layernorm' or 'crossq' (batch norm, no target networks).
-      gamma: Discount factor.
-      actor_learning_rate: Adam learning rate of the actor.
-      critic_learning_rate: Adam learning rate of the twin critics.
-      alpha_learning_rate: Adam learning rate of log(temperature).
-      batch_size: Transitions per SAC update.
-      replay_capacity: Replay buffer size in transitions (FIFO beyond it).
-      min_replay_history: Transitions collected with uniform random actions
-        before updates start.
+      num_layers, hidden_units, critic, gamma, actor_learning_rate,
+        critic_learning_rate, alpha_learning_rate, batch_size,
+        replay_capacity, min_replay_history, target_smoothing_coefficient,
+        target_entropy, reward_scale_factor: SAC's hyperparameters
+        (`sac_core.SACHyperparameters`: their meaning and defaults).
       update_period: Environment steps per SAC update.
-      target_smoothing_coefficient: Polyak factor tau of the target networks.
-      target_entropy: Target policy entropy [nats] of the automatic
-        temperature, measured on the normalised [-1, 1]^d action.
-      reward_scale_factor: Rewards are multiplied by this in the TD target.
       checkpoint_duration: Keep checkpoints of the last this many iterations
         besides the newest (BLE's `clean_up_old_checkpoints`); None keeps all.
         Each checkpoint holds the replay buffer.
@@ -241,49 +235,57 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         for files you made (README "Trusted files").
 
     Raises:
-      ValueError: On an invalid action box or hyperparameter; the message
-        names the gin binding (`SACAgent.<name>`).
+      errors.ConfigError: On an invalid action box or hyperparameter; the
+        message names the gin binding (`SACAgent.<name>`).
     """
     observation_shape = tuple(int(d) for d in observation_shape)
     num_actions = int(num_actions)
     if num_actions < 1:
       raise ValueError(f'num_actions must be >= 1, got {num_actions}')
-    low = (np.full(num_actions, -1.0) if action_low is None
-           else np.asarray(action_low, dtype=np.float64))
-    high = (np.full(num_actions, 1.0) if action_high is None
-            else np.asarray(action_high, dtype=np.float64))
+    low = np.asarray(jax_env.ACTION_LOW if action_low is None else action_low,
+                     dtype=np.float64)
+    high = np.asarray(
+        jax_env.ACTION_HIGH if action_high is None else action_high,
+        dtype=np.float64)
     if low.shape != (num_actions,) or high.shape != (num_actions,):
       raise ValueError(
           f'action_low/action_high must have shape ({num_actions},), got '
           f'{low.shape} and {high.shape}')
     if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and
             np.all(low < high)):
-      raise ValueError('action box must be finite with low < high, got '
-                       f'low={low.tolist()}, high={high.tolist()}')
+      raise errors.ConfigError(
+          'action box must be finite with low < high, got '
+          f'low={low.tolist()}, high={high.tolist()}')
+    core_low = np.asarray(jax_env.ACTION_LOW, np.float64)
+    core_high = np.asarray(jax_env.ACTION_HIGH, np.float64)
+    if low.shape != core_low.shape or not (
+        np.array_equal(low, core_low) and np.array_equal(high, core_high)):
+      raise errors.ConfigError(
+          f'SACAgent flies the latex core\'s action Box low='
+          f'{core_low.tolist()}, high={core_high.tolist()} (jax_env.to_box); '
+          f'got low={low.tolist()}, high={high.tolist()}')
     sac_core.check_hyperparameters(
-        'SACAgent', gamma=gamma, actor_learning_rate=actor_learning_rate,
+        'SACAgent', update_period=update_period,
+        checkpoint_duration=checkpoint_duration,
+        summary_writing_frequency=summary_writing_frequency)
+    hp = _AgentHyperparameters(
+        gamma=gamma, actor_learning_rate=actor_learning_rate,
         critic_learning_rate=critic_learning_rate,
         alpha_learning_rate=alpha_learning_rate, batch_size=batch_size,
         replay_capacity=replay_capacity, min_replay_history=min_replay_history,
-        update_period=update_period,
         target_smoothing_coefficient=target_smoothing_coefficient,
         target_entropy=target_entropy, reward_scale_factor=reward_scale_factor,
-        num_layers=num_layers, hidden_units=hidden_units,
-        checkpoint_duration=checkpoint_duration,
-        summary_writing_frequency=summary_writing_frequency)
-    networks.check_critic('SACAgent', critic)
-    self._critic = critic
+        num_layers=num_layers, hidden_units=hidden_units, critic=critic)
+    self.hyperparameters = hp
+    self._critic = hp.critic
     self._trust_legacy_pickle = bool(trust_legacy_pickle)
     self._action_low = low
     self._action_high = high
     self._seed = int(seed)
-    self._num_layers = int(num_layers)
-    self._hidden_units = int(hidden_units)
-    self._actor_learning_rate = actor_learning_rate
-    self._critic_learning_rate = critic_learning_rate
-    self._alpha_learning_rate = alpha_learning_rate
-    self._batch_size = int(batch_size)
-    self._replay_capacity = int(replay_capacity)
+    self._num_layers = int(hp.num_layers)
+    self._hidden_units = int(hp.hidden_units)
+    self._batch_size = int(hp.batch_size)
+    self._replay_capacity = int(hp.replay_capacity)
     self._checkpoint_duration = checkpoint_duration
     self._episode_started = False
     agent.Agent.__init__(self, num_actions, observation_shape)
@@ -333,9 +335,10 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     """Initialises SACNetwork, Adam per actor / critics, and log(alpha)."""
     self._rng, init_key = jax.random.split(self._rng)
     self.network_params = self.network_def.init(init_key, self.state, init_key)
+    hp = self.hyperparameters
     self.network_optimizer, self.alpha_optimizer = sac_core.make_optimizers(
-        self.network_params, self._actor_learning_rate,
-        self._critic_learning_rate, self._alpha_learning_rate)
+        self.network_params, hp.actor_learning_rate, hp.critic_learning_rate,
+        hp.alpha_learning_rate)
     self.optimizer_state = self.network_optimizer.init(self.network_params)
     self.target_params = self.network_params
     self.log_alpha = jnp.zeros(1)  # Temperature alpha = exp(log_alpha) = 1.
@@ -427,16 +430,10 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
       raise ValueError(f'reward must be finite, got {reward}')
     return value
 
-  def _to_box(self, normalized: np.ndarray) -> np.ndarray:
-    """Maps a [-1, 1]^d action affinely onto [low, high] (clipped)."""
-    u = np.clip(np.asarray(normalized, dtype=np.float64), -1.0, 1.0)
-    box = self._action_low + 0.5 * (u + 1.0) * (
-        self._action_high - self._action_low)
-    box = np.clip(box, self._action_low, self._action_high)
-    # Rounding to float32 must not leave the box.
-    box32 = box.astype(np.float32)
-    return np.clip(box32, self._action_low.astype(np.float32),
-                   self._action_high.astype(np.float32))
+  @staticmethod
+  def _to_box(normalized: np.ndarray) -> np.ndarray:
+    """A [-1, 1]^d action on the core's Box: `jax_env.to_box`, float32."""
+    return np.asarray(_to_box(np.asarray(normalized, np.float32)))
 
   def _choose_normalized_action(self) -> np.ndarray:
     if self.eval_mode:
@@ -549,9 +546,8 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
     """Current entropy temperature alpha."""
     return float(jnp.exp(self.log_alpha)[0])
 
-  # --- Checkpoints ---------------------------------------------------------
-
   def _config(self) -> Dict[str, Any]:
+    """What a checkpoint or policy records of this agent's shapes."""
     return {
         'observation_shape': list(self.observation_shape),
         'num_actions': int(self._num_actions),
@@ -562,313 +558,6 @@ class SACAgent(agent.Agent, sac_agent.SACAgent):
         'critic': self._critic,
         'replay_capacity': self._replay_capacity,
     }
-
-  def _replay_bundle(self) -> Dict[str, Any]:
-    """The replay buffer's state; stored arrays cut to their filled part."""
-    filled = min(int(self._replay.add_count), self._replay_capacity)
-    bundle = {}
-    for name, value in self._replay._return_checkpointable_elements().items():  # pylint: disable=protected-access
-      if name.startswith(_STORE_PREFIX):
-        bundle[name] = np.array(value[:filled])
-      elif name == 'episode_end_indices':
-        bundle[name] = np.array(sorted(value), dtype=np.int64)
-      elif isinstance(value, np.ndarray):
-        bundle[name] = np.array(value)
-      else:
-        raise TypeError(f'unexpected replay buffer member {name!r} '
-                        f'({type(value).__name__})')
-    bundle['_next_experience_is_episode_start'] = bool(
-        self._replay._next_experience_is_episode_start)  # pylint: disable=protected-access
-    return bundle
-
-  def _restore_replay(self, bundle: Mapping[str, Any]) -> None:
-    # A fresh buffer of the same capacity, so nothing of the current one stays.
-    replay = self._build_replay_buffer()
-    expected = set(replay._return_checkpointable_elements()) | {  # pylint: disable=protected-access
-        '_next_experience_is_episode_start'}
-    if not isinstance(bundle, Mapping) or set(bundle) != expected:
-      raise ValueError('replay buffer entries differ: expected '
-                       f'{sorted(expected)}, found '
-                       f'{sorted(bundle) if isinstance(bundle, Mapping) else bundle!r}')
-    for name, value in bundle.items():
-      if name.startswith(_STORE_PREFIX):
-        array = replay._store[name[len(_STORE_PREFIX):]]  # pylint: disable=protected-access
-        value = safe_io.checked_array(
-            value, f'replay {name}',
-            kind='float' if array.dtype.kind == 'f' else 'int')
-        if value.ndim != array.ndim or value.shape[1:] != array.shape[1:] or (
-            len(value) > len(array)):
-          raise ValueError(f'replay {name} has shape {value.shape}, buffer '
-                           f'{array.shape}')
-        array[:len(value)] = value
-      elif name == '_next_experience_is_episode_start':
-        replay._next_experience_is_episode_start = bool(value)  # pylint: disable=protected-access
-      elif name == 'episode_end_indices':
-        indices = value if isinstance(value, (set, frozenset, list)) else (
-            np.asarray(value).reshape(-1))  # Legacy pickles hold a set.
-        replay.episode_end_indices = {int(i) for i in indices}
-      else:  # add_count, invalid_range: counters.
-        value = safe_io.checked_array(value, f'replay {name}', kind='int')
-        if np.any(value < 0):
-          raise ValueError(f'replay {name} must be >= 0, got {value}')
-        setattr(replay, name, np.array(value))
-    self._replay = replay
-
-  def bundle_and_checkpoint(self, checkpoint_dir: str,
-                            iteration_number: int) -> Dict[str, Any]:
-    """The agent's full training state as a data-only dict (Dopamine API).
-
-    Args:
-      checkpoint_dir: Unused (everything is in the returned dict).
-      iteration_number: Iteration the bundle belongs to.
-
-    Returns:
-      Dict with the format tag, config, train-step counter, PRNG key, online
-      and target parameters, optimizer states (as lists of arrays), log(alpha)
-      and the replay; only dicts, lists, numbers, strings and NumPy arrays
-      (`safe_io.write_tree`).
-    """
-    del checkpoint_dir
-    bundle = self.acting_bundle(iteration_number)
-    self._check_finite(target_params=self.target_params,
-                       optimizer_state=self.optimizer_state,
-                       alpha_optimizer_state=self.alpha_optimizer_state)
-    leaves = jax.tree_util.tree_leaves
-    bundle.update(
-        rng=np.asarray(self._rng),
-        state=np.array(self.state),
-        target_params=sac_core.to_numpy(self.target_params),
-        optimizer_state=[np.asarray(x) for x in leaves(sac_core.to_numpy(
-            self.optimizer_state))],
-        alpha_optimizer_state=[np.asarray(x) for x in leaves(sac_core.to_numpy(
-            self.alpha_optimizer_state))],
-        replay=self._replay_bundle())
-    return bundle
-
-  def acting_bundle(self, iteration_number: int) -> Dict[str, Any]:
-    """The part of `bundle_and_checkpoint` that acting needs.
-
-    Format tag, iteration, config, train-step counter, online network
-    parameters and log(alpha); no replay buffer, optimizer or target states.
-
-    Args:
-      iteration_number: Iteration the bundle belongs to.
-
-    Returns:
-      A dict with those entries, as in a checkpoint.
-
-    Raises:
-      sac_core.TrainingDiverged: If the parameters or log(alpha) hold NaN / inf
-        (nothing is written from them).
-    """
-    self._check_finite(network_params=self.network_params,
-                       log_alpha=self.log_alpha)
-    return {
-        'format': sac_core.CHECKPOINT_FORMAT,
-        'iteration': int(iteration_number),
-        'config': self._config(),
-        'training_steps': int(self.training_steps),
-        'network_params': sac_core.to_numpy(self.network_params),
-        'log_alpha': np.asarray(self.log_alpha),
-    }
-
-  def _check_finite(self, **trees: Any) -> None:
-    """Raises TrainingDiverged naming the trees that hold NaN / inf."""
-    bad = {name: int(sac_core.nonfinite_count(tree))
-           for name, tree in trees.items()}
-    bad = {name: n for name, n in bad.items() if n}
-    if bad:
-      raise sac_core.TrainingDiverged(
-          f'training diverged at training step {self.training_steps}: '
-          f'non-finite {", ".join(f"{k} ({n} values)" for k, n in bad.items())}'
-          '; no checkpoint or policy is written from it (the newest one on '
-          'disk is the last good one)')
-
-  def check_config(self, config: Any, what: str,
-                   keys: Optional[Sequence[str]] = None) -> None:
-    """Raises ValueError unless `config` (from a file) matches this agent's.
-
-    Args:
-      config: The `config` entry of a checkpoint or policy (`file_config`
-        checks it first).
-      what: The file, for the message.
-      keys: The entries that must be equal (default: all of this agent's;
-        a policy compares `ACTING_CONFIG_KEYS`).
-    """
-    mine = self._config()
-    theirs = sac_core.file_config(config, what)
-    keys = list(mine) if keys is None else list(keys)
-    differ = [k for k in keys if theirs.get(k) != mine[k]]
-    if differ:
-      raise ValueError(
-          f'{what}: its config has '
-          f'{", ".join(f"{k}={theirs.get(k)!r}" for k in differ)}; this '
-          f'agent has {", ".join(f"{k}={mine[k]!r}" for k in differ)}')
-
-  def restore_network(self, network_params: Any, what: str) -> Any:
-    """Network parameters from a file, checked against this agent's shapes."""
-    return sac_core.restore_like(self.network_params, network_params,
-                         f'{what}: network_params')
-
-  def unbundle(self, checkpoint_dir: str, iteration_number: int,
-               bundle_dictionary: Mapping[str, Any]) -> bool:
-    """Restores the state written by `bundle_and_checkpoint` (Dopamine API).
-
-    Nothing of the agent changes unless the whole bundle is valid.
-
-    Args:
-      checkpoint_dir: Unused.
-      iteration_number: Unused (the bundle carries its own).
-      bundle_dictionary: A dict from `bundle_and_checkpoint` (or a legacy
-        pickle's, format `LEGACY_CHECKPOINT_FORMAT`).
-
-    Returns:
-      True.
-
-    Raises:
-      ValueError: If the bundle is not an ble_latex SAC checkpoint, misses an
-        entry, or was written by an agent with a different shape / action box
-        / network.
-    """
-    del checkpoint_dir, iteration_number
-    bundle = bundle_dictionary
-    what = 'checkpoint'
-    if not isinstance(bundle, Mapping) or bundle.get('format') not in (
-        sac_core.CHECKPOINT_FORMAT, sac_core.LEGACY_CHECKPOINT_FORMAT):
-      raise ValueError('not a ble_latex SAC checkpoint (format '
-                       f'{sac_core.CHECKPOINT_FORMAT!r} expected)')
-    legacy = bundle['format'] == sac_core.LEGACY_CHECKPOINT_FORMAT
-    needed = ('config', 'training_steps', 'rng', 'state', 'network_params',
-              'target_params', 'optimizer_state', 'log_alpha',
-              'alpha_optimizer_state', 'replay')
-    missing = [k for k in needed if k not in bundle]
-    if missing:
-      raise ValueError(f'{what} misses {missing}')
-    self.check_config(bundle['config'], what)
-    training_steps = safe_io.checked_count(bundle['training_steps'],
-                                           f'{what}: training_steps')
-    if 'iteration' in bundle:
-      safe_io.checked_count(bundle['iteration'], f'{what}: iteration')
-
-    def opt_leaves(value):
-      return jax.tree_util.tree_leaves(value) if legacy else value
-
-    network_params = self.restore_network(bundle['network_params'], what)
-    target_params = sac_core.restore_like(
-        self.target_params, bundle['target_params'], f'{what}: target_params')
-    optimizer_state = sac_core.restore_like(
-        self.optimizer_state, opt_leaves(bundle['optimizer_state']),
-        f'{what}: optimizer_state')
-    alpha_optimizer_state = sac_core.restore_like(
-        self.alpha_optimizer_state, opt_leaves(bundle['alpha_optimizer_state']),
-        f'{what}: alpha_optimizer_state')
-    log_alpha = sac_core.restore_like(self.log_alpha, bundle['log_alpha'],
-                              f'{what}: log_alpha')
-    rng = safe_io.checked_array(bundle['rng'], f'{what}: rng', kind='int',
-                                shape=(2,)).astype(np.uint32)
-    state = np.array(safe_io.checked_array(
-        bundle['state'], f'{what}: state', shape=np.shape(self.state)))
-    self._restore_replay(bundle['replay'])  # Raises before replacing.
-    self.training_steps = training_steps
-    self._rng = jnp.asarray(rng)
-    self.state = state
-    self.network_params = network_params
-    self.target_params = target_params
-    self.optimizer_state = optimizer_state
-    self.log_alpha = log_alpha
-    self.alpha_optimizer_state = alpha_optimizer_state
-    self._episode_started = False
-    return True
-
-  def save_checkpoint(self, checkpoint_dir: str, iteration_number: int) -> None:
-    """Writes checkpoint_dir/checkpoint_NNNNN.msgpack atomically.
-
-    Call it between episodes (BLE does, after each iteration): the state of
-    an unfinished episode is not saved. Numbered checkpoints older than
-    `checkpoint_duration` iterations are removed afterwards.
-
-    Args:
-      checkpoint_dir: Folder of the checkpoints (created if missing).
-      iteration_number: Iteration just completed.
-    """
-    os.makedirs(checkpoint_dir, exist_ok=True)
-    safe_io.remove_stale_temporaries(checkpoint_dir, 'checkpoint_')
-    bundle = self.bundle_and_checkpoint(checkpoint_dir, iteration_number)
-    safe_io.write_tree(
-        sac_core.checkpoint_path(checkpoint_dir, iteration_number), bundle,
-        file_format=sac_core.CHECKPOINT_FORMAT)
-    if self._checkpoint_duration is not None:
-      for old in sac_core.checkpoint_iterations(checkpoint_dir):
-        if old < iteration_number - self._checkpoint_duration:
-          os.remove(sac_core.checkpoint_path(checkpoint_dir, old))
-
-  def load_checkpoint(self, checkpoint_dir: str, iteration_number: int) -> None:
-    """Restores the checkpoint of `iteration_number`.
-
-    Reads `checkpoint_NNNNN.msgpack`; a legacy `checkpoint_NNNNN.pkl` only
-    with `trust_legacy_pickle=True`. The agent is unchanged on any error.
-
-    Args:
-      checkpoint_dir: Folder of the checkpoints.
-      iteration_number: Iteration to restore.
-
-    Raises:
-      FileNotFoundError: If there is no such checkpoint.
-      safe_io.UntrustedFileError: If only a legacy pickle exists and
-        `trust_legacy_pickle` is False.
-      ValueError: If the file is truncated, corrupt or not a compatible SAC
-        checkpoint (the message names the file).
-    """
-    path = sac_core.checkpoint_path(checkpoint_dir, iteration_number)
-    legacy = sac_core.legacy_checkpoint_path(checkpoint_dir, iteration_number)
-    if not os.path.exists(path) and os.path.exists(legacy):
-      path = legacy
-      bundle = safe_io.read_legacy_pickle(
-          legacy, trust=self._trust_legacy_pickle, what='SAC checkpoint')
-    else:
-      bundle = safe_io.read_tree(path, file_format=sac_core.CHECKPOINT_FORMAT,
-                                 what='SAC checkpoint')
-    with safe_io.checking(f'SAC checkpoint {path}: '):
-      self.unbundle(checkpoint_dir, iteration_number, bundle)
-    logging.info('Restored SAC checkpoint %s (training step %d, replay %d).',
-                 path, self.training_steps, self.replay_size)
-
-  def reload_latest_checkpoint(self, checkpoint_dir: str) -> int:
-    """Loads the newest numbered checkpoint in `checkpoint_dir`, if any.
-
-    Only `checkpoint_NNNNN.msgpack` files count (legacy `.pkl` ones with
-    `trust_legacy_pickle=True`); other files in the folder are ignored.
-
-    Args:
-      checkpoint_dir: Folder of the checkpoints.
-
-    Returns:
-      The iteration number of the loaded checkpoint (BLE's `Agent` semantics:
-      training resumes at that number + 1), or -1 if there is none.
-
-    Raises:
-      safe_io.UntrustedFileError: If the folder holds only legacy pickle
-        checkpoints and `trust_legacy_pickle` is False.
-      ValueError: If the newest checkpoint cannot be read (never falls back
-        silently to starting over).
-    """
-    iterations = sac_core.checkpoint_iterations(checkpoint_dir)
-    legacy = sac_core.checkpoint_iterations(
-        checkpoint_dir, sac_core.LEGACY_CHECKPOINT_PATTERN)
-    if legacy and (not iterations or legacy[-1] > iterations[-1]):
-      if not self._trust_legacy_pickle:
-        newest = sac_core.legacy_checkpoint_path(checkpoint_dir, legacy[-1])
-        raise safe_io.UntrustedFileError(
-            f'{checkpoint_dir} holds legacy pickle checkpoints (newest '
-            f'{os.path.basename(newest)}'
-            '); pickles can run code. If you made them, resume with '
-            "--gin_bindings='ble_latex.agents.sac.SACAgent.trust_legacy_pickle = True' "
-            '(docs/trusted-files.md).')
-      iterations = legacy
-    if not iterations:
-      return -1
-    self.load_checkpoint(checkpoint_dir, iterations[-1])
-    return iterations[-1]
 
 
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',

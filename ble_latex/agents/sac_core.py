@@ -10,10 +10,11 @@ checkpoint or policy file is checked here before anything is built from it
 (`file_config`, `check_like`, `network_shapes`).
 """
 
+import dataclasses
 import functools
 import os
 import re
-from typing import Any, Dict, Mapping
+from typing import Any, ClassVar, Dict, Mapping
 
 import jax
 import jax.numpy as jnp
@@ -21,6 +22,8 @@ import numpy as np
 import optax
 
 from ble_latex.agents import networks
+from ble_latex import errors
+from ble_latex import gin_values
 from ble_latex import safe_io
 
 CHECKPOINT_FORMAT = 'ble_latex.sac/2'  # msgpack (`safe_io`).
@@ -33,6 +36,15 @@ MAX_NUM_LAYERS = 16
 MAX_HIDDEN_UNITS = 4096
 MAX_OBSERVATION_SIZE = 4096  # Features of a file's observation_shape.
 MAX_NUM_ACTIONS = 64
+# Sizes that drive memory, bounded before anything is allocated: the jitted
+# trainer's replay ring holds ~590 bytes per transition (5.9 GB at the bound),
+# the agent's ~300; a batch or a vector of balloons is held several times over
+# in the update's activations and gradients.
+MAX_REPLAY_CAPACITY = 10_000_000
+MAX_BATCH_SIZE = 65_536
+MAX_NUM_ENVS = 4096
+# Every other integer setting is an int32 count on the device.
+MAX_INT32 = 2**31 - 1
 # What `file_config` checks and `check_config` compares: the config entries
 # that fix the network's shapes and the action box. Policies need no more.
 ACTING_CONFIG_KEYS = ('observation_shape', 'num_actions', 'action_low',
@@ -41,6 +53,64 @@ ACTING_CONFIG_KEYS = ('observation_shape', 'num_actions', 'action_low',
 
 class TrainingDiverged(FloatingPointError):
   """Training produced NaN / inf (parameters, losses, actions, rewards)."""
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class SACHyperparameters:
+  """SAC's hyperparameters: the one home of their defaults.
+
+  Both SAC trainers read this record: the BLE agent (`sac.SACAgent`, gin
+  `SACAgent.*`; its keyword defaults are `SAC_DEFAULTS`'s) and the jitted
+  trainer (`sac_trainer.TrainerConfig`, gin `sac_trainer_config.*`, a
+  subclass that adds the loop's settings). The gin files bind only what
+  differs from it (tests/test_gin_defaults.py). Paper (Saunders et al. 2023,
+  "RL problem"): SAC (Haarnoja et al. 2018/2019), actor and twin critics as
+  2 x 256 MLPs, squashed Gaussian, automatic temperature with target
+  entropy 0; the paper gives no other values, the rest are Haarnoja et al.'s
+  (2018, Table 1) SAC defaults. Built, it is checked
+  (`check_hyperparameters`; errors name `<GIN_NAME>.<field>`).
+
+  Attributes:
+    batch_size: Transitions per SAC update.
+    replay_capacity: Replay buffer size in transitions (FIFO beyond it);
+      the paper's run, 2500 episodes x 216 steps = 540 000, fits.
+    min_replay_history: Transitions of uniform random actions before the
+      first update (about 5 episodes of 216 steps).
+    gamma: Discount factor.
+    actor_learning_rate: Adam learning rate of the actor.
+    critic_learning_rate: Adam learning rate of the twin critics.
+    alpha_learning_rate: Adam learning rate of log(temperature).
+    target_smoothing_coefficient: Polyak factor tau of the target critics.
+    target_entropy: Target entropy [nats] of the normalised [-1, 1]^d action
+      (the paper's 0).
+    reward_scale_factor: Rewards are multiplied by this in the TD target.
+    num_layers: Hidden layers of the actor and of each critic.
+    hidden_units: Units per hidden layer.
+    critic: The twin critics (`networks.CRITICS`): 'mlp' (Dopamine's, the
+      paper's), 'layernorm' (LayerNorm after each hidden layer) or 'crossq'
+      (batch norm, no target networks; `target_smoothing_coefficient` is
+      then unused).
+  """
+  GIN_NAME: ClassVar[str] = 'SACHyperparameters'
+  batch_size: int = 256
+  replay_capacity: int = 1_000_000
+  min_replay_history: int = 1000
+  gamma: float = 0.99
+  actor_learning_rate: float = 3e-4
+  critic_learning_rate: float = 3e-4
+  alpha_learning_rate: float = 3e-4
+  target_smoothing_coefficient: float = 0.005
+  target_entropy: float = 0.0
+  reward_scale_factor: float = 1.0
+  num_layers: int = 2
+  hidden_units: int = 256
+  critic: str = 'mlp'
+
+  def __post_init__(self):
+    networks.check_critic(self.GIN_NAME, self.critic)
+    check_hyperparameters(self.GIN_NAME, **{
+        f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
+
 
 
 def param_labels(params: Any) -> Any:
@@ -249,11 +319,20 @@ def make_optimizers(params: Any, actor_learning_rate: float,
 
 
 def check_hyperparameters(owner: str, **values: Any) -> None:
-  """Raises ValueError naming the `<owner>.<name>` binding that is invalid.
+  """Raises ConfigError naming the `<owner>.<name>` binding that is invalid.
+
+  Sizes that drive memory (`hidden_units`, `num_layers`, `batch_size`,
+  `replay_capacity`, `num_envs`) are bounded (`MAX_*`) before anything is
+  allocated, every other integer by int32; numbers must be finite in
+  float32; an integer of any size (beyond int64 too) gets the one line.
 
   Args:
     owner: The gin configurable the values are bound to (`SACAgent`).
     **values: Hyperparameters by name; names not given are not checked.
+
+  Raises:
+    errors.ConfigError: Naming `<owner>.<name>`, the requirement and the
+      value.
   """
 
   def number(name, lo=None, hi=None, lo_open=False, integer=False,
@@ -264,7 +343,7 @@ def check_hyperparameters(owner: str, **values: Any) -> None:
     if value is None and allow_none:
       return
     ok = (isinstance(value, (int, float, np.integer, np.floating)) and
-          not isinstance(value, bool) and np.isfinite(value) and
+          gin_values.is_number(value) and  # Finite in float32 too.
           (not integer or float(value).is_integer()))
     if ok and lo is not None:
       ok = value > lo if lo_open else value >= lo
@@ -277,24 +356,32 @@ def check_hyperparameters(owner: str, **values: Any) -> None:
       if hi is not None:
         bounds += f'{" and" if lo is not None else ""} <= {hi}'
       kind = 'an integer' if integer else 'a finite number'
-      raise ValueError(f'{owner}.{name} must be {kind}{bounds}, got '
-                       f'{value!r}')
+      raise errors.ConfigError(f'{owner}.{name} must be {kind}{bounds}, got '
+                               f'{value!r}')
 
   number('gamma', 0.0, 1.0)
   for name in ('actor_learning_rate', 'critic_learning_rate',
                'alpha_learning_rate'):
     number(name, 0.0, lo_open=True)
-  number('batch_size', 1, integer=True)
-  number('replay_capacity', 2, integer=True)
-  number('min_replay_history', 0, integer=True)
-  number('update_period', 1, integer=True)
+  number('batch_size', 1, MAX_BATCH_SIZE, integer=True)
+  number('replay_capacity', 2, MAX_REPLAY_CAPACITY, integer=True)
+  number('min_replay_history', 0, MAX_INT32, integer=True)
+  number('update_period', 1, MAX_INT32, integer=True)
   number('target_smoothing_coefficient', 0.0, 1.0, lo_open=True)
   number('target_entropy')
   number('reward_scale_factor', 0.0, lo_open=True)
   number('num_layers', 1, MAX_NUM_LAYERS, integer=True)
   number('hidden_units', 1, MAX_HIDDEN_UNITS, integer=True)
-  number('checkpoint_duration', 0, integer=True, allow_none=True)
-  number('summary_writing_frequency', 1, integer=True)
+  number('num_envs', 1, MAX_NUM_ENVS, integer=True)
+  number('updates_per_step', 1, MAX_INT32, integer=True)
+  number('checkpoint_duration', 0, MAX_INT32, integer=True, allow_none=True)
+  number('summary_writing_frequency', 1, MAX_INT32, integer=True)
+
+
+# The defaults, built once (SACAgent's keyword defaults read them).
+SAC_DEFAULTS = SACHyperparameters()
+SAC_HYPERPARAMETERS = tuple(
+    f.name for f in dataclasses.fields(SACHyperparameters))
 
 
 def checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:

@@ -211,6 +211,7 @@ def _restore_checkpoint(tree: Dict[str, Any], path: str,
                                high=capacity)
   cursor = safe_io.checked_count(r.get('cursor'), f'{what}: replay cursor',
                                  high=capacity - 1)
+  sac_trainer.check_replay_counters(size, cursor, capacity, what)
   counters = {k: safe_io.checked_count(tree[k], f'{what}: {k}',
                                        high=np.iinfo(np.int32).max)
               for k in ('iteration', 'updates', 'env_steps')}

@@ -1,0 +1,102 @@
+"""Every shipped gin file binds the code's defaults, or says why not.
+
+A setting has one home, the code's default (issue 43): a gin file that binds
+the same value again is a second home that can drift. Each binding of each
+`gin_configs/*.gin` must equal the configurable's keyword default, or be
+listed in `DIFFERS` with the reason it differs.
+"""
+
+import importlib
+import inspect
+import pathlib
+
+import ble_latex  # noqa: F401  pylint: disable=unused-import
+from ble_latex import configs
+import gin
+from gin import config_parser
+import pytest
+
+_REALISTIC = ('the realistic physics mode (issue 28): the file switches it '
+              'on; flight.params.REALISTIC holds the same values '
+              '(tests/test_physics_realistic.py)')
+# (gin file, 'configurable.parameter') -> why its value differs.
+DIFFERS = {
+    ('latex_realistic.gin', 'create_state.drag_model'): _REALISTIC,
+    ('latex_realistic.gin', 'create_state.overpressure_pa'): _REALISTIC,
+    ('latex_realistic.gin', 'create_state.burst_weibull_scale_m'):
+        _REALISTIC + '; None (the default) draws no burst diameter',
+    ('latex_realistic.gin', 'LatexBalloon.superheat_day_k'): _REALISTIC,
+    ('latex_realistic.gin', 'LatexBalloon.cooling_night_k'): _REALISTIC,
+    ('latex_realistic.gin', 'LatexBalloon.lift_walk_kg_per_sqrt_s'):
+        _REALISTIC,
+    ('paper_era5.gin', 'LatexBalloonEnv.wind_field_factory'):
+        "the paper's ERA5 winds instead of BLE's generative field: the file's "
+        'purpose',
+    ('paper_era5.gin', 'Era5WindField.path'):
+        'a required argument (no default): the file the README downloads',
+}
+_MISSING = object()
+
+
+def _gin_files():
+  return sorted(pathlib.Path(configs.gin_dir()).glob('*.gin'))
+
+
+def _bindings(path):
+  """(name, value, default) of each binding of a gin file, in file order."""
+  out = []
+  with open(path) as f:
+    parser = config_parser.ConfigParser(f, gin.config.ParserDelegate())
+    for statement in parser:
+      if isinstance(statement, config_parser.ImportStatement):
+        importlib.import_module(statement.module)
+        continue
+      assert isinstance(statement, config_parser.BindingStatement), (
+          f'{path.name}: only imports and bindings are expected, got '
+          f'{statement}')
+      configurable = gin.config._REGISTRY.get_match(statement.selector)  # pylint: disable=protected-access
+      assert configurable is not None, statement.selector
+      parameter = inspect.signature(configurable.wrapped).parameters.get(
+          statement.arg_name)
+      assert parameter is not None, (
+          f'{path.name}: {statement.selector}.{statement.arg_name} is not '
+          'a parameter')
+      default = (_MISSING if parameter.default is inspect.Parameter.empty
+                 else parameter.default)
+      name = f'{configurable.name}.{statement.arg_name}'
+      out.append((name, statement.value, default))
+  return out
+
+
+@pytest.mark.parametrize('path', _gin_files(), ids=lambda p: p.name)
+def test_gin_file_binds_the_defaults_or_says_why_not(path):
+  differ = []
+  for name, value, default in _bindings(path):
+    equal = default is not _MISSING and type(value) is type(default) and (
+        value == default)
+    if equal:
+      assert (path.name, name) not in DIFFERS, (
+          f'{path.name}: {name} equals the default now; drop it from DIFFERS')
+    elif (path.name, name) not in DIFFERS:
+      differ.append(f'{name} = {value!r} (default {default!r})')
+  assert not differ, (
+      f'{path.name} binds values that differ from the code\'s defaults '
+      f'without a reason in DIFFERS: {differ}')
+
+
+def test_every_listed_difference_is_still_bound():
+  bound = {(p.name, name) for p in _gin_files() for name, _, _ in _bindings(p)}
+  assert set(DIFFERS) <= bound, sorted(set(DIFFERS) - bound)
+
+
+def test_a_binding_that_differs_is_caught(tmp_path):
+  """The check can fail: a gin file binding another value is reported."""
+  path = tmp_path / 'other.gin'
+  path.write_text('import ble_latex.agents.sac_trainer\n'
+                  'sac_trainer_config.num_envs = 31\n'
+                  'sac_trainer_config.gamma = 0.99\n')
+  (num_envs, _, default), (gamma, value, gamma_default) = _bindings(path)
+  assert num_envs == 'sac_trainer_config.num_envs' and default == 32
+  assert gamma == 'sac_trainer_config.gamma' and value == gamma_default
+  with pytest.raises(AssertionError, match='num_envs = 31'):
+    test_gin_file_binds_the_defaults_or_says_why_not(path)
