@@ -275,7 +275,8 @@ class LatexBalloonVectorEnv(gymnasium_env.Balloons,
                    ) -> Tuple[Any, np.ndarray, Any]:
     """(state, obs, step_info) of new flights from seeds, batched.
 
-    `ahead`: also compile this batch's `step` (`_Compiled.ahead`).
+    `ahead`: also compile this batch's `step`
+    (`gymnasium_compile.Compiled.ahead`).
     """
     keys = compile_lib.arena_keys(jnp.asarray(np.asarray(seeds, np.uint32)))
     if ahead:
