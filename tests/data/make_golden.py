@@ -93,6 +93,7 @@ import jax
 import numpy as np
 
 from ble_latex.ble import balloon as balloon_lib
+from ble_latex.flight import state as state_lib
 from ble_latex.envs import jax_env
 # pylint: enable=g-import-not-at-top,wrong-import-position
 
@@ -134,7 +135,7 @@ STATE_FIELDS = (
 )
 ENUM_FIELDS = ('latex_status', 'last_decision', 'status')
 STATUS_NAMES = tuple(s.name.lower() for s in balloon_lib.LatexBalloonStatus)
-DECISION_NAMES = tuple(d.value for d in balloon_lib.Decision)
+DECISION_NAMES = tuple(d.name.lower() for d in state_lib.DecisionCode)
 BLE_STATUS_NAMES = tuple(s.name.lower() for s in ble_balloon.BalloonStatus)
 
 # The scripted policy: (steps, a0 rule, a0 [m] or offset [m], a1, a2).
@@ -237,7 +238,7 @@ def state_record(state: balloon_lib.LatexBalloonState) -> Dict[str, float]:
       'desired_ascent_rate_mps': state.desired_ascent_rate_mps,
       'guard_engaged': float(state.guard_engaged),
       'latex_status': STATUS_NAMES.index(state.latex_status.name.lower()),
-      'last_decision': DECISION_NAMES.index(state.last_decision.value),
+      'last_decision': DECISION_NAMES.index(state.last_decision.name.lower()),
       'status': BLE_STATUS_NAMES.index(state.status.name.lower()),
   }
 
