@@ -11,8 +11,13 @@ plans for the whole batch, then the batch flies `replan_every` strides.
 Writes OUTPUT_DIR/SUITE/NAME.json in `ble-latex-eval`'s record format
 (`benchmarks/results_table.py` reads it) and OUTPUT_DIR/SUITE/timing/NAME.json
 (seconds per decision and per episode, compile time, load). Resumable: the
-records of finished batches are kept in NAME.partial.json and skipped when
-the command runs again. --short flies 2 seeds for 12 strides (a smoke test).
+records of finished batches are kept in NAME.partial.json with the settings
+they were flown with (`run_config`) and skipped when the command runs again
+with the same settings; other settings are refused, naming what differs.
+Re-flying chosen seeds (--seeds) of a finished NAME.json merges them into it
+(the other seeds are kept) when it was flown with the same settings, and is
+refused otherwise (--name_override writes elsewhere): a record never loses
+seeds. --short flies 2 seeds for 12 strides (a smoke test).
 """
 
 import json
@@ -25,6 +30,7 @@ from absl import flags
 import numpy as np
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex import errors
 from ble_latex import quiet
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
@@ -130,6 +136,7 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   f0 = _flight_arrays(flight0)
   paths = [[_point(f0, i)] for i in range(n)]
   done = np.zeros(n, bool)
+  ended = np.zeros(n, bool)  # By the env (not by the --max_episode_length cap).
   previous = planning.initial_plans(config, states)
   seed = jnp.int32(agent_seed)
   steps = 0
@@ -159,9 +166,9 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
         info_i = jax_env.info_dict(one)
         trackers[i].step(float(reward[k, i]), info_i)
         paths[i].append(_point({key: v[k] for key, v in flight.items()}, i))
-        if (info_i['out_of_resources'] or info_i['envelope_burst'] or
-            info_i['terminal_reason'] != 'ok' or info_i['time_limit'] or
-            steps >= max_steps):
+        ended[i] = (info_i['out_of_resources'] or info_i['envelope_burst'] or
+                    info_i['terminal_reason'] != 'ok' or info_i['time_limit'])
+        if ended[i] or steps >= max_steps:
           done[i] = True
   wall = time.perf_counter() - episode_start
   timing.setdefault('batches', []).append({
@@ -173,12 +180,97 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   compiled.add(n)
   records = []
   for i, tracker in enumerate(trackers):
-    summary = tracker.summary(bool(done[i]))
+    summary = tracker.summary(bool(ended[i]))
     record = summary.to_json()
     del record['episode'], record['wall_time_s']
     record['flight_path'] = paths[i]
     records.append(record)
   return records
+
+
+def run_config(agent: str, suite: str, config: Any, max_steps: int,
+               agent_seed: int, gin_files: Sequence[str],
+               gin_bindings: Sequence[str]) -> Dict[str, Any]:
+  """What a flight's records depend on, as JSON reads it back.
+
+  A resume (NAME.partial.json) and a merge into a finished NAME.json must
+  agree on all of it: the planner's settings (`vars(config)`), the stride
+  cap, the agent seed and the gin that set the env.
+  """
+  return json.loads(json.dumps({
+      'agent': agent, 'suite': suite, 'config': vars(config),
+      'max_steps': int(max_steps), 'seed': int(agent_seed),
+      'gin_files': list(gin_files), 'gin_bindings': list(gin_bindings)}))
+
+
+def differences(recorded: Dict[str, Any], current: Dict[str, Any]) -> str:
+  """'max_steps: 5 there, 2 here; ...' for the keys whose values differ.
+
+  Keys missing from `recorded` (records of older runs) are not compared;
+  planner settings are compared one by one.
+  """
+  parts = []
+  for key, value in current.items():
+    if key not in recorded or recorded[key] == value:
+      continue
+    if key == 'config' and isinstance(recorded[key], dict):
+      for field, v in value.items():
+        if recorded[key].get(field) != v:
+          parts.append(f'config.{field}: {recorded[key].get(field)!r} there, '
+                       f'{v!r} here')
+    else:
+      parts.append(f'{key}: {recorded[key]!r} there, {value!r} here')
+  return '; '.join(parts)
+
+
+def _read_json(path: str, what: str) -> Any:
+  """A JSON file's content; a truncated or unreadable file is one line."""
+  try:
+    with open(path, encoding='utf-8') as f:
+      return json.loads(f.read())
+  except (ValueError, UnicodeDecodeError) as e:  # JSONDecodeError too.
+    raise cli.CommandFailure(f'{what} {path} is not valid JSON ({e}); '
+                             'delete it to start over') from e
+
+
+def _checked_records(records: Any, path: str, seeds: Sequence[int]
+                     ) -> List[Dict[str, Any]]:
+  """Eval records of the suite's seeds (`records.validate_eval`), or one line."""
+  from ble_latex.run import records as records_lib  # pylint: disable=g-import-not-at-top
+  try:
+    records_lib.validate_eval(records, path)
+  except ValueError as e:
+    raise cli.CommandFailure(f'{e}; delete it to start over') from e
+  stray = sorted({r['seed'] for r in records} - set(seeds))
+  if stray:
+    raise cli.CommandFailure(f'{path}: seeds {stray[:5]} are not seeds of '
+                             'this suite; delete it to start over')
+  return records
+
+
+def load_partial(path: str, current: Dict[str, Any], seeds: Sequence[int]
+                 ) -> List[Dict[str, Any]]:
+  """The finished batches of NAME.partial.json, flown with `current`.
+
+  Raises:
+    cli.CommandFailure: The file is truncated or not a partial file (one
+      line, exit status 1).
+    errors.ResumeError: It was flown with other settings (naming them; exit
+      status 2).
+  """
+  data = _read_json(path, 'partial file')
+  if (not isinstance(data, dict) or set(data) != {'run_config', 'records'}
+      or not isinstance(data['run_config'], dict)):
+    raise cli.CommandFailure(
+        f'partial file {path}: expected {{"run_config": {{...}}, "records": '
+        '[...]}} (a partial file without its settings cannot be resumed); '
+        'delete it to start over')
+  differ = differences(data['run_config'], current)
+  if differ:
+    raise errors.ResumeError(
+        f'partial file {path} was flown with other settings ({differ}); '
+        'fly those again, delete the file or use --name_override')
+  return _checked_records(data['records'], path, seeds)
 
 
 def _main(argv: Sequence[str]) -> int:
@@ -221,38 +313,69 @@ def _main(argv: Sequence[str]) -> int:
   # Not beside the records: results_table.py reads SUITE/*.json.
   timing_path = os.path.join(folder, 'timing', f'{name}.json')
   os.makedirs(os.path.dirname(timing_path), exist_ok=True)
-  records: List[Dict[str, Any]] = []
-  timing: Dict[str, Any] = {}
-  if os.path.exists(partial):
-    with open(partial) as f:
-      records = json.load(f)
-    if os.path.exists(timing_path):
-      with open(timing_path) as f:
-        timing = json.load(f)
-    print(f'resuming: {len(records)} seeds done', file=sys.stderr)
-  done = {r['seed'] for r in records}
-  todo = [s for s in seeds if s not in done]
-  timing.update({'agent': FLAGS.agent, 'config': vars(config),
-                 'batch': FLAGS.batch, 'max_steps': max_steps,
-                 'cpus': os.cpu_count(),
-                 'gin_bindings': list(FLAGS.gin_bindings)})
-  timing.setdefault('loadavg', []).append(os.getloadavg())
-  compiled = set()
+  current = run_config(FLAGS.agent, FLAGS.suite, config, max_steps,
+                       FLAGS.seed, FLAGS.gin_file, FLAGS.gin_bindings)
+  all_seeds = list(suite.seeds)
   with safe_io.locked_file(path, what='planner output'):
+    # A finished record with seeds this run does not fly (a re-flight of
+    # chosen seeds): those seeds are kept and the re-flown ones merged in,
+    # if the record was flown with these settings; never fewer seeds.
+    kept: List[Dict[str, Any]] = []
+    timing: Dict[str, Any] = {}
+    if os.path.exists(path):
+      finished = _checked_records(_read_json(path, 'record'), path, all_seeds)
+      if {r['seed'] for r in finished} - set(seeds):
+        old = (_read_json(timing_path, 'timing file')
+               if os.path.exists(timing_path) else {})
+        recorded = old.get('run_config') if isinstance(old, dict) else None
+        if not isinstance(recorded, dict):  # Records of older runs.
+          recorded = {k: old[k] for k in ('agent', 'config', 'max_steps',
+                                          'gin_bindings')
+                      if isinstance(old, dict) and k in old}
+        differ = differences(recorded, current) if recorded else (
+            'its settings are not recorded')
+        if differ:
+          raise errors.ResumeError(
+              f'{path} holds {len(finished)} seeds flown with other settings '
+              f'({differ}); re-flying {len(seeds)} of them would mix or drop '
+              'records: use --name_override')
+        kept = [r for r in finished if r['seed'] not in set(seeds)]
+        timing = old
+    records: List[Dict[str, Any]] = []
+    if os.path.exists(partial):
+      records = load_partial(partial, current, all_seeds)
+      if os.path.exists(timing_path):
+        timing = _read_json(timing_path, 'timing file')
+        if not isinstance(timing, dict):
+          raise cli.CommandFailure(f'timing file {timing_path}: expected a '
+                                   'JSON object; delete it to start over')
+      print(f'resuming: {len(records)} seeds done', file=sys.stderr)
+    done = {r['seed'] for r in records}
+    todo = [s for s in seeds if s not in done]
+    timing.update({'agent': FLAGS.agent, 'config': vars(config),
+                   'batch': FLAGS.batch, 'max_steps': max_steps,
+                   'cpus': os.cpu_count(),
+                   'gin_bindings': list(FLAGS.gin_bindings),
+                   'run_config': current})
+    timing.setdefault('loadavg', []).append(os.getloadavg())
+    compiled = set()
     for b in range(0, len(todo), FLAGS.batch):
       chunk = todo[b:b + FLAGS.batch]
       records += fly_batch(config, chunk, max_steps, FLAGS.seed,
                            timing, compiled)
       timing['loadavg'].append(os.getloadavg())
-      safe_io.atomic_write(partial, json.dumps(records))
+      safe_io.atomic_write(partial, json.dumps(
+          {'run_config': current, 'records': records}))
       safe_io.atomic_write(timing_path, json.dumps(timing, indent=1))
       stats = metrics.summarize(records)
       print(f'{len(records)}/{len(seeds)} seeds: tw50_window '
             f'{stats["tw50_window_mean"]:.3f}, out of resources '
             f'{stats["out_of_resources_pct"]:.0f} %', file=sys.stderr)
-    records.sort(key=lambda r: r['seed'])
+    complete = set(seeds) <= {r['seed'] for r in records}
+    records = sorted({r['seed']: r for r in kept + records}.values(),
+                     key=lambda r: r['seed'])
     batches = timing.get('batches', [])
-    flown = sum(len(b['seeds']) for b in batches)
+    balloons = sum(len(b['seeds']) for b in batches)
     # Warm calls (records of older runs: the calls after each first).
     warm = [b.get('plan_s_warm', [b['plan_s_mean_after_first']] *
                   (b['plan_calls'] - 1)) for b in batches]
@@ -267,20 +390,29 @@ def _main(argv: Sequence[str]) -> int:
                                        else None),
         's_per_batched_call': plan_sum / calls if calls else None,
         's_per_episode_per_balloon': (
-            sum(b['wall_s'] for b in batches) / flown if flown else None),
+            sum(b['wall_s'] for b in batches) / balloons if balloons
+            else None),
     }
     safe_io.atomic_write(timing_path, json.dumps(timing, indent=1))
     safe_io.atomic_write(path, json.dumps(records))
-    if os.path.exists(partial) and len(records) == len(seeds):
+    if os.path.exists(partial) and complete:
       os.remove(partial)
   print(json.dumps({'output': path, **metrics.summarize(records),
                     **timing['summary']}))
   return 0
 
 
+def check() -> None:
+  """An unknown suite or a bad agent seed: one line, exit status 2."""
+  cli.check_suite(FLAGS.suite)
+  if not 0 <= FLAGS.seed < 2**31:  # The planners take an int32 seed.
+    raise cli.CommandUsageError(f'--seed must be in [0, 2**31), got '
+                                f'{FLAGS.seed}')
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
   return cli.run_absl(_main, 'benchmarks/planners.py', FLAGS, argv,
-                      doc=__doc__)
+                      doc=__doc__, check=check)
 
 
 if __name__ == '__main__':

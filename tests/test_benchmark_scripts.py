@@ -93,3 +93,65 @@ def test_planners_times_a_planner_that_plans_once(tmp_path):
   assert first['plan_s_warm'] == [] and len(second['plan_s_warm']) == 1
   assert timing['summary']['s_per_decision_per_balloon'] == pytest.approx(
       second['plan_s_warm'][0])
+
+
+_CHEAP_ORACLE = [f'--gin_bindings=LatexMpcOracleAgent.{b}' for b in (
+    'horizon=12', 'num_segments=4', 'replan_every=12', 'beam_width=2',
+    'grid_levels=2', 'beam_cell_km=0')]
+
+
+def test_planners_never_drop_seeds_and_refuse_other_settings(tmp_path, capsys):
+  """Issue 48 items 1, 2, 14: a re-flight of chosen seeds merges into the
+  finished record (never fewer seeds); a partial file flown with other
+  settings is refused naming them; a truncated or crafted partial is one
+  line; so is an unknown suite."""
+  import json  # pylint: disable=g-import-not-at-top
+  planners = _load('bench_planners_merge', ROOT / 'benchmarks' / 'planners.py')
+  base = ['--agent=latex_mpc_oracle', '--suite=latex_small', '--short',
+          '--max_episode_length=2', f'--output_dir={tmp_path}',
+          *_CHEAP_ORACLE]
+  folder = tmp_path / 'latex_small'
+  record = folder / 'latex_mpc_oracle.json'
+  partial = folder / 'latex_mpc_oracle.partial.json'
+  assert planners.main(base) == 0
+  first = json.loads(record.read_text())
+  assert len(first) == 2 and not partial.exists()
+  capsys.readouterr()
+  # The documented diagnostic: re-fly one seed; the other stays.
+  assert planners.main([*base, f'--seeds={first[1]["seed"]}']) == 0
+  again = json.loads(record.read_text())
+  assert [r['seed'] for r in again] == [r['seed'] for r in first]
+  assert again[0] == first[0]  # Kept as flown.
+  timing = json.loads((folder / 'timing' / 'latex_mpc_oracle.json')
+                      .read_text())
+  assert timing['summary']['seeds'] == 2
+  capsys.readouterr()
+  # With other settings, the re-flight would mix records: refused.
+  rc = planners.main([*base, f'--seeds={first[1]["seed"]}',
+                      '--max_episode_length=5'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 2 and len(err) == 1
+  assert 'max_steps: 2 there, 5 here' in err[0]
+  assert json.loads(record.read_text()) == again
+  # A partial file of other settings (a killed run) is not resumed.
+  config = dict(timing['run_config'], max_steps=5,
+                gin_bindings=['LatexMpcOracleAgent.horizon=5'])
+  partial.write_text(json.dumps({'run_config': config,
+                                 'records': first[:1]}))
+  rc = planners.main(base)
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 2 and len(err) == 1
+  assert 'other settings (max_steps: 5 there, 2 here; gin_bindings:' in err[0]
+  for text in ('[{"seed": 1', json.dumps(first[:1]),
+               json.dumps({'run_config': timing['run_config'],
+                           'records': [{'seed': 'x'}]})):
+    partial.write_text(text)
+    rc = planners.main(base)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 1 and len(err) == 1, err
+    assert str(partial) in err[0]
+  assert json.loads(record.read_text()) == again
+  rc = planners.main([*base, '--suite=nosuch'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 2 and err[0].startswith(
+      "benchmarks/planners.py: unknown suite 'nosuch'") and len(err) == 1
