@@ -307,7 +307,8 @@ def decide_realistic(params: params_lib.FlightParams,
   a0, a1, a2 = action[..., 0], action[..., 1], action[..., 2]
   h, v = state.altitude_m, state.ascent_rate_mps
   n, sand = state.helium_mols, state.sand_kg
-  g = envelope.gas(params, temperature, pressure, state.time_s)
+  g = envelope.gas(params, temperature, pressure, state.time_s, state.x_m,
+                   state.y_m)
   lift = envelope.free_lift_kg(params, state, g)
   per_mol = envelope.lift_per_mol(params, g)
   rate = desired_ascent_rate(params, h, a0, a1)

@@ -49,6 +49,7 @@ import numpy as np
 
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
+from ble_latex.flight import disturbance
 from ble_latex.flight import envelope
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
@@ -59,6 +60,8 @@ FlightState = state_lib.FlightState
 FlightStatus = state_lib.FlightStatus
 # (x [m], y [m], pressure [Pa], time [s]) -> (u [m/s], v [m/s]); pure JAX.
 WindFn = Callable[[Array, Array, Array, Array], Tuple[Array, Array]]
+# (params, state, action, T [K], P [Pa]) -> Actuation: `controller.decide`.
+DecideFn = Callable[..., controller_lib.Actuation]
 
 # BLE's standard atmosphere is defined on [-610 m, 85 km).
 ATMOSPHERE_MIN_M = -600.0  # [m]
@@ -252,7 +255,8 @@ def _integrate(params: params_lib.FlightParams,
   if params.realistic:
     def forces_at(h, v):
       ambient = atmosphere_lib.at_height(atm, _clamp(h))
-      g = envelope.gas(params, ambient.temperature, ambient.pressure, time_s)
+      g = envelope.gas(params, ambient.temperature, ambient.pressure, time_s,
+                       f.x_m, f.y_m)
       return (envelope.free_lift_kg(params, f, g) * physics.GRAVITY,
               envelope.drag_factor(params, f.helium_mols, g, v))
 
@@ -296,7 +300,8 @@ def envelope_status(params: params_lib.FlightParams,
   ambient = atmosphere_lib.at_height(atm, _clamp(state.altitude_m))
   if params.realistic:
     volume = envelope.volume(state.helium_mols, envelope.gas(
-        params, ambient.temperature, ambient.pressure, time_s))
+        params, ambient.temperature, ambient.pressure, time_s, state.x_m,
+        state.y_m))
     burst = envelope.burst_volume_m3(params, state)
   else:
     volume = physics.volume(state.helium_mols, ambient.temperature,
@@ -342,7 +347,8 @@ def _after_chunk(params: params_lib.FlightParams,
     return f
   if params.realistic:
     ambient = atmosphere_lib.at_height(atm, _clamp(f.altitude_m))
-    g = envelope.gas(params, ambient.temperature, ambient.pressure, time_s)
+    g = envelope.gas(params, ambient.temperature, ambient.pressure, time_s,
+                     f.x_m, f.y_m)
     lift = envelope.free_lift_kg(params, f, g)
     heading = (f.status == FlightStatus.OK) & (
         controller_lib.heading_out_of_band(params, f, lift))
@@ -441,7 +447,8 @@ def step(params: params_lib.FlightParams,
          action: Array,
          wind_fn: WindFn,
          time_delta_s: Union[float, Schedule] = DEFAULT_TIME_DELTA_S,
-         key: Optional[Array] = None) -> FlightState:
+         key: Optional[Array] = None,
+         decide_fn: Optional[DecideFn] = None) -> FlightState:
   """One controller action and `time_delta_s` of flight (one stride).
 
   Args:
@@ -458,6 +465,11 @@ def step(params: params_lib.FlightParams,
       the same values but x, y within 1 ulp). # [s]
     key: PRNG key of the stride's free-lift random walk; needed (and used)
       only when `params.lift_walk` (one key per stride: split yours).
+    decide_fn: Another controller in place of Eq. fullcontroller
+      (`controller.decide`), with its signature (params, state, action,
+      T [K], P [Pa]) -> `controller.Actuation`; the action is clipped into
+      the Box first (e.g. a ValBal-style deadband,
+      benchmarks/valbal_check.py).
 
   Returns:
     The state after the stride.
@@ -466,7 +478,7 @@ def step(params: params_lib.FlightParams,
     ValueError: `params.lift_walk` without a key (at trace time).
   """
   return _step(params, atm_params, state, action, wind_fn, time_delta_s,
-               record=False, key=key)[0]
+               record=False, key=key, decide_fn=decide_fn)[0]
 
 
 def step_with_trajectory(
@@ -506,7 +518,8 @@ def step_with_trajectory(
 
 
 def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
-          record: bool, key: Optional[Array] = None):
+          record: bool, key: Optional[Array] = None,
+          decide_fn: Optional['DecideFn'] = None):
   """`step`'s body; `record` also returns the actuated and sub-step states."""
   if params.lift_walk and key is None:
     raise ValueError('FlightParams.lift_walk (LatexBalloon.lift_walk_kg_per_'
@@ -514,8 +527,8 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
                      'key per stride')
   action = _keep(controller_lib.clip_action(action), state.last_action)
   ambient = atmosphere_lib.at_height(atm_params, _clamp(state.altitude_m))
-  actuation = controller_lib.decide(params, state, action,
-                                    ambient.temperature, ambient.pressure)
+  actuation = (decide_fn or controller_lib.decide)(
+      params, state, action, ambient.temperature, ambient.pressure)
   f = actuate(params, state.replace(guard_engaged=actuation.guarded),
               actuation)
   actuated = f
@@ -539,11 +552,10 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
     active = f.status == FlightStatus.OK
     time_s = state.time_s + start  # The sun's time of this sub-step.
     f_before = f
-    if params.lift_walk:
-      # dW = sigma sqrt(dt) N(0, 1) (ValBal's PastaSim.cpp:6, :41).
-      f = f.replace(lift_walk_kg=f.lift_walk_kg + (
-          params.lift_walk_kg_per_sqrt_s * jnp.sqrt(duration) *
-          jax.random.normal(x[-1], (), f.lift_walk_kg.dtype)))
+    if params.lift_walk:  # The disturbance's exact transition.
+      f = f.replace(lift_walk_kg=disturbance.transition(
+          f.lift_walk_kg, duration, sigma=params.lift_walk_kg_per_sqrt_s,
+          time_constant_s=params.lift_walk_time_constant_s, key=x[-1]))
     pressure = atmosphere_lib.at_height(atm_params,
                                         _clamp(f.altitude_m)).pressure
     query = (f.x_m, f.y_m, pressure, state.time_s + start)
@@ -571,7 +583,7 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
   if params.realistic:
     lift = envelope.free_lift_kg(params, f, envelope.gas(
         params, ambient.temperature, ambient.pressure,
-        state.time_s + elapsed))
+        state.time_s + elapsed, f.x_m, f.y_m))
   else:
     lift = None
   status = jnp.where(f.status == FlightStatus.OK,

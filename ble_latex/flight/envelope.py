@@ -8,15 +8,15 @@ temperature, gas pressure, lift and drag:
 
 | quantity        | paper model (default)      | realistic switch                 |
 |-----------------|----------------------------|----------------------------------|
-| helium T        | ambient T                  | gas_superheat: T + dT(sun)       |
+| helium T        | ambient T                  | gas_superheat: T + dT(sun, lag)  |
 | helium P        | ambient P                  | latex_overpressure: P + dP       |
 | free lift       | n (M_air - M_He) - m_p - m_s | n (M_air beta - M_He) - m_p - m_s + W |
 | c_d             | drag_coefficient           | drag_model: ASTRA's c_d(Re)      |
 | burst volume    | burst_volume_m3            | burst_spread: pi d^3 / 6, d drawn |
 
 beta = (T_gas / T) (P / P_gas) (`physics.buoyant_lift_per_mol`), W the
-free-lift random walk carried in `FlightState.lift_walk_kg`, dT
-`physics.gas_temperature_offset` of the sun's elevation (`solar`).
+free-lift disturbance carried in `FlightState.lift_walk_kg` (`disturbance`),
+dT the lagged solar forcing at the balloon's position (`thermal`).
 
 The state carries the paper's lift ledger L_paper = n (M_air - M_He) - m_p
 - m_s (`FlightState.free_lift_kg`, exact in float32); the realistic free lift
@@ -31,6 +31,7 @@ import jax.numpy as jnp
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import solar
+from ble_latex.flight import thermal
 
 Array = jax.Array
 
@@ -61,7 +62,8 @@ def sun_elevation_deg(params: params_lib.FlightParams,
 
 
 def gas(params: params_lib.FlightParams, air_temperature: Array,
-        air_pressure: Array, time_s: Array) -> Gas:
+        air_pressure: Array, time_s: Array, x_m: Array = 0.0,
+        y_m: Array = 0.0) -> Gas:
   """The helium's T and P around a balloon in air at (T, P) at `time_s`.
 
   Args:
@@ -69,14 +71,13 @@ def gas(params: params_lib.FlightParams, air_temperature: Array,
     air_temperature: Ambient T. # [K]
     air_pressure: Ambient P. # [Pa]
     time_s: Flight time (for the sun). # [s]
+    x_m: The balloon's offset east of the station (for the sun). # [m]
+    y_m: The balloon's offset north of the station (for the sun). # [m]
   """
   temperature = air_temperature
   if params.gas_superheat:
-    temperature = air_temperature + physics.gas_temperature_offset(
-        sun_elevation_deg(params, time_s), day_k=params.superheat_day_k,
-        night_k=params.cooling_night_k,
-        night_deg=params.sun_elevation_night_deg,
-        day_deg=params.sun_elevation_day_deg)
+    temperature = air_temperature + thermal.gas_excess_k(
+        params, time_s, x_m, y_m).astype(jnp.result_type(air_temperature))
   pressure = air_pressure
   if params.latex_overpressure:
     pressure = air_pressure + params.overpressure_pa

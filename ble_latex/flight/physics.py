@@ -750,30 +750,6 @@ def buoyant_lift_per_mol(air_temperature: Array, air_pressure: Array,
   return AIR_MOLAR_MASS * beta - HELIUM_MOLAR_MASS
 
 
-def gas_temperature_offset(sun_elevation_deg: Array, *, day_k: Array,
-                           night_k: Array, night_deg: Array,
-                           day_deg: Array) -> Array:
-  """Helium minus air temperature: solar superheat / radiative cooling. # [K]
-
-  -night_k at and below a sun elevation of night_deg, +day_k at and above
-  day_deg, a smoothstep 3x^2 - 2x^3 between. The window -16..24 deg is that
-  of ValBal's sunset lift-loss table (stanford-ssi/balloons-VALBAL
-  src/Utils.h:147-150, used in src/Utils.cpp:245-248), whose lift loss
-  sums to ~0.17 kg over a sunset; latex_realistic.gin's 5 K by day and 2 K
-  at night give ~0.18 kg for this project's balloon at 17 km.
-
-  Args:
-    sun_elevation_deg: Sun elevation. # [deg]
-    day_k: Superheat by day. # [K]
-    night_k: Cooling at night (>= 0). # [K]
-    night_deg: Elevation of full night. # [deg]
-    day_deg: Elevation of full day. # [deg]
-  """
-  x = jnp.clip((sun_elevation_deg - night_deg) / (day_deg - night_deg), 0.0,
-               1.0)
-  return -night_k + (day_k + night_k) * x * x * (3.0 - 2.0 * x)
-
-
 def burst_volume_of_diameter(diameter: Array) -> Array:
   """Burst volume of a sphere of the burst diameter, pi d^3 / 6. # [m^3]"""
   return jnp.pi * diameter * diameter * diameter / 6.0

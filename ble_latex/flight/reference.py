@@ -25,6 +25,7 @@ import numpy as np
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import dynamics
 from ble_latex.flight import envelope
+from ble_latex.flight import launch
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
@@ -66,7 +67,8 @@ def run_validation(
   Args:
     commands: (a0, a1, a2) per 20-minute stride.
     seed: PRNG seed of BLE's atmosphere (lapse-rate blend).
-    start_altitude_m: Start altitude (neutrally buoyant). # [m]
+    start_altitude_m: Start altitude (neutrally buoyant under `params`'
+      gas, `launch.neutral_launch`). # [m]
     reference: Also integrate each stride with the fine RK4 reference (the
       paper's model only: it integrates the paper's Eq. fullN2L).
     params: The flight system; None = `flight_params_from_gin()`.
@@ -89,8 +91,9 @@ def run_validation(
     params = params_lib.flight_params_from_gin()
   burst_key, walk_key = jax.random.split(
       jax.random.fold_in(jax.random.PRNGKey(seed), 28))
-  state = state_lib.initial_state(params, start_altitude_m, atm_params=atm,
-                                  time_s=start_time_s, key=burst_key)
+  state = launch.neutral_launch(params, atm, state_lib.initial_state(
+      params, start_altitude_m, atm_params=atm, time_s=start_time_s,
+      key=burst_key))
   stride_s = params.stride_s
   reference = reference and not params.realistic
 
