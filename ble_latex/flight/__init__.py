@@ -31,6 +31,10 @@ Modules (import them directly; this package imports nothing):
               controller (`controller.decide_realistic`).
   solar       The sun's elevation (NOAA, as BLE's solar.py) for the
               helium's day/night temperature.
+  thermal     The helium-air temperature difference: the sun's forcing at
+              the balloon's position, a first-order thermal lag (issue 44).
+  disturbance The free-lift disturbance: random walk or Ornstein-Uhlenbeck.
+  launch      `neutral_launch`: the launch fill neutral in the bound gas.
   reference   The validation flight, a fine RK4 reference, and the
               reference checks of both modes (`reference_table`,
               `run_day_at_float`, `compare_modes`).
