@@ -1,0 +1,568 @@
+# coding=utf-8
+r"""DAgger: a planner distilled into a policy over the 71 observations.
+
+"Learning by cheating" (issue 47): the student, SAC's actor network
+(`networks.make_network`; its mean action tanh(mu(s)) in [-1, 1]^3, flown
+through `jax_env.to_box`), learns to act as a planner (the teacher,
+`latex_mpc` by default: the forecast beam-search MPC, which reads no future
+truth) by DAgger (Ross, Gordon & Bagnell, AISTATS 2011). Round r:
+
+1. N balloons fly `episode_steps` strides on training seeds no other round
+   flies (`jax_train.round_seeds`). Each block of the planner's
+   `replan_every` strides, each balloon flies the teacher's actions with
+   probability beta_r = beta0 x beta_decay^r, else the student's (the
+   mixture policy of DAgger; round 0 with beta0 = 1 is behaviour cloning).
+2. The teacher labels every state visited: `planning.plan_batch` plans from
+   the visited states every `replan_every` strides (warm-started by its
+   previous plan and its wind memory along the same flight, as it would be
+   had it flown), and the label of a stride is the action its plan flies
+   there, in the normalised box (`from_box`).
+3. The labels join the aggregate (a ring of `dataset_capacity` rows).
+4. The student is fitted to the aggregate: `fit_steps` Adam steps (optax)
+   on minibatches of the mean squared error of its mean action.
+5. Its deterministic policy flies the first `validation_seeds` seeds of
+   `latex_validation` (`sac_trainer.validate`); the best round by TW50 over
+   the window, among those at most `max_out_of_resources_pct` out of
+   resources, is kept and exported as a SAC policy file
+   (`best_policy.msgpack`: the student as the actor, the critics as
+   initialised and unused), which `ble-latex-eval --agent=sac_pretrained
+   --gin_bindings="SACPretrainedAgent.policy_path='RUN/best_policy.msgpack'"`
+   flies.
+
+The algorithm is pure JAX over the batched core; `train` is its driver: the
+run directory (`run_dir`: run.json and the one resume check, the lock),
+one checkpoint per round (student, Adam state, aggregate, best student,
+records; `checkpoints/dagger_NNNNN.msgpack`, the previous one removed) and
+`summary.json`, the per-round records. A resumed run continues after its
+newest checkpoint with the same keys (round r's keys are folded from the
+seed and r), and refuses other settings.
+"""
+
+import dataclasses
+import functools
+import json
+import os
+import re
+import time
+from typing import Any, Callable, Dict, List, NamedTuple, Optional, Tuple
+
+import gin
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from ble_latex import gin_values
+from ble_latex import safe_io
+from ble_latex.agents import networks
+from ble_latex.agents import plan_config
+from ble_latex.agents import planning
+from ble_latex.agents import pretrained
+from ble_latex.agents import sac_core
+from ble_latex.agents import sac_trainer
+from ble_latex.envs import env_params
+from ble_latex.envs import env_types
+from ble_latex.envs import jax_env
+from ble_latex.run import jax_train
+from ble_latex.run import run_dir
+from ble_latex.run import suites
+
+Array = jax.Array
+CHECKPOINT_FORMAT = 'ble_latex.dagger/1'  # msgpack (`safe_io`).
+CHECKPOINT_PATTERN = re.compile(r'^dagger_(\d{5,})\.msgpack$')
+SUMMARY = 'summary.json'  # Per-round records (committed with a run).
+BEST_POLICY = 'best_policy.msgpack'  # The best student as a SAC policy.
+MAX_DATASET = 10_000_000  # Rows of the aggregate: 74 float32 = 3 GB.
+_GIN_NAME = 'dagger_config'
+# Seeds of the `latex_validation` suite (`suites.get_eval_suite`).
+_VALIDATION_SIZE = len(suites.get_eval_suite('latex_validation').seeds)
+
+
+@gin.configurable(_GIN_NAME)
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class DaggerConfig:
+  """DAgger's settings (gin: `dagger_config.*`), checked when built.
+
+  Attributes:
+    seed: Training seed: the student's initialisation, the mixture's and
+      minibatches' keys, the teacher's planning seed.
+    teacher: The planner that labels (`plan_config.PLANNERS`; its settings
+      are its gin configurable's, e.g. `LatexMpcAgent.beam_width`).
+    num_balloons: Flights per round.
+    episode_steps: Strides per flight (216 = 3 days).
+    beta0: Probability that a balloon flies the teacher in round 0. # [.]
+    beta_decay: beta_r = beta0 x beta_decay^r. # [.]
+    num_layers: Hidden layers of the student (SAC's actor).
+    hidden_units: Units per hidden layer.
+    learning_rate: Adam's step size.
+    batch_size: Rows per minibatch.
+    fit_steps: Adam steps per round.
+    dataset_capacity: Rows of the aggregate kept (the oldest replaced).
+    validation_seeds: First seeds of `latex_validation` flown per round.
+    max_out_of_resources_pct: A round counts as best only at most this
+      many validation flights out of resources. # [%]
+  """
+  seed: int = 0
+  teacher: str = 'latex_mpc'
+  num_balloons: int = 8
+  episode_steps: int = 216
+  beta0: float = 1.0
+  beta_decay: float = 0.5
+  num_layers: int = 2
+  hidden_units: int = 256
+  learning_rate: float = 1e-3
+  batch_size: int = 256
+  fit_steps: int = 1_000
+  dataset_capacity: int = 500_000
+  validation_seeds: int = 10
+  max_out_of_resources_pct: float = 5.0
+
+  def __post_init__(self):
+    name = lambda field: f'{_GIN_NAME}.{field}'
+    run_dir.check_training_seed(self.seed, name('seed'))
+    gin_values.require(self.teacher in plan_config.PLANNERS, name('teacher'),
+                       f'one of {sorted(plan_config.PLANNERS)}', self.teacher)
+    for field, maximum in (('num_balloons', sac_core.MAX_NUM_ENVS),
+                           ('episode_steps', suites.EPISODE_STEPS),
+                           ('num_layers', sac_core.MAX_NUM_LAYERS),
+                           ('hidden_units', sac_core.MAX_HIDDEN_UNITS),
+                           ('batch_size', sac_core.MAX_BATCH_SIZE),
+                           ('fit_steps', 1_000_000),
+                           ('dataset_capacity', MAX_DATASET),
+                           ('validation_seeds', _VALIDATION_SIZE)):
+      gin_values.check_int(name(field), getattr(self, field), minimum=1,
+                           maximum=maximum)
+    for field in ('beta0', 'beta_decay'):
+      gin_values.check_number(name(field), getattr(self, field), minimum=0.0,
+                              maximum=1.0)
+    gin_values.check_number(name('learning_rate'), self.learning_rate,
+                            above=0.0, maximum=1.0)
+    gin_values.check_number(name('max_out_of_resources_pct'),
+                            self.max_out_of_resources_pct, minimum=0.0,
+                            maximum=100.0)
+
+  def beta(self, round_index: int) -> float:
+    """The probability of flying the teacher in round `round_index`."""
+    return self.beta0 * self.beta_decay ** round_index
+
+
+class Student(NamedTuple):
+  """The static parts (hashable, for jit): the network, the optimizer."""
+  network_def: networks.LatexSACNetwork
+  optimizer: optax.GradientTransformation
+  learner: sac_trainer.Learner  # The same network, for `validate`.
+
+
+@functools.lru_cache(maxsize=8)
+def student_for(num_layers: int, hidden_units: int,
+                learning_rate: float) -> Student:
+  """The student of these sizes, one object per sizes (shared compiles)."""
+  learner = sac_trainer.learner_for(sac_trainer.TrainerConfig(
+      num_layers=num_layers, hidden_units=hidden_units))
+  return Student(learner.network_def, optax.adam(learning_rate), learner)
+
+
+def init_params(student: Student, key: Array) -> Any:
+  """Fresh network parameters (SAC's actor and critics; critics unused)."""
+  obs = jnp.zeros((jax_env.LatexBalloonJaxEnv.num_features,), jnp.float32)
+  return student.network_def.init(key, obs, key)
+
+
+def from_box(action: Array) -> Array:
+  """Box actions (a0 [m], a1, a2) onto [-1, 1]^3: `jax_env.to_box`'s inverse."""
+  low = jnp.asarray(jax_env.ACTION_LOW, jnp.float32)
+  high = jnp.asarray(jax_env.ACTION_HIGH, jnp.float32)
+  return jnp.clip(2.0 * (action - low) / (high - low) - 1.0, -1.0, 1.0)
+
+
+def mean_actions(student: Student, params: Any, obs: Array) -> Array:
+  """The student's actions tanh(mu(s)) in [-1, 1]^3 of [N, 71] observations."""
+  key = jax.random.PRNGKey(0)  # The mean does not depend on it.
+  return jax.vmap(lambda o: student.network_def.apply(
+      params, o, key, method=student.network_def.actor).mean_action)(obs)
+
+
+def imitation_loss(student: Student, params: Any, obs: Array,
+                   labels: Array) -> Array:
+  """Mean over rows of the squared error of the mean action (summed over a)."""
+  error = mean_actions(student, params, obs) - labels
+  return jnp.mean(jnp.sum(jnp.square(error), axis=-1))
+
+
+@functools.partial(jax.jit, static_argnums=(0, 6, 7))
+def fit(student: Student, params: Any, opt_state: Any, obs: Array,
+        labels: Array, size: Array, steps: int, batch_size: int,
+        key: Array) -> Tuple[Any, Any, Array]:
+  """`steps` Adam steps on minibatches drawn from the first `size` rows.
+
+  Args:
+    student: The network and optimizer (static).
+    params: Network parameters.
+    opt_state: Adam's state.
+    obs: [C, 71] observations (rows past `size` unused).
+    labels: [C, 3] teacher actions in [-1, 1]^3.
+    size: Rows filled (int32 scalar, > 0).
+    steps: Adam steps (static).
+    batch_size: Rows per minibatch (static).
+    key: PRNG key of the minibatches.
+
+  Returns:
+    The parameters, Adam's state and the mean minibatch loss.
+  """
+  loss_grad = jax.value_and_grad(functools.partial(imitation_loss, student))
+
+  def one(carry, step_key):
+    params, opt_state = carry
+    rows = jax.random.randint(step_key, (batch_size,), 0, size)
+    loss, grads = loss_grad(params, obs[rows], labels[rows])
+    updates, opt_state = student.optimizer.update(grads, opt_state, params)
+    return (optax.apply_updates(params, updates), opt_state), loss
+
+  (params, opt_state), losses = jax.lax.scan(
+      one, (params, opt_state), jax.random.split(key, steps))
+  return params, opt_state, jnp.mean(losses)
+
+
+class Aggregate(NamedTuple):
+  """DAgger's data set, a host ring of labelled states.
+
+  Attributes:
+    obs: [C, 71] observations.
+    labels: [C, 3] the teacher's actions there, in [-1, 1]^3.
+    size: Rows filled.
+    cursor: The next row written.
+  """
+  obs: np.ndarray
+  labels: np.ndarray
+  size: int
+  cursor: int
+
+
+def empty_aggregate(capacity: int) -> Aggregate:
+  return Aggregate(
+      np.zeros((capacity, jax_env.LatexBalloonJaxEnv.num_features),
+               np.float32),
+      np.zeros((capacity, len(jax_env.ACTION_LOW)), np.float32), 0, 0)
+
+
+def aggregate(data: Aggregate, obs: np.ndarray,
+              labels: np.ndarray) -> Aggregate:
+  """`data` with rows (`obs`, `labels`) added (the oldest replaced)."""
+  capacity = len(data.obs)
+  new_obs, new_labels = data.obs.copy(), data.labels.copy()
+  rows = (data.cursor + np.arange(len(obs))) % capacity
+  new_obs[rows], new_labels[rows] = obs[-capacity:], labels[-capacity:]
+  return Aggregate(new_obs, new_labels, min(capacity, data.size + len(obs)),
+                   int((data.cursor + len(obs)) % capacity))
+
+
+@functools.lru_cache(maxsize=8)
+def _programs(env: jax_env.LatexBalloonJaxEnv,
+              teacher: plan_config.PlannerConfig, student: Student
+              ) -> Tuple[Callable[..., Any], Callable[..., Any]]:
+  """Jitted: the batch's reset, and one block of `replan_every` strides.
+
+  The block flies each balloon the teacher's actions (where `use_teacher`)
+  or the student's, and returns each stride's (observation, teacher label
+  in [-1, 1]^3, whether the balloon was still flying).
+  """
+  reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
+
+  def fly(params, states, obs, active, plans, student_params, use_teacher):
+    def stride(carry, teacher_action):
+      states, obs, active, within = carry
+      own = jax_env.to_box(mean_actions(student, student_params, obs))
+      action = jnp.where(use_teacher[:, None], teacher_action, own)
+      next_obs, states, _, terminated, info = jax.vmap(
+          env.step_env, in_axes=(None, 0, 0, None))(None, states, action,
+                                                    params)
+      within = within + (active & (info['distance_km'] <= params.radius_km))
+      row = (obs, from_box(teacher_action), active)
+      active = active & ~(terminated | info['time_limit'])
+      return (states, next_obs, active, within), row
+    zeros = jnp.zeros(active.shape, jnp.int32)
+    (states, obs, active, within), rows = jax.lax.scan(
+        stride, (states, obs, active, zeros),
+        planning.flown_actions(teacher, plans))
+    return states, obs, active, within, rows
+  return reset, jax.jit(fly)
+
+
+def fly_round(student: Student, student_params: Any,
+              teacher: plan_config.PlannerConfig,
+              env: jax_env.LatexBalloonJaxEnv, params: env_types.EnvParams,
+              seeds: List[int], steps: int, beta: float, key: Array,
+              planner_seed: int) -> Dict[str, Any]:
+  """One round's flights under the beta-mixture, labelled by the teacher.
+
+  Args:
+    student: The student (static parts).
+    student_params: Its parameters.
+    teacher: The planner (its `replan_every` strides are a block).
+    env: The core, raw Box actions (`normalize_actions=False`).
+    params: The env parameters.
+    seeds: Env seeds, one per balloon.
+    steps: Strides per flight at most (a multiple of `replan_every`).
+    beta: Probability that a balloon flies the teacher in a block.
+    key: PRNG key of the mixture.
+    planner_seed: The teacher's seed (`planning.plan_key`).
+
+  Returns:
+    obs [M, 71] and labels [M, 3] of the M strides flown, `within` [N]
+    strides ended within the radius, `steps` [N] strides flown,
+    `teacher_fraction`: of the balloon-blocks flown, those the teacher flew.
+  """
+  reset, block = _programs(env, teacher, student)
+  wind = env.wind_for(params)
+  obs, states = reset(
+      jax.vmap(jax.random.PRNGKey)(jnp.asarray(seeds, jnp.int32)), params)
+  n = len(seeds)
+  active = jnp.ones((n,), bool)
+  plans = planning.initial_plans(teacher, states)
+  within, flown = np.zeros(n, np.int64), np.zeros(n, np.int64)
+  rows, mixed = [], []
+  for _ in range(0, steps, teacher.replan_every):
+    plans = planning.plan_batch(teacher, params, states,
+                                jnp.int32(planner_seed), plans, wind)
+    key, mix_key = jax.random.split(key)
+    use_teacher = jax.random.uniform(mix_key, (n,)) < beta
+    was_active = active
+    states, obs, active, block_within, (b_obs, b_labels, b_valid) = block(
+        params, states, obs, active, plans, student_params, use_teacher)
+    b_obs, b_labels, b_valid, block_within, use, was = jax.device_get(
+        (b_obs, b_labels, b_valid, block_within, use_teacher, was_active))
+    mixed.append(use[was])
+    valid = b_valid.reshape(-1)
+    rows.append((b_obs.reshape(-1, b_obs.shape[-1])[valid],
+                 b_labels.reshape(-1, b_labels.shape[-1])[valid]))
+    within += block_within
+    flown += b_valid.sum(axis=0)
+    if not bool(np.asarray(active).any()):
+      break
+  mixed = np.concatenate(mixed)
+  return {'obs': np.concatenate([r[0] for r in rows]),
+          'labels': np.concatenate([r[1] for r in rows]),
+          'within': within, 'steps': flown,
+          'teacher_fraction': float(mixed.mean()) if len(mixed) else 0.0}
+
+
+# --- The driver: run directory, checkpoints, resume. ------------------------
+
+
+class _Acting(NamedTuple):
+  """What `sac_trainer.acting_bundle` reads of a train state."""
+  network_params: Any
+  updates: Any
+  log_alpha: Any
+
+
+def export_policy(student: Student, params: Any, round_index: int,
+                  fit_steps_done: int, path: str, note: str) -> None:
+  """Writes the student as a SAC policy file (`sac_pretrained` flies it).
+
+  The actor is the student; the critics are as initialised (unused by the
+  policy) and log_alpha is 0 (alpha 1, SAC's start if it is fine-tuned).
+  """
+  bundle = sac_trainer.acting_bundle(
+      student.learner, _Acting(params, np.int64(fit_steps_done),
+                               np.zeros((1,), np.float32)), round_index)
+  policy = pretrained.policy_from_bundle(
+      bundle, f'dagger round {round_index}', note, what='DAgger student')
+  pretrained.write_policy(policy, path)
+
+
+def checkpoint_path(base_dir: str, round_index: int) -> str:
+  return os.path.join(run_dir.checkpoint_dir(base_dir),
+                      f'dagger_{round_index:05d}.msgpack')
+
+
+def newest_checkpoint(base_dir: str) -> Optional[Tuple[int, str]]:
+  """(round, path) of the newest checkpoint, or None."""
+  folder = run_dir.checkpoint_dir(base_dir)
+  found = [(int(m.group(1)), os.path.join(folder, name))
+           for name in (os.listdir(folder) if os.path.isdir(folder) else [])
+           if (m := CHECKPOINT_PATTERN.match(name))]
+  return max(found) if found else None
+
+
+class _Progress(NamedTuple):
+  """What a round leaves for the next one (and a checkpoint holds)."""
+  params: Any
+  opt_state: Any
+  data: Aggregate
+  best_params: Any
+  records: List[Dict[str, Any]]
+  fit_steps_done: int
+
+
+def _save(path: str, round_index: int, progress: _Progress) -> None:
+  leaves = lambda tree: [np.asarray(x) for x in
+                         jax.tree.leaves(jax.device_get(tree))]
+  data = progress.data
+  safe_io.write_tree(path, {
+      'round': round_index, 'params': leaves(progress.params),
+      'opt_state': leaves(progress.opt_state),
+      'best_params': leaves(progress.best_params),
+      'obs': data.obs[:data.size], 'labels': data.labels[:data.size],
+      'cursor': data.cursor, 'fit_steps_done': progress.fit_steps_done,
+      'records_json': json.dumps(progress.records)},
+                     file_format=CHECKPOINT_FORMAT)
+
+
+def _load(path: str, template: _Progress) -> Tuple[int, _Progress]:
+  """A checkpoint's round and progress, checked against `template`."""
+  tree = safe_io.read_tree(path, file_format=CHECKPOINT_FORMAT,
+                           what='DAgger checkpoint')
+  with safe_io.checking(f'DAgger checkpoint {path}'):
+    like = lambda t, key: jax.tree.map(
+        jnp.asarray, sac_core.check_like(t, list(tree[key]), f'{path}: {key}'))
+    capacity = len(template.data.obs)
+    size = len(tree['obs'])
+    cursor = safe_io.checked_count(tree['cursor'], f'{path}: cursor')
+    if size > capacity or cursor >= capacity or (
+        size < capacity and cursor != size):
+      raise ValueError(f'{path}: aggregate of {size} rows, cursor {cursor} '
+                       f'does not fit dataset_capacity {capacity}')
+    data = empty_aggregate(capacity)
+    data.obs[:size] = safe_io.checked_array(
+        tree['obs'], f'{path}: obs', shape=(size, data.obs.shape[1]))
+    data.labels[:size] = safe_io.checked_array(
+        tree['labels'], f'{path}: labels', shape=(size, data.labels.shape[1]))
+    records = json.loads(tree['records_json'])
+    return safe_io.checked_count(tree['round'], f'{path}: round'), _Progress(
+        like(template.params, 'params'),
+        like(template.opt_state, 'opt_state'),
+        data._replace(size=size, cursor=cursor),
+        like(template.params, 'best_params'), records,
+        safe_io.checked_count(tree['fit_steps_done'],
+                              f'{path}: fit_steps_done'))
+
+
+def best_round(records: List[Dict[str, Any]], max_out_of_resources_pct: float
+               ) -> Optional[Dict[str, Any]]:
+  """The record of highest validation TW50 (window) within the bound."""
+  fit = [r for r in records if r['validation']['out_of_resources_pct']
+         <= max_out_of_resources_pct]
+  return max(fit, key=lambda r: (r['validation']['tw50_window_mean'],
+                                 -r['round'])) if fit else None
+
+
+def run_settings(config: DaggerConfig, teacher: plan_config.PlannerConfig
+                 ) -> Dict[str, Any]:
+  """What `run.json` records and a resume must agree with."""
+  return {'trainer': 'dagger', 'config': dataclasses.asdict(config),
+          'teacher': dataclasses.asdict(teacher)}
+
+
+def train(*, base_dir: str, num_rounds: int, config: Optional[DaggerConfig] = None,
+          teacher: Optional[plan_config.PlannerConfig] = None,
+          params: Optional[env_types.EnvParams] = None,
+          log: Callable[[str], None] = print) -> Dict[str, Any]:
+  """Runs (or resumes) DAgger in `base_dir` until `num_rounds` rounds.
+
+  Args:
+    base_dir: The run directory (created; resumed if it holds a run).
+    num_rounds: Rounds in all (rounds done are not flown again).
+    config: The settings (None: `DaggerConfig()`, gin's bindings).
+    teacher: The planner (None: `config.teacher`'s under gin's bindings).
+    params: The env parameters (None: `env_params.params_from_gin()`).
+    log: Called with a line per round.
+
+  Returns:
+    The summary (`SUMMARY`'s content).
+
+  Raises:
+    errors.ConfigError: A bad setting (one line).
+    errors.ResumeError: `base_dir` holds a run with other settings.
+  """
+  config = DaggerConfig() if config is None else config
+  gin_values.check_int('num_rounds', num_rounds, minimum=1, maximum=100_000)
+  teacher = (plan_config.from_gin(config.teacher) if teacher is None else
+             teacher.checked())
+  plan_config.check_batch(teacher, config.num_balloons, owner='',
+                          what=f'{_GIN_NAME}.num_balloons')
+  gin_values.require(config.episode_steps % teacher.replan_every == 0,
+                     f'{_GIN_NAME}.episode_steps',
+                     f'a multiple of the teacher\'s replan_every '
+                     f'({teacher.replan_every})', config.episode_steps)
+  params = env_params.check_params(
+      env_params.params_from_gin() if params is None else params)
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  student = student_for(config.num_layers, config.hidden_units,
+                        config.learning_rate)
+  init_key, run_key = jax.random.split(jax.random.PRNGKey(config.seed))
+  fresh = init_params(student, init_key)
+  progress = _Progress(fresh, student.optimizer.init(fresh),
+                       empty_aggregate(config.dataset_capacity), fresh, [], 0)
+  validation = jnp.asarray(list(suites.get_eval_suite(
+      'latex_validation').seeds)[:config.validation_seeds], jnp.int32)
+  settings = run_settings(config, teacher)
+  os.makedirs(base_dir, exist_ok=True)
+  with run_dir.locked(base_dir):
+    newest = newest_checkpoint(base_dir)
+    start = 0 if newest is None else newest[0] + 1
+    run_dir.check_resume(base_dir, settings, start_iteration=start,
+                         episodes_per_iteration=config.num_balloons,
+                         log_episodes=False)
+    run_dir.write_run_info(base_dir, settings)
+    if newest is not None:
+      _, progress = _load(newest[1], progress)
+    os.makedirs(run_dir.checkpoint_dir(base_dir), exist_ok=True)
+    for r in range(start, num_rounds):
+      began = time.monotonic()
+      mix_key, fit_key = jax.random.split(jax.random.fold_in(run_key, r))
+      flights = fly_round(student, progress.params, teacher, env, params,
+                          jax_train.round_seeds(r, config.num_balloons),
+                          config.episode_steps, config.beta(r), mix_key,
+                          config.seed)
+      flown = time.monotonic()
+      data = aggregate(progress.data, flights['obs'], flights['labels'])
+      net, opt_state, loss = fit(
+          student, progress.params, progress.opt_state, jnp.asarray(data.obs),
+          jnp.asarray(data.labels), jnp.int32(data.size), config.fit_steps,
+          config.batch_size, fit_key)
+      loss = float(loss)
+      if not np.isfinite(loss):
+        raise sac_core.TrainingDiverged(
+            f'DAgger round {r}: the imitation loss is {loss}')
+      fitted = time.monotonic()
+      result = jax_train.validation_summary(sac_trainer.validate(
+          student.learner, env, net, validation, config.episode_steps,
+          params), config.episode_steps)
+      record = {
+          'round': r, 'beta': config.beta(r),
+          'teacher_fraction': flights['teacher_fraction'],
+          'labelled': int(len(flights['obs'])), 'dataset_size': data.size,
+          'train_tw50_window_mean': float(np.mean(
+              flights['within'] / config.episode_steps)),
+          'fit_loss': loss, 'validation': result,
+          'fly_s': flown - began, 'fit_s': fitted - flown,
+          'validate_s': time.monotonic() - fitted,
+          'loadavg': list(os.getloadavg())}
+      records = progress.records + [record]
+      best = best_round(records, config.max_out_of_resources_pct)
+      best_params = net if best is record else progress.best_params
+      progress = _Progress(net, opt_state, data, best_params, records,
+                           progress.fit_steps_done + config.fit_steps)
+      if best is record:
+        export_policy(
+            student, net, r, progress.fit_steps_done,
+            os.path.join(base_dir, BEST_POLICY),
+            f'DAgger student of {config.teacher} (seed {config.seed}), round '
+            f'{r}: validation TW50 window {result["tw50_window_mean"]:.3f} on '
+            f'latex_validation[:{config.validation_seeds}]')
+      path = checkpoint_path(base_dir, r)
+      _save(path, r, progress)
+      if newest is not None and newest[1] != path:
+        os.remove(newest[1])
+      newest = (r, path)
+      summary = {'settings': settings, 'rounds': records, 'best': best}
+      safe_io.atomic_write(os.path.join(base_dir, SUMMARY),
+                           json.dumps(summary, indent=1) + '\n')
+      log(f'round {r}: beta {record["beta"]:.2f}, {record["labelled"]} '
+          f'labels ({data.size} in all), fit loss {loss:.4f}, validation '
+          f'TW50 window {result["tw50_window_mean"]:.3f} '
+          f'({result["out_of_resources_pct"]:.0f} % out of resources); '
+          f'fly {record["fly_s"]:.0f} s, fit {record["fit_s"]:.0f} s')
+  with open(os.path.join(base_dir, SUMMARY), encoding='utf-8') as f:
+    return json.load(f)
