@@ -128,6 +128,7 @@ def profile_worker(batch: int, repeats: int) -> dict:
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import winds  # pylint: disable=g-import-not-at-top
   from ble_latex.flight import dynamics  # pylint: disable=g-import-not-at-top
 
   gin_binding.bind_gin(None, None, [], [])
@@ -152,7 +153,7 @@ def profile_worker(batch: int, repeats: int) -> dict:
     def one(st):
       f = st.flight
       t = f.time_s + jnp.arange(subs) * 171.4
-      return jax_env.ground_truth_wind(st, f.x_m, f.y_m, f.pressure_pa, t)
+      return winds.ground_truth_wind(st, f.x_m, f.y_m, f.pressure_pa, t)
     return jax.vmap(one)(s)
 
   def obs_only(s):

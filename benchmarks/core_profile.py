@@ -50,6 +50,7 @@ def _parts(batch: int) -> Dict[str, Any]:
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import winds  # pylint: disable=g-import-not-at-top
   from ble_latex.flight import dynamics  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import generative  # pylint: disable=g-import-not-at-top
 
@@ -76,7 +77,7 @@ def _parts(batch: int) -> Dict[str, Any]:
   def wind(s, p):
     del p
     f = s.flight
-    return jax_env.ground_truth_wind(s, f.x_m, f.y_m, f.pressure_pa, f.time_s)
+    return winds.ground_truth_wind(s, f.x_m, f.y_m, f.pressure_pa, f.time_s)
 
   def step_env(k, s, a, p):
     return env.step_env(k, s, a, p)

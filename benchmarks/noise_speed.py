@@ -3,7 +3,7 @@
 In one run, in this process (JAX's default float32, on the default device):
 - `ble_latex.wind.simplex.noise4d` vmapped over 10 harmonics (BLE's u and v
   harmonics) of --batch points each: points/s of the jitted kernel;
-- `ble_latex.envs.jax_env.ground_truth_wind` of --batch reset balloons (the
+- `ble_latex.envs.winds.ground_truth_wind` of --batch reset balloons (the
   VAE forecast plus the u and v noise, 10 harmonics): queries/s;
 - `LatexBalloonJaxEnv.step_env` vmapped over --batch balloons: one stride;
 each best of --repeats timed calls after a warm-up call, with its compile
@@ -62,6 +62,7 @@ def measure(batch: int, repeats: int) -> dict:
   import ble_latex  # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import winds  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import simplex  # pylint: disable=g-import-not-at-top
 
   gin_binding.bind_gin(None, None, [], [])
@@ -84,8 +85,8 @@ def measure(batch: int, repeats: int) -> dict:
 
   def wind(s):
     f = s.flight
-    return jax.vmap(jax_env.ground_truth_wind)(s, f.x_m, f.y_m, f.pressure_pa,
-                                               f.time_s)
+    return jax.vmap(winds.ground_truth_wind)(s, f.x_m, f.y_m, f.pressure_pa,
+                                             f.time_s)
   r = _time(wind, (state,), repeats)
   r['queries_per_s'] = batch / r['best_s']
   result['ground_truth_wind'] = r

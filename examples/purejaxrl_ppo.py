@@ -31,6 +31,7 @@ import numpy as np
 import optax
 from flax.training.train_state import TrainState
 
+from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 
 
@@ -73,7 +74,7 @@ class Transition(NamedTuple):
 
 
 def make_train(config: Dict[str, Any], env: jax_env.LatexBalloonJaxEnv,
-               env_params: jax_env.EnvParams):
+               env_params: env_types.EnvParams):
   """purejaxrl's `make_train`: a `train(rng)` to jit."""
   num_updates = (config['total_timesteps'] // config['num_steps'] //
                  config['num_envs'])

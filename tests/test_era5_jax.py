@@ -1,5 +1,5 @@
 # coding=utf-8
-"""ERA5 winds in JAX (`wind.era5_jax`, `jax_env.era5_wind`) against BLE's.
+"""ERA5 winds in JAX (`wind.era5_jax`, `winds.era5_wind`) against BLE's.
 
 The reference is `wind.era5` (scipy interpolation in float64, BLE's
 geometry and simplex noise): the device grid interpolates as
@@ -26,7 +26,9 @@ import numpy as np
 import pytest
 import s2sphere as s2
 
+from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
+from ble_latex.envs import winds
 from ble_latex.wind import era5
 from ble_latex.wind import era5_jax
 import test_era5
@@ -177,7 +179,7 @@ def test_env_wind_is_era5_wind_fields(era5_path, add_noise):
     assert state.forecast is None  # No VAE forecast drawn.
     field.reset(keys['wind'], dt.datetime(2012, 3, 4))
     # The flight's date is the ERA5 start.
-    assert jax_env.START_EPOCH + dt.timedelta(
+    assert env_types.START_EPOCH + dt.timedelta(
         seconds=int(state.start_time_offset_s)) == field.start_date_time
     wind = env.wind_for(with_grid)
     for x, y, p, t in points:
@@ -218,7 +220,7 @@ def test_grid_is_an_argument_shared_by_the_balloons(era5_path):
 
 def test_wind_grid_and_another_wind_is_an_error(era5_path):
   _, with_grid = _params(era5_path)
-  other = jax_env.Wind(jax_env.ground_truth_wind, jax_env.forecast_column)
+  other = winds.Wind(winds.ground_truth_wind, winds.forecast_column)
   with pytest.raises(ValueError, match='wind_grid'):
     jax_env.LatexBalloonJaxEnv(wind=other).reset(jax.random.PRNGKey(0),
                                                  with_grid)

@@ -18,6 +18,7 @@ import pytest
 from ble_latex import errors
 from ble_latex import jax_cache
 from ble_latex.ble import gymnasium_discrete
+from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_compile
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import gymnasium_registration
@@ -82,7 +83,7 @@ def test_make_gives_gymnasium_envs(env, discrete_env):
   # The continuous env flies the functional env's state; the discrete one
   # owns BLE's gym env.
   env.reset(seed=0)
-  assert isinstance(env.unwrapped.state, jax_env.EnvState)
+  assert isinstance(env.unwrapped.state, env_types.EnvState)
   assert isinstance(discrete_env.unwrapped.gym_env, gym.Env)
   assert env.action_space == gymnasium.spaces.Box(
       np.array([14000, 1, -1], np.float32), np.array([21000, 5, 1], np.float32))

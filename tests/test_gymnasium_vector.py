@@ -9,6 +9,7 @@ import jax
 import numpy as np
 import pytest
 
+from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_vector
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
@@ -332,7 +333,7 @@ def test_checked_sync_vector_env_steps_no_balloon_on_a_bad_action(bad, match):
 def test_given_params_are_checked(change, binding):
   """params= is checked like gin's (`jax_env.check_params`), before jit."""
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
-  params = jax_env.EnvParams(
+  params = env_types.EnvParams(
       flight=jax_env.flight_params_lib.FlightParams(), decoder=None)
   with pytest.raises(ValueError, match=f'^gin binding {binding} must be'):
     gymnasium_vector.LatexBalloonVectorEnv(2, params=params.replace(**change))

@@ -14,6 +14,7 @@ import pytest
 
 import ble_latex  # noqa: F401
 from ble_latex import configs
+from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import state as state_lib
@@ -361,7 +362,7 @@ def test_params_from_gin_refuses_bad_values_naming_the_binding(
        steps=st.integers(1, 10_000), distance=st.floats(1.0, 1_000.0))
 def test_check_params_keeps_valid_values(low, width, steps, distance):
   """Valid values pass unchanged (as Python floats / int)."""
-  params = jax_env.EnvParams(
+  params = env_types.EnvParams(
       flight=jax_env.flight_params_lib.FlightParams(), decoder=None,
       start_altitude_low_m=low, start_altitude_high_m=low + width,
       episode_steps=np.int64(steps), max_start_distance_km=distance)
@@ -381,7 +382,7 @@ def test_valid_gin_config_unchanged():
     params = jax_env.params_from_gin()
   finally:
     gin.clear_config()
-  default = jax_env.EnvParams(flight=params.flight, decoder=params.decoder)
+  default = env_types.EnvParams(flight=params.flight, decoder=params.decoder)
   assert params == default
   assert params.flight == jax_env.flight_params_lib.FlightParams()
 

@@ -25,6 +25,7 @@ from ble_latex.agents import plan_objective
 from ble_latex.agents import planners
 from ble_latex.agents import planning
 from ble_latex.envs import jax_env
+from ble_latex.envs import winds
 
 SMALL = dict(num_samples=8, iterations=1, horizon=4, num_segments=2,
              replan_every=2, grid_levels=2)
@@ -159,7 +160,7 @@ def test_altitude_grid_plans_are_scored(world):
   state = jax.tree.map(lambda a: a[0], states[0])
   best = jax.tree.map(lambda a: a[0], _plan(config, params, states[0]))
   low, high = config.altitude_low_m, config.altitude_high_m
-  wind_fn = plan_objective.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  wind_fn = plan_objective.planning_wind(config, winds.GENERATIVE_WIND, state)
   blind = plan_objective.blind(state)
   h = jnp.clip(state.flight.altitude_m, low, high)
   targets = [[h, h]] + [[level, level] for level in (low, high)
@@ -183,7 +184,7 @@ def test_beam_as_wide_as_the_tree_finds_the_best_plan(world):
   state = jax.tree.map(lambda a: a[0], states[0])
   best = jax.tree.map(lambda a: a[0], _plan(config, params, states[0]))
   low, high = config.altitude_low_m, config.altitude_high_m
-  wind_fn = plan_objective.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  wind_fn = plan_objective.planning_wind(config, winds.GENERATIVE_WIND, state)
   blind = plan_objective.blind(state)
   h = float(jnp.clip(state.flight.altitude_m, low, high))
   choices = [(low, -1.0), (high, -1.0), (h, 1.0)]
@@ -267,7 +268,7 @@ def test_beam_resource_value_keeps_the_frugal_plan(world):
   config = _config(plan_config.ORACLE, search=plan_config.BEAM, horizon=6,
                    num_segments=1, replan_every=6, beam_width=1,
                    grid_levels=5)
-  wind_fn = plan_objective.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  wind_fn = plan_objective.planning_wind(config, winds.GENERATIVE_WIND, state)
   h = jnp.clip(state.flight.altitude_m, config.altitude_low_m,
                config.altitude_high_m)
   targets = jnp.concatenate([jnp.linspace(config.altitude_low_m,
@@ -313,7 +314,7 @@ def test_forecast_mpc_never_reads_the_noise(world, scenarios, search, memory):
   if scenarios:  # The scenarios change the scores (the plans' winds).
     assert plan.score != _plan(_config(), params, state).score
   if memory:  # The measurement went into the memory: the newest row.
-    point, du, dv = plan_objective.measurement(jax_env.GENERATIVE_WIND,
+    point, du, dv = plan_objective.measurement(winds.GENERATIVE_WIND,
                                          jax.tree.map(lambda a: a[0], state))
     np.testing.assert_array_equal(plan.memory.valid[0], [False, False, True])
     np.testing.assert_allclose(plan.memory.points[0, -1], point, rtol=1e-6)
@@ -420,7 +421,7 @@ def test_gradient_matches_finite_differences(world):
   state = jax.tree.map(lambda a: a[0], states[0])
   config = _config(plan_config.GRADIENT, horizon=2, num_segments=2,
                    replan_every=1, radius_width_km=20.0)
-  wind_fn = plan_objective.planning_wind(config, jax_env.GENERATIVE_WIND, state)
+  wind_fn = plan_objective.planning_wind(config, winds.GENERATIVE_WIND, state)
   floats = -jnp.ones(2)
   f = jax.jit(lambda x: plan_objective.objective(config, params,
                                            plan_objective.blind(state), wind_fn, x,

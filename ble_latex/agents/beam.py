@@ -15,7 +15,7 @@ import jax.numpy as jnp
 
 from ble_latex.agents import plan_config
 from ble_latex.agents import plan_objective
-from ble_latex.envs import jax_env
+from ble_latex.envs import env_types
 from ble_latex.flight import state as state_lib
 
 Array = jax.Array
@@ -53,8 +53,8 @@ def best_per_cell(x_m: Array, y_m: Array, altitude_m: Array, scores: Array,
   return jnp.where(best, scores, -jnp.inf)
 
 
-def beam_search(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
-                state: jax_env.EnvState, wind_fn: Callable[..., Any]
+def beam_search(config: plan_config.PlannerConfig, params: env_types.EnvParams,
+                state: env_types.EnvState, wind_fn: Callable[..., Any]
                 ) -> Tuple[Array, Array]:
   """Plans segment by segment, keeping the `beam_width` best partial plans.
 

@@ -25,7 +25,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex.agents import plan_config
-from ble_latex.envs import jax_env
+from ble_latex.envs import env_types
+from ble_latex.envs import winds
 from ble_latex.flight import dynamics
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
@@ -35,7 +36,7 @@ from ble_latex.wind import simplex
 Array = jax.Array
 
 
-def blind(state: jax_env.EnvState) -> jax_env.EnvState:
+def blind(state: env_types.EnvState) -> env_types.EnvState:
   """The state without its noise (what a forecast planner may read).
 
   The simplex noise of the flight (and with it the future true wind) is
@@ -47,7 +48,7 @@ def blind(state: jax_env.EnvState) -> jax_env.EnvState:
                        noise_v=zeros(state.noise_v))
 
 
-def measurement(wind: jax_env.Wind, state: jax_env.EnvState
+def measurement(wind: winds.Wind, state: env_types.EnvState
                 ) -> Tuple[Array, Array, Array]:
   """Where the balloon is and its measured-minus-forecast wind there.
 
@@ -67,8 +68,8 @@ def measurement(wind: jax_env.Wind, state: jax_env.EnvState
   return point, state.wind_u - u0, state.wind_v - v0
 
 
-def planning_wind(config: plan_config.PlannerConfig, wind: jax_env.Wind,
-                  state: jax_env.EnvState,
+def planning_wind(config: plan_config.PlannerConfig, wind: winds.Wind,
+                  state: env_types.EnvState,
                   noise: Optional[Tuple[Any, Any]] = None,
                   memory: Optional[noise_gp.Measurements] = None
                   ) -> Callable[[Array, Array, Array, Array], Tuple[Array,
@@ -170,8 +171,8 @@ def plan_actions(config: plan_config.PlannerConfig, targets_m: Array,
   return jnp.stack([a0, a1, a2], axis=-1)
 
 
-def objective(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
-              state: jax_env.EnvState, wind_fn: Callable[..., Any],
+def objective(config: plan_config.PlannerConfig, params: env_types.EnvParams,
+              state: env_types.EnvState, wind_fn: Callable[..., Any],
               targets_m: Array, floats: Array) -> Array:
   """The planning objective of one plan from `state` (see module docstring).
 
@@ -213,7 +214,7 @@ def total(value: Array, terms: Tuple[Array, Array, Array]) -> Array:
   return value + progress - cost - terminal
 
 
-def fly(params: jax_env.EnvParams, state: jax_env.EnvState,
+def fly(params: env_types.EnvParams, state: env_types.EnvState,
         wind_fn: Callable[..., Any], f: Any, actions: Array
         ) -> Tuple[Any, Tuple[Array, Array]]:
   """Flies `actions` ([T, 3], one per stride) from flight `f` on the core.
@@ -237,8 +238,8 @@ def fly(params: jax_env.EnvParams, state: jax_env.EnvState,
 
 
 def stride_values(config: plan_config.PlannerConfig,
-                  params: jax_env.EnvParams,
-                  state: jax_env.EnvState, distance_km: Array,
+                  params: env_types.EnvParams,
+                  state: env_types.EnvState, distance_km: Array,
                   status: Array, t: Array) -> Array:
   """The objective's per-stride terms: discount^t (in-radius + shaping).
 
@@ -262,8 +263,8 @@ def stride_values(config: plan_config.PlannerConfig,
                    0.0).astype(distance_km.dtype)
 
 
-def end_terms(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
-              state: jax_env.EnvState, f_end: Any, d_end_km: Array,
+def end_terms(config: plan_config.PlannerConfig, params: env_types.EnvParams,
+              state: env_types.EnvState, f_end: Any, d_end_km: Array,
               ended: Array) -> Tuple[Array, Array, Array]:
   """Progress, resource cost and terminal cost of a (partial) plan.
 
@@ -296,7 +297,7 @@ def end_terms(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
   return progress, cost, config.terminal_cost * ended.astype(dtype)
 
 
-def resource_margins(params: jax_env.EnvParams,
+def resource_margins(params: env_types.EnvParams,
                      f: Any) -> Tuple[Array, Array]:
   """The sand that can still be dropped and the lift that can be vented.
 

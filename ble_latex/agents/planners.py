@@ -23,9 +23,10 @@ from ble_latex import errors
 from ble_latex.agents import plan_config
 from ble_latex.agents import planning
 from ble_latex.envs import jax_env
+from ble_latex.envs import winds
 
 
-def core_of(env: Any) -> Tuple[Any, jax_env.Wind]:
+def core_of(env: Any) -> Tuple[Any, winds.Wind]:
   """The core balloon an env flies, and its JAX wind.
 
   Accepts BLE's `LatexBalloon-v0` (its arena's driver) or the Gymnasium

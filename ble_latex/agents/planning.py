@@ -70,7 +70,8 @@ import numpy as np
 from ble_latex.agents import beam
 from ble_latex.agents import plan_config
 from ble_latex.agents import plan_objective
-from ble_latex.envs import jax_env
+from ble_latex.envs import env_types
+from ble_latex.envs import winds
 from ble_latex.wind import noise_gp
 
 Array = jax.Array
@@ -98,7 +99,7 @@ class Plan(NamedTuple):
 
 
 def initial_plan(config: plan_config.PlannerConfig,
-                 state: jax_env.EnvState) -> Plan:
+                 state: env_types.EnvState) -> Plan:
   """The first warm start: hold the current altitude, floats at the prior.
 
   Args:
@@ -142,9 +143,9 @@ def shift(config: plan_config.PlannerConfig, previous: Plan) -> Plan:
                            float_p=move(previous.float_p))
 
 
-def plan(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
-         state: jax_env.EnvState, key: Array, previous: Plan,
-         wind: jax_env.Wind = jax_env.GENERATIVE_WIND) -> Plan:
+def plan(config: plan_config.PlannerConfig, params: env_types.EnvParams,
+         state: env_types.EnvState, key: Array, previous: Plan,
+         wind: winds.Wind = winds.GENERATIVE_WIND) -> Plan:
   """Plans from one balloon's state (pure; vmap over balloons).
 
   Args:
@@ -275,7 +276,7 @@ def plan(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
               memory=previous.memory if memory is None else memory)
 
 
-def plan_key(seed: Any, state: jax_env.EnvState) -> Array:
+def plan_key(seed: Any, state: env_types.EnvState) -> Array:
   """The planner's key at a state: its seed, the flight and the stride.
 
   The flight is told apart by its start time (drawn from the env seed), so
@@ -293,9 +294,9 @@ def plan_key(seed: Any, state: jax_env.EnvState) -> Array:
   return jax.random.fold_in(key, state.steps)
 
 
-def plan_batch(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
-               states: jax_env.EnvState, seed: Array, previous: Plan,
-               wind: jax_env.Wind = jax_env.GENERATIVE_WIND) -> Plan:
+def plan_batch(config: plan_config.PlannerConfig, params: env_types.EnvParams,
+               states: env_types.EnvState, seed: Array, previous: Plan,
+               wind: winds.Wind = winds.GENERATIVE_WIND) -> Plan:
   """`plan` for a batch of balloons in one vmapped call (jitted).
 
   The batch is checked first (`plan_config.check_batch`): a call that would
@@ -320,15 +321,15 @@ def plan_batch(config: plan_config.PlannerConfig, params: jax_env.EnvParams,
   return _plan_batch(config, params, states, seed, previous, wind)
 
 
-def _balloons(states: jax_env.EnvState) -> int:
+def _balloons(states: env_types.EnvState) -> int:
   """N, the leading axis of [N] states."""
   return int(jax.tree.leaves(states.flight)[0].shape[0])
 
 
 @functools.partial(jax.jit, static_argnums=(0, 5))
 def _plan_batch(config: plan_config.PlannerConfig,
-                params: jax_env.EnvParams, states: jax_env.EnvState,
-                seed: Array, previous: Plan, wind: jax_env.Wind) -> Plan:
+                params: env_types.EnvParams, states: env_types.EnvState,
+                seed: Array, previous: Plan, wind: winds.Wind) -> Plan:
   """`plan_batch` after its check."""
   def one(state, prev):
     return plan(config, params, state, plan_key(seed, state), prev, wind)
@@ -336,7 +337,7 @@ def _plan_batch(config: plan_config.PlannerConfig,
 
 
 def initial_plans(config: plan_config.PlannerConfig,
-                  states: jax_env.EnvState) -> Plan:
+                  states: env_types.EnvState) -> Plan:
   """`initial_plan` of [N] states (jitted; N checked as by `plan_batch`).
 
   Args:
@@ -355,7 +356,7 @@ def initial_plans(config: plan_config.PlannerConfig,
 
 @functools.partial(jax.jit, static_argnums=0)
 def _initial_plans(config: plan_config.PlannerConfig,
-                   states: jax_env.EnvState) -> Plan:
+                   states: env_types.EnvState) -> Plan:
   return jax.vmap(functools.partial(initial_plan, config))(states)
 
 

@@ -50,6 +50,7 @@ import optax
 
 from ble_latex.agents import networks
 from ble_latex.agents import sac_core
+from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 
 Array = jax.Array
@@ -279,7 +280,7 @@ def _act(learner: Learner, state: TrainState, obs: Array, key: Array
 @functools.partial(jax.jit, static_argnums=(0, 1, 4))
 def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
                 state: TrainState, seeds: Array, num_steps: int,
-                params: jax_env.EnvParams) -> Tuple[TrainState, RoundOutput]:
+                params: env_types.EnvParams) -> Tuple[TrainState, RoundOutput]:
   """Flies one episode on each of N balloons while learning (one XLA call).
 
   Args:
@@ -357,7 +358,7 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
 @functools.partial(jax.jit, static_argnums=(0, 1, 4))
 def validate(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
              network_params: Any, seeds: Array, num_steps: int,
-             params: jax_env.EnvParams) -> Dict[str, Array]:
+             params: env_types.EnvParams) -> Dict[str, Array]:
   """Flies the deterministic policy (tanh of the mean) from each seed.
 
   The batched counterpart of `ble-latex-eval` for choosing among snapshots
@@ -425,7 +426,7 @@ def unstack(tree: Any, count: int) -> List[Any]:
 @functools.partial(jax.jit, static_argnums=(0, 1, 4))
 def train_round_seeds(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
                       states: TrainState, seeds: Array, num_steps: int,
-                      params: jax_env.EnvParams
+                      params: env_types.EnvParams
                       ) -> Tuple[TrainState, RoundOutput]:
   """`train_round` for K training seeds at once (`jax.vmap` over states).
 

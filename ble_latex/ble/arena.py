@@ -48,9 +48,11 @@ import s2sphere as s2
 from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import features as latex_features
 from ble_latex.ble import wind as ble_wind
+from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import gymnasium_render
 from ble_latex.envs import jax_env
+from ble_latex.envs import winds
 from ble_latex.flight import physics as core_physics
 
 
@@ -95,11 +97,11 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     params = jax_env.params_from_gin().replace(**jax_env.start(**given))
     if episode_steps is not None:
       params = params.replace(episode_steps=episode_steps)
-    if jax_env.is_era5(wind_field_instance):
+    if winds.is_era5(wind_field_instance):
       # ERA5 flies in JAX (its grid in the params); BLE's consumers read it
       # through the core's field, as the generative one.
       params = params.replace(
-          wind_grid=jax_env.era5_grid(wind_field_instance))
+          wind_grid=winds.era5_grid(wind_field_instance))
       wind_field_instance = None
     if wind_field_instance is None:
       wind_field_instance = ble_wind.CoreGenerativeWindField()
@@ -135,7 +137,7 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     return self._env
 
   @property
-  def params(self) -> jax_env.EnvParams:
+  def params(self) -> env_types.EnvParams:
     return self._env.params
 
   @property

@@ -12,7 +12,7 @@
   functions on the flight the arena is flying (`attach`). `reset` does
   nothing: the arena's driver draws the field from the same key BLE's arena
   would give `WindField.reset`.
-- `callback_wind`: the core's `jax_env.Wind` over any BLE `WindField` object
+- `callback_wind`: the core's `winds.Wind` over any BLE `WindField` object
   (e.g. `ble_latex.wind.era5.Era5WindField`), asked on the host through
   `jax.pure_callback` at every physics sub-step; `host_wind`: the same, with
   its reset, as the Gymnasium env's `host_wind=`.
@@ -27,8 +27,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
+from ble_latex.envs import winds
 
 
 def _vectors(u: np.ndarray, v: np.ndarray) -> List[wind_field.WindVector]:
@@ -69,8 +71,8 @@ def callback_wind_fn(
   return wind_fn
 
 
-def callback_wind(field: wind_field.WindField) -> jax_env.Wind:
-  """A `jax_env.Wind` that asks a BLE `WindField` object on the host.
+def callback_wind(field: wind_field.WindField) -> winds.Wind:
+  """A `winds.Wind` that asks a BLE `WindField` object on the host.
 
   Args:
     field: A BLE `wind_field.WindField` (reset by the caller).
@@ -99,7 +101,7 @@ def callback_wind(field: wind_field.WindField) -> jax_env.Wind:
         x, y, pressures, t)
     return uv[0], uv[1]
 
-  return jax_env.Wind(ground_truth, forecast_column)
+  return winds.Wind(ground_truth, forecast_column)
 
 
 def host_wind(field: wind_field.WindField) -> gymnasium_env.HostWind:
@@ -121,19 +123,19 @@ def host_wind(field: wind_field.WindField) -> gymnasium_env.HostWind:
   return gymnasium_env.HostWind(callback_wind(field), reset)
 
 
-def _wind(grid: Any) -> jax_env.Wind:
+def _wind(grid: Any) -> winds.Wind:
   """The core's wind: ERA5 on `grid`, or BLE's generative field (None)."""
-  return jax_env.GENERATIVE_WIND if grid is None else jax_env.era5_wind(grid)
+  return winds.GENERATIVE_WIND if grid is None else winds.era5_wind(grid)
 
 
 @jax.jit
-def _forecast(grid: Any, state: jax_env.EnvState, x, y, pressures, t):
+def _forecast(grid: Any, state: env_types.EnvState, x, y, pressures, t):
   wind = _wind(grid)
   return wind.forecast_column(state, x, y, pressures, t)
 
 
 @jax.jit
-def _ground_truth(grid: Any, state: jax_env.EnvState, x, y, pressure, t):
+def _ground_truth(grid: Any, state: env_types.EnvState, x, y, pressure, t):
   wind = _wind(grid)
   return wind.ground_truth(state, x, y, pressure, t)
 
@@ -142,16 +144,16 @@ class CoreGenerativeWindField(wind_field.WindField):
   """The core's wind as the flight core draws and flies it.
 
   BLE's generative field, or ERA5 when the flight's params hold its grid
-  (`jax_env.EnvParams.wind_grid`).
+  (`env_types.EnvParams.wind_grid`).
   """
 
   def __init__(self):
     super().__init__()
-    self._state_fn: Optional[Callable[[], jax_env.EnvState]] = None
-    self._params_fn: Optional[Callable[[], jax_env.EnvParams]] = None
+    self._state_fn: Optional[Callable[[], env_types.EnvState]] = None
+    self._params_fn: Optional[Callable[[], env_types.EnvParams]] = None
 
-  def attach(self, state_fn: Callable[[], jax_env.EnvState],
-             params_fn: Optional[Callable[[], jax_env.EnvParams]] = None
+  def attach(self, state_fn: Callable[[], env_types.EnvState],
+             params_fn: Optional[Callable[[], env_types.EnvParams]] = None
              ) -> None:
     """Reads the field of the flight `state_fn()` returns (the arena's).
 
@@ -166,7 +168,7 @@ class CoreGenerativeWindField(wind_field.WindField):
     """The flight's ERA5 grid, or None (BLE's generative field)."""
     return None if self._params_fn is None else self._params_fn().wind_grid
 
-  def _state(self) -> jax_env.EnvState:
+  def _state(self) -> env_types.EnvState:
     state = None if self._state_fn is None else self._state_fn()
     if state is None:
       raise RuntimeError('CoreGenerativeWindField is drawn by the latex '

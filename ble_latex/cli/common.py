@@ -323,6 +323,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
   """
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env
+  from ble_latex.envs import winds
   from ble_latex.wind import era5
   # pylint: enable=g-import-not-at-top
   bindings = []
@@ -333,7 +334,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
     path = os.path.abspath(os.path.expandvars(os.path.expanduser(path)))
     bindings += ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
                  f'Era5WindField.path = {path!r}']
-  elif not jax_env.is_era5(jax_env.episode()['wind_field_factory']):
+  elif not winds.is_era5(jax_env.episode()['wind_field_factory']):
     if dates is not None:
       raise CommandUsageError(
           '--era5_dates needs ERA5 winds: --era5_path, or a gin file binding '

@@ -178,19 +178,20 @@ def _era5_validation_params():
 
   When training flies the 'train' split (the default), the training params
   with flights starting in the 'validation' split (the same winds on the
-  device, `jax_env.era5_grid`); None otherwise (no ERA5, or other training
+  device, `winds.era5_grid`); None otherwise (no ERA5, or other training
   dates: validation flies the training env; choose with
   `ble-latex-eval --suite=latex_validation --era5_dates=...`).
   """
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env
+  from ble_latex.envs import winds
   from ble_latex.wind import era5
   # pylint: enable=g-import-not-at-top
   params = jax_env.params_from_gin()
   if (params.wind_grid is None or
       era5.Era5WindField().start_dates != suites.TRAIN_DATES):
     return None
-  return params.replace(wind_grid=jax_env.era5_grid(
+  return params.replace(wind_grid=winds.era5_grid(
       era5.Era5WindField(start_dates=suites.era5_dates('latex_validation'))))
 
 

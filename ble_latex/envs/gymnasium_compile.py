@@ -29,6 +29,7 @@ with quiet.third_party_noise():
   from jax import lax
   import jax.numpy as jnp
   from ble_latex import jax_cache
+  from ble_latex.envs import env_types
   from ble_latex.envs import jax_env
   # pylint: enable=g-import-not-at-top
 
@@ -180,7 +181,7 @@ class Compiled:
   def unpack(self, name: str, packed: Any) -> Any:
     return self._layouts[name].unpack(packed)
 
-  def ahead(self, keys: Any, params: jax_env.EnvParams,
+  def ahead(self, keys: Any, params: env_types.EnvParams,
             normalized: bool) -> None:
     """Compiles `start` and `step` for the flights of `draw(keys, params)`.
 

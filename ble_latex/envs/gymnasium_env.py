@@ -59,8 +59,10 @@ with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
   import jax
   from ble_latex import gin_values
+  from ble_latex.envs import env_types
   from ble_latex.envs import gymnasium_compile as compile_lib
   from ble_latex.envs import jax_env
+  from ble_latex.envs import winds
   # pylint: enable=g-import-not-at-top
 
 # Names of the action components in messages.
@@ -198,7 +200,7 @@ class HostWind(NamedTuple):
   `WindField`: `ble_latex.ble.wind.host_wind`).
 
   Attributes:
-    wind: The core's `jax_env.Wind` over the host's field (through
+    wind: The core's `winds.Wind` over the host's field (through
       `jax.pure_callback`).
     reset: Called at every start with (the arena's wind key, the drawn
       start time); returns the flight's start time if the field chooses its
@@ -212,14 +214,14 @@ class Balloons(SeedRule):
   """What the single and the vector env share (a mixin of both).
 
   Attributes:
-    params: The env parameters (`jax_env.EnvParams`, checked).
-    state: The core's `jax_env.EnvState` (a leading balloon axis in the
+    params: The env parameters (`env_types.EnvParams`, checked).
+    state: The core's `env_types.EnvState` (a leading balloon axis in the
       vector env); None before the first reset.
     normalize_actions: Actions in [-1, 1]^3, mapped affinely onto the Box
       (`jax_env.to_box`, inside the compiled step).
   """
 
-  def _setup(self, params: Optional[jax_env.EnvParams],
+  def _setup(self, params: Optional[env_types.EnvParams],
              episode_steps: Optional[int], normalize_actions: bool,
              compiled: compile_lib.Compiled, host_wind: bool = False) -> None:
     """Checks and sets the params, spaces and compiled functions.
@@ -246,7 +248,7 @@ class Balloons(SeedRule):
     if episode_steps is not None:
       params = params.replace(episode_steps=int(episode_steps))
     self.params = params
-    self.state: Optional[jax_env.EnvState] = None
+    self.state: Optional[env_types.EnvState] = None
     self._fns = compiled
     self.normalize_actions = bool(normalize_actions)
     core = jax_env.LatexBalloonJaxEnv(normalize_actions=self.normalize_actions)
@@ -294,7 +296,7 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
       when the params hold its grid); a `HostWind`: its wind, asked on the
       host at every sub-step (`ble_latex.ble.wind.host_wind(field)` for a
       BLE `WindField`).
-    params: `jax_env.EnvParams` to fly instead of the gin-bound ones.
+    params: `env_types.EnvParams` to fly instead of the gin-bound ones.
 
   Attributes:
     flight: The balloon's `FlightState` after the last reset or step, as
@@ -318,7 +320,7 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
                episode_steps: Optional[int] = None,
                station_keeping_radius_km: Optional[float] = None,
                host_wind: Optional[HostWind] = None,
-               params: Optional[jax_env.EnvParams] = None):
+               params: Optional[env_types.EnvParams] = None):
     render_lib.check_render_mode(self, render_mode)
     self.render_mode = render_mode
     compile_lib.check_not_forked_after_jax()
@@ -388,7 +390,7 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
     """
     self._fns.ahead(arena_key, self.params, self.normalize_actions)
     state, keys = self._fns.draw(arena_key, self.params)
-    start = jax_env.START_EPOCH + dt.timedelta(
+    start = env_types.START_EPOCH + dt.timedelta(
         seconds=int(state.start_time_offset_s))
     if self._wind_field is not None:
       start = self._wind_field.reset(keys['wind'], start) or start

@@ -36,6 +36,7 @@ with quiet.third_party_noise():
   import jax
   import jax.numpy as jnp
   from ble_latex import gin_values
+  from ble_latex.envs import env_types
   from ble_latex.envs import gymnasium_compile as compile_lib
   from ble_latex.envs import jax_env
   # pylint: enable=g-import-not-at-top
@@ -177,7 +178,7 @@ class LatexBalloonVectorEnv(gymnasium_env.Balloons,
       None: gin's `LatexBalloonEnv.episode_steps` (216).
     max_episode_steps: As gymnasium's `TimeLimit` on the single env: the
       core's time limit becomes min(episode_steps, max_episode_steps).
-    params: `jax_env.EnvParams` to fly (checked, `jax_env.check_params`);
+    params: `env_types.EnvParams` to fly (checked, `jax_env.check_params`);
       `jax_env.params_from_gin()` if None.
     render_mode: Only None (use vectorization_mode='sync' to render).
 
@@ -196,7 +197,7 @@ class LatexBalloonVectorEnv(gymnasium_env.Balloons,
   def __init__(self, num_envs: int = 1, *, normalize_actions: bool = False,
                episode_steps: Optional[int] = None,
                max_episode_steps: Optional[int] = None,
-               params: Optional[jax_env.EnvParams] = None,
+               params: Optional[env_types.EnvParams] = None,
                render_mode: Optional[str] = None):
     num_envs = check_num_envs(num_envs)
     if render_mode is not None:

@@ -60,9 +60,8 @@ in JAX's default float32 (see docs/jax-env.md).
 import dataclasses
 import datetime as dt
 import functools
-from typing import Any, Callable, Dict, Mapping, NamedTuple, Optional, Tuple
+from typing import Any, Callable, Dict, Mapping, Optional, Tuple
 
-import flax
 import gin
 import jax
 from jax import custom_batching
@@ -72,8 +71,9 @@ import numpy as np
 from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex import jax_cache
+from ble_latex.envs import env_types
 from ble_latex.envs import jax_features
-from ble_latex.envs import task
+from ble_latex.envs import winds
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import dynamics
@@ -90,57 +90,12 @@ ACTION_LOW = controller_lib.ACTION_LOW  # The core's action Box.
 ACTION_HIGH = controller_lib.ACTION_HIGH
 # BLE's arena (balloon_arena.BalloonArena): start distance ~ Beta(1.2, 2).
 _START_BETA = (1.2, 2.0)
-# BLE's sampling.sample_time range: 2011-01-01 .. 2014-12-31, in seconds.
+# BLE's sampling.sample_time range: 2011-01-01 .. 2014-12-31, in seconds
+# from `env_types.START_EPOCH`.
 _START_TIME_RANGE_S = 126_230_400
-# ... from this date (a flight's `start_time_offset_s` counts from it).
-START_EPOCH = dt.datetime(2011, 1, 1, tzinfo=dt.timezone.utc)
-# Realistic physics (issue 28): the keys of the burst draw (from the reset
-# key) and of the lift random walk (from the step key) are folded in with
-# these, so the paper's draws stay as they were.
+# Realistic physics (issue 28): the key of the burst draw (from the reset
+# key) is folded in with this, so the paper's draws stay as they were.
 _BURST_KEY_DATA = 28_001
-_WALK_KEY_DATA = 28_002
-# START_EPOCH's day for the sun's clock (`FlightParams.start_day_j2000`).
-_EPOCH_DAY_J2000 = flight_params_lib.solar_clock(START_EPOCH, 'START_EPOCH')[0]
-
-
-def walk_key(state: 'EnvState') -> Array:
-  """The key of this stride's lift random walk (`FlightParams.lift_walk`).
-
-  A function of the flight's world (its start time and atmosphere, drawn at
-  reset) and the step count, so a seed's flight is the same whoever steps
-  it (the trainer's and the Gymnasium wrapper's step keys are shared by a
-  batch, or None).
-  """
-  alpha_bits = jax.lax.bitcast_convert_type(
-      state.atmosphere.alpha.astype(jnp.float32), jnp.uint32)
-  key = jax.random.fold_in(jax.random.PRNGKey(_WALK_KEY_DATA),
-                           state.start_time_offset_s)
-  return jax.random.fold_in(jax.random.fold_in(key, alpha_bits), state.steps)
-
-
-def flight_params_of(params: 'EnvParams', state: 'EnvState'
-                     ) -> flight_params_lib.FlightParams:
-  """The flight system of this flight: `params.flight`, with the sun's clock
-  set to the flight's start (`start_time_offset_s`) when the helium follows
-  the sun (`FlightParams.gas_superheat`); else `params.flight` itself.
-
-  Args:
-    params: The env parameters (their `flight` system).
-    state: The env state (its `start_time_offset_s`, int32 seconds after
-      `START_EPOCH`).
-
-  Returns:
-    The flight parameters to fly this flight with.
-  """
-  flight = params.flight
-  if not flight.gas_superheat:
-    return flight
-  offset = state.start_time_offset_s  # [s] int32
-  days = offset // 86_400
-  dtype = state.flight.time_s.dtype
-  return flight.replace(
-      start_day_j2000=_EPOCH_DAY_J2000 + days.astype(dtype),
-      start_second_of_day=(offset - days * 86_400).astype(dtype))
 
 
 def to_box(normalized: Array) -> Array:
@@ -155,113 +110,6 @@ def to_box(normalized: Array) -> Array:
   high = jnp.asarray(ACTION_HIGH, jnp.float32)
   u = jnp.clip(normalized, -1.0, 1.0)
   return jnp.clip(low + 0.5 * (u + 1.0) * (high - low), low, high)
-
-
-@flax.struct.dataclass
-class EnvParams:
-  """Everything that configures the env (gymnax's `EnvParams`).
-
-  Attributes:
-    flight: The flight system and controller (`flight.params`).
-    decoder: BLE's VAE decoder variables (`generative.decoder_params()`).
-    radius_km: Station-keeping radius of the reward. # [km]
-    reward_dropoff: Reward just outside the radius. # [.]
-    reward_halflife_km: Half-life of the reward outside the radius. # [km]
-    helium_penalty_per_mol: Reward penalty per mol vented. # [1/mol]
-    sand_penalty_per_kg: Reward penalty per kg dropped. # [1/kg]
-    station_keeping_radius_km: TW50's radius (metrics, figures). # [km]
-    start_altitude_low_m: Start altitude band, low edge. # [m]
-    start_altitude_high_m: Start altitude band, high edge. # [m]
-    max_start_distance_km: Scale of the Beta start distance. # [km]
-    episode_steps: Strides per episode (216 = 3 days); traced, so a new
-      length does not recompile.
-    stride_s: Simulated time per action (the arena's stride). Static. # [s]
-    wind_grid: None: the winds are the env's `Wind` (BLE's generative field
-      by default); an `era5_jax.Era5Grid`: ERA5 winds plus BLE's simplex
-      noise (`era5_wind`), the grid shared by every balloon.
-    reset_pool: None: `step` auto-resets a finished flight with the world
-      of its key (`reset(key)`, a full reset computed at every step); a
-      `ResetPool` (`LatexBalloonJaxEnv.with_reset_pool`): `step` auto-resets
-      from the pool's pre-drawn worlds, shared by every balloon (cheap).
-  """
-  flight: flight_params_lib.FlightParams
-  decoder: Any
-  radius_km: float = task.STATION_RADIUS_KM
-  reward_dropoff: float = 0.4
-  reward_halflife_km: float = 100.0
-  helium_penalty_per_mol: float = 0.0
-  sand_penalty_per_kg: float = 0.0
-  station_keeping_radius_km: float = task.STATION_RADIUS_KM
-  start_altitude_low_m: float = 15_000.0
-  start_altitude_high_m: float = 20_000.0
-  max_start_distance_km: float = 200.0
-  episode_steps: int = 216
-  stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
-  wind_grid: Optional[era5_jax.Era5Grid] = None
-  reset_pool: Optional['ResetPool'] = None
-
-  @property
-  def max_steps_in_episode(self) -> int:
-    """gymnax's name of `episode_steps`."""
-    return self.episode_steps
-
-
-@flax.struct.dataclass
-class EnvState:
-  """One balloon's world and flight (gymnax's `EnvState`; frozen pytree).
-
-  Attributes:
-    flight: The balloon (`flight.state.FlightState`).
-    atmosphere: This flight's atmosphere.
-    forecast: This flight's forecast wind field (None on ERA5 winds).
-    noise_u: Noise of the eastward wind component.
-    noise_v: Noise of the northward wind component.
-    initial: References of the resource features.
-    history: Feature history (altitude, ascent rate, float action).
-    wind_u: Measured (ground-truth) eastward wind at the balloon. # [m/s]
-    wind_v: Measured (ground-truth) northward wind at the balloon. # [m/s]
-    start_time_offset_s: Start time after `START_EPOCH` (BLE's date; on
-      ERA5 winds the flight's start in the data). # [s]
-    steps: Strides flown in this episode (the one step count).
-    pending_world: -1; after an auto-reset from `EnvParams.reset_pool`, the
-      pool world whose large leaves (forecast grid, noise permutations)
-      `step_env` installs first (`install_world`).
-  """
-  flight: state_lib.FlightState
-  atmosphere: atmosphere_lib.AtmosphereParams
-  forecast: generative.ForecastField
-  noise_u: simplex.NoiseParams
-  noise_v: simplex.NoiseParams
-  initial: jax_features.InitialResources
-  history: jax_features.History
-  wind_u: Array
-  wind_v: Array
-  start_time_offset_s: Array
-  steps: Array
-  pending_world: Array
-
-
-@flax.struct.dataclass
-class ResetPool:
-  """K pre-drawn worlds that `step` auto-resets from (`EnvParams.reset_pool`).
-
-  Built by `LatexBalloonJaxEnv.with_reset_pool(key, params, size)`: world k
-  is `reset(jax.random.split(key, size)[k], params)` (vmapped), i.e. the
-  world of an explicit reset with that key. A pytree of arrays with a
-  leading axis K, read by every balloon (pass the params unbatched,
-  `in_axes=None`: one copy, not one per balloon).
-
-  Attributes:
-    obs: [K, 71] the worlds' first observations.
-    state: `EnvState` with a leading axis K (measured, `steps` = 0).
-  """
-  obs: Array
-  state: EnvState
-
-  @property
-  def size(self) -> int:
-    """K, the number of worlds."""
-    return self.obs.shape[0]
 
 
 def pool_index(key: Array, size: int) -> Array:
@@ -347,7 +195,8 @@ def _install_batched(axis_size, in_batched, pending, large, pool_large):
   return out, jax.tree.map(lambda _: True, out)
 
 
-def install_world(state: EnvState, params: EnvParams) -> EnvState:
+def install_world(state: env_types.EnvState, params: env_types.EnvParams
+                  ) -> env_types.EnvState:
   """`state` with its pending pool world's large parts in place.
 
   After an auto-reset from `EnvParams.reset_pool`, `step` returns the new
@@ -418,8 +267,9 @@ def _select_reset_batched(axis_size, in_batched, done, index, small,
   return out, jax.tree.map(lambda _: True, out)
 
 
-def _reset_from_pool(done: Array, index: Array, state: EnvState, obs: Array,
-                     pool: ResetPool) -> Tuple[EnvState, Array]:
+def _reset_from_pool(done: Array, index: Array, state: env_types.EnvState,
+                     obs: Array, pool: env_types.ResetPool
+                     ) -> Tuple[env_types.EnvState, Array]:
   """Where `done`: pool world `index`'s small leaves and observation now,
   its large leaves pending (`install_world`); elsewhere unchanged."""
   leaves, treedef = jax.tree.flatten(state)
@@ -437,109 +287,8 @@ def _reset_from_pool(done: Array, index: Array, state: EnvState, obs: Array,
                              for x, b in zip(leaves, small)]), new_obs)
 
 
-def ground_truth_wind(state: EnvState, x_m: Array, y_m: Array,
-                      pressure_pa: Array, t_s: Array) -> Tuple[Array, Array]:
-  """BLE's `WindField.get_ground_truth`: forecast plus simplex noise. # [m/s]
-
-  Args:
-    state: The env state (its forecast and noise).
-    x_m: East of the station. # [m]
-    y_m: North of the station. # [m]
-    pressure_pa: Pressure. # [Pa]
-    t_s: Time since the start of the flight. # [s]
-
-  Returns:
-    (u, v) eastward and northward wind.
-  """
-  u, v = generative.forecast(state.forecast, x_m, y_m, pressure_pa, t_s)
-  return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s)
-
-
-def _add_noise(state: EnvState, u: Array, v: Array, x_m: Array, y_m: Array,
-               pressure_pa: Array, t_s: Array) -> Tuple[Array, Array]:
-  """(u, v) plus BLE's simplex noise of the flight. # [m/s]"""
-  x_km, y_km, hours = x_m / 1000.0, y_m / 1000.0, t_s / 3600.0
-  noise_u, noise_v = simplex.wind_noise_uv(state.noise_u, state.noise_v, x_km,
-                                           y_km, pressure_pa, hours)
-  return u + noise_u, v + noise_v
-
-
-def forecast_column(state: EnvState, x_m: Array, y_m: Array,
-                    pressures_pa: Array, t_s: Array) -> Tuple[Array, Array]:
-  """BLE's `WindField.get_forecast_column` of this flight's forecast. # [m/s]
-
-  Args:
-    state: The env state (its forecast).
-    x_m: East of the station. # [m]
-    y_m: North of the station. # [m]
-    pressures_pa: The column's pressure levels. # [Pa]
-    t_s: Time since the start of the flight. # [s]
-
-  Returns:
-    (u, v) eastward and northward wind columns, one value per pressure
-    level. # [m/s]
-  """
-  return generative.forecast_column(state.forecast, x_m, y_m, pressures_pa,
-                                    t_s)
-
-
-class Wind(NamedTuple):
-  """Where the winds come from: two functions of the env state (static).
-
-  Attributes:
-    ground_truth: (state, x [m], y [m], pressure [Pa], t [s]) -> (u, v):
-      the wind the balloon flies in (BLE's `get_ground_truth`). # [m/s]
-    forecast_column: (state, x [m], y [m], pressures [Pa], t [s]) -> (u, v)
-      columns: the forecast the features read (BLE's
-      `get_forecast_column`). # [m/s]
-  """
-  ground_truth: Callable[..., Tuple[Array, Array]]
-  forecast_column: Callable[..., Tuple[Array, Array]]
-
-
-# BLE's generative field (VAE forecast + simplex noise), drawn at reset.
-GENERATIVE_WIND = Wind(ground_truth_wind, forecast_column)
-# `START_EPOCH` after 1970-01-01 UTC. # [min]
-_EPOCH_MIN = int(START_EPOCH.timestamp()) // 60
-
-
-def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
-  """ERA5 winds plus BLE's simplex noise (`wind.era5.Era5WindField`).
-
-  The env flies it when `EnvParams.wind_grid` is set
-  (`LatexBalloonJaxEnv.wind_for`): the grid is then a traced argument, read
-  by every balloon (not a compile-time constant, not copied per balloon).
-  The flight's start in the data is its `start_time_offset_s` (int32
-  seconds after `START_EPOCH`: data from 1943 to 2079).
-
-  Args:
-    grid: The ERA5 grid (`era5_jax.grid_from_data`).
-
-  Returns:
-    The wind: ground truth = ERA5 forecast + BLE's simplex noise (forecast
-    only if not `grid.add_noise`), forecast columns of the ERA5 forecast.
-  """
-  def data_time_s(state, t_s):
-    start_s = state.start_time_offset_s - (grid.first_time_min -
-                                           _EPOCH_MIN) * 60
-    return start_s.astype(t_s.dtype) + t_s
-
-  def ground_truth(state, x_m, y_m, pressure_pa, t_s):
-    u, v = era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
-                             pressure_pa)
-    if not grid.add_noise:
-      return u, v
-    return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s)
-
-  def column(state, x_m, y_m, pressures_pa, t_s):
-    return era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
-                             pressures_pa)
-
-  return Wind(ground_truth, column)
-
-
-def observation(state: EnvState, params: EnvParams,
-                wind: Wind = GENERATIVE_WIND) -> Array:
+def observation(state: env_types.EnvState, params: env_types.EnvParams,
+                wind: winds.Wind = winds.GENERATIVE_WIND) -> Array:
   """The 71 features of `state` (`jax_features` order), float32.
 
   Args:
@@ -561,7 +310,8 @@ def observation(state: EnvState, params: EnvParams,
       state.history)
 
 
-def measure(state: EnvState, wind: Wind = GENERATIVE_WIND) -> EnvState:
+def measure(state: env_types.EnvState,
+            wind: winds.Wind = winds.GENERATIVE_WIND) -> env_types.EnvState:
   """The arena's measurement: the ground-truth wind at the balloon.
 
   Args:
@@ -577,7 +327,7 @@ def measure(state: EnvState, wind: Wind = GENERATIVE_WIND) -> EnvState:
   return state.replace(wind_u=u, wind_v=v)
 
 
-def step_info(state: EnvState, params: EnvParams,
+def step_info(state: env_types.EnvState, params: env_types.EnvParams,
               invalid_action: Any = False) -> Dict[str, Array]:
   """The numbers behind the envs' `info` after a reset or step (arrays).
 
@@ -681,7 +431,7 @@ class LatexBalloonJaxEnv:
   num_features = jax_features.NUM_FEATURES
   num_actions = len(ACTION_LOW)  # gymnax: the action's size.
 
-  def __init__(self, wind: Wind = GENERATIVE_WIND, *,
+  def __init__(self, wind: winds.Wind = winds.GENERATIVE_WIND, *,
                normalize_actions: bool = True):
     self.wind = wind
     self.normalize_actions = bool(normalize_actions)
@@ -704,8 +454,8 @@ class LatexBalloonJaxEnv:
     here if this env takes raw actions; the env maps it otherwise)."""
     return normalized if self.normalize_actions else to_box(normalized)
 
-  def with_reset_pool(self, key: Array, params: EnvParams,
-                      size: int) -> EnvParams:
+  def with_reset_pool(self, key: Array, params: env_types.EnvParams,
+                      size: int) -> env_types.EnvParams:
     """`params` with a pool of `size` pre-drawn worlds for `step`'s resets.
 
     World k is `reset(jax.random.split(key, size)[k], params)` (vmapped, one
@@ -722,26 +472,26 @@ class LatexBalloonJaxEnv:
       size: K >= 1 worlds.
 
     Returns:
-      params.replace(reset_pool=ResetPool(...)).
+      params.replace(reset_pool=env_types.ResetPool(...)).
     """
     gin_values.check_int('reset pool size', size, minimum=1)
     params = params.replace(reset_pool=None)
     obs, state = jax.jit(jax.vmap(self.reset, in_axes=(0, None)))(
         jax.random.split(key, int(size)), params)
-    return params.replace(reset_pool=ResetPool(obs=obs, state=state))
+    return params.replace(reset_pool=env_types.ResetPool(obs=obs, state=state))
 
   @property
-  def default_params(self) -> EnvParams:
+  def default_params(self) -> env_types.EnvParams:
     """Parameters from the current gin bindings (defaults where unbound)."""
     return params_from_gin()
 
-  def observation_space(self, params: EnvParams) -> Any:
+  def observation_space(self, params: env_types.EnvParams) -> Any:
     """The 71 features in [-1, 1] (a `gymnasium.spaces.Box`)."""
     del params
     import gymnasium  # pylint: disable=g-import-not-at-top
     return gymnasium.spaces.Box(-1.0, 1.0, (self.num_features,), np.float32)
 
-  def action_space(self, params: EnvParams) -> Any:
+  def action_space(self, params: env_types.EnvParams) -> Any:
     """[-1, 1]^3 (`normalize_actions`), else (a0 [m], a1, a2) the
     controller's Box; a float32 `gymnasium.spaces.Box`."""
     del params
@@ -752,7 +502,8 @@ class LatexBalloonJaxEnv:
                                 np.asarray(ACTION_HIGH, np.float32),
                                 dtype=np.float32)
 
-  def reset(self, key: Array, params: EnvParams) -> Tuple[Array, EnvState]:
+  def reset(self, key: Array, params: env_types.EnvParams
+            ) -> Tuple[Array, env_types.EnvState]:
     """A new flight drawn from `key` (BLE's gym env's `reset(seed=s)` world).
 
     Args:
@@ -767,7 +518,7 @@ class LatexBalloonJaxEnv:
     state = measure(state, wind)
     return observation(state, params, wind), state
 
-  def wind_for(self, params: EnvParams) -> Wind:
+  def wind_for(self, params: env_types.EnvParams) -> winds.Wind:
     """The winds flown under `params`: `era5_wind(params.wind_grid)` if set.
 
     Raises:
@@ -775,13 +526,13 @@ class LatexBalloonJaxEnv:
     """
     if params.wind_grid is None:
       return self.wind
-    if self.wind is not GENERATIVE_WIND:
+    if self.wind is not winds.GENERATIVE_WIND:
       raise ValueError('EnvParams.wind_grid (ERA5) is set, and the env was '
                        'given another wind; give one of them')
-    return era5_wind(params.wind_grid)
+    return winds.era5_wind(params.wind_grid)
 
-  def draw(self, key: Array, params: EnvParams
-           ) -> Tuple[EnvState, Dict[str, Array]]:
+  def draw(self, key: Array, params: env_types.EnvParams
+           ) -> Tuple[env_types.EnvState, Dict[str, Array]]:
     """The world and balloon of BLE's `arena.reset(key)`, not yet measured.
 
     Args:
@@ -813,9 +564,7 @@ class LatexBalloonJaxEnv:
       forecast = generative.reset_forecast(forecast_key, params.decoder)
     else:  # ERA5: `Era5WindField.reset_forecast`'s start, no VAE forecast.
       forecast = None
-      minute = era5_jax.draw_start_minute(params.wind_grid, forecast_key)
-      start_time = (params.wind_grid.first_time_min - _EPOCH_MIN +
-                    minute) * 60
+      start_time = winds.era5_start_offset_s(params.wind_grid, forecast_key)
 
     # Realistic physics' burst draw: a key of its own (folded in, so the
     # paper's draws above are unchanged); unused unless burst_spread.
@@ -824,7 +573,7 @@ class LatexBalloonJaxEnv:
         jnp.sin(theta) * radius_km * 1000.0, atm_params=atmosphere,
         key=(jax.random.fold_in(key, _BURST_KEY_DATA)
              if params.flight.burst_spread else None))
-    state = EnvState(
+    state = env_types.EnvState(
         flight=flight, atmosphere=atmosphere, forecast=forecast,
         noise_u=noise_u, noise_v=noise_v,
         initial=jax_features.initial_resources(
@@ -838,9 +587,10 @@ class LatexBalloonJaxEnv:
     return state, {'wind': wind_key, 'location': location_key,
                    'atmosphere': atmosphere_key}
 
-  def step_env(self, key: Array, state: EnvState, action: Array,
-               params: EnvParams
-               ) -> Tuple[Array, EnvState, Array, Array, Dict[str, Array]]:
+  def step_env(self, key: Array, state: env_types.EnvState, action: Array,
+               params: env_types.EnvParams
+               ) -> Tuple[Array, env_types.EnvState, Array, Array,
+                          Dict[str, Array]]:
     """One 20-minute controller action, without auto-reset.
 
     Args:
@@ -873,9 +623,9 @@ class LatexBalloonJaxEnv:
       return wind.ground_truth(state, x_m, y_m, pressure_pa, t_s)
 
     flight = dynamics.step(
-        flight_params_of(params, state), state.atmosphere, before, action,
-        wind_fn, params.stride_s,
-        key=walk_key(state) if params.flight.lift_walk else None)
+        env_types.flight_params_of(params, state), state.atmosphere, before,
+        action, wind_fn, params.stride_s,
+        key=env_types.walk_key(state) if params.flight.lift_walk else None)
     state = state.replace(
         flight=flight,
         # The state after the step becomes history slot t-1 (jax_features).
@@ -894,9 +644,10 @@ class LatexBalloonJaxEnv:
     return (observation(state, params, wind), state, reward, terminated,
             info)
 
-  def step(self, key: Array, state: EnvState, action: Array,
-           params: EnvParams
-           ) -> Tuple[Array, EnvState, Array, Array, Array, Dict[str, Any]]:
+  def step(self, key: Array, state: env_types.EnvState, action: Array,
+           params: env_types.EnvParams
+           ) -> Tuple[Array, env_types.EnvState, Array, Array, Array,
+                      Dict[str, Any]]:
     """`step_env`, then a new flight where the episode ended (auto-reset).
 
     gymnax 1.0's auto-reset: the returned observation and state are the new
@@ -1033,7 +784,7 @@ def start_band(value: Any) -> Tuple[Any, Any]:
   return value[0], value[1]
 
 
-def check_params(params: EnvParams) -> EnvParams:
+def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
   """Checks every value of `EnvParams` (one validator for every path).
 
   Called where `EnvParams` is built (`params_from_gin`) and where params are
@@ -1194,7 +945,7 @@ def check_wind_grid(grid: Any) -> None:
 # held them, so existing gin files and commands keep working. Their defaults
 # are `EnvParams`' field defaults, the one home of each.
 _GIN_MODULE = 'ble_latex.envs.jax_env'
-_DEFAULTS = {f.name: f.default for f in dataclasses.fields(EnvParams)
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(env_types.EnvParams)
              if f.default is not dataclasses.MISSING}
 
 
@@ -1258,7 +1009,7 @@ def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
   return dict(locals())  # The arguments above, by name.
 
 
-def params_from_gin() -> EnvParams:
+def params_from_gin() -> env_types.EnvParams:
   """`EnvParams` from the gin bindings (the defaults where unbound).
 
   The configurables above, the flight system's
@@ -1278,89 +1029,14 @@ def params_from_gin() -> EnvParams:
        'reward_dropoff': _DEFAULTS['reward_dropoff'],
        'reward_halflife': _DEFAULTS['reward_halflife_km']})
   values = episode()
-  grid = era5_grid_from_gin(values.pop('wind_field_factory'))
-  params = check_params(EnvParams(
+  grid = winds.era5_grid_from_gin(values.pop('wind_field_factory'))
+  params = check_params(env_types.EnvParams(
       flight=flight_params_lib.flight_params_from_gin(), decoder=None,
       radius_km=ble['station_keeping_radius_km'],
       reward_dropoff=ble['reward_dropoff'],
       reward_halflife_km=ble['reward_halflife'],
       **resource_penalties(), **start(), **values, wind_grid=grid))
   return params.replace(decoder=generative.decoder_params())
-
-
-def is_era5(field_or_factory: Any) -> bool:
-  """Whether the gym envs fly this wind (factory) as an ERA5 grid in JAX.
-
-  True for `era5.Era5WindField` (the class, gin's `@Era5WindField`) and
-  its instances (not subclasses): they fly `EnvParams.wind_grid`; every
-  other BLE `WindField` flies through host callbacks (`ble_latex.ble.wind`).
-  """
-  return (field_or_factory is era5.Era5WindField or
-          type(field_or_factory) is era5.Era5WindField)  # pylint: disable=unidiomatic-typecheck
-
-
-# Grids built from `Era5WindField`s, by (data, target, flight, dates): every
-# env of a process shares one device copy of a file's winds.
-_GRIDS: Dict[Tuple[Any, ...], Tuple[Any, era5_jax.Era5Grid]] = {}
-
-
-def era5_grid(field: era5.Era5WindField) -> era5_jax.Era5Grid:
-  """The device grid of an `Era5WindField` (cached per data and settings).
-
-  Two settings that differ only in `start_dates` share the winds' arrays
-  (`era5_jax.with_start_dates`).
-  """
-  data = field.data
-  base = (id(data), field.center_lat, field.center_lon, field.episode_hours,
-          field.add_noise)
-  key = base + (repr(field.start_dates),)
-  if key not in _GRIDS:
-    shared = next((grid for k, (d, grid) in _GRIDS.items()
-                   if k[:-1] == base and d is data), None)
-    if shared is None:
-      grid = era5_jax.grid_from_field(field)
-    else:
-      grid = era5_jax.with_start_dates(
-          shared, data, start_dates=field.start_dates,
-          center_lat=field.center_lat, center_lon=field.center_lon,
-          episode_hours=field.episode_hours)
-    if len(_GRIDS) >= 8:
-      _GRIDS.clear()
-    _GRIDS[key] = (data, grid)
-  return _GRIDS[key][1]
-
-
-def era5_grid_from_gin(factory: Any = None) -> Optional[era5_jax.Era5Grid]:
-  """The ERA5 grid of gin's `LatexBalloonEnv.wind_field_factory`, or None.
-
-  With `LatexBalloonEnv.wind_field_factory = @Era5WindField` (or `factory`
-  `era5.Era5WindField`) the `Era5WindField.*` bindings (path, target,
-  episode_hours, add_noise, start_dates) are read, the file(s) by the one
-  reader (`era5.load`), into the grid every env flies
-  (`EnvParams.wind_grid`). Any other factory: None.
-
-  Raises:
-    errors.ConfigError: `Era5WindField.path` unbound, or a bad binding.
-    FileNotFoundError, errors.BadFileError: As `era5.load`.
-  """
-  if factory is None:
-    factory = episode()['wind_field_factory']
-  if factory is not era5.Era5WindField:
-    return None
-  try:
-    gin.query_parameter('Era5WindField.path')
-  except ValueError as e:
-    raise errors.ConfigError(
-        'LatexBalloonEnv.wind_field_factory = @Era5WindField needs the ERA5 '
-        "file: bind Era5WindField.path = 'era5_paper.nc' (or --era5_path)"
-        ) from e
-  try:
-    field = factory()
-  except errors.BadFileError:
-    raise
-  except ValueError as e:
-    raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
-  return era5_grid(field)
 
 
 def stride_seconds(value: Any) -> float:
@@ -1371,7 +1047,7 @@ def stride_seconds(value: Any) -> float:
 
 @functools.partial(jax.jit, static_argnums=(0, 4))
 def rollout(env: LatexBalloonJaxEnv, keys: Array, actions: Array,
-            params: EnvParams, num_steps: int
+            params: env_types.EnvParams, num_steps: int
             ) -> Tuple[Array, Array, Array]:
   """Flies N balloons for `num_steps` strides in one jitted call.
 

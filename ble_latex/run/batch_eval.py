@@ -57,8 +57,10 @@ from ble_latex.agents import planning
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
 from ble_latex.ble import gym_env
+from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
+from ble_latex.envs import winds
 from ble_latex.flight import state as state_lib
 from ble_latex import jax_cache
 from ble_latex.run import metrics
@@ -86,7 +88,7 @@ class CorePolicy:
 
   max_batch: Optional[int] = None
 
-  def begin(self, states: jax_env.EnvState,
+  def begin(self, states: env_types.EnvState,
             observations: np.ndarray) -> np.ndarray:
     """The first actions of N new episodes.
 
@@ -99,7 +101,7 @@ class CorePolicy:
     """
     raise NotImplementedError
 
-  def step(self, states: jax_env.EnvState, observations: np.ndarray,
+  def step(self, states: env_types.EnvState, observations: np.ndarray,
            rewards: np.ndarray) -> np.ndarray:
     """The next actions, after a stride.
 
@@ -118,8 +120,8 @@ class CorePolicy:
 class CoreEnv:
   """What the batched episodes fly: the gym env's core, params and wind."""
   env: jax_env.LatexBalloonJaxEnv
-  params: jax_env.EnvParams
-  wind: jax_env.Wind
+  params: env_types.EnvParams
+  wind: winds.Wind
 
 
 @functools.singledispatch

@@ -34,6 +34,7 @@ import numpy as np
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
+from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
 from ble_latex.run import episode_log
@@ -318,7 +319,8 @@ class _RunDir:
   def record(self, *, iteration: int, state: sac_trainer.TrainState,
              out: sac_trainer.RoundOutput, wall: float,
              env: jax_env.LatexBalloonJaxEnv,
-             params: jax_env.EnvParams, validation_params: jax_env.EnvParams,
+             params: env_types.EnvParams,
+             validation_params: env_types.EnvParams,
              checkpoint: bool,
              policy_snapshot_period: int) -> Optional[Dict[str, Any]]:
     """Logs a finished round of this seed; returns its validation record.
@@ -393,8 +395,8 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
           collectors: Sequence[str] = ('progress', 'episodes', 'tensorboard'),
           policy_snapshot_period: int = 1, checkpoint_period: int = 1,
           validation_seeds: Sequence[int] = (),
-          env_params: Optional[jax_env.EnvParams] = None,
-          validation_params: Optional[jax_env.EnvParams] = None,
+          env_params: Optional[env_types.EnvParams] = None,
+          validation_params: Optional[env_types.EnvParams] = None,
           on_validation: Optional[Callable[[Dict[str, Any]], None]] = None,
           lock_wait_s: float = 0.0) -> sac_trainer.TrainState:
   """Runs (or resumes) one jitted training run; gin must already be bound.
@@ -449,8 +451,8 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
                                              'tensorboard'),
                 policy_snapshot_period: int = 1, checkpoint_period: int = 1,
                 validation_seeds: Sequence[int] = (),
-                env_params: Optional[jax_env.EnvParams] = None,
-                validation_params: Optional[jax_env.EnvParams] = None,
+                env_params: Optional[env_types.EnvParams] = None,
+                validation_params: Optional[env_types.EnvParams] = None,
                 on_validation: Optional[Callable[[Dict[str, Any]], None]] = None,
                 vmap: bool = False, lock_wait_s: float = 0.0
                 ) -> List[sac_trainer.TrainState]:

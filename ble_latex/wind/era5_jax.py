@@ -5,7 +5,7 @@
 latitude, longitude; `era5.load` stays the one reader: loading, validation,
 errors) as float32 device arrays, with the station-keeping target and the
 start-time range of `Era5WindField`. It is a pytree: put it in the env's
-params (`jax_env.EnvParams.wind_grid`) and every balloon of a vmapped batch
+params (`env_types.EnvParams.wind_grid`) and every balloon of a vmapped batch
 reads the same arrays (never copied per balloon), and a new grid of the
 same shape does not recompile.
 

@@ -1,0 +1,222 @@
+# coding=utf-8
+"""Where the functional env's winds come from (`Wind` adapters).
+
+A `Wind` is two pure functions of the env state: the ground truth the
+balloon flies in and the forecast column the features read (BLE's
+`WindField.get_ground_truth` / `get_forecast_column`).
+
+- `GENERATIVE_WIND`: BLE's generative field, the VAE forecast drawn at
+  reset (`wind.generative`) plus BLE's simplex noise (`wind.simplex`).
+- `era5_wind(grid)`: ERA5 winds (`wind.era5_jax`) plus the same noise, the
+  grid a traced argument shared by every balloon (`EnvParams.wind_grid`).
+- BLE's other wind fields fly through host callbacks (`ble_latex.ble.wind`).
+
+`is_era5`, `era5_grid` and `era5_grid_from_gin` turn gin's or BLE's ERA5
+wind field into the grid the env flies.
+"""
+
+from typing import Any, Callable, Dict, NamedTuple, Optional, Tuple
+
+import gin
+import jax
+
+from ble_latex import errors
+from ble_latex.envs import env_types
+from ble_latex.wind import era5
+from ble_latex.wind import era5_jax
+from ble_latex.wind import generative
+from ble_latex.wind import simplex
+
+Array = jax.Array
+
+
+def ground_truth_wind(state: env_types.EnvState, x_m: Array, y_m: Array,
+                      pressure_pa: Array, t_s: Array) -> Tuple[Array, Array]:
+  """BLE's `WindField.get_ground_truth`: forecast plus simplex noise. # [m/s]
+
+  Args:
+    state: The env state (its forecast and noise).
+    x_m: East of the station. # [m]
+    y_m: North of the station. # [m]
+    pressure_pa: Pressure. # [Pa]
+    t_s: Time since the start of the flight. # [s]
+
+  Returns:
+    (u, v) eastward and northward wind.
+  """
+  u, v = generative.forecast(state.forecast, x_m, y_m, pressure_pa, t_s)
+  return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s)
+
+
+def _add_noise(state: env_types.EnvState, u: Array, v: Array, x_m: Array,
+               y_m: Array, pressure_pa: Array,
+               t_s: Array) -> Tuple[Array, Array]:
+  """(u, v) plus BLE's simplex noise of the flight. # [m/s]"""
+  x_km, y_km, hours = x_m / 1000.0, y_m / 1000.0, t_s / 3600.0
+  noise_u, noise_v = simplex.wind_noise_uv(state.noise_u, state.noise_v, x_km,
+                                           y_km, pressure_pa, hours)
+  return u + noise_u, v + noise_v
+
+
+def forecast_column(state: env_types.EnvState, x_m: Array, y_m: Array,
+                    pressures_pa: Array, t_s: Array) -> Tuple[Array, Array]:
+  """BLE's `WindField.get_forecast_column` of this flight's forecast. # [m/s]
+
+  Args:
+    state: The env state (its forecast).
+    x_m: East of the station. # [m]
+    y_m: North of the station. # [m]
+    pressures_pa: The column's pressure levels. # [Pa]
+    t_s: Time since the start of the flight. # [s]
+
+  Returns:
+    (u, v) eastward and northward wind columns, one value per pressure
+    level. # [m/s]
+  """
+  return generative.forecast_column(state.forecast, x_m, y_m, pressures_pa,
+                                    t_s)
+
+
+class Wind(NamedTuple):
+  """Where the winds come from: two functions of the env state (static).
+
+  Attributes:
+    ground_truth: (state, x [m], y [m], pressure [Pa], t [s]) -> (u, v):
+      the wind the balloon flies in (BLE's `get_ground_truth`). # [m/s]
+    forecast_column: (state, x [m], y [m], pressures [Pa], t [s]) -> (u, v)
+      columns: the forecast the features read (BLE's
+      `get_forecast_column`). # [m/s]
+  """
+  ground_truth: Callable[..., Tuple[Array, Array]]
+  forecast_column: Callable[..., Tuple[Array, Array]]
+
+
+# BLE's generative field (VAE forecast + simplex noise), drawn at reset.
+GENERATIVE_WIND = Wind(ground_truth_wind, forecast_column)
+# `START_EPOCH` after 1970-01-01 UTC. # [min]
+_EPOCH_MIN = int(env_types.START_EPOCH.timestamp()) // 60
+
+
+def era5_start_offset_s(grid: era5_jax.Era5Grid, key: Array) -> Array:
+  """A flight's start in the ERA5 data, drawn from `key`. # [s]
+
+  `Era5WindField.reset_forecast`'s start (`era5_jax.draw_start_minute`),
+  counted from `env_types.START_EPOCH` (the env's `start_time_offset_s`).
+
+  Args:
+    grid: The ERA5 grid (its first time and start range).
+    key: The forecast key of the reset (BLE's wind key's second half).
+
+  Returns:
+    The start, seconds after `START_EPOCH` (int scalar).
+  """
+  minute = era5_jax.draw_start_minute(grid, key)
+  return (grid.first_time_min - _EPOCH_MIN + minute) * 60
+
+
+def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
+  """ERA5 winds plus BLE's simplex noise (`wind.era5.Era5WindField`).
+
+  The env flies it when `EnvParams.wind_grid` is set
+  (`LatexBalloonJaxEnv.wind_for`): the grid is then a traced argument, read
+  by every balloon (not a compile-time constant, not copied per balloon).
+  The flight's start in the data is its `start_time_offset_s` (int32
+  seconds after `START_EPOCH`: data from 1943 to 2079).
+
+  Args:
+    grid: The ERA5 grid (`era5_jax.grid_from_data`).
+
+  Returns:
+    The wind: ground truth = ERA5 forecast + BLE's simplex noise (forecast
+    only if not `grid.add_noise`), forecast columns of the ERA5 forecast.
+  """
+  def data_time_s(state, t_s):
+    start_s = state.start_time_offset_s - (grid.first_time_min -
+                                           _EPOCH_MIN) * 60
+    return start_s.astype(t_s.dtype) + t_s
+
+  def ground_truth(state, x_m, y_m, pressure_pa, t_s):
+    u, v = era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
+                             pressure_pa)
+    if not grid.add_noise:
+      return u, v
+    return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s)
+
+  def column(state, x_m, y_m, pressures_pa, t_s):
+    return era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
+                             pressures_pa)
+
+  return Wind(ground_truth, column)
+
+
+def is_era5(field_or_factory: Any) -> bool:
+  """Whether the gym envs fly this wind (factory) as an ERA5 grid in JAX.
+
+  True for `era5.Era5WindField` (the class, gin's `@Era5WindField`) and
+  its instances (not subclasses): they fly `EnvParams.wind_grid`; every
+  other BLE `WindField` flies through host callbacks (`ble_latex.ble.wind`).
+  """
+  return (field_or_factory is era5.Era5WindField or
+          type(field_or_factory) is era5.Era5WindField)  # pylint: disable=unidiomatic-typecheck
+
+
+# Grids built from `Era5WindField`s, by (data, target, flight, dates): every
+# env of a process shares one device copy of a file's winds.
+_GRIDS: Dict[Tuple[Any, ...], Tuple[Any, era5_jax.Era5Grid]] = {}
+
+
+def era5_grid(field: era5.Era5WindField) -> era5_jax.Era5Grid:
+  """The device grid of an `Era5WindField` (cached per data and settings).
+
+  Two settings that differ only in `start_dates` share the winds' arrays
+  (`era5_jax.with_start_dates`).
+  """
+  data = field.data
+  base = (id(data), field.center_lat, field.center_lon, field.episode_hours,
+          field.add_noise)
+  key = base + (repr(field.start_dates),)
+  if key not in _GRIDS:
+    shared = next((grid for k, (d, grid) in _GRIDS.items()
+                   if k[:-1] == base and d is data), None)
+    if shared is None:
+      grid = era5_jax.grid_from_field(field)
+    else:
+      grid = era5_jax.with_start_dates(
+          shared, data, start_dates=field.start_dates,
+          center_lat=field.center_lat, center_lon=field.center_lon,
+          episode_hours=field.episode_hours)
+    if len(_GRIDS) >= 8:
+      _GRIDS.clear()
+    _GRIDS[key] = (data, grid)
+  return _GRIDS[key][1]
+
+
+def era5_grid_from_gin(factory: Any) -> Optional[era5_jax.Era5Grid]:
+  """The ERA5 grid of a `LatexBalloonEnv.wind_field_factory` value, or None.
+
+  With `factory` `era5.Era5WindField` (gin's
+  `LatexBalloonEnv.wind_field_factory = @Era5WindField`) the
+  `Era5WindField.*` bindings (path, target, episode_hours, add_noise,
+  start_dates) are read, the file(s) by the one reader (`era5.load`), into
+  the grid every env flies (`EnvParams.wind_grid`). Any other factory: None.
+
+  Raises:
+    errors.ConfigError: `Era5WindField.path` unbound, or a bad binding.
+    FileNotFoundError, errors.BadFileError: As `era5.load`.
+  """
+  if factory is not era5.Era5WindField:
+    return None
+  try:
+    gin.query_parameter('Era5WindField.path')
+  except ValueError as e:
+    raise errors.ConfigError(
+        'LatexBalloonEnv.wind_field_factory = @Era5WindField needs the ERA5 '
+        "file: bind Era5WindField.path = 'era5_paper.nc' (or --era5_path)"
+        ) from e
+  try:
+    field = factory()
+  except errors.BadFileError:
+    raise
+  except ValueError as e:
+    raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
+  return era5_grid(field)
