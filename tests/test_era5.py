@@ -28,9 +28,13 @@ import pytest
 import s2sphere as s2
 import xarray as xr
 
-from ble_latex.cli import download_era5
 from ble_latex import configs
+from ble_latex import errors
+from ble_latex.ble import era5_field
+from ble_latex.cli import download_era5
 from ble_latex.wind import era5
+from ble_latex.wind import era5_checks
+from ble_latex.wind import era5_requests
 
 T0 = np.datetime64('2022-11-01T00:00', 'ns')
 TIMES = T0 + np.arange(3) * np.timedelta64(6, 'h')  # 12 h of data.
@@ -111,7 +115,7 @@ def fixture_era5_file(tmp_path):
 
 def make_field(path, **kwargs):
   kwargs.setdefault('episode_hours', 6.0)
-  field = era5.Era5WindField(path=path, **kwargs)
+  field = era5_field.Era5WindField(path=path, **kwargs)
   field.set_start_date_time(dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc))
   return field
 
@@ -332,7 +336,7 @@ def test_files_are_joined_along_time(tmp_path, era5_file):
 
 
 def test_start_sampling_is_deterministic_and_fits_the_episode(era5_file):
-  field = era5.Era5WindField(path=era5_file, episode_hours=6.0)
+  field = era5_field.Era5WindField(path=era5_file, episode_hours=6.0)
   starts = []
   for seed in range(40):
     key = jax.random.PRNGKey(seed)
@@ -350,11 +354,11 @@ def test_start_sampling_is_deterministic_and_fits_the_episode(era5_file):
 
 def test_episode_longer_than_data_is_an_error(era5_file):
   with pytest.raises(ValueError, match=r'shorter than episode_hours = 72'):
-    era5.Era5WindField(path=era5_file, episode_hours=72.0)
+    era5_field.Era5WindField(path=era5_file, episode_hours=72.0)
 
 
 def test_forecast_before_reset_is_an_error(era5_file):
-  field = era5.Era5WindField(path=era5_file, episode_hours=6.0)
+  field = era5_field.Era5WindField(path=era5_file, episode_hours=6.0)
   with pytest.raises(RuntimeError, match='reset'):
     field.get_forecast(units.Distance(km=0), units.Distance(km=0), 1e4,
                        dt.timedelta(0))
@@ -374,7 +378,7 @@ def test_non_finite_queries_are_errors(era5_file):
 
 @pytest.mark.parametrize('add_noise', [False, True])
 def test_add_noise_switch(era5_file, add_noise):
-  field = era5.Era5WindField(path=era5_file, episode_hours=6.0,
+  field = era5_field.Era5WindField(path=era5_file, episode_hours=6.0,
                              add_noise=add_noise)
   field.reset(jax.random.PRNGKey(7), dt.datetime(2013, 1, 1))
   args = (units.Distance(km=20.0), units.Distance(km=-10.0), 8000.0,
@@ -393,7 +397,7 @@ def test_add_noise_switch(era5_file, add_noise):
 def test_missing_file(tmp_path):
   path = str(tmp_path / 'nope.nc')
   with pytest.raises(FileNotFoundError, match=f'ERA5 file {path} does not'):
-    era5.Era5WindField(path=path)
+    era5_field.Era5WindField(path=path)
   with pytest.raises(FileNotFoundError, match='No ERA5 file matches'):
     era5.load(str(tmp_path / 'era5_*.nc'))
 
@@ -438,9 +442,9 @@ def test_nan_winds(tmp_path):
 def test_target_outside_area(era5_file):
   with pytest.raises(ValueError, match=r'Target \(lat 10.0, lon -113.0\) lies '
                      'outside the area of ERA5 file'):
-    era5.Era5WindField(path=era5_file, center_lat=10.0, episode_hours=6.0)
+    era5_field.Era5WindField(path=era5_file, center_lat=10.0, episode_hours=6.0)
   # The same target in the 0..360 convention is inside.
-  era5.Era5WindField(path=era5_file, center_lon=247.0, episode_hours=6.0)
+  era5_field.Era5WindField(path=era5_file, center_lon=247.0, episode_hours=6.0)
 
 
 def test_files_on_different_grids_are_not_joined(tmp_path, era5_file):
@@ -597,7 +601,7 @@ def test_directory_is_an_error(tmp_path, era5_file):
                        'directory'):
       era5.load(path)
   with pytest.raises(IsADirectoryError, match='is a directory'):
-    era5.Era5WindField(path=str(directory))
+    era5_field.Era5WindField(path=str(directory))
 
 
 @pytest.mark.parametrize('pressure_unit, units_attr', [
@@ -624,7 +628,7 @@ def test_hpa_numbers_labelled_pa_above_10_hpa_are_errors(tmp_path):
 
 @pytest.mark.parametrize('pressure_unit', ['hPa', 'Pa'])
 @pytest.mark.parametrize('levels_hpa', [
-    era5.ERA5_PRESSURE_LEVELS_HPA, (1, 2, 3, 5, 7, 10), (1, 2), (975, 1000)])
+    era5_checks.ERA5_PRESSURE_LEVELS_HPA, (1, 2, 3, 5, 7, 10), (1, 2), (975, 1000)])
 def test_every_era5_pressure_level_set_loads(tmp_path, pressure_unit,
                                              levels_hpa):
   levels = np.array(levels_hpa, dtype=np.float64)
@@ -695,6 +699,40 @@ def test_declared_fill_values_are_nan_errors(tmp_path, attribute):
     era5.load(path)
 
 
+# Other CF-style sources: the reader's `Layout`.
+
+
+def test_a_layout_reads_another_sources_names(tmp_path, era5_file):
+  """NCEP-style names (uwnd/vwnd on lev, lat, lon) read as ERA5's."""
+  ncep = era5.Layout(label='NCEP', variables=('uwnd', 'vwnd'),
+                     time=('time',), pressure=('lev',), latitude=('lat',),
+                     longitude=('lon',))
+
+  def rename(dataset):
+    return dataset.rename({'u': 'uwnd', 'v': 'vwnd', 'valid_time': 'time',
+                           'pressure_level': 'lev', 'latitude': 'lat',
+                           'longitude': 'lon'})
+
+  with xr.open_dataset(era5_file) as dataset:
+    renamed = rename(dataset.load())
+  path = str(tmp_path / 'ncep.nc')
+  renamed.to_netcdf(path)
+  got, want = era5.load(path, ncep), era5.load(era5_file)
+  for name in ('times', 'time_s', 'pressure', 'latitude', 'longitude', 'uv'):
+    np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+  with pytest.raises(errors.BadFileError) as error:
+    era5.load(path)  # ERA5's names are not in it.
+  assert str(error.value) == (
+      f"ERA5 file {path} has no variable 'u' (found: ['t', 'uwnd', 'vwnd'])")
+  renamed['uwnd'].values[0, 0, 0, 0] = np.nan
+  bad = str(tmp_path / 'ncep_nan.nc')
+  renamed.to_netcdf(bad)
+  with pytest.raises(errors.BadFileError) as error:
+    era5.load(bad, ncep)
+  assert str(error.value).startswith(
+      f'NCEP file {bad} has NaN/inf winds: 1 values of uwnd and 0 of vwnd')
+
+
 # Gin.
 
 
@@ -704,8 +742,10 @@ def test_paper_gin_file_binds_the_field(era5_file):
         [configs.gin_file('paper_era5.gin')],
         [f"Era5WindField.path = '{era5_file}'",
          'Era5WindField.episode_hours = 6.0'])
-    field = era5.Era5WindField()
-    assert field.add_noise
+    settings = era5.settings()  # gin's `Era5WindField.*`: plain values.
+    assert settings == era5.Era5Settings(path=era5_file, episode_hours=6.0)
+    field = era5_field.Era5WindField.from_settings(settings)
+    assert field.add_noise and field.settings == settings
     from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
     factory = gin.query_parameter('LatexBalloonEnv.wind_field_factory')
     assert factory.selector == 'Era5WindField'
@@ -718,7 +758,7 @@ def test_paper_gin_file_binds_the_field(era5_file):
 
 
 def test_paper_requests_are_exact():
-  requests = era5.build_requests()
+  requests = era5_requests.build_requests()
   assert [month for month, _ in requests] == ['2022-11', '2022-12', '2023-01']
   month, request = requests[0]
   assert request == {
@@ -742,7 +782,7 @@ def test_paper_requests_are_exact():
 
 
 def test_requests_for_partial_months():
-  requests = era5.build_requests(start_date=dt.date(2022, 12, 30),
+  requests = era5_requests.build_requests(start_date=dt.date(2022, 12, 30),
                                  end_date=dt.date(2023, 1, 2),
                                  half_width_deg=2.0, min_pressure_hpa=50,
                                  max_pressure_hpa=100)
@@ -751,10 +791,10 @@ def test_requests_for_partial_months():
   assert requests[0][1]['area'] == [3.0, -115.0, -1.0, -111.0]
   assert requests[0][1]['pressure_level'] == ['50', '70', '100']
   with pytest.raises(ValueError, match='before start_date'):
-    era5.build_requests(start_date=dt.date(2023, 1, 2),
+    era5_requests.build_requests(start_date=dt.date(2023, 1, 2),
                         end_date=dt.date(2023, 1, 1))
   with pytest.raises(ValueError, match='No ERA5 pressure level'):
-    era5.build_requests(min_pressure_hpa=21, max_pressure_hpa=29)
+    era5_requests.build_requests(min_pressure_hpa=21, max_pressure_hpa=29)
 
 
 def test_dry_run_prints_json_without_cdsapi(monkeypatch, capsys, tmp_path):
@@ -765,7 +805,7 @@ def test_dry_run_prints_json_without_cdsapi(monkeypatch, capsys, tmp_path):
   assert printed['dataset'] == 'reanalysis-era5-pressure-levels'
   assert printed['output'] == output
   assert [r['request'] for r in printed['requests']] == [
-      r for _, r in era5.build_requests()]
+      r for _, r in era5_requests.build_requests()]
   assert [r['target'] for r in printed['requests']] == [
       str(tmp_path / f'era5_paper_{m}.nc')
       for m in ('2022-11', '2022-12', '2023-01')]
@@ -957,12 +997,12 @@ def test_env_flies_at_the_sampled_era5_start(tmp_path):
   from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
   path = write_era5(tmp_path / 'era5.nc')
   env = env_lib.LatexBalloonEnv(
-      wind_field_factory=lambda: era5.Era5WindField(path=path,
+      wind_field_factory=lambda: era5_field.Era5WindField(path=path,
                                                     episode_hours=1.0),
       episode_steps=2, seed=0)
   # An Era5WindField flies its grid in the core (`EnvParams.wind_grid`).
   assert env.arena.params.wind_grid is not None
-  reference = era5.Era5WindField(path=path, episode_hours=1.0)
+  reference = era5_field.Era5WindField(path=path, episode_hours=1.0)
   starts = []
   for _ in range(2):
     env.reset(seed=5)
@@ -982,7 +1022,7 @@ def test_full_random_episode_on_era5_wind(tmp_path):
   times = T0 + np.arange(17) * np.timedelta64(6, 'h')  # 4 days of data.
   path = write_era5(tmp_path / 'era5_4d.nc', times=times)
   env = env_lib.LatexBalloonEnv(
-      wind_field_factory=lambda: era5.Era5WindField(path=path), seed=0)
+      wind_field_factory=lambda: era5_field.Era5WindField(path=path), seed=0)
   env.reset(seed=3)
   rng = np.random.default_rng(0)
   done, steps = False, 0
@@ -997,7 +1037,7 @@ def test_full_random_episode_on_era5_wind(tmp_path):
 
 def test_era5_noise_equals_bles_simplex_noise(era5_file):
   import jax  # pylint: disable=g-import-not-at-top
-  field = era5.Era5WindField(path=era5_file, episode_hours=6.0)
+  field = era5_field.Era5WindField(path=era5_file, episode_hours=6.0)
   key = jax.random.PRNGKey(4)
   field.reset(key, dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc))
   reference = wind_field.SimplexWindNoise()

@@ -18,9 +18,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from ble_latex.ble import era5_field
 from ble_latex.cli import download_era5
 from ble_latex.wind import era5
 from ble_latex.wind import era5_arco
+from ble_latex.wind import era5_requests
 import test_era5  # pylint: disable=g-bad-import-order
 
 pytest.importorskip('zarr')
@@ -90,7 +92,7 @@ def requests(**kwargs):
   kwargs = {'start_date': dt.date(2022, 11, 1),
             'end_date': dt.date(2022, 11, 1), 'half_width_deg': 2.0,
             **kwargs}
-  return era5.build_requests(**kwargs)
+  return era5_requests.build_requests(**kwargs)
 
 
 def test_fetch_writes_the_cds_layout_era5_load_reads(store, tmp_path):
@@ -105,7 +107,7 @@ def test_fetch_writes_the_cds_layout_era5_load_reads(store, tmp_path):
   np.testing.assert_array_equal(
       data.times, T0 + np.arange(4) * np.timedelta64(6, 'h'))
   np.testing.assert_array_equal(data.pressure, 100.0 * np.array(
-      era5.pressure_levels_hpa()))
+      era5_requests.pressure_levels_hpa()))
   # The store's native 0.25 deg grid inside the area (lon -115..-111).
   np.testing.assert_allclose(data.latitude, np.arange(-1.0, 3.01, 0.25))
   np.testing.assert_allclose(data.longitude, np.arange(-115.0, -110.99, 0.25))
@@ -138,7 +140,7 @@ def test_command_writes_a_file_the_wind_field_flies(store, tmp_path, capsys):
           *AREA]
   assert download_era5.main(argv) == 0
   assert f'wrote {output}: 4 times' in capsys.readouterr().out
-  field = era5.Era5WindField(path=output, episode_hours=12.0)
+  field = era5_field.Era5WindField(path=output, episode_hours=12.0)
   assert field.data.uv.shape == (4, 8, 17, 17, 2)
 
 

@@ -46,6 +46,8 @@ with quiet.third_party_noise():
 
   from ble_latex.wind import era5
   from ble_latex.wind import era5_arco
+  from ble_latex.wind import era5_checks
+  from ble_latex.wind import era5_requests
   # pylint: enable=g-import-not-at-top
 
 
@@ -79,7 +81,7 @@ def merge_files(paths: Sequence[str], output: str) -> str:
   try:
     time_dim = None
     for path in paths:
-      era5.check_file(path)
+      era5_checks.check_file(path)
       try:
         dataset = xr.open_dataset(path)
       except Exception as error:  # pylint: disable=broad-except
@@ -176,17 +178,17 @@ flags.DEFINE_float('center_lat', era5.PAPER_CENTER_LAT,
                    'Target latitude [deg N].', flag_values=FLAGS)
 flags.DEFINE_float('center_lon', era5.PAPER_CENTER_LON,
                    'Target longitude [deg E].', flag_values=FLAGS)
-flags.DEFINE_string('start_date', era5.PAPER_START_DATE.isoformat(),
+flags.DEFINE_string('start_date', era5_requests.PAPER_START_DATE.isoformat(),
                     'First day, YYYY-MM-DD (inclusive).', flag_values=FLAGS)
-flags.DEFINE_string('end_date', era5.PAPER_END_DATE.isoformat(),
+flags.DEFINE_string('end_date', era5_requests.PAPER_END_DATE.isoformat(),
                     'Last day, YYYY-MM-DD (inclusive).', flag_values=FLAGS)
-flags.DEFINE_float('half_width_deg', era5.DEFAULT_HALF_WIDTH_DEG,
+flags.DEFINE_float('half_width_deg', era5_requests.DEFAULT_HALF_WIDTH_DEG,
                    'Area = target +- this [deg].', flag_values=FLAGS)
-flags.DEFINE_float('grid_deg', era5.PAPER_GRID_DEG, 'Grid spacing [deg].',
-                   flag_values=FLAGS)
-flags.DEFINE_float('min_pressure_hpa', era5.PAPER_MIN_PRESSURE_HPA,
+flags.DEFINE_float('grid_deg', era5_requests.PAPER_GRID_DEG,
+                   'Grid spacing [deg].', flag_values=FLAGS)
+flags.DEFINE_float('min_pressure_hpa', era5_requests.PAPER_MIN_PRESSURE_HPA,
                    'Lowest pressure level [hPa].', flag_values=FLAGS)
-flags.DEFINE_float('max_pressure_hpa', era5.PAPER_MAX_PRESSURE_HPA,
+flags.DEFINE_float('max_pressure_hpa', era5_requests.PAPER_MAX_PRESSURE_HPA,
                    'Highest pressure level [hPa].', flag_values=FLAGS)
 flags.DEFINE_boolean('dry_run', False,
                      'Print the CDS requests as JSON; no network.',
@@ -247,7 +249,7 @@ def _main(argv: Sequence[str]) -> int:
   """Downloads (or, --dry_run, prints) the requests; returns the status."""
   args = FLAGS
   try:
-    requests = era5.build_requests(
+    requests = era5_requests.build_requests(
         center_lat=args.center_lat, center_lon=args.center_lon,
         start_date=_date('start_date'), end_date=_date('end_date'),
         half_width_deg=args.half_width_deg, grid_deg=args.grid_deg,
@@ -266,7 +268,7 @@ def _main(argv: Sequence[str]) -> int:
     return 2
   if args.dry_run:
     print(json.dumps({
-        'dataset': era5.DATASET,
+        'dataset': era5_requests.DATASET,
         'output': None if args.no_merge else args.output,
         'requests': [{'month': month, 'target': target, 'request': request}
                      for month, request, target in jobs]}, indent=2))
@@ -281,12 +283,13 @@ def _main(argv: Sequence[str]) -> int:
     import cdsapi  # pylint: disable=g-import-not-at-top
     client = cdsapi.Client()
     for month, request, target in todo:
-      print(f'requesting {era5.DATASET} {month} -> {target}', flush=True)
+      print(f'requesting {era5_requests.DATASET} {month} -> {target}',
+            flush=True)
       os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
       partial = target + '.part'
       try:  # No partial download is left behind, whatever happens.
         try:
-          client.retrieve(era5.DATASET, request, partial)
+          client.retrieve(era5_requests.DATASET, request, partial)
         except Exception as error:  # pylint: disable=broad-except
           print(f'{_PROG}: error: CDS request for {month} failed '
                 f'({type(error).__name__}: {error}). Check your token in '
@@ -324,7 +327,7 @@ def _arco_main(requests: Sequence[Tuple[str, Any]]) -> int:
   """--source=arco: the requests' winds from the Zarr store, one file.
 
   Args:
-    requests: `era5.build_requests` output (its grid is not used).
+    requests: `era5_requests.build_requests` output (its grid is not used).
 
   Returns:
     The exit status: 0, 1 (the store cannot be read or lacks the data, the

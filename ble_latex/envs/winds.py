@@ -11,11 +11,12 @@ balloon flies in and the forecast column the features read (BLE's
   grid a traced argument shared by every balloon (`EnvParams.wind_grid`).
 - BLE's other wind fields fly through host callbacks (`ble_latex.ble.wind`).
 
-`is_era5`, `era5_grid` and `era5_grid_from_gin` turn gin's or BLE's ERA5
-wind field into the grid the env flies.
+`is_era5` and `era5_grid_from_gin` turn gin's ERA5 settings
+(`LatexBalloonEnv.wind_field_factory = @Era5WindField`, plain values read
+by `wind.era5`) into the grid the env flies; nothing here is a BLE object.
 """
 
-from typing import Any, Callable, Dict, NamedTuple, Optional, Tuple
+from typing import Any, Callable, NamedTuple, Optional, Tuple
 
 import gin
 import jax
@@ -115,7 +116,7 @@ def era5_start_offset_s(grid: era5_jax.Era5Grid, key: Array) -> Array:
 
 
 def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
-  """ERA5 winds plus BLE's simplex noise (`wind.era5.Era5WindField`).
+  """ERA5 winds plus BLE's simplex noise (BLE's `Era5WindField`).
 
   The env flies it when `EnvParams.wind_grid` is set
   (`LatexBalloonJaxEnv.wind_for`): the grid is then a traced argument, read
@@ -149,62 +150,32 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
   return Wind(ground_truth, column)
 
 
-def is_era5(field_or_factory: Any) -> bool:
-  """Whether the gym envs fly this wind (factory) as an ERA5 grid in JAX.
+def is_era5(factory: Any) -> bool:
+  """Whether a `LatexBalloonEnv.wind_field_factory` value is ERA5's settings.
 
-  True for `era5.Era5WindField` (the class, gin's `@Era5WindField`) and
-  its instances (not subclasses): they fly `EnvParams.wind_grid`; every
-  other BLE `WindField` flies through host callbacks (`ble_latex.ble.wind`).
+  True for gin's `@Era5WindField` (`era5.settings`, plain settings, no BLE
+  object) and for `era5.Era5Settings`: the envs fly their grid
+  (`EnvParams.wind_grid`). BLE `WindField`s are the gym envs' affair
+  (`ble_latex.ble.arena`).
   """
-  return (field_or_factory is era5.Era5WindField or
-          type(field_or_factory) is era5.Era5WindField)  # pylint: disable=unidiomatic-typecheck
-
-
-# Grids built from `Era5WindField`s, by (data, target, flight, dates): every
-# env of a process shares one device copy of a file's winds.
-_GRIDS: Dict[Tuple[Any, ...], Tuple[Any, era5_jax.Era5Grid]] = {}
-
-
-def era5_grid(field: era5.Era5WindField) -> era5_jax.Era5Grid:
-  """The device grid of an `Era5WindField` (cached per data and settings).
-
-  Two settings that differ only in `start_dates` share the winds' arrays
-  (`era5_jax.with_start_dates`).
-  """
-  data = field.data
-  base = (id(data), field.center_lat, field.center_lon, field.episode_hours,
-          field.add_noise)
-  key = base + (repr(field.start_dates),)
-  if key not in _GRIDS:
-    shared = next((grid for k, (d, grid) in _GRIDS.items()
-                   if k[:-1] == base and d is data), None)
-    if shared is None:
-      grid = era5_jax.grid_from_field(field)
-    else:
-      grid = era5_jax.with_start_dates(
-          shared, data, start_dates=field.start_dates,
-          center_lat=field.center_lat, center_lon=field.center_lon,
-          episode_hours=field.episode_hours)
-    if len(_GRIDS) >= 8:
-      _GRIDS.clear()
-    _GRIDS[key] = (data, grid)
-  return _GRIDS[key][1]
+  return factory is era5.settings or isinstance(factory, era5.Era5Settings)
 
 
 def era5_grid_from_gin(factory: Any) -> Optional[era5_jax.Era5Grid]:
   """The ERA5 grid of a `LatexBalloonEnv.wind_field_factory` value, or None.
 
-  With `factory` `era5.Era5WindField` (gin's
-  `LatexBalloonEnv.wind_field_factory = @Era5WindField`) the
+  With `factory` gin's `@Era5WindField` (`era5.settings`) the
   `Era5WindField.*` bindings (path, target, episode_hours, add_noise,
-  start_dates) are read, the file(s) by the one reader (`era5.load`), into
-  the grid every env flies (`EnvParams.wind_grid`). Any other factory: None.
+  start_dates) are read as plain settings, the file(s) by the one reader
+  (`era5.load`), into the grid every env flies (`EnvParams.wind_grid`,
+  `era5_jax.grid_from_settings`: one device copy per file and settings).
+  Any other factory: None.
 
   Raises:
     errors.ConfigError: `Era5WindField.path` unbound, or a bad binding.
     FileNotFoundError, errors.BadFileError: As `era5.load`.
   """
-  if factory is not era5.Era5WindField:
+  if factory is not era5.settings:
     return None
   try:
     gin.query_parameter('Era5WindField.path')
@@ -214,9 +185,8 @@ def era5_grid_from_gin(factory: Any) -> Optional[era5_jax.Era5Grid]:
         "file: bind Era5WindField.path = 'era5_paper.nc' (or --era5_path)"
         ) from e
   try:
-    field = factory()
+    return era5_jax.grid_from_settings(factory())
   except errors.BadFileError:
     raise
   except ValueError as e:
     raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
-  return era5_grid(field)

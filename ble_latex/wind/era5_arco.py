@@ -2,17 +2,17 @@
 """ERA5 winds from Google's analysis-ready ARCO-ERA5 Zarr store.
 
 A second source of the files `era5.load` reads, beside the CDS requests of
-`era5.build_requests`: Google's public, cloud-optimised copy of ERA5
+`era5_requests.build_requests`: Google's public, cloud-optimised copy of ERA5
 (https://cloud.google.com/storage/docs/public-datasets/era5), read anonymously
 with xarray + zarr (+ gcsfs for `gs://` stores; `pip install
 'ble_latex[arco]'`). No account, licence click or request queue; the data
 are the same ERA5 reanalysis on its native 0.25 degree grid.
 
 `fetch` selects exactly what the CDS request of the same parameters asks for
-(`era5.build_requests`: the area target +- half width, the pressure levels
-in the range, every day and hour of the dates) from the store's variables
-`u_component_of_wind`, `v_component_of_wind` with dims (time, level,
-latitude, longitude), level in hPa, longitude 0..360 (any convention is
+(`era5_requests.build_requests`: the area target +- half width, the
+pressure levels in the range, every day and hour of the dates) from the
+store's variables `u_component_of_wind`, `v_component_of_wind` with dims
+(time, level, latitude, longitude), level in hPa, longitude 0..360 (any convention is
 accepted), and writes one NetCDF file in the new CDS layout (`u`, `v` on
 `valid_time`, `pressure_level` [hPa], `latitude`, `longitude`). Unlike CDS,
 nothing is regridded: the file keeps the store's grid (0.25 deg for the
@@ -37,6 +37,7 @@ import numpy as np
 import xarray as xr
 
 from ble_latex.wind import era5
+from ble_latex.wind import era5_checks
 
 # Google's public ARCO-ERA5 store: 37 pressure levels, hourly, 0.25 deg.
 DEFAULT_STORE = ('gs://gcp-public-data-arco-era5/ar/'
@@ -45,7 +46,7 @@ DEFAULT_STORE = ('gs://gcp-public-data-arco-era5/ar/'
 VARIABLES = {'u': 'u_component_of_wind', 'v': 'v_component_of_wind'}
 EXTRA = "pip install 'ble_latex[arco]'"
 # m/s units the reader accepts (`era5.load`'s list).
-_WIND_UNITS = era5._WIND_UNITS  # pylint: disable=protected-access
+_WIND_UNITS = era5_checks.WIND_UNITS
 # Coordinates within this of an area edge count as on it. # [deg]
 _EDGE_TOLERANCE_DEG = 1e-6
 
@@ -83,7 +84,7 @@ def request_times(requests: Sequence[Tuple[str, Dict[str, Any]]]
   """Every (day, hour) the CDS requests ask for, sorted.
 
   Args:
-    requests: `era5.build_requests` output.
+    requests: `era5_requests.build_requests` output.
 
   Returns:
     datetime64[ns] times (naive UTC).
@@ -104,7 +105,7 @@ def selection(requests: Sequence[Tuple[str, Dict[str, Any]]]
   """The area, levels and times of CDS requests, for a Zarr store.
 
   Args:
-    requests: `era5.build_requests` output.
+    requests: `era5_requests.build_requests` output.
 
   Returns:
     {'times': datetime64 array, 'levels_hpa': [hPa], 'north', 'west',
@@ -168,10 +169,9 @@ def _variable(dataset: xr.Dataset, name: str, store: str) -> xr.DataArray:
         f'ARCO-ERA5 store {store}: variable {name!r} has units {unit!r}, '
         f'expected m/s ({list(_WIND_UNITS)})')
   dims = [str(d) for d in array.dims]
-  find_dim = era5._find_dim  # pylint: disable=protected-access
   with _named_store(store):
     wanted = [
-        find_dim(dims, candidates, what, store, name)
+        era5.find_dim(dims, candidates, what, store, name)
         for candidates, what in ((era5.TIME_DIMS, 'time'),
                                  (era5.PRESSURE_DIMS, 'pressure-level'),
                                  (era5.LATITUDE_DIMS, 'latitude'),
@@ -305,8 +305,7 @@ def select(dataset: xr.Dataset, wanted: Dict[str, Any],
                        f'dims {array.dims}, {VARIABLES["u"]!r} has {u.dims}')
   time_dim, level_dim, lat_dim, lon_dim = u.dims
   with _named_store(store):
-    # pylint: disable-next=protected-access
-    factor = era5._pressure_factor(u[level_dim], store)
+    factor = era5_checks.pressure_factor(u[level_dim], store)
   levels_pa = np.asarray(u[level_dim].values, dtype=np.float64) * factor
   level_indices = []
   for level in wanted['levels_hpa']:
@@ -433,8 +432,8 @@ def fetch(requests: Sequence[Tuple[str, Dict[str, Any]]], output: str, *,
   """Writes the requests' ERA5 u, v from an ARCO-ERA5 store to `output`.
 
   Args:
-    requests: `era5.build_requests(...)` (its `grid` is not used: the store's
-      grid is kept).
+    requests: `era5_requests.build_requests(...)` (its `grid` is not used:
+      the store's grid is kept).
     output: The NetCDF file (new CDS layout, for `era5.load`).
     store: Local path or URL of the Zarr store.
 

@@ -1,15 +1,17 @@
 # coding=utf-8
-"""ERA5 winds in JAX: `wind.era5.Era5WindField` as device arrays.
+"""ERA5 winds in JAX: the reader's data and settings as device arrays.
 
 `Era5Grid` holds the ERA5 u, v of an `era5.Era5Data` (time, pressure,
 latitude, longitude; `era5.load` stays the one reader: loading, validation,
 errors) as float32 device arrays, with the station-keeping target and the
-start-time range of `Era5WindField`. It is a pytree: put it in the env's
+start-time range of plain `era5.Era5Settings` (gin's `Era5WindField.*`;
+`grid_from_settings`, no BLE object). It is a pytree: put it in the env's
 params (`env_types.EnvParams.wind_grid`) and every balloon of a vmapped batch
 reads the same arrays (never copied per balloon), and a new grid of the
 same shape does not recompile.
 
-The functions are pure and jittable and answer as `Era5WindField`:
+The functions are pure and jittable and answer as BLE's `WindField` of the
+same settings (`ble_latex.ble.era5_field.Era5WindField`):
   - `latlng`: BLE's x (east) / y (north) offsets from the target to
     latitude/longitude (BLE's `spherical_geometry.
     calculate_latlng_from_offset`: great-circle destination on a sphere of
@@ -33,7 +35,7 @@ grid flies the BLE object's flight (host callbacks) to a few metres over
 """
 
 import math
-from typing import Any, Tuple
+from typing import Any, Dict, Tuple
 
 import flax
 import jax
@@ -98,7 +100,7 @@ def grid_from_data(data: era5.Era5Data, *,
                    start_dates: Any = None) -> Era5Grid:
   """The device grid of loaded ERA5 data (`era5.load(path)`).
 
-  The keyword arguments are `Era5WindField`'s, with its defaults.
+  The keyword arguments are `era5.Era5Settings`'s, with its defaults.
 
   Args:
     data: ERA5 data, read and checked by `era5.load`.
@@ -113,7 +115,7 @@ def grid_from_data(data: era5.Era5Data, *,
     The grid, float32 (int32 minutes).
 
   Raises:
-    ValueError: as `Era5WindField` (`era5.start_window`), or a first
+    ValueError: as `era5.start_window`, or a first
       time that is not a whole minute.
   """
   first, last = era5.start_window(data, center_lat=center_lat,
@@ -145,13 +147,52 @@ def grid_from_data(data: era5.Era5Data, *,
       add_noise=bool(add_noise))
 
 
-def grid_from_field(field: era5.Era5WindField) -> Era5Grid:
-  """The device grid of an `Era5WindField` (its data, target and dates)."""
-  return grid_from_data(field.data, center_lat=field.center_lat,
-                        center_lon=field.center_lon,
-                        episode_hours=field.episode_hours,
-                        add_noise=field.add_noise,
-                        start_dates=field.start_dates)
+# Grids built from settings, by (data, target, flight, noise, dates): every
+# env of a process shares one device copy of a file's winds.
+_GRIDS: Dict[Tuple[Any, ...], Tuple[era5.Era5Data, Era5Grid]] = {}
+
+
+def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
+  """The device grid of plain ERA5 settings (cached per data and settings).
+
+  The file(s) are read by `era5.load` (checked, cached per file and
+  modification time). Two settings that differ only in `start_dates` share
+  the winds' arrays (`with_start_dates`).
+
+  Args:
+    settings: The file, target, flight length, noise and start dates (gin's
+      `Era5WindField.*`: `era5.settings()`).
+
+  Returns:
+    The grid.
+
+  Raises:
+    FileNotFoundError, IsADirectoryError, errors.BadFileError: As
+      `era5.load`; ValueError: as `grid_from_data`.
+  """
+  data = settings.load()
+  base = (id(data), settings.center_lat, settings.center_lon,
+          settings.episode_hours, settings.add_noise)
+  key = base + (repr(settings.start_dates),)
+  cached = _GRIDS.get(key)
+  if cached is None or cached[0] is not data:
+    shared = next((grid for k, (d, grid) in _GRIDS.items()
+                   if k[:-1] == base and d is data), None)
+    if shared is None:
+      grid = grid_from_data(data, center_lat=settings.center_lat,
+                            center_lon=settings.center_lon,
+                            episode_hours=settings.episode_hours,
+                            add_noise=settings.add_noise,
+                            start_dates=settings.start_dates)
+    else:
+      grid = with_start_dates(
+          shared, data, start_dates=settings.start_dates,
+          center_lat=settings.center_lat, center_lon=settings.center_lon,
+          episode_hours=settings.episode_hours)
+    if len(_GRIDS) >= 8:
+      _GRIDS.clear()
+    _GRIDS[key] = (data, grid)
+  return _GRIDS[key][1]
 
 
 def with_start_dates(grid: Era5Grid, data: era5.Era5Data, *,

@@ -26,18 +26,16 @@ Samplers:
     forecast keys from a key, each queried at `points_per_field` places at a
     uniform distance 50-200 km from the station (uniform over the annulus'
     area) and uniform times in the field's 48 h; deterministic in the key.
-  - `sample_era5`: an ERA5 file through `era5.Era5WindField` (BLE's
-    offset-to-lat/lng geometry, `Era5Data.interpolate`), the station at the
-    centre of the file's area, the same annulus and uniform times over the
-    file's span; deterministic in the seed. The file's area must contain
+  - `sample_era5`: an ERA5 file through the reader (BLE's offset-to-lat/lng
+    geometry, `era5.latlng_of_offset`; `Era5Data.interpolate`), the station
+    at the centre of the file's area, the same annulus and uniform times
+    over the file's span; deterministic in the seed. The file's area must contain
     the annulus (else the winds would be clipped edge values).
 """
 
 import dataclasses
-import datetime as dt
 from typing import Any, Dict, Optional, Sequence, Union
 
-from balloon_learning_environment.utils import units
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -214,14 +212,10 @@ def sample_era5(path: Union[str, Sequence[str]],
                  float(np.max(data.pressure)), where)
   center_lat = 0.5 * (data.latitude[0] + data.latitude[-1])
   center_lon = 0.5 * (data.longitude[0] + data.longitude[-1])
-  field = era5.Era5WindField(path=path, center_lat=center_lat,
-                             center_lon=center_lon, episode_hours=0.0,
-                             add_noise=False)
-  field.set_start_date_time(data.start)
   edge = float(radius_km[1])  # [km]
   for x, y in ((edge, 0.0), (-edge, 0.0), (0.0, edge), (0.0, -edge)):
-    # pylint: disable-next=protected-access
-    lat, lon = field._latlng(units.Distance(km=x), units.Distance(km=y))
+    lat, lon = era5.latlng_of_offset(center_lat, center_lon, x * 1000.0,
+                                     y * 1000.0)
     if not data.covers(lat, lon):
       lon = float(data.wrap_longitude(lon))
       raise ValueError(
@@ -237,11 +231,12 @@ def sample_era5(path: Union[str, Sequence[str]],
   u = np.empty((num_samples, len(pressures_pa)))
   v = np.empty_like(u)
   for i in range(num_samples):
-    column = field.get_forecast_column(
-        units.Distance(km=float(x_km[i])), units.Distance(km=float(y_km[i])),
-        list(pressures_pa), dt.timedelta(seconds=float(t_s[i])))
-    u[i] = [w.u.meters_per_second for w in column]
-    v[i] = [w.v.meters_per_second for w in column]
+    lat, lon = era5.latlng_of_offset(center_lat, center_lon,
+                                     float(x_km[i]) * 1000.0,
+                                     float(y_km[i]) * 1000.0)
+    uv = data.interpolate(float(t_s[i]), np.asarray(pressures_pa, np.float64),
+                          lat, lon)
+    u[i], v[i] = uv[:, 0], uv[:, 1]
   return WindSamples(label or ', '.join(data.paths), np.asarray(pressures_pa),
                      u, v)
 

@@ -1,0 +1,230 @@
+# coding=utf-8
+"""ERA5 reanalysis winds as a BLE `WindField`, for BLE's own agents.
+
+`Era5WindField` is the paper's Wind (Saunders et al. 2023, "RL problem"): a
+`wind_field.WindField` whose forecast is the ERA5 wind of `era5.load` (the one
+reader, no BLE object) interpolated multi-linearly in (time, pressure,
+latitude, longitude), and whose ground truth is forecast + BLE's
+`SimplexWindNoise` (switch the noise off with `add_noise=False`). Its
+settings are the plain `era5.Era5Settings` the JAX env flies
+(`era5_jax.grid_from_settings`); gin's `Era5WindField.*` bindings are those
+settings (`era5.settings`), and `Era5WindField.from_settings(era5.settings())`
+is BLE's field of them. The gym envs fly an `Era5WindField` as its grid in
+the core (`ble_latex.ble.arena`); BLE's consumers that want a `WindField`
+object on the host (scripts, `wind_field.WindField` users) build this one.
+"""
+
+import datetime as dt
+import math
+from typing import Any, List, Optional, Sequence, Tuple, Union
+
+from balloon_learning_environment.env import wind_field
+from balloon_learning_environment.utils import units
+import jax
+from jax import numpy as jnp
+import numpy as np
+
+from ble_latex.wind import era5
+
+
+class Era5WindField(wind_field.WindField):
+  """ERA5 reanalysis winds around a station-keeping target (paper's Wind).
+
+  Positions are BLE's x (east), y (north) offsets from the target at
+  (center_lat, center_lon), converted to latitude/longitude with BLE's
+  `spherical_geometry.calculate_latlng_from_offset` (`era5.latlng_of_offset`).
+  The forecast is the ERA5 (u, v) interpolated multi-linearly in time,
+  pressure, latitude and longitude (`era5.Era5Data.interpolate`); outside
+  the file's area, pressure range or time range the wind is clipped to the
+  edge value (as BLE's generative field). The ground truth adds BLE's
+  simplex noise unless `add_noise` is False.
+
+  Each reset samples the flight's start time uniformly (whole minutes) from
+  the file's time range such that `episode_hours` fit, and inside
+  `start_dates` if given (the held-out split by dates, `era5.DATE_SPLITS`),
+  from the forecast key (same key, same start). The `date_time` BLE passes to
+  `reset` is ignored (as BLE's generative field does); `start_date_time`
+  holds the sampled start, and the arena uses it as the balloon's date and
+  time. Not a gin configurable: gin's `Era5WindField` is its settings
+  (`era5.settings`; `from_settings`).
+  """
+
+  def __init__(self,
+               *,
+               path: Union[str, Sequence[str]],
+               center_lat: float = era5.PAPER_CENTER_LAT,  # [deg N]
+               center_lon: float = era5.PAPER_CENTER_LON,  # [deg E]
+               episode_hours: float = 72.0,  # [h]
+               add_noise: bool = True,
+               start_dates: Any = None):
+    """Loads the ERA5 file(s).
+
+    Args:
+      path: ERA5 NetCDF file, glob pattern (e.g. 'era5_paper_*.nc') or list
+        of them; joined along time.
+      center_lat: Latitude of the station-keeping target. # [deg N]
+      center_lon: Longitude of the station-keeping target. # [deg E]
+      episode_hours: Flight length that must fit in the data after the
+        sampled start. # [h]
+      add_noise: Whether the ground truth adds BLE's simplex noise to the
+        forecast (the paper does).
+      start_dates: None: flights start anywhere in the data; a split of
+        `era5.DATE_SPLITS` ('train', 'validation', 'eval') or a (first, end)
+        pair of ISO dates: flights start in [first, end)
+        (`era5.start_window`).
+
+    Raises:
+      FileNotFoundError: a file is missing.
+      IsADirectoryError: a path is a directory.
+      ValueError: bad file (see `era5.load`), target outside the file's area,
+        non-finite arguments, or data shorter than `episode_hours`.
+    """
+    super().__init__()  # BLE's simplex noise (`SimplexWindNoise`).
+    self.settings = era5.Era5Settings(
+        path=path, center_lat=center_lat, center_lon=center_lon,
+        episode_hours=episode_hours, add_noise=add_noise,
+        start_dates=start_dates)
+    self._data = self.settings.load()
+    self._first_start, self._start_minutes = self.settings.start_window(
+        self._data)
+    self.center_lat, self.center_lon = float(center_lat), float(center_lon)
+    self.start_dates = self.settings.start_dates
+    self.episode_hours = float(episode_hours)
+    self.add_noise = bool(add_noise)
+    self.start_date_time: Optional[dt.datetime] = None
+    self._start_offset_s: Optional[float] = None
+
+  @classmethod
+  def from_settings(cls, settings: era5.Era5Settings) -> 'Era5WindField':
+    """BLE's field of plain settings (e.g. gin's, `era5.settings()`)."""
+    return cls(path=settings.path, center_lat=settings.center_lat,
+               center_lon=settings.center_lon,
+               episode_hours=settings.episode_hours,
+               add_noise=settings.add_noise,
+               start_dates=settings.start_dates)
+
+  @property
+  def data(self) -> era5.Era5Data:
+    """The loaded ERA5 data."""
+    return self._data
+
+  def reset_forecast(self, key: jnp.ndarray, date_time: dt.datetime) -> None:
+    """Samples the flight's start time from the data's time range.
+
+    The start is uniform over whole minutes in [first time, last time -
+    episode_hours] (inside `start_dates`), drawn from `key` (the same key
+    gives the same start).
+
+    Args:
+      key: A jax PRNGKey used for sampling the start time.
+      date_time: Ignored (BLE's random date); see `start_date_time`.
+    """
+    del date_time
+    minutes = jax.random.randint(key, (), self._first_start,
+                                 self._start_minutes + 1).item()
+    self.set_start_date_time(self._data.start + dt.timedelta(minutes=minutes))
+
+  def set_start_date_time(self, start: dt.datetime) -> None:
+    """Sets the flight's start time (e.g. to show the winds of a date).
+
+    Args:
+      start: Start time; naive times are taken as UTC. It must lie in the
+        data's time range (the flight may run past its end: clipped).
+
+    Raises:
+      ValueError: if `start` is outside the data's time range.
+    """
+    if start.tzinfo is None:
+      start = start.replace(tzinfo=dt.timezone.utc)
+    if not self._data.start <= start <= self._data.end:
+      raise ValueError(f'Start {start} is outside the ERA5 data '
+                       f'({self._data.start} to {self._data.end})')
+    self.start_date_time = start
+    self._start_offset_s = (start - self._data.start).total_seconds()
+
+  def _time_s(self, elapsed_time: dt.timedelta) -> float:
+    """Time since the data's first time. # [s]"""
+    if self._start_offset_s is None:
+      raise RuntimeError('Must call reset before get_forecast.')
+    return self._start_offset_s + elapsed_time.total_seconds()
+
+  def _latlng(self, x: units.Distance,
+              y: units.Distance) -> Tuple[float, float]:
+    """(lat, lon) of the offset (x east, y north) from the target. # [deg]"""
+    if not (math.isfinite(x.meters) and math.isfinite(y.meters)):
+      raise ValueError(f'Position must be finite, got x={x}, y={y}')
+    return era5.latlng_of_offset(self.center_lat, self.center_lon, x.meters,
+                                 y.meters)
+
+  def get_forecast(self, x: units.Distance, y: units.Distance, pressure: float,
+                   elapsed_time: dt.timedelta) -> wind_field.WindVector:
+    """ERA5 wind at a point (clipped to the data's edges outside it).
+
+    Args:
+      x: Distance east of the target (along the latitude parallel).
+      y: Distance north of the target (along the meridian).
+      pressure: Pressure. # [Pa]
+      elapsed_time: Time since the start of the flight.
+
+    Returns:
+      The interpolated wind.
+
+    Raises:
+      RuntimeError: if called before reset().
+      ValueError: for non-finite positions or pressure.
+    """
+    return self.get_forecast_column(x, y, [pressure], elapsed_time)[0]
+
+  def get_forecast_column(
+      self, x: units.Distance, y: units.Distance, pressures: Sequence[float],
+      elapsed_time: dt.timedelta) -> List[wind_field.WindVector]:
+    """ERA5 winds at several pressures above one point (one vectorised call).
+
+    Args:
+      x: Distance east of the target (along the latitude parallel).
+      y: Distance north of the target (along the meridian).
+      pressures: Pressures. # [Pa]
+      elapsed_time: Time since the start of the flight.
+
+    Returns:
+      One interpolated wind per pressure.
+
+    Raises:
+      RuntimeError: if called before reset().
+      ValueError: for non-finite positions or pressures.
+    """
+    time_s = self._time_s(elapsed_time)
+    pressures = np.asarray(pressures, dtype=np.float64).reshape(-1)
+    if not np.all(np.isfinite(pressures)):
+      raise ValueError(f'Pressure must be finite, got {pressures}')
+    lat, lon = self._latlng(x, y)
+    uv = self._data.interpolate(time_s, pressures, lat, lon)
+    return [wind_field.WindVector(units.Velocity(mps=float(u)),
+                                  units.Velocity(mps=float(v)))
+            for u, v in uv]
+
+  def get_ground_truth(self, x: units.Distance, y: units.Distance,
+                       pressure: float,
+                       elapsed_time: dt.timedelta) -> wind_field.WindVector:
+    """Forecast plus BLE's simplex noise (forecast only if not add_noise)."""
+    if not self.add_noise:
+      return self.get_forecast(x, y, pressure, elapsed_time)
+    return super().get_ground_truth(x, y, pressure, elapsed_time)
+
+
+def grid_settings(wind: Any) -> Optional[era5.Era5Settings]:
+  """The ERA5 settings a gym env flies as a grid in the core, or None.
+
+  An `Era5WindField` (not a subclass: those fly through host callbacks, as
+  any third-party `WindField`) gives its settings; `era5.Era5Settings`
+  (what gin's `@Era5WindField` factory returns) are themselves; anything
+  else is None.
+
+  Args:
+    wind: What a gym env's wind field factory returned.
+  """
+  if type(wind) is Era5WindField:  # pylint: disable=unidiomatic-typecheck
+    return wind.settings
+  if isinstance(wind, era5.Era5Settings):
+    return wind
+  return None
