@@ -55,10 +55,11 @@ def worker(batch: int, strides: int, repeats: int, pool_size: int,
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
 
   env = jax_env.LatexBalloonJaxEnv()
-  params = jax_env.params_from_gin()
+  params = env_params.params_from_gin()
   t = time.perf_counter()
   pooled = env.with_reset_pool(jax.random.PRNGKey(1234), params, pool_size)
   jax.block_until_ready(pooled.reset_pool)

@@ -72,6 +72,7 @@ def jax_worker(batch: int, steps: int, repeats: int, wind: str = 'vae',
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
 
   gin_binding.bind_gin(None, None, [], [])
@@ -79,7 +80,7 @@ def jax_worker(batch: int, steps: int, repeats: int, wind: str = 'vae',
   params = env.default_params
   grid_shape = None
   if wind == 'era5':
-    params = jax_env.check_params(params.replace(
+    params = env_params.check_params(params.replace(
         wind_grid=paper_size_grid(era5_path)))
     grid_shape = list(params.wind_grid.uv.shape)
   low = jnp.asarray(jax_env.ACTION_LOW)

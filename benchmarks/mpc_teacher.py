@@ -180,6 +180,7 @@ def _main(argv: Sequence[str]) -> int:
     import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
     from ble_latex.agents import plan_config  # pylint: disable=g-import-not-at-top
     from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
+    from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
     from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
     from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
   gin_binding.bind_gin(None, None, [], FLAGS.gin_bindings)
@@ -188,7 +189,7 @@ def _main(argv: Sequence[str]) -> int:
                           '--demo_batch')
   trainer = sac_trainer.TrainerConfig()
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
-  params = jax_env.params_from_gin()
+  params = env_params.params_from_gin()
   learner = sac_trainer.learner_for(trainer)
   validation = jnp.asarray(
       list(suites.get_eval_suite('latex_validation').seeds)[

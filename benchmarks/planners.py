@@ -119,11 +119,12 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import planning  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
 
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
-  params = jax_env.params_from_gin()
+  params = env_params.params_from_gin()
   wind = env.wind_for(params)
   start, fly = _fly_functions(config, env)
   n = len(seeds)

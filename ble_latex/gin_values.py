@@ -6,7 +6,7 @@ refuses to parse `perciatelli_reward_function.reward_dropoff = 0.5` unless
 the module declaring it (BLE's `balloon_env`) was imported. So a
 configurable whose module is not in `sys.modules` has no bindings, and its
 keyword defaults are all there is (`imported_bindings`). That lets the JAX
-env (`jax_env.params_from_gin`) read BLE's reward bindings without
+env (`env_params.params_from_gin`) read BLE's reward bindings without
 importing BLE's balloon/env modules and TensorFlow behind them; every other
 gin name of the env is a configurable of the core itself.
 

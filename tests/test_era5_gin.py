@@ -2,9 +2,9 @@
 """ERA5 from one gin binding / flag in every env and command; the date split.
 
 Issue 27 items 2 and 5: `LatexBalloonEnv.wind_field_factory = @Era5WindField`
-(gin_configs/paper_era5.gin, or `--era5_path`) makes `jax_env.params_from_gin`
+(gin_configs/paper_era5.gin, or `--era5_path`) makes `env_params.params_from_gin`
 hold the file's grid (`EnvParams.wind_grid`, read once by `era5.load`), and
-every env flies it in JAX; `jax_env.check_params` refuses bad grids; flights
+every env flies it in JAX; `env_params.check_params` refuses bad grids; flights
 start inside disjoint date ranges (`era5.DATE_SPLITS`) for training,
 validation and evaluation. No network: a synthetic file spanning the paper's
 period (`test_era5.write_era5`, random winds).
@@ -26,6 +26,7 @@ import pytest
 from ble_latex import configs
 from ble_latex import errors
 from ble_latex.cli import common as cli
+from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.run import gin_binding
 from ble_latex.run import suites
@@ -138,13 +139,13 @@ def test_bad_start_dates_are_one_line(era5_path, dates, message):
 # -- check_params: the grid. -------------------------------------------------
 @pytest.fixture(name='params', scope='module')
 def fixture_params(era5_path):
-  params = jax_env.params_from_gin()
+  params = env_params.params_from_gin()
   grid = era5_jax.grid_from_data(era5.load(era5_path))
   return params.replace(wind_grid=grid)
 
 
 def test_check_params_takes_a_good_grid(params):
-  assert jax_env.check_params(params).wind_grid is params.wind_grid
+  assert env_params.check_params(params).wind_grid is params.wind_grid
 
 
 @pytest.mark.parametrize('edit, message', [
@@ -169,17 +170,17 @@ def test_check_params_takes_a_good_grid(params):
 ])
 def test_check_params_refuses_a_bad_grid_in_one_line(params, edit, message):
   with pytest.raises(errors.ConfigError, match=message) as raised:
-    jax_env.check_params(params.replace(wind_grid=edit(params.wind_grid)))
+    env_params.check_params(params.replace(wind_grid=edit(params.wind_grid)))
   assert '\n' not in str(raised.value)
   assert 'EnvParams.wind_grid' in str(raised.value)
 
 
 # -- One gin binding. ---------------------------------------------------------
 def test_paper_gin_puts_the_grid_in_the_params(gin_era5):
-  params = jax_env.params_from_gin()
+  params = env_params.params_from_gin()
   grid = params.wind_grid
   assert grid is not None
-  assert jax_env.params_from_gin().wind_grid is grid  # Read once, shared.
+  assert env_params.params_from_gin().wind_grid is grid  # Read once, shared.
   data = era5.load(gin_era5)
   np.testing.assert_array_equal(np.asarray(grid.uv),
                                 np.float32(data.uv))
@@ -188,7 +189,7 @@ def test_paper_gin_puts_the_grid_in_the_params(gin_era5):
                         episode_hours=72.0))
   with gin.unlock_config():
     gin.bind_parameter('Era5WindField.start_dates', 'train')
-  train = jax_env.params_from_gin().wind_grid
+  train = env_params.params_from_gin().wind_grid
   assert train.uv is grid.uv  # Another start range, the same winds.
   assert int(train.first_start_minute) == 0
   last = data.start + dt.timedelta(minutes=int(train.last_start_minute))
@@ -202,7 +203,7 @@ def test_era5_factory_without_a_path_is_one_line():
         'import ble_latex.wind.era5',
         'LatexBalloonEnv.wind_field_factory = @Era5WindField'])
     with pytest.raises(errors.ConfigError, match='Era5WindField.path'):
-      jax_env.params_from_gin()
+      env_params.params_from_gin()
   finally:
     gin.clear_config()
 
@@ -244,7 +245,7 @@ def test_every_env_flies_era5_from_the_gin_binding(gin_era5):
   import gym  # pylint: disable=g-import-not-at-top
   import gymnasium  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import gymnasium_vector  # pylint: disable=g-import-not-at-top
-  params = jax_env.params_from_gin()
+  params = env_params.params_from_gin()
   assert params.wind_grid is not None
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   keys = jnp.stack([jax.random.PRNGKey(s) for s in _SEEDS])

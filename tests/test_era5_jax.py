@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 import s2sphere as s2
 
+from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.envs import winds
@@ -157,7 +158,7 @@ def test_start_draw_is_era5_wind_fields(era5_path, episode_hours):
 @functools.lru_cache(maxsize=None)
 def _params(path, episode_hours=24.0):
   """(params without, with the ERA5 grid of `path`), gin defaults."""
-  params = jax_env.params_from_gin()
+  params = env_params.params_from_gin()
   grid = era5_jax.grid_from_data(era5.load(path),
                                  episode_hours=episode_hours)
   return params, params.replace(wind_grid=grid)

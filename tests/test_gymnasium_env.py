@@ -18,6 +18,7 @@ import pytest
 from ble_latex import errors
 from ble_latex import jax_cache
 from ble_latex.ble import gymnasium_discrete
+from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_compile
 from ble_latex.envs import gymnasium_env
@@ -455,7 +456,7 @@ def test_discrete_make_vec_takes_gymnasiums_seeds():
      'LatexBalloonArena.start_altitude_range_m'),
 ])
 def test_given_params_are_checked(env, change, binding):
-  """params= goes through the one check (`jax_env.check_params`)."""
+  """params= goes through the one check (`env_params.check_params`)."""
   bad = env.unwrapped.params.replace(**change)
   with pytest.raises(ValueError, match=f'^gin binding {binding} must be'):
     gymnasium.make(ID, params=bad)
@@ -646,14 +647,14 @@ def same(a, b):
   return (jax.tree.structure(a) == jax.tree.structure(b) and
           all(jax.tree.leaves(leaves)))
 
-light = jax_env.params_from_gin()
+light = env_params.params_from_gin()
 # Every gin name of the env is the core's own: bound without BLE or gym.
 gin.parse_config(['AltitudeController.min_vent_mols = 0.3',
                   'create_state.sand_kg = 1.5', 'LatexBalloonEnv.episode_steps = 9',
                   'LatexBalloonArena.max_start_distance_km = 150.0',
                   'latex_reward.helium_penalty_per_mol = 0.1',
                   'LatexBalloon.guard_within_stride = False'])
-p = jax_env.params_from_gin()
+p = env_params.params_from_gin()
 assert float(p.flight.min_vent_mols) == np.float32(0.3)
 assert (p.flight.initial_sand_kg, p.episode_steps, p.max_start_distance_km,
         p.helium_penalty_per_mol, p.flight.guard_within_stride) == (
@@ -664,7 +665,7 @@ heavy = [m for m in ('tensorflow', 'ble_latex.ble.gym_env',
 assert not heavy, heavy
 gin.clear_config()
 import ble_latex.ble.gym_env  # The gin-file import (BLE, TF) changes nothing.
-assert same(light, jax_env.params_from_gin()), 'defaults differ'
+assert same(light, env_params.params_from_gin()), 'defaults differ'
 gin.parse_config([
     'LatexBalloonEnv.episode_steps = 7',
     'LatexBalloonArena.start_altitude_range_m = (16000.0, 17000.0)',
@@ -673,13 +674,13 @@ gin.parse_config([
     'latex_reward.sand_penalty_per_kg = 0.5',
     'balloon_env.perciatelli_reward_function.reward_dropoff = 0.3',
 ])
-p = jax_env.params_from_gin()
+p = env_params.params_from_gin()
 print(p.episode_steps, p.start_altitude_low_m, p.start_altitude_high_m,
       p.max_start_distance_km, float(p.flight.payload_kg),
       p.sand_penalty_per_kg, p.reward_dropoff)
 gin.parse_config('latex_reward.sand_penalty_per_kg = -1.0')
 try:
-  jax_env.params_from_gin()
+  env_params.params_from_gin()
 except ValueError as e:
   print('refused:', 'latex_reward.sand_penalty_per_kg' in str(e))
 '''

@@ -12,6 +12,7 @@ import pytest
 from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_vector
 from ble_latex.envs import jax_env
+from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import state as state_lib
 
 ID = 'ble_latex/LatexBalloon-v0'
@@ -331,9 +332,8 @@ def test_checked_sync_vector_env_steps_no_balloon_on_a_bad_action(bad, match):
     (dict(episode_steps=0), 'LatexBalloonEnv.episode_steps'),
 ])
 def test_given_params_are_checked(change, binding):
-  """params= is checked like gin's (`jax_env.check_params`), before jit."""
-  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  """params= is checked like gin's (`env_params.check_params`), before jit."""
   params = env_types.EnvParams(
-      flight=jax_env.flight_params_lib.FlightParams(), decoder=None)
+      flight=flight_params_lib.FlightParams(), decoder=None)
   with pytest.raises(ValueError, match=f'^gin binding {binding} must be'):
     gymnasium_vector.LatexBalloonVectorEnv(2, params=params.replace(**change))

@@ -39,12 +39,12 @@ def test_float32_range_is_still_a_number():
     'create_state.payload_kg = -1e39',
 ])
 def test_env_bindings_beyond_float32_are_refused(binding):
-  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   gin.clear_config()
   try:
     gin.parse_config(binding)
     with pytest.raises(ValueError, match=r'must be a finite number'):
-      jax_env.params_from_gin()
+      env_params.params_from_gin()
   finally:
     gin.clear_config()
 

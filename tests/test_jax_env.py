@@ -14,9 +14,13 @@ import pytest
 
 import ble_latex  # noqa: F401
 from ble_latex import configs
+from ble_latex import errors
+from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
+from ble_latex.envs import reset_pool
 from ble_latex.flight import atmosphere as atmosphere_lib
+from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import state as state_lib
 import test_golden
 
@@ -232,14 +236,17 @@ def test_batched_equals_single_and_auto_reset():
     o, s, r, _, _ = step_env(keys[i], s, action[i], params)
     np.testing.assert_allclose(o, b_obs[i], atol=5e-5)
     assert float(r) == pytest.approx(float(b_reward[i]), abs=1e-5)
-  # A finished episode is replaced by the flight of the step's key.
+  # A finished episode is replaced by the flight of the step key's reset
+  # half (gymnax's split: key, key_reset = jax.random.split(key)), not by
+  # the flight of the key that `step_env` got.
   short = params.replace(episode_steps=1)
   o, s = reset(keys[0], short)
   new_key = jax.random.PRNGKey(99)
   o2, s2, _, terminated, truncated, info = step(new_key, s, action[0], short)
   assert bool(truncated) and not bool(terminated)
-  fresh_obs, fresh = reset(new_key, short)
+  fresh_obs, fresh = reset(jax.random.split(new_key)[1], short)
   np.testing.assert_array_equal(o2, fresh_obs)
+  assert not np.array_equal(o2, reset(new_key, short)[0])
   # gymnax 1.0: the finished step's observation is in the info.
   last, _, _, _, _ = step_env(new_key, s, action[0], short)
   np.testing.assert_array_equal(info['final_observation'], last)
@@ -354,7 +361,7 @@ def test_params_from_gin_refuses_bad_values_naming_the_binding(
   name = binding.split('.', 1)[1] if binding.startswith('balloon_env.') else (
       binding)
   with pytest.raises(ValueError, match=f'^gin binding {name}.*{match}'):
-    jax_env.params_from_gin()
+    env_params.params_from_gin()
 
 
 @settings(max_examples=10, deadline=None, derandomize=True)
@@ -363,10 +370,10 @@ def test_params_from_gin_refuses_bad_values_naming_the_binding(
 def test_check_params_keeps_valid_values(low, width, steps, distance):
   """Valid values pass unchanged (as Python floats / int)."""
   params = env_types.EnvParams(
-      flight=jax_env.flight_params_lib.FlightParams(), decoder=None,
+      flight=flight_params_lib.FlightParams(), decoder=None,
       start_altitude_low_m=low, start_altitude_high_m=low + width,
       episode_steps=np.int64(steps), max_start_distance_km=distance)
-  checked = jax_env.check_params(params)
+  checked = env_params.check_params(params)
   assert checked.start_altitude_low_m == low
   assert checked.start_altitude_high_m == low + width
   assert checked.episode_steps == steps
@@ -379,12 +386,12 @@ def test_valid_gin_config_unchanged():
   gin.clear_config()
   gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
   try:
-    params = jax_env.params_from_gin()
+    params = env_params.params_from_gin()
   finally:
     gin.clear_config()
   default = env_types.EnvParams(flight=params.flight, decoder=params.decoder)
   assert params == default
-  assert params.flight == jax_env.flight_params_lib.FlightParams()
+  assert params.flight == flight_params_lib.FlightParams()
 
 
 def test_gymnax_client_loop_without_a_wrapper():
@@ -442,13 +449,14 @@ def test_reset_pool_gives_pool_worlds_and_only_resets_the_ended():
   step_keys = _keys([11, 12, 13])
   step = jax.jit(jax.vmap(env.step, in_axes=(0, 0, 0, None)))
   step_env = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, 0, None)))
-  install = jax.jit(jax.vmap(jax_env.install_world, in_axes=(0, None)))
+  install = jax.jit(jax.vmap(reset_pool.install_world, in_axes=(0, None)))
   obs, new, _, terminated, truncated, info = step(step_keys, state, action,
                                                   pooled)
   flown, flown_state, _, _, _ = step_env(step_keys, state, action, pooled)
   np.testing.assert_array_equal(info['final_observation'], flown)
   assert list(np.asarray(terminated | truncated)) == [False, True, False]
-  k = int(jax_env.pool_index(step_keys[1], 4))
+  # The world of the step key's reset half (gymnax's key split).
+  k = int(reset_pool.pool_index(jax.random.split(step_keys[1])[1], 4))
   assert list(np.asarray(new.pending_world)) == [-1, k, -1]
   np.testing.assert_array_equal(obs[1], pool.obs[k])
   installed = install(new, pooled)
@@ -467,6 +475,51 @@ def test_reset_pool_gives_pool_worlds_and_only_resets_the_ended():
   o1, s1, *_ = jax.jit(env.step)(step_keys[1], one, action[1], pooled)
   np.testing.assert_array_equal(o1, pool.obs[k])
   assert int(s1.pending_world) == k
+
+
+def test_reset_pool_size_is_bounded_before_anything_is_drawn(monkeypatch):
+  """Issue 48 item 15: K beyond `reset_pool.MAX_POOL_SIZE` (10**8 worlds
+  asked for terabytes, 10**4 aborted under an 8 GB cap) is one ConfigError
+  before any reset is traced, compiled or allocated."""
+  env, params, _, _ = _setup()
+
+  def traced(*args):
+    del args
+    raise AssertionError('the pool was drawn before its size was checked')
+
+  monkeypatch.setattr(env, 'reset', traced)
+  for size in (10**8, reset_pool.MAX_POOL_SIZE + 1, 0, 2.0):
+    with pytest.raises(errors.ConfigError,
+                       match=r'^reset pool size must be an int in \[1, '
+                       rf'{reset_pool.MAX_POOL_SIZE}\], got') as e:
+      env.with_reset_pool(_KEY, params, size)
+    assert '\n' not in str(e.value)
+
+
+def test_rollout_sizes_are_bounded_before_anything_is_compiled(monkeypatch):
+  """`rollout`'s batch and length are checked against their stated maxima
+  (`jax_env.MAX_ROLLOUT_BALLOONS`, `MAX_ROLLOUT_VALUES`) before tracing."""
+  env, params, _, _ = _setup()
+
+  def compiled(*args):
+    del args
+    raise AssertionError('rollout was traced before its sizes were checked')
+
+  monkeypatch.setattr(jax_env, '_rollout', compiled)
+  keys = _keys([0, 1])
+  action = jnp.array([[17_500.0, 2.0, 1.0]] * 2)
+  most = jax_env.MAX_ROLLOUT_VALUES // (2 * 71) - 1
+  for steps in (10**12, most + 1, 0):
+    with pytest.raises(errors.ConfigError,
+                       match=r'^rollout num_steps \(x 2 balloons\) must be '
+                       rf'an int in \[1, {most}\], got {steps}$'):
+      jax_env.rollout(env, keys, action, params, steps)
+  many = jax.ShapeDtypeStruct((jax_env.MAX_ROLLOUT_BALLOONS + 1, 2),
+                              jnp.uint32)
+  with pytest.raises(errors.ConfigError, match=r'^rollout balloons'):
+    jax_env.rollout(env, many, action, params, 1)
+  with pytest.raises(AssertionError, match='traced'):  # Within the bounds.
+    jax_env.rollout(env, keys, action, params, most)
 
 
 @pytest.mark.slow
@@ -492,7 +545,7 @@ def test_reset_pool_step_where_no_episode_ended_is_step_env():
   jax.tree.map(np.testing.assert_array_equal, new, flown_state)
   assert list(np.asarray(new.pending_world)) == [-1, -1, -1]
   # One pending world (2, balloon 1): only its row of the large leaves.
-  install = jax.jit(jax.vmap(jax_env.install_world, in_axes=(0, None)))
+  install = jax.jit(jax.vmap(reset_pool.install_world, in_axes=(0, None)))
   pending = state.replace(pending_world=jnp.array([-1, 2, -1], jnp.int32))
   installed = install(pending, pooled)
   assert list(np.asarray(installed.pending_world)) == [-1, -1, -1]

@@ -48,10 +48,10 @@ import s2sphere as s2
 from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import features as latex_features
 from ble_latex.ble import wind as ble_wind
+from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import gymnasium_render
-from ble_latex.envs import jax_env
 from ble_latex.envs import winds
 from ble_latex.flight import physics as core_physics
 
@@ -88,13 +88,13 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
       stride: Simulated time per action (paper: 20 minutes); None: gin's.
       episode_steps: Strides per episode (the env's); None: gin's.
     """
-    # Checked with every other value by the driver (`jax_env.check_params`,
+    # Checked with every other value by the driver (`env_params.check_params`,
     # the one validator of the env's values).
     given = {k: v for k, v in (
         ('start_altitude_range_m', start_altitude_range_m),
         ('max_start_distance_km', max_start_distance_km),
         ('stride', stride)) if v is not None}
-    params = jax_env.params_from_gin().replace(**jax_env.start(**given))
+    params = env_params.params_from_gin().replace(**env_params.start(**given))
     if episode_steps is not None:
       params = params.replace(episode_steps=episode_steps)
     if winds.is_era5(wind_field_instance):

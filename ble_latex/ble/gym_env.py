@@ -33,6 +33,7 @@ from ble_latex.ble import balloon as balloon_lib
 from ble_latex.ble import discrete_features
 from ble_latex.ble import features as latex_features
 from ble_latex.ble import wind as ble_wind
+from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.envs import seeds
 
@@ -96,13 +97,13 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
         `LatexBalloonEnv.wind_field_factory = @Era5WindField`); any other BLE
         `WindField` is flown through host callbacks.
       episode_steps: Steps per episode (None: gin's `LatexBalloonEnv.*`, the
-        core's `jax_env.episode`); 216 x 20 min = 3 days. The episode is
+        core's `env_params.episode`); 216 x 20 min = 3 days. The episode is
         cut there (`info['time_limit']`, `info['TimeLimit.truncated']`).
       seed: PRNG seed in [0, 2**32); the same seed gives the identical
         trajectory. None: a random one.
       renderer: An optional BLE renderer.
     """
-    bound = jax_env.episode()  # gin's `LatexBalloonEnv.*`.
+    bound = env_params.episode()  # gin's `LatexBalloonEnv.*`.
     if station_keeping_radius_km is None:
       station_keeping_radius_km = bound['station_keeping_radius_km']
     if episode_steps is None:

@@ -13,7 +13,7 @@ half-life are bound through BLE's own gin names:
   balloon_env.perciatelli_reward_function.reward_halflife = 100.0
 
 This module adds only the optional resource penalty (default off, as in the
-paper; gin `latex_reward.*`, the core's `jax_env.resource_penalties`).
+paper; gin `latex_reward.*`, the core's `env_params.resource_penalties`).
 """
 
 from typing import Optional
@@ -23,7 +23,7 @@ from balloon_learning_environment.env import simulator_data
 from balloon_learning_environment.env.balloon import control
 
 from ble_latex import gin_values
-from ble_latex.envs import jax_env
+from ble_latex.envs import env_params
 
 
 def latex_reward(simulator_state: simulator_data.SimulatorState,
@@ -49,7 +49,7 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
       control.AltitudeControlCommand.DOWN):
     raise ValueError('A latex balloon state must not record the air-pump DOWN '
                      "command: BLE's reward would apply its power penalty.")
-  bound = jax_env.resource_penalties()
+  bound = env_params.resource_penalties()
   if helium_penalty_per_mol is None:
     helium_penalty_per_mol = bound['helium_penalty_per_mol']
   if sand_penalty_per_kg is None:

@@ -29,7 +29,6 @@ import numpy as np
 
 from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
-from ble_latex.envs import jax_env
 from ble_latex.envs import winds
 
 

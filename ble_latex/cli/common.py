@@ -276,7 +276,7 @@ def prepare_output_dir(path: str, flag: str) -> None:
 
 
 def check_env_config() -> None:
-  """The bound env and physics values (`jax_env.params_from_gin`), now.
+  """The bound env and physics values (`env_params.params_from_gin`), now.
 
   Call after binding gin, before the work starts.
 
@@ -284,8 +284,8 @@ def check_env_config() -> None:
     errors.ConfigError: a value the env's checks refuse, naming its gin
       binding (`run_absl`: one line, exit 2).
   """
-  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
-  jax_env.params_from_gin()
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
+  env_params.params_from_gin()
 
 
 # -- ERA5: --era5_path / --era5_dates of train and eval. ----------------------
@@ -322,7 +322,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
     CommandUsageError: --era5_dates without ERA5, or a bad range.
   """
   # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import jax_env
+  from ble_latex.envs import env_params
   from ble_latex.envs import winds
   from ble_latex.wind import era5
   # pylint: enable=g-import-not-at-top
@@ -334,7 +334,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
     path = os.path.abspath(os.path.expandvars(os.path.expanduser(path)))
     bindings += ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
                  f'Era5WindField.path = {path!r}']
-  elif not winds.is_era5(jax_env.episode()['wind_field_factory']):
+  elif not winds.is_era5(env_params.episode()['wind_field_factory']):
     if dates is not None:
       raise CommandUsageError(
           '--era5_dates needs ERA5 winds: --era5_path, or a gin file binding '

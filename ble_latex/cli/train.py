@@ -183,11 +183,11 @@ def _era5_validation_params():
   `ble-latex-eval --suite=latex_validation --era5_dates=...`).
   """
   # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import jax_env
+  from ble_latex.envs import env_params
   from ble_latex.envs import winds
   from ble_latex.wind import era5
   # pylint: enable=g-import-not-at-top
-  params = jax_env.params_from_gin()
+  params = env_params.params_from_gin()
   if (params.wind_grid is None or
       era5.Era5WindField().start_dates != suites.TRAIN_DATES):
     return None

@@ -55,13 +55,14 @@ class EnvParams:
     episode_steps: Strides per episode (216 = 3 days); traced, so a new
       length does not recompile.
     stride_s: Simulated time per action (the arena's stride). Static. # [s]
-    wind_grid: None: the winds are the env's `Wind` (BLE's generative field
-      by default); an `era5_jax.Era5Grid`: ERA5 winds plus BLE's simplex
-      noise (`era5_wind`), the grid shared by every balloon.
+    wind_grid: None: the winds are the env's `winds.Wind` (BLE's generative
+      field by default); an `era5_jax.Era5Grid`: ERA5 winds plus BLE's
+      simplex noise (`winds.era5_wind`), the grid shared by every balloon.
     reset_pool: None: `step` auto-resets a finished flight with the world
-      of its key (`reset(key)`, a full reset computed at every step); a
-      `ResetPool` (`LatexBalloonJaxEnv.with_reset_pool`): `step` auto-resets
-      from the pool's pre-drawn worlds, shared by every balloon (cheap).
+      of its reset key (`reset(key_reset)`, a full reset computed at every
+      step); a `ResetPool` (`LatexBalloonJaxEnv.with_reset_pool`): `step`
+      auto-resets from the pool's pre-drawn worlds, shared by every balloon
+      (cheap, `reset_pool`).
   """
   flight: flight_params_lib.FlightParams
   decoder: Any
@@ -104,7 +105,7 @@ class EnvState:
     steps: Strides flown in this episode (the one step count).
     pending_world: -1; after an auto-reset from `EnvParams.reset_pool`, the
       pool world whose large leaves (forecast grid, noise permutations)
-      `step_env` installs first (`install_world`).
+      `step_env` installs first (`reset_pool.install_world`).
   """
   flight: state_lib.FlightState
   atmosphere: atmosphere_lib.AtmosphereParams

@@ -10,7 +10,7 @@ check -> the jitted step (`Compiled.step`; [-1, 1]^3 actions mapped onto the
 Box there by `jax_env.to_box`) -> `jax_env.LatexBalloonJaxEnv.step_env` ->
 `flight.dynamics.step`. Neither imports gym, `ble_latex.ble`, BLE,
 TensorFlow nor Dopamine; both read the env's gin names
-(`jax_env.params_from_gin`).
+(`env_params.params_from_gin`).
 
 - `reset(seed=None, options=None)` returns `(obs, info)`. The flight of seed
   s is the flight of `gym.make('LatexBalloon-v0').reset(seed=s)` (and of
@@ -59,10 +59,10 @@ with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
   import jax
   from ble_latex import gin_values
+  from ble_latex.envs import env_params
   from ble_latex.envs import env_types
   from ble_latex.envs import gymnasium_compile as compile_lib
   from ble_latex.envs import jax_env
-  from ble_latex.envs import winds
   # pylint: enable=g-import-not-at-top
 
 # Names of the action components in messages.
@@ -235,8 +235,8 @@ class Balloons(SeedRule):
       gin_values.check_int('episode_steps', episode_steps, minimum=1)
     if params is None:
       with quiet.third_party_noise():
-        params = jax_env.params_from_gin()
-      factory = jax_env.episode()['wind_field_factory']
+        params = env_params.params_from_gin()
+      factory = env_params.episode()['wind_field_factory']
       if factory is not None and params.wind_grid is None and not host_wind:
         raise errors.ConfigError(
             f'gin binding LatexBalloonEnv.wind_field_factory = {factory!r}: '
@@ -244,7 +244,7 @@ class Balloons(SeedRule):
             'JAX; fly a BLE WindField with host_wind='
             'ble_latex.ble.wind.host_wind(field) or gym\'s LatexBalloon-v0')
     else:
-      params = jax_env.check_params(params)
+      params = env_params.check_params(params)
     if episode_steps is not None:
       params = params.replace(episode_steps=int(episode_steps))
     self.params = params
@@ -327,7 +327,7 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
     radius_name = 'station_keeping_radius_km'
     if station_keeping_radius_km is None:
       radius_name = 'gin binding LatexBalloonEnv.station_keeping_radius_km'
-      station_keeping_radius_km = jax_env.episode()[
+      station_keeping_radius_km = env_params.episode()[
           'station_keeping_radius_km']
     self.station_keeping_radius_km = gin_values.check_number(
         radius_name, station_keeping_radius_km, above=0.0)

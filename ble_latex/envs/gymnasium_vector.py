@@ -38,7 +38,6 @@ with quiet.third_party_noise():
   from ble_latex import gin_values
   from ble_latex.envs import env_types
   from ble_latex.envs import gymnasium_compile as compile_lib
-  from ble_latex.envs import jax_env
   # pylint: enable=g-import-not-at-top
 
 # The vector env resets a few ended balloons in one padded call (N > this);
@@ -178,8 +177,8 @@ class LatexBalloonVectorEnv(gymnasium_env.Balloons,
       None: gin's `LatexBalloonEnv.episode_steps` (216).
     max_episode_steps: As gymnasium's `TimeLimit` on the single env: the
       core's time limit becomes min(episode_steps, max_episode_steps).
-    params: `env_types.EnvParams` to fly (checked, `jax_env.check_params`);
-      `jax_env.params_from_gin()` if None.
+    params: `env_types.EnvParams` to fly (checked, `env_params.check_params`);
+      `env_params.params_from_gin()` if None.
     render_mode: Only None (use vectorization_mode='sync' to render).
 
   Attributes:

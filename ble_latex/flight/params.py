@@ -242,7 +242,7 @@ def check_flight_params(params: FlightParams) -> None:
   """Checks every value of a `FlightParams` (types and ranges).
 
   The one check of the flight system's values, whoever built them
-  (`make_flight_params`, `jax_env.check_params` for params given as is).
+  (`make_flight_params`, `env_params.check_params` for params given as is).
 
   Raises:
     ValueError: Naming the gin binding of the first bad value (a bool,

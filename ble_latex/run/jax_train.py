@@ -34,6 +34,7 @@ import numpy as np
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
+from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
@@ -416,7 +417,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
       deterministically from these env seeds in one batched call
       (`sac_trainer.validate`); the results go to `base_dir/validation.jsonl`
       (with the training wall time so far) and tensorboard (`Validation/*`).
-    env_params: Env parameters (default: `jax_env.params_from_gin()`).
+    env_params: Env parameters (default: `env_params.params_from_gin()`).
     validation_params: The validation's env parameters (default: the
       training's), e.g. ERA5 flights starting in the validation dates
       (`era5.DATE_SPLITS`); the same static structure as `env_params`.
@@ -500,11 +501,11 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
     for _, base_dir in runs:
       locks.enter_context(run_dir.locked(base_dir, wait_s=lock_wait_s))
     env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
-    params = (jax_env.check_params(env_params) if env_params is not None
+    params = (env_params.check_params(env_params) if env_params is not None
               else env.default_params)
     window = int(params.episode_steps)
     validation_params = (params if validation_params is None else
-                         jax_env.check_params(validation_params))
+                         env_params.check_params(validation_params))
     learner = sac_trainer.learner_for(config)
     n = config.num_envs
 

@@ -355,7 +355,7 @@ def check_points(settings: SweepSettings) -> None:
   """
   # pylint: disable=g-import-not-at-top
   from ble_latex import quiet
-  from ble_latex.envs import jax_env
+  from ble_latex.envs import env_params
   from ble_latex.run import run_dir
   for seed in settings.seeds:
     run_dir.check_training_seed(seed)
@@ -366,7 +366,7 @@ def check_points(settings: SweepSettings) -> None:
       try:
         bind_trial_gin(settings, index)
         sac_trainer.TrainerConfig()
-        jax_env.params_from_gin()
+        env_params.params_from_gin()
       except errors.ConfigError:
         raise
       except ValueError as e:
