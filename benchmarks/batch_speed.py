@@ -50,14 +50,17 @@ def paper_size_grid(era5_path: Optional[str] = None):
   import numpy as np  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5_requests  # pylint: disable=g-import-not-at-top
   if era5_path:
     return era5_jax.grid_from_data(era5.load(era5_path))
   hours = np.arange(368) * 6.0  # [h] 1 Nov 2022 - 31 Jan 2023 18:00.
   times = np.datetime64('2022-11-01T00:00', 'ns') + (
       hours * 3600).astype('timedelta64[s]')
-  pressure = np.array(era5.pressure_levels_hpa(), np.float64) * 100.0  # [Pa]
-  lats = np.round(np.arange(-4.0, 6.0 + 1e-9, era5.PAPER_GRID_DEG), 6)
-  lons = np.round(np.arange(-118.0, -108.0 + 1e-9, era5.PAPER_GRID_DEG), 6)
+  pressure = np.array(era5_requests.pressure_levels_hpa(),
+                      np.float64) * 100.0  # [Pa]
+  grid_deg = era5_requests.PAPER_GRID_DEG  # [deg]
+  lats = np.round(np.arange(-4.0, 6.0 + 1e-9, grid_deg), 6)
+  lons = np.round(np.arange(-118.0, -108.0 + 1e-9, grid_deg), 6)
   uv = np.random.default_rng(0).normal(
       0.0, 10.0, (len(hours), len(pressure), len(lats), len(lons), 2))
   data = era5.Era5Data(('synthetic',), times, hours * 3600.0, pressure,

@@ -379,7 +379,7 @@ def test_non_finite_queries_are_errors(era5_file):
 @pytest.mark.parametrize('add_noise', [False, True])
 def test_add_noise_switch(era5_file, add_noise):
   field = era5_field.Era5WindField(path=era5_file, episode_hours=6.0,
-                             add_noise=add_noise)
+                                   add_noise=add_noise)
   field.reset(jax.random.PRNGKey(7), dt.datetime(2013, 1, 1))
   args = (units.Distance(km=20.0), units.Distance(km=-10.0), 8000.0,
           dt.timedelta(hours=1))
@@ -442,9 +442,11 @@ def test_nan_winds(tmp_path):
 def test_target_outside_area(era5_file):
   with pytest.raises(ValueError, match=r'Target \(lat 10.0, lon -113.0\) lies '
                      'outside the area of ERA5 file'):
-    era5_field.Era5WindField(path=era5_file, center_lat=10.0, episode_hours=6.0)
+    era5_field.Era5WindField(path=era5_file, center_lat=10.0,
+                             episode_hours=6.0)
   # The same target in the 0..360 convention is inside.
-  era5_field.Era5WindField(path=era5_file, center_lon=247.0, episode_hours=6.0)
+  era5_field.Era5WindField(path=era5_file, center_lon=247.0,
+                           episode_hours=6.0)
 
 
 def test_files_on_different_grids_are_not_joined(tmp_path, era5_file):
@@ -628,7 +630,8 @@ def test_hpa_numbers_labelled_pa_above_10_hpa_are_errors(tmp_path):
 
 @pytest.mark.parametrize('pressure_unit', ['hPa', 'Pa'])
 @pytest.mark.parametrize('levels_hpa', [
-    era5_checks.ERA5_PRESSURE_LEVELS_HPA, (1, 2, 3, 5, 7, 10), (1, 2), (975, 1000)])
+    era5_checks.ERA5_PRESSURE_LEVELS_HPA, (1, 2, 3, 5, 7, 10), (1, 2),
+    (975, 1000)])
 def test_every_era5_pressure_level_set_loads(tmp_path, pressure_unit,
                                              levels_hpa):
   levels = np.array(levels_hpa, dtype=np.float64)
@@ -997,8 +1000,8 @@ def test_env_flies_at_the_sampled_era5_start(tmp_path):
   from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
   path = write_era5(tmp_path / 'era5.nc')
   env = env_lib.LatexBalloonEnv(
-      wind_field_factory=lambda: era5_field.Era5WindField(path=path,
-                                                    episode_hours=1.0),
+      wind_field_factory=lambda: era5_field.Era5WindField(
+          path=path, episode_hours=1.0),
       episode_steps=2, seed=0)
   # An Era5WindField flies its grid in the core (`EnvParams.wind_grid`).
   assert env.arena.params.wind_grid is not None

@@ -15,6 +15,7 @@ import json
 import os
 import subprocess
 import sys
+import textwrap
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 import gin
@@ -25,6 +26,7 @@ import pytest
 
 from ble_latex import configs
 from ble_latex import errors
+from ble_latex.ble import era5_field
 from ble_latex.cli import common as cli
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
@@ -111,7 +113,7 @@ def test_drawn_starts_fall_inside_their_dates(era5_path):
                                                        name == 'eval' else 0))
     starts[name] = set(when)
     # Era5WindField (BLE's path) draws the same starts.
-    field = era5.Era5WindField(path=era5_path, start_dates=name)
+    field = era5_field.Era5WindField(path=era5_path, start_dates=name)
     for key, minute in list(zip(keys, minutes))[:5]:
       field.reset_forecast(key, dt.datetime(2012, 1, 1))
       assert field.start_date_time == data.start + dt.timedelta(
@@ -130,7 +132,7 @@ def test_drawn_starts_fall_inside_their_dates(era5_path):
 ])
 def test_bad_start_dates_are_one_line(era5_path, dates, message):
   with pytest.raises(errors.ConfigError, match=message) as raised:
-    era5.Era5WindField(path=era5_path, start_dates=dates)
+    era5_field.Era5WindField(path=era5_path, start_dates=dates)
   # One line (gin appends its call note; commands print `cli.one_line`).
   assert message.split('|')[0] in cli.one_line(raised.value)
   assert cli.one_line(raised.value).startswith('Era5WindField.start_dates = ')
@@ -194,6 +196,41 @@ def test_paper_gin_puts_the_grid_in_the_params(gin_era5):
   assert int(train.first_start_minute) == 0
   last = data.start + dt.timedelta(minutes=int(train.last_start_minute))
   assert last < _range('train')[1]
+
+
+def test_the_grid_reaches_the_functional_env_as_plain_settings(era5_path):
+  """paper_era5.gin flies the functional env with nothing of BLE's objects.
+
+  gin's `Era5WindField` is the reader's plain settings (`era5.settings`):
+  `env_params.params_from_gin` reads the file into the grid without importing
+  BLE's `WindField`s (`ble_latex.ble.era5_field`, `ble_latex.ble.wind`,
+  BLE's `wind_field`), BLE's gym env or TensorFlow (a fresh process; gin's
+  finalize hook, which declares the gym env's configurables, is BLE's
+  path and is not run).
+  """
+  code = textwrap.dedent(f"""
+      import sys
+      import gin
+      from ble_latex import configs
+      from ble_latex.envs import env_params
+      from ble_latex.wind import era5
+      from ble_latex.wind import era5_jax
+      gin.parse_config_files_and_bindings(
+          [configs.gin_file('paper_era5.gin')],
+          ["Era5WindField.path = {era5_path!r}"], finalize_config=False)
+      assert env_params.episode()['wind_field_factory'] is era5.settings
+      grid = env_params.params_from_gin().wind_grid
+      assert grid is era5_jax.grid_from_settings(era5.Era5Settings(
+          path={era5_path!r}))
+      print(sorted(m for m in sys.modules if m.startswith((
+          'ble_latex.ble.era5_field', 'ble_latex.ble.wind',
+          'ble_latex.ble.arena', 'ble_latex.ble.gym_env',
+          'balloon_learning_environment.env.wind_field', 'tensorflow'))))
+      """)
+  out = subprocess.run([sys.executable, '-c', code], capture_output=True,
+                       text=True, check=False, timeout=300)
+  assert out.returncode == 0, out.stderr[-3000:]
+  assert out.stdout.strip().splitlines()[-1] == '[]'
 
 
 def test_era5_factory_without_a_path_is_one_line():
@@ -308,7 +345,7 @@ def test_every_env_flies_era5_from_the_gin_binding(gin_era5):
     truth = ble_field.get_ground_truth(units.Distance(m=0.0),
                                        units.Distance(m=0.0), 9000.0,
                                        dt.timedelta(hours=1))
-    reference = era5.Era5WindField(path=gin_era5)
+    reference = era5_field.Era5WindField(path=gin_era5)
     reference.reset(jax.random.PRNGKey(0), start)
     reference.set_start_date_time(start)
     forecast = ble_field.get_forecast(units.Distance(m=0.0),

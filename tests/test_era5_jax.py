@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 import s2sphere as s2
 
+from ble_latex.ble import era5_field
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
@@ -140,7 +141,8 @@ def fixture_era5_path(tmp_path_factory):
 
 @pytest.mark.parametrize('episode_hours', [6.0, 24.0, 48.0])
 def test_start_draw_is_era5_wind_fields(era5_path, episode_hours):
-  field = era5.Era5WindField(path=era5_path, episode_hours=episode_hours)
+  field = era5_field.Era5WindField(path=era5_path,
+                                   episode_hours=episode_hours)
   grid = era5_jax.grid_from_data(field.data, episode_hours=episode_hours)
   draw = jax.jit(era5_jax.draw_start_minute)
   minutes = []
@@ -170,8 +172,8 @@ def test_env_wind_is_era5_wind_fields(era5_path, add_noise):
   with_grid = with_grid.replace(wind_grid=with_grid.wind_grid.replace(
       add_noise=add_noise))
   env = jax_env.LatexBalloonJaxEnv()
-  field = era5.Era5WindField(path=era5_path, episode_hours=24.0,
-                             add_noise=add_noise)
+  field = era5_field.Era5WindField(path=era5_path, episode_hours=24.0,
+                                   add_noise=add_noise)
   points = [(0.0, 0.0, 9000.0, 0.0), (120e3, -40e3, 5200.0, 5.5 * 3600),
             (-300e3, 250e3, 13900.0, 20 * 3600.0)]
   for seed in (3, 8):
@@ -250,7 +252,7 @@ def _jax_flight(params, seeds, actions):
   return np.asarray(obs).swapaxes(0, 1), np.asarray(where).swapaxes(0, 1)
 
 
-class HostEra5WindField(era5.Era5WindField):
+class HostEra5WindField(era5_field.Era5WindField):
   """`Era5WindField` as a third-party BLE WindField: flown through host
   callbacks (scipy, float64), the reference of the JAX grid (an
   `Era5WindField` itself flies its grid)."""

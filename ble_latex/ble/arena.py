@@ -46,14 +46,15 @@ import numpy as np
 import s2sphere as s2
 
 from ble_latex.ble import balloon as balloon_lib
+from ble_latex.ble import era5_field
 from ble_latex.ble import features as latex_features
 from ble_latex.ble import wind as ble_wind
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import gymnasium_render
-from ble_latex.envs import winds
 from ble_latex.flight import physics as core_physics
+from ble_latex.wind import era5_jax
 
 
 class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
@@ -78,8 +79,9 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
       wind_field_instance: The wind field to fly in; None or a
         `CoreGenerativeWindField`: BLE's generative field inside the core
         (ERA5 if gin binds `LatexBalloonEnv.wind_field_factory =
-        @Era5WindField`); an `Era5WindField`: its grid, in the core; any
-        other BLE `WindField`: host callbacks.
+        @Era5WindField`); an `era5_field.Era5WindField` or
+        `era5.Era5Settings`: its grid, in the core; any other BLE
+        `WindField`: host callbacks.
       seed: Optional seed (BLE semantics).
       start_altitude_range_m: Start altitude is uniform in this range;
         None: gin's `LatexBalloonArena.start_altitude_range_m`. # [m]
@@ -97,11 +99,12 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     params = env_params.params_from_gin().replace(**env_params.start(**given))
     if episode_steps is not None:
       params = params.replace(episode_steps=episode_steps)
-    if winds.is_era5(wind_field_instance):
+    era5_settings = era5_field.grid_settings(wind_field_instance)
+    if era5_settings is not None:
       # ERA5 flies in JAX (its grid in the params); BLE's consumers read it
       # through the core's field, as the generative one.
       params = params.replace(
-          wind_grid=winds.era5_grid(wind_field_instance))
+          wind_grid=era5_jax.grid_from_settings(era5_settings))
       wind_field_instance = None
     if wind_field_instance is None:
       wind_field_instance = ble_wind.CoreGenerativeWindField()

@@ -92,9 +92,10 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
       wind_field_factory: Builds the wind field: by default BLE's generative
         VAE field with BLE's noise, drawn and flown inside the flight core
         (`ble_latex.ble.wind.CoreGenerativeWindField`);
-        `ble_latex.wind.era5.Era5WindField` for ERA5 data, flown in the core
-        too (its grid in `EnvParams.wind_grid`; gin's
-        `LatexBalloonEnv.wind_field_factory = @Era5WindField`); any other BLE
+        `ble_latex.ble.era5_field.Era5WindField` for ERA5 data, or gin's
+        `LatexBalloonEnv.wind_field_factory = @Era5WindField` (plain
+        `wind.era5.Era5Settings`), flown in the core too (its grid in
+        `EnvParams.wind_grid`); any other BLE
         `WindField` is flown through host callbacks.
       episode_steps: Steps per episode (None: gin's `LatexBalloonEnv.*`, the
         core's `env_params.episode`); 216 x 20 min = 3 days. The episode is

@@ -178,21 +178,21 @@ def _era5_validation_params():
 
   When training flies the 'train' split (the default), the training params
   with flights starting in the 'validation' split (the same winds on the
-  device, `winds.era5_grid`); None otherwise (no ERA5, or other training
-  dates: validation flies the training env; choose with
+  device, `era5_jax.grid_from_settings`); None otherwise (no ERA5, or other
+  training dates: validation flies the training env; choose with
   `ble-latex-eval --suite=latex_validation --era5_dates=...`).
   """
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params
-  from ble_latex.envs import winds
   from ble_latex.wind import era5
+  from ble_latex.wind import era5_jax
   # pylint: enable=g-import-not-at-top
   params = env_params.params_from_gin()
   if (params.wind_grid is None or
-      era5.Era5WindField().start_dates != suites.TRAIN_DATES):
+      era5.settings().start_dates != suites.TRAIN_DATES):
     return None
-  return params.replace(wind_grid=winds.era5_grid(
-      era5.Era5WindField(start_dates=suites.era5_dates('latex_validation'))))
+  return params.replace(wind_grid=era5_jax.grid_from_settings(
+      era5.settings(start_dates=suites.era5_dates('latex_validation'))))
 
 
 def check() -> None:
