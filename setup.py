@@ -36,6 +36,8 @@ _INSTALL_REQUIRES = [
     'eccodes',
     'cdsapi',
     'tqdm',
+    # Launch planning's Bayesian optimiser (ble_latex.launch.search).
+    'bayesian-optimization==3.4.0',
 ]
 
 setuptools.setup(
@@ -101,6 +103,7 @@ setuptools.setup(
             'ble-latex-sweep = ble_latex.cli.sweep:main',
             'ble-latex-demo = ble_latex.cli.demo:main',
             'ble-latex-export-policy = ble_latex.cli.export_policy:main',
+            'ble-latex-launch = ble_latex.cli.launch:main',
         ],
     },
 )

@@ -33,7 +33,7 @@ FLOORS = (
     ('envs',),
     ('ble', 'compat'),
     ('agents',),
-    ('run',),
+    ('run', 'launch'),
     ('plots',),
     ('cli',),
 )

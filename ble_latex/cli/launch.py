@@ -1,0 +1,225 @@
+# coding=utf-8
+r"""Where and when to launch: ranks a grid of launches by expected TW50.
+
+  ble-latex-launch --output_dir=launch_out [--agent=latex_station_seeker] \
+      [--seed=0 | --era5_path=F --station_lat=1 --station_lon=-113 \
+       --date=2022-11-05T00:00] [--east_km=-150,150 --north_km=-150,150 \
+      --hours=0,21 [--altitude_m=15000,20000]] [--grid=41,41,8[,N_ALT]] \
+      [--draws=4] [--max_steps=216] [--top=100] [--paths=3]
+
+Every candidate (an offset east and north of the station, a delay after the
+world's start and a start altitude) is flown by the agent for the episode
+under --draws draws of BLE's forecast-error noise, all in one batched JAX
+program per chunk (`ble_latex.launch.scoring`), in the world of BLE's
+generative forecast of env seed --seed, or of an ERA5 file with the station
+at --station_lat/--station_lon and the world's start at --date. Writes
+OUTPUT_DIR/launches.json (the ranked launches with their mean, std and
+standard error of TW50 over the draws; the whole grid's means) and
+OUTPUT_DIR/launch_map.png (expected TW50 over the launch box, the station,
+the best launches' flight paths). docs/launch.md.
+"""
+
+import datetime as dt
+import json
+import os
+import socket
+import sys
+import time
+from typing import List, Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
+
+# Imported on first use, after the flags are parsed (`--help` stays fast).
+jax = cli.lazy_module('jax')
+controllers = cli.lazy_module('ble_latex.launch.controllers')
+env_params = cli.lazy_module('ble_latex.envs.env_params')
+launch_map = cli.lazy_module('ble_latex.launch.launch_map')
+scoring = cli.lazy_module('ble_latex.launch.scoring')
+gin_binding = cli.lazy_module('ble_latex.run.gin_binding')
+
+PROG = 'ble-latex-launch'
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('output_dir', None, 'Folder of launches.json and '
+                    'launch_map.png.', flag_values=FLAGS)
+flags.DEFINE_string('agent', 'latex_station_seeker', 'The agent that flies '
+                    'the launches: latex_station_seeker, sac, sac_pretrained '
+                    'or a latex_mpc planner.', flag_values=FLAGS)
+flags.DEFINE_string('agent_gin_file', None, "Replaces the agent's gin file.",
+                    flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_file', [], 'Gin files (after the env '
+                          'defaults).', flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings, last.',
+                          flag_values=FLAGS)
+flags.DEFINE_integer('seed', 0, 'The world: env seed of the generative '
+                     'forecast (with --era5_path: the noise seed).',
+                     flag_values=FLAGS)
+flags.DEFINE_string('era5_path', None, 'ERA5 file(s): fly its winds.',
+                    flag_values=FLAGS)
+flags.DEFINE_float('station_lat', None, 'ERA5: the station [deg N].',
+                   flag_values=FLAGS)
+flags.DEFINE_float('station_lon', None, 'ERA5: the station [deg E].',
+                   flag_values=FLAGS)
+flags.DEFINE_string('date', None, "ERA5: the world's start (launch delay 0), "
+                    'ISO date-time, UTC.', flag_values=FLAGS)
+flags.DEFINE_list('east_km', ['-150', '150'], 'Launch box east of the '
+                  'station: low,high [km].', flag_values=FLAGS)
+flags.DEFINE_list('north_km', ['-150', '150'], 'Launch box north of the '
+                  'station: low,high [km].', flag_values=FLAGS)
+flags.DEFINE_list('hours', ['0', '21'], "Launch delay after the world's "
+                  'start: low,high [h].', flag_values=FLAGS)
+flags.DEFINE_list('altitude_m', None, 'Start altitude band low,high [m] '
+                  "(default: the middle of the env's start band).",
+                  flag_values=FLAGS)
+flags.DEFINE_list('grid', ['41', '41', '8'], 'Grid points: east,north,'
+                  'hours[,altitudes].', flag_values=FLAGS)
+flags.DEFINE_integer('draws', 4, 'Noise draws per launch (K).',
+                     flag_values=FLAGS)
+flags.DEFINE_integer('max_steps', None, 'Strides per flight (default: the '
+                     "env's episode, 216).", flag_values=FLAGS)
+flags.DEFINE_integer('top', 100, 'Ranked launches written in full.',
+                     flag_values=FLAGS)
+flags.DEFINE_integer('paths', 3, 'Best launches whose flight paths are '
+                     'drawn.', flag_values=FLAGS)
+flags.mark_flags_as_required(['output_dir'], flag_values=FLAGS)
+
+
+def _pair(name: str) -> Optional[List[float]]:
+  values = FLAGS[name].value
+  if values is None:
+    return None
+  try:
+    pair = [float(v) for v in values]
+  except ValueError:
+    pair = []
+  if len(pair) != 2:
+    raise cli.CommandUsageError(f'--{name} must be two numbers low,high, got '
+                                f'{",".join(values)!r}')
+  return pair
+
+
+def _grid() -> List[int]:
+  try:
+    shape = [int(v) for v in FLAGS.grid]
+  except ValueError:
+    shape = []
+  if not 3 <= len(shape) <= 4 or min(shape) < 1:
+    raise cli.CommandUsageError(
+        '--grid must be 3 or 4 positive integers east,north,hours[,altitudes]'
+        f', got {",".join(FLAGS.grid)!r}')
+  return shape
+
+
+def _check() -> None:
+  for name in ('east_km', 'north_km', 'hours', 'altitude_m'):
+    _pair(name)
+  _grid()
+  era5_flags = [FLAGS.station_lat, FLAGS.station_lon, FLAGS.date]
+  if FLAGS.era5_path is None and any(v is not None for v in era5_flags):
+    raise cli.CommandUsageError('--station_lat, --station_lon and --date '
+                                'need --era5_path')
+  if FLAGS.era5_path is not None and any(v is None for v in era5_flags):
+    raise cli.CommandUsageError('--era5_path needs --station_lat, '
+                                '--station_lon and --date')
+  for name, minimum in (('draws', 1), ('top', 1), ('paths', 0),
+                        ('max_steps', 1), ('seed', 0)):
+    value = FLAGS[name].value
+    if value is not None and value < minimum:
+      raise cli.CommandUsageError(f'--{name} must be >= {minimum}, got '
+                                  f'{value}')
+  cli.check_agent(FLAGS.agent)
+  cli.prepare_output_dir(FLAGS.output_dir, '--output_dir')
+
+
+def _main(argv: Sequence[str]) -> None:
+  del argv
+  gin_binding.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
+                       FLAGS.gin_bindings)
+  hours = _pair('hours')
+  altitude = _pair('altitude_m')
+  space = scoring.SearchSpace(
+      east_km=tuple(_pair('east_km')), north_km=tuple(_pair('north_km')),
+      hours=tuple(hours),
+      altitude_m=None if altitude is None else tuple(altitude),
+  ).checked(env_params.params_from_gin())
+  if FLAGS.era5_path is None:
+    world = scoring.generative_world(FLAGS.seed, steps=FLAGS.max_steps)
+  else:
+    world = scoring.era5_world(
+        FLAGS.era5_path, center_lat=FLAGS.station_lat,
+        center_lon=FLAGS.station_lon, date=FLAGS.date, max_hours=hours[1],
+        seed=FLAGS.seed, steps=FLAGS.max_steps)
+  shape = _grid()
+  launches = scoring.grid(space, *shape)
+  controller = controllers.controller_named(FLAGS.agent)
+  n = len(launches)
+  print(f'{PROG}: {n} launches x {FLAGS.draws} draws x '
+        f'{world.params.episode_steps} strides, {FLAGS.agent}, '
+        f'{world.describe["source"]} world', flush=True)
+  load_before = os.getloadavg()
+  start = time.monotonic()
+  scores = scoring.score(world, controller, launches, draws=FLAGS.draws,
+                         progress=lambda done: print(
+                             f'  {done}/{n} launches, '
+                             f'{time.monotonic() - start:.0f} s', flush=True))
+  wall_s = time.monotonic() - start
+  table = scoring.ranked(scores, world, FLAGS.top)
+  best = table[:FLAGS.paths]
+  paths = None
+  if best:
+    paths = scoring.flight_paths(world, controller, launches.take(
+        [r['index'] for r in best]))[0]
+  radius = world.params.station_keeping_radius_km
+  inside = [r for r in scoring.ranked(scores, world) if r['inside_radius']]
+  record = {
+      'flags': {name: FLAGS[name].value for name in (
+          'agent', 'seed', 'era5_path', 'station_lat', 'station_lon', 'date',
+          'east_km', 'north_km', 'hours', 'altitude_m', 'grid', 'draws',
+          'max_steps', 'gin_file', 'gin_bindings')},
+      'agent': FLAGS.agent, 'world': world.describe,
+      'space': {k: list(v) for k, v in zip(space.names, space.bounds())},
+      'grid': shape, 'draws': FLAGS.draws,
+      'steps': int(world.params.episode_steps),
+      'radius_km': radius,
+      'timing': {'score_wall_s': wall_s, 'launches': n,
+                 'balloon_strides': n * FLAGS.draws *
+                                    int(world.params.episode_steps),
+                 'load_avg_before': list(load_before),
+                 'load_avg_after': list(os.getloadavg()),
+                 'device': str(jax.devices()[0]), 'host': socket.gethostname(),
+                 'date': dt.datetime.now(dt.timezone.utc).isoformat()},
+      'best_inside_radius': inside[0] if inside else None,
+      'top_outside_radius_fraction': (
+          sum(not r['inside_radius'] for r in table[:10]) /
+          max(len(table[:10]), 1)),
+      'ranked': table,
+      'grid_tw50_mean': [round(float(v), 5) for v in scores.mean],
+      'grid_tw50_stderr': [round(float(v), 5) for v in scores.stderr],
+  }
+  json_path = os.path.join(FLAGS.output_dir, 'launches.json')
+  safe_io.atomic_write(json_path, json.dumps(record, indent=1))
+  fig = launch_map.launch_map(
+      scores, shape, radius, best, paths,
+      title=(f'{FLAGS.agent}, {world.describe["source"]} world '
+             f'{world.describe.get("date", world.describe["seed"])}: '
+             f'{n} launches x {FLAGS.draws} draws'))
+  png_path = os.path.join(FLAGS.output_dir, 'launch_map.png')
+  fig.savefig(png_path, dpi=110)
+  top = table[0]
+  print(f'best launch: {top["east_km"]:g} km east, {top["north_km"]:g} km '
+        f'north, +{top["hours"]:g} h, {top["altitude_m"]:g} m: TW50 '
+        f'{top["tw50_mean"]:.3f} +- {top["tw50_stderr"]:.3f} '
+        f'({top["distance_km"]:.0f} km from the station)')
+  print(f'scored in {wall_s:.1f} s (load {load_before[0]:.1f}); wrote '
+        f'{json_path} and {png_path}')
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  """The command (`cli.run_absl`); returns the exit status."""
+  return cli.run_absl(_main, PROG, FLAGS, argv, doc=__doc__, check=_check)
+
+
+if __name__ == '__main__':
+  sys.exit(main())

@@ -1,0 +1,85 @@
+# coding=utf-8
+"""The launch map: expected TW50 over the launch box, the best launches'
+flight paths, the station and its circle (matplotlib; returns the Figure)."""
+
+from typing import Any, Dict, List, Optional
+
+import matplotlib
+from matplotlib import figure as figure_lib
+import numpy as np
+
+from ble_latex.launch import scoring
+
+
+def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
+               best: List[Dict[str, Any]],
+               paths: Optional[np.ndarray] = None,
+               title: str = '') -> figure_lib.Figure:
+  """Two panels: the map and expected TW50 against the launch delay.
+
+  Left: each site's expected TW50 at its best delay (and altitude), the
+  station (star) and its radius (dashed), the best launches (numbered) and
+  their flight paths (draw 0). Right: the best site's and the station's
+  expected TW50 per delay, with +- one standard error.
+
+  Args:
+    scores: The dense grid's scores (`scoring.grid(space, *shape)` order).
+    shape: (n_east, n_north, n_hours[, n_altitudes]).
+    radius_km: The station-keeping radius. # [km]
+    best: The best launches' records (`scoring.ranked`), best first.
+    paths: [len(best), strides + 1, 2] their paths (east, north) [km].
+    title: The figure's title.
+  """
+  matplotlib.use('Agg', force=False)
+  n_east, n_north, n_hours = (list(shape) + [1, 1])[:3]
+  n_alt = len(scores.launches) // (n_east * n_north * n_hours)
+  # Index ((a * n_hours + t) * n_north + j) * n_east + k.
+  mean = scores.mean.reshape(n_alt, n_hours, n_north, n_east)
+  stderr = scores.stderr.reshape(n_alt, n_hours, n_north, n_east)
+  east = scores.launches.east_km[:n_east]
+  north = scores.launches.north_km[::n_east][:n_north]
+  hours = scores.launches.hours[::n_east * n_north][:n_hours]
+  fig = figure_lib.Figure(figsize=(12.5, 5.5))
+  ax, side = fig.subplots(1, 2, gridspec_kw={'width_ratios': [1.25, 1]})
+  site = mean.max(axis=(0, 1))
+  image = ax.pcolormesh(east, north, site, shading='nearest', cmap='viridis',
+                        vmin=0.0, vmax=max(float(site.max()), 1e-6))
+  fig.colorbar(image, ax=ax, label='expected TW50 at the best delay')
+  theta = np.linspace(0.0, 2.0 * np.pi, 200)
+  ax.plot(radius_km * np.cos(theta), radius_km * np.sin(theta), 'w--', lw=1.2,
+          label=f'{radius_km:g} km')
+  ax.plot([0.0], [0.0], marker='*', color='red', ms=14, ls='',
+          label='station')
+  colors = matplotlib.colormaps['autumn'](np.linspace(0.0, 0.8,
+                                                      max(len(best), 1)))
+  for i, record in enumerate(best):
+    if paths is not None:
+      ax.plot(paths[i, :, 0], paths[i, :, 1], color=colors[i], lw=1.0)
+    ax.plot(record['east_km'], record['north_km'], 'o', mfc=colors[i],
+            mec='k', ms=7)
+    ax.annotate(f"{record['rank']}: {record['hours']:g} h",
+                (record['east_km'], record['north_km']), fontsize=8,
+                color='white', xytext=(4, 4), textcoords='offset points')
+  ax.set_xlim(east.min(), east.max())
+  ax.set_ylim(north.min(), north.max())
+  ax.set_aspect('equal')
+  ax.set_xlabel('launch east of the station [km]')
+  ax.set_ylabel('launch north of the station [km]')
+  ax.legend(loc='lower left', fontsize=8)
+  k, j = (np.argmin(np.abs(east - best[0]['east_km'])),
+          np.argmin(np.abs(north - best[0]['north_km']))) if best else (0, 0)
+  a = int(np.argmax(mean[:, :, j, k].max(axis=1)))
+  for label, (jj, kk) in (('best site', (j, k)),
+                          ('station', (np.argmin(np.abs(north)),
+                                       np.argmin(np.abs(east))))):
+    side.errorbar(hours, mean[a, :, jj, kk], yerr=stderr[a, :, jj, kk],
+                  marker='o', capsize=3,
+                  label=f'{label} ({east[kk]:g}, {north[jj]:g}) km')
+  side.set_xlabel('launch delay [h]')
+  side.set_ylabel('expected TW50 (+- standard error)')
+  side.set_ylim(-0.02, 1.02)
+  side.grid(alpha=0.3)
+  side.legend(fontsize=8)
+  fig.suptitle(title)
+  fig.tight_layout()
+  return fig

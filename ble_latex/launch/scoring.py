@@ -1,0 +1,508 @@
+# coding=utf-8
+"""Launch candidates scored by expected TW50, flown batched on the JAX core.
+
+Where and when to launch (Saunders et al., arXiv 2403.10784): a candidate
+launch is an offset east and north of the station [km], a delay after the
+world's start [h] and a start altitude [m]. Each is flown for a whole
+episode by a controller (`controllers`) in the world of a wind source
+(`World`: BLE's generative forecast of a seed, or an ERA5 file with the
+station at a given latitude and longitude and a launch date), under K draws
+of BLE's simplex forecast-error noise, and scored by its TW50 (the fraction
+of the episode's strides ending within the station-keeping radius,
+`metrics.EpisodeTracker`'s count) averaged over the draws:
+
+  score(c) = (1/K) sum_k TW50_k(c),  stderr(c) = std_k(TW50_k(c)) / sqrt(K)
+
+(std with ddof 1; 0 for K = 1). Draw 0 is the world's own noise, so with
+K = 1 a launch at the world's own start flies `jax_env`'s `reset(key)`
+flight exactly. Every candidate x draw is one balloon of one jitted call:
+the world's forecast and atmosphere are shared (not copied per balloon), the
+noise is shared by the candidates of a draw, and the strides are one
+`lax.scan` (`score`).
+"""
+
+import dataclasses
+import datetime as dt
+import functools
+import math
+from typing import Any, Dict, List, Optional, Tuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ble_latex import errors
+from ble_latex import gin_values
+from ble_latex import jax_cache
+from ble_latex.envs import env_params
+from ble_latex.envs import env_types
+from ble_latex.envs import jax_env
+from ble_latex.envs import jax_features
+from ble_latex.flight import launch as launch_lib
+from ble_latex.flight import state as state_lib
+from ble_latex.launch import controllers as controllers_lib
+from ble_latex.wind import era5
+from ble_latex.wind import era5_jax
+from ble_latex.wind import generative
+from ble_latex.wind import simplex
+
+Array = jax.Array
+# Candidates flown per jitted call (x the draws): bounds memory. Each
+# balloon's own state is ~2 kB; the world is shared.
+CHUNK = 2048
+# Most candidates x draws one `score` call accepts.
+MAX_BALLOONS = 4_000_000
+# The generative forecast's grid reaches this far from the station; BLE
+# clips positions beyond it (the wind there is the edge's). # [km]
+GENERATIVE_EXTENT_KM = 500.0
+
+
+@dataclasses.dataclass(frozen=True)
+class SearchSpace:
+  """The box of candidate launches.
+
+  Attributes:
+    east_km: (low, high) offset east of the station. # [km]
+    north_km: (low, high) offset north of the station. # [km]
+    hours: (low, high) delay after the world's start. # [h]
+    altitude_m: (low, high) start altitude, or None: the middle of the
+      env's start band (`EnvParams.start_altitude_low_m/high_m`). # [m]
+  """
+  east_km: Tuple[float, float] = (-150.0, 150.0)
+  north_km: Tuple[float, float] = (-150.0, 150.0)
+  hours: Tuple[float, float] = (0.0, 21.0)
+  altitude_m: Optional[Tuple[float, float]] = None
+
+  def checked(self, params: env_types.EnvParams) -> 'SearchSpace':
+    """This box with its altitude band filled in; bad bounds are one line.
+
+    Raises:
+      errors.ConfigError: a bound not finite, low > high, a negative delay,
+        an altitude outside the core's start range (0, 32 km].
+    """
+    altitude = self.altitude_m
+    if altitude is None:
+      middle = 0.5 * (params.start_altitude_low_m +
+                      params.start_altitude_high_m)
+      altitude = (middle, middle)
+    for name, (low, high) in (('east_km', self.east_km),
+                              ('north_km', self.north_km),
+                              ('hours', self.hours),
+                              ('altitude_m', altitude)):
+      gin_values.check_number(f'launch {name} low', low)
+      gin_values.check_number(f'launch {name} high', high)
+      if low > high:
+        raise errors.ConfigError(
+            f'launch {name}: low {low:g} > high {high:g}')
+    if self.hours[0] < 0:
+      raise errors.ConfigError(
+          f'launch hours must be >= 0 (a delay after the world\'s start), '
+          f'got {self.hours[0]:g}')
+    if altitude[0] <= 0 or altitude[1] > env_params.START_ALTITUDE_MAX_M:
+      raise errors.ConfigError(
+          'launch altitude_m must lie in '
+          f'(0, {env_params.START_ALTITUDE_MAX_M:g}] m, got '
+          f'({altitude[0]:g}, {altitude[1]:g})')
+    return dataclasses.replace(self, altitude_m=tuple(altitude))
+
+  @property
+  def names(self) -> Tuple[str, ...]:
+    """The dimensions, in `Launches` order."""
+    return ('east_km', 'north_km', 'hours', 'altitude_m')
+
+  def bounds(self) -> np.ndarray:
+    """[4, 2] (low, high) per dimension (after `checked`)."""
+    if self.altitude_m is None:
+      raise errors.ConfigError('launch SearchSpace has no altitude band yet: '
+                               'use SearchSpace.checked(params)')
+    return np.array([self.east_km, self.north_km, self.hours,
+                     self.altitude_m], np.float64)
+
+
+@dataclasses.dataclass(frozen=True)
+class Launches:
+  """N candidate launches (NumPy float64 arrays [N]).
+
+  Attributes:
+    east_km: Offset east of the station. # [km]
+    north_km: Offset north of the station. # [km]
+    hours: Delay after the world's start. # [h]
+    altitude_m: Start altitude. # [m]
+  """
+  east_km: np.ndarray
+  north_km: np.ndarray
+  hours: np.ndarray
+  altitude_m: np.ndarray
+
+  def __len__(self) -> int:
+    return len(self.east_km)
+
+  def array(self) -> np.ndarray:
+    """[N, 4] in `SearchSpace.names` order."""
+    return np.stack([self.east_km, self.north_km, self.hours,
+                     self.altitude_m], axis=1)
+
+  @classmethod
+  def from_array(cls, values: Any) -> 'Launches':
+    """From [N, 4] values in `SearchSpace.names` order."""
+    values = np.asarray(values, np.float64).reshape(-1, 4)
+    return cls(*(values[:, i].copy() for i in range(4)))
+
+  def take(self, index: Any) -> 'Launches':
+    """The launches at `index`."""
+    return Launches.from_array(self.array()[np.asarray(index, np.int64)])
+
+
+def grid(space: SearchSpace, n_east: int, n_north: int, n_hours: int,
+         n_altitudes: int = 1) -> Launches:
+  """The dense grid over a (checked) box, east fastest... hours, altitude last.
+
+  Index i = ((a * n_hours + t) * n_north + j) * n_east + k for east k,
+  north j, hours t, altitude a. A dimension with one point takes the
+  middle of its range.
+  """
+  axes = []
+  for name, n, (low, high) in zip(space.names,
+                                  (n_east, n_north, n_hours, n_altitudes),
+                                  space.bounds()):
+    gin_values.check_int(f'launch grid points ({name})', n, minimum=1)
+    axes.append(np.linspace(low, high, n) if n > 1 else
+                np.array([0.5 * (low + high)]))
+  a, t, j, k = np.meshgrid(axes[3], axes[2], axes[1], axes[0], indexing='ij')
+  return Launches(k.ravel(), j.ravel(), t.ravel(), a.ravel())
+
+
+def uniform(space: SearchSpace, n: int, rng: np.random.Generator) -> Launches:
+  """n launches uniform in a (checked) box."""
+  bounds = space.bounds()
+  return Launches.from_array(rng.uniform(bounds[:, 0], bounds[:, 1], (n, 4)))
+
+
+@dataclasses.dataclass(frozen=True)
+class World:
+  """A wind source's world: what every candidate launch flies in.
+
+  Attributes:
+    env: The functional env (raw Box actions).
+    params: Its params (`wind_grid` set for ERA5; `episode_steps` the
+      scoring window).
+    state: The world drawn once (atmosphere, forecast, start time; its
+      balloon is replaced by each launch's).
+    noise_key: Draw 0's noise key (the world's own noise).
+    describe: What the records say about the world (source, seed, station,
+      date).
+  """
+  env: jax_env.LatexBalloonJaxEnv
+  params: env_types.EnvParams
+  state: env_types.EnvState
+  noise_key: Array
+  describe: Dict[str, Any]
+
+
+def _world(params: env_types.EnvParams, seed: int,
+           describe: Dict[str, Any]) -> World:
+  gin_values.check_int('launch world seed', seed, minimum=0,
+                       maximum=2**32 - 1)
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  state, keys = jax.jit(env.draw)(
+      jax_env.arena_key(jax.random.PRNGKey(seed)), params)
+  noise_key, _ = generative.split_wind_key(keys['wind'])
+  return World(env, params, state, noise_key, {**describe, 'seed': int(seed)})
+
+
+def generative_world(seed: int, params: Optional[env_types.EnvParams] = None,
+                     steps: Optional[int] = None) -> World:
+  """BLE's generative world of env seed `seed` (its forecast, atmosphere).
+
+  Args:
+    seed: The env seed (`reset(seed=s)`'s world: its VAE forecast).
+    params: Env params (default: the gin-bound ones).
+    steps: Strides of the scoring window (default: the params' episode).
+  """
+  params = env_params.params_from_gin() if params is None else params
+  if params.wind_grid is not None:
+    raise errors.ConfigError('generative_world: the params hold an ERA5 grid; '
+                             'use era5_world')
+  params = _with_steps(params, steps)
+  return _world(params, seed, {'source': 'generative',
+                               'station': 'the forecast grid\'s centre'})
+
+
+def era5_world(path: Any, *, center_lat: float, center_lon: float,
+               date: Any, max_hours: float, seed: int = 0,
+               params: Optional[env_types.EnvParams] = None,
+               steps: Optional[int] = None) -> World:
+  """An ERA5 file's world: the station at (lat, lon), launches from `date`.
+
+  Args:
+    path: ERA5 file(s) (`era5.load`).
+    center_lat: The station's latitude. # [deg N]
+    center_lon: The station's longitude. # [deg E]
+    date: The world's start (launch delay 0): an ISO date-time string or a
+      `datetime` (naive: UTC).
+    max_hours: The latest launch delay: the file must hold the episode
+      after it. # [h]
+    seed: The noise and atmosphere seed.
+    params: Env params (default: the gin-bound ones).
+    steps: Strides of the scoring window (default: the params' episode).
+
+  Raises:
+    errors.ConfigError: a bad date, or a window the file does not hold.
+    FileNotFoundError, errors.BadFileError: as `era5.load`.
+  """
+  params = _with_steps(
+      env_params.params_from_gin() if params is None else params, steps)
+  try:
+    start = (dt.datetime.fromisoformat(date) if isinstance(date, str)
+             else date)
+  except ValueError as e:
+    raise errors.ConfigError(f'launch date {date!r}: not an ISO date') from e
+  if not isinstance(start, dt.datetime):
+    start = dt.datetime(start.year, start.month, start.day)
+  hours = params.episode_steps * params.stride_s / 3600.0 + max_hours
+  try:
+    wind_grid = era5_jax.grid_from_data(
+        era5.load(path), center_lat=center_lat, center_lon=center_lon,
+        episode_hours=hours,
+        start_dates=(start, start + dt.timedelta(minutes=1)))
+  except errors.ConfigError:
+    raise
+  except ValueError as e:
+    raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
+  return _world(params.replace(wind_grid=wind_grid), seed, {
+      'source': 'era5', 'path': str(path), 'station_lat': center_lat,
+      'station_lon': center_lon, 'date': start.isoformat()})
+
+
+def _with_steps(params: env_types.EnvParams,
+                steps: Optional[int]) -> env_types.EnvParams:
+  if steps is None:
+    return params
+  gin_values.check_int('launch steps', steps, minimum=1, maximum=100_000)
+  return params.replace(episode_steps=int(steps))
+
+
+def noise_draws(world: World, draws: int) -> Tuple[Any, Any]:
+  """The (u, v) noise of K draws, leading axis K (draw 0: the world's)."""
+  gin_values.check_int('launch noise draws', draws, minimum=1,
+                       maximum=10_000)
+  keys = jnp.stack([world.noise_key] + [
+      jax.random.fold_in(world.noise_key, k) for k in range(1, draws)])
+  return jax.vmap(simplex.reset_uv_noise_params)(keys)
+
+
+def launch_state(params: env_types.EnvParams, world: env_types.EnvState,
+                 noise_u: Any, noise_v: Any, east_km: Array, north_km: Array,
+                 hours: Array, altitude_m: Array) -> env_types.EnvState:
+  """One launch's env state in a world: `jax_env`'s draw, placed there.
+
+  The balloon of `state.initial_state` (neutral, the params' sand) at the
+  launch's offset and altitude, its flight clock at the delay (the winds,
+  BLE's noise and the sun read the flight time), refilled neutral under
+  realistic physics as the env's draw does; measured.
+
+  Args:
+    params: The env params.
+    world: The world's state (`World.state`).
+    noise_u: This draw's eastward noise.
+    noise_v: This draw's northward noise.
+    east_km: Offset east of the station. # [km]
+    north_km: Offset north of the station. # [km]
+    hours: Delay after the world's start. # [h]
+    altitude_m: Start altitude. # [m]
+
+  Returns:
+    The env state, measured (its wind at the balloon set).
+  """
+  dtype = world.flight.x_m.dtype
+  key = (jax.random.fold_in(jax.random.PRNGKey(0),
+                            world.start_time_offset_s)
+         if params.flight.burst_spread else None)
+  flight = state_lib.initial_state(
+      params.flight, jnp.asarray(altitude_m, dtype),
+      jnp.asarray(east_km, dtype) * 1000.0,
+      jnp.asarray(north_km, dtype) * 1000.0, atm_params=world.atmosphere,
+      time_s=jnp.asarray(hours, dtype) * 3600.0, key=key)
+  state = world.replace(flight=flight, noise_u=noise_u, noise_v=noise_v)
+  if params.flight.gas_superheat or params.flight.latex_overpressure:
+    flight = launch_lib.neutral_launch(
+        env_types.flight_params_of(params, state), world.atmosphere, flight)
+  state = state.replace(
+      flight=flight,
+      initial=jax_features.initial_resources(
+          params.flight.payload_kg, flight.sand_kg, flight.helium_mols),
+      history=jax_features.init_history(flight.altitude_m,
+                                        flight.ascent_rate_mps))
+  return jax_env.measure(state, jax_env.LatexBalloonJaxEnv(
+      normalize_actions=False).wind_for(params))
+
+
+def _fly_one(env: jax_env.LatexBalloonJaxEnv,
+             controller: controllers_lib.Controller, steps: int, record: bool,
+             params: env_types.EnvParams, world: env_types.EnvState,
+             noise_u: Any, noise_v: Any, launch: Array):
+  """One launch's TW50 (and its [strides, 2] path [km] if `record`)."""
+  wind = env.wind_for(params)
+  state = launch_state(params, world, noise_u, noise_v, *launch)
+  obs = jax_env.observation(state, params, wind)
+  radius = params.station_keeping_radius_km
+
+  def stride(carry, i):
+    state, obs, control, within = carry
+    alive = state.flight.status == state_lib.FlightStatus.OK
+    action, control = controller.act(control, obs, state, i)
+    obs, state, _, _, info = env.step_env(None, state, action, params)
+    within = within + (alive & (info['distance_km'] <= radius) &
+                       (state.steps <= steps))
+    path = (jnp.stack([state.flight.x_m, state.flight.y_m]) / 1000.0
+            if record else None)
+    return (state, obs, control, within), path
+
+  def period(carry, _):
+    state, obs, control, within = carry
+    control = controller.plan(control, obs, state, params, wind)
+    return jax.lax.scan(stride, (state, obs, control, within),
+                        jnp.arange(controller.period))
+
+  periods = -(-steps // controller.period)
+  carry = (state, obs, controller.init(obs, state), jnp.zeros((), jnp.int32))
+  (_, _, _, within), path = jax.lax.scan(period, carry, None, length=periods)
+  tw50 = within.astype(jnp.float32) / steps
+  if not record:
+    return tw50, None
+  start = jnp.stack([launch[0], launch[1]]).astype(path.dtype)[None]
+  return tw50, jnp.concatenate([start, path.reshape(-1, 2)[:steps]])
+
+
+@functools.lru_cache(maxsize=8)
+def _flier(env: jax_env.LatexBalloonJaxEnv,
+           controller: controllers_lib.Controller, steps: int, record: bool):
+  """Jitted: (params, world, noise [K], launches [N, 4]) -> TW50 [K, N]."""
+  one = functools.partial(_fly_one, env, controller, steps, record)
+  over_launches = jax.vmap(one, in_axes=(None, None, None, None, 0))
+  over_draws = jax.vmap(over_launches, in_axes=(None, None, 0, 0, None))
+  return jax.jit(over_draws, compiler_options=jax_cache.fast_compile_options())
+
+
+@dataclasses.dataclass(frozen=True)
+class Scores:
+  """Candidate launches and their TW50 over K noise draws.
+
+  Attributes:
+    launches: The N candidates.
+    tw50: [K, N] TW50 per draw and candidate. # [.]
+    steps: Strides of the scoring window.
+  """
+  launches: Launches
+  tw50: np.ndarray
+  steps: int
+
+  @property
+  def mean(self) -> np.ndarray:
+    """[N] expected TW50 (mean over the draws)."""
+    return self.tw50.mean(axis=0)
+
+  @property
+  def std(self) -> np.ndarray:
+    """[N] std over the draws (ddof 1; 0 for one draw)."""
+    if self.tw50.shape[0] < 2:
+      return np.zeros(self.tw50.shape[1])
+    return self.tw50.std(axis=0, ddof=1)
+
+  @property
+  def stderr(self) -> np.ndarray:
+    """[N] standard error of the mean."""
+    return self.std / math.sqrt(self.tw50.shape[0])
+
+  def order(self) -> np.ndarray:
+    """Candidate indices, best first (mean; then lower stderr; index)."""
+    n = len(self.launches)
+    return np.lexsort((np.arange(n), self.stderr, -self.mean))
+
+
+def score(world: World, controller: controllers_lib.Controller,
+          launches: Launches, *, draws: int = 4, chunk: int = CHUNK,
+          progress: Any = None) -> Scores:
+  """Every launch flown under K noise draws, batched; their TW50s.
+
+  Args:
+    world: The world (`generative_world`, `era5_world`).
+    controller: What flies them (`controllers.controller_for(agent)`).
+    launches: The candidates.
+    draws: K noise draws per candidate.
+    chunk: Candidates per jitted call.
+    progress: Called with the number of candidates done after each call.
+
+  Returns:
+    The scores.
+
+  Raises:
+    errors.ConfigError: no candidates, or more balloons than MAX_BALLOONS.
+  """
+  n = len(launches)
+  if n == 0:
+    raise errors.ConfigError('launch planning needs at least one candidate')
+  noise_u, noise_v = noise_draws(world, draws)
+  if n * draws > MAX_BALLOONS:
+    raise errors.ConfigError(
+        f'{n} launches x {draws} draws = {n * draws} balloons, more than '
+        f'{MAX_BALLOONS}; use a coarser grid or fewer draws')
+  gin_values.check_int('launch chunk', chunk, minimum=1)
+  size = min(chunk, n)
+  fly = _flier(world.env, controller, int(world.params.episode_steps), False)
+  values = launches.array()
+  out = []
+  for start in range(0, n, size):
+    part = values[start:start + size]
+    padded = np.concatenate([part, np.repeat(part[-1:], size - len(part), 0)])
+    tw50, _ = fly(world.params, world.state, noise_u, noise_v,
+                  jnp.asarray(padded, jnp.float32))
+    out.append(np.asarray(tw50)[:, :len(part)])
+    if progress is not None:
+      progress(start + len(part))
+  return Scores(launches, np.concatenate(out, axis=1).astype(np.float64),
+                int(world.params.episode_steps))
+
+
+def flight_paths(world: World, controller: controllers_lib.Controller,
+                 launches: Launches, draws: int = 1) -> np.ndarray:
+  """[K, N, steps + 1, 2] (east, north) paths [km] of a few launches."""
+  noise_u, noise_v = noise_draws(world, draws)
+  fly = _flier(world.env, controller, int(world.params.episode_steps), True)
+  _, paths = fly(world.params, world.state, noise_u, noise_v,
+                 jnp.asarray(launches.array(), jnp.float32))
+  return np.asarray(paths, np.float64)
+
+
+def ranked(scores: Scores, world: World, top: Optional[int] = None
+           ) -> List[Dict[str, Any]]:
+  """The launches best first, as records (JSON-ready).
+
+  Each: rank, east_km, north_km, hours, altitude_m, distance_km (from the
+  station), inside_radius, tw50_mean, tw50_std, tw50_stderr; on ERA5 the
+  launch's lat/lon too.
+  """
+  order = scores.order()[:top]
+  launches, radius = scores.launches, world.params.station_keeping_radius_km
+  mean, std, stderr = scores.mean, scores.std, scores.stderr
+  lat = lon = None
+  if world.params.wind_grid is not None:
+    lat, lon = jax.device_get(era5_jax.latlng(
+        world.params.wind_grid, jnp.asarray(launches.east_km[order] * 1000.0),
+        jnp.asarray(launches.north_km[order] * 1000.0)))
+  records = []
+  for rank, i in enumerate(order):
+    distance = math.hypot(launches.east_km[i], launches.north_km[i])
+    record = {'rank': rank + 1, 'index': int(i),
+              'east_km': float(launches.east_km[i]),
+              'north_km': float(launches.north_km[i]),
+              'hours': float(launches.hours[i]),
+              'altitude_m': float(launches.altitude_m[i]),
+              'distance_km': distance, 'inside_radius': distance <= radius,
+              'tw50_mean': float(mean[i]), 'tw50_std': float(std[i]),
+              'tw50_stderr': float(stderr[i])}
+    if lat is not None:
+      record['lat'] = float(lat[rank])
+      record['lon'] = float(lon[rank])
+    records.append(record)
+  return records
