@@ -110,6 +110,12 @@ def test_the_aggregate_is_a_ring():
   assert (data.size, data.cursor) == (5, 2)
   np.testing.assert_array_equal(data.obs[0], obs[1] + 1000)
   np.testing.assert_array_equal(data.obs[3], obs[3])
+  # More rows than fit at once: the newest are kept, in ring order.
+  data = dagger.aggregate(data, np.tile(obs, (2, 1)) + 5000,
+                          np.tile(labels, (2, 1)))
+  assert (data.size, data.cursor) == (5, 0)
+  np.testing.assert_array_equal(data.obs[1:5], obs[[0, 1, 2, 3]] + 5000)
+  np.testing.assert_array_equal(data.obs[0], obs[3] + 5000)
 
 
 def test_from_box_inverts_to_box():

@@ -239,6 +239,7 @@ class Aggregate(NamedTuple):
 
 
 def empty_aggregate(capacity: int) -> Aggregate:
+  """An aggregate of `capacity` rows, none filled."""
   return Aggregate(
       np.zeros((capacity, jax_env.LatexBalloonJaxEnv.num_features),
                np.float32),
@@ -248,12 +249,13 @@ def empty_aggregate(capacity: int) -> Aggregate:
 def aggregate(data: Aggregate, obs: np.ndarray,
               labels: np.ndarray) -> Aggregate:
   """`data` with rows (`obs`, `labels`) added (the oldest replaced)."""
-  capacity = len(data.obs)
+  capacity, n = len(data.obs), len(obs)
   new_obs, new_labels = data.obs.copy(), data.labels.copy()
-  rows = (data.cursor + np.arange(len(obs))) % capacity
-  new_obs[rows], new_labels[rows] = obs[-capacity:], labels[-capacity:]
-  return Aggregate(new_obs, new_labels, min(capacity, data.size + len(obs)),
-                   int((data.cursor + len(obs)) % capacity))
+  kept = slice(max(0, n - capacity), n)  # More than fit: the newest.
+  rows = ((data.cursor + np.arange(n)) % capacity)[kept]
+  new_obs[rows], new_labels[rows] = obs[kept], labels[kept]
+  return Aggregate(new_obs, new_labels, min(capacity, data.size + n),
+                   int((data.cursor + n) % capacity))
 
 
 @functools.lru_cache(maxsize=8)
