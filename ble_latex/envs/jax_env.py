@@ -78,6 +78,7 @@ from ble_latex.envs import winds
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import dynamics
+from ble_latex.flight import launch as launch_lib
 from ble_latex.flight import state as state_lib
 from ble_latex.wind import generative
 from ble_latex.wind import simplex
@@ -410,6 +411,13 @@ class LatexBalloonJaxEnv:
         start_time_offset_s=start_time.astype(jnp.int32),
         steps=jnp.zeros((), jnp.int32),
         pending_world=jnp.full((), -1, jnp.int32))
+    if params.flight.gas_superheat or params.flight.latex_overpressure:
+      # Launch neutral in the gas of the bound physics (issue 44).
+      flight = launch_lib.neutral_launch(
+          env_types.flight_params_of(params, state), atmosphere, state.flight)
+      state = state.replace(flight=flight, initial=(
+          jax_features.initial_resources(params.flight.payload_kg,
+                                         flight.sand_kg, flight.helium_mols)))
     return state, {'wind': wind_key, 'location': location_key,
                    'atmosphere': atmosphere_key}
 
