@@ -131,7 +131,7 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
   states, info0, flight0 = start(keys, params)
   window = min(int(params.episode_steps), max_steps)
-  trackers = [metrics.EpisodeTracker(i, s, params.station_keeping_radius_km,
+  trackers = [metrics.EpisodeTracker(i, s, params.radius_km,
                                      window_steps=window)
               for i, s in enumerate(seeds)]
   f0 = _flight_arrays(flight0)

@@ -39,8 +39,8 @@ def effective_bindings(function: Callable[..., Any]) -> Dict[str, Any]:
   return values
 
 
-def imported_bindings(module: str, name: str,
-                      defaults: Mapping[str, Any]) -> Dict[str, Any]:
+def imported_bindings(module: str, name: str, defaults: Mapping[str, Any],
+                      *, bound_only: bool = False) -> Dict[str, Any]:
   """`effective_bindings` of `module.name` if that module is imported.
 
   Args:
@@ -48,15 +48,19 @@ def imported_bindings(module: str, name: str,
     name: The configurable's attribute in that module.
     defaults: Values when the module is not imported (it then has no
       bindings): the configurable's keyword defaults, restated.
+    bound_only: Add only the gin bindings, not the keyword defaults.
 
   Returns:
-    `defaults` updated with the configurable's keyword defaults and gin
-    bindings where `module` is in `sys.modules`, else `defaults`.
+    `defaults` updated with the configurable's keyword defaults (unless
+    `bound_only`) and gin bindings where `module` is in `sys.modules`, else
+    `defaults`.
   """
   values = dict(defaults)
   loaded = sys.modules.get(module)
   if loaded is not None:
-    values.update(effective_bindings(getattr(loaded, name)))
+    function = getattr(loaded, name)
+    values.update(gin.get_bindings(function) if bound_only else
+                  effective_bindings(function))
   return values
 
 

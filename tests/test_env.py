@@ -235,7 +235,7 @@ def test_good_discrete_actions(discrete_env):
     ('latex_reward.sand_penalty_per_kg', float('inf')),
     ('perciatelli_reward_function.reward_halflife', 0.0),
     ('perciatelli_reward_function.reward_dropoff', 1.5),
-    ('perciatelli_reward_function.station_keeping_radius_km', -5.0),
+    ('LatexBalloonEnv.station_keeping_radius_km', -5.0),
 ])
 def test_bad_reward_bindings_are_refused_at_construction(binding, value):
   try:

@@ -449,7 +449,7 @@ def test_discrete_make_vec_takes_gymnasiums_seeds():
 
 @pytest.mark.parametrize('change, binding', [
     (dict(radius_km=float('nan')),
-     'perciatelli_reward_function.station_keeping_radius_km'),
+     'LatexBalloonEnv.station_keeping_radius_km'),
     (dict(start_altitude_low_m=-10.0),
      'LatexBalloonArena.start_altitude_range_m'),
     (dict(start_altitude_high_m=95_000.0),
@@ -640,7 +640,7 @@ def test_sb3_sac_trains_and_evaluates_with_eval_json(tmp_path, capsys):
 _PARAMS_FROM_GIN = '''
 import sys
 import ble_latex, gin, jax, numpy as np
-from ble_latex.envs import jax_env
+from ble_latex.envs import env_params
 
 def same(a, b):
   leaves = jax.tree.map(lambda x, y: bool(np.array_equal(x, y)), a, b)

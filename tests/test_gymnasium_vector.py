@@ -324,9 +324,9 @@ def test_checked_sync_vector_env_steps_no_balloon_on_a_bad_action(bad, match):
 
 @pytest.mark.parametrize('change, binding', [
     (dict(radius_km=float('nan')),
-     'perciatelli_reward_function.station_keeping_radius_km'),
+     'LatexBalloonEnv.station_keeping_radius_km'),
     (dict(radius_km=-1.0),
-     'perciatelli_reward_function.station_keeping_radius_km'),
+     'LatexBalloonEnv.station_keeping_radius_km'),
     (dict(start_altitude_high_m=1e7),
      'LatexBalloonArena.start_altitude_range_m'),
     (dict(episode_steps=0), 'LatexBalloonEnv.episode_steps'),

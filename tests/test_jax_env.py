@@ -337,8 +337,9 @@ _BAD_BINDINGS = [
     ('create_state.sand_kg', 'True', 'a finite number >= 0'),
     ('create_state.payload_kg', "'abc'", 'a finite number > 0'),
     ('create_state.payload_kg', 'None', 'a finite number > 0'),
+    ('LatexBalloonEnv.station_keeping_radius_km', '-1.0', '> 0'),
     ('balloon_env.perciatelli_reward_function.station_keeping_radius_km',
-     '-1.0', '> 0'),
+     '-1.0', 'the station radius has one home'),
     ('latex_reward.sand_penalty_per_kg', 'None', '>= 0'),
 ]
 

@@ -94,7 +94,7 @@ def test_own_start_flies_the_env_flight(setup):
   action = agent.begin_episode(np.asarray(obs))
   for _ in range(STEPS):
     obs, state, _, _, info = step(None, state, action, params)
-    within += float(info['distance_km']) <= params.station_keeping_radius_km
+    within += float(info['distance_km']) <= params.radius_km
     path.append([float(state.flight.x_m) / 1e3, float(state.flight.y_m) / 1e3])
     action = agent.step(0.0, np.asarray(obs))
   assert scores.tw50[0, 0] == within / STEPS
@@ -269,3 +269,38 @@ def test_command_output_dir_a_file_exits_1(tmp_path, capsys):
   path.write_text('x')
   assert launch_command.main([f'--output_dir={path}']) == 1
   assert 'is a file' in capsys.readouterr().err
+
+
+def test_era5_world_places_the_station_and_launch_date(tmp_path, setup):
+  import test_era5  # pylint: disable=g-import-not-at-top
+  _, controller, _, _ = setup
+  times = test_era5.T0 + np.arange(9) * np.timedelta64(6, 'h')  # 2 days.
+  path = test_era5.write_era5(
+      tmp_path / 'era5.nc', times=times, lat=np.arange(6.0, -4.01, -1.0),
+      lon=np.arange(-118.0, -107.99, 1.0))
+  world = scoring.era5_world(path, center_lat=1.0, center_lon=-113.0,
+                             date='2022-11-01T06:00', max_hours=6.0,
+                             steps=STEPS)
+  assert world.describe['source'] == 'era5'
+  # The world starts at the date: 6 h after the file's first time.
+  first_s = (np.datetime64('2022-11-01T06:00') -
+             np.datetime64('2011-01-01T00:00')) / np.timedelta64(1, 's')
+  assert int(world.state.start_time_offset_s) == int(first_s)
+  space = scoring.SearchSpace(east_km=(-60.0, 60.0), north_km=(-60.0, 60.0),
+                              hours=(0.0, 6.0)).checked(world.params)
+  scores = scoring.score(world, controller, scoring.grid(space, 3, 3, 1),
+                         draws=DRAWS, chunk=CHUNK)
+  table = scoring.ranked(scores, world)
+  centre = next(r for r in table if r['distance_km'] == 0.0)
+  assert centre['lat'] == pytest.approx(1.0, abs=1e-4)
+  assert centre['lon'] == pytest.approx(-113.0, abs=1e-4)
+  east = next(r for r in table if r['east_km'] == 60.0 and r['north_km'] == 0)
+  assert east['lon'] > -113.0 and east['lat'] == pytest.approx(1.0, abs=0.01)
+  # The file must hold the episode after the latest delay.
+  with pytest.raises(errors.ConfigError) as info:
+    scoring.era5_world(path, center_lat=1.0, center_lon=-113.0,
+                       date='2022-11-02T12:00', max_hours=24.0, steps=STEPS)
+  assert '\n' not in str(info.value)
+  with pytest.raises(errors.ConfigError, match='not an ISO date'):
+    scoring.era5_world(path, center_lat=1.0, center_lon=-113.0,
+                       date='Tuesday', max_hours=1.0, steps=STEPS)

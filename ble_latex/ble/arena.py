@@ -70,7 +70,8 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
                start_altitude_range_m: Optional[Tuple[float, float]] = None,
                max_start_distance_km: Optional[float] = None,
                stride: Optional[dt.timedelta] = None,
-               episode_steps: Optional[int] = None):
+               episode_steps: Optional[int] = None,
+               station_keeping_radius_km: Optional[float] = None):
     """Constructor.
 
     Args:
@@ -89,6 +90,8 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
         None: gin's. # [km]
       stride: Simulated time per action (paper: 20 minutes); None: gin's.
       episode_steps: Strides per episode (the env's); None: gin's.
+      station_keeping_radius_km: The station radius (`EnvParams.radius_km`:
+        the core's reward and TW50); None: gin's. # [km]
     """
     # Checked with every other value by the driver (`env_params.check_params`,
     # the one validator of the env's values).
@@ -99,6 +102,8 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
     params = env_params.params_from_gin().replace(**env_params.start(**given))
     if episode_steps is not None:
       params = params.replace(episode_steps=episode_steps)
+    if station_keeping_radius_km is not None:
+      params = params.replace(radius_km=station_keeping_radius_km)
     era5_settings = era5_field.grid_settings(wind_field_instance)
     if era5_settings is not None:
       # ERA5 flies in JAX (its grid in the params); BLE's consumers read it

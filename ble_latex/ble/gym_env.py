@@ -80,9 +80,10 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
     """Constructs the environment.
 
     Args:
-      station_keeping_radius_km: Radius used for `info['distance_km']`-based
-        metrics (TW50); None: gin's. The reward's radius is BLE's
-        `perciatelli_reward_function.station_keeping_radius_km`. # [km]
+      station_keeping_radius_km: The station radius (`EnvParams.radius_km`):
+        the core's reward, TW50 and BLE's metrics; None: gin's
+        `LatexBalloonEnv.station_keeping_radius_km`. A given `arena` flies
+        its own. # [km]
       arena: A latex balloon arena; built from the factories if None.
       reward_function: None: the core's reward (Eq. reward_function and
         the optional resource penalty, `jax_features.reward`); else
@@ -105,8 +106,6 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
       renderer: An optional BLE renderer.
     """
     bound = env_params.episode()  # gin's `LatexBalloonEnv.*`.
-    if station_keeping_radius_km is None:
-      station_keeping_radius_km = bound['station_keeping_radius_km']
     if episode_steps is None:
       episode_steps = bound['episode_steps']
     if wind_field_factory is None:
@@ -114,17 +113,19 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
                             ble_wind.CoreGenerativeWindField)
     gin_values.check_int('LatexBalloonEnv.episode_steps', episode_steps,
                          minimum=1)
-    gin_values.check_number('LatexBalloonEnv.station_keeping_radius_km',
-                            station_keeping_radius_km, above=0.0)
+    if station_keeping_radius_km is not None:
+      gin_values.check_number('station_keeping_radius_km',
+                              station_keeping_radius_km, above=0.0)
     validate_seed(seed)
     if seed is None:  # BLE would use time in microseconds, beyond 2**32.
       seed = secrets.randbits(32)
     if arena is None:
-      arena = arena_lib.LatexBalloonArena(feature_constructor_factory,
-                                          wind_field_factory(),
-                                          episode_steps=episode_steps)
+      arena = arena_lib.LatexBalloonArena(
+          feature_constructor_factory, wind_field_factory(),
+          episode_steps=episode_steps,
+          station_keeping_radius_km=station_keeping_radius_km)
     super().__init__(
-        station_keeping_radius_km=station_keeping_radius_km,
+        station_keeping_radius_km=float(arena.params.radius_km),
         arena=arena,
         reward_function=reward_function,
         feature_constructor_factory=feature_constructor_factory,

@@ -5,10 +5,10 @@ The paper's reward is BLE's Perciatelli reward without its power term:
 1 within radius rho, else c * 2^(-(d - rho) / tau). BLE's
 `perciatelli_reward_function` computes exactly that for a latex balloon: its
 power penalty only applies to BLE's air-pump DOWN command, which a latex
-balloon state never records (`last_command` stays STAY). Radius, cliff and
-half-life are bound through BLE's own gin names:
+balloon state never records (`last_command` stays STAY). The radius is the
+env's one station radius (`LatexBalloonEnv.station_keeping_radius_km`, 50 km),
+handed to BLE's function; cliff and half-life are BLE's own gin names:
 
-  balloon_env.perciatelli_reward_function.station_keeping_radius_km = 50.0
   balloon_env.perciatelli_reward_function.reward_dropoff = 0.4
   balloon_env.perciatelli_reward_function.reward_halflife = 100.0
 
@@ -31,7 +31,8 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
                  sand_dropped_kg: float = 0.0,
                  *,
                  helium_penalty_per_mol: Optional[float] = None,
-                 sand_penalty_per_kg: Optional[float] = None) -> float:
+                 sand_penalty_per_kg: Optional[float] = None,
+                 station_keeping_radius_km: Optional[float] = None) -> float:
   """Implements Eq. reward_function plus an optional resource penalty.
 
   Args:
@@ -41,6 +42,9 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
     helium_penalty_per_mol: Penalty per mol of helium vented; None: gin's
       `latex_reward.helium_penalty_per_mol`. # [1/mol]
     sand_penalty_per_kg: Penalty per kg of sand dropped; None: gin's. # [1/kg]
+    station_keeping_radius_km: rho; None: the env's one radius (gin's
+      `LatexBalloonEnv.station_keeping_radius_km`), handed to BLE's reward
+      explicitly. # [km]
 
   Returns:
     The step reward.
@@ -56,7 +60,11 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
     sand_penalty_per_kg = bound['sand_penalty_per_kg']
   gin_values.check_penalties(helium_penalty_per_mol=helium_penalty_per_mol,
                              sand_penalty_per_kg=sand_penalty_per_kg)
-  reward = balloon_env.perciatelli_reward_function(simulator_state)
+  if station_keeping_radius_km is None:
+    station_keeping_radius_km = env_params.episode()[
+        'station_keeping_radius_km']
+  reward = balloon_env.perciatelli_reward_function(
+      simulator_state, station_keeping_radius_km=station_keeping_radius_km)
   return (reward - helium_penalty_per_mol * helium_vented_mols -
           sand_penalty_per_kg * sand_dropped_kg)
 

@@ -171,7 +171,7 @@ def _main(argv: Sequence[str]) -> None:
   if best:
     paths = scoring.flight_paths(world, controller, launches.take(
         [r['index'] for r in best]))[0]
-  radius = world.params.station_keeping_radius_km
+  radius = world.params.radius_km
   inside = [r for r in scoring.ranked(scores, world) if r['inside_radius']]
   record = {
       'flags': {name: FLAGS[name].value for name in (

@@ -38,7 +38,7 @@ from ble_latex.wind import generative
 # The gin binding of each `EnvParams` value (the flight system's are in
 # `flight.params`), for messages.
 _BINDINGS = {
-    'radius_km': 'perciatelli_reward_function.station_keeping_radius_km',
+    'radius_km': 'LatexBalloonEnv.station_keeping_radius_km',
     'reward_dropoff': 'perciatelli_reward_function.reward_dropoff',
     'reward_halflife_km': 'perciatelli_reward_function.reward_halflife',
     'helium_penalty_per_mol': 'latex_reward.helium_penalty_per_mol',
@@ -147,9 +147,9 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
   gin_values.check_reward_values(
       {'helium_penalty_per_mol': p.helium_penalty_per_mol,
        'sand_penalty_per_kg': p.sand_penalty_per_kg},
-      {'station_keeping_radius_km': p.radius_km,
-       'reward_dropoff': p.reward_dropoff,
+      {'reward_dropoff': p.reward_dropoff,
        'reward_halflife': p.reward_halflife_km})
+  gin_values.check_number(name('radius_km'), p.radius_km, above=0.0)
   band = (p.start_altitude_low_m, p.start_altitude_high_m)
   within = f'in (0, {START_ALTITUDE_MAX_M:g}) m (above the ground, inside '
   within += 'the atmosphere model)'
@@ -323,15 +323,15 @@ def start(*, start_altitude_range_m: Tuple[float, float] = (
 
 @gin.configurable('LatexBalloonEnv', module=_GIN_MODULE)
 def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
-            station_keeping_radius_km: float = _DEFAULTS[
-                'station_keeping_radius_km'],
+            station_keeping_radius_km: float = _DEFAULTS['radius_km'],
             wind_field_factory: Optional[Callable[[], Any]] = None
             ) -> Dict[str, Any]:
   """The episode (gin `LatexBalloonEnv.*`).
 
   Args:
     episode_steps: Strides per episode (the time limit).
-    station_keeping_radius_km: TW50 radius. # [km]
+    station_keeping_radius_km: The station-keeping radius: the reward's,
+      TW50's and the drawn circle's (`EnvParams.radius_km`). # [km]
     wind_field_factory: None: BLE's generative field inside the core; else
       a factory of a BLE `WindField` (e.g. ERA5) that the single-balloon
       envs fly through host callbacks. Not an `EnvParams` value.
@@ -341,6 +341,30 @@ def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
     (unchecked) and `wind_field_factory`.
   """
   return dict(locals())  # The arguments above, by name.
+
+
+def check_one_radius(radius_km: Any, ble_radius_km: Any) -> None:
+  """Refuses BLE's reward radius where it differs from the env's.
+
+  The station radius has one home, `LatexBalloonEnv.station_keeping_radius_km`
+  (`EnvParams.radius_km`): the core's reward, TW50 and BLE's view all read
+  it. BLE's own `perciatelli_reward_function.station_keeping_radius_km` (read
+  where BLE's balloon_env is imported) may only repeat it.
+
+  Args:
+    radius_km: The env's radius. # [km]
+    ble_radius_km: BLE's reward radius (its default or binding). # [km]
+
+  Raises:
+    errors.ConfigError: naming both bindings when they differ.
+  """
+  if (gin_values.is_number(radius_km) and gin_values.is_number(ble_radius_km)
+      and float(radius_km) != float(ble_radius_km)):
+    raise errors.ConfigError(
+        'gin binding perciatelli_reward_function.station_keeping_radius_km = '
+        f'{ble_radius_km!r} differs from LatexBalloonEnv.'
+        f'station_keeping_radius_km = {radius_km!r}: the station radius has '
+        'one home, bind LatexBalloonEnv.station_keeping_radius_km')
 
 
 def params_from_gin() -> env_types.EnvParams:
@@ -356,17 +380,22 @@ def params_from_gin() -> env_types.EnvParams:
   Raises:
     ValueError: A bad bound value, naming its gin binding (`check_params`).
   """
+  values = episode()
+  radius_km = values.pop('station_keeping_radius_km')
   ble = gin_values.imported_bindings(
       'balloon_learning_environment.env.balloon_env',
       'perciatelli_reward_function',
-      {'station_keeping_radius_km': _DEFAULTS['radius_km'],
-       'reward_dropoff': _DEFAULTS['reward_dropoff'],
+      {'reward_dropoff': _DEFAULTS['reward_dropoff'],
        'reward_halflife': _DEFAULTS['reward_halflife_km']})
-  values = episode()
+  ble_bound = gin_values.imported_bindings(
+      'balloon_learning_environment.env.balloon_env',
+      'perciatelli_reward_function', {}, bound_only=True)
+  if 'station_keeping_radius_km' in ble_bound:
+    check_one_radius(radius_km, ble_bound['station_keeping_radius_km'])
   grid = winds.era5_grid_from_gin(values.pop('wind_field_factory'))
   params = check_params(env_types.EnvParams(
       flight=flight_params_lib.flight_params_from_gin(), decoder=None,
-      radius_km=ble['station_keeping_radius_km'],
+      radius_km=radius_km,
       reward_dropoff=ble['reward_dropoff'],
       reward_halflife_km=ble['reward_halflife'],
       **resource_penalties(), **start(), **values, wind_grid=grid))

@@ -43,12 +43,13 @@ class EnvParams:
   Attributes:
     flight: The flight system and controller (`flight.params`).
     decoder: BLE's VAE decoder variables (`generative.decoder_params()`).
-    radius_km: Station-keeping radius of the reward. # [km]
+    radius_km: The station-keeping radius rho, one home for the reward,
+      TW50 (the trainers' scores, the metrics, BLE's view) and the drawn
+      circle; gin `LatexBalloonEnv.station_keeping_radius_km`. # [km]
     reward_dropoff: Reward just outside the radius. # [.]
     reward_halflife_km: Half-life of the reward outside the radius. # [km]
     helium_penalty_per_mol: Reward penalty per mol vented. # [1/mol]
     sand_penalty_per_kg: Reward penalty per kg dropped. # [1/kg]
-    station_keeping_radius_km: TW50's radius (metrics, figures). # [km]
     start_altitude_low_m: Start altitude band, low edge. # [m]
     start_altitude_high_m: Start altitude band, high edge. # [m]
     max_start_distance_km: Scale of the Beta start distance. # [km]
@@ -71,7 +72,6 @@ class EnvParams:
   reward_halflife_km: float = 100.0
   helium_penalty_per_mol: float = 0.0
   sand_penalty_per_kg: float = 0.0
-  station_keeping_radius_km: float = task.STATION_RADIUS_KM
   start_altitude_low_m: float = 15_000.0
   start_altitude_high_m: float = 20_000.0
   max_start_distance_km: float = 200.0

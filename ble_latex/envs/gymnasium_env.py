@@ -289,9 +289,9 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
     normalize_actions: Actions in [-1, 1]^3 mapped onto the Box.
     episode_steps: Strides per episode (the time limit); None: gin's
       `LatexBalloonEnv.episode_steps` (216).
-    station_keeping_radius_km: Radius drawn by `render` (TW50's); None:
-      gin's `LatexBalloonEnv.station_keeping_radius_km` (50). The reward's
-      radius is BLE's `perciatelli_reward_function`'s.
+    station_keeping_radius_km: The station radius (`EnvParams.radius_km`:
+      the reward's, TW50's and the circle `render` draws); None: the
+      params' (gin's `LatexBalloonEnv.station_keeping_radius_km`, 50). # [km]
     host_wind: None: the core's own winds (BLE's generative field, or ERA5
       when the params hold its grid); a `HostWind`: its wind, asked on the
       host at every sub-step (`ble_latex.ble.wind.host_wind(field)` for a
@@ -324,13 +324,9 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
     render_lib.check_render_mode(self, render_mode)
     self.render_mode = render_mode
     compile_lib.check_not_forked_after_jax()
-    radius_name = 'station_keeping_radius_km'
-    if station_keeping_radius_km is None:
-      radius_name = 'gin binding LatexBalloonEnv.station_keeping_radius_km'
-      station_keeping_radius_km = env_params.episode()[
-          'station_keeping_radius_km']
-    self.station_keeping_radius_km = gin_values.check_number(
-        radius_name, station_keeping_radius_km, above=0.0)
+    if station_keeping_radius_km is not None:
+      station_keeping_radius_km = gin_values.check_number(
+          'station_keeping_radius_km', station_keeping_radius_km, above=0.0)
     if host_wind is not None and not isinstance(host_wind, HostWind):
       raise ValueError(f'host_wind must be None or a gymnasium_env.HostWind '
                        f'(ble_latex.ble.wind.host_wind(field)), got '
@@ -342,6 +338,8 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
           host_wind.wind, normalize_actions=False), batched=False)
     self._setup(params, episode_steps, normalize_actions, compiled,
                 host_wind=host_wind is not None)
+    if station_keeping_radius_km is not None:
+      self.params = self.params.replace(radius_km=station_keeping_radius_km)
     self.action_space = self._single_action_space
     self.observation_space = self._single_observation_space
     self.flight: Optional[Dict[str, np.ndarray]] = None
@@ -435,7 +433,7 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
     if self.render_mode != 'rgb_array':
       return None
     self._figure = render_lib.draw_flight(self._figure, self._path,
-                                          self.station_keeping_radius_km)
+                                          self.params.radius_km)
     return render_lib.figure_rgb(self._figure)
 
   def close(self) -> None:

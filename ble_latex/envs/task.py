@@ -1,10 +1,11 @@
 # coding=utf-8
 """The station-keeping task: what counts as keeping station (paper, "Method").
 
-One home for the radius that TW50, `tw50_window`, the reward's rho and the
-figures' circle use. BLE's gym reward reads its own gin binding
-`perciatelli_reward_function.station_keeping_radius_km`, whose default is the
-same 50 km (checked in tests).
+The default of the station radius rho (the paper's 50 km). The radius a run
+flies is `EnvParams.radius_km`, bound as `LatexBalloonEnv.station_keeping_
+radius_km`: the reward, TW50 (trainers, metrics, BLE's view) and the drawn
+circle read it; BLE's `perciatelli_reward_function.station_keeping_radius_km`
+may only repeat it (`env_params.check_one_radius`).
 """
 
 STATION_RADIUS_KM = 50.0  # [km] rho: within it the balloon keeps station.

@@ -345,7 +345,7 @@ def _fly_one(env: jax_env.LatexBalloonJaxEnv,
   wind = env.wind_for(params)
   state = launch_state(params, world, noise_u, noise_v, *launch)
   obs = jax_env.observation(state, params, wind)
-  radius = params.station_keeping_radius_km
+  radius = params.radius_km
 
   def stride(carry, i):
     state, obs, control, within = carry
@@ -483,7 +483,7 @@ def ranked(scores: Scores, world: World, top: Optional[int] = None
   launch's lat/lon too.
   """
   order = scores.order()[:top]
-  launches, radius = scores.launches, world.params.station_keeping_radius_km
+  launches, radius = scores.launches, world.params.radius_km
   mean, std, stderr = scores.mean, scores.std, scores.stderr
   lat = lon = None
   if world.params.wind_grid is not None:
