@@ -23,6 +23,7 @@ import gin
 from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex.envs import jax_env
+from ble_latex.envs import task
 
 FORECAST, ORACLE, GRADIENT = 'forecast', 'oracle', 'gradient'
 MODES = (FORECAST, ORACLE, GRADIENT)
@@ -358,7 +359,8 @@ PLANNERS: Dict[str, Callable[..., PlannerConfig]] = {
         'LatexMpcOracleAgent', ORACLE,
         'Beam search over the whole episode on the true wind (agent '
         'latex_mpc_oracle): an upper bound.',
-        search=BEAM, horizon=216, num_segments=216, replan_every=216,
+        search=BEAM, horizon=task.EPISODE_STEPS,
+        num_segments=task.EPISODE_STEPS, replan_every=task.EPISODE_STEPS,
         beam_width=512, beam_cell_km=10.0, beam_resource_value=20.0,
         discount=1.0),
     'latex_mpc_grad': _configurable(

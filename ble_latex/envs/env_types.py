@@ -75,7 +75,7 @@ class EnvParams:
   start_altitude_low_m: float = 15_000.0
   start_altitude_high_m: float = 20_000.0
   max_start_distance_km: float = 200.0
-  episode_steps: int = 216
+  episode_steps: int = task.EPISODE_STEPS
   stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
   wind_grid: Optional[era5_jax.Era5Grid] = None
   reset_pool: Optional['ResetPool'] = None

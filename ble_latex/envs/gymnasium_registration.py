@@ -21,6 +21,8 @@ continuous id is one batched env (`gymnasium_vector.LatexBalloonVectorEnv`),
 of the discrete id a `SyncVectorEnv`.
 """
 
+from ble_latex.envs import task  # Plain constants: stays light.
+
 NAMESPACE = 'ble_latex'
 _MODULE = 'ble_latex.envs.gymnasium_env'
 _VECTOR = 'ble_latex.envs.gymnasium_vector'
@@ -40,7 +42,7 @@ VECTOR_ENTRY_POINTS = {
 }
 
 # The spec's time limit: the envs' episode (3 days of 20-minute strides).
-MAX_EPISODE_STEPS = 216
+MAX_EPISODE_STEPS = task.EPISODE_STEPS
 # env id -> default constructor kwargs (RL clients' conventions): the Box
 # action of the continuous id is [-1, 1]^3; `normalize_actions=False` gives
 # the raw (a0 [m], a1, a2) Box.

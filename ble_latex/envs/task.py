@@ -9,3 +9,7 @@ may only repeat it (`env_params.check_one_radius`).
 """
 
 STATION_RADIUS_KM = 50.0  # [km] rho: within it the balloon keeps station.
+# Strides per episode: 3 days of 20-minute actions (the paper's). The env's
+# `EnvParams.episode_steps` default, the Gymnasium ids' time limit, the suites'
+# episodes and the metrics' window all read it.
+EPISODE_STEPS = 216

@@ -63,6 +63,7 @@ from ble_latex.agents import sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
+from ble_latex.envs import task
 from ble_latex.run import jax_train
 from ble_latex.run import run_dir
 from ble_latex.run import suites
@@ -105,7 +106,7 @@ class DaggerConfig:
   seed: int = 0
   teacher: str = 'latex_mpc'
   num_balloons: int = 8
-  episode_steps: int = 216
+  episode_steps: int = task.EPISODE_STEPS
   beta0: float = 1.0
   beta_decay: float = 0.5
   num_layers: int = 2

@@ -114,7 +114,7 @@ class EpisodeTracker:
 
   def __init__(self, episode: int, seed: int,
                radius_km: float = task.STATION_RADIUS_KM,
-               window_steps: int = 216):
+               window_steps: int = task.EPISODE_STEPS):
     self.episode, self.seed, self._radius_km = episode, seed, radius_km
     self.window_steps = int(window_steps)
     self.reward, self.steps, self._within = 0.0, 0, 0

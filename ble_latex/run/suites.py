@@ -21,10 +21,12 @@ from typing import List
 
 from balloon_learning_environment.eval import suites
 
+from ble_latex.envs import task
+
 TRAIN_SEED_OFFSET = 0
 EVAL_SEED_OFFSET = 1_000_000
 VALIDATION_SEED_OFFSET = 2_000_000
-EPISODE_STEPS = 216  # 3 days of 20-minute actions.
+EPISODE_STEPS = task.EPISODE_STEPS  # 3 days of 20-minute actions.
 
 SUITE_SIZES = {
     'latex_micro': 1,
