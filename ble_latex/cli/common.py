@@ -288,12 +288,14 @@ def check_env_config() -> None:
   env_params.params_from_gin()
 
 
-# -- ERA5: --era5_path / --era5_dates of train and eval. ----------------------
-ERA5_PATH_HELP = ('ERA5 NetCDF file or glob pattern (from '
-                  'ble-latex-download-era5): every env flies ERA5 (binds '
+# -- Wind files: --wind_file (alias --era5_path) / --era5_dates. -------------
+WIND_FILE_HELP = ('Wind file (the reader chosen by content: ERA5 or another '
+                  'CF NetCDF analysis, GRIB2, a University of Wyoming '
+                  'sounding; one time step flies time-invariant) or glob '
+                  'pattern: every env flies it (binds '
                   'LatexBalloonEnv.wind_field_factory = @Era5WindField and '
                   'Era5WindField.path; the same as gin_configs/paper_era5.gin '
-                  'with that path).')
+                  'with that path). --era5_path is an alias.')
 ERA5_DATES_HELP = ("Date range ERA5 flights start in: a split (train, "
                    "validation, eval; ble_latex.wind.era5.DATE_SPLITS), "
                    "'all' (anywhere in the file) or FIRST,END (ISO dates, "
@@ -303,7 +305,7 @@ ERA5_DATES_HELP = ("Date range ERA5 flights start in: a split (train, "
 
 def era5_bindings(path: Optional[str], dates: Optional[str],
                   default_dates: str) -> List[str]:
-  """The gin bindings of --era5_path / --era5_dates (after `bind_gin`).
+  """The gin bindings of --wind_file / --era5_dates (after `bind_gin`).
 
   Call after the user's gin is bound: ERA5 is on with `path`, or when gin
   binds `LatexBalloonEnv.wind_field_factory = @Era5WindField`. The start
@@ -311,7 +313,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
   else `default_dates` (the command's split).
 
   Args:
-    path: --era5_path, or None.
+    path: --wind_file (--era5_path), or None.
     dates: --era5_dates, or None.
     default_dates: The command's split (train: 'train'; eval: the suite's).
 
@@ -329,7 +331,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
   bindings = []
   if path is not None:
     if not path.strip():
-      raise CommandUsageError('--era5_path is empty')
+      raise CommandUsageError('--wind_file is empty')
     # Absolute (the Ray workers' working directory may differ).
     path = os.path.abspath(os.path.expandvars(os.path.expanduser(path)))
     bindings += ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
@@ -337,7 +339,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
   elif not winds.is_era5(env_params.episode()['wind_field_factory']):
     if dates is not None:
       raise CommandUsageError(
-          '--era5_dates needs ERA5 winds: --era5_path, or a gin file binding '
+          '--era5_dates needs ERA5 winds: --wind_file, or a gin file binding '
           'LatexBalloonEnv.wind_field_factory = @Era5WindField')
     return []
   if dates is None:

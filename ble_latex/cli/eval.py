@@ -90,7 +90,8 @@ flags.DEFINE_string('ray_address', None,
                     'this machine), auto (the cluster this machine joined) '
                     "or HOST:PORT / ray://HOST:PORT. Needs the 'ray' extra.",
                     flag_values=FLAGS)
-flags.DEFINE_string('era5_path', None, cli.ERA5_PATH_HELP, flag_values=FLAGS)
+flags.DEFINE_string('wind_file', None, cli.WIND_FILE_HELP, flag_values=FLAGS)
+flags.DEFINE_alias('era5_path', 'wind_file', flag_values=FLAGS)
 flags.DEFINE_string('era5_dates', None,
                     cli.ERA5_DATES_HELP.format(
                         default="the suite's (latex_validation: validation; "
@@ -107,7 +108,7 @@ def _main(argv: Sequence[str]) -> None:
   # bindings travel in the spec (Ray workers bind the same).
   gin_binding.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
                        FLAGS.gin_bindings)
-  era5_bindings = cli.era5_bindings(FLAGS.era5_path, FLAGS.era5_dates,
+  era5_bindings = cli.era5_bindings(FLAGS.wind_file, FLAGS.era5_dates,
                                     suites.era5_dates(FLAGS.suite))
   spec = eval_lib.EvalSpec(
       agent=FLAGS.agent, env_name=FLAGS.env_name,

@@ -109,7 +109,8 @@ flags.DEFINE_integer('policy_snapshot_period', 0,
                      'policy (~1 MB) to BASE_DIR/policies/, for choosing one '
                      'on a validation suite afterwards. 0: never.',
                      flag_values=FLAGS)
-flags.DEFINE_string('era5_path', None, cli.ERA5_PATH_HELP, flag_values=FLAGS)
+flags.DEFINE_string('wind_file', None, cli.WIND_FILE_HELP, flag_values=FLAGS)
+flags.DEFINE_alias('era5_path', 'wind_file', flag_values=FLAGS)
 flags.DEFINE_string('era5_dates', None,
                     cli.ERA5_DATES_HELP.format(default='train (the jax '
                                                "trainer's validation flies "
@@ -140,7 +141,7 @@ def _main(argv: Sequence[str]) -> None:
     agent_gin_file = configs.gin_file('sac_jax.gin')
   gin_binding.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                        FLAGS.gin_bindings)
-  era5_bindings = cli.era5_bindings(FLAGS.era5_path, FLAGS.era5_dates,
+  era5_bindings = cli.era5_bindings(FLAGS.wind_file, FLAGS.era5_dates,
                                     suites.TRAIN_DATES)
   if era5_bindings:  # ERA5: the file, and the training dates.
     gin_binding.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,

@@ -50,6 +50,7 @@ if TYPE_CHECKING:  # xarray, pandas and SciPy load when a file is read (~2 s).
   import xarray as xr  # pylint: disable=g-bad-import-order
 
 from ble_latex import errors
+from ble_latex.wind import analysis
 from ble_latex.wind import era5_checks
 
 # Dimension names accepted in the files, new CDS layout first.
@@ -113,6 +114,11 @@ class Era5Data:
     longitude: Longitudes (the file's convention). # [deg E]
     uv: Winds, shape (time, pressure, lat, lon, 2): eastward u and northward
       v. # [m/s]
+    source: The wind source: 'ERA5', 'analysis' (another CF NetCDF file),
+      'GRIB2' or 'sounding' (`analysis`).
+    time_invariant: True for a snapshot (one time step in the files): its
+      winds are stored twice, at times[0] and one hour later, and hold at
+      every time (`interpolate` clips to the edges).
   """
   paths: Tuple[str, ...]
   times: np.ndarray
@@ -121,6 +127,13 @@ class Era5Data:
   latitude: np.ndarray
   longitude: np.ndarray
   uv: np.ndarray
+  source: str = 'ERA5'
+  time_invariant: bool = False
+
+  @property
+  def description(self) -> str:
+    """The source for records: e.g. 'GRIB2 (time-invariant)'."""
+    return self.source + (' (time-invariant)' if self.time_invariant else '')
 
   def __post_init__(self):
     import scipy.interpolate  # pylint: disable=g-import-not-at-top
@@ -275,7 +288,26 @@ def _open(path: str, label: str) -> 'xr.Dataset':
                               ) from error
 
 
-def read_file(path: str, layout: Layout = ERA5
+def read_source(path: str) -> Tuple[str, Tuple[np.ndarray, ...]]:
+  """Reads any wind file by its content (`analysis`): (source, arrays).
+
+  ERA5 and other CF NetCDF files, GRIB2 and soundings; the arrays are
+  `read_file`'s. Sources other than ERA5 must also hold the flight band and
+  a domain a flight fits in (`analysis.check_flight_band`, `check_domain`).
+  """
+  if analysis.kind_of(path) == 'sounding':
+    return 'sounding', analysis.sounding_arrays(path)
+  dataset, label, names = analysis.open_dataset(path, ERA5.label)
+  layout = Layout(label=label, **names)
+  arrays = read_file(path, layout, dataset=dataset)
+  if label != ERA5.label:
+    analysis.check_flight_band(path, arrays[1], label)
+    analysis.check_domain(path, arrays[2], arrays[3], label)
+  return label, arrays
+
+
+def read_file(path: str, layout: Layout = ERA5,
+              dataset: Optional['xr.Dataset'] = None
               ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                          np.ndarray]:
   """Reads and checks one file: its axes sorted ascending.
@@ -283,6 +315,7 @@ def read_file(path: str, layout: Layout = ERA5
   Args:
     path: A NetCDF file.
     layout: How the file names its winds and axes.
+    dataset: The file already opened (`analysis.open_dataset`), or None.
 
   Returns:
     (times (datetime64, naive UTC), pressure [Pa], latitude [deg N],
@@ -292,7 +325,8 @@ def read_file(path: str, layout: Layout = ERA5
     FileNotFoundError, IsADirectoryError, errors.BadFileError: As `load`.
   """
   label = layout.label
-  with _open(path, label) as dataset:
+  opened = _open(path, label) if dataset is None else dataset
+  with opened as dataset:
     u_name, v_name = layout.variables
     u = _read_variable(dataset, u_name, path, layout)
     v = _read_variable(dataset, v_name, path, layout)
@@ -370,7 +404,9 @@ def load(path: Union[str, Sequence[str]], layout: Layout = ERA5) -> Era5Data:
   """Loads ERA5 u, v from one or more files (joined along time).
 
   Results are cached per (files, modification times), so several
-  environments share one copy.
+  environments share one copy. With the default layout the reader is chosen
+  by content (`read_source`: ERA5 or other CF NetCDF, GRIB2, a sounding); a
+  single time step is a snapshot, flown time-invariant.
 
   Args:
     path: A file, a glob pattern, or a list of them (see `expand_paths`).
@@ -403,7 +439,17 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
                  layout: Layout) -> Era5Data:
   label = layout.label
   paths = [p for p, _, _ in stamps]
-  parts = [(p,) + read_file(p, layout) for p in paths]
+  if layout is ERA5:
+    reads = [read_source(p) for p in paths]
+    parts = [(p,) + arrays for p, (_, arrays) in zip(paths, reads)]
+    source = reads[0][0]
+    if len({s for s, _ in reads}) > 1:
+      raise errors.BadFileError(
+          f'Wind files {paths} mix sources {[s for s, _ in reads]}')
+    label = source
+  else:
+    source = label
+    parts = [(p,) + read_file(p, layout) for p in paths]
   first_path, _, pressure, latitude, longitude, _ = parts[0]
   for p, _, other_p, other_lat, other_lon, _ in parts[1:]:
     for name, a, b in (('pressure levels', pressure, other_p),
@@ -426,6 +472,10 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
         f'{label} files {sources[i]} and {sources[i + 1]} both hold time '
         f'{era5_checks.time_text(times[i])}')
   era5_checks.check_time_steps(times, sources, label=label)
+  time_invariant = times.size == 1
+  if time_invariant:  # A snapshot: the same winds one hour later.
+    times = np.concatenate([times, times + np.timedelta64(1, 'h')])
+    uv = np.concatenate([uv, uv], axis=0)
   for name, axis in (('time', times), ('pressure level', pressure),
                      ('latitude', latitude), ('longitude', longitude)):
     if axis.size < 2:
@@ -436,7 +486,8 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
   arrays = [times, time_s, pressure, latitude, longitude, uv]
   for a in arrays:
     a.flags.writeable = False
-  return Era5Data(tuple(s[0] for s in stamps), *arrays)
+  return Era5Data(tuple(s[0] for s in stamps), *arrays, source=source,
+                  time_invariant=time_invariant)
 
 
 
@@ -619,6 +670,8 @@ def start_window(data: Era5Data, *, center_lat: float, center_lon: float,
   last = last_start_minute(data, center_lat=center_lat, center_lon=center_lon,
                            episode_hours=episode_hours)
   window = start_dates_range(start_dates)
+  if data.time_invariant:  # Every date flies the same winds: start at 0.
+    return 0, 0
   if window is None:
     return 0, last
   first_s = (window[0] - data.start).total_seconds()
@@ -664,6 +717,12 @@ def last_start_minute(data: Era5Data, *, center_lat: float, center_lon: float,
   if episode_hours < 0:
     raise ValueError(f'Era5WindField.episode_hours must be >= 0, got '
                      f'{episode_hours}')
+  if data.time_invariant:  # Every start flies the same winds.
+    if not data.covers(center_lat, center_lon):
+      raise ValueError(
+          f'Target (lat {center_lat}, lon {center_lon}) lies outside the '
+          f'area of {data.source} file(s) {list(data.paths)}')
+    return 0
   if not data.covers(center_lat, center_lon):
     raise ValueError(
         f'Target (lat {center_lat}, lon {center_lon}) lies outside the area '

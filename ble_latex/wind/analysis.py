@@ -1,0 +1,294 @@
+# coding=utf-8
+"""Real upper-air wind sources: detection by content, and normalisation.
+
+`era5.load` reads every wind file through this module, which turns the
+sources a user has into one CF-style dataset with ERA5's names (`u`, `v` on
+`time`, `level`, `latitude`, `longitude`):
+  - NetCDF (by its magic: `CDF\\x01/2/5` or HDF5's signature): the wind
+    variables are found by CF `standard_name` (`eastward_wind`,
+    `northward_wind`) or a known alias (`WIND_ALIASES`: `u`/`v`, `U`/`V`,
+    `uwnd`/`vwnd`, GFS's `u-component_of_wind_isobaric`/`v-...`); the
+    pressure dimension by name (`era5.PRESSURE_DIMS`, or any name starting
+    with `isobaric`, e.g. GFS's `isobaric3`, in Pa) or by a pressure `units`
+    attribute;
+  - GRIB2 (by its magic `GRIB`) through cfgrib + eccodes: the u and v
+    messages on isobaric levels (`isobaricInhPa`);
+  - anything else is read as a University of Wyoming sounding (text or CSV,
+    `sounding.read`) and flown as a horizontally uniform column
+    (`sounding_arrays`).
+A file with one time step is a snapshot: `era5.load` flies it as a
+time-invariant field (`Era5Data.time_invariant`), and every record says so.
+
+`check_flight_band` and `check_domain` add the checks of real sources (one
+line naming the file, `errors.BadFileError`): levels that miss the flight
+band (`FLIGHT_BAND_M`, 15-25 km by the US Standard Atmosphere 1976), and a
+grid too small for a station with its margins (`MIN_DOMAIN_M`).
+"""
+
+import contextlib
+import logging
+import math
+from typing import Dict, Optional, Tuple, TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # xarray loads when a file is read (~2 s).
+  import xarray as xr  # pylint: disable=g-bad-import-order
+
+from ble_latex import errors
+from ble_latex.wind import era5_checks
+from ble_latex.wind import sounding
+
+# CF standard names of the wind components.
+STANDARD_NAMES = ('eastward_wind', 'northward_wind')
+# Known (u, v) variable names, ERA5's first.
+WIND_ALIASES = (('u', 'v'), ('U', 'V'), ('uwnd', 'vwnd'),
+                ('u-component_of_wind_isobaric',
+                 'v-component_of_wind_isobaric'))
+_TIME_NAMES = ('valid_time', 'time')
+_LAT_NAMES = ('latitude', 'lat')
+_LON_NAMES = ('longitude', 'lon')
+_PRESSURE_NAMES = ('pressure_level', 'level', 'isobaricInhPa', 'plev')
+# The altitudes a latex station-keeping flight uses (the sounding reader's
+# band); a source must hold winds over all of it. # [m]
+FLIGHT_BAND_M = sounding.FLIGHT_BAND_M
+# Smallest extent of a gridded domain, each direction: a station with
+# `STATION_MARGIN_M` of wind around it on every side. # [m]
+STATION_MARGIN_M = 150_000.0  # [m]
+MIN_DOMAIN_M = 2.0 * STATION_MARGIN_M + 100_000.0  # [m]
+# A sounding's uniform column is stored on this lat/lon box (any point
+# outside takes the edge value, so the field is uniform everywhere). # [deg]
+SOUNDING_BOX_LAT = (-89.0, 89.0)  # [deg N]
+SOUNDING_BOX_LON = (-180.0, 179.0)  # [deg E]
+_MERIDIAN_M_PER_DEG = 6_371_000.0 * math.pi / 180.0  # [m/deg]
+_GRIB_MAGIC = b'GRIB'
+_NETCDF_MAGICS = (b'CDF\x01', b'CDF\x02', b'CDF\x05', b'\x89HDF')
+
+
+def kind_of(path: str) -> str:
+  """'grib', 'netcdf' or 'sounding', by the file's bytes.
+
+  GRIB2 and NetCDF by their magic; text is a sounding; other bytes go to
+  the NetCDF reader, whose error names them.
+  """
+  with open(path, 'rb') as f:
+    head = f.read(4096)
+  if head.startswith(_GRIB_MAGIC):
+    return 'grib'
+  if any(head.startswith(m) for m in _NETCDF_MAGICS):
+    return 'netcdf'
+  try:
+    head[:-3].decode('utf-8')
+  except UnicodeDecodeError:
+    return 'netcdf'
+  return 'netcdf' if b'\x00' in head else 'sounding'
+
+
+def pressure_of_height(height_m: float) -> float:
+  """US Standard Atmosphere 1976 pressure at a geopotential height. # [Pa]
+
+  Layers 0-11 km (lapse -6.5 K/km), 11-20 km (isothermal 216.65 K), 20-32 km
+  (lapse +1 K/km): p = p_b (T_b / T)^(g0 M / (R L)) or p_b exp(-g0 M dh /
+  (R T_b)) (NOAA/NASA/USAF, 1976, eq. 33a/33b).
+  """
+  g_m_r = 9.80665 * 0.0289644 / 8.3144598  # g0 M / R. # [K/m]
+  layers = ((0.0, 288.15, -0.0065, 101325.0), (11_000.0, 216.65, 0.0, 22632.1),
+            (20_000.0, 216.65, 0.001, 5474.89), (32_000.0, 228.65, 0.0028,
+                                                 868.019))
+  base, temp, lapse, p_base = [l for l in layers if l[0] <= height_m][-1]
+  dh = height_m - base
+  if lapse == 0.0:
+    return p_base * math.exp(-g_m_r * dh / temp)
+  return p_base * (temp / (temp + lapse * dh)) ** (g_m_r / lapse)
+
+
+def check_flight_band(path: str, pressure_pa: np.ndarray, label: str) -> None:
+  """Refuses levels that do not span the flight band (one line)."""
+  low_pa = pressure_of_height(FLIGHT_BAND_M[1])
+  high_pa = pressure_of_height(FLIGHT_BAND_M[0])
+  if pressure_pa.size < 2:
+    raise errors.BadFileError(
+        f'{label} file {path} holds {pressure_pa.size} pressure level(s); a '
+        'flight needs levels over 15-25 km')
+  if pressure_pa.min() > low_pa or pressure_pa.max() < high_pa:
+    raise errors.BadFileError(
+        f'{label} file {path}: levels {pressure_pa.min() / 100:g}-'
+        f'{pressure_pa.max() / 100:g} hPa miss the flight band '
+        f'{FLIGHT_BAND_M[0] / 1000:g}-{FLIGHT_BAND_M[1] / 1000:g} km '
+        f'({low_pa / 100:.0f}-{high_pa / 100:.0f} hPa)')
+
+
+def check_domain(path: str, latitude: np.ndarray, longitude: np.ndarray,
+                 label: str) -> None:
+  """Refuses a grid smaller than `MIN_DOMAIN_M` in either direction."""
+  if latitude.size < 2 or longitude.size < 2:
+    raise errors.BadFileError(
+        f'{label} file {path}: a grid of {latitude.size} x {longitude.size} '
+        'lat/lon nodes is too small for a flight (at least 2 x 2)')
+  mid = math.radians(0.5 * (latitude[0] + latitude[-1]))
+  north_m = (latitude[-1] - latitude[0]) * _MERIDIAN_M_PER_DEG
+  east_m = (longitude[-1] - longitude[0]) * _MERIDIAN_M_PER_DEG * math.cos(mid)
+  if min(north_m, east_m) < MIN_DOMAIN_M:
+    raise errors.BadFileError(
+        f'{label} file {path}: the grid spans {north_m / 1000:.0f} km north x '
+        f'{east_m / 1000:.0f} km east; a flight needs '
+        f'{MIN_DOMAIN_M / 1000:.0f} km each way')
+
+
+def _wind_names(dataset: 'xr.Dataset') -> Optional[Tuple[str, str]]:
+  """(u, v) variable names by CF standard_name, then by alias."""
+  by_standard = {}
+  for name in dataset.data_vars:
+    standard = str(dataset[name].attrs.get('standard_name', ''))
+    if standard in STANDARD_NAMES and standard not in by_standard:
+      by_standard[standard] = str(name)
+  if len(by_standard) == 2:
+    return by_standard[STANDARD_NAMES[0]], by_standard[STANDARD_NAMES[1]]
+  for u, v in WIND_ALIASES:
+    if u in dataset.data_vars and v in dataset.data_vars:
+      return u, v
+  return None
+
+
+def _pressure_dim(array: 'xr.DataArray') -> Optional[str]:
+  for dim in array.dims:
+    dim = str(dim)
+    if dim in _PRESSURE_NAMES or dim.startswith('isobaric'):
+      return dim
+  for dim in array.dims:
+    if dim in array.coords and str(array[dim].attrs.get(
+        'units', '')).strip().lower() in era5_checks.PRESSURE_UNITS:
+      return str(dim)
+  return None
+
+
+def _first(dims, names) -> Optional[str]:
+  return next((str(d) for d in dims if str(d) in names), None)
+
+
+def normalise(dataset: 'xr.Dataset', path: str, label: str
+              ) -> Tuple['xr.Dataset', Dict[str, Tuple[str, ...]]]:
+  """`dataset` with a time axis, and the names its winds and axes have.
+
+  A wind without a time dimension takes its scalar time coordinate
+  (`valid_time`, then `time`) as a time axis of one step. Names not found
+  keep ERA5's candidates, so `era5.read_file`'s errors name what is missing.
+
+  Returns:
+    (dataset, names): names maps 'variables', 'time', 'pressure',
+    'latitude', 'longitude' to the candidates `era5.Layout` takes.
+
+  Raises:
+    errors.BadFileError: no wind variables (one line naming the file).
+  """
+  winds = _wind_names(dataset)
+  if winds is None:
+    raise errors.BadFileError(
+        f'{label} file {path} has no wind variables (found: '
+        f'{sorted(str(v) for v in dataset.data_vars)}; expected CF '
+        f'standard_name {"/".join(STANDARD_NAMES)} or one of '
+        f'{["/".join(a) for a in WIND_ALIASES]})')
+  array = dataset[winds[0]]
+  dims = [str(d) for d in array.dims]
+  level = _pressure_dim(array)
+  lat, lon = _first(dims, _LAT_NAMES), _first(dims, _LON_NAMES)
+  time = next((d for d in dims if d in _TIME_NAMES or d.startswith('time')),
+              None)
+  if time is None:
+    scalar = next((c for c in _TIME_NAMES if c in array.coords and
+                   array[c].ndim == 0), None)
+    if scalar is not None:
+      others = [c for c in _TIME_NAMES if c != scalar and c in dataset.coords]
+      dataset = dataset.drop_vars(others)
+      dataset = dataset.assign({
+          w: dataset[w].expand_dims(scalar) for w in winds})
+      time = scalar
+  names = {'variables': winds,
+           'time': (time,) if time else _TIME_NAMES,
+           'pressure': (level,) if level else _PRESSURE_NAMES,
+           'latitude': (lat,) if lat else _LAT_NAMES,
+           'longitude': (lon,) if lon else _LON_NAMES}
+  return dataset, names
+
+
+@contextlib.contextmanager
+def _quiet_cfgrib():
+  """Silences cfgrib's 'skipping variable' logs while a GRIB file opens."""
+  logger = logging.getLogger('cfgrib')
+  level = logger.level
+  logger.setLevel(logging.ERROR)
+  try:
+    yield
+  finally:
+    logger.setLevel(level)
+
+
+def open_dataset(path: str, label: str
+                 ) -> Tuple['xr.Dataset', str, Dict[str, Tuple[str, ...]]]:
+  """Opens a GRIB2 or NetCDF file: (dataset, source label, `normalise` names).
+
+  Raises:
+    errors.BadFileError: an unreadable file, or as `normalise`.
+  """
+  import xarray as xr  # pylint: disable=g-import-not-at-top,redefined-outer-name
+  kind = kind_of(path)
+  try:
+    if kind == 'grib':
+      label = 'GRIB2' if label == 'ERA5' else label
+      parts = []
+      with _quiet_cfgrib():
+        for short in ('u', 'v'):
+          part = xr.open_dataset(
+              path, engine='cfgrib', backend_kwargs={
+                  'indexpath': '', 'filter_by_keys': {
+                      'typeOfLevel': 'isobaricInhPa', 'shortName': short}})
+          parts.append(part.load())
+      dataset = xr.merge(parts, compat='override')
+    else:
+      era5_checks.check_file(path, label=label)
+      dataset = xr.open_dataset(path)
+  except errors.BadFileError:
+    raise
+  except Exception as error:  # pylint: disable=broad-except
+    raise errors.BadFileError(
+        f'{label} file {path} is not a readable '
+        f'{"GRIB2" if kind == "grib" else "NetCDF"} file '
+        f'({type(error).__name__}: {_first_line(error)})') from error
+  names = _wind_names(dataset)
+  if names is not None and names != ('u', 'v') and label == 'ERA5':
+    label = 'analysis'
+  try:
+    dataset, names = normalise(dataset, path, label)
+  except errors.BadFileError:
+    dataset.close()
+    raise
+  return dataset, label, names
+
+
+def _first_line(error: Exception) -> str:
+  text = str(error).strip()
+  return text.splitlines()[0] if text else ''
+
+
+def sounding_arrays(path: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
+                                        np.ndarray, np.ndarray]:
+  """A sounding as a uniform one-time field on `SOUNDING_BOX_*`.
+
+  Returns:
+    As `era5.read_file`: (times (one, the Unix epoch: a sounding file's
+    date is not read), pressure [Pa] ascending, latitude [deg N], longitude
+    [deg E], uv [m/s] of shape (1, levels, 2, 2, 2)), the sounding's winds at
+    every node.
+
+  Raises:
+    errors.BadFileError: as `sounding.read`.
+  """
+  column = sounding.read(path)
+  order = np.argsort(column.pressure_pa)
+  pressure = column.pressure_pa[order]
+  uv = np.stack([column.u_mps[order], column.v_mps[order]], axis=-1)
+  uv = np.broadcast_to(uv[None, :, None, None, :],
+                       (1, pressure.size, 2, 2, 2)).copy()
+  times = np.array(['1970-01-01T00:00:00'], dtype='datetime64[ns]')
+  return (times, pressure, np.array(SOUNDING_BOX_LAT, np.float64),
+          np.array(SOUNDING_BOX_LON, np.float64), uv)
