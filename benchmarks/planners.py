@@ -59,6 +59,8 @@ flags.DEFINE_multi_string('gin_file', [], 'Extra gin files.',
                           flag_values=FLAGS)
 flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings.',
                           flag_values=FLAGS)
+flags.DEFINE_string('wind_file', None, cli.WIND_FILE_HELP, flag_values=FLAGS)
+flags.DEFINE_alias('era5_path', 'wind_file', flag_values=FLAGS)
 flags.DEFINE_boolean('short', False, '2 seeds, 12 strides (smoke test).',
                      flag_values=FLAGS)
 
@@ -274,6 +276,16 @@ def load_partial(path: str, current: Dict[str, Any], seeds: Sequence[int]
   return _checked_records(data['records'], path, seeds)
 
 
+def _wind_source() -> str:
+  """The bound winds, e.g. "GRIB2 (time-invariant): ['gfs.grib2']"."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params
+  from ble_latex.envs import winds
+  # pylint: enable=g-import-not-at-top
+  return winds.wind_source_from_gin(
+      env_params.episode()['wind_field_factory'])
+
+
 def _main(argv: Sequence[str]) -> int:
   del argv
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
@@ -285,6 +297,11 @@ def _main(argv: Sequence[str]) -> int:
     raise cli.CommandUsageError(
         f'--agent={FLAGS.agent!r}: one of {sorted(plan_config.PLANNERS)}')
   gin_binding.bind_gin(None, None, FLAGS.gin_file, FLAGS.gin_bindings)
+  # --wind_file: its bindings (and the suite's dates) join the user's.
+  bindings = [*FLAGS.gin_bindings, *cli.era5_bindings(
+      FLAGS.wind_file, None, suites.era5_dates(FLAGS.suite))]
+  if len(bindings) > len(FLAGS.gin_bindings):
+    gin_binding.bind_gin(None, None, FLAGS.gin_file, bindings)
   config = plan_config.from_gin(FLAGS.agent)
   suite = suites.get_eval_suite(FLAGS.suite)
   seeds = list(suite.seeds)[:FLAGS.num_seeds]
@@ -315,7 +332,7 @@ def _main(argv: Sequence[str]) -> int:
   timing_path = os.path.join(folder, 'timing', f'{name}.json')
   os.makedirs(os.path.dirname(timing_path), exist_ok=True)
   current = run_config(FLAGS.agent, FLAGS.suite, config, max_steps,
-                       FLAGS.seed, FLAGS.gin_file, FLAGS.gin_bindings)
+                       FLAGS.seed, FLAGS.gin_file, bindings)
   all_seeds = list(suite.seeds)
   with safe_io.locked_file(path, what='planner output'):
     # A finished record with seeds this run does not fly (a re-flight of
@@ -356,7 +373,8 @@ def _main(argv: Sequence[str]) -> int:
     timing.update({'agent': FLAGS.agent, 'config': vars(config),
                    'batch': FLAGS.batch, 'max_steps': max_steps,
                    'cpus': os.cpu_count(),
-                   'gin_bindings': list(FLAGS.gin_bindings),
+                   'gin_bindings': list(bindings),
+                   'wind_source': _wind_source(),
                    'run_config': current})
     timing.setdefault('loadavg', []).append(os.getloadavg())
     compiled = set()

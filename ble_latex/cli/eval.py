@@ -167,8 +167,20 @@ def _fly(spec: 'eval_lib.EvalSpec', path: str, agent: Any, env: Any) -> None:
     finally:
       if FLAGS.ray_address == 'local':
         distributed.shutdown()
+  source = _wind_source()  # Each record names its winds.
+  results = [{**r, 'wind_source': source} for r in results]
   eval_lib.write_results(path, results, FLAGS.pretty_json)
-  print(json.dumps({'output': path, **metrics.summarize(results)}))
+  print(json.dumps({'output': path, 'wind_source': source,
+                    **metrics.summarize(results)}))
+
+
+def _wind_source() -> str:
+  """The bound winds, e.g. "analysis (time-invariant): ['gfs.nc']"."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params
+  from ble_latex.envs import winds
+  # pylint: enable=g-import-not-at-top
+  return winds.wind_source_from_gin(env_params.episode()['wind_field_factory'])
 
 
 def check() -> None:

@@ -190,3 +190,19 @@ def era5_grid_from_gin(factory: Any) -> Optional[era5_jax.Era5Grid]:
     raise
   except ValueError as e:
     raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
+
+
+def wind_source_from_gin(factory: Any) -> str:
+  """What a `LatexBalloonEnv.wind_field_factory` value flies, for records.
+
+  'BLE generative (VAE)' for BLE's winds; for a wind file (`@Era5WindField`)
+  its source and files, e.g. "GRIB2 (time-invariant): ['/data/gfs.grib2']"
+  (`era5.Era5Data.description`: snapshots say "time-invariant").
+  """
+  if factory is era5.settings:
+    data = factory().load()
+    return f'{data.description}: {list(data.paths)}'
+  if isinstance(factory, era5.Era5Settings):
+    data = factory.load()
+    return f'{data.description}: {list(data.paths)}'
+  return 'BLE generative (VAE)'
