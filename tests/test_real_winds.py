@@ -214,3 +214,23 @@ def test_each_bad_file_exits_1_from_eval(tmp_path, capsys):
     assert len(err) == 1 and needle in err[0] and path in err[0], (name, err)
     assert err[0].startswith('ble-latex-eval: ')
   gin.clear_config()
+
+
+@pytest.mark.slow
+def test_eval_records_name_the_wind_source(tmp_path, capsys):
+  import json  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'out'
+  code = eval_cli.main([
+      f'--output_dir={out}', '--agent=latex_station_seeker',
+      '--suite=latex_micro', '--max_episode_length=3',
+      f'--wind_file={GFS_GRIB}', '--gin_bindings=Era5WindField.center_lat=40.0',
+      '--gin_bindings=Era5WindField.center_lon=-103.0'])
+  gin.clear_config()
+  assert code == 0, capsys.readouterr().err
+  records = json.loads((out / 'latex_micro' / 'latex_station_seeker.json'
+                        ).read_text())
+  want = f"GRIB2 (time-invariant): ['{GFS_GRIB}']"
+  assert [r['wind_source'] for r in records] == [want] * len(records)
+  summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+  assert summary['wind_source'] == want
