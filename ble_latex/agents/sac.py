@@ -211,6 +211,12 @@ class SACAgent(sac_checkpoint.SACCheckpoints, agent.Agent,
       trust_legacy_pickle: bool = False):
     """Creates the agent.
 
+    SAC's hyperparameters (`num_layers`, `hidden_units`, `critic`, `gamma`,
+    the three learning rates, `batch_size`, `replay_capacity`,
+    `min_replay_history`, `target_smoothing_coefficient`, `target_entropy`,
+    `reward_scale_factor`) are `sac_core.SACHyperparameters`' fields: their
+    meaning and defaults are there.
+
     Args:
       num_actions: Dimension of the action vector (3 for LatexBalloon-v0).
       observation_shape: Shape of the observation vector.
@@ -220,11 +226,6 @@ class SACAgent(sac_checkpoint.SACCheckpoints, agent.Agent,
       action_high: Upper bounds of the Box action space (`jax_env.ACTION_HIGH`).
       seed: Seed of the agent's JAX PRNG key (network init, exploration,
         replay sampling, policy sampling in the update).
-      num_layers, hidden_units, critic, gamma, actor_learning_rate,
-        critic_learning_rate, alpha_learning_rate, batch_size,
-        replay_capacity, min_replay_history, target_smoothing_coefficient,
-        target_entropy, reward_scale_factor: SAC's hyperparameters
-        (`sac_core.SACHyperparameters`: their meaning and defaults).
       update_period: Environment steps per SAC update.
       checkpoint_duration: Keep checkpoints of the last this many iterations
         besides the newest (BLE's `clean_up_old_checkpoints`); None keeps all.
