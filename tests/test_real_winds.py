@@ -234,3 +234,22 @@ def test_eval_records_name_the_wind_source(tmp_path, capsys):
   assert [r['wind_source'] for r in records] == [want] * len(records)
   summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
   assert summary['wind_source'] == want
+
+
+@pytest.mark.parametrize('path, source, lat, lon', SLICES)
+def test_bles_wind_field_flies_each_slice(path, source, lat, lon):
+  """BLE's `WindField` (gym's agents) over the same time-invariant data."""
+  import datetime as dt  # pylint: disable=g-import-not-at-top
+  from balloon_learning_environment.utils import units  # pylint: disable=g-import-not-at-top
+  from ble_latex.ble import era5_field  # pylint: disable=g-import-not-at-top
+  field = era5_field.Era5WindField(path=path, center_lat=lat, center_lon=lon)
+  field.reset_forecast(jax.random.PRNGKey(3), dt.datetime(2000, 1, 1))
+  assert field.start_date_time == era5.load(path).start
+  here = units.Distance(m=0.0)
+  first = field.get_forecast(here, here, 5000.0, dt.timedelta(hours=0))
+  later = field.get_forecast(here, here, 5000.0, dt.timedelta(hours=60))
+  want = era5.load(path).interpolate(0.0, 5000.0, lat, lon)
+  for vector in (first, later):
+    np.testing.assert_allclose([vector.u.meters_per_second,
+                                vector.v.meters_per_second], want, atol=1e-6)
+  assert source in era5.load(path).description
