@@ -149,9 +149,9 @@ def _report(record: Dict[str, Any]) -> None:
   ax.set_xscale('log', base=2)
   ax.set_xlabel(f'rollouts ({settings["draws"]} per evaluated launch)')
   ax.set_ylabel('regret: grid optimum - best found (expected TW50)')
-  ax.set_title(f'{len(cases)} worlds, grid {"x".join(map(str, settings["grid"]))}'
-               f' = {n_grid} launches ({n_grid * settings["draws"]} rollouts)',
-               fontsize=10)
+  shape = 'x'.join(map(str, settings['grid']))
+  ax.set_title(f'{len(cases)} worlds, grid {shape} = {n_grid} launches '
+               f'({n_grid * settings["draws"]} rollouts)', fontsize=10)
   ax.grid(alpha=0.3)
   ax.legend()
   fig.tight_layout()
@@ -159,7 +159,8 @@ def _report(record: Dict[str, Any]) -> None:
   fig.savefig(stem + '.png', dpi=110)
   case_lines = ['| world seed | grid optimum | best launch (east, north km, '
                 '+h) | its distance | station launch, best delay | top-10 '
-                'outside 50 km | grid wall (load) |', '|---|---|---|---|---|---|---|']
+                'outside 50 km | grid wall (load) |',
+                '|---|---|---|---|---|---|---|']
   for seed, c in sorted(cases.items(), key=lambda kv: int(kv[0])):
     b = c['best']
     case_lines.append(
