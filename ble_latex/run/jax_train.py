@@ -34,7 +34,7 @@ import numpy as np
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
-from ble_latex.envs import env_params
+from ble_latex.envs import env_params as env_params_lib
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
@@ -501,11 +501,11 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
     for _, base_dir in runs:
       locks.enter_context(run_dir.locked(base_dir, wait_s=lock_wait_s))
     env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
-    params = (env_params.check_params(env_params) if env_params is not None
+    params = (env_params_lib.check_params(env_params) if env_params is not None
               else env.default_params)
     window = int(params.episode_steps)
     validation_params = (params if validation_params is None else
-                         env_params.check_params(validation_params))
+                         env_params_lib.check_params(validation_params))
     learner = sac_trainer.learner_for(config)
     n = config.num_envs
 
