@@ -58,6 +58,7 @@ def _assert_records_match(batched, serial):
 
 # Batches of at most 2 (and 1) balloons: the shapes every test here shares,
 # so the batched step compiles twice in the module.
+@pytest.mark.slow  # Flies each agent both ways (latex_mpc ~75 s).
 @pytest.mark.parametrize('agent, bindings, seeds, batches', [
     ('sac_pretrained', (), TINY[:3], [TINY[:2], TINY[2:3]]),
     ('latex_mpc', SMALL_MPC, TINY[:2], [TINY[:2]]),

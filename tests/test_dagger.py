@@ -14,6 +14,9 @@ from ble_latex.agents import plan_config
 from ble_latex.agents import pretrained
 from ble_latex.run import dagger
 
+# DAgger rounds fly planners and fit networks (~150 s loaded): make test-slow.
+pytestmark = pytest.mark.slow
+
 # A teacher small enough to compile and fly in seconds (the real one is
 # `latex_mpc`'s beam search; the algorithm is the same).
 TEACHER = plan_config.PlannerConfig(

@@ -17,6 +17,9 @@ from ble_latex.launch import controllers
 from ble_latex.launch import scoring
 from ble_latex.launch import search
 
+# Launch grids fly the batched core (~90 s loaded): make test-slow.
+pytestmark = pytest.mark.slow
+
 SEED = 3
 STEPS = 8  # Strides per flight: short flights, one compile per shape.
 DRAWS = 2
