@@ -145,6 +145,8 @@ def test_eval_command_shards_and_locks_the_batched_path(tmp_path, capsys):
   serial = eval_lib.evaluate(
       *eval_lib.build(eval_lib.EvalSpec(agent='sac_pretrained')), TINY[6:8],
       STRIDES, batched=False)
+  # The command's records also name their winds (`wind_source`).
+  assert all(r.pop('wind_source') for r in written)
   _assert_records_match(written, serial)
 
 
