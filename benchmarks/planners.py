@@ -88,19 +88,6 @@ def _fly_functions(config, env):
   return jax.jit(start), jax.jit(fly)
 
 
-def _point(flight: Dict[str, np.ndarray], i: int) -> Dict[str, Any]:
-  from ble_latex.flight import state as state_lib  # pylint: disable=g-import-not-at-top
-  return {'t_s': float(flight['time_s'][i]),
-          'x_km': float(flight['x_m'][i]) / 1000.0,
-          'y_km': float(flight['y_m'][i]) / 1000.0,
-          'altitude_m': float(flight['altitude_m'][i]),
-          'ascent_rate_mps': float(flight['ascent_rate_mps'][i]),
-          'decision': state_lib.DecisionCode(
-              int(flight['last_decision'][i])).name.lower(),
-          'helium_mols': float(flight['helium_mols'][i]),
-          'sand_kg': float(flight['sand_kg'][i])}
-
-
 def _flight_arrays(flight) -> Dict[str, np.ndarray]:
   import jax  # pylint: disable=g-import-not-at-top
   keys = ('time_s', 'x_m', 'y_m', 'altitude_m', 'ascent_rate_mps',
@@ -118,6 +105,7 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
   its size is among them (a planner that plans once per episode has no
   other).
   """
+  from ble_latex.run import records as records_lib  # pylint: disable=g-import-not-at-top
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import planning  # pylint: disable=g-import-not-at-top
@@ -137,7 +125,7 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
                                      window_steps=window)
               for i, s in enumerate(seeds)]
   f0 = _flight_arrays(flight0)
-  paths = [[_point(f0, i)] for i in range(n)]
+  paths = [[records_lib.batch_flight_point(f0, i)] for i in range(n)]
   done = np.zeros(n, bool)
   ended = np.zeros(n, bool)  # By the env (not by the --max_episode_length cap).
   previous = planning.initial_plans(config, states)
@@ -168,7 +156,8 @@ def fly_batch(config, seeds: Sequence[int], max_steps: int,
         one = {key: np.asarray(v)[k, i] for key, v in info.items()}
         info_i = jax_env.info_dict(one)
         trackers[i].step(float(reward[k, i]), info_i)
-        paths[i].append(_point({key: v[k] for key, v in flight.items()}, i))
+        paths[i].append(records_lib.batch_flight_point(
+            {key: v[k] for key, v in flight.items()}, i))
         ended[i] = (info_i['out_of_resources'] or info_i['envelope_burst'] or
                     info_i['terminal_reason'] != 'ok' or info_i['time_limit'])
         if ended[i] or steps >= max_steps:
@@ -276,18 +265,9 @@ def load_partial(path: str, current: Dict[str, Any], seeds: Sequence[int]
   return _checked_records(data['records'], path, seeds)
 
 
-def _wind_source() -> str:
-  """The bound winds, e.g. "GRIB2 (time-invariant): ['gfs.grib2']"."""
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import env_params
-  from ble_latex.envs import winds
-  # pylint: enable=g-import-not-at-top
-  return winds.wind_source_from_gin(
-      env_params.episode()['wind_field_factory'])
-
-
 def _main(argv: Sequence[str]) -> int:
   del argv
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
     from ble_latex.agents import plan_config  # pylint: disable=g-import-not-at-top
@@ -374,7 +354,7 @@ def _main(argv: Sequence[str]) -> int:
                    'batch': FLAGS.batch, 'max_steps': max_steps,
                    'cpus': os.cpu_count(),
                    'gin_bindings': list(bindings),
-                   'wind_source': _wind_source(),
+                   'wind_source': env_params.wind_source(),
                    'run_config': current})
     timing.setdefault('loadavg', []).append(os.getloadavg())
     compiled = set()

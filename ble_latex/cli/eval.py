@@ -46,6 +46,7 @@ from ble_latex.run import gin_binding
 # Imported on first use, after the flags are parsed (`--help` stays fast).
 batch_eval = cli.lazy_module('ble_latex.run.batch_eval')
 distributed = cli.lazy_module('ble_latex.run.distributed')
+env_params = cli.lazy_module('ble_latex.envs.env_params')
 eval_lib = cli.lazy_module('ble_latex.run.eval_lib')
 metrics = cli.lazy_module('ble_latex.run.metrics')
 suites = cli.lazy_module('ble_latex.run.suites')
@@ -167,20 +168,11 @@ def _fly(spec: 'eval_lib.EvalSpec', path: str, agent: Any, env: Any) -> None:
     finally:
       if FLAGS.ray_address == 'local':
         distributed.shutdown()
-  source = _wind_source()  # Each record names its winds.
+  source = env_params.wind_source()  # Each record names its winds.
   results = [{**r, 'wind_source': source} for r in results]
   eval_lib.write_results(path, results, FLAGS.pretty_json)
   print(json.dumps({'output': path, 'wind_source': source,
                     **metrics.summarize(results)}))
-
-
-def _wind_source() -> str:
-  """The bound winds, e.g. "analysis (time-invariant): ['gfs.nc']"."""
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import env_params
-  from ble_latex.envs import winds
-  # pylint: enable=g-import-not-at-top
-  return winds.wind_source_from_gin(env_params.episode()['wind_field_factory'])
 
 
 def check() -> None:

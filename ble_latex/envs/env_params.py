@@ -367,6 +367,14 @@ def check_one_radius(radius_km: Any, ble_radius_km: Any) -> None:
         'one home, bind LatexBalloonEnv.station_keeping_radius_km')
 
 
+def wind_source() -> str:
+  """What the bound winds are, for records (`winds.wind_source_from_gin`).
+
+  E.g. 'BLE generative (VAE)' or "GRIB2 (time-invariant): ['gfs.grib2']".
+  """
+  return winds.wind_source_from_gin(episode()['wind_field_factory'])
+
+
 def params_from_gin() -> env_types.EnvParams:
   """`EnvParams` from the gin bindings (the defaults where unbound).
 

@@ -40,7 +40,6 @@ through the seeds in order, so its records depend on the order it flies.
 
 import copy
 import dataclasses
-import datetime as dt
 import functools
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
@@ -61,9 +60,9 @@ from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
 from ble_latex.envs import winds
-from ble_latex.flight import state as state_lib
 from ble_latex import jax_cache
 from ble_latex.run import metrics
+from ble_latex.run import records as records_lib
 from ble_latex.run import runner
 
 # Seeds flown together. The planners' batched call grows with it (the
@@ -311,21 +310,6 @@ def _stepper(env: jax_env.LatexBalloonJaxEnv):
                  compiler_options=jax_cache.fast_compile_options())
 
 
-def flight_point(flight: Dict[str, np.ndarray], i: int) -> Dict[str, Any]:
-  """Balloon `i`'s flight point (`runner.flight_point`) from batch arrays."""
-  return {
-      't_s': dt.timedelta(seconds=float(flight['time_s'][i])).total_seconds(),
-      'x_km': float(flight['x_m'][i]) / 1000.0,
-      'y_km': float(flight['y_m'][i]) / 1000.0,
-      'altitude_m': float(flight['altitude_m'][i]),
-      'ascent_rate_mps': float(flight['ascent_rate_mps'][i]),
-      'decision': state_lib.DecisionCode(
-          int(flight['last_decision'][i])).name.lower(),
-      'helium_mols': float(flight['helium_mols'][i]),
-      'sand_kg': float(flight['sand_kg'][i]),
-  }
-
-
 def fly_batch(policy: CorePolicy, env: Any, seeds: Sequence[int],
               max_steps: int) -> List[Dict[str, Any]]:
   """One deterministic episode per seed, all together; their records.
@@ -365,7 +349,7 @@ def fly_batch(policy: CorePolicy, env: Any, seeds: Sequence[int],
     for b in np.flatnonzero(~done):
       info_b = jax_env.info_dict({k: v[b] for k, v in info.items()})
       trackers[b].step(float(rewards[b]), info_b)
-      paths[b].append(flight_point(flight, b))
+      paths[b].append(records_lib.batch_flight_point(flight, b))
       done[b] = (info_b['terminal_reason'] != 'ok' or info_b['time_limit'])
     if done.all() or i == max_steps - 1:
       break

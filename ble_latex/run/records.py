@@ -95,6 +95,28 @@ FLIGHT_POINT_SCHEMA: Mapping[str, FieldType] = {
     'helium_mols': NUMBER,
     'sand_kg': NUMBER,
 }
+
+
+def batch_flight_point(flight: Mapping[str, Any], i: int) -> Dict[str, Any]:
+  """Balloon `i`'s flight point (`FLIGHT_POINT_SCHEMA`) from batched arrays.
+
+  Args:
+    flight: The core's flight arrays of a batch (`time_s` [s], `x_m`, `y_m`,
+      `altitude_m` [m], `ascent_rate_mps` [m/s], `last_decision`,
+      `helium_mols` [mol], `sand_kg` [kg]), each [N].
+    i: The balloon.
+  """
+  return {
+      't_s': float(flight['time_s'][i]),
+      'x_km': float(flight['x_m'][i]) / 1000.0,
+      'y_km': float(flight['y_m'][i]) / 1000.0,
+      'altitude_m': float(flight['altitude_m'][i]),
+      'ascent_rate_mps': float(flight['ascent_rate_mps'][i]),
+      'decision': state_lib.DecisionCode(
+          int(flight['last_decision'][i])).name.lower(),
+      'helium_mols': float(flight['helium_mols'][i]),
+      'sand_kg': float(flight['sand_kg'][i]),
+  }
 # One line of RUN/episodes.jsonl (metrics.EpisodeSummary).
 EPISODE_SCHEMA: Mapping[str, FieldType] = {
     'episode': COUNT,
