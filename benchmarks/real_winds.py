@@ -1,0 +1,277 @@
+r"""Agents flown on the real wind sources (issue 45 item 6): the record.
+
+  nice -n 10 python benchmarks/real_winds.py \
+      [--sources=gfs_namerica,gfs_global,boise,hilo] \
+      [--agents=sac_pretrained,latex_station_seeker,latex_random] \
+      [--seeds=100 | --seeds=gfs_namerica:100,boise:20] \
+      [--station_mode=center] [--json=benchmarks/real_winds.json]
+
+Each (source, agent, station mode) is one cell: the suite's (--suite,
+default latex_small) first N seeds flown by `eval_lib.evaluate` (the
+batched path, `run/batch_eval.py`, for the JAX-core agents; the one-at-a-
+time path for `latex_random`, whose one random stream runs through the
+seeds in order), on `--wind_file SOURCE`'s gin bindings
+(`cli.era5_bindings`) and the station's. Every real source here is one
+time step: it flies time-invariant, the analysis (or the sounding's
+column) being the forecast the agents see, the truth the same plus BLE's
+simplex noise; the seeds draw the noise (and on a sounding nothing else).
+
+Stations (--station_mode, recorded in each cell):
+  * `center`: a GFS grid's station is the file's fixed centre (the middle of
+    its latitudes and longitudes: every seed flies the same station); a
+    sounding's is its launch site (`SOURCES`; a sounding is the same column
+    everywhere, the site only places the sun);
+  * `per_seed`: seed s at station s of the domain (issue 45 item 4), with
+    the gin bindings given by --station_bindings (they are recorded): the
+    per-seed stations were being added to envs/ and wind/era5* when this
+    script was written.
+
+The record (--json) holds one entry per cell under 'cells': its settings,
+the seeds' compact records (no flight paths), their summary
+(`metrics.summarize`) and the runs that flew them (command, date, machine,
+load average before/after, wall seconds). Resumable: a cell whose settings
+match flies only the seeds it lacks and merges them; a cell flown with other
+settings is refused (name the difference) unless --overwrite. The file is
+rewritten after every cell. `docs/hooks/tables.py` ('real-winds') renders
+the table from it.
+"""
+
+import datetime as dt
+import json
+import os
+import platform
+import sys
+import time
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+from absl import flags
+
+import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
+
+_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# name -> (file under --realdata_dir, label, launch site (lat, lon) of a
+# sounding (University of Wyoming's station list) or None for a grid).
+SOURCES: Dict[str, Tuple[str, str, Optional[Tuple[float, float]]]] = {
+    'gfs_namerica': ('winds/gfs_2010-10-26T12Z_namerica_1deg.nc',
+                     'GFS analysis 2010-10-26 12Z, N. America 1° (NetCDF)',
+                     None),
+    'gfs_global': ('winds/gfs_2011-10-08T00Z_f072_global_2p5deg.grib2',
+                   'GFS +72 h, valid 2011-10-11 00Z, global 2.5° (GRIB2)',
+                   None),
+    'boise': ('soundings/BOI-Boise_2010-12-09T12Z_uwyo.txt',
+              'sounding Boise 2010-12-09 12Z', (43.56, -116.21)),
+    'hilo': ('soundings/PHTO-Hilo_2023-11-01T00Z_uwyo.csv',
+             'sounding Hilo 2023-11-01 00Z', (19.72, -155.07)),
+}
+AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
+          'latex_mpc', 'latex_mpc_oracle')
+CHEAP_AGENTS = AGENTS[:3]
+STATION_MODES = ('center', 'per_seed')
+# What a seed's compact record keeps of `eval_lib.fly`'s.
+KEPT = ('seed', 'tw50', 'tw50_window', 'window_steps', 'reward', 'steps',
+        'helium_vented_mols', 'sand_dropped_kg', 'terminal_reason',
+        'final_distance_km')
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_list('sources', list(SOURCES), f'Sources flown, of {list(SOURCES)}.',
+                  flag_values=FLAGS)
+flags.DEFINE_list('agents', list(CHEAP_AGENTS), f'Agents flown, of '
+                  f'{list(AGENTS)} (the planners are slow on a CPU).',
+                  flag_values=FLAGS)
+flags.DEFINE_list('seeds', ['100'], 'Seeds per source: N for every source, or '
+                  'SOURCE:N entries (sources not named: 100).',
+                  flag_values=FLAGS)
+flags.DEFINE_string('suite', 'latex_small', 'Suite whose first seeds fly.',
+                    flag_values=FLAGS)
+flags.DEFINE_enum('station_mode', 'center', STATION_MODES, 'Where the station '
+                  'is (see the module).', flag_values=FLAGS)
+flags.DEFINE_multi_string('station_bindings', [], 'Gin bindings of '
+                          '--station_mode=per_seed.', flag_values=FLAGS)
+flags.DEFINE_string('realdata_dir', os.path.join(_ROOT, '..', 'shared',
+                                                 'realdata'),
+                    'Folder of the real files (PROVENANCE.md).',
+                    flag_values=FLAGS)
+flags.DEFINE_string('json', os.path.join(_ROOT, 'benchmarks',
+                                         'real_winds.json'),
+                    'The record (merged).', flag_values=FLAGS)
+flags.DEFINE_integer('max_episode_length', None, 'Cap on the strides (a '
+                     'smoke test; default the suite\'s).', lower_bound=1,
+                     flag_values=FLAGS)
+flags.DEFINE_boolean('overwrite', False, 'Re-fly cells flown with other '
+                     'settings.', flag_values=FLAGS)
+
+
+def seeds_per_source(entries: Sequence[str], sources: Sequence[str]
+                     ) -> Dict[str, int]:
+  """--seeds: 'N' for all, or 'SOURCE:N' entries (others: 100)."""
+  counts = {s: 100 for s in sources}
+  for entry in entries:
+    name, _, number = entry.rpartition(':')
+    try:
+      n = int(number)
+    except ValueError:
+      raise cli.CommandUsageError(f'--seeds: {entry!r} is not N or '
+                                  'SOURCE:N') from None
+    if n < 1:
+      raise cli.CommandUsageError(f'--seeds: {entry!r}: N must be >= 1')
+    if not name:
+      counts = {s: n for s in sources}
+    elif name not in counts:
+      raise cli.CommandUsageError(f'--seeds: {name!r} is not among '
+                                  f'--sources {list(sources)}')
+    else:
+      counts[name] = n
+  return counts
+
+
+def station(name: str, path: str) -> Tuple[float, float]:
+  """(lat, lon) [deg] of `center` mode: a grid's centre, a sounding's site."""
+  site = SOURCES[name][2]
+  if site is not None:
+    return site
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  data = era5.load(path)
+  lat = 0.5 * (data.latitude[0] + data.latitude[-1])
+  lon = 0.5 * (data.longitude[0] + data.longitude[-1])
+  return float(lat), float((lon + 180.0) % 360.0 - 180.0)
+
+
+def settings(name: str, agent: str, path: str) -> Dict[str, Any]:
+  """What a cell's records depend on (a resume must match all of it)."""
+  out = {'source': name, 'file': os.path.relpath(path, FLAGS.realdata_dir),
+         'agent': agent, 'suite': FLAGS.suite,
+         'max_steps': FLAGS.max_episode_length,
+         'station_mode': FLAGS.station_mode}
+  if FLAGS.station_mode == 'center':
+    lat, lon = station(name, path)
+    out['station_lat_lon'] = [round(lat, 4), round(lon, 4)]
+  else:
+    out['station_bindings'] = list(FLAGS.station_bindings)
+  return out
+
+
+def station_bindings(cell: Dict[str, Any]) -> List[str]:
+  if cell['station_mode'] == 'center':
+    lat, lon = cell['station_lat_lon']
+    return [f'Era5WindField.center_lat = {lat}',
+            f'Era5WindField.center_lon = {lon}']
+  return list(cell['station_bindings'])
+
+
+def load_record(path: str) -> Dict[str, Any]:
+  if not os.path.exists(path):
+    return {'cells': {}}
+  with open(path, encoding='utf-8') as f:
+    record = json.load(f)
+  if not isinstance(record.get('cells'), dict):
+    raise cli.CommandUsageError(f'{path}: not a real_winds record (no '
+                                "'cells')")
+  return record
+
+
+def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
+             ) -> Tuple[List[Dict[str, Any]], str, bool, float]:
+  """Flies `seeds`: (compact records, wind source, batched, fly seconds)."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params
+  from ble_latex.run import batch_eval
+  from ble_latex.run import eval_lib
+  from ble_latex.run import suites
+  # pylint: enable=g-import-not-at-top
+  bindings = ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
+              f'Era5WindField.path = {os.path.abspath(path)!r}',
+              f"Era5WindField.start_dates = '{suites.era5_dates(cell['suite'])}'",
+              *station_bindings(cell)]
+  agent, env = eval_lib.build(eval_lib.EvalSpec(
+      agent=cell['agent'], gin_bindings=tuple(bindings)))
+  source = env_params.wind_source()
+  batched = batch_eval.flies_batched(agent, env)
+  max_steps = cell['max_steps'] or suites.get_eval_suite(
+      cell['suite']).max_episode_length
+  began = time.perf_counter()
+  records = eval_lib.evaluate(agent, env, seeds, max_steps,
+                              description=f"{cell['source']} {cell['agent']}")
+  wall = time.perf_counter() - began
+  return ([{k: r[k] for k in KEPT} for r in records], source, batched, wall)
+
+
+def _main(argv: Sequence[str]) -> None:
+  del argv
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import metrics
+  from ble_latex.run import suites
+  # pylint: enable=g-import-not-at-top
+  unknown = [s for s in FLAGS.sources if s not in SOURCES]
+  if unknown:
+    raise cli.CommandUsageError(f'--sources: unknown {unknown} (known: '
+                                f'{list(SOURCES)})')
+  unknown = [a for a in FLAGS.agents if a not in AGENTS]
+  if unknown:
+    raise cli.CommandUsageError(f'--agents: unknown {unknown} (known: '
+                                f'{list(AGENTS)})')
+  if FLAGS.station_mode == 'per_seed' and not FLAGS.station_bindings:
+    raise cli.CommandUsageError('--station_mode=per_seed needs the per-seed '
+                                "stations' gin bindings (--station_bindings)")
+  counts = seeds_per_source(FLAGS.seeds, FLAGS.sources)
+  suite_seeds = list(suites.get_eval_suite(FLAGS.suite).seeds)
+  command = ' '.join(['python', 'benchmarks/real_winds.py', *sys.argv[1:]])
+  record = load_record(FLAGS.json)
+  for name in FLAGS.sources:
+    path = os.path.join(FLAGS.realdata_dir, SOURCES[name][0])
+    if not os.path.isfile(path):
+      raise cli.CommandUsageError(f'{path}: no such file (--realdata_dir)')
+    wanted = suite_seeds[:counts[name]]
+    for agent in FLAGS.agents:
+      cell = settings(name, agent, path)
+      key = f'{name}/{agent}/{FLAGS.station_mode}'
+      old = record['cells'].get(key)
+      if old is not None and old['settings'] != cell:
+        if not FLAGS.overwrite:
+          differ = [k for k in set(cell) | set(old['settings'])
+                    if cell.get(k) != old['settings'].get(k)]
+          raise cli.CommandUsageError(
+              f'{FLAGS.json}: cell {key} was flown with other settings '
+              f'({", ".join(sorted(differ))}); --overwrite re-flies it')
+        old = None
+      flown = {r['seed']: r for r in (old or {}).get('flights', [])}
+      todo = [s for s in wanted if s not in flown]
+      if not todo:
+        print(f'{key}: {len(wanted)} seeds already flown', file=sys.stderr)
+        continue
+      load_before = [round(x, 2) for x in os.getloadavg()]
+      date = dt.datetime.now(dt.timezone.utc).isoformat(timespec='minutes')
+      flights, source, batched, wall = fly_cell(cell, path, todo)
+      flown.update({r['seed']: r for r in flights})
+      merged = [flown[s] for s in sorted(flown)]
+      runs = (old or {}).get('runs', []) + [{
+          'command': command, 'date_utc': date, 'host': platform.node(),
+          'cpus': os.cpu_count(), 'loadavg_before': load_before,
+          'loadavg_after': [round(x, 2) for x in os.getloadavg()],
+          'seeds': len(todo), 'fly_s': round(wall, 1),
+          'batched': batched}]
+      record = load_record(FLAGS.json)  # Another run may have added cells.
+      record['cells'][key] = {
+          'settings': cell, 'label': SOURCES[name][1],
+          'wind_source': source, 'summary': metrics.summarize(merged),
+          'runs': runs, 'flights': merged}
+      record['about'] = (
+          'benchmarks/real_winds.py: agents on real wind sources (time-'
+          'invariant snapshots; truth = snapshot + BLE simplex noise). '
+          'Files and licences: shared/realdata/PROVENANCE.md.')
+      safe_io.atomic_write(FLAGS.json, json.dumps(record, indent=1) + '\n')
+      s = record['cells'][key]['summary']
+      print(json.dumps({'cell': key, 'seeds': s['episodes'],
+                        'tw50_window_mean': round(s['tw50_window_mean'], 4),
+                        'out_of_resources_pct': s['out_of_resources_pct'],
+                        'fly_s': round(wall, 1), 'batched': batched}),
+            flush=True)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'real_winds.py', FLAGS, argv, doc=__doc__)
+
+
+if __name__ == '__main__':
+  sys.exit(main())
