@@ -552,7 +552,16 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
     active = f.status == FlightStatus.OK
     time_s = state.time_s + start  # The sun's time of this sub-step.
     f_before = f
-    if params.lift_walk:  # The disturbance's exact transition.
+    if params.lift_walk_intermittent:  # Calm / gusty spells.
+      walk, gusty = disturbance.intermittent_transition(
+          f.lift_walk_kg, f.lift_walk_gusty, duration,
+          sigma=params.lift_walk_kg_per_sqrt_s,
+          calm_sigma=params.lift_walk_calm_kg_per_sqrt_s,
+          time_constant_s=params.lift_walk_time_constant_s,
+          calm_mean_s=params.lift_walk_calm_mean_s,
+          gusty_mean_s=params.lift_walk_gusty_mean_s, key=x[-1])
+      f = f.replace(lift_walk_kg=walk, lift_walk_gusty=gusty)
+    elif params.lift_walk:  # The disturbance's exact transition.
       f = f.replace(lift_walk_kg=disturbance.transition(
           f.lift_walk_kg, duration, sigma=params.lift_walk_kg_per_sqrt_s,
           time_constant_s=params.lift_walk_time_constant_s, key=x[-1]))

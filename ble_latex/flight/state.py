@@ -32,6 +32,9 @@ class FlightStatus(enum.IntEnum):
   OUT_OF_HELIUM = 2
   BURST = 3
   GROUNDED = 4
+  # Set by the env, not the flight core: the balloon left the area of its
+  # wind source's data (`envs.winds.Wind.outside`, issue 45).
+  LEFT_WIND_DOMAIN = 5
 
 
 # The statuses that end a flight for want of sand or helium.
@@ -83,6 +86,9 @@ class FlightState:
       paper's model; `envelope.gas` gives the helium's). # [K]
     lift_walk_kg: Free lift of the random walk W (0 unless
       `FlightParams.lift_walk`; `envelope.free_lift_kg`). # [kg]
+    lift_walk_gusty: The disturbance's regime, gusty (True) or calm (bool;
+      False unless `FlightParams.lift_walk_intermittent`; a flight starts
+      calm; `disturbance.switch`).
     burst_volume_m3: This flight's burst volume (`FlightParams.
       burst_volume_m3` unless `burst_spread`: drawn at launch). # [m^3]
   """
@@ -106,6 +112,7 @@ class FlightState:
   pressure_pa: Array
   temperature_k: Array
   lift_walk_kg: Array
+  lift_walk_gusty: Array
   burst_volume_m3: Array
 
   @property
@@ -208,6 +215,7 @@ def initial_state(params: params_lib.FlightParams,
       pressure_pa=ambient.pressure,
       temperature_k=ambient.temperature,
       lift_walk_kg=zero,
+      lift_walk_gusty=jnp.zeros(h.shape, bool),
       burst_volume_m3=burst)
 
 
