@@ -205,11 +205,12 @@ def test_plot_wind_stats_usage_errors(capsys, tmp_path):
   from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
   out = f'--output_dir={tmp_path / "plots"}'
   for argv, message in (
-      (['--wind_stats'], '--wind_stats needs --era5_path'),
+      (['--wind_stats'], '--wind_stats needs --wind_file (alias '
+       '--era5_path)'),
       (['--wind_seed=1', '--era5_path=x.nc'],
-       '--era5_path and --wind_stats_* need --wind_stats'),
+       '--wind_file (--era5_path) and --wind_stats_* need --wind_stats'),
       (['--wind_seed=1', '--wind_stats_samples=5'],
-       '--era5_path and --wind_stats_* need --wind_stats'),
+       '--wind_file (--era5_path) and --wind_stats_* need --wind_stats'),
       (['--wind_stats', '--era5_path=x.nc', '--wind_stats_samples=0'],
        '--wind_stats_samples'),
       (['--wind_stats', '--era5_path=x.nc', '--wind_stats_pressures_pa=5000'],

@@ -28,12 +28,20 @@ Writes into --output_dir, each only when its inputs are given:
                            row per seed (Fig. 3). The env is built after
                            latex_env.gin, --gin_file and --gin_bindings, so a
                            binding can select e.g. the ERA5 wind field.
-  wind_stats.png           --wind_stats --era5_path: the VAE forecast (or
-  wind_stats.json          --wind_stats_against, a second ERA5 file) vs the
-                           ERA5 file, per pressure level in 5000-14000 Pa:
-                           distributions of u and v, Wasserstein distances,
-                           direction diversity (how often winds at two levels
-                           point > 90 deg apart); see ble_latex.wind.stats.
+  wind_stats.png           --wind_stats --wind_file (alias --era5_path; any
+  wind_stats.json          file the readers take: ERA5, a GFS-style NetCDF
+                           analysis, GRIB2, a University of Wyoming
+                           sounding): the VAE forecast (or
+                           --wind_stats_against, a second file) vs the file,
+                           per pressure level in 5000-14000 Pa: distributions
+                           of u and v, Wasserstein distances, direction
+                           diversity (how often winds at two levels point
+                           > 90 deg apart); and in the JSON each source's
+                           profile in 15-25 km (speed quantiles per level,
+                           the fraction of columns with two levels >= 90 and
+                           >= 135 deg apart, vertical shear). A sounding is
+                           one column: a single sample, said so in both
+                           files. See ble_latex.wind.stats.
   summary.json             for every eval file: mean/std of TW50, reward,
                            helium vented, sand dropped, % out of resources
                            (also printed).
@@ -133,16 +141,24 @@ flags.DEFINE_multi_string('gin_bindings', [],
                           flag_values=FLAGS)
 flags.DEFINE_boolean('wind_stats', False, f'Compare two wind sources: '
                      f'{WIND_STATS} and {WIND_STATS_JSON}.', flag_values=FLAGS)
-flags.DEFINE_string('era5_path', None, 'ERA5 NetCDF file or glob compared '
-                    'by --wind_stats.', flag_values=FLAGS)
+flags.DEFINE_string('wind_file', None, 'Wind file or glob compared by '
+                    '--wind_stats: ERA5, another CF NetCDF analysis, GRIB2 or '
+                    'a University of Wyoming sounding (the reader chosen by '
+                    'content). --era5_path is an alias.', flag_values=FLAGS)
+flags.DEFINE_alias('era5_path', 'wind_file', flag_values=FLAGS)
 flags.DEFINE_string('wind_stats_against', 'vae', "The other source: 'vae' "
-                    "(BLE's generative forecast) or a second ERA5 file/glob.",
+                    "(BLE's generative forecast) or a second wind file/glob.",
                     flag_values=FLAGS)
 flags.DEFINE_list('wind_stats_pressures_pa', [], 'Levels compared [Pa] '
-                  "(default: the ERA5 file's levels in 5000-14000 Pa).",
+                  "(default: the wind file's levels in 5000-14000 Pa).",
                   flag_values=FLAGS)
 flags.DEFINE_integer('wind_stats_samples', 2000, 'Samples (place, time) of '
-                     'each ERA5 source.', lower_bound=1, flag_values=FLAGS)
+                     'each gridded source (a sounding is one column).',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_enum('wind_stats_region', 'station', ['station', 'domain'],
+                  'Where a grid is sampled: station (50-200 km from the '
+                  "centre of its area) or domain (uniformly over its area).",
+                  flag_values=FLAGS)
 flags.DEFINE_integer('wind_stats_fields', 64, 'VAE forecast keys (fields).',
                      lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('wind_stats_points', 32, 'Samples (place, time) per VAE '
@@ -159,17 +175,15 @@ def wind_stats(f: flags.FlagValues) -> Any:
     f: The parsed flags.
 
   Returns:
-    (samples of the other source, samples of --era5_path, the comparison).
+    (samples of the other source, samples of --wind_file, the comparison):
+    `stats.compare_file`.
 
   Raises:
     flags.ValidationError: bad --wind_stats_pressures_pa.
-    OSError, ValueError: a bad ERA5 file (named).
+    OSError, ValueError: a bad wind file (named).
   """
   with quiet.third_party_noise():
-    # pylint: disable=g-import-not-at-top
-    import jax
-    from ble_latex.wind import stats
-    # pylint: enable=g-import-not-at-top
+    from ble_latex.wind import stats  # pylint: disable=g-import-not-at-top
   pressures = (_float_list('wind_stats_pressures_pa',
                            f.wind_stats_pressures_pa)
                if f.wind_stats_pressures_pa else None)
@@ -179,20 +193,13 @@ def wind_stats(f: flags.FlagValues) -> Any:
                                 'levels)')
   if pressures is not None:
     pressures = sorted(pressures)
-  era5_samples = stats.sample_era5(f.era5_path, pressures,
-                                   num_samples=f.wind_stats_samples,
-                                   seed=f.wind_stats_seed)
-  if f.wind_stats_against == 'vae':
-    with quiet.third_party_noise():  # JAX's backend start-up lines.
-      other = stats.sample_vae(jax.random.PRNGKey(f.wind_stats_seed),
-                               era5_samples.pressures_pa,
-                               num_fields=f.wind_stats_fields,
-                               points_per_field=f.wind_stats_points)
-  else:
-    other = stats.sample_era5(f.wind_stats_against, era5_samples.pressures_pa,
-                              num_samples=f.wind_stats_samples,
-                              seed=f.wind_stats_seed + 1)
-  return other, era5_samples, stats.compare(other, era5_samples)
+  with quiet.third_party_noise():  # JAX's backend start-up lines.
+    return stats.compare_file(
+        f.wind_file, pressures_pa=pressures,
+        against=None if f.wind_stats_against == 'vae' else
+        f.wind_stats_against, num_samples=f.wind_stats_samples,
+        seed=f.wind_stats_seed, num_fields=f.wind_stats_fields,
+        points_per_field=f.wind_stats_points, region=f.wind_stats_region)
 
 
 def sample_wind_grid(field: Any, pressures_pa: Sequence[float], *,
@@ -396,7 +403,7 @@ def run(f: flags.FlagValues) -> List[str]:
           f'{WIND_FIELD} (give --wind_seed); ignored.', file=sys.stderr)
 
   compared = None
-  if f.wind_stats:  # With --era5_path (`_main` checks).
+  if f.wind_stats:  # With --wind_file (`_main` checks).
     compared = wind_stats(f)
 
   # 4. Draw.
@@ -434,6 +441,9 @@ def run(f: flags.FlagValues) -> List[str]:
     path = os.path.join(out, WIND_STATS_JSON)
     safe_io.atomic_write(path, json.dumps(comparison, indent=2))
     written.append(path)
+    if 'note' in comparison:
+      print(f'ble-latex-plot: --wind_stats: {comparison["note"]}',
+            file=sys.stderr)
   if baseline is not None:
     evals[f.baseline_eval_json] = baseline
   if evals:
@@ -453,14 +463,15 @@ def _check() -> None:
     raise cli.CommandUsageError(
         'nothing to plot; give --run_dir, --seed_run_dirs, --eval_json, '
         '--baseline_eval_json, --wind_seed(s) or --wind_stats. Try --help.')
-  if FLAGS.wind_stats and not FLAGS.era5_path:
-    raise cli.CommandUsageError('--wind_stats needs --era5_path (an ERA5 '
-                                'file, e.g. from ble-latex-download-era5)')
-  if not FLAGS.wind_stats and (FLAGS.era5_path or any(
+  if FLAGS.wind_stats and not FLAGS.wind_file:
+    raise cli.CommandUsageError('--wind_stats needs --wind_file (alias '
+                                '--era5_path): a wind file (ERA5, GFS NetCDF '
+                                'or GRIB2, a sounding)')
+  if not FLAGS.wind_stats and (FLAGS.wind_file or any(
       FLAGS[name].present for name in FLAGS if
       name.startswith('wind_stats_'))):
-    raise cli.CommandUsageError('--era5_path and --wind_stats_* need '
-                                '--wind_stats')
+    raise cli.CommandUsageError('--wind_file (--era5_path) and '
+                                '--wind_stats_* need --wind_stats')
   cli.check_gin_files(FLAGS.gin_file)
 
 

@@ -25,6 +25,7 @@ here imports BLE; `ble_latex.cli.plot` (the
 import dataclasses
 import math
 import os
+import textwrap
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
 
 from matplotlib import collections as mpl_collections
@@ -53,7 +54,7 @@ PAPER_TW50 = 0.25
 # (notebooks); the loaders reject them.
 TERMINAL_COLORS = dict(zip(records.TERMINAL_REASONS, (
     'tab:green', 'tab:olive', 'tab:orange', 'tab:red', 'tab:purple',
-    'tab:brown')))
+    'tab:brown', 'tab:gray')))
 _DPI = 120
 
 
@@ -632,6 +633,68 @@ def plot_wind_stats(a: Any, b: Any, stats: Mapping[str, Any], path: str
   handles = [mpl_patches.Patch(color=c, alpha=0.6, label=_short(s.label))
              for c, s in zip(colors, (a, b))]
   fig.legend(handles=handles, loc='outside upper center', ncol=2)
+  single = [_short(s.label) for s in (a, b) if np.shape(s.u)[0] == 1]
+  if single:
+    fig.suptitle(f'{", ".join(single)}: one column (a sounding): a single '
+                 'sample, not a distribution', fontsize=9)
+  return _save(fig, path)
+
+
+def plot_wind_compare(profiles: Sequence[Mapping[str, Any]], path: str
+                      ) -> mpl_figure.Figure:
+  """Wind sources in the flight band (`ble_latex.wind.stats.profile`).
+
+  Three panels: each source's wind speed per level against height (median,
+  5-95 % band; a single column is one line, drawn dashed), the fraction of
+  columns with two levels >= 90 and >= 135 deg apart (hatched: one column,
+  so 0 or 1), and the spread of each column's winds over the band (largest
+  difference between two levels; median, whiskers 5-95 %).
+
+  Args:
+    profiles: `stats.profile` of each source, in the order drawn.
+    path: Output PNG.
+
+  Returns:
+    The figure, written to `path`.
+  """
+  fig = mpl_figure.Figure(figsize=(15.0, 5.6), layout='constrained')
+  axes = fig.subplots(1, 3)
+  colors = [f'C{i}' for i in range(len(profiles))]
+  x = np.arange(len(profiles), dtype=float)
+  for k, (prof, color) in enumerate(zip(profiles, colors)):
+    km = np.asarray(prof['heights_m']) / 1000.0
+    speed = prof['speed_mps']
+    single = prof['single_column']
+    axes[0].plot([q['p50'] for q in speed], km, '--' if single else '-',
+                 color=color, label=(prof['label'] +
+                                     (' (one column)' if single else
+                                      f' ({prof["columns"]} columns)')))
+    if not single:
+      axes[0].fill_betweenx(km, [q['p5'] for q in speed],
+                            [q['p95'] for q in speed], color=color,
+                            alpha=0.15)
+    for j, key in enumerate(('ge90', 'ge135')):
+      axes[1].bar(x[k] + (j - 0.5) * 0.38, prof['apart'][key], width=0.36,
+                  color=color, alpha=1.0 if j == 0 else 0.55,
+                  hatch='//' if single else None, edgecolor='k', lw=0.5)
+    spread = prof['shear']['spread_mps']
+    axes[2].errorbar(x[k], spread['p50'],
+                     yerr=[[spread['p50'] - spread['p5']],
+                           [spread['p95'] - spread['p50']]],
+                     fmt='o', color=color, capsize=4)
+  axes[0].set_xlabel('wind speed [m/s]')
+  axes[0].set_ylabel('height [km] (US Standard Atmosphere)')
+  axes[0].set_title('speed per level (median, 5-95 %)')
+  axes[0].legend(fontsize=7)
+  names = [textwrap.fill(p['label'], 30) for p in profiles]
+  axes[1].set_xticks(x, names, fontsize=7, rotation=25, ha='right')
+  axes[1].set_ylim(0.0, 1.05)
+  axes[1].set_ylabel('fraction of columns')
+  axes[1].set_title('two levels >= 90 deg (dark) / >= 135 deg apart')
+  axes[2].set_xticks(x, names, fontsize=7, rotation=25, ha='right')
+  axes[2].set_ylabel('largest wind difference in the band [m/s]')
+  axes[2].set_title('spread over 15-25 km (median, 5-95 %)')
+  axes[2].set_ylim(bottom=0.0)
   return _save(fig, path)
 
 

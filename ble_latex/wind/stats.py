@@ -34,6 +34,7 @@ Samplers:
 """
 
 import dataclasses
+import functools
 from typing import Any, Dict, Optional, Sequence, Union
 
 import jax
@@ -42,6 +43,7 @@ import numpy as np
 import scipy.stats
 
 from ble_latex import errors
+from ble_latex.wind import analysis
 from ble_latex.wind import era5
 from ble_latex.wind import generative
 
@@ -51,6 +53,8 @@ BAND_PA = (5000.0, 14000.0)
 # station-keeping task and beyond). # [km]
 RADIUS_KM = (50.0, 200.0)
 VAE_HORIZON_S = 48 * 3600.0  # [s] The VAE field's time grid.
+# Where a grid is sampled: around the centre of its area, or all of it.
+REGIONS = ('station', 'domain')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,6 +71,11 @@ class WindSamples:
   pressures_pa: np.ndarray
   u: np.ndarray
   v: np.ndarray
+
+  @property
+  def single_column(self) -> bool:
+    """One column (e.g. a sounding): a single sample, no distribution."""
+    return self.u.shape[0] == 1
 
   def __post_init__(self):
     pressures = np.asarray(self.pressures_pa, dtype=np.float64)
@@ -177,16 +186,29 @@ def sample_era5(path: Union[str, Sequence[str]],
                 pressures_pa: Optional[Sequence[float]] = None, *,
                 num_samples: int, seed: int = 0,
                 radius_km: Sequence[float] = RADIUS_KM,
-                label: Optional[str] = None) -> WindSamples:
-  """Columns of ERA5 winds around the centre of the file's area.
+                label: Optional[str] = None,
+                region: str = 'station',
+                band: Sequence[float] = BAND_PA) -> WindSamples:
+  """Columns of any wind file the readers accept (`era5.load`).
+
+  ERA5, other CF NetCDF analyses and GRIB2 are sampled at `num_samples`
+  places and times: `region='station'` in the annulus around the centre of
+  the file's area (`radius_km`), `'domain'` uniformly over the area of the
+  whole grid (uniform in sin(latitude) and longitude); times uniform over
+  the file's span (a snapshot has one). A sounding is one column, the same
+  at every place: it gives one sample (`WindSamples.single_column`), never
+  `num_samples` copies of it.
 
   Args:
-    path: ERA5 file(s) (`era5.load`).
-    pressures_pa: [L] levels (default: the file's levels in `BAND_PA`). # [Pa]
-    num_samples: Samples (place, time).
+    path: Wind file(s) (`era5.load`).
+    pressures_pa: [L] levels (default: the file's levels in `band`). # [Pa]
+    num_samples: Samples (place, time) of a grid.
     seed: Seed of the samples' places and times.
-    radius_km: (min, max) distance from the centre. # [km]
+    radius_km: (min, max) distance from the centre (`region='station'`).
+      # [km]
     label: Name of the source (default: the path).
+    region: 'station' or 'domain'.
+    band: (low, high) pressures of the default levels. # [Pa]
 
   Returns:
     The columns.
@@ -198,18 +220,43 @@ def sample_era5(path: Union[str, Sequence[str]],
   """
   if num_samples < 1:
     raise ValueError(f'num_samples must be >= 1, got {num_samples}')
+  if region not in REGIONS:
+    raise ValueError(f'region must be one of {REGIONS}, got {region!r}')
   data = era5.load(path)
-  where = f'ERA5 file(s) {list(data.paths)}'
+  where = f'{data.source} file(s) {list(data.paths)}'
   if pressures_pa is None:
-    pressures_pa = band_levels(data.pressure)
+    pressures_pa = band_levels(data.pressure, band)
     if pressures_pa.size < 2:
       raise ValueError(
           f'{where} hold {pressures_pa.size} pressure level(s) in '
-          f'{BAND_PA[0]:g}..{BAND_PA[1]:g} Pa (levels {list(data.pressure)} '
+          f'{band[0]:g}..{band[1]:g} Pa (levels {list(data.pressure)} '
           'Pa); the comparison needs 2 or more')
   else:
     check_levels(pressures_pa, float(np.min(data.pressure)),
                  float(np.max(data.pressure)), where)
+  pressures = np.asarray(pressures_pa, np.float64)
+  label = label or ', '.join(data.paths)
+  if data.source == 'sounding':
+    uv = data.interpolate(0.0, pressures, 0.0, 0.0)
+    return WindSamples(label, pressures, uv[None, :, 0], uv[None, :, 1])
+  rng = np.random.default_rng(seed)
+  if region == 'station':
+    lat, lon = _annulus_points(data, rng, num_samples, radius_km, where)
+  else:
+    sin_lat = np.sin(np.deg2rad(data.latitude[[0, -1]]))
+    lat = np.rad2deg(np.arcsin(rng.uniform(sin_lat[0], sin_lat[1],
+                                           num_samples)))
+    lon = rng.uniform(data.longitude[0], data.longitude[-1], num_samples)
+  t_s = rng.random(num_samples) * float(data.time_s[-1])
+  uv = data.interpolate(t_s[:, None], pressures[None, :], lat[:, None],
+                        lon[:, None])
+  return WindSamples(label, pressures, uv[..., 0], uv[..., 1])
+
+
+def _annulus_points(data: era5.Era5Data, rng: np.random.Generator,
+                    num_samples: int, radius_km: Sequence[float],
+                    where: str) -> Any:
+  """(lat, lon) [deg] uniform over the annulus around the area's centre."""
   center_lat = 0.5 * (data.latitude[0] + data.latitude[-1])
   center_lon = 0.5 * (data.longitude[0] + data.longitude[-1])
   edge = float(radius_km[1])  # [km]
@@ -224,21 +271,12 @@ def sample_era5(path: Union[str, Sequence[str]],
           f'samples up to {radius_km[1]:g} km from its centre (lat '
           f'{center_lat:g}, lon {center_lon:g}), which reach lat {lat:.3g}, '
           f'lon {lon:.4g}')
-  rng = np.random.default_rng(seed)
   x_km, y_km = _annulus(rng.random(num_samples), rng.random(num_samples),
                         radius_km)
-  t_s = rng.random(num_samples) * float(data.time_s[-1])
-  u = np.empty((num_samples, len(pressures_pa)))
-  v = np.empty_like(u)
-  for i in range(num_samples):
-    lat, lon = era5.latlng_of_offset(center_lat, center_lon,
-                                     float(x_km[i]) * 1000.0,
-                                     float(y_km[i]) * 1000.0)
-    uv = data.interpolate(float(t_s[i]), np.asarray(pressures_pa, np.float64),
-                          lat, lon)
-    u[i], v[i] = uv[:, 0], uv[:, 1]
-  return WindSamples(label or ', '.join(data.paths), np.asarray(pressures_pa),
-                     u, v)
+  points = [era5.latlng_of_offset(center_lat, center_lon, float(x) * 1000.0,
+                                  float(y) * 1000.0)
+            for x, y in zip(x_km, y_km)]
+  return (np.array([p[0] for p in points]), np.array([p[1] for p in points]))
 
 
 def direction_diversity(samples: WindSamples) -> Dict[str, Any]:
@@ -322,3 +360,202 @@ def compare(a: WindSamples, b: WindSamples) -> Dict[str, Any]:
           'deg (u_i u_j + v_i v_j < 0)'),
   }
 
+
+
+# --- One source's profile in the flight band. -------------------------------
+
+# The flight band 15-25 km as pressures (US Standard Atmosphere 1976, the
+# readers' `analysis.check_flight_band`): (25 km, 15 km). # [Pa]
+FLIGHT_BAND_PA = (analysis.pressure_of_height(analysis.FLIGHT_BAND_M[1]),
+                  analysis.pressure_of_height(analysis.FLIGHT_BAND_M[0]))
+# Direction-diversity thresholds: two levels whose winds are at least this
+# far apart. # [deg]
+APART_DEG = (90.0, 135.0)
+# Speed quantiles reported per level. # [%]
+SPEED_PERCENTILES = (5, 25, 50, 75, 95)
+SINGLE_COLUMN_NOTE = ('one column (a sounding): a single sample, not a '
+                      'distribution; its fractions are 0 or 1')
+
+
+def height_of_pressure(pressure_pa: Union[float, Sequence[float]]
+                       ) -> np.ndarray:
+  """Geopotential height of a pressure, US Standard Atmosphere 1976. # [m]
+
+  The inverse of `analysis.pressure_of_height` (NOAA/NASA/USAF 1976, eq.
+  33a/33b), found by bracketing (brentq) between 0 and 47 km.
+
+  Args:
+    pressure_pa: Pressures in 101 325 .. 111 Pa (0-47 km). # [Pa]
+
+  Returns:
+    Heights, the shape of `pressure_pa`. # [m]
+  """
+  import scipy.optimize  # pylint: disable=g-import-not-at-top
+  pressures = np.asarray(pressure_pa, np.float64)
+  heights = [scipy.optimize.brentq(
+      lambda h, p=p: analysis.pressure_of_height(h) - p, 0.0, 47_000.0,
+      xtol=1e-6) for p in pressures.ravel()]
+  return np.array(heights).reshape(pressures.shape)
+
+
+def _quantiles(values: np.ndarray) -> Dict[str, float]:
+  out = {'mean': float(values.mean())}
+  for q, value in zip(SPEED_PERCENTILES,
+                      np.percentile(values, SPEED_PERCENTILES)):
+    out[f'p{q}'] = float(value)
+  return out
+
+
+def apart_fractions(samples: WindSamples) -> Dict[str, float]:
+  """Fractions of columns with two levels' winds >= each `APART_DEG` apart.
+
+  The angle between two winds is arccos(u_i.u_j / (|u_i| |u_j|)); a level
+  with no wind (|u| = 0) has no direction and pairs with nothing.
+
+  Returns:
+    {'ge90': fraction, 'ge135': fraction} over the columns.
+  """
+  speed = np.hypot(samples.u, samples.v)
+  dot = (samples.u[:, :, None] * samples.u[:, None, :] +
+         samples.v[:, :, None] * samples.v[:, None, :])
+  norm = speed[:, :, None] * speed[:, None, :]
+  with np.errstate(invalid='ignore', divide='ignore'):
+    cosine = np.where(norm > 0.0, dot / np.where(norm > 0.0, norm, 1.0), 1.0)
+  out = {}
+  for deg in APART_DEG:
+    # cos <= cos(deg), with a hair of slack for exactly opposite winds.
+    apart = cosine <= np.cos(np.deg2rad(deg)) + 1e-12
+    out[f'ge{deg:.0f}'] = float(apart.any(axis=(1, 2)).mean())
+  return out
+
+
+def shear(samples: WindSamples) -> Dict[str, Any]:
+  """Vertical shear between adjacent levels, and each column's spread.
+
+  Shear |(u, v)_{i+1} - (u, v)_i| / (z_{i+1} - z_i) with the levels' US
+  Standard Atmosphere heights, over every column and pair of adjacent
+  levels (it grows as levels get closer: compare sources at the same
+  levels); the spread: per column the largest |(u, v)_i - (u, v)_j| over
+  any two levels, which does not depend on the levels between.
+
+  Returns:
+    {'shear_mps_per_km': quantiles, 'spread_mps': quantiles}.
+  """
+  heights_km = height_of_pressure(samples.pressures_pa) / 1000.0
+  du = np.diff(samples.u, axis=1)
+  dv = np.diff(samples.v, axis=1)
+  dz = np.abs(np.diff(heights_km))
+  per_km = np.hypot(du, dv) / dz[None, :]
+  spread = np.hypot(samples.u[:, :, None] - samples.u[:, None, :],
+                    samples.v[:, :, None] - samples.v[:, None, :]).max(
+                        axis=(1, 2))
+  return {'shear_mps_per_km': _quantiles(per_km.ravel()),
+          'spread_mps': _quantiles(spread)}
+
+
+def profile(samples: WindSamples,
+            band: Sequence[float] = FLIGHT_BAND_PA) -> Dict[str, Any]:
+  """One source's winds in the flight band (15-25 km), JSON-ready.
+
+  Args:
+    samples: Its columns (the levels in `band` are used; 2 or more).
+    band: (low, high) pressures. # [Pa]
+
+  Returns:
+    'label', 'columns', 'single_column' (+ 'note'), 'pressures_pa',
+    'heights_m' (US Standard Atmosphere), per level 'speed_mps' quantiles
+    (mean, 5/25/50/75/95 %), 'apart' (`apart_fractions`), 'shear' (`shear`).
+
+  Raises:
+    ValueError: fewer than 2 levels in `band`.
+  """
+  keep = (samples.pressures_pa >= band[0]) & (samples.pressures_pa <= band[1])
+  if keep.sum() < 2:
+    raise ValueError(
+        f'{samples.label}: {int(keep.sum())} level(s) in {band[0]:.0f}..'
+        f'{band[1]:.0f} Pa (levels {samples.pressures_pa.tolist()}); a '
+        'profile needs 2 or more')
+  inside = WindSamples(samples.label, samples.pressures_pa[keep],
+                       samples.u[:, keep], samples.v[:, keep])
+  speed = np.hypot(inside.u, inside.v)
+  out = {
+      'label': inside.label,
+      'columns': int(inside.u.shape[0]),
+      'single_column': inside.single_column,
+      'pressures_pa': inside.pressures_pa.tolist(),
+      'heights_m': [round(float(h), 1)
+                    for h in height_of_pressure(inside.pressures_pa)],
+      'speed_mps': [_quantiles(speed[:, i]) for i in range(speed.shape[1])],
+      'apart': apart_fractions(inside),
+      'shear': shear(inside),
+  }
+  if inside.single_column:
+    out['note'] = SINGLE_COLUMN_NOTE
+  return out
+
+
+def vae_levels(band: Sequence[float] = FLIGHT_BAND_PA) -> np.ndarray:
+  """The VAE grid's pressure levels inside `band`, ascending. # [Pa]"""
+  return band_levels(generative.ble_grid_axes()[2], band)
+
+
+def compare_file(path: Union[str, Sequence[str]], *,
+                 against: Optional[Union[str, Sequence[str]]] = None,
+                 pressures_pa: Optional[Sequence[float]] = None,
+                 num_samples: int = 2000, seed: int = 0,
+                 num_fields: int = 64, points_per_field: int = 32,
+                 region: str = 'station') -> Any:
+  """A wind file against BLE's VAE winds (or another file), JSON-ready.
+
+  What `ble-latex-plot --wind_stats` computes: `compare` at the file's
+  levels inside the VAE's grid (or `pressures_pa`), and each source's
+  `profile` in the flight band at its own levels (the VAE: its grid's
+  levels; a file: its levels in 15-25 km).
+
+  Args:
+    path: Any wind file the readers accept (`sample_era5`).
+    against: None for the VAE forecast, or another wind file.
+    pressures_pa: Levels compared (default: the file's in `BAND_PA`). # [Pa]
+    num_samples: Samples (place, time) of a grid file.
+    seed: Seed of the samples (the VAE's key: `PRNGKey(seed)`).
+    num_fields: VAE forecast keys.
+    points_per_field: Samples per VAE field.
+    region: Where a grid is sampled (`REGIONS`).
+
+  Returns:
+    (the other source's samples, the file's samples, the comparison with
+    'profiles': {'a': ..., 'b': ...} added).
+  """
+  sample = functools.partial(sample_era5, num_samples=num_samples,
+                             region=region)
+  ours = sample(path, pressures_pa, seed=seed)
+
+  def band_profile(source, label, source_seed):
+    try:
+      return profile(sample(source, band=FLIGHT_BAND_PA, seed=source_seed,
+                            label=label))
+    except ValueError as error:  # Fewer than 2 levels in 15-25 km.
+      return {'label': label, 'error': str(error)}
+
+  if against is None:
+    # One decode at both sets of levels (the key fixes places and times).
+    levels = np.union1d(ours.pressures_pa, vae_levels())
+    both = sample_vae(jax.random.PRNGKey(seed), levels, num_fields=num_fields,
+                      points_per_field=points_per_field)
+
+    def at(pressures):
+      index = np.searchsorted(levels, pressures)
+      return WindSamples(both.label, np.asarray(pressures, np.float64),
+                         both.u[:, index], both.v[:, index])
+
+    other, other_profile = at(ours.pressures_pa), profile(at(vae_levels()))
+  else:
+    other = sample(against, ours.pressures_pa, seed=seed + 1)
+    other_profile = band_profile(against, other.label, seed + 1)
+  comparison = compare(other, ours)
+  comparison['profiles'] = {'a': other_profile,
+                            'b': band_profile(path, ours.label, seed)}
+  comparison['region'] = region
+  if ours.single_column or other.single_column:
+    comparison['note'] = SINGLE_COLUMN_NOTE
+  return other, ours, comparison

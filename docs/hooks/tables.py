@@ -18,6 +18,10 @@ Records read (all committed):
     writes (`make results`), one per agent, mean and std over the suite.
   * `benchmarks/planners/**/SUITE/NAME.json`: the per-seed records of
     `benchmarks/planners.py`, and `.../timing/NAME.json` its timing summary.
+  * `benchmarks/real_winds.json`: agents on the real wind sources
+    (`benchmarks/real_winds.py`), one cell per (source, agent, station mode).
+  * `benchmarks/wind_compare.json`: BLE's VAE winds against each real source
+    (`benchmarks/wind_compare.py`).
 
 Means and standard deviations are over episodes (population std, as
 `ble_latex.run.metrics.summarize`).
@@ -33,6 +37,8 @@ from typing import Callable, Dict, List, Sequence, Tuple
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 RESULTS = ROOT / 'benchmarks' / 'results.json'
 PLANNERS = ROOT / 'benchmarks' / 'planners'
+REAL_WINDS = ROOT / 'benchmarks' / 'real_winds.json'
+WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
                    re.DOTALL)
@@ -168,11 +174,135 @@ def planners_full() -> str:
   return '\n'.join(lines)
 
 
+# Agents of the real-winds table, in its order: (name, label).
+REAL_WINDS_AGENTS = (
+    ('sac_pretrained', '`sac_pretrained`'),
+    ('latex_mpc', '`latex_mpc`'),
+    ('latex_mpc_oracle', '`latex_mpc_oracle` (upper bound)'),
+    ('latex_station_seeker', '`latex_station_seeker` (geometric)'),
+    ('latex_random', '`latex_random`'),
+)
+# Sources of the real-winds tables, in their order: (name, short label).
+REAL_WINDS_SOURCES = (
+    ('gfs_namerica', 'GFS N. America 1°'),
+    ('gfs_global', 'GFS global 2.5° (GRIB2)'),
+    ('boise', 'sounding Boise'),
+    ('hilo', 'sounding Hilo'),
+)
+
+
+def _real_cells() -> List[dict]:
+  """The cells of benchmarks/real_winds.json in table order."""
+  cells = list(_load(REAL_WINDS)['cells'].values())
+  agents = [a for a, _ in REAL_WINDS_AGENTS]
+  sources = [s for s, _ in REAL_WINDS_SOURCES]
+  known = [c for c in cells if c['settings']['agent'] in agents and
+           c['settings']['source'] in sources]
+  if not known:
+    raise ValueError(f'{REAL_WINDS}: no cells')
+  return sorted(known, key=lambda c: (
+      agents.index(c['settings']['agent']),
+      sources.index(c['settings']['source']), c['settings']['station_mode']))
+
+
+def _station(cell: dict) -> str:
+  settings = cell['settings']
+  if settings['station_mode'] != 'center':
+    return settings['station_mode'].replace('_', ' ')
+  lat, lon = settings['station_lat_lon']
+  where = 'site' if settings['source'] in ('boise', 'hilo') else 'centre'
+  return f'{where} {lat:g}°, {lon:g}°'
+
+
+def real_winds_short() -> str:
+  """README's real-winds table: agents x sources, TW50 window (seeds)."""
+  cells = _real_cells()
+  columns = [(s, label) for s, label in REAL_WINDS_SOURCES
+             if any(c['settings']['source'] == s for c in cells)]
+  lines = ['| agent | ' + ' | '.join(label for _, label in columns) + ' |',
+           '|---' * (len(columns) + 1) + '|']
+  for agent, label in REAL_WINDS_AGENTS:
+    mine = [c for c in cells if c['settings']['agent'] == agent]
+    if not mine:
+      continue
+    row = []
+    for source, _ in columns:
+      here = [c for c in mine if c['settings']['source'] == source]
+      row.append('; '.join(
+          f"{100 * c['summary']['tw50_window_mean']:.1f} % "
+          f"({c['summary']['episodes']} seeds"
+          f"{', ' + _station(c) if c['settings']['station_mode'] != 'center' else ''})"
+          for c in here) or '—')
+    lines.append(f'| {label} | ' + ' | '.join(row) + ' |')
+  return '\n'.join(lines)
+
+
+def real_winds_full() -> str:
+  """The docs' real-winds table: one row per cell."""
+  labels = dict(REAL_WINDS_AGENTS)
+  sources = dict(REAL_WINDS_SOURCES)
+  lines = ['| agent | source (time-invariant) | station | seeds | TW50 window '
+           '(mean ± std) | TW50 flown | out of resources | final distance '
+           '[km] (mean) |', '|---|---|---|---|---|---|---|---|']
+  for c in _real_cells():
+    s = c['summary']
+    distance = _mean_std([f['final_distance_km'] for f in c['flights']])[0]
+    lines.append(
+        f"| {labels[c['settings']['agent']]} "
+        f"| {sources[c['settings']['source']]} | {_station(c)} "
+        f"| {s['episodes']} "
+        f"| {_pct(s['tw50_window_mean'], s['tw50_window_std'])} "
+        f"| {_pct(s['tw50_mean'], s['tw50_std'])} "
+        f"| {s['out_of_resources_pct']:.0f} % | {distance:.0f} |")
+  return '\n'.join(lines)
+
+
+def _apart(profile: dict) -> str:
+  apart = profile['apart']
+  return f"{100 * apart['ge90']:.0f} % / {100 * apart['ge135']:.0f} %"
+
+
+def wind_compare() -> str:
+  """docs/winds.md's table: the VAE and each real source, 15-25 km."""
+  record = _load(WIND_COMPARE)
+  common = record['settings']['common_pressures_pa']
+  at = ', '.join(f'{p / 100:g}' for p in common)
+  top = common[0]
+  lines = [f'| source | columns | levels in 15–25 km | ≥ 90° / ≥ 135° apart '
+           f'(own levels) | ≥ 90° / ≥ 135° apart ({at} hPa) | speed at '
+           f'{top / 100:g} hPa: median (5–95 %) [m/s] | shear {at} hPa: '
+           'median [m/s/km] | spread over own levels: median [m/s] | '
+           'Wasserstein to the VAE, u / v [m/s] |',
+           '|---|---|---|---|---|---|---|---|---|']
+  for row in record['sources']:
+    own, common_profile = row['own'], row['common']
+    speed = common_profile['speed_mps'][0]
+    single = own['single_column']
+    spread = (f"{speed['p50']:.1f} (one column)" if single else
+              f"{speed['p50']:.1f} ({speed['p5']:.1f}–{speed['p95']:.1f})")
+    heights = own['heights_m']
+    vs = row.get('vs_vae')
+    distance = ('—' if vs is None else
+                f"{vs['wasserstein_u_mps']:.1f} / {vs['wasserstein_v_mps']:.1f}")
+    columns = '1 (a single sample)' if single else f"{own['columns']}"
+    lines.append(
+        f"| {row['label']} | {columns} "
+        f"| {len(own['pressures_pa'])} ({heights[-1] / 1000:.1f}–"
+        f"{heights[0] / 1000:.1f} km) | {_apart(own)} "
+        f"| {_apart(common_profile)} | {spread} "
+        f"| {common_profile['shear']['shear_mps_per_km']['p50']:.2f} "
+        f"| {own['shear']['spread_mps']['p50']:.1f} | {distance} |")
+  return '\n'.join(lines)
+
+
 TABLES: Dict[str, Callable[[], str]] = {
     'agents-short': agents_short,
     'agents-full': agents_full,
     'planners-short': planners_short,
     'planners-full': planners_full,
+    'real-winds': real_winds_short,
+    'real-winds-full': real_winds_full,
+    'wind-compare': wind_compare,
 }
 
 
