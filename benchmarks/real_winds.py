@@ -21,10 +21,12 @@ Stations (--station_mode, recorded in each cell):
     its latitudes and longitudes: every seed flies the same station); a
     sounding's is its launch site (`SOURCES`; a sounding is the same column
     everywhere, the site only places the sun);
-  * `per_seed`: seed s at station s of the domain (issue 45 item 4), with
-    the gin bindings given by --station_bindings (they are recorded): the
-    per-seed stations were being added to envs/ and wind/era5* when this
-    script was written.
+  * `per_seed` (GFS grids only): seed s at station s of the domain (issue 45
+    item 4): binds `Era5WindField.stations = 'per_seed'`, plus any
+    --station_bindings (e.g. `Era5WindField.station_margin_km = 400`); the
+    bindings are recorded. The per-seed stations were being added to envs/
+    and wind/era5* when this script was written: until they land this mode
+    fails on the unknown binding.
 
 The record (--json) holds one entry per cell under 'cells': its settings,
 the seeds' compact records (no flight paths), their summary
@@ -69,6 +71,7 @@ AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
           'latex_mpc', 'latex_mpc_oracle')
 CHEAP_AGENTS = AGENTS[:3]
 STATION_MODES = ('center', 'per_seed')
+PER_SEED_BINDING = "Era5WindField.stations = 'per_seed'"
 # What a seed's compact record keeps of `eval_lib.fly`'s.
 KEPT = ('seed', 'tw50', 'tw50_window', 'window_steps', 'reward', 'steps',
         'helium_vented_mols', 'sand_dropped_kg', 'terminal_reason',
@@ -87,7 +90,7 @@ flags.DEFINE_string('suite', 'latex_small', 'Suite whose first seeds fly.',
                     flag_values=FLAGS)
 flags.DEFINE_enum('station_mode', 'center', STATION_MODES, 'Where the station '
                   'is (see the module).', flag_values=FLAGS)
-flags.DEFINE_multi_string('station_bindings', [], 'Gin bindings of '
+flags.DEFINE_multi_string('station_bindings', [], 'More gin bindings of '
                           '--station_mode=per_seed.', flag_values=FLAGS)
 flags.DEFINE_string('realdata_dir', os.path.join(_ROOT, '..', 'shared',
                                                  'realdata'),
@@ -148,7 +151,7 @@ def settings(name: str, agent: str, path: str) -> Dict[str, Any]:
     lat, lon = station(name, path)
     out['station_lat_lon'] = [round(lat, 4), round(lon, 4)]
   else:
-    out['station_bindings'] = list(FLAGS.station_bindings)
+    out['station_bindings'] = [PER_SEED_BINDING, *FLAGS.station_bindings]
   return out
 
 
@@ -211,9 +214,15 @@ def _main(argv: Sequence[str]) -> None:
   if unknown:
     raise cli.CommandUsageError(f'--agents: unknown {unknown} (known: '
                                 f'{list(AGENTS)})')
-  if FLAGS.station_mode == 'per_seed' and not FLAGS.station_bindings:
-    raise cli.CommandUsageError('--station_mode=per_seed needs the per-seed '
-                                "stations' gin bindings (--station_bindings)")
+  soundings = [s for s in FLAGS.sources if SOURCES[s][2] is not None]
+  if FLAGS.station_mode == 'per_seed' and soundings:
+    raise cli.CommandUsageError(
+        f'--station_mode=per_seed is for GFS grids: {soundings} are soundings '
+        '(one column everywhere; they fly at their site, --station_mode='
+        'center)')
+  if FLAGS.station_bindings and FLAGS.station_mode != 'per_seed':
+    raise cli.CommandUsageError('--station_bindings needs '
+                                '--station_mode=per_seed')
   counts = seeds_per_source(FLAGS.seeds, FLAGS.sources)
   suite_seeds = list(suites.get_eval_suite(FLAGS.suite).seeds)
   command = ' '.join(['python', 'benchmarks/real_winds.py', *sys.argv[1:]])

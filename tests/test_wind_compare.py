@@ -166,7 +166,10 @@ def test_real_winds_refuses_bad_flags_in_one_line(tmp_path, capsys):
       (['--agents=sac'], "--agents: unknown ['sac']"),
       (['--seeds=boise:x'], "--seeds: 'boise:x' is not N or SOURCE:N"),
       (['--seeds=mars:3'], "--seeds: 'mars' is not among --sources"),
-      (['--station_mode=per_seed'], '--station_mode=per_seed needs')):
+      (['--station_mode=per_seed'], "--station_mode=per_seed is for GFS "
+       "grids: ['boise', 'hilo'] are soundings"),
+      (['--station_bindings=x=1'], '--station_bindings needs '
+       '--station_mode=per_seed')):
     assert real_winds.main([f'--json={record}', *argv]) == 2, argv
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
