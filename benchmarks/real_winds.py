@@ -42,6 +42,7 @@ import datetime as dt
 import json
 import os
 import platform
+import subprocess
 import sys
 import time
 from typing import Any, Dict, List, Optional, Sequence, Tuple
@@ -163,6 +164,16 @@ def station_bindings(cell: Dict[str, Any]) -> List[str]:
   return list(cell['station_bindings'])
 
 
+def code_version() -> Dict[str, Any]:
+  """The commit flown and whether the package differed from it."""
+  def git(*args):
+    return subprocess.run(['git', *args], cwd=_ROOT, capture_output=True,
+                          text=True, check=False).stdout.strip()
+  return {'git_head': git('rev-parse', 'HEAD') or None,
+          'package_changed_since_head': bool(git(
+              'status', '--porcelain', '--', 'ble_latex', 'gin_configs'))}
+
+
 def load_record(path: str) -> Dict[str, Any]:
   if not os.path.exists(path):
     return {'cells': {}}
@@ -202,6 +213,7 @@ def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
 
 def _main(argv: Sequence[str]) -> None:
   del argv
+  version = code_version()  # Before the first import of the flight code.
   # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics
   from ble_latex.run import suites
@@ -259,7 +271,7 @@ def _main(argv: Sequence[str]) -> None:
           'cpus': os.cpu_count(), 'loadavg_before': load_before,
           'loadavg_after': [round(x, 2) for x in os.getloadavg()],
           'seeds': len(todo), 'fly_s': round(wall, 1),
-          'batched': batched}]
+          'batched': batched, **version}]
       record = load_record(FLAGS.json)  # Another run may have added cells.
       record['cells'][key] = {
           'settings': cell, 'label': SOURCES[name][1],
