@@ -26,11 +26,24 @@ Samplers:
     forecast keys from a key, each queried at `points_per_field` places at a
     uniform distance 50-200 km from the station (uniform over the annulus'
     area) and uniform times in the field's 48 h; deterministic in the key.
-  - `sample_era5`: an ERA5 file through the reader (BLE's offset-to-lat/lng
-    geometry, `era5.latlng_of_offset`; `Era5Data.interpolate`), the station
-    at the centre of the file's area, the same annulus and uniform times
-    over the file's span; deterministic in the seed. The file's area must contain
-    the annulus (else the winds would be clipped edge values).
+  - `sample_era5`: any wind file the readers take (ERA5, a GFS-style NetCDF
+    analysis, GRIB2, a University of Wyoming sounding; `era5.load`):
+    `region='station'`: the station at the centre of the file's area, the
+    same annulus (BLE's offset-to-lat/lng geometry,
+    `era5.latlng_of_offset`); `region='domain'`: uniform over the area of
+    the whole grid; uniform times over the file's span; deterministic in the
+    seed. The area must contain the annulus (else the winds would be clipped
+    edge values). A sounding is one column: one sample
+    (`WindSamples.single_column`), never copies of it.
+
+One source's profile in the flight band 15-25 km (`profile`, heights by the
+US Standard Atmosphere 1976, `height_of_pressure`): per level the speed's
+mean and 5/25/50/75/95 % quantiles; the fraction of columns in which two
+levels' winds are >= 90 and >= 135 deg apart (`apart_fractions`); the
+vertical shear between adjacent levels [m/s/km] and each column's spread
+(the largest wind difference between two of its levels) (`shear`).
+`compare_file` is what `ble-latex-plot --wind_stats` computes: `compare` of
+a file with the VAE (or a second file) and both sources' profiles.
 """
 
 import dataclasses
