@@ -335,7 +335,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
     # Absolute (the Ray workers' working directory may differ).
     path = os.path.abspath(os.path.expandvars(os.path.expanduser(path)))
     bindings += ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
-                 f'Era5WindField.path = {path!r}']
+                 f'Era5WindField.path = {path!r}'] + wind_file_defaults(path)
   elif not winds.is_era5(env_params.episode()['wind_field_factory']):
     if dates is not None:
       raise CommandUsageError(
@@ -350,6 +350,41 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
       dates = default_dates
   value = era5_dates_value(dates)
   return bindings + [f'Era5WindField.start_dates = {value!r}']
+
+
+def wind_file_defaults(path: str) -> List[str]:
+  """The station bindings --wind_file implies, where the user bound none.
+
+  On a gridded snapshot other than ERA5 (a GFS analysis, GRIB2): per-seed
+  stations (`Era5WindField.stations = 'per_seed'`: eval seed s flies
+  station s, `wind.stations`), unless `Era5WindField.stations`,
+  `center_lat` or `center_lon` is bound. On a sounding whose file names its
+  site: the station there (`center_lat`/`center_lon`), unless bound.
+
+  Raises:
+    FileNotFoundError, errors.BadFileError: as `era5.load`.
+  """
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+
+  def bound(name: str) -> bool:
+    try:
+      gin.query_parameter(f'Era5WindField.{name}')
+    except ValueError:
+      return False
+    return True
+
+  if any(bound(n) for n in ('stations', 'center_lat', 'center_lon')):
+    return []
+  data = era5.load(path)
+  if data.source == 'sounding':
+    site = data.site
+    if site is None or site.latitude is None or site.longitude is None:
+      return []
+    return [f'Era5WindField.center_lat = {site.latitude!r}',
+            f'Era5WindField.center_lon = {site.longitude!r}']
+  if data.time_invariant and data.source != 'ERA5':
+    return ["Era5WindField.stations = 'per_seed'"]
+  return []
 
 
 def era5_dates_value(dates: str) -> Any:

@@ -21,7 +21,11 @@ is the same (`ble_latex.run.distributed`, docs/ray.md):
 On ERA5 (`--era5_path=era5_paper.nc`, or `--gin_file=gin_configs/
 paper_era5.gin`) the flights start inside the suite's dates
 (`suites.era5_dates`: latex_validation flies 'validation', every other
-suite 'eval'; `--era5_dates` to choose), never the training dates.
+suite 'eval'; `--era5_dates` to choose), never the training dates. On any
+wind file each record also has `wind_source` and its flight's station,
+`station_lat`/`station_lon` [deg]: on a gridded snapshot (GFS, GRIB2)
+--wind_file draws station s for seed s (`Era5WindField.stations =
+'per_seed'`) unless a station is bound (docs/winds.md).
 
 If seeds fail on Ray, the others are written to NAME.partial.json and the
 command exits with status 1, listing each failed seed with its error.
@@ -47,6 +51,7 @@ from ble_latex.run import gin_binding
 batch_eval = cli.lazy_module('ble_latex.run.batch_eval')
 distributed = cli.lazy_module('ble_latex.run.distributed')
 env_params = cli.lazy_module('ble_latex.envs.env_params')
+jax_env = cli.lazy_module('ble_latex.envs.jax_env')
 eval_lib = cli.lazy_module('ble_latex.run.eval_lib')
 metrics = cli.lazy_module('ble_latex.run.metrics')
 suites = cli.lazy_module('ble_latex.run.suites')
@@ -170,6 +175,13 @@ def _fly(spec: 'eval_lib.EvalSpec', path: str, agent: Any, env: Any) -> None:
         distributed.shutdown()
   source = env_params.wind_source()  # Each record names its winds.
   results = [{**r, 'wind_source': source} for r in results]
+  # On a wind file, each record names its flight's station (per seed).
+  stations = jax_env.flight_stations(env_params.params_from_gin(),
+                                     [r['seed'] for r in results])
+  if stations is not None:
+    results = [{**r, 'station_lat': round(float(lat), 5),
+                'station_lon': round(float(lon), 5)}
+               for r, (lat, lon) in zip(results, stations)]
   eval_lib.write_results(path, results, FLAGS.pretty_json)
   print(json.dumps({'output': path, 'wind_source': source,
                     **metrics.summarize(results)}))

@@ -2,8 +2,8 @@
 r"""Where and when to launch: ranks a grid of launches by expected TW50.
 
   ble-latex-launch --output_dir=launch_out [--agent=latex_station_seeker] \
-      [--seed=0 | --era5_path=F --station_lat=1 --station_lon=-113 \
-       --date=2022-11-05T00:00] [--east_km=-150,150 --north_km=-150,150 \
+      [--seed=0 | --wind_file=F [--station_lat=1 --station_lon=-113] \
+       [--date=2022-11-05T00:00]] [--east_km=-150,150 --north_km=-150,150 \
       --hours=0,21 [--altitude_m=15000,20000]] [--grid=41,41,8[,N_ALT]] \
       [--draws=4] [--max_steps=216] [--top=100] [--paths=3]
 
@@ -11,8 +11,12 @@ Every candidate (an offset east and north of the station, a delay after the
 world's start and a start altitude) is flown by the agent for the episode
 under --draws draws of BLE's forecast-error noise, all in one batched JAX
 program per chunk (`ble_latex.launch.scoring`), in the world of BLE's
-generative forecast of env seed --seed, or of an ERA5 file with the station
-at --station_lat/--station_lon and the world's start at --date. Writes
+generative forecast of env seed --seed, or of a wind file (--wind_file,
+alias --era5_path: ERA5, a GFS analysis in NetCDF or GRIB2, a sounding; the
+reader chosen by content) with the station at --station_lat/--station_lon
+(default: the centre of the file's domain, or the site a sounding's file
+names) and the world's start at --date (default: the file's first time; a
+snapshot flies its own time). A bad wind file is one line, exit 1. Writes
 OUTPUT_DIR/launches.json (the ranked launches with their mean, std and
 standard error of TW50 over the draws; the whole grid's means) and
 OUTPUT_DIR/launch_map.png (expected TW50 over the launch box, the station,
@@ -54,16 +58,19 @@ flags.DEFINE_multi_string('gin_file', [], 'Gin files (after the env '
 flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings, last.',
                           flag_values=FLAGS)
 flags.DEFINE_integer('seed', 0, 'The world: env seed of the generative '
-                     'forecast (with --era5_path: the noise seed).',
+                     'forecast (with --wind_file: the noise seed).',
                      flag_values=FLAGS)
-flags.DEFINE_string('era5_path', None, 'ERA5 file(s): fly its winds.',
+flags.DEFINE_string('wind_file', None, 'Wind file(s): fly its winds (ERA5, '
+                    'GFS NetCDF/GRIB2, a UWyo sounding; by content).',
                     flag_values=FLAGS)
-flags.DEFINE_float('station_lat', None, 'ERA5: the station [deg N].',
-                   flag_values=FLAGS)
-flags.DEFINE_float('station_lon', None, 'ERA5: the station [deg E].',
-                   flag_values=FLAGS)
-flags.DEFINE_string('date', None, "ERA5: the world's start (launch delay 0), "
-                    'ISO date-time, UTC.', flag_values=FLAGS)
+flags.DEFINE_alias('era5_path', 'wind_file', flag_values=FLAGS)
+flags.DEFINE_float('station_lat', None, 'Wind file: the station [deg N] '
+                   "(default: the domain's centre).", flag_values=FLAGS)
+flags.DEFINE_float('station_lon', None, 'Wind file: the station [deg E] '
+                   "(default: the domain's centre).", flag_values=FLAGS)
+flags.DEFINE_string('date', None, "Wind file: the world's start (launch delay "
+                    "0), ISO date-time, UTC (default: the file's first time).",
+                    flag_values=FLAGS)
 flags.DEFINE_list('east_km', ['-150', '150'], 'Launch box east of the '
                   'station: low,high [km].', flag_values=FLAGS)
 flags.DEFINE_list('north_km', ['-150', '150'], 'Launch box north of the '
@@ -117,12 +124,14 @@ def _check() -> None:
     _pair(name)
   _grid()
   era5_flags = [FLAGS.station_lat, FLAGS.station_lon, FLAGS.date]
-  if FLAGS.era5_path is None and any(v is not None for v in era5_flags):
+  if FLAGS.wind_file is None and any(v is not None for v in era5_flags):
     raise cli.CommandUsageError('--station_lat, --station_lon and --date '
-                                'need --era5_path')
-  if FLAGS.era5_path is not None and any(v is None for v in era5_flags):
-    raise cli.CommandUsageError('--era5_path needs --station_lat, '
-                                '--station_lon and --date')
+                                'need --wind_file (--era5_path)')
+  if (FLAGS.station_lat is None) != (FLAGS.station_lon is None):
+    raise cli.CommandUsageError('--station_lat and --station_lon go '
+                                "together (neither: the domain's centre)")
+  if FLAGS.wind_file is not None and not FLAGS.wind_file.strip():
+    raise cli.CommandUsageError('--wind_file is empty')
   for name, minimum in (('draws', 1), ('top', 1), ('paths', 0),
                         ('max_steps', 1), ('seed', 0)):
     value = FLAGS[name].value
@@ -144,11 +153,11 @@ def _main(argv: Sequence[str]) -> None:
       hours=tuple(hours),
       altitude_m=None if altitude is None else tuple(altitude),
   ).checked(env_params.params_from_gin())
-  if FLAGS.era5_path is None:
+  if FLAGS.wind_file is None:
     world = scoring.generative_world(FLAGS.seed, steps=FLAGS.max_steps)
   else:
     world = scoring.era5_world(
-        FLAGS.era5_path, center_lat=FLAGS.station_lat,
+        FLAGS.wind_file, center_lat=FLAGS.station_lat,
         center_lon=FLAGS.station_lon, date=FLAGS.date, max_hours=hours[1],
         seed=FLAGS.seed, steps=FLAGS.max_steps)
   shape = _grid()
@@ -175,7 +184,7 @@ def _main(argv: Sequence[str]) -> None:
   inside = [r for r in scoring.ranked(scores, world) if r['inside_radius']]
   record = {
       'flags': {name: FLAGS[name].value for name in (
-          'agent', 'seed', 'era5_path', 'station_lat', 'station_lon', 'date',
+          'agent', 'seed', 'wind_file', 'station_lat', 'station_lon', 'date',
           'east_km', 'north_km', 'hours', 'altitude_m', 'grid', 'draws',
           'max_steps', 'gin_file', 'gin_bindings')},
       'agent': FLAGS.agent, 'world': world.describe,

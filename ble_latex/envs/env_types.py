@@ -106,6 +106,9 @@ class EnvState:
     pending_world: -1; after an auto-reset from `EnvParams.reset_pool`, the
       pool world whose large leaves (forecast grid, noise permutations)
       `step_env` installs first (`reset_pool.install_world`).
+    station: None (BLE's winds, or a wind grid's fixed target); per-seed
+      stations (`Era5Grid.station_box`): [2] this flight's station
+      (latitude [deg N], longitude [deg E]), drawn at reset. # [deg]
   """
   flight: state_lib.FlightState
   atmosphere: atmosphere_lib.AtmosphereParams
@@ -119,6 +122,7 @@ class EnvState:
   start_time_offset_s: Array
   steps: Array
   pending_world: Array
+  station: Optional[Array] = None
 
 
 @flax.struct.dataclass
@@ -162,8 +166,10 @@ def walk_key(state: EnvState) -> Array:
 def flight_params_of(params: EnvParams, state: EnvState
                      ) -> flight_params_lib.FlightParams:
   """The flight system of this flight: `params.flight`, with the sun's clock
-  set to the flight's start (`start_time_offset_s`) when the helium follows
-  the sun (`FlightParams.gas_superheat`); else `params.flight` itself.
+  set to the flight's start (`start_time_offset_s`), and its place to the
+  flight's station where it has its own (`EnvState.station`), when the
+  helium follows the sun (`FlightParams.gas_superheat`); else
+  `params.flight` itself.
 
   Args:
     params: The env parameters (their `flight` system).
@@ -179,6 +185,10 @@ def flight_params_of(params: EnvParams, state: EnvState
   offset = state.start_time_offset_s  # [s] int32
   days = offset // 86_400
   dtype = state.flight.time_s.dtype
+  if state.station is not None:
+    flight = flight.replace(
+        latitude_deg=state.station[0].astype(dtype),
+        longitude_deg=(state.station[1] + 180.0) % 360.0 - 180.0)
   return flight.replace(
       start_day_j2000=_EPOCH_DAY_J2000 + days.astype(dtype),
       start_second_of_day=(offset - days * 86_400).astype(dtype))

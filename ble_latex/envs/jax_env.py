@@ -80,6 +80,7 @@ from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import dynamics
 from ble_latex.flight import launch as launch_lib
 from ble_latex.flight import state as state_lib
+from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
 from ble_latex.wind import simplex
 
@@ -94,6 +95,9 @@ _START_TIME_RANGE_S = 126_230_400
 # Realistic physics (issue 28): the key of the burst draw (from the reset
 # key) is folded in with this, so the paper's draws stay as they were.
 _BURST_KEY_DATA = 28_001
+# Per-seed stations (issue 45): the station's key is folded out of the
+# arena key with this, so every other draw stays as it was.
+_STATION_KEY_DATA = 45_001
 
 
 def to_box(normalized: Array) -> Array:
@@ -234,6 +238,51 @@ def info_dict(info: Mapping[str, Any]) -> Dict[str, Any]:
 def arena_key(key: Array) -> Array:
   """The arena's key of the env key (BLE's `BalloonEnv.reset` split)."""
   return jax.random.split(key)[1]
+
+
+def station_of(key: Array, grid: Any) -> Array:
+  """A flight's per-seed station from its arena key (`era5_jax.draw_station`).
+
+  Args:
+    key: The arena key (`arena_key(env_key)`).
+    grid: An `era5_jax.Era5Grid` with a `station_box`.
+
+  Returns:
+    [2] (latitude [deg N], longitude [deg E]). # [deg]
+  """
+  return era5_jax.draw_station(grid, jax.random.fold_in(key,
+                                                        _STATION_KEY_DATA))
+
+
+def flight_stations(params: env_types.EnvParams,
+                    seeds: Any) -> Any:
+  """The station (lat, lon) of each env seed's flight under `params`, or None.
+
+  What `reset(PRNGKey(seed), params)` flies around, for records: per-seed
+  stations drawn as `draw` draws them, the fixed target otherwise (a
+  sounding's: its centre); None on BLE's winds (no lat/lon).
+
+  Args:
+    params: The env params (their `wind_grid`).
+    seeds: Env seeds (ints in [0, 2**32)).
+
+  Returns:
+    [N, 2] float64 (latitude [deg N], longitude [deg E] in -180..180), or
+    None. # [deg]
+  """
+  grid = params.wind_grid
+  if grid is None:
+    return None
+  seeds = np.asarray(seeds, np.uint32).reshape(-1)
+  if grid.station_box is None:
+    lat, lon = jax.device_get(era5_jax.latlng(grid, 0.0, 0.0))
+    out = np.tile([float(lat), float(lon)], (seeds.size, 1))
+  else:
+    out = np.asarray(jax.device_get(jax.jit(jax.vmap(
+        lambda s: station_of(arena_key(jax.random.PRNGKey(s)), grid)))(
+            seeds)), np.float64).reshape(-1, 2)
+  out[:, 1] = (out[:, 1] + 180.0) % 360.0 - 180.0
+  return out
 
 
 class LatexBalloonJaxEnv:
@@ -387,11 +436,14 @@ class LatexBalloonJaxEnv:
     _, wind_key = jax.random.split(rng, 2)
     noise_key, forecast_key = generative.split_wind_key(wind_key)
     noise_u, noise_v = simplex.reset_uv_noise_params(noise_key)
+    station = None
     if params.wind_grid is None:
       forecast = generative.reset_forecast(forecast_key, params.decoder)
     else:  # ERA5: `Era5WindField.reset_forecast`'s start, no VAE forecast.
       forecast = None
       start_time = winds.era5_start_offset_s(params.wind_grid, forecast_key)
+      if params.wind_grid.station_box is not None:  # Per-seed stations.
+        station = station_of(key, params.wind_grid)
 
     # Realistic physics' burst draw: a key of its own (folded in, so the
     # paper's draws above are unchanged); unused unless burst_spread.
@@ -410,7 +462,7 @@ class LatexBalloonJaxEnv:
         wind_u=jnp.zeros_like(altitude), wind_v=jnp.zeros_like(altitude),
         start_time_offset_s=start_time.astype(jnp.int32),
         steps=jnp.zeros((), jnp.int32),
-        pending_world=jnp.full((), -1, jnp.int32))
+        pending_world=jnp.full((), -1, jnp.int32), station=station)
     if params.flight.gas_superheat or params.flight.latex_overpressure:
       # Launch neutral in the gas of the bound physics (issue 44).
       flight = launch_lib.neutral_launch(
@@ -460,6 +512,12 @@ class LatexBalloonJaxEnv:
         env_types.flight_params_of(params, state), state.atmosphere, before,
         action, wind_fn, params.stride_s,
         key=env_types.walk_key(state) if params.flight.lift_walk else None)
+    if wind.outside is not None:  # The flight ends where the data end.
+      flight = flight.replace(status=jnp.where(
+          (flight.status == state_lib.FlightStatus.OK) &
+          wind.outside(state, flight.x_m, flight.y_m),
+          state_lib.FlightStatus.LEFT_WIND_DOMAIN, flight.status).astype(
+              flight.status.dtype))
     state = state.replace(
         flight=flight,
         # The state after the step becomes history slot t-1 (jax_features).

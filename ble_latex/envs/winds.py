@@ -87,9 +87,13 @@ class Wind(NamedTuple):
     forecast_column: (state, x [m], y [m], pressures [Pa], t [s]) -> (u, v)
       columns: the forecast the features read (BLE's
       `get_forecast_column`). # [m/s]
+    outside: None (winds everywhere), or (state, x [m], y [m]) -> bool:
+      the position has left the source's data; the env ends the flight
+      (`FlightStatus.LEFT_WIND_DOMAIN`).
   """
   ground_truth: Callable[..., Tuple[Array, Array]]
   forecast_column: Callable[..., Tuple[Array, Array]]
+  outside: Optional[Callable[..., Array]] = None
 
 
 # BLE's generative field (VAE forecast + simplex noise), drawn at reset.
@@ -129,7 +133,10 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
 
   Returns:
     The wind: ground truth = ERA5 forecast + BLE's simplex noise (forecast
-    only if not `grid.add_noise`), forecast columns of the ERA5 forecast.
+    only if not `grid.add_noise`), forecast columns of the ERA5 forecast,
+    both around the flight's station (`EnvState.station`, per-seed
+    stations) or the grid's fixed target; `outside` where
+    `grid.end_outside_domain`.
   """
   def data_time_s(state, t_s):
     start_s = state.start_time_offset_s - (grid.first_time_min -
@@ -138,16 +145,20 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
 
   def ground_truth(state, x_m, y_m, pressure_pa, t_s):
     u, v = era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
-                             pressure_pa)
+                             pressure_pa, state.station)
     if not grid.add_noise:
       return u, v
     return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s)
 
   def column(state, x_m, y_m, pressures_pa, t_s):
     return era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
-                             pressures_pa)
+                             pressures_pa, state.station)
 
-  return Wind(ground_truth, column)
+  def outside(state, x_m, y_m):
+    return era5_jax.outside(grid, x_m, y_m, state.station)
+
+  return Wind(ground_truth, column,
+              outside if grid.end_outside_domain else None)
 
 
 def is_era5(factory: Any) -> bool:

@@ -228,18 +228,24 @@ def generative_world(seed: int, params: Optional[env_types.EnvParams] = None,
                                'station': 'the forecast grid\'s centre'})
 
 
-def era5_world(path: Any, *, center_lat: float, center_lon: float,
-               date: Any, max_hours: float, seed: int = 0,
+def era5_world(path: Any, *, center_lat: Optional[float] = None,
+               center_lon: Optional[float] = None, date: Any = None,
+               max_hours: float, seed: int = 0,
                params: Optional[env_types.EnvParams] = None,
                steps: Optional[int] = None) -> World:
-  """An ERA5 file's world: the station at (lat, lon), launches from `date`.
+  """A wind file's world: the station at (lat, lon), launches from `date`.
+
+  Any wind file `era5.load` reads (ERA5, a GFS analysis, GRIB2, a
+  sounding; the reader chosen by content).
 
   Args:
-    path: ERA5 file(s) (`era5.load`).
-    center_lat: The station's latitude. # [deg N]
-    center_lon: The station's longitude. # [deg E]
+    path: Wind file(s) (`era5.load`).
+    center_lat: The station's latitude (None: the centre of the file's
+      domain; on a sounding, the site its file names). # [deg N]
+    center_lon: The station's longitude (likewise). # [deg E]
     date: The world's start (launch delay 0): an ISO date-time string or a
-      `datetime` (naive: UTC).
+      `datetime` (naive: UTC); None: the file's first time (a snapshot
+      flies its own time whatever the date).
     max_hours: The latest launch delay: the file must hold the episode
       after it. # [h]
     seed: The noise and atmosphere seed.
@@ -247,11 +253,20 @@ def era5_world(path: Any, *, center_lat: float, center_lon: float,
     steps: Strides of the scoring window (default: the params' episode).
 
   Raises:
-    errors.ConfigError: a bad date, or a window the file does not hold.
-    FileNotFoundError, errors.BadFileError: as `era5.load`.
+    errors.ConfigError: a bad date or station, or a window the file does
+      not hold.
+    FileNotFoundError, errors.BadFileError: as `era5.load` (a bad file).
   """
   params = _with_steps(
       env_params.params_from_gin() if params is None else params, steps)
+  data = era5.load(path)  # FileNotFoundError, BadFileError: exit 1.
+  if (center_lat is None) != (center_lon is None):
+    raise errors.ConfigError('launch station: give both latitude and '
+                             'longitude, or neither (the domain centre)')
+  if center_lat is None:
+    center_lat, center_lon = domain_centre(data)
+  if date is None:
+    date = data.start.replace(tzinfo=None)
   try:
     start = (dt.datetime.fromisoformat(date) if isinstance(date, str)
              else date)
@@ -262,7 +277,7 @@ def era5_world(path: Any, *, center_lat: float, center_lon: float,
   hours = params.episode_steps * params.stride_s / 3600.0 + max_hours
   try:
     wind_grid = era5_jax.grid_from_data(
-        era5.load(path), center_lat=center_lat, center_lon=center_lon,
+        data, center_lat=center_lat, center_lon=center_lon,
         episode_hours=hours,
         start_dates=(start, start + dt.timedelta(minutes=1)))
   except errors.ConfigError:
@@ -270,8 +285,24 @@ def era5_world(path: Any, *, center_lat: float, center_lon: float,
   except ValueError as e:
     raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
   return _world(params.replace(wind_grid=wind_grid), seed, {
-      'source': 'era5', 'path': str(path), 'station_lat': center_lat,
-      'station_lon': center_lon, 'date': start.isoformat()})
+      'source': 'era5' if data.source == 'ERA5' else data.source,
+      'wind_source': f'{data.description}: {list(data.paths)}',
+      'path': str(path), 'station_lat': float(center_lat),
+      'station_lon': float(center_lon),
+      'date': (data.start.replace(tzinfo=None) if data.time_invariant
+               else start).isoformat()})
+
+
+def domain_centre(data: era5.Era5Data) -> Tuple[float, float]:
+  """The default station of a wind file: its domain's centre, or a
+  sounding's site where its file names one. # [deg]"""
+  site = data.site
+  if site is not None and site.latitude is not None and (
+      site.longitude is not None):
+    return float(site.latitude), float(site.longitude)
+  lat = 0.5 * (float(data.latitude[0]) + float(data.latitude[-1]))
+  lon = 0.5 * (float(data.longitude[0]) + float(data.longitude[-1]))
+  return lat, (lon + 180.0) % 360.0 - 180.0
 
 
 def _with_steps(params: env_types.EnvParams,

@@ -26,6 +26,7 @@ grid too small for a station with its margins (`MIN_DOMAIN_M`).
 """
 
 import contextlib
+import datetime as dt
 import logging
 import math
 from typing import Dict, Optional, Tuple, TYPE_CHECKING
@@ -270,15 +271,16 @@ def _first_line(error: Exception) -> str:
   return text.splitlines()[0] if text else ''
 
 
-def sounding_arrays(path: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
-                                        np.ndarray, np.ndarray]:
-  """A sounding as a uniform one-time field on `SOUNDING_BOX_*`.
+def sounding_arrays(path: str) -> Tuple[Tuple[np.ndarray, ...],
+                                        sounding.Site]:
+  """A sounding as a uniform one-time field on `SOUNDING_BOX_*`, and its site.
 
   Returns:
-    As `era5.read_file`: (times (one, the Unix epoch: a sounding file's
-    date is not read), pressure [Pa] ascending, latitude [deg N], longitude
-    [deg E], uv [m/s] of shape (1, levels, 2, 2, 2)), the sounding's winds at
-    every node.
+    (arrays, site): arrays as `era5.read_file`'s (times (one: the
+    observation time the file names, else the Unix epoch), pressure [Pa]
+    ascending, latitude [deg N], longitude [deg E], uv [m/s] of shape (1,
+    levels, 2, 2, 2)), the sounding's winds at every node; site: where and
+    when the file says it was made (`sounding.Site`).
 
   Raises:
     errors.BadFileError: as `sounding.read`.
@@ -289,6 +291,9 @@ def sounding_arrays(path: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
   uv = np.stack([column.u_mps[order], column.v_mps[order]], axis=-1)
   uv = np.broadcast_to(uv[None, :, None, None, :],
                        (1, pressure.size, 2, 2, 2)).copy()
-  times = np.array(['1970-01-01T00:00:00'], dtype='datetime64[ns]')
+  when = column.site.time
+  text = ('1970-01-01T00:00:00' if when is None else
+          when.astimezone(dt.timezone.utc).strftime('%Y-%m-%dT%H:%M:%S'))
+  times = np.array([text], dtype='datetime64[ns]')
   return (times, pressure, np.array(SOUNDING_BOX_LAT, np.float64),
-          np.array(SOUNDING_BOX_LON, np.float64), uv)
+          np.array(SOUNDING_BOX_LON, np.float64), uv), column.site

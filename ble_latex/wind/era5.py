@@ -52,6 +52,7 @@ if TYPE_CHECKING:  # xarray, pandas and SciPy load when a file is read (~2 s).
 from ble_latex import errors
 from ble_latex.wind import analysis
 from ble_latex.wind import era5_checks
+from ble_latex.wind import stations as stations_lib
 
 # Dimension names accepted in the files, new CDS layout first.
 TIME_DIMS = ('valid_time', 'time')
@@ -119,6 +120,8 @@ class Era5Data:
     time_invariant: True for a snapshot (one time step in the files): its
       winds are stored twice, at times[0] and one hour later, and hold at
       every time (`interpolate` clips to the edges).
+    site: A sounding's site and time as its file names them
+      (`sounding.Site`: its time is times[0]); None for other sources.
   """
   paths: Tuple[str, ...]
   times: np.ndarray
@@ -129,11 +132,15 @@ class Era5Data:
   uv: np.ndarray
   source: str = 'ERA5'
   time_invariant: bool = False
+  site: Any = None
 
   @property
   def description(self) -> str:
-    """The source for records: e.g. 'GRIB2 (time-invariant)'."""
-    return self.source + (' (time-invariant)' if self.time_invariant else '')
+    """The source for records: e.g. 'GRIB2 (time-invariant)', 'sounding BOI
+    72681 43.56N -116.21E 2010-12-09T12:00Z (time-invariant)'."""
+    label = self.site.label if self.site is not None else ''
+    return (self.source + (f' {label}' if label else '') +
+            (' (time-invariant)' if self.time_invariant else ''))
 
   def __post_init__(self):
     import scipy.interpolate  # pylint: disable=g-import-not-at-top
@@ -288,22 +295,23 @@ def _open(path: str, label: str) -> 'xr.Dataset':
                               ) from error
 
 
-def read_source(path: str) -> Tuple[str, Tuple[np.ndarray, ...]]:
-  """Reads any wind file by its content (`analysis`): (source, arrays).
+def read_source(path: str) -> Tuple[str, Tuple[np.ndarray, ...], Any]:
+  """Reads any wind file by its content (`analysis`): (source, arrays, site).
 
   ERA5 and other CF NetCDF files, GRIB2 and soundings; the arrays are
-  `read_file`'s. Sources other than ERA5 must also hold the flight band and
-  a domain a flight fits in (`analysis.check_flight_band`, `check_domain`).
+  `read_file`'s, the site a sounding's (`sounding.Site`; None otherwise).
+  Sources other than ERA5 must also hold the flight band and a domain a
+  flight fits in (`analysis.check_flight_band`, `check_domain`).
   """
   if analysis.kind_of(path) == 'sounding':
-    return 'sounding', analysis.sounding_arrays(path)
+    return ('sounding',) + analysis.sounding_arrays(path)
   dataset, label, names = analysis.open_dataset(path, ERA5.label)
   layout = Layout(label=label, **names)
   arrays = read_file(path, layout, dataset=dataset)
   if label != ERA5.label:
     analysis.check_flight_band(path, arrays[1], label)
     analysis.check_domain(path, arrays[2], arrays[3], label)
-  return label, arrays
+  return label, arrays, None
 
 
 def read_file(path: str, layout: Layout = ERA5,
@@ -441,14 +449,14 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
   paths = [p for p, _, _ in stamps]
   if layout is ERA5:
     reads = [read_source(p) for p in paths]
-    parts = [(p,) + arrays for p, (_, arrays) in zip(paths, reads)]
-    source = reads[0][0]
-    if len({s for s, _ in reads}) > 1:
+    parts = [(p,) + arrays for p, (_, arrays, _) in zip(paths, reads)]
+    source, site = reads[0][0], reads[0][2]
+    if len({s for s, _, _ in reads}) > 1:
       raise errors.BadFileError(
-          f'Wind files {paths} mix sources {[s for s, _ in reads]}')
+          f'Wind files {paths} mix sources {[s for s, _, _ in reads]}')
     label = source
   else:
-    source = label
+    source, site = label, None
     parts = [(p,) + read_file(p, layout) for p in paths]
   first_path, _, pressure, latitude, longitude, _ = parts[0]
   for p, _, other_p, other_lat, other_lon, _ in parts[1:]:
@@ -487,7 +495,7 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
   for a in arrays:
     a.flags.writeable = False
   return Era5Data(tuple(s[0] for s in stamps), *arrays, source=source,
-                  time_invariant=time_invariant)
+                  time_invariant=time_invariant, site=site)
 
 
 
@@ -539,6 +547,14 @@ class Era5Settings:
     start_dates: None: flights start anywhere in the data; a split of
       `DATE_SPLITS` ('train', 'validation', 'eval') or a (first, end) pair
       of ISO dates: flights start in [first, end) (`start_window`).
+    stations: 'fixed' (every flight's station at center_lat/lon) or
+      'per_seed' (drawn per flight from its reset key; `wind.stations`).
+    station_margin_km: 'per_seed': wind around every station. # [km]
+    end_outside_domain: Whether a flight that leaves the grid ends
+      (`LEFT_WIND_DOMAIN`); None: the source decides
+      (`stations.end_outside_domain`).
+    snapshot_time: A time-invariant source's date (ISO date-time, UTC; the
+      flight's sun clock): None: the file's time (a sounding's header).
   """
   path: Union[str, Tuple[str, ...]]
   center_lat: float = PAPER_CENTER_LAT  # [deg N]
@@ -546,6 +562,10 @@ class Era5Settings:
   episode_hours: float = 72.0  # [h]
   add_noise: bool = True
   start_dates: Any = None
+  stations: str = 'fixed'
+  station_margin_km: float = stations_lib.DEFAULT_MARGIN_KM  # [km]
+  end_outside_domain: Optional[bool] = None
+  snapshot_time: Any = None
 
   def __post_init__(self):
     for name in ('path', 'start_dates'):
@@ -572,7 +592,11 @@ def settings(*,
              center_lon: float = PAPER_CENTER_LON,  # [deg E]
              episode_hours: float = 72.0,  # [h]
              add_noise: bool = True,
-             start_dates: Any = None) -> Era5Settings:
+             start_dates: Any = None,
+             stations: str = 'fixed',
+             station_margin_km: float = stations_lib.DEFAULT_MARGIN_KM,
+             end_outside_domain: Optional[bool] = None,
+             snapshot_time: Any = None) -> Era5Settings:
   """ERA5's settings from gin: the configurable `Era5WindField`.
 
   `LatexBalloonEnv.wind_field_factory = @Era5WindField` and the
@@ -588,13 +612,16 @@ def settings(*,
     episode_hours: As `Era5Settings`. # [h]
     add_noise: As `Era5Settings`.
     start_dates: As `Era5Settings`.
+    stations: As `Era5Settings`.
+    station_margin_km: As `Era5Settings`. # [km]
+    end_outside_domain: As `Era5Settings`.
+    snapshot_time: As `Era5Settings`.
 
   Returns:
-    The settings (unchecked: `load` and `start_window` check them).
+    The settings (unchecked: `load`, `start_window` and
+    `era5_jax.grid_from_data` check them).
   """
-  return Era5Settings(path=path, center_lat=center_lat, center_lon=center_lon,
-                      episode_hours=episode_hours, add_noise=add_noise,
-                      start_dates=start_dates)
+  return Era5Settings(**locals())
 
 
 def start_dates_range(start_dates: Any, what: str = 'Era5WindField.start_dates'

@@ -20,7 +20,11 @@ same settings (`ble_latex.ble.era5_field.Era5WindField`):
     latitude, longitude), each coordinate clipped to the grid's edges;
   - `draw_start_minute`: `Era5WindField.reset_forecast`'s start time from
     the forecast key (the same `jax.random.randint` call);
-  - `forecast`: `Era5WindField.get_forecast(_column)`.
+  - `forecast`: `Era5WindField.get_forecast(_column)`, around the grid's
+    fixed target or a flight's own station;
+  - `draw_station`: a flight's station drawn from its key (per-seed
+    stations, `wind.stations`); `outside`: whether a position has left the
+    grid's area (the env ends such a flight, `LEFT_WIND_DOMAIN`).
 BLE's simplex noise (the paper's forecast error) is added by the env
 (`jax_env`), as for BLE's generative field.
 
@@ -34,15 +38,18 @@ grid flies the BLE object's flight (host callbacks) to a few metres over
 216 strides (tests/test_era5_jax.py).
 """
 
+import datetime as dt
 import math
-from typing import Any, Dict, Tuple
+from typing import Any, Dict, Optional, Tuple
 
 import flax
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import errors
 from ble_latex.wind import era5
+from ble_latex.wind import stations as stations_lib
 
 Array = jax.Array
 # BLE's spherical Earth (`spherical_geometry._EARTH_RADIUS`). # [m]
@@ -75,6 +82,12 @@ class Era5Grid:
     first_time_min: The data's first time after 1970-01-01 UTC (int32). # [min]
     add_noise: Whether the ground truth adds BLE's simplex noise to the
       forecast (`Era5WindField.add_noise`). Static.
+    station_box: None: every flight keeps station at the target above
+      (fixed); else [4] (lowest, highest latitude [deg N], lowest, highest
+      longitude [deg E], the file's convention): each flight's station is
+      drawn in it at reset (`draw_station`, `wind.stations`).
+    end_outside_domain: Whether a flight that leaves the grid's area ends
+      (`outside`; `stations.end_outside_domain`). Static.
   """
   time_s: Array
   pressure_pa: Array
@@ -90,6 +103,54 @@ class Era5Grid:
   last_start_minute: Array
   first_time_min: Array
   add_noise: bool = flax.struct.field(pytree_node=False, default=True)
+  station_box: Optional[Array] = None
+  end_outside_domain: bool = flax.struct.field(pytree_node=False,
+                                               default=False)
+
+
+def _snapshot_minute(data: era5.Era5Data, when: Any) -> Optional[int]:
+  """`Era5Settings.snapshot_time` in minutes after 1970, or None."""
+  if when is None:
+    return None
+  if not data.time_invariant:
+    raise errors.ConfigError(
+        f'Era5WindField.snapshot_time = {when!r}: only a time-invariant source '
+        f'takes a date; {list(data.paths)} is a time series')
+  try:
+    if not isinstance(when, dt.datetime):
+      when = dt.datetime.fromisoformat(str(when))
+    if when.tzinfo is None:
+      when = when.replace(tzinfo=dt.timezone.utc)
+    seconds = when.timestamp()
+  except (ValueError, OverflowError) as e:
+    raise errors.ConfigError(
+        f'Era5WindField.snapshot_time = {when!r}: not an ISO date-time '
+        '(UTC)') from e
+  if seconds % 60 or not -1.5e9 < seconds < 3.4e9:  # int32 offsets.
+    raise errors.ConfigError(
+        f'Era5WindField.snapshot_time = {when!r}: expected a whole minute '
+        'in years 1943..2079')
+  return int(seconds // 60)
+
+
+def station_center(data: era5.Era5Data, stations: str,
+                   station_margin_km: float, center_lat: float,
+                   center_lon: float) -> Tuple[float, float, Any]:
+  """(target lat, lon, station box or None) of a station mode on `data`.
+
+  'fixed': the given target, no box; 'per_seed': the box's centre and the
+  box (`stations.station_box`; refused on a sounding: its winds are the
+  same everywhere).
+  """
+  if stations_lib.check_mode(stations) == 'fixed':
+    return center_lat, center_lon, None
+  if data.source == 'sounding':
+    raise errors.ConfigError(
+        "Era5WindField.stations = 'per_seed' needs a gridded source; "
+        f'{list(data.paths)} is a sounding (the same winds everywhere)')
+  box = stations_lib.station_box(data.latitude, data.longitude,
+                                 station_margin_km, data.paths)
+  return 0.5 * (box[0] + box[1]), 0.5 * (box[2] + box[3]), box
 
 
 def grid_from_data(data: era5.Era5Data, *,
@@ -97,10 +158,17 @@ def grid_from_data(data: era5.Era5Data, *,
                    center_lon: float = era5.PAPER_CENTER_LON,  # [deg E]
                    episode_hours: float = 72.0,  # [h]
                    add_noise: bool = True,
-                   start_dates: Any = None) -> Era5Grid:
+                   start_dates: Any = None,
+                   stations: str = 'fixed',
+                   station_margin_km: float = (
+                       stations_lib.DEFAULT_MARGIN_KM),  # [km]
+                   end_outside_domain: Optional[bool] = None,
+                   snapshot_time: Any = None) -> Era5Grid:
   """The device grid of loaded ERA5 data (`era5.load(path)`).
 
-  The keyword arguments are `era5.Era5Settings`'s, with its defaults.
+  The keyword arguments are `era5.Era5Settings`'s, with its defaults
+  (per-seed stations: the target is the station box's centre, and is used
+  only for the start-window checks).
 
   Args:
     data: ERA5 data, read and checked by `era5.load`.
@@ -116,8 +184,14 @@ def grid_from_data(data: era5.Era5Data, *,
 
   Raises:
     ValueError: as `era5.start_window`, or a first
-      time that is not a whole minute.
+      time that is not a whole minute; errors.ConfigError: a bad station
+      mode, margin, `end_outside_domain` or `snapshot_time`.
   """
+  center_lat, center_lon, box = station_center(
+      data, stations, station_margin_km, center_lat, center_lon)
+  ends = stations_lib.end_outside_domain(end_outside_domain, data.source,
+                                         stations)
+  snapshot = _snapshot_minute(data, snapshot_time)
   first, last = era5.start_window(data, center_lat=center_lat,
                                   center_lon=center_lon,
                                   episode_hours=episode_hours,
@@ -143,8 +217,11 @@ def grid_from_data(data: era5.Era5Data, *,
       center_lon=f32(data.wrap_longitude(center_lon) - lon0),
       first_start_minute=jnp.asarray(first, jnp.int32),
       last_start_minute=jnp.asarray(last, jnp.int32),
-      first_time_min=jnp.asarray(int(first_s // 60), jnp.int32),
-      add_noise=bool(add_noise))
+      first_time_min=jnp.asarray(
+          int(first_s // 60) if snapshot is None else snapshot, jnp.int32),
+      add_noise=bool(add_noise),
+      station_box=None if box is None else f32(box),
+      end_outside_domain=ends)
 
 
 # Grids built from settings, by (data, target, flight, noise, dates): every
@@ -172,22 +249,30 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
   """
   data = settings.load()
   base = (id(data), settings.center_lat, settings.center_lon,
-          settings.episode_hours, settings.add_noise)
+          settings.episode_hours, settings.add_noise, settings.stations,
+          settings.station_margin_km, settings.end_outside_domain,
+          repr(settings.snapshot_time))
   key = base + (repr(settings.start_dates),)
   cached = _GRIDS.get(key)
   if cached is None or cached[0] is not data:
     shared = next((grid for k, (d, grid) in _GRIDS.items()
                    if k[:-1] == base and d is data), None)
     if shared is None:
-      grid = grid_from_data(data, center_lat=settings.center_lat,
-                            center_lon=settings.center_lon,
-                            episode_hours=settings.episode_hours,
-                            add_noise=settings.add_noise,
-                            start_dates=settings.start_dates)
+      grid = grid_from_data(
+          data, center_lat=settings.center_lat,
+          center_lon=settings.center_lon,
+          episode_hours=settings.episode_hours, add_noise=settings.add_noise,
+          start_dates=settings.start_dates, stations=settings.stations,
+          station_margin_km=settings.station_margin_km,
+          end_outside_domain=settings.end_outside_domain,
+          snapshot_time=settings.snapshot_time)
     else:
+      center_lat, center_lon, _ = station_center(
+          data, settings.stations, settings.station_margin_km,
+          settings.center_lat, settings.center_lon)
       grid = with_start_dates(
           shared, data, start_dates=settings.start_dates,
-          center_lat=settings.center_lat, center_lon=settings.center_lon,
+          center_lat=center_lat, center_lon=center_lon,
           episode_hours=settings.episode_hours)
     if len(_GRIDS) >= 8:
       _GRIDS.clear()
@@ -250,21 +335,81 @@ def _wrap(grid: Era5Grid, lon: Array, origin: Array = 0.0) -> Array:
   return lon - 360.0 * jnp.floor((lon - centre + 180.0) / 360.0)
 
 
-def _offsets(grid: Era5Grid, x_m: Array, y_m: Array) -> Tuple[Array, Array]:
+def draw_station(grid: Era5Grid, key: Array) -> Array:
+  """A flight's station, uniform over the area of `grid.station_box`.
+
+  sin(latitude) and longitude uniform in the box (equal areas equally
+  likely), from `key` (the env folds it out of the reset key: eval seed s
+  always flies station s).
+
+  Args:
+    grid: A grid with a `station_box` (per-seed stations).
+    key: The station's key.
+
+  Returns:
+    [2] (latitude [deg N], longitude [deg E], the file's convention),
+    float32.
+  """
+  box = grid.station_box
+  u = jax.random.uniform(key, (2,), jnp.float32)
+  sin_lo, sin_hi = jnp.sin(jnp.radians(box[0])), jnp.sin(jnp.radians(box[1]))
+  lat = jnp.degrees(jnp.arcsin(jnp.clip(sin_lo + u[0] * (sin_hi - sin_lo),
+                                        -1.0, 1.0)))
+  lat = jnp.clip(lat, box[0], box[1])
+  return jnp.stack([lat, box[2] + u[1] * (box[3] - box[2])])
+
+
+def _target(grid: Era5Grid, station: Optional[Array]
+            ) -> Tuple[Array, Array, Array]:
+  """(sin lat, cos lat, lon after the origin) of the flight's target."""
+  if station is None:
+    return grid.sin_center_lat, grid.cos_center_lat, grid.center_lon
+  lat = jnp.radians(station[..., 0])
+  return (jnp.sin(lat), jnp.cos(lat),
+          _wrap(grid, station[..., 1], grid.longitude_origin) -
+          grid.longitude_origin)
+
+
+def _offsets(grid: Era5Grid, x_m: Array, y_m: Array,
+             station: Optional[Array] = None) -> Tuple[Array, Array]:
   """`latlng`, after the grid's origin (latitude, longitude). # [deg]"""
+  sin_center, cos_center, center_lon = _target(grid, station)
   heading = jnp.arctan2(x_m, y_m)
   angle = jnp.hypot(x_m, y_m) / EARTH_RADIUS_M
   cos_angle, sin_angle = jnp.cos(angle), jnp.sin(angle)
-  sin_lat = (cos_angle * grid.sin_center_lat +
-             sin_angle * grid.cos_center_lat * jnp.cos(heading))
-  d_lng = jnp.arctan2(sin_angle * grid.cos_center_lat * jnp.sin(heading),
-                      cos_angle - grid.sin_center_lat * sin_lat)
+  sin_lat = (cos_angle * sin_center +
+             sin_angle * cos_center * jnp.cos(heading))
+  d_lng = jnp.arctan2(sin_angle * cos_center * jnp.sin(heading),
+                      cos_angle - sin_center * sin_lat)
   lat = jnp.degrees(jnp.arcsin(jnp.clip(sin_lat, -1.0, 1.0)))
   return (lat - grid.latitude_origin,
-          _wrap(grid, grid.center_lon + jnp.degrees(d_lng)))
+          _wrap(grid, center_lon + jnp.degrees(d_lng)))
 
 
-def latlng(grid: Era5Grid, x_m: Array, y_m: Array) -> Tuple[Array, Array]:
+def outside(grid: Era5Grid, x_m: Array, y_m: Array,
+            station: Optional[Array] = None) -> Array:
+  """Whether the offset (x east, y north) of the target has left the grid.
+
+  Outside the latitudes and longitudes of the data's nodes (the file's
+  convention; `latlng` of the offset from the fixed target, or from a
+  flight's `station`).
+
+  Args:
+    grid: The grid.
+    x_m: Distance east of the target. # [m]
+    y_m: Distance north of the target. # [m]
+    station: A flight's (lat, lon) station, or None: the grid's target.
+
+  Returns:
+    bool, of the inputs' broadcast shape.
+  """
+  lat, lon = _offsets(grid, x_m, y_m, station)
+  return ((lat < 0.0) | (lat > grid.latitude[-1]) | (lon < 0.0) |
+          (lon > grid.longitude[-1]))
+
+
+def latlng(grid: Era5Grid, x_m: Array, y_m: Array,
+           station: Optional[Array] = None) -> Tuple[Array, Array]:
   """(lat, lon) of the offset (x east, y north) from the target. # [deg]
 
   BLE's `spherical_geometry.calculate_latlng_from_offset` (`Era5WindField.
@@ -277,11 +422,12 @@ def latlng(grid: Era5Grid, x_m: Array, y_m: Array) -> Tuple[Array, Array]:
     grid: The grid (its target).
     x_m: Distance east of the target. # [m]
     y_m: Distance north of the target. # [m]
+    station: A flight's (lat, lon) station, or None: the grid's target.
 
   Returns:
     (latitude [deg N], longitude [deg E]), of the inputs' broadcast shape.
   """
-  lat, lon = _offsets(grid, x_m, y_m)
+  lat, lon = _offsets(grid, x_m, y_m, station)
   return lat + grid.latitude_origin, lon + grid.longitude_origin
 
 
@@ -337,7 +483,8 @@ def _interpolate(grid: Era5Grid, time_s: Array, pressure_pa: Array,
 
 
 def forecast(grid: Era5Grid, time_s: Array, x_m: Array, y_m: Array,
-             pressure_pa: Array) -> Tuple[Array, Array]:
+             pressure_pa: Array, station: Optional[Array] = None
+             ) -> Tuple[Array, Array]:
   """`Era5WindField.get_forecast` / `get_forecast_column`. # [m/s]
 
   Args:
@@ -346,10 +493,12 @@ def forecast(grid: Era5Grid, time_s: Array, x_m: Array, y_m: Array,
     x_m: Distance east of the target. # [m]
     y_m: Distance north of the target. # [m]
     pressure_pa: Pressure, or pressures of a column. # [Pa]
+    station: A flight's (lat, lon) station (per-seed stations), or None:
+      the grid's fixed target.
 
   Returns:
     (u, v) of pressure_pa's shape (broadcast with the others).
   """
-  lat, lon = _offsets(grid, x_m, y_m)
+  lat, lon = _offsets(grid, x_m, y_m, station)
   uv = _interpolate(grid, time_s, pressure_pa, lat, lon)
   return uv[..., 0], uv[..., 1]

@@ -23,13 +23,24 @@ where a mandatory level is also a significant one (Boise 2010-12-09: 115 hPa
 at 15 240 and 15 237 m): the first listed is kept. A height that does not
 grow as pressure falls is refused (a file that is not a sounding). A column that flies must cover the flight band: winds
 from 15 to 25 km at least (`FLIGHT_BAND_M`).
+
+The site and time are read from the file where it has them (`Site`,
+`read_site`): the "Station information" lines of the TEXT:LIST page
+(`Station identifier: BOI`, `Station number: 72681`, `Observation time:
+101209/1200` as YYMMDD/HHMM UTC, `Station latitude: 43.56`, `Station
+longitude: -116.21`), the same `key: value` lines above a CSV's header row
+(a leading `#` allowed), or the page's title ("72681 BOI Boise Observations
+at 12Z 09 Dec 2010"). A bare table (as both files in tests/data/realwinds)
+has none: its site and time stay unknown.
 """
 
 import csv
 import dataclasses
+import datetime as dt
 import io
 import os
-from typing import Dict, List, Sequence, Tuple
+import re
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -44,6 +55,99 @@ MAX_FILE_BYTES = 4 * 1024 * 1024  # A sounding is ~10 kB; refuse anything big.
 MIN_LEVELS = 2
 _COLUMNS = ('PRES', 'HGHT', 'DRCT', 'SKNT')
 _WIDTH = 7  # Characters per column of the fixed-width text.
+# `key: value` lines of the UWyo page's station block (or above a CSV).
+_META = re.compile(r'^[#\s]*(Station identifier|Station number|Observation '
+                   r'time|Station latitude|Station longitude)\s*:\s*(.*?)\s*$',
+                   re.IGNORECASE | re.MULTILINE)
+# The page's title: "72681 BOI Boise Observations at 12Z 09 Dec 2010".
+_TITLE = re.compile(r'(\d{5})?\s*([A-Z0-9]{3,4})?[^\n<>]*?Observations at '
+                    r'(\d{1,2})Z (\d{1,2} [A-Za-z]{3} \d{4})')
+
+
+@dataclasses.dataclass(frozen=True)
+class Site:
+  """Where and when a sounding was made, as its file says (None: unknown).
+
+  Attributes:
+    identifier: The station's letters (e.g. 'BOI').
+    number: The WMO station number (e.g. '72681').
+    time: The observation time, UTC (timezone-aware).
+    latitude: The station's latitude. # [deg N]
+    longitude: The station's longitude. # [deg E]
+  """
+  identifier: Optional[str] = None
+  number: Optional[str] = None
+  time: Optional[dt.datetime] = None
+  latitude: Optional[float] = None
+  longitude: Optional[float] = None
+
+  @property
+  def label(self) -> str:
+    """E.g. 'BOI 72681 43.56N -116.21E 2010-12-09T12:00Z' (what is known)."""
+    parts = [p for p in (self.identifier, self.number) if p]
+    if self.latitude is not None and self.longitude is not None:
+      parts.append(f'{self.latitude:g}N {self.longitude:g}E')
+    if self.time is not None:
+      parts.append(f'{self.time:%Y-%m-%dT%H:%M}Z')
+    return ' '.join(parts)
+
+
+def _observation_time(value: str, path: str) -> dt.datetime:
+  """UWyo's `YYMMDD/HHMM` or `HHZ DD Mon YYYY`, UTC."""
+  value = value.strip()
+  try:
+    if re.fullmatch(r'\d{6}/\d{4}', value):
+      year = int(value[:2])
+      year += 1900 if year >= 70 else 2000  # UWyo's archive starts in 1973.
+      when = dt.datetime.strptime(f'{year}{value[2:]}', '%Y%m%d/%H%M')
+    else:
+      hour, day = value.split('Z', 1)
+      when = dt.datetime.strptime(day.strip(), '%d %b %Y').replace(
+          hour=int(hour))
+  except ValueError as e:
+    raise errors.BadFileError(
+        f'{path}: observation time {value!r} is not YYMMDD/HHMM or '
+        '"HHZ DD Mon YYYY"') from e
+  return when.replace(tzinfo=dt.timezone.utc)
+
+
+def read_site(text: str, path: str) -> Site:
+  """The site and time a sounding's text names (`Site`; None where not).
+
+  Raises:
+    errors.BadFileError: a station block value that does not parse (a
+      latitude outside [-90, 90], a longitude outside [-180, 360], a time
+      that is no date).
+  """
+  values = {}
+  for key, value in _META.findall(text):
+    values.setdefault(key.lower(), value)
+  site = {}
+  title = _TITLE.search(text)
+  if title:
+    number, identifier, hour, day = title.groups()
+    site.update(number=number, identifier=identifier,
+                time=_observation_time(f'{hour}Z {day}', path))
+  if values.get('station identifier'):
+    site['identifier'] = values['station identifier']
+  if values.get('station number'):
+    site['number'] = values['station number']
+  if values.get('observation time'):
+    site['time'] = _observation_time(values['observation time'], path)
+  for key, name, bound in (('station latitude', 'latitude', 90.0),
+                           ('station longitude', 'longitude', 360.0)):
+    if key in values:
+      try:
+        number = float(values[key])
+      except ValueError:
+        number = float('nan')
+      low = -90.0 if name == 'latitude' else -180.0
+      if not low <= number <= bound:
+        raise errors.BadFileError(
+            f'{path}: {key} {values[key]!r} is not a number in [{low:g}, '
+            f'{bound:g}]')
+      site[name] = number
+  return Site(**site)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,12 +160,14 @@ class Sounding:
     u_mps: Wind towards east. # [m/s]
     v_mps: Wind towards north. # [m/s]
     source: The file read.
+    site: Where and when, as the file says (`read_site`).
   """
   pressure_pa: np.ndarray
   height_m: np.ndarray
   u_mps: np.ndarray
   v_mps: np.ndarray
   source: str
+  site: Site = Site()
 
 
 def wind_components(direction_deg: np.ndarray, speed_mps: np.ndarray
@@ -163,12 +269,15 @@ def read(path: str) -> Sounding:
     text = raw.decode('utf-8')
   except UnicodeDecodeError as e:
     raise errors.BadFileError(f'{path}: not a text file') from e
+  lines = text.splitlines()
+  header = next((i for i, l in enumerate(lines)
+                 if all(c in l for c in _COLUMNS)), None)
   first = next((l for l in text.splitlines() if l.strip()), '')
-  if ',' in first:
-    rows = _csv_rows(text, path)
+  if ',' in (first if header is None else lines[header]):
+    rows = _csv_rows('\n'.join(lines[header or 0:]), path)
   else:
-    rows = _text_rows(text.splitlines(), path)
-  return _column(rows, path)
+    rows = _text_rows(lines, path)
+  return dataclasses.replace(_column(rows, path), site=read_site(text, path))
 
 
 def _column(rows: Sequence[Dict[str, float]], path: str) -> Sounding:
