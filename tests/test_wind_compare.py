@@ -125,7 +125,8 @@ def test_plot_wind_stats_takes_a_sounding(tmp_path, capsys):
   out = tmp_path / 'plots'
   assert plot.main([f'--output_dir={out}', '--wind_stats',
                     f'--wind_file={HILO}', f'--wind_stats_against={GFS}',
-                    '--wind_stats_samples=40']) == 0
+                    '--wind_stats_samples=40',
+                    '--wind_stats_pressures_pa=5000,7000,10000']) == 0
   captured = capsys.readouterr()
   assert 'one column (a sounding): a single sample' in captured.err
   result = json.loads((out / plot.WIND_STATS_JSON).read_text())
@@ -136,13 +137,14 @@ def test_plot_wind_stats_takes_a_sounding(tmp_path, capsys):
   assert profiles['a']['columns'] == 40
   assert profiles['a']['pressures_pa'] == [3000.0, 5000.0, 7000.0, 10000.0]
   assert (out / plot.WIND_STATS).stat().st_size > 0
+  assert result['pressures_pa'] == [5000.0, 7000.0, 10000.0]
   # --era5_path stays an alias; the wind file is required.
-  assert plot.main([f'--output_dir={out}', '--wind_stats',
-                    f'--era5_path={BOISE}', f'--wind_stats_against={GFS}',
-                    '--wind_stats_samples=5', '--wind_stats_region=domain']
-                   ) == 0
   assert plot.main([f'--output_dir={out}', '--wind_stats']) == 2
   assert '--wind_stats needs --wind_file' in capsys.readouterr().err
+  missing = tmp_path / 'missing.nc'
+  assert plot.main([f'--output_dir={out}', '--wind_stats',
+                    f'--era5_path={missing}']) == 1
+  assert str(missing) in capsys.readouterr().err
 
 
 def test_wind_compare_figure(tmp_path):
