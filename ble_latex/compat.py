@@ -29,7 +29,8 @@ in docs/ble-compat.md.
 The same hook also runs three integration steps that are not fixes:
 `gymnasium_register` (the `ble_latex/...` ids, after `import gymnasium`),
 `gin_latex_configurables` (a gin finalize hook that imports
-`GIN_CONFIGURABLE_MODULES` before BLE's `bind_gin_variables` locks the config)
+`GIN_CONFIGURABLE_MODULES` before BLE's `bind_gin_variables` locks the config,
+where BLE's `run_helpers` is imported)
 and `quiet_import` (ble_latex.ble.gym_env imports inside `quiet.third_party_noise`).
 """
 
@@ -324,6 +325,8 @@ def _flax_optim_shim() -> types.ModuleType:
 # ---------------------------------------------------------------------------
 # Modules whose import declares every gin configurable a latex env needs.
 GIN_CONFIGURABLE_MODULES = ('ble_latex.ble.gym_env',)
+# BLE's gin binder: where it is imported, gin's finalize hook imports them.
+_BLE_RUN_HELPERS = f'{_BLE}.utils.run_helpers'
 
 
 def _register_gymnasium_envs(unused_gymnasium: types.ModuleType) -> None:
@@ -337,13 +340,18 @@ def _register_gymnasium_envs(unused_gymnasium: types.ModuleType) -> None:
 
 
 def _import_latex_configurables(unused_config: Any) -> None:
-  """gin finalize hook: declare ble_latex's configurables before the lock.
+  """gin finalize hook: declare the gym env's configurables before BLE's lock.
 
   BLE's order (`run_helpers.bind_gin_variables`, which finalizes and locks
   gin's config, then `gym.make('LatexBalloonDiscrete-v0')`) would otherwise
   import ble_latex.ble.gym_env after the lock, and its `@gin.configurable`s raise
-  "Attempted to add a new configurable after the config was locked".
+  "Attempted to add a new configurable after the config was locked". Only
+  on BLE's path (its `run_helpers` imported): elsewhere a finalize imports
+  nothing, so the core's gin files finalize without BLE's env modules and
+  TensorFlow (the GPU scripts run where TensorFlow is not installed).
   """
+  if _BLE_RUN_HELPERS not in sys.modules:
+    return
   import importlib  # pylint: disable=g-import-not-at-top
   for name in GIN_CONFIGURABLE_MODULES:
     importlib.import_module(name)

@@ -6,9 +6,10 @@ refuses to parse `perciatelli_reward_function.reward_dropoff = 0.5` unless
 the module declaring it (BLE's `balloon_env`) was imported. So a
 configurable whose module is not in `sys.modules` has no bindings, and its
 keyword defaults are all there is (`imported_bindings`). That lets the JAX
-env (`env_params.params_from_gin`) read BLE's reward bindings without
-importing BLE's balloon/env modules and TensorFlow behind them; every other
-gin name of the env is a configurable of the core itself.
+env (`env_params.params_from_gin`) check that BLE's reward bindings only
+repeat its own without importing BLE's balloon/env modules and TensorFlow
+behind them; every gin name the env reads is a configurable of the core
+itself.
 
 This module is also the one home of the checks of configured numbers (`require`,
 `check_number`, `check_int`, `check_bool`): every env, physics and reward
@@ -195,13 +196,13 @@ def check_penalties(**penalties: Any) -> None:
              'a finite number >= 0', value)
 
 
-def check_reward_values(latex: Mapping[str, Any],
-                        perciatelli: Optional[Mapping[str, Any]]) -> None:
-  """Checks `latex_reward.*` and `perciatelli_reward_function.*` values.
+def check_reward_values(latex: Mapping[str, Any]) -> None:
+  """Checks the reward's values (gin `latex_reward.*`).
 
   Args:
-    latex: `latex_reward`'s effective values (penalties are checked).
-    perciatelli: BLE's `perciatelli_reward_function` effective values.
+    latex: Values by `latex_reward` parameter: the penalties (finite,
+      >= 0), `reward_dropoff` (in [0, 1]) and `reward_halflife_km` (> 0),
+      each where present.
 
   Raises:
     ValueError: Naming the first gin binding that breaks the contract.
@@ -209,13 +210,12 @@ def check_reward_values(latex: Mapping[str, Any],
   check_penalties(**{k: v for k, v in latex.items()
                      if k.endswith('_penalty_per_mol') or
                      k.endswith('_penalty_per_kg')})
-  ble = perciatelli or {}
-  prefix = 'perciatelli_reward_function.'
-  for name in ('station_keeping_radius_km', 'reward_halflife'):
-    if name in ble:
-      _require(is_number(ble[name]) and ble[name] > 0, prefix + name,
-               'a finite number > 0', ble[name])
-  if 'reward_dropoff' in ble:
-    value = ble['reward_dropoff']
+  prefix = 'latex_reward.'
+  if 'reward_halflife_km' in latex:
+    value = latex['reward_halflife_km']
+    _require(is_number(value) and value > 0, prefix + 'reward_halflife_km',
+             'a finite number > 0', value)
+  if 'reward_dropoff' in latex:
+    value = latex['reward_dropoff']
     _require(is_number(value) and 0 <= value <= 1, prefix + 'reward_dropoff',
              'in [0, 1]', value)

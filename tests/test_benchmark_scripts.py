@@ -1,5 +1,5 @@
 """The planner benchmark scripts' own checks (benchmarks/planners.py --seeds,
-the batch's size, benchmarks/gpu/boot_no_tensorflow.py's stand-in modules)."""
+the batch's size; without TensorFlow: tests/test_no_tensorflow.py)."""
 
 import importlib.util
 import pathlib
@@ -31,29 +31,6 @@ def test_planners_seeds_outside_the_suite_are_one_line(tmp_path, capsys,
   assert rc == 2
   assert err == [f'benchmarks/planners.py: {message}']
   assert not list(tmp_path.rglob('*.json'))  # Nothing written.
-
-
-def test_no_tensorflow_stand_ins_fail_loudly():
-  """The stand-ins import, but any use of them raises (no silent stub)."""
-  code = (
-      'import sys; sys.path.insert(0, "benchmarks/gpu");'
-      'import boot_no_tensorflow as b; b.install_stubs();'
-      'import tensorflow as tf;'
-      'from flax.metrics import tensorboard;'
-      'from tensorflow_probability.substrates import jax as tfp\n'
-      'for use in (lambda: tf.io, lambda: tfp.distributions,'
-      '            lambda: tensorboard.SummaryWriter("/tmp/x")):\n'
-      '  try:\n'
-      '    use()\n'
-      '  except RuntimeError as e:\n'
-      '    print("refused:", e)\n')
-  out = subprocess.run([sys.executable, '-c', code], cwd=ROOT, check=True,
-                       capture_output=True, text=True).stdout.splitlines()
-  assert len(out) == 3
-  assert out[0].startswith('refused: tensorflow.io: TensorFlow is not')
-  assert out[1].startswith('refused: tensorflow_probability.substrates.jax.'
-                           'distributions')
-  assert out[2].startswith('refused: flax.metrics.tensorboard.SummaryWriter')
 
 
 def test_planners_refuse_a_batch_too_big_for_one_call(tmp_path, capsys):

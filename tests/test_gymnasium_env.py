@@ -672,7 +672,8 @@ gin.parse_config([
     'LatexBalloonArena.max_start_distance_km = 100.0',
     'create_state.payload_kg = 2.5',
     'latex_reward.sand_penalty_per_kg = 0.5',
-    'balloon_env.perciatelli_reward_function.reward_dropoff = 0.3',
+    'latex_reward.reward_dropoff = 0.3',
+    'balloon_env.perciatelli_reward_function.reward_dropoff = 0.3',  # Repeats.
 ])
 p = env_params.params_from_gin()
 print(p.episode_steps, p.start_altitude_low_m, p.start_altitude_high_m,

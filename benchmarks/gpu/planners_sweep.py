@@ -6,8 +6,8 @@ H100, 2026-11-26; records and both runs' logs in
 ran there: the same runs, order, time limits and selection rule, with flags
 where that one read environment variables (BUDGET, NVAL) and had the worst
 seeds written in. Each run is
-`benchmarks/planners.py` in a subprocess (through `boot_no_tensorflow.py`
-with --no_tensorflow), its records and timing under --output_dir; runs are
+`benchmarks/planners.py` in a subprocess, its records and timing under
+--output_dir; runs are
 started in order while --budget_s lasts, and one cut by its time limit
 leaves no record file (and is named in the log).
 
@@ -29,13 +29,17 @@ On a machine with ble_latex installed (CPU or GPU):
 
   python benchmarks/gpu/planners_sweep.py --plan=sweep --output_dir=/tmp/gpu
 
-On the lent machine (no TensorFlow; BLE 1.0.1, gym, gin-config,
-opensimplex, s2sphere, future, transitions and gymnasium copied as source
-from a local venv's site-packages into a folder on PYTHONPATH, BLE's unused
-perciatelli44.pb left out; the commands as run):
+On a machine without TensorFlow (the lent GPU's image: BLE 1.0.1, gym,
+gin-config, opensimplex, s2sphere, future, transitions and gymnasium copied
+as source from a local venv's site-packages into a folder on PYTHONPATH,
+BLE's unused perciatelli44.pb left out) the same command: the planners, the
+JAX env and the env gin files import no TensorFlow
+(`tests/test_no_tensorflow.py`). The 2026-11-26 runs went through a
+stand-in for TensorFlow's modules (`--no_tensorflow`, since removed: the env
+gin file then imported BLE's gym env):
 
   PYTHONPATH=$PWD/site python3 benchmarks/gpu/planners_sweep.py \
-      --plan=sweep --no_tensorflow --budget_s=570 --output_dir=$OUT/r
+      --plan=sweep --budget_s=570 --output_dir=$OUT/r
 """
 
 import json
@@ -55,8 +59,6 @@ flags.DEFINE_string('output_dir', None, 'Records and timing (SUITE/...).',
 flags.DEFINE_float('budget_s', 540.0, 'Wall time for all the runs.')
 flags.DEFINE_integer('num_validation', 50, 'latex_validation seeds.')
 flags.DEFINE_list('seeds', [], "--plan=worst: the latex_small seeds.")
-flags.DEFINE_bool('no_tensorflow', False, 'Run the scripts through '
-                  'boot_no_tensorflow.py (a Python without TensorFlow).')
 
 O = 'LatexMpcOracleAgent'
 # The oracle's defaults when these runs were made (2026-11-26): a receding-
@@ -95,9 +97,6 @@ def _log(*parts) -> None:
 
 
 def _python(script: str) -> List[str]:
-  if FLAGS.no_tensorflow:
-    return [sys.executable, os.path.join(HERE, 'boot_no_tensorflow.py'),
-            script]
   return [sys.executable, script]
 
 

@@ -5,15 +5,15 @@ The paper's reward is BLE's Perciatelli reward without its power term:
 1 within radius rho, else c * 2^(-(d - rho) / tau). BLE's
 `perciatelli_reward_function` computes exactly that for a latex balloon: its
 power penalty only applies to BLE's air-pump DOWN command, which a latex
-balloon state never records (`last_command` stays STAY). The radius is the
-env's one station radius (`LatexBalloonEnv.station_keeping_radius_km`, 50 km),
-handed to BLE's function; cliff and half-life are BLE's own gin names:
-
-  balloon_env.perciatelli_reward_function.reward_dropoff = 0.4
-  balloon_env.perciatelli_reward_function.reward_halflife = 100.0
+balloon state never records (`last_command` stays STAY). Its constants are
+the env's, handed to BLE's function explicitly: the one station radius
+(`LatexBalloonEnv.station_keeping_radius_km`, 50 km), cliff and half-life
+(`latex_reward.reward_dropoff = 0.4`, `latex_reward.reward_halflife_km =
+100.0`); BLE's own `perciatelli_reward_function.*` names may only repeat them
+(`env_params.check_ble_repeat`).
 
 This module adds only the optional resource penalty (default off, as in the
-paper; gin `latex_reward.*`, the core's `env_params.resource_penalties`).
+paper; gin `latex_reward.*`, the core's `env_params.reward_settings`).
 """
 
 from typing import Optional
@@ -53,7 +53,7 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
       control.AltitudeControlCommand.DOWN):
     raise ValueError('A latex balloon state must not record the air-pump DOWN '
                      "command: BLE's reward would apply its power penalty.")
-  bound = env_params.resource_penalties()
+  bound = env_params.reward_settings()
   if helium_penalty_per_mol is None:
     helium_penalty_per_mol = bound['helium_penalty_per_mol']
   if sand_penalty_per_kg is None:
@@ -64,7 +64,9 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
     station_keeping_radius_km = env_params.episode()[
         'station_keeping_radius_km']
   reward = balloon_env.perciatelli_reward_function(
-      simulator_state, station_keeping_radius_km=station_keeping_radius_km)
+      simulator_state, station_keeping_radius_km=station_keeping_radius_km,
+      reward_dropoff=bound['reward_dropoff'],
+      reward_halflife=bound['reward_halflife_km'])
   return (reward - helium_penalty_per_mol * helium_vented_mols -
           sand_penalty_per_kg * sand_dropped_kg)
 

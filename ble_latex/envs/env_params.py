@@ -3,8 +3,9 @@
 
 - `params_from_gin`: `EnvParams` from the gin bindings (defaults where
   unbound): this module's configurables `latex_reward`, `LatexBalloonArena`
-  and `LatexBalloonEnv`, the flight system's (`flight.params`) and BLE's
-  `perciatelli_reward_function.*`, read without importing BLE.
+  and `LatexBalloonEnv` and the flight system's (`flight.params`); BLE's
+  `perciatelli_reward_function.*` may only repeat them (`check_ble_repeat`),
+  read without importing BLE.
 - `check_params`: checks every value on the host before anything compiles
   (start band, start volume below burst, stride, episode, an ERA5
   `wind_grid` by `check_wind_grid`), naming the gin binding of a bad one.
@@ -39,8 +40,8 @@ from ble_latex.wind import generative
 # `flight.params`), for messages.
 _BINDINGS = {
     'radius_km': 'LatexBalloonEnv.station_keeping_radius_km',
-    'reward_dropoff': 'perciatelli_reward_function.reward_dropoff',
-    'reward_halflife_km': 'perciatelli_reward_function.reward_halflife',
+    'reward_dropoff': 'latex_reward.reward_dropoff',
+    'reward_halflife_km': 'latex_reward.reward_halflife_km',
     'helium_penalty_per_mol': 'latex_reward.helium_penalty_per_mol',
     'sand_penalty_per_kg': 'latex_reward.sand_penalty_per_kg',
     'start_altitude_low_m': 'LatexBalloonArena.start_altitude_range_m',
@@ -146,9 +147,9 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
   flight_params_lib.check_flight_params(p.flight)
   gin_values.check_reward_values(
       {'helium_penalty_per_mol': p.helium_penalty_per_mol,
-       'sand_penalty_per_kg': p.sand_penalty_per_kg},
-      {'reward_dropoff': p.reward_dropoff,
-       'reward_halflife': p.reward_halflife_km})
+       'sand_penalty_per_kg': p.sand_penalty_per_kg,
+       'reward_dropoff': p.reward_dropoff,
+       'reward_halflife_km': p.reward_halflife_km})
   gin_values.check_number(name('radius_km'), p.radius_km, above=0.0)
   band = (p.start_altitude_low_m, p.start_altitude_high_m)
   within = f'in (0, {START_ALTITUDE_MAX_M:g}) m (above the ground, inside '
@@ -271,9 +272,9 @@ def check_wind_grid(grid: Any) -> None:
   _CHECKED_GRIDS[key] = leaves
 
 
-# The gin names of `EnvParams` (besides the flight system's, `flight.params`,
-# and BLE's own `perciatelli_reward_function.*`, read where BLE registers
-# it): the configurables below take the gin names of the classes that once
+# The gin names of `EnvParams` (besides the flight system's, `flight.params`;
+# BLE's own `perciatelli_reward_function.*` may only repeat them): the
+# configurables below take the gin names of the classes that once
 # held them, so existing gin files and commands keep working. Their defaults
 # are `EnvParams`' field defaults, the one home of each.
 # The gin module string of the configurables' first home, kept so that a
@@ -284,13 +285,19 @@ _DEFAULTS = {f.name: f.default for f in dataclasses.fields(env_types.EnvParams)
 
 
 @gin.configurable('latex_reward', module=_GIN_MODULE)
-def resource_penalties(
-    *, helium_penalty_per_mol: float = _DEFAULTS['helium_penalty_per_mol'],
+def reward_settings(
+    *, reward_dropoff: float = _DEFAULTS['reward_dropoff'],
+    reward_halflife_km: float = _DEFAULTS['reward_halflife_km'],
+    helium_penalty_per_mol: float = _DEFAULTS['helium_penalty_per_mol'],
     sand_penalty_per_kg: float = _DEFAULTS['sand_penalty_per_kg']
 ) -> Dict[str, Any]:
-  """The reward's resource penalties (gin `latex_reward.*`).
+  """The reward (gin `latex_reward.*`; Eq. reward_function's constants).
 
   Args:
+    reward_dropoff: Reward just outside the radius (c; BLE's
+      `perciatelli_reward_function.reward_dropoff` may only repeat it). # [.]
+    reward_halflife_km: Half-life of the reward outside the radius (tau;
+      BLE's `reward_halflife` may only repeat it). # [km]
     helium_penalty_per_mol: Reward penalty per mol vented. # [1/mol]
     sand_penalty_per_kg: Reward penalty per kg dropped. # [1/kg]
 
@@ -343,28 +350,46 @@ def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
   return dict(locals())  # The arguments above, by name.
 
 
-def check_one_radius(radius_km: Any, ble_radius_km: Any) -> None:
-  """Refuses BLE's reward radius where it differs from the env's.
+# BLE's `perciatelli_reward_function` parameters that may only repeat the
+# env's: BLE name -> (the env's gin binding, what it is).
+BLE_REPEATS = {
+    'station_keeping_radius_km': ('LatexBalloonEnv.station_keeping_radius_km',
+                                  'the station radius'),
+    'reward_dropoff': ('latex_reward.reward_dropoff', "the reward's dropoff"),
+    'reward_halflife': ('latex_reward.reward_halflife_km',
+                        "the reward's half-life"),
+}
 
-  The station radius has one home, `LatexBalloonEnv.station_keeping_radius_km`
-  (`EnvParams.radius_km`): the core's reward, TW50 and BLE's view all read
-  it. BLE's own `perciatelli_reward_function.station_keeping_radius_km` (read
-  where BLE's balloon_env is imported) may only repeat it.
+
+def check_ble_repeat(name: str, value: Any, ble_value: Any) -> None:
+  """Refuses a BLE `perciatelli_reward_function.NAME` binding that differs.
+
+  The station radius, the reward's dropoff and its half-life each have one
+  home, the env's gin binding (`BLE_REPEATS`): the core's reward, TW50 and
+  BLE's view and reward (`ble_latex.ble.reward`) all read it. BLE's own
+  `perciatelli_reward_function.*` (bound only where BLE's balloon_env is
+  imported) may only repeat it.
 
   Args:
-    radius_km: The env's radius. # [km]
-    ble_radius_km: BLE's reward radius (its default or binding). # [km]
+    name: BLE's parameter name (a key of `BLE_REPEATS`).
+    value: The env's value.
+    ble_value: BLE's bound value.
 
   Raises:
     errors.ConfigError: naming both bindings when they differ.
   """
-  if (gin_values.is_number(radius_km) and gin_values.is_number(ble_radius_km)
-      and float(radius_km) != float(ble_radius_km)):
-    raise errors.ConfigError(
-        'gin binding perciatelli_reward_function.station_keeping_radius_km = '
-        f'{ble_radius_km!r} differs from LatexBalloonEnv.'
-        f'station_keeping_radius_km = {radius_km!r}: the station radius has '
-        'one home, bind LatexBalloonEnv.station_keeping_radius_km')
+  ours, what = BLE_REPEATS[name]
+  if not gin_values.is_number(value) or (
+      gin_values.is_number(ble_value) and float(value) == float(ble_value)):
+    return  # A bad value of the env's own is named by `check_params`.
+  raise errors.ConfigError(
+      f'gin binding perciatelli_reward_function.{name} = {ble_value!r} '
+      f'differs from {ours} = {value!r}: {what} has one home, bind {ours}')
+
+
+def check_one_radius(radius_km: Any, ble_radius_km: Any) -> None:
+  """`check_ble_repeat` of BLE's reward radius (`station_keeping_radius_km`)."""
+  check_ble_repeat('station_keeping_radius_km', radius_km, ble_radius_km)
 
 
 def wind_source() -> str:
@@ -378,11 +403,12 @@ def wind_source() -> str:
 def params_from_gin() -> env_types.EnvParams:
   """`EnvParams` from the gin bindings (the defaults where unbound).
 
-  The configurables above, the flight system's
-  (`flight.params.flight_params_from_gin`) and BLE's
-  `balloon_env.perciatelli_reward_function.*`, read without importing BLE
-  (a configurable whose module is not imported has no bindings,
-  `ble_latex.gin_values`), so the JAX and Gymnasium envs stay free of BLE's
+  The configurables above and the flight system's
+  (`flight.params.flight_params_from_gin`). BLE's
+  `balloon_env.perciatelli_reward_function.*` bindings, read without
+  importing BLE (a configurable whose module is not imported has no
+  bindings, `ble_latex.gin_values`), may only repeat the env's
+  (`check_ble_repeat`), so the JAX and Gymnasium envs stay free of BLE's
   balloon/env modules and TensorFlow.
 
   Raises:
@@ -390,23 +416,20 @@ def params_from_gin() -> env_types.EnvParams:
   """
   values = episode()
   radius_km = values.pop('station_keeping_radius_km')
-  ble = gin_values.imported_bindings(
-      'balloon_learning_environment.env.balloon_env',
-      'perciatelli_reward_function',
-      {'reward_dropoff': _DEFAULTS['reward_dropoff'],
-       'reward_halflife': _DEFAULTS['reward_halflife_km']})
+  reward = reward_settings()
   ble_bound = gin_values.imported_bindings(
       'balloon_learning_environment.env.balloon_env',
       'perciatelli_reward_function', {}, bound_only=True)
-  if 'station_keeping_radius_km' in ble_bound:
-    check_one_radius(radius_km, ble_bound['station_keeping_radius_km'])
+  ours = {'station_keeping_radius_km': radius_km,
+          'reward_dropoff': reward['reward_dropoff'],
+          'reward_halflife': reward['reward_halflife_km']}
+  for name, value in ours.items():
+    if name in ble_bound:
+      check_ble_repeat(name, value, ble_bound[name])
   grid = winds.era5_grid_from_gin(values.pop('wind_field_factory'))
   params = check_params(env_types.EnvParams(
       flight=flight_params_lib.flight_params_from_gin(), decoder=None,
-      radius_km=radius_km,
-      reward_dropoff=ble['reward_dropoff'],
-      reward_halflife_km=ble['reward_halflife'],
-      **resource_penalties(), **start(), **values, wind_grid=grid))
+      radius_km=radius_km, **reward, **start(), **values, wind_grid=grid))
   return params.replace(decoder=generative.decoder_params())
 
 

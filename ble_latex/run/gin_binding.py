@@ -20,7 +20,7 @@ def bind_gin(agent: Optional[str], agent_gin_file: Optional[str],
   """The gin binding of every command: BLE's, plus the env defaults.
 
   Parses, in order: the agent's gin file (BLE's
-  `run_helpers.bind_gin_variables`:
+  `run_helpers.bind_gin_variables`, with the gym env's gin names declared:
   `agent_gin_file`, else the agent's registered default; none when `agent` is
   None, for commands that build no agent), ble_latex's env defaults
   (`configs.ENV_GIN_FILES`, unless `env_defaults` is False:
@@ -49,6 +49,7 @@ def bind_gin(agent: Optional[str], agent_gin_file: Optional[str],
         # pylint: disable=g-import-not-at-top
         from balloon_learning_environment.utils import run_helpers
         from ble_latex import agents
+        import ble_latex.ble.gym_env  # The gym env's gin names, before parsing.
         # pylint: enable=g-import-not-at-top
         agents.register()
         run_helpers.bind_gin_variables(agent, agent_gin_file, gin_bindings,
