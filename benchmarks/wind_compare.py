@@ -115,6 +115,7 @@ def _main(argv: Sequence[str]) -> None:
     import jax
     from ble_latex.wind import stats
     # pylint: enable=g-import-not-at-top
+  version = real_winds.code_version()
   load_before = [round(x, 2) for x in os.getloadavg()]
   date = dt.datetime.now(dt.timezone.utc).isoformat(timespec='minutes')
   began = time.perf_counter()
@@ -153,7 +154,7 @@ def _main(argv: Sequence[str]) -> None:
       'date_utc': date, 'host': platform.node(), 'cpus': os.cpu_count(),
       'loadavg_before': load_before,
       'loadavg_after': [round(x, 2) for x in os.getloadavg()],
-      'wall_s': round(wall, 1),
+      'wall_s': round(wall, 1), **version,
       'settings': {
           'vae_fields': FLAGS.fields, 'vae_points_per_field': FLAGS.points,
           'vae_radius_km': list(stats.RADIUS_KM),
