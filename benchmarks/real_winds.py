@@ -77,6 +77,8 @@ PER_SEED_BINDING = "Era5WindField.stations = 'per_seed'"
 KEPT = ('seed', 'tw50', 'tw50_window', 'window_steps', 'reward', 'steps',
         'helium_vented_mols', 'sand_dropped_kg', 'terminal_reason',
         'final_distance_km')
+# Kept too where the records have them (a per-seed station's place).
+KEPT_IF_THERE = ('station_lat', 'station_lon')
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_list('sources', list(SOURCES), f'Sources flown, of {list(SOURCES)}.',
@@ -208,7 +210,9 @@ def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
   records = eval_lib.evaluate(agent, env, seeds, max_steps,
                               description=f"{cell['source']} {cell['agent']}")
   wall = time.perf_counter() - began
-  return ([{k: r[k] for k in KEPT} for r in records], source, batched, wall)
+  kept = [{**{k: r[k] for k in KEPT},
+           **{k: r[k] for k in KEPT_IF_THERE if k in r}} for r in records]
+  return kept, source, batched, wall
 
 
 def _main(argv: Sequence[str]) -> None:
