@@ -56,7 +56,7 @@ clean:
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.cli.eval --suite=latex_small --output_dir=$(RESULTS)
 
-.PHONY: baselines baselines-realistic long-flights physics-results planners planners-wide results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac
+.PHONY: baselines baselines-realistic long-flights physics-results realistic-sensitivity planners planners-wide results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac
 baselines: venv
 	$(EVAL) --agent=latex_random
 	$(EVAL) --agent=latex_station_seeker
@@ -69,6 +69,13 @@ baselines: venv
 # with --gin_file=gin_configs/latex_realistic.gin (docs/physics.md).
 REALISTIC_GIN := --gin_file=gin_configs/latex_realistic.gin
 RESULTS_REALISTIC ?= benchmarks/results_realistic
+RESULTS_STRESS ?= benchmarks/results_realistic_stress
+# The paper-trained policy flown on realistic physics (sac_pretrained alone
+# loads the policy trained on realistic physics before issue 44's calibration).
+PAPER_POLICY := --gin_bindings='SACPretrainedAgent.policy_path="ble_latex/agents/policies/sac_latex.msgpack"' \
+	--name_override=sac_pretrained_paper_policy
+# Issue 44's stress setting of the lift disturbance (flight.params.LIFT_WALK_STRESS).
+STRESS := --gin_bindings='LatexBalloon.lift_walk_kg_per_sqrt_s = 1.4e-3'
 LONG := --max_episode_length=504 --gin_bindings=LatexBalloonEnv.episode_steps=504
 baselines-realistic: venv
 	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=latex_random
@@ -76,21 +83,31 @@ baselines-realistic: venv
 	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=station_seeker \
 		--env_name=LatexBalloonDiscrete-v0 --name_override=ble_station_seeker_discrete
 	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=sac_pretrained
-	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=sac_pretrained \
-		--gin_bindings='SACPretrainedAgent.policy_path="ble_latex/agents/policies/sac_latex.msgpack"' \
-		--name_override=sac_pretrained_paper_policy
+	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=sac_pretrained $(PAPER_POLICY)
+	$(EVAL) --output_dir=$(RESULTS_STRESS) $(REALISTIC_GIN) $(STRESS) --agent=latex_station_seeker
+	$(EVAL) --output_dir=$(RESULTS_STRESS) $(REALISTIC_GIN) $(STRESS) --agent=sac_pretrained $(PAPER_POLICY)
 
 long-flights: venv
 	$(EVAL) --output_dir=benchmarks/results_7day $(LONG) --agent=latex_station_seeker
 	$(EVAL) --output_dir=benchmarks/results_7day $(LONG) --agent=sac_pretrained
 	$(EVAL) --output_dir=benchmarks/results_7day_realistic $(LONG) $(REALISTIC_GIN) --agent=latex_station_seeker
 	$(EVAL) --output_dir=benchmarks/results_7day_realistic $(LONG) $(REALISTIC_GIN) --agent=sac_pretrained
+	$(EVAL) --output_dir=benchmarks/results_7day_realistic $(LONG) $(REALISTIC_GIN) --agent=sac_pretrained $(PAPER_POLICY)
 
 physics-results: venv
 	$(PY) benchmarks/physics_results.py --json=benchmarks/physics_results.json \
 		--paper=$(RESULTS)/latex_small --realistic=$(RESULTS_REALISTIC)/latex_small \
+		--realistic_stress=$(RESULTS_STRESS)/latex_small \
 		--paper_long=benchmarks/results_7day/latex_small \
 		--realistic_long=benchmarks/results_7day_realistic/latex_small | tee benchmarks/physics_results.md
+
+# Issue 44: days aloft and TW50 against the lift disturbance and the diurnal
+# swing (docs/physics.md), 7-day flights of 32 latex_small seeds per cell.
+realistic-sensitivity: venv
+	$(PY) benchmarks/realistic_sensitivity.py \
+		--agents=latex_station_seeker,sac_pretrained \
+		--json=benchmarks/realistic_sensitivity.json \
+		--png=docs/assets/realistic_sensitivity.png
 
 # Issue 29: the planners on the same 100 seeds, balloons batched (resumable;
 # docs/planners.md). Their records join the table.

@@ -1,11 +1,21 @@
-"""Paper physics vs realistic latex physics, side by side (issue 28).
+"""Paper physics vs realistic latex physics, side by side (issues 28, 44).
 
-  make baselines results-realistic long-flights   # the evals (Makefile)
+  make baselines baselines-realistic long-flights   # the evals (Makefile)
   python benchmarks/physics_results.py --json=benchmarks/physics_results.json \
       --paper=benchmarks/results/latex_small \
       --realistic=benchmarks/results_realistic/latex_small \
+      --realistic_stress=benchmarks/results_realistic_stress/latex_small \
       --paper_long=benchmarks/results_7day/latex_small \
       --realistic_long=benchmarks/results_7day_realistic/latex_small
+
+The record (`--json`) keeps one section per folder flag (`paper`,
+`realistic`, `realistic_stress`, `paper_long`, `realistic_long`); a rerun
+replaces only the sections whose folders it is given and keeps the others
+(so the paper's rows need not be flown again to re-measure the realistic
+ones). `realistic_uncalibrated` and `realistic_long_uncalibrated` hold the
+rows flown before issue 44's calibration (lift walk 1.4 g/sqrt(s), +5/-2 K,
+150 Pa), kept for the record; README's and docs/physics.md's tables are
+generated from this record (`docs/hooks/tables.py`).
 
 Reads `ble-latex-eval` JSON files (one per agent, the file name is the
 agent's) and prints two Markdown tables:
@@ -46,10 +56,17 @@ flags.DEFINE_string('paper_long', None, '7-day evals, paper physics.',
                     flag_values=FLAGS)
 flags.DEFINE_string('realistic_long', None, '7-day evals, realistic physics.',
                     flag_values=FLAGS)
+flags.DEFINE_string('realistic_stress', None,
+                    '3-day evals, realistic physics at the 1.4 g/sqrt(s) '
+                    'stress setting of the lift disturbance.',
+                    flag_values=FLAGS)
 flags.DEFINE_string('json', None, 'Also write the rows here.',
                     flag_values=FLAGS)
 
 SECONDS_PER_DAY = 86_400.0  # [s]
+# The record's sections a folder flag fills (the flag's name).
+SECTIONS = ('paper', 'realistic', 'realistic_stress', 'paper_long',
+            'realistic_long')
 _SEED_FILE = re.compile(r'^(?P<prefix>.+)_seed_(?P<seed>\d+)$')
 
 
@@ -170,16 +187,29 @@ def _main(argv: Sequence[str]) -> int:
   if len(argv) != 1:
     raise cli.CommandUsageError('takes flags only')
   args = FLAGS
-  tables = {'paper': _rows(args.paper), 'realistic': _rows(args.realistic),
-            'paper_long': _rows(args.paper_long),
-            'realistic_long': _rows(args.realistic_long)}
-  if not any(tables.values()):
+  given = {name: getattr(args, name) for name in SECTIONS
+           if getattr(args, name) is not None}
+  fresh = {name: _rows(folder) for name, folder in given.items()}
+  for name in [n for n, rows in fresh.items() if not rows]:
+    print(f'{name}: no eval files in {given[name]}; the record\'s rows kept',
+          file=sys.stderr)
+    del fresh[name]
+  if not fresh:
     raise cli.CommandUsageError('no eval files in the folders given')
+  tables = {}
+  if args.json and os.path.exists(args.json):
+    with open(args.json, encoding='utf-8') as f:
+      tables = json.load(f)
+  tables.update(fresh)
+  get = lambda name: tables.get(name, {})  # pylint: disable=unnecessary-lambda-assignment
   print('3-day suite (latex_small):\n')
-  print(side_by_side(tables['paper'], tables['realistic']))
-  if tables['paper_long'] or tables['realistic_long']:
+  print(side_by_side(get('paper'), get('realistic')))
+  if get('realistic_stress'):
+    print('\nStress setting (lift walk 1.4 g/sqrt(s)), 3-day suite:\n')
+    print(side_by_side({}, get('realistic_stress')))
+  if get('paper_long') or get('realistic_long'):
     print('\n7-day flights (504 strides, latex_small seeds):\n')
-    print(long_flights(tables['paper_long'], tables['realistic_long']))
+    print(long_flights(get('paper_long'), get('realistic_long')))
   if args.json:
     safe_io.atomic_write(args.json, json.dumps(tables, indent=1) + '\n')
   return 0

@@ -16,6 +16,8 @@ build time). Standard library only: the records are JSON.
 Records read (all committed):
   * `benchmarks/results.json`: the eval rows `benchmarks/results_table.py`
     writes (`make results`), one per agent, mean and std over the suite.
+  * `benchmarks/physics_results.json`: paper vs realistic physics
+    (`benchmarks/physics_results.py`, issue 44), summaries per agent.
   * `benchmarks/planners/**/SUITE/NAME.json`: the per-seed records of
     `benchmarks/planners.py`, and `.../timing/NAME.json` its timing summary.
   * `benchmarks/real_winds.json`: agents on the real wind sources
@@ -38,6 +40,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 RESULTS = ROOT / 'benchmarks' / 'results.json'
 PLANNERS = ROOT / 'benchmarks' / 'planners'
 REAL_WINDS = ROOT / 'benchmarks' / 'real_winds.json'
+PHYSICS = ROOT / 'benchmarks' / 'physics_results.json'
 WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
@@ -295,7 +298,140 @@ def wind_compare() -> str:
   return '\n'.join(lines)
 
 
+# Realistic physics (issue 44; `benchmarks/physics_results.py`'s record):
+# (label, record name in the paper sections, in the realistic sections).
+PHYSICS_ROWS = (
+    ('`sac_pretrained`, the paper-trained policy', 'sac_pretrained',
+     'sac_pretrained_paper_policy'),
+    ('`sac_pretrained`, the realistic policy (trained before the '
+     'calibration)', None, 'sac_pretrained'),
+    ('BLE `station_seeker` (discrete)', 'ble_station_seeker_discrete',
+     'ble_station_seeker_discrete'),
+    ('`latex_station_seeker`', 'latex_station_seeker', 'latex_station_seeker'),
+    ('`latex_random`', 'latex_random', 'latex_random'),
+)
+# Rows flown before the calibration (lift walk 1.4 g/sqrt(s), +5/-2 K,
+# 150 Pa) that were not flown again: (label, record name).
+UNCALIBRATED_ROWS = (
+    ('SAC retrained on that physics, 3 seeds (mean ± std over seeds)',
+     'sac_jax_realistic (3 seeds)'),
+    ('`latex_mpc` (previous defaults)', 'latex_mpc'),
+    ('`latex_mpc_grad`', 'latex_mpc_grad'),
+    ('`latex_mpc_oracle`, first 25 seeds', 'latex_mpc_oracle'),
+)
+
+
+def _physics() -> dict:
+  record = _load(PHYSICS)
+  for section in ('paper', 'realistic', 'paper_long', 'realistic_long'):
+    if not record.get(section):
+      raise ValueError(f'{PHYSICS}: no {section!r} rows')
+  return record
+
+
+def _tw(row, oor: bool = True, std: bool = False) -> str:
+  if row is None:
+    return '—'
+  text = f'{100 * row["tw50_window_mean"]:.1f} %'
+  if std:
+    seeds = ' (seeds)' if 'num_seeds' in row else ''
+    text += f' ± {100 * row["tw50_window_std"]:.1f}{seeds}'
+  if oor:
+    text += f' ({row["out_of_resources_pct"]:.0f} % out of resources)'
+  return text
+
+
+def _days(row) -> str:
+  return '—' if row is None else f'{row["days_aloft_mean"]:.2f}'
+
+
+def realistic_short() -> str:
+  """README's realistic table: both physics, 3-day TW50 and 7-day days."""
+  r = _physics()
+  stress = r.get('realistic_stress', {})
+  lines = ['| agent | TW50 window, paper | TW50 window, realistic | '
+           'realistic at the 1.4 g/√s stress setting | days aloft in 7-day '
+           'flights, paper / realistic |', '|---|---|---|---|---|']
+  for label, paper, realistic in PHYSICS_ROWS:
+    row = r['realistic'].get(realistic)
+    if row is None:
+      continue
+    p = r['paper'].get(paper) if paper else None
+    lines.append(
+        f'| {label} | {_tw(p)} | {_tw(row)} | '
+        f'{_tw(stress.get(realistic), oor=False)} | '
+        f'{_days(r["paper_long"].get(paper) if paper else None)} / '
+        f'{_days(r["realistic_long"].get(realistic))} |')
+  return '\n'.join(lines)
+
+
+def _cost(row) -> str:
+  if row is None:
+    return '—'
+  return (f'{row["out_of_resources_pct"]:.0f} % / '
+          f'{row["helium_vented_mols_mean"]:.1f} mol / '
+          f'{row["sand_dropped_kg_mean"]:.2f} kg')
+
+
+def realistic_full() -> str:
+  """docs/physics.md's 3-day table: spreads and resources, stress too."""
+  r = _physics()
+  stress = r.get('realistic_stress', {})
+  lines = ['| agent | TW50 window, paper | TW50 window, realistic | '
+           'realistic, stress 1.4 g/√s | out of resources / helium / sand, '
+           'paper | same, realistic | same, stress |',
+           '|---|---|---|---|---|---|---|']
+  for label, paper, realistic in PHYSICS_ROWS:
+    row = r['realistic'].get(realistic)
+    if row is None:
+      continue
+    p = r['paper'].get(paper) if paper else None
+    s = stress.get(realistic)
+    lines.append(f'| {label} | {_tw(p, False, True)} | '
+                 f'{_tw(row, False, True)} | {_tw(s, False, True)} | '
+                 f'{_cost(p)} | {_cost(row)} | {_cost(s)} |')
+  return '\n'.join(lines)
+
+
+def realistic_long() -> str:
+  """docs/physics.md's 7-day table (504 strides) in both physics."""
+  r = _physics()
+  lines = ['| agent | physics | days aloft (mean ± std) | aloft all 7 days | '
+           'TW50 over 7 days | out of resources | episodes |',
+           '|---|---|---|---|---|---|---|']
+  for section, physics, column in (('paper_long', 'paper', 1),
+                                   ('realistic_long', 'realistic', 2)):
+    for row_def in PHYSICS_ROWS:
+      row = r[section].get(row_def[column])
+      if row is None:
+        continue
+      lines.append(
+          f'| {row_def[0]} | {physics} | {row["days_aloft_mean"]:.2f} ± '
+          f'{row["days_aloft_std"]:.2f} | {row["full_window_pct"]:.0f} % | '
+          f'{_tw(row, False, True)} | {row["out_of_resources_pct"]:.0f} % | '
+          f'{row["episodes"]} |')
+  return '\n'.join(lines)
+
+
+def realistic_uncalibrated() -> str:
+  """docs/physics.md: the rows flown only before the calibration."""
+  r = _physics()
+  old = r.get('realistic_uncalibrated', {})
+  lines = ['| agent (physics before the calibration) | TW50 window | out of '
+           'resources / helium / sand | episodes |', '|---|---|---|---|']
+  for label, name in UNCALIBRATED_ROWS:
+    row = old.get(name)
+    if row is not None:
+      lines.append(f'| {label} | {_tw(row, False, True)} | {_cost(row)} | '
+                   f'{row["episodes"]} |')
+  return '\n'.join(lines)
+
+
 TABLES: Dict[str, Callable[[], str]] = {
+    'realistic-short': realistic_short,
+    'realistic-full': realistic_full,
+    'realistic-long': realistic_long,
+    'realistic-uncalibrated': realistic_uncalibrated,
     'agents-short': agents_short,
     'agents-full': agents_full,
     'planners-short': planners_short,
