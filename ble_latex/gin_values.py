@@ -201,8 +201,8 @@ def check_reward_values(latex: Mapping[str, Any]) -> None:
 
   Args:
     latex: Values by `latex_reward` parameter: the penalties (finite,
-      >= 0), `reward_dropoff` (in [0, 1]) and `reward_halflife_km` (> 0),
-      each where present.
+      >= 0), `reward_dropoff` (in [0, 1]), `reward_halflife_km` (> 0) and
+      `reward_tanh_scale_km` (>= 0), each where present.
 
   Raises:
     ValueError: Naming the first gin binding that breaks the contract.
@@ -215,6 +215,10 @@ def check_reward_values(latex: Mapping[str, Any]) -> None:
     value = latex['reward_halflife_km']
     _require(is_number(value) and value > 0, prefix + 'reward_halflife_km',
              'a finite number > 0', value)
+  if 'reward_tanh_scale_km' in latex:
+    value = latex['reward_tanh_scale_km']
+    _require(is_number(value) and value >= 0, prefix + 'reward_tanh_scale_km',
+             'a finite number >= 0 (0: off)', value)
   if 'reward_dropoff' in latex:
     value = latex['reward_dropoff']
     _require(is_number(value) and 0 <= value <= 1, prefix + 'reward_dropoff',

@@ -13,9 +13,12 @@ the env's, handed to BLE's function explicitly: the one station radius
 (`env_params.check_ble_repeat`).
 
 This module adds only the optional resource penalty (default off, as in the
-paper; gin `latex_reward.*`, the core's `env_params.reward_settings`).
+paper; gin `latex_reward.*`, the core's `env_params.reward_settings`) and,
+with `latex_reward.reward_tanh_scale_km` > 0, the follow-up paper's tanh
+shape inside the circle (`jax_features.tanh_inside`, as the core's reward).
 """
 
+import math
 from typing import Optional
 
 from balloon_learning_environment.env import balloon_env
@@ -24,6 +27,7 @@ from balloon_learning_environment.env.balloon import control
 
 from ble_latex import gin_values
 from ble_latex.envs import env_params
+from ble_latex.envs import jax_features
 
 
 def latex_reward(simulator_state: simulator_data.SimulatorState,
@@ -67,6 +71,13 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
       simulator_state, station_keeping_radius_km=station_keeping_radius_km,
       reward_dropoff=bound['reward_dropoff'],
       reward_halflife=bound['reward_halflife_km'])
+  scale = bound['reward_tanh_scale_km']
+  distance_km = math.hypot(simulator_state.balloon_state.x.km,
+                           simulator_state.balloon_state.y.km)
+  if scale > 0 and distance_km <= station_keeping_radius_km:
+    reward = float(jax_features.tanh_inside(  # The follow-up's tanh shape.
+        distance_km, station_keeping_radius_km, bound['reward_dropoff'],
+        scale))
   return (reward - helium_penalty_per_mol * helium_vented_mols -
           sand_penalty_per_kg * sand_dropped_kg)
 

@@ -42,6 +42,7 @@ _BINDINGS = {
     'radius_km': 'LatexBalloonEnv.station_keeping_radius_km',
     'reward_dropoff': 'latex_reward.reward_dropoff',
     'reward_halflife_km': 'latex_reward.reward_halflife_km',
+    'reward_tanh_scale_km': 'latex_reward.reward_tanh_scale_km',
     'helium_penalty_per_mol': 'latex_reward.helium_penalty_per_mol',
     'sand_penalty_per_kg': 'latex_reward.sand_penalty_per_kg',
     'start_altitude_low_m': 'LatexBalloonArena.start_altitude_range_m',
@@ -149,7 +150,8 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
       {'helium_penalty_per_mol': p.helium_penalty_per_mol,
        'sand_penalty_per_kg': p.sand_penalty_per_kg,
        'reward_dropoff': p.reward_dropoff,
-       'reward_halflife_km': p.reward_halflife_km})
+       'reward_halflife_km': p.reward_halflife_km,
+       'reward_tanh_scale_km': p.reward_tanh_scale_km})
   gin_values.check_number(name('radius_km'), p.radius_km, above=0.0)
   band = (p.start_altitude_low_m, p.start_altitude_high_m)
   within = f'in (0, {START_ALTITUDE_MAX_M:g}) m (above the ground, inside '
@@ -185,6 +187,7 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
   if p.wind_grid is not None:
     check_wind_grid(p.wind_grid)
   floats = ('radius_km', 'reward_dropoff', 'reward_halflife_km',
+            'reward_tanh_scale_km',
             'helium_penalty_per_mol', 'sand_penalty_per_kg',
             'start_altitude_low_m', 'start_altitude_high_m',
             'max_start_distance_km')
@@ -288,6 +291,7 @@ _DEFAULTS = {f.name: f.default for f in dataclasses.fields(env_types.EnvParams)
 def reward_settings(
     *, reward_dropoff: float = _DEFAULTS['reward_dropoff'],
     reward_halflife_km: float = _DEFAULTS['reward_halflife_km'],
+    reward_tanh_scale_km: float = _DEFAULTS['reward_tanh_scale_km'],
     helium_penalty_per_mol: float = _DEFAULTS['helium_penalty_per_mol'],
     sand_penalty_per_kg: float = _DEFAULTS['sand_penalty_per_kg']
 ) -> Dict[str, Any]:
@@ -298,6 +302,10 @@ def reward_settings(
       `perciatelli_reward_function.reward_dropoff` may only repeat it). # [.]
     reward_halflife_km: Half-life of the reward outside the radius (tau;
       BLE's `reward_halflife` may only repeat it). # [km]
+    reward_tanh_scale_km: 0 (default): the paper's flat reward 1 inside the
+      circle; w > 0: the follow-up paper's tanh shape inside it, from 1 at
+      the station to the drop-off at the edge
+      (`jax_features.tanh_inside`). # [km]
     helium_penalty_per_mol: Reward penalty per mol vented. # [1/mol]
     sand_penalty_per_kg: Reward penalty per kg dropped. # [1/kg]
 

@@ -48,6 +48,9 @@ class EnvParams:
       circle; gin `LatexBalloonEnv.station_keeping_radius_km`. # [km]
     reward_dropoff: Reward just outside the radius. # [.]
     reward_halflife_km: Half-life of the reward outside the radius. # [km]
+    reward_tanh_scale_km: 0: the paper's flat reward inside the radius; w >
+      0: the follow-up paper's tanh shape there (`jax_features.tanh_inside`,
+      gin `latex_reward.reward_tanh_scale_km`). # [km]
     helium_penalty_per_mol: Reward penalty per mol vented. # [1/mol]
     sand_penalty_per_kg: Reward penalty per kg dropped. # [1/kg]
     start_altitude_low_m: Start altitude band, low edge. # [m]
@@ -70,6 +73,7 @@ class EnvParams:
   radius_km: float = task.STATION_RADIUS_KM
   reward_dropoff: float = 0.4
   reward_halflife_km: float = 100.0
+  reward_tanh_scale_km: float = 0.0
   helium_penalty_per_mol: float = 0.0
   sand_penalty_per_kg: float = 0.0
   start_altitude_low_m: float = 15_000.0

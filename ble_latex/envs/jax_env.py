@@ -63,7 +63,7 @@ everything runs in JAX's default float32 (see docs/jax-env.md).
 
 import datetime as dt
 import functools
-from typing import Any, Dict, Mapping, Tuple
+from typing import Any, Dict, Mapping, Optional, Tuple
 
 import jax
 import jax.numpy as jnp
@@ -238,6 +238,58 @@ def info_dict(info: Mapping[str, Any]) -> Dict[str, Any]:
 def arena_key(key: Array) -> Array:
   """The arena's key of the env key (BLE's `BalloonEnv.reset` split)."""
   return jax.random.split(key)[1]
+
+
+def place(world: env_types.EnvState, params: env_types.EnvParams, *,
+          x_m: Any, y_m: Any, altitude_m: Any, time_s: Any = 0.0,
+          burst_key: Optional[Array] = None,
+          wind: Optional[winds.Wind] = None) -> env_types.EnvState:
+  """A new balloon placed in a drawn world (its position, altitude and time).
+
+  The balloon of `flight.state.initial_state` (the params' sand; their
+  helium, or neutral buoyancy) at (x, y, altitude), its flight clock at
+  `time_s` (the winds, BLE's noise and the sun read the flight time),
+  refilled neutral in the gas of the bound physics
+  (`flight.launch.neutral_launch`, issue 44) when the helium follows the sun
+  or the latex holds overpressure; its resource references and feature
+  history start there, `steps` 0. `draw` places its Beta-distributed start
+  with it; the launch planner (`launch.scoring.launch_state`) places each
+  candidate launch.
+
+  Args:
+    world: A drawn world (`draw`'s state; its atmosphere, forecast, noise,
+      start time and station are kept, its balloon replaced).
+    params: The env parameters.
+    x_m: Offset east of the station. # [m]
+    y_m: Offset north of the station. # [m]
+    altitude_m: Start altitude. # [m]
+    time_s: The flight clock at the start (a launch delay). # [s]
+    burst_key: The burst diameter's key (used only when
+      `params.flight.burst_spread`).
+    wind: Measure the balloon's wind with it (`measure`); None: left zero
+      (`draw`: the host envs measure through their own winds).
+
+  Returns:
+    The env state.
+  """
+  flight = state_lib.initial_state(
+      params.flight, altitude_m, x_m, y_m, atm_params=world.atmosphere,
+      time_s=time_s,
+      key=burst_key if params.flight.burst_spread else None)
+  zero = jnp.zeros_like(flight.altitude_m)
+  state = world.replace(flight=flight, wind_u=zero, wind_v=zero,
+                        steps=jnp.zeros((), jnp.int32),
+                        pending_world=jnp.full((), -1, jnp.int32))
+  if params.flight.gas_superheat or params.flight.latex_overpressure:
+    flight = launch_lib.neutral_launch(
+        env_types.flight_params_of(params, state), world.atmosphere, flight)
+  state = state.replace(
+      flight=flight,
+      initial=jax_features.initial_resources(
+          params.flight.payload_kg, flight.sand_kg, flight.helium_mols),
+      history=jax_features.init_history(flight.altitude_m,
+                                        flight.ascent_rate_mps))
+  return state if wind is None else measure(state, wind)
 
 
 def station_of(key: Array, grid: Any) -> Array:
@@ -445,31 +497,19 @@ class LatexBalloonJaxEnv:
       if params.wind_grid.station_box is not None:  # Per-seed stations.
         station = station_of(key, params.wind_grid)
 
-    # Realistic physics' burst draw: a key of its own (folded in, so the
-    # paper's draws above are unchanged); unused unless burst_spread.
-    flight = state_lib.initial_state(
-        params.flight, altitude, jnp.cos(theta) * radius_km * 1000.0,
-        jnp.sin(theta) * radius_km * 1000.0, atm_params=atmosphere,
-        key=(jax.random.fold_in(key, _BURST_KEY_DATA)
-             if params.flight.burst_spread else None))
-    state = env_types.EnvState(
-        flight=flight, atmosphere=atmosphere, forecast=forecast,
-        noise_u=noise_u, noise_v=noise_v,
-        initial=jax_features.initial_resources(
-            params.flight.payload_kg, flight.sand_kg, flight.helium_mols),
-        history=jax_features.init_history(flight.altitude_m,
-                                          flight.ascent_rate_mps),
-        wind_u=jnp.zeros_like(altitude), wind_v=jnp.zeros_like(altitude),
-        start_time_offset_s=start_time.astype(jnp.int32),
-        steps=jnp.zeros((), jnp.int32),
-        pending_world=jnp.full((), -1, jnp.int32), station=station)
-    if params.flight.gas_superheat or params.flight.latex_overpressure:
-      # Launch neutral in the gas of the bound physics (issue 44).
-      flight = launch_lib.neutral_launch(
-          env_types.flight_params_of(params, state), atmosphere, state.flight)
-      state = state.replace(flight=flight, initial=(
-          jax_features.initial_resources(params.flight.payload_kg,
-                                         flight.sand_kg, flight.helium_mols)))
+    # The world; its balloon is `place`d in it. Realistic physics' burst
+    # draw: a key of its own (folded in, so the paper's draws above are
+    # unchanged); unused unless burst_spread.
+    world = env_types.EnvState(
+        flight=None, atmosphere=atmosphere, forecast=forecast,
+        noise_u=noise_u, noise_v=noise_v, initial=None, history=None,
+        wind_u=None, wind_v=None,
+        start_time_offset_s=start_time.astype(jnp.int32), steps=None,
+        pending_world=None, station=station)
+    state = place(world, params, x_m=jnp.cos(theta) * radius_km * 1000.0,
+                  y_m=jnp.sin(theta) * radius_km * 1000.0,
+                  altitude_m=altitude,
+                  burst_key=jax.random.fold_in(key, _BURST_KEY_DATA))
     return state, {'wind': wind_key, 'location': location_key,
                    'atmosphere': atmosphere_key}
 
@@ -531,7 +571,8 @@ class LatexBalloonJaxEnv:
         params.reward_halflife_km,
         flight.helium_vented_mols - before.helium_vented_mols,
         flight.sand_dropped_kg - before.sand_dropped_kg,
-        params.helium_penalty_per_mol, params.sand_penalty_per_kg)
+        params.helium_penalty_per_mol, params.sand_penalty_per_kg,
+        params.reward_tanh_scale_km)
     terminated = flight.status != state_lib.FlightStatus.OK
     return (observation(state, params, wind), state, reward, terminated,
             info)

@@ -304,6 +304,43 @@ def distance_km(x_m: Any, y_m: Any) -> jnp.ndarray:
   return jnp.hypot(jnp.asarray(x_m, dtype), jnp.asarray(y_m, dtype)) / 1000.0
 
 
+def tanh_inside(distance_km: Any, radius_km: Any, dropoff: Any,
+                tanh_scale_km: Any) -> jnp.ndarray:
+  """The tanh-shaped reward inside the circle (off where the scale is 0).
+
+  Saunders et al. 2024 (arXiv 2403.10784) replace the flat reward inside the
+  station circle, which SAC learns to exploit by skirting the circle's edge,
+  with a tanh of the distance that pulls the balloon towards the centre.
+  Their exact constants were not available to us; this form keeps the
+  paper's (2023) Perciatelli reward outside the circle and makes the inside
+  fall from 1 at the station to the drop-off c at the edge, continuous
+  there, with the tanh's knee at scale w:
+
+    r(d) = 1 - (1 - c) tanh(d / w) / tanh(rho / w),  d <= rho, w > 0
+
+  (w -> infinity: a straight line from 1 to c; small w: c except near the
+  station). w = 0 gives 1 (the flat, paper reward).
+
+  Args:
+    distance_km: Distance of the balloon from the station. # [km]
+    radius_km: Station-keeping radius rho. # [km]
+    dropoff: Reward just outside the radius c. # [.]
+    tanh_scale_km: w; 0 = off (the flat reward 1). # [km]
+
+  Returns:
+    The reward inside the circle (meaningful where d <= rho).
+  """
+  dtype = simplex.float_dtype(distance_km, radius_km, dropoff, tanh_scale_km)
+  distance_km, radius_km, dropoff, scale = (
+      jnp.asarray(a, dtype) for a in (distance_km, radius_km, dropoff,
+                                      tanh_scale_km))
+  on = scale > 0.0
+  safe = jnp.where(on, scale, 1.0)  # No NaN (nor NaN gradient) when off.
+  shaped = 1.0 - (1.0 - dropoff) * (jnp.tanh(distance_km / safe) /
+                                    jnp.tanh(radius_km / safe))
+  return jnp.where(on, shaped, jnp.ones_like(shaped))
+
+
 def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
            radius_km: Any = task.STATION_RADIUS_KM,
            dropoff: Any = 0.4,
@@ -311,14 +348,17 @@ def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
            vented: Any = 0.0,
            dropped: Any = 0.0,
            helium_penalty: Any = 0.0,
-           sand_penalty: Any = 0.0) -> jnp.ndarray:
+           sand_penalty: Any = 0.0,
+           tanh_scale_km: Any = 0.0) -> jnp.ndarray:
   """BLE's Perciatelli reward - penalties (`ble_latex.ble.reward.latex_reward`).
 
   BLE's `perciatelli_reward_function` for a latex balloon (its power term
   never applies: no air pump): 1 within the radius, else dropoff *
   exp(-0.69314718056 / halflife * (d - radius)) (BLE's literal for ln 2),
-  minus helium_penalty * vented and sand_penalty * dropped. The defaults are
-  BLE's and `latex_reward`'s defaults. Inputs broadcast; no gin.
+  minus helium_penalty * vented and sand_penalty * dropped. With
+  `tanh_scale_km` > 0 the inside is `tanh_inside` (the follow-up paper's
+  tanh shape) instead of 1. The defaults are BLE's and `latex_reward`'s
+  defaults. Inputs broadcast; no gin.
 
   Args:
     distance_km: Distance of the balloon from the target (`distance_km`).
@@ -332,12 +372,14 @@ def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
     dropped: Sand dropped during the step. # [kg]
     helium_penalty: Penalty per mol of helium vented. # [1/mol]
     sand_penalty: Penalty per kg of sand dropped. # [1/kg]
+    tanh_scale_km: The inside's tanh scale w; 0: flat (the paper's). # [km]
 
   Returns:
     The step reward, in (-inf, 1].
   """
   dtype = simplex.float_dtype(distance_km, radius_km, dropoff, halflife_km,
-                              vented, dropped, helium_penalty, sand_penalty)
+                              vented, dropped, helium_penalty, sand_penalty,
+                              tanh_scale_km)
   (distance_km, radius_km, dropoff, halflife_km, vented, dropped,
    helium_penalty, sand_penalty) = (
        jnp.asarray(a, dtype) for a in (
@@ -345,7 +387,8 @@ def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
            helium_penalty, sand_penalty))
   outside = dropoff * jnp.exp(-_LN2_BLE / halflife_km *
                               (distance_km - radius_km))
-  base = jnp.where(distance_km <= radius_km, 1.0, outside)
+  inside = tanh_inside(distance_km, radius_km, dropoff, tanh_scale_km)
+  base = jnp.where(distance_km <= radius_km, inside, outside)
   return base - helium_penalty * vented - sand_penalty * dropped
 
 

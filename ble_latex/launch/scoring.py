@@ -37,8 +37,6 @@ from ble_latex import jax_cache
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
-from ble_latex.envs import jax_features
-from ble_latex.flight import launch as launch_lib
 from ble_latex.flight import state as state_lib
 from ble_latex.launch import controllers as controllers_lib
 from ble_latex.wind import era5
@@ -327,10 +325,10 @@ def launch_state(params: env_types.EnvParams, world: env_types.EnvState,
                  hours: Array, altitude_m: Array) -> env_types.EnvState:
   """One launch's env state in a world: `jax_env`'s draw, placed there.
 
-  The balloon of `state.initial_state` (neutral, the params' sand) at the
-  launch's offset and altitude, its flight clock at the delay (the winds,
-  BLE's noise and the sun read the flight time), refilled neutral under
-  realistic physics as the env's draw does; measured.
+  `jax_env.place` (the env's own placement, as its `draw` places a start):
+  the balloon at the launch's offset and altitude, its flight clock at the
+  delay, in this draw's noise; measured. The burst draw's key (realistic
+  physics) comes from the world's start time.
 
   Args:
     params: The env params.
@@ -346,26 +344,16 @@ def launch_state(params: env_types.EnvParams, world: env_types.EnvState,
     The env state, measured (its wind at the balloon set).
   """
   dtype = world.flight.x_m.dtype
-  key = (jax.random.fold_in(jax.random.PRNGKey(0),
-                            world.start_time_offset_s)
-         if params.flight.burst_spread else None)
-  flight = state_lib.initial_state(
-      params.flight, jnp.asarray(altitude_m, dtype),
-      jnp.asarray(east_km, dtype) * 1000.0,
-      jnp.asarray(north_km, dtype) * 1000.0, atm_params=world.atmosphere,
-      time_s=jnp.asarray(hours, dtype) * 3600.0, key=key)
-  state = world.replace(flight=flight, noise_u=noise_u, noise_v=noise_v)
-  if params.flight.gas_superheat or params.flight.latex_overpressure:
-    flight = launch_lib.neutral_launch(
-        env_types.flight_params_of(params, state), world.atmosphere, flight)
-  state = state.replace(
-      flight=flight,
-      initial=jax_features.initial_resources(
-          params.flight.payload_kg, flight.sand_kg, flight.helium_mols),
-      history=jax_features.init_history(flight.altitude_m,
-                                        flight.ascent_rate_mps))
-  return jax_env.measure(state, jax_env.LatexBalloonJaxEnv(
-      normalize_actions=False).wind_for(params))
+  return jax_env.place(
+      world.replace(noise_u=noise_u, noise_v=noise_v), params,
+      x_m=jnp.asarray(east_km, dtype) * 1000.0,
+      y_m=jnp.asarray(north_km, dtype) * 1000.0,
+      altitude_m=jnp.asarray(altitude_m, dtype),
+      time_s=jnp.asarray(hours, dtype) * 3600.0,
+      burst_key=jax.random.fold_in(jax.random.PRNGKey(0),
+                                   world.start_time_offset_s),
+      wind=jax_env.LatexBalloonJaxEnv(normalize_actions=False).wind_for(
+          params))
 
 
 def _fly_one(env: jax_env.LatexBalloonJaxEnv,
