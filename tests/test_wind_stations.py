@@ -386,3 +386,10 @@ def test_eval_records_carry_each_flights_station(tmp_path, capsys):
     assert record['station_lat'] == pytest.approx(lat, abs=1e-5)
     assert record['station_lon'] == pytest.approx(lon, abs=1e-5)
   assert len({(r['station_lat'], r['station_lon']) for r in got}) == len(got)
+
+
+def test_bles_era5_wind_field_refuses_per_seed_stations():
+  from ble_latex.ble import era5_field  # pylint: disable=g-import-not-at-top
+  with pytest.raises(errors.ConfigError, match='fixed station'):
+    era5_field.Era5WindField.from_settings(era5.Era5Settings(
+        path=GFS_NC, stations='per_seed'))

@@ -24,6 +24,7 @@ import jax
 from jax import numpy as jnp
 import numpy as np
 
+from ble_latex import errors
 from ble_latex.wind import era5
 
 
@@ -96,7 +97,18 @@ class Era5WindField(wind_field.WindField):
 
   @classmethod
   def from_settings(cls, settings: era5.Era5Settings) -> 'Era5WindField':
-    """BLE's field of plain settings (e.g. gin's, `era5.settings()`)."""
+    """BLE's field of plain settings (e.g. gin's, `era5.settings()`).
+
+    Raises:
+      errors.ConfigError: per-seed stations (this BLE object keeps one
+        fixed station; the envs fly them in the core's grid).
+    """
+    if settings.stations != 'fixed':
+      raise errors.ConfigError(
+          f"Era5WindField.stations = {settings.stations!r}: BLE's "
+          'Era5WindField object keeps one fixed station; per-seed stations '
+          'fly in the envs (LatexBalloonEnv.wind_field_factory = '
+          '@Era5WindField)')
     return cls(path=settings.path, center_lat=settings.center_lat,
                center_lon=settings.center_lon,
                episode_hours=settings.episode_hours,
