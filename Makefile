@@ -102,7 +102,7 @@ physics-results: venv
 		--realistic_long=benchmarks/results_7day_realistic/latex_small | tee benchmarks/physics_results.md
 
 # Issue 44: days aloft and TW50 against the lift disturbance and the diurnal
-# swing (docs/physics.md), 7-day flights of 32 latex_small seeds per cell.
+# swing (docs/physics.md), 7-day flights of 64 latex_small seeds per cell.
 realistic-sensitivity: venv
 	$(PY) benchmarks/realistic_sensitivity.py \
 		--agents=latex_station_seeker,sac_pretrained \

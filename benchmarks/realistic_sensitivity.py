@@ -212,11 +212,11 @@ def main(argv: Sequence[str]) -> int:
   parser.add_argument('--sigma_g', default='0.1,0.2,0.35,0.67,1.4',
                       type=lambda t: _floats(t, '--sigma_g'),
                       help='lift disturbance sigmas [g/sqrt(s)]')
-  parser.add_argument('--swing_k', default='7,11.4,17',
+  parser.add_argument('--swing_k', default='0,7,11.4,17',
                       type=lambda t: _floats(t, '--swing_k'),
                       help='day-night helium swings [K]')
   parser.add_argument('--agents', default='latex_station_seeker')
-  parser.add_argument('--seeds', type=int, default=32)
+  parser.add_argument('--seeds', type=int, default=64)
   parser.add_argument('--suite', default='latex_small',
                       choices=sorted(SEED_SUITES))
   parser.add_argument('--days', type=float, default=7.0)
@@ -280,6 +280,11 @@ def main(argv: Sequence[str]) -> int:
         if args.json:
           safe_io.atomic_write(args.json, json.dumps(record, indent=1) + '\n')
   print(f'{time.time() - start:.0f} s', flush=True)
+  # Wall time of this run, compilation included (`seconds`: the cells').
+  record['wall_seconds'] = round(time.time() - start, 1)
+  record['load_at_end'] = round(os.getloadavg()[0], 1)
+  if args.json:
+    safe_io.atomic_write(args.json, json.dumps(record, indent=1) + '\n')
   if args.png:
     plot(record, args.png)
   return 0

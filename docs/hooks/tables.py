@@ -18,6 +18,8 @@ Records read (all committed):
     writes (`make results`), one per agent, mean and std over the suite.
   * `benchmarks/physics_results.json`: paper vs realistic physics
     (`benchmarks/physics_results.py`, issue 44), summaries per agent.
+  * `benchmarks/valbal_check.json`: the ValBal preset's flights
+    (`benchmarks/valbal_check.py`, issue 44).
   * `benchmarks/planners/**/SUITE/NAME.json`: the per-seed records of
     `benchmarks/planners.py`, and `.../timing/NAME.json` its timing summary.
   * `benchmarks/real_winds.json`: agents on the real wind sources
@@ -41,6 +43,7 @@ RESULTS = ROOT / 'benchmarks' / 'results.json'
 PLANNERS = ROOT / 'benchmarks' / 'planners'
 REAL_WINDS = ROOT / 'benchmarks' / 'real_winds.json'
 PHYSICS = ROOT / 'benchmarks' / 'physics_results.json'
+VALBAL = ROOT / 'benchmarks' / 'valbal_check.json'
 WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
@@ -427,7 +430,45 @@ def realistic_uncalibrated() -> str:
   return '\n'.join(lines)
 
 
+# The ValBal check's flights (`benchmarks/valbal_check.py`, issue 44):
+# (record key, case, what ValBal reports for it).
+VALBAL_ROWS = (
+    ('default', '1 kg payload, the preset', 'datasheet 3 days (not a '
+     'demonstrated flight)'),
+    ('stress', '1 kg payload, the preset', ''),
+    ('no_payload_default', 'no payload, the planner\'s 4.5 kg',
+     '5 days demonstrated (121 h 34 min); ValBal\'s simulator at 1.4: '
+     '5 days on 4.949 kg (0.99 kg a day)'),
+    ('no_payload_stress', 'no payload, the planner\'s 4.5 kg', ''),
+    ('payload_takes_ballast_default', 'what-if: 1 kg payload in place of '
+     '1 kg of ballast', ''),
+    ('payload_takes_ballast_stress', 'what-if: 1 kg payload in place of '
+     '1 kg of ballast', ''),
+)
+
+
+def valbal_check() -> str:
+  """docs/physics.md's ValBal table: days aloft and ballast per case."""
+  record = _load(VALBAL)
+  lines = ['| case | system + payload / ballast [kg] | disturbance [g/√s] | '
+           'days aloft (of 7; flights) | ballast a day [kg] | within ±750 m '
+           '| ValBal |', '|---|---|---|---|---|---|---|']
+  for key, case, valbal in VALBAL_ROWS:
+    row = record.get(key)
+    if row is None:
+      continue
+    up = sum(d >= row['max_days'] for d in row['days_aloft'])
+    lines.append(
+        f'| {case} | {row["payload_kg"]:.1f} / {row["initial_sand_kg"]:.1f} '
+        f'| {1e3 * row["lift_walk_kg_per_sqrt_s"]:.2f} '
+        f'| {row["days_aloft_mean"]:.2f} ({up} of {row["flights"]} up at the '
+        f'end) | {row["ballast_kg_per_day_mean"]:.2f} '
+        f'| {row["time_in_band_pct"]:.0f} % | {valbal} |')
+  return '\n'.join(lines)
+
+
 TABLES: Dict[str, Callable[[], str]] = {
+    'valbal-check': valbal_check,
     'realistic-short': realistic_short,
     'realistic-full': realistic_full,
     'realistic-long': realistic_long,
