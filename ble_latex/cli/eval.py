@@ -52,6 +52,7 @@ batch_eval = cli.lazy_module('ble_latex.run.batch_eval')
 distributed = cli.lazy_module('ble_latex.run.distributed')
 env_params = cli.lazy_module('ble_latex.envs.env_params')
 jax_env = cli.lazy_module('ble_latex.envs.jax_env')
+winds = cli.lazy_module('ble_latex.envs.winds')
 eval_lib = cli.lazy_module('ble_latex.run.eval_lib')
 metrics = cli.lazy_module('ble_latex.run.metrics')
 suites = cli.lazy_module('ble_latex.run.suites')
@@ -176,8 +177,10 @@ def _fly(spec: 'eval_lib.EvalSpec', path: str, agent: Any, env: Any) -> None:
   source = env_params.wind_source()  # Each record names its winds.
   results = [{**r, 'wind_source': source} for r in results]
   # On a wind file, each record names its flight's station (per seed).
-  stations = jax_env.flight_stations(env_params.params_from_gin(),
-                                     [r['seed'] for r in results])
+  stations = None
+  if winds.is_era5(env_params.episode()['wind_field_factory']):
+    stations = jax_env.flight_stations(env_params.params_from_gin(),
+                                       [r['seed'] for r in results])
   if stations is not None:
     results = [{**r, 'station_lat': round(float(lat), 5),
                 'station_lon': round(float(lon), 5)}
