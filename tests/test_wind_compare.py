@@ -206,7 +206,7 @@ def test_tables_render_the_real_winds_record(tmp_path, monkeypatch):
   full = tables.real_winds_full().splitlines()
   assert full[2] == ('| `sac_pretrained` | sounding Hilo | site 19.72°, '
                      '-155.07° | 2 | 50.0 % ± 25.0 | 50.0 % ± 0.0 | 50 % '
-                     '| 15 |')
+                     '| 0 % | 15 |')
 
 
 def test_tables_render_the_committed_records():

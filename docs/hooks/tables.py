@@ -248,18 +248,22 @@ def real_winds_full() -> str:
   labels = dict(REAL_WINDS_AGENTS)
   sources = dict(REAL_WINDS_SOURCES)
   lines = ['| agent | source (time-invariant) | station | seeds | TW50 window '
-           '(mean ± std) | TW50 flown | out of resources | final distance '
-           '[km] (mean) |', '|---|---|---|---|---|---|---|---|']
+           '(mean ± std) | TW50 flown | out of resources | left the wind '
+           'domain | final distance [km] (mean) |',
+           '|---|---|---|---|---|---|---|---|---|']
   for c in _real_cells():
     s = c['summary']
     distance = _mean_std([f['final_distance_km'] for f in c['flights']])[0]
+    left = 100.0 * sum(f['terminal_reason'] == 'left_wind_domain'
+                       for f in c['flights']) / len(c['flights'])
     lines.append(
         f"| {labels[c['settings']['agent']]} "
         f"| {sources[c['settings']['source']]} | {_station(c)} "
         f"| {s['episodes']} "
         f"| {_pct(s['tw50_window_mean'], s['tw50_window_std'])} "
         f"| {_pct(s['tw50_mean'], s['tw50_std'])} "
-        f"| {s['out_of_resources_pct']:.0f} % | {distance:.0f} |")
+        f"| {s['out_of_resources_pct']:.0f} % | {left:.0f} % "
+        f"| {distance:.0f} |")
   return '\n'.join(lines)
 
 
