@@ -99,12 +99,14 @@ flags.DEFINE_string('ship', None, 'report: also write the best-validated '
 def train(base_dir: str, seeds: List[int], num_iterations: int,
           snapshot_period: int, checkpoint_period: int,
           gin_bindings: List[str], parallel: int = 1,
-          vmap_seeds: bool = False, gin_files: Sequence[str] = ()) -> None:
+          vmap_seeds: bool = False, gin_files: Sequence[str] = (),
+          extra_flags: Sequence[str] = ()) -> None:
   """Runs (or resumes) `ble-latex-train --trainer=jax --seeds=...`.
 
   With `parallel` > 1 the seeds are dealt round-robin to that many
   `ble-latex-train` processes running at once (each trains its share one
-  after another, or vmapped together with `vmap_seeds`).
+  after another, or vmapped together with `vmap_seeds`). `extra_flags` go
+  to each command (e.g. `--validation_episodes=20`).
   """
   groups = [seeds[i::parallel] for i in range(parallel)]
   commands = [
@@ -118,7 +120,7 @@ def train(base_dir: str, seeds: List[int], num_iterations: int,
        '--collectors=tensorboard',
        *(['--vmap_seeds'] if vmap_seeds and len(group) > 1 else []),
        *[f'--gin_file={f}' for f in gin_files],
-       *[f'--gin_bindings={b}' for b in gin_bindings]]
+       *[f'--gin_bindings={b}' for b in gin_bindings], *extra_flags]
       for group in groups if group]
   processes = []
   for command in commands:
@@ -194,8 +196,10 @@ def compare(run_dirs: Sequence[str], max_oor_pct: float,
 
 
 def _held_out(suite_name: str, policy_path: str, output: str,
-              gin_files: Sequence[str] = ()) -> Dict[str, float]:
-  """Flies a policy on the held-out suite in the gym env; its summary."""
+              gin_files: Sequence[str] = (),
+              num_seeds: Optional[int] = None) -> Dict[str, float]:
+  """Flies a policy on the held-out suite (its first `num_seeds` seeds,
+  default all) in the gym env; its summary."""
   # pylint: disable=g-import-not-at-top
   import gym
   from ble_latex.agents import sac
@@ -211,7 +215,7 @@ def _held_out(suite_name: str, policy_path: str, output: str,
   agent = sac.SACPretrainedAgent(
       space.shape[0], env.observation_space.shape, action_low=space.low,
       action_high=space.high, policy_path=policy_path)
-  records = eval_lib.evaluate(agent, env, suite.seeds,
+  records = eval_lib.evaluate(agent, env, list(suite.seeds)[:num_seeds],
                               suite.max_episode_length,
                               description=f'held-out {policy_path}')
   eval_lib.write_results(output, records)

@@ -1,0 +1,272 @@
+"""Does the follow-up paper's tanh reward stop SAC skirting the circle's edge?
+
+Saunders et al. 2024 (arXiv 2403.10784) report that SAC rewarded equally
+everywhere inside the 50 km circle learns to fly near its edge, which
+generalises badly to unseen winds, and that a tanh-shaped reward pulling
+towards the centre flies more time in the region on unseen winds. This
+study trains SAC with the jitted trainer (`ble-latex-train --trainer=jax`,
+`benchmarks/sac_seeds.py`'s machinery) once per reward and training seed,
+for --rounds rounds each:
+
+  perciatelli  the paper's (2023) reward, the default (flat 1 inside);
+  tanh         `latex_reward.reward_tanh_scale_km = --tanh_scale_km` (the
+               inside falls from 1 at the station to the drop-off at the
+               edge, `jax_features.tanh_inside`).
+
+Each seed's policy is chosen on `latex_validation` only (the snapshot with
+the best TW50 window among those with <= --max_oor_pct % out of resources,
+`sac_seeds.choose`), then flown once on the held-out --held_out_suite
+(`latex_small`) with the gym env (`sac_seeds`' held-out flight: batched).
+Per seed it reports the held-out TW50 window, the fraction of the window at
+40-50 km from the station (edge-skirting) and at <= 40 km, and the share
+of the in-circle time spent at the edge, into --output (JSON: per reward
+and seed, mean +- std, the command, date, machine and load).
+
+Resumable: training resumes from the run directories (BASE_DIR/REWARD/
+seed_S), and a cell (reward, seed) already in --output with the same
+settings is skipped; other settings in the same file are refused, naming
+what differs. The full study (3 seeds x 2 rewards) is the lead's to start:
+
+  nice -n 10 python benchmarks/reward_shape.py --base_dir=/tmp/reward_shape \
+      --seeds=0,1,2 --rounds=60 --output=benchmarks/reward_shape.json
+
+A smoke run (tiny budget; its numbers mean nothing):
+
+  python benchmarks/reward_shape.py --base_dir=/tmp/rs --seeds=0 --rounds=2 \
+      --snapshot_period=1 --validation_episodes=4 --held_out_episodes=4 \
+      --gin_bindings=sac_trainer_config.num_envs=4 --output=/tmp/rs/rs.json
+"""
+
+from concurrent import futures
+import datetime as dt
+import json
+import math
+import multiprocessing
+import os
+import platform
+import statistics
+import sys
+from typing import Any, Dict, List, Optional, Sequence
+
+from absl import flags
+
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import sac_seeds  # pylint: disable=g-import-not-at-top,wrong-import-position
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_string('base_dir', None, 'Training runs (REWARD/seed_S).',
+                    flag_values=FLAGS)
+flags.DEFINE_list('seeds', ['0', '1', '2'], 'Training seeds.',
+                  flag_values=FLAGS)
+flags.DEFINE_list('rewards', ['perciatelli', 'tanh'], 'Rewards to train.',
+                  flag_values=FLAGS)
+flags.DEFINE_integer('rounds', 60, 'Training rounds per seed '
+                     '(sac_trainer_config.num_envs episodes each).',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_float('tanh_scale_km', 25.0, 'The tanh reward\'s scale w '
+                   '(latex_reward.reward_tanh_scale_km).', flag_values=FLAGS)
+flags.DEFINE_integer('snapshot_period', 5, 'Rounds between validated '
+                     'snapshots (and checkpoints); at most --rounds.',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('validation_episodes', 100, 'latex_validation seeds '
+                     'per snapshot.', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_string('held_out_suite', 'latex_small', 'Held-out suite (never '
+                    'used for choosing).', flag_values=FLAGS)
+flags.DEFINE_integer('held_out_episodes', None, 'Fly only the first seeds '
+                     'of the held-out suite (default: all).', lower_bound=1,
+                     flag_values=FLAGS)
+flags.DEFINE_float('max_oor_pct', 5.0, 'Most % of validation episodes out '
+                   'of resources of a chosen snapshot.', flag_values=FLAGS)
+flags.DEFINE_multi_string('gin_bindings', [], 'Bindings for every reward\'s '
+                          'training (e.g. sac_trainer_config.num_envs=8).',
+                          flag_values=FLAGS)
+flags.DEFINE_string('output', 'benchmarks/reward_shape.json', 'The record.',
+                    flag_values=FLAGS)
+
+# The station circle and the edge band of the study. # [km]
+RADIUS_KM = 50.0
+EDGE_KM = 40.0
+
+
+def reward_bindings(reward: str, tanh_scale_km: float) -> List[str]:
+  """The gin bindings that select `reward` for training."""
+  if reward == 'perciatelli':
+    return []
+  if reward == 'tanh':
+    return [f'latex_reward.reward_tanh_scale_km = {tanh_scale_km!r}']
+  raise cli.CommandUsageError(
+      f'--rewards: {reward!r} is not one of perciatelli, tanh')
+
+
+def edge_fractions(record: Dict[str, Any]) -> Dict[str, float]:
+  """Fractions of an eval record's window by distance from the station.
+
+  Each stride's end point (the flight path after the start) counts for one
+  stride of the window (`window_steps`, as TW50 window counts them; strides
+  after a flight ended count as outside).
+
+  Returns:
+    `edge` (40 < d <= 50 km), `core` (d <= 40 km), and `edge_share` (edge
+    / (edge + core), NaN when never inside).
+  """
+  points = record['flight_path'][1:]
+  window = record.get('window_steps') or len(points)
+  distances = [math.hypot(p['x_km'], p['y_km']) for p in points[:window]]
+  edge = sum(EDGE_KM < d <= RADIUS_KM for d in distances) / window
+  core = sum(d <= EDGE_KM for d in distances) / window
+  share = edge / (edge + core) if edge + core > 0 else float('nan')
+  return {'edge': edge, 'core': core, 'edge_share': share}
+
+
+def _held_out(suite_name: str, episodes: Optional[int], policy_path: str,
+              output: str) -> Any:
+  """Flies the chosen policy on the held-out seeds (a spawned process)."""
+  from ble_latex.run import records  # pylint: disable=g-import-not-at-top
+  summary = sac_seeds._held_out(suite_name, policy_path, output,  # pylint: disable=protected-access
+                                num_seeds=episodes)
+  return summary, records.load_eval(output)
+
+
+def settings(args: Any) -> Dict[str, Any]:
+  """What a cell's result depends on (a resume must match it)."""
+  return {'rounds': args.rounds, 'tanh_scale_km': args.tanh_scale_km,
+          'snapshot_period': args.snapshot_period,
+          'validation_episodes': args.validation_episodes,
+          'held_out_suite': args.held_out_suite,
+          'held_out_episodes': args.held_out_episodes,
+          'max_oor_pct': args.max_oor_pct,
+          'gin_bindings': list(args.gin_bindings)}
+
+
+def _summary(rows: Dict[str, Dict[str, Any]]) -> Dict[str, Any]:
+  done = [r for r in rows.values() if 'held_out_tw50_window' in r]
+  out: Dict[str, Any] = {'seeds_done': len(done)}
+  for key in ('held_out_tw50_window', 'edge_fraction', 'core_fraction'):
+    values = [r[key] for r in done]
+    if values:
+      out[f'{key}_mean'] = statistics.mean(values)
+      out[f'{key}_std'] = statistics.stdev(values) if len(values) > 1 else 0.0
+  return out
+
+
+def run_cell(args: Any, reward: str, seed: int) -> Dict[str, Any]:
+  """Trains (or resumes), chooses and flies one (reward, seed)."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import episode_log
+  from ble_latex.run import records
+  # pylint: enable=g-import-not-at-top
+  base = os.path.join(args.base_dir, reward)
+  bindings = [*args.gin_bindings,
+              *reward_bindings(reward, args.tanh_scale_km)]
+  sac_seeds.train(base, [seed], args.rounds, args.snapshot_period,
+                  args.snapshot_period, bindings,
+                  extra_flags=[f'--validation_episodes='
+                               f'{args.validation_episodes}'])
+  run = os.path.join(base, f'seed_{seed}')
+  validation = records.load_validation(
+      os.path.join(run, episode_log.VALIDATION_LOG))
+  row: Dict[str, Any] = {'seed': seed, 'gin_bindings': bindings,
+                         'validated_rounds': len(validation)}
+  chosen = sac_seeds.choose(validation, args.max_oor_pct)
+  if chosen is None:
+    row['note'] = (f'no validated snapshot with <= {args.max_oor_pct:g} % '
+                   'out of resources')
+    return row
+  policy = sac_seeds._chosen_policy(run, seed, chosen, validation,  # pylint: disable=protected-access
+                                    args.max_oor_pct)
+  output = os.path.join(run, f'held_out_{args.held_out_suite}.json')
+  with futures.ProcessPoolExecutor(
+      max_workers=1, mp_context=multiprocessing.get_context('spawn')) as pool:
+    summary, held = pool.submit(_held_out, args.held_out_suite,
+                                args.held_out_episodes, policy,
+                                output).result()
+  fractions = [edge_fractions(r) for r in held]
+  shares = [f['edge_share'] for f in fractions
+            if not math.isnan(f['edge_share'])]
+  row.update({
+      'chosen_round': chosen['iteration'],
+      'validation_tw50_window': chosen['tw50_window_mean'],
+      'validation_out_of_resources_pct': chosen['out_of_resources_pct'],
+      'held_out_episodes': len(held),
+      'held_out_tw50_window': summary['tw50_window_mean'],
+      'edge_fraction': statistics.mean(f['edge'] for f in fractions),
+      'core_fraction': statistics.mean(f['core'] for f in fractions),
+      'edge_share_of_inside': statistics.mean(shares) if shares else None,
+      'held_out_out_of_resources_pct': summary['out_of_resources_pct'],
+      'held_out_file': output})
+  return row
+
+
+def _load(path: str, current: Dict[str, Any]) -> Dict[str, Any]:
+  if not os.path.exists(path):
+    return {'settings': current, 'rewards': {}}
+  with open(path, encoding='utf-8') as f:
+    data = json.load(f)
+  if not isinstance(data, dict) or not isinstance(data.get('rewards'), dict):
+    raise cli.CommandFailure(f'{path}: not a reward_shape record')
+  recorded = data.get('settings', {})
+  differ = sorted(k for k in set(recorded) | set(current)
+                  if recorded.get(k) != current.get(k))
+  if differ:
+    raise cli.CommandFailure(
+        f'{path} was made with other settings ('
+        + ', '.join(f'{k}: {recorded.get(k)!r} -> {current.get(k)!r}'
+                    for k in differ) + '); use another --output')
+  return data
+
+
+def _main(argv: Sequence[str]) -> int:
+  del argv
+  args = FLAGS
+  if not args.base_dir:
+    raise cli.CommandUsageError('--base_dir is required')
+  try:
+    seeds = [int(s) for s in args.seeds]
+  except ValueError as e:
+    raise cli.CommandUsageError(
+        f'--seeds takes integers, got {",".join(args.seeds)!r}') from e
+  for reward in args.rewards:
+    reward_bindings(reward, args.tanh_scale_km)
+  if not (math.isfinite(args.tanh_scale_km) and args.tanh_scale_km > 0):
+    raise cli.CommandUsageError(
+        f'--tanh_scale_km must be a finite number > 0, got '
+        f'{args.tanh_scale_km!r}')
+  if args.snapshot_period > args.rounds:
+    raise cli.CommandUsageError(
+        f'--snapshot_period={args.snapshot_period} > --rounds={args.rounds}: '
+        'no snapshot would be validated')
+  current = settings(args)
+  data = _load(args.output, current)
+  for reward in args.rewards:
+    for seed in seeds:
+      cell = data['rewards'].setdefault(reward, {'seeds': {}})
+      if 'held_out_tw50_window' in cell['seeds'].get(str(seed), {}):
+        print(f'{reward} seed {seed}: done, kept', flush=True)
+        continue
+      load = os.getloadavg()
+      row = run_cell(args, reward, seed)
+      row.update({'date': dt.datetime.now(dt.timezone.utc).isoformat(
+          timespec='seconds'), 'machine': f'{platform.node()} '
+          f'({os.cpu_count()} CPUs)', 'load_at_start': list(load),
+                  'load_at_end': list(os.getloadavg())})
+      cell['seeds'][str(seed)] = row
+      cell['summary'] = _summary(cell['seeds'])
+      data['command'] = ' '.join(['python', 'benchmarks/reward_shape.py',
+                                  *sys.argv[1:]])
+      safe_io.atomic_write(args.output, json.dumps(data, indent=1) + '\n')
+      print(f'{reward} seed {seed}: {json.dumps(row)}', flush=True)
+  for reward, cell in data['rewards'].items():
+    print(reward, json.dumps(cell.get('summary', {})))
+  return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/reward_shape.py', FLAGS, argv,
+                      doc=__doc__)
+
+
+if __name__ == '__main__':
+  sys.exit(main())
