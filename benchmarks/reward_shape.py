@@ -22,10 +22,11 @@ Per seed it reports the held-out TW50 window, the fraction of the window at
 of the in-circle time spent at the edge, into --output (JSON: per reward
 and seed, mean +- std, the command, date, machine and load).
 
-Resumable: training resumes from the run directories (BASE_DIR/REWARD/
-seed_S), and a cell (reward, seed) already in --output with the same
-settings is skipped; other settings in the same file are refused, naming
-what differs. The full study (3 seeds x 2 rewards) is the lead's to start:
+Resumable: training resumes from the run directories
+(BASE_DIR/perciatelli/seed_S, BASE_DIR/tanh_<w>km/seed_S), and a cell
+(reward, seed) already in --output with the same settings is skipped;
+other settings in the same file are refused, naming what differs. The
+full study (3 seeds x 2 rewards) is the lead's to start:
 
   nice -n 10 python benchmarks/reward_shape.py --base_dir=/tmp/reward_shape \
       --seeds=0,1,2 --rounds=60 --output=benchmarks/reward_shape.json
@@ -57,7 +58,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import sac_seeds  # pylint: disable=g-import-not-at-top,wrong-import-position
 
 FLAGS = flags.FlagValues()
-flags.DEFINE_string('base_dir', None, 'Training runs (REWARD/seed_S).',
+flags.DEFINE_string('base_dir', None, 'Training runs (perciatelli/seed_S, '
+                    'tanh_<w>km/seed_S).',
                     flag_values=FLAGS)
 flags.DEFINE_list('seeds', ['0', '1', '2'], 'Training seeds.',
                   flag_values=FLAGS)
@@ -158,7 +160,9 @@ def run_cell(args: Any, reward: str, seed: int) -> Dict[str, Any]:
   from ble_latex.run import episode_log
   from ble_latex.run import records
   # pylint: enable=g-import-not-at-top
-  base = os.path.join(args.base_dir, reward)
+  # The tanh runs' folder names their scale: another scale never resumes them.
+  base = os.path.join(args.base_dir, reward if reward == 'perciatelli' else
+                      f'{reward}_{args.tanh_scale_km:g}km')
   bindings = [*args.gin_bindings,
               *reward_bindings(reward, args.tanh_scale_km)]
   sac_seeds.train(base, [seed], args.rounds, args.snapshot_period,
