@@ -213,8 +213,10 @@ def _real_cells() -> List[dict]:
 
 def _station(cell: dict) -> str:
   settings = cell['settings']
+  if settings['station_mode'] == 'per_seed':
+    return 'per-seed stations'
   if settings['station_mode'] != 'center':
-    return settings['station_mode'].replace('_', ' ')
+    return settings['station_mode']
   lat, lon = settings['station_lat_lon']
   where = 'site' if settings['source'] in ('boise', 'hilo') else 'centre'
   return f'{where} {lat:g}°, {lon:g}°'
@@ -439,12 +441,16 @@ def realistic_uncalibrated() -> str:
 VALBAL_ROWS = (
     ('default', '1 kg payload, the preset', 'datasheet 3 days (not a '
      'demonstrated flight)'),
+    ('sigma_0.67', '1 kg payload, the preset', ''),
     ('stress', '1 kg payload, the preset', ''),
     ('no_payload_default', 'no payload, the planner\'s 4.5 kg',
      '5 days demonstrated (121 h 34 min); ValBal\'s simulator at 1.4: '
      '5 days on 4.949 kg (0.99 kg a day)'),
+    ('no_payload_sigma_0.67', 'no payload, the planner\'s 4.5 kg', ''),
     ('no_payload_stress', 'no payload, the planner\'s 4.5 kg', ''),
     ('payload_takes_ballast_default', 'what-if: 1 kg payload in place of '
+     '1 kg of ballast', ''),
+    ('payload_takes_ballast_sigma_0.67', 'what-if: 1 kg payload in place of '
      '1 kg of ballast', ''),
     ('payload_takes_ballast_stress', 'what-if: 1 kg payload in place of '
      '1 kg of ballast', ''),
