@@ -15,8 +15,9 @@ functions:
     deadband controller at 13.5 km +- 750 m (`deadband_decide`), for up to
     `--days`; ValBal: ~0.93 kg/day at +-750 m in its simulator at 1.4 g/sqrt(s)
     (plus sunsets), 3 days aloft with a 1 kg payload (datasheet);
-each at the default disturbance (0.35 g/sqrt(s)) and the stress setting
-(ValBal's 1.4 g/sqrt(s), `flight.params.LIFT_WALK_STRESS`).
+each at the default disturbance (0.35 g/sqrt(s)), ValBal's simulator's value
+before 2018 (0.67 g/sqrt(s), `SIGMA_2018`) and the stress setting (ValBal's
+1.4 g/sqrt(s), `flight.params.LIFT_WALK_STRESS`).
 
 Days aloft are also flown for two other loads of the same system (`CASES`):
 
@@ -69,6 +70,10 @@ VALBAL = {
     'days_aloft_1kg_payload': 3.0,  # datasheet
 }
 GIN_FILES = ('latex_physics.gin', 'latex_realistic.gin', 'valbal.gin')
+# ValBal's simulator's disturbance before its November 2018 "constants name
+# refactor" (hootl/lasagna/PastaSim.cpp: 0.67 g/sqrt(s); 1.4 after, the
+# stress setting), flown beside the default and the stress setting. # [kg/sqrt(s)]
+SIGMA_2018 = {'lift_walk_kg_per_sqrt_s': 0.67e-3}
 # Other loads of the preset (see the module): make_flight_params overrides,
 # relative to valbal.gin's 1.0 kg payload (payload_kg 2.8 = 1.2 kg envelope
 # + 0.6 kg avionics, both assumed, + 1.0 kg) and 4.0 kg of ballast.
@@ -229,7 +234,7 @@ def main() -> None:
   record['sunset'] = sunset_loss_kg(base)
   print('sunset', record['sunset'], flush=True)
   for case, load in CASES.items():
-    for name, over in (('default', {}),
+    for name, over in (('default', {}), ('sigma_0.67', SIGMA_2018),
                        ('stress', params_lib.LIFT_WALK_STRESS)):
       p = valbal_params(**load, **over)
       out = fly(p, flights=args.flights, days=args.days)
