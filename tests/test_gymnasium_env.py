@@ -517,10 +517,34 @@ print('ok')
 
 
 @pytest.mark.parametrize('agent', [
-    'perciatelli44', 'dqn', pytest.param('quantile', marks=pytest.mark.slow)])
+    'perciatelli44', pytest.param('dqn', marks=pytest.mark.slow),
+    pytest.param('quantile', marks=pytest.mark.slow)])
 def test_ble_gin_order_then_make(agent):
   """BLE binds the agent's gin (locking the config) before making the env."""
   result = _python(_BLE_ORDER.format(agent=agent))
+  assert result.returncode == 0, result.stderr[-3000:]
+  assert result.stdout.strip().endswith('ok')
+
+
+_GIN_FILES_THEN_MAKE = '''
+import gin, gym
+import ble_latex
+from ble_latex import configs
+gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
+assert gin.config_is_locked()
+gym.make('LatexBalloon-v0')  # Declares the gym env's configurables.
+gym.make('LatexBalloonDiscrete-v0')
+print('ok')
+'''
+
+
+def test_env_gin_files_then_gym_make_in_a_fresh_process():
+  """A script parses the env gin files (gin locks) then makes the gym envs.
+
+  The gin files name only the core's settings, so the gym env's
+  configurables are declared after the lock (`gym_registration._gym_env`).
+  """
+  result = _python(_GIN_FILES_THEN_MAKE)
   assert result.returncode == 0, result.stderr[-3000:]
   assert result.stdout.strip().endswith('ok')
 

@@ -18,19 +18,35 @@ ENV_IDS = {
 }
 
 
+def _gym_env():
+  """`ble_latex.ble.gym_env`, imported quietly, even after gin's lock.
+
+  The env gin files bind only the core's names (no BLE module, so they parse
+  where TensorFlow is absent), so a script that parses them (which locks
+  gin's config) and then calls `gym.make` imports the gym env's
+  `@gin.configurable`s after the lock: they are declared with the config
+  unlocked for the import, which binds nothing.
+  """
+  import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise(), gin.unlock_config():
+    from ble_latex.ble import gym_env  # pylint: disable=g-import-not-at-top
+  return gym_env
+
+
 def make_latex_balloon(**kwargs):
   """`ble_latex.ble.gym_env.LatexBalloonEnv(**kwargs)`, built quietly."""
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  gym_env = _gym_env()
   with quiet.third_party_noise():
-    from ble_latex.ble import gym_env  # pylint: disable=g-import-not-at-top
     return gym_env.LatexBalloonEnv(**kwargs)
 
 
 def make_latex_balloon_discrete(**kwargs):
   """`ble_latex.ble.gym_env.LatexBalloonDiscreteEnv(**kwargs)`, built quietly."""
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  gym_env = _gym_env()
   with quiet.third_party_noise():
-    from ble_latex.ble import gym_env  # pylint: disable=g-import-not-at-top
     return gym_env.LatexBalloonDiscreteEnv(**kwargs)
 
 
