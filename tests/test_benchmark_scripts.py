@@ -77,6 +77,7 @@ _CHEAP_ORACLE = [f'--gin_bindings=LatexMpcOracleAgent.{b}' for b in (
     'grid_levels=2', 'beam_cell_km=0')]
 
 
+@pytest.mark.slow
 def test_planners_never_drop_seeds_and_refuse_other_settings(tmp_path, capsys):
   """Issue 48 items 1, 2, 14: a re-flight of chosen seeds merges into the
   finished record (never fewer seeds); a partial file flown with other

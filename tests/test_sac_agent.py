@@ -752,9 +752,11 @@ def test_agent_sizes_beyond_bounds_are_one_line_config_errors(value):
 
 @pytest.mark.parametrize('field, value, message', [
     ('add_count', np.array(999), r'add_count 999 in a buffer of capacity'),
-    ('invalid_range', np.array([5, 6]), r'replay invalid_range is \[5, 6\]'),
-    ('episode_end_indices', np.array([500]),
-     r'replay episode_end_indices must be rows of the 21 filled'),
+    pytest.param('invalid_range', np.array([5, 6]),
+                 r'replay invalid_range is \[5, 6\]', marks=pytest.mark.slow),
+    pytest.param('episode_end_indices', np.array([500]),
+                 r'replay episode_end_indices must be rows of the 21 filled',
+                 marks=pytest.mark.slow),
 ])
 def test_checkpoint_replay_counters_must_fit_its_arrays(tmp_path, field, value,
                                                         message):

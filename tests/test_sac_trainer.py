@@ -596,6 +596,7 @@ def test_train_command_refuses_hidden_units_beyond_int64(tmp_path, capsys):
 
 
 # -- The replay's counters must fit its arrays (issue 48 item 5). -------------
+@pytest.mark.slow
 def test_checkpoint_replay_cursor_must_fit_its_size(runs, tmp_path):
   """cursor=39, size=6 was accepted: rows 6-38 zeros sampled, real ones lost."""
   _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
