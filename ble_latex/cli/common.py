@@ -332,6 +332,8 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
   if path is not None:
     if not path.strip():
       raise CommandUsageError('--wind_file is empty')
+    if dates is not None:  # A usage error before the file is read.
+      era5_dates_value(dates)
     # Absolute (the Ray workers' working directory may differ).
     path = os.path.abspath(os.path.expandvars(os.path.expanduser(path)))
     bindings += ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
