@@ -54,6 +54,8 @@ from ble_latex import safe_io
 from ble_latex.cli import common as cli
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# The real files beside the checkout (../shared/realdata/PROVENANCE.md).
+REALDATA_DIR = os.path.join(_ROOT, '..', 'shared', 'realdata')
 # name -> (file under --realdata_dir, label, launch site (lat, lon) of a
 # sounding (University of Wyoming's station list) or None for a grid).
 SOURCES: Dict[str, Tuple[str, str, Optional[Tuple[float, float]]]] = {
@@ -95,8 +97,7 @@ flags.DEFINE_enum('station_mode', 'center', STATION_MODES, 'Where the station '
                   'is (see the module).', flag_values=FLAGS)
 flags.DEFINE_multi_string('station_bindings', [], 'More gin bindings of '
                           '--station_mode=per_seed.', flag_values=FLAGS)
-flags.DEFINE_string('realdata_dir', os.path.join(_ROOT, '..', 'shared',
-                                                 'realdata'),
+flags.DEFINE_string('realdata_dir', REALDATA_DIR,
                     'Folder of the real files (PROVENANCE.md).',
                     flag_values=FLAGS)
 flags.DEFINE_string('json', os.path.join(_ROOT, 'benchmarks',

@@ -64,8 +64,7 @@ flags.DEFINE_integer('seed', 0, 'Seed of the samples (VAE: PRNGKey(seed)).',
 flags.DEFINE_list('common_pressures_pa', ['5000', '7000', '10000'],
                   'Levels every source is compared at [Pa].',
                   flag_values=FLAGS)
-flags.DEFINE_string('realdata_dir', os.path.join(_ROOT, '..', 'shared',
-                                                 'realdata'),
+flags.DEFINE_string('realdata_dir', real_winds.REALDATA_DIR,
                     'Folder of the real files (PROVENANCE.md).',
                     flag_values=FLAGS)
 flags.DEFINE_string('json', os.path.join(_ROOT, 'benchmarks',
