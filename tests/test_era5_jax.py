@@ -176,6 +176,9 @@ def test_env_wind_is_era5_wind_fields(era5_path, add_noise):
                                    add_noise=add_noise)
   points = [(0.0, 0.0, 9000.0, 0.0), (120e3, -40e3, 5200.0, 5.5 * 3600),
             (-300e3, 250e3, 13900.0, 20 * 3600.0)]
+  wind = env.wind_for(with_grid)
+  ground_truth = jax.jit(wind.ground_truth)
+  forecast_column = jax.jit(wind.forecast_column)
   for seed in (3, 8):
     state, keys = jax.jit(env.draw)(jax_env.arena_key(
         jax.random.PRNGKey(seed)), with_grid)
@@ -184,12 +187,11 @@ def test_env_wind_is_era5_wind_fields(era5_path, add_noise):
     # The flight's date is the ERA5 start.
     assert env_types.START_EPOCH + dt.timedelta(
         seconds=int(state.start_time_offset_s)) == field.start_date_time
-    wind = env.wind_for(with_grid)
     for x, y, p, t in points:
       args = (units.Distance(m=x), units.Distance(m=y), p,
               dt.timedelta(seconds=t))
       truth = field.get_ground_truth(*args)
-      u, v = jax.jit(wind.ground_truth)(state, jnp.float32(x), jnp.float32(y),
+      u, v = ground_truth(state, jnp.float32(x), jnp.float32(y),
                                         jnp.float32(p), jnp.float32(t))
       np.testing.assert_allclose(
           [u, v], [truth.u.meters_per_second, truth.v.meters_per_second],
@@ -197,7 +199,7 @@ def test_env_wind_is_era5_wind_fields(era5_path, add_noise):
       pressures = jnp.asarray([p, 6000.0, 12000.0], jnp.float32)
       column = field.get_forecast_column(args[0], args[1],
                                          np.asarray(pressures), args[3])
-      cu, cv = jax.jit(wind.forecast_column)(
+      cu, cv = forecast_column(
           state, jnp.float32(x), jnp.float32(y), pressures, jnp.float32(t))
       np.testing.assert_allclose(
           np.stack([cu, cv], axis=-1),
@@ -225,8 +227,9 @@ def test_wind_grid_and_another_wind_is_an_error(era5_path):
   _, with_grid = _params(era5_path)
   other = winds.Wind(winds.ground_truth_wind, winds.forecast_column)
   with pytest.raises(ValueError, match='wind_grid'):
-    jax_env.LatexBalloonJaxEnv(wind=other).reset(jax.random.PRNGKey(0),
-                                                 with_grid)
+    # Traced only (the refusal comes before anything is computed).
+    jax.eval_shape(jax_env.LatexBalloonJaxEnv(wind=other).reset,
+                   jax.random.PRNGKey(0), with_grid)
 
 
 def _jax_flight(params, seeds, actions):
@@ -279,10 +282,19 @@ def _gymnasium_flight(params, path, seed, actions, episode_hours=24.0):
   return np.stack(all_obs), np.array(where, np.float64)
 
 
+@functools.lru_cache(maxsize=None)
+def _era5_jax_flight(path):
+  """`_jax_flight` of `_ENV_SEEDS` with `_ACTIONS` on `path`'s grid (one
+  compile for the two tests that compare other envs with it)."""
+  _, with_grid = _params(path)
+  return _jax_flight(with_grid, _ENV_SEEDS,
+                     jnp.asarray(_ACTIONS, jnp.float32))
+
+
 def test_flight_is_the_gymnasium_envs_on_era5_wind_field(era5_path):
-  params, with_grid = _params(era5_path)
+  params, _ = _params(era5_path)
   actions = jnp.asarray(_ACTIONS, jnp.float32)
-  obs, where = _jax_flight(with_grid, _ENV_SEEDS, actions)
+  obs, where = _era5_jax_flight(era5_path)
   for i, seed in enumerate(_ENV_SEEDS):
     ref_obs, ref_where = _gymnasium_flight(params, era5_path, seed,
                                               actions)
@@ -296,7 +308,7 @@ def test_vector_env_flies_the_grid_in_its_params(era5_path):
   from ble_latex.envs import gymnasium_vector  # pylint: disable=g-import-not-at-top
   _, with_grid = _params(era5_path)
   actions = jnp.asarray(_ACTIONS, jnp.float32)
-  obs, _ = _jax_flight(with_grid, _ENV_SEEDS, actions)
+  obs, _ = _era5_jax_flight(era5_path)
   envs = gymnasium_vector.LatexBalloonVectorEnv(len(_ENV_SEEDS),
                                              params=with_grid)
   first, _ = envs.reset(seed=_ENV_SEEDS[0])

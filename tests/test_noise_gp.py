@@ -51,6 +51,10 @@ def _memory(points, du, dv):
                                valid=jnp.ones((k,), bool))
 
 
+_FIT = jax.jit(noise_gp.fit)
+_MEAN = jax.jit(noise_gp.posterior_mean)
+
+
 @settings(max_examples=20, deadline=None)
 @given(st.lists(st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)),
                 min_size=1, max_size=4))
@@ -62,13 +66,13 @@ def test_posterior_interpolates_and_forgets(winds):
             for i in range(k)]
   du, dv = zip(*winds)
   memory = _memory(points, du, dv)
-  weights = noise_gp.fit(memory)
+  weights = _FIT(memory)
   for i in range(k):
-    u, v = noise_gp.posterior_mean(memory, weights, memory.points[i])
+    u, v = _MEAN(memory, weights, memory.points[i])
     assert float(u) == pytest.approx(du[i], abs=0.02)
     assert float(v) == pytest.approx(dv[i], abs=0.02)
   far = memory.points[-1] + jnp.array([0.0, 0.0, 0.0, 240.0 * 30])
-  u, v = noise_gp.posterior_mean(memory, weights, far)
+  u, v = _MEAN(memory, weights, far)
   assert abs(float(u)) < 1e-3 and abs(float(v)) < 1e-3
 
 
@@ -95,25 +99,31 @@ def test_posterior_predicts_ble_noise_better_than_nothing():
   (0-3 h later, within 1 500 Pa) is predicted with a smaller mean squared
   error by the posterior mean than by zero (the forecast alone)."""
   rng = np.random.default_rng(0)
-  fit = jax.jit(noise_gp.fit)
-  mean = jax.jit(noise_gp.posterior_mean)
+
+  @jax.jit
+  def trial(key, points, queries):
+    """(true, guessed) noise at the queries [m/s], shapes (10, 2)."""
+    u_params, v_params = simplex.reset_uv_noise_params(key)
+    du, dv = simplex.wind_noise_uv(u_params, v_params, *points.T)
+    memory = _memory(points, du, dv)
+    weights = noise_gp.fit(memory)
+    true = jnp.stack(simplex.wind_noise_uv(u_params, v_params, *queries.T), 1)
+    guess = jax.vmap(lambda q: jnp.stack(
+        noise_gp.posterior_mean(memory, weights, q)))(queries)
+    return true, guess
+
   errors = {'forecast': [], 'posterior': []}
-  for trial in range(40):
-    u_params, v_params = simplex.reset_uv_noise_params(
-        jax.random.PRNGKey(trial))
+  for i in range(40):
     t = np.arange(12) * (40 / 60.0) + 10.0
     x, y = np.cumsum(rng.normal(0, 12, (2, 12)), axis=1)
     p = np.clip(7500 + np.cumsum(rng.normal(0, 400, 12)), 5000, 11000)
     points = np.stack([x, y, p, t], 1).astype(np.float32)
-    du, dv = simplex.wind_noise_uv(u_params, v_params, *points.T)
-    memory = _memory(points, du, dv)
-    weights = fit(memory)
-    for _ in range(10):
-      q = np.array([x[-1] + rng.normal(0, 30), y[-1] + rng.normal(0, 30),
-                    np.clip(p[-1] + rng.uniform(-1500, 1500), 5000, 11000),
-                    t[-1] + rng.uniform(0, 3)], np.float32)
-      true = np.array(simplex.wind_noise_uv(u_params, v_params, *q))
-      guess = np.array(mean(memory, weights, jnp.asarray(q)))
-      errors['forecast'].append(np.sum(true**2))
-      errors['posterior'].append(np.sum((true - guess)**2))
+    queries = np.stack([
+        x[-1] + rng.normal(0, 30, 10), y[-1] + rng.normal(0, 30, 10),
+        np.clip(p[-1] + rng.uniform(-1500, 1500, 10), 5000, 11000),
+        t[-1] + rng.uniform(0, 3, 10)], 1).astype(np.float32)
+    true, guess = map(np.asarray, trial(jax.random.PRNGKey(i), points,
+                                        queries))
+    errors['forecast'].extend(np.sum(true**2, 1))
+    errors['posterior'].extend(np.sum((true - guess)**2, 1))
   assert np.mean(errors['posterior']) < 0.85 * np.mean(errors['forecast'])
