@@ -1,0 +1,65 @@
+# coding=utf-8
+"""benchmarks/real_winds_paths.py: flight paths over a real GFS domain.
+
+Its core (`run`) on the committed GFS slice (tests/data/realwinds/), one
+seed of latex_station_seeker for a few strides (slow: it compiles): it
+writes the PNG and the JSON record, whose flight has its station inside the
+file's domain, TW50s in [0, 1] and the strides asked for. And (fast) the
+track's conversion from the station's frame to lat/lon.
+"""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from ble_latex.wind import era5
+
+GFS_NC = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
+                      'realwinds',
+                      'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
+_STEPS = 3
+
+
+# Slow: ~40-60 s on the 2-core build box, almost all compiling (37 compiles,
+# 44 s: the batched eval's reset and step, the stations' draw).
+@pytest.mark.slow
+def test_run_writes_the_figure_and_the_record(benchmark_script, tmp_path):
+  paths = benchmark_script('real_winds_paths.py')
+  png, record_path = tmp_path / 'paths.png', tmp_path / 'paths.json'
+  returned = paths.run(
+      source='gfs_namerica', path=GFS_NC, agents=['latex_station_seeker'],
+      seeds=1, suite='latex_small', station_bindings=[], png=str(png),
+      json_path=str(record_path), max_steps=_STEPS, command='test')
+  with open(png, 'rb') as f:
+    assert f.read(8) == b'\x89PNG\r\n\x1a\n'
+  with open(record_path, encoding='utf-8') as f:
+    record = json.load(f)
+  assert record == returned
+  for key in ('command', 'date_utc', 'host', 'cpus', 'loadavg_before',
+              'loadavg_after', 'git_head', 'runs', 'flights'):
+    assert key in record, key
+  assert record['wind_source'] == 'analysis (time-invariant)'
+  assert record['station_bindings'] == ["Era5WindField.stations = 'per_seed'"]
+  assert record['radius_km'] == 50.0
+  [flight] = record['flights']
+  assert flight['agent'] == 'latex_station_seeker'
+  assert flight['steps'] == _STEPS
+  assert 0.0 <= flight['tw50_window'] <= 1.0
+  assert 0.0 <= flight['tw50'] <= 1.0
+  data = era5.load(GFS_NC)
+  assert data.covers(flight['station_lat'], flight['station_lon'])
+  assert np.isfinite(flight['final_distance_km'])
+
+
+def test_track_is_the_station_frame_offset_in_lat_lon(benchmark_script):
+  paths = benchmark_script('real_winds_paths.py')
+  # 0 km: the station; 1 deg of meridian north (R = 6371 km); east on the
+  # equator: 1 deg of longitude.
+  record = {'station_lat': 0.0, 'station_lon': -100.0, 'flight_path': [
+      {'x_km': 0.0, 'y_km': 0.0}, {'x_km': 0.0, 'y_km': 111.19},
+      {'x_km': 111.19, 'y_km': 0.0}]}
+  lats, lons = paths.track_latlon(record)
+  np.testing.assert_allclose(lats, [0.0, 1.0, 0.0], atol=1e-3)
+  np.testing.assert_allclose(lons, [-100.0, -100.0, -99.0], atol=1e-3)
