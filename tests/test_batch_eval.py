@@ -98,6 +98,30 @@ def test_an_ended_flight_stops_its_record_the_others_fly_on(monkeypatch):
   _assert_records_match(batched, serial)
 
 
+def test_batched_resets_compile_no_single_step_ahead(monkeypatch):
+  """The batched path steps its own program: the gym env's resets compile
+  `start` ahead but not the one-balloon `step` (a ~10 s compile that only
+  the background thread would have run); the env's setting is restored."""
+  from ble_latex.envs import gymnasium_compile  # pylint: disable=g-import-not-at-top
+  asked = []
+  ahead = gymnasium_compile.Compiled.ahead
+
+  def recording(self, keys, params, normalized, step=True):
+    asked.append(step)
+    return ahead(self, keys, params, normalized, step)
+
+  monkeypatch.setattr(gymnasium_compile.Compiled, 'ahead', recording)
+  agent, env = eval_lib.build(eval_lib.EvalSpec(
+      agent='latex_station_seeker',
+      gin_bindings=('LatexBalloonEnv.episode_steps = 2',)))
+  asked.clear()  # The build's own reset.
+  batch_eval.evaluate(agent, env, TINY[5:6], 2)
+  assert asked == [False]
+  assert env.unwrapped.arena.driver.compile_step_ahead
+  env.reset(seed=0)  # One balloon at a time again: its step ahead.
+  assert asked == [False, True]
+
+
 @pytest.mark.parametrize('agent, env_name, bindings, batched', [
     ('sac_pretrained', 'LatexBalloon-v0', (), True),
     ('latex_mpc', 'LatexBalloon-v0', SMALL_MPC, True),

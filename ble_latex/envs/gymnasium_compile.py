@@ -182,18 +182,19 @@ class Compiled:
     return self._layouts[name].unpack(packed)
 
   def ahead(self, keys: Any, params: env_types.EnvParams,
-            normalized: bool) -> None:
+            normalized: bool, step: bool = True) -> None:
     """Compiles `start` and `step` for the flights of `draw(keys, params)`.
 
     Traces `draw` here (jit keeps the trace for the call that follows),
     then compiles the two in a background thread, once per batch shape and
     params object (a params object with a reused id is skipped: its calls
     then compile); a failure there is dropped (the call itself then
-    compiles, or raises). `normalized`: the actions `step` will get.
+    compiles, or raises). `normalized`: the actions `step` will get;
+    `step` False: `start` only (a caller that flies the flights elsewhere).
     """
     lead = tuple(np.shape(keys))[:-1]
     done = self._ahead.get(lead)
-    if done is not None and done[0] == (id(params), normalized):
+    if done is not None and done[0] == (id(params), normalized, step):
       return
     try:
       drawn, _ = jax.eval_shape(self.draw, keys, params)
@@ -204,12 +205,13 @@ class Compiled:
                            drawn)
     actions = jax.ShapeDtypeStruct(lead + (3,), np.float32)
     pool = _compile_pool()
-    self._ahead[lead] = ((id(params), normalized), {
-        'start': pool.submit(
-            lambda: self.start.lower(drawn, params).compile()),
-        'step': pool.submit(
-            lambda: self.step.lower(started, actions, params,
-                                    normalized).compile())})
+    futures = {'start': pool.submit(
+        lambda: self.start.lower(drawn, params).compile())}
+    if step:
+      futures['step'] = pool.submit(
+          lambda: self.step.lower(started, actions, params,
+                                  normalized).compile())
+    self._ahead[lead] = ((id(params), normalized, step), futures)
 
   def wait(self, name: str) -> None:
     """Blocks until `ahead`'s compile of `name` ('start' or 'step') ended.

@@ -250,6 +250,9 @@ class Balloons(SeedRule):
     self.params = params
     self.state: Optional[env_types.EnvState] = None
     self._fns = compiled
+    # False: a reset compiles `start` ahead, not `step` (a caller that flies
+    # the flights elsewhere: the batched eval, `run.batch_eval`).
+    self.compile_step_ahead = True
     self.normalize_actions = bool(normalize_actions)
     core = jax_env.LatexBalloonJaxEnv(normalize_actions=self.normalize_actions)
     self._single_action_space = core.action_space(params)
@@ -386,7 +389,8 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
     chooses its own start time (ERA5's `start_date_time`) sets the flight's
     date.
     """
-    self._fns.ahead(arena_key, self.params, self.normalize_actions)
+    self._fns.ahead(arena_key, self.params, self.normalize_actions,
+                    step=self.compile_step_ahead)
     state, keys = self._fns.draw(arena_key, self.params)
     start = env_types.START_EPOCH + dt.timedelta(
         seconds=int(state.start_time_offset_s))

@@ -327,10 +327,16 @@ def fly_batch(policy: CorePolicy, env: Any, seeds: Sequence[int],
   unwrapped = env.unwrapped
   core = core_env(unwrapped)
   states, observations, paths = [], [], []
-  for seed in seeds:  # The gym env's own reset: its world, bit for bit.
-    observations.append(np.asarray(env.reset(seed=int(seed)), np.float32))
-    states.append(unwrapped.arena.driver.state)
-    paths.append([runner.flight_point(unwrapped)])
+  driver = unwrapped.arena.driver
+  # The flights fly batched (`_stepper`): the reset compiles no single step.
+  step_ahead, driver.compile_step_ahead = driver.compile_step_ahead, False
+  try:
+    for seed in seeds:  # The gym env's own reset: its world, bit for bit.
+      observations.append(np.asarray(env.reset(seed=int(seed)), np.float32))
+      states.append(driver.state)
+      paths.append([runner.flight_point(unwrapped)])
+  finally:
+    driver.compile_step_ahead = step_ahead
   states = jax.tree.map(lambda *leaves: jnp.stack(leaves), *states)
   observations = np.stack(observations)
   n = len(seeds)
