@@ -98,7 +98,9 @@ def test_agent_replans_every_period(world):
     driver.state = state.replace(steps=state.steps + k)
     actions.append(agent.step(0.0, np.zeros(71)))
   assert len(agent.decision_seconds) == 3  # Strides 0, 2 and 4.
-  plan = _plan(_config(), params, states[0])
+  # Its first plan is the batched planner's under the agent's own config
+  # (beam search with the wind memory by default): the program it compiled.
+  plan = _plan(agent.config, params, states[0])
   segment_0 = [plan.targets_m[0, 0], SMALL.get('time_factor', 2.0),
                plan.floats[0, 0]]
   np.testing.assert_allclose(actions[0], segment_0)
@@ -194,10 +196,11 @@ def test_beam_as_wide_as_the_tree_finds_the_best_plan(world):
                        [[a[1], b[1]] for a, b in pairs])
   assert float(best.score) == pytest.approx(float(max(scores)), rel=1e-6)
   assert len(set(np.round(scores, 6))) > 1  # Not all tied.
-  # A narrower beam keeps fewer partial plans: never a better plan.
-  narrow = jax.tree.map(lambda a: a[0], _plan(
-      _config(search=plan_config.BEAM, beam_width=1, grid_levels=2,
-              grad_starts=0), params, states[0]))
+  # A narrower search keeps fewer partial plans: never a better plan. The
+  # narrow search is the one-cell (greedy) beam of the next test, so the
+  # module compiles it once.
+  narrow = jax.tree.map(lambda a: a[0], _plan(_greedy_config(), params,
+                                              states[0]))
   assert float(narrow.score) <= float(best.score) + 1e-6
   with pytest.raises(errors.ConfigError, match='divisor of horizon'):
     _config(search=plan_config.BEAM, horizon=4, num_segments=3)
@@ -238,15 +241,21 @@ def test_best_per_cell_keeps_the_best_of_each_cell(entries):
   assert np.all((out == scores) | (out == -np.inf))
 
 
+def _greedy_config():
+  """A beam of 9 whose one cell (larger than any flight's reach) keeps one
+  partial plan per piece: a greedy search."""
+  return _config(search=plan_config.BEAM, beam_width=9, grid_levels=2,
+                 grad_starts=0, beam_cell_km=10_000.0, beam_cell_m=50_000.0)
+
+
 def test_beam_with_one_cell_is_greedy(world):
   """A cell larger than any flight's reach (beam_cell_km, beam_cell_m)
   leaves one partial plan per piece: a greedy search, whose plan is scored
   (finite) and never better than the exhaustive beam's. Which entry of a
   cell survives is `test_best_per_cell_keeps_the_best_of_each_cell`."""
   _, params, states = world
-  config = _config(search=plan_config.BEAM, beam_width=9, grid_levels=2,
-                   grad_starts=0, beam_cell_km=10_000.0, beam_cell_m=50_000.0)
-  best = jax.tree.map(lambda a: a[0], _plan(config, params, states[0]))
+  best = jax.tree.map(lambda a: a[0], _plan(_greedy_config(), params,
+                                            states[0]))
   wide = jax.tree.map(lambda a: a[0], _plan(
       _config(search=plan_config.BEAM, beam_width=9, grid_levels=2,
               grad_starts=0), params, states[0]))
