@@ -306,7 +306,7 @@ def test_beam_resource_value_keeps_the_frugal_plan(world):
 
 @pytest.mark.parametrize('scenarios, search, memory', [
     (0, plan_config.CEM, 0), (2, plan_config.CEM, 0), (0, plan_config.BEAM, 0),
-    (0, plan_config.BEAM, 3)])
+    (0, plan_config.BEAM, 16)])  # The agent's defaults: its program.
 def test_forecast_mpc_never_reads_the_noise(world, scenarios, search, memory):
   """Another flight's noise, same forecast and measurement: same plan (also
   when plans are scored over noise scenarios the planner draws itself, when
@@ -325,7 +325,8 @@ def test_forecast_mpc_never_reads_the_noise(world, scenarios, search, memory):
   if memory:  # The measurement went into the memory: the newest row.
     point, du, dv = plan_objective.measurement(winds.GENERATIVE_WIND,
                                          jax.tree.map(lambda a: a[0], state))
-    np.testing.assert_array_equal(plan.memory.valid[0], [False, False, True])
+    np.testing.assert_array_equal(plan.memory.valid[0],
+                                  [False] * (memory - 1) + [True])
     np.testing.assert_allclose(plan.memory.points[0, -1], point, rtol=1e-6)
     np.testing.assert_allclose([plan.memory.du[0, -1], plan.memory.dv[0, -1]],
                                [du, dv], rtol=1e-6)
