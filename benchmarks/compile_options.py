@@ -69,10 +69,10 @@ def _vector_speeds(core, params, batch_sizes, seconds):
       for name, fns in ways.items():
         state, _ = fns.draw(keys, params)
         state, _ = fns.start(state, params)
-        jax.block_until_ready(fns.step(state, actions, params, False))
+        jax.block_until_ready(fns.step(state, actions, params, np.bool_(False)))
         begun, strides = time.perf_counter(), 0
         while time.perf_counter() - begun < seconds:
-          parts, packed = fns.step(state, actions, params, False)
+          parts, packed = fns.step(state, actions, params, np.bool_(False))
           state = state.replace(**parts)
           jax.block_until_ready(packed)
           strides += 1
@@ -108,7 +108,7 @@ def main() -> None:
             'start': fns.start.lower(drawn, params),
             'step': fns.step.lower(
                 started, jax.ShapeDtypeStruct((3,), np.float32), params,
-                False)}
+                np.bool_(False))}
 
   report: Dict[str, Any] = {'loadavg_before': os.getloadavg(),
                             'jax': jax.__version__, 'repeats': args.repeats,

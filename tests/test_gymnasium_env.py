@@ -762,14 +762,24 @@ def test_first_reset_compiles_start_and_step_ahead_once():
                        threading.current_thread().name))
 
   env = _fresh_env()
+  # Normalized actions (gymnasium.make's default) on the same programs.
+  unit = gymnasium_env.LatexBalloonGymnasiumEnv(normalize_actions=True)
+  unit._fns = env._fns  # pylint: disable=protected-access
+  unit.compile_step_ahead = False
   jax.monitoring.register_event_duration_secs_listener(listen)
   try:
     env.reset(seed=0)
     env._fns.wait('step')  # pylint: disable=protected-access
     before_step = list(compiles)
     env.step(np.array([16_000.0, 1.0, 0.0], np.float32))
+    after_step = list(compiles)
+    unit.reset(seed=0)
+    unit.step(np.array([0.5, 0.0, -1.0], np.float32))
   finally:
     jax.monitoring.unregister_event_duration_listener(listen)
+  # `normalized` is an argument of the one step program, not a constant.
+  assert compiles == after_step, 'normalized actions compiled another step'
+  del compiles[len(after_step):]
   programs = {name: [t for f, t in compiles if f == f'jit({name})']
               for name in ('draw', 'start', 'step')}
   assert programs['draw'] == ['MainThread'], compiles

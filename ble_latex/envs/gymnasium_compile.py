@@ -115,9 +115,10 @@ class Compiled:
   measures the wind and returns (state, packed (obs, step_info, flight));
   `step(state, actions, params, normalized)` returns (changed state parts,
   packed (obs, reward, terminated, step_info, flight)); its actions are the
-  Box's raw (a0 [m], a1, a2), or with `normalized` (static) in [-1, 1]^3,
-  mapped onto the Box by `jax_env.to_box` (the one mapping) inside the
-  program; `unpack(name, packed)` splits a packed array on the host.
+  Box's raw (a0 [m], a1, a2), or with `normalized` in [-1, 1]^3, mapped
+  onto the Box by `jax_env.to_box` (the one mapping) inside the program
+  (`normalized` a `np.bool_` argument, not a constant: the Gymnasium
+  env's normalized actions and BLE's raw ones fly one compiled program); `unpack(name, packed)` splits a packed array on the host.
 
   A first reset compiles all three: `ahead` compiles `start` and `step` in
   a background thread while the caller's `draw` compiles (XLA compiles
@@ -137,7 +138,7 @@ class Compiled:
         defaults at N = 64 and 1024, which a long run pays back).
     """
     self._layouts: Dict[str, _Layout] = {}
-    # Batch shape -> ((id of the params, normalized), futures); the id, not
+    # Batch shape -> ((id of the params, step), futures); the id, not
     # the params: the process-wide compiled sets must not keep an env's ERA5
     # grid.
     self._ahead: Dict[Tuple[int, ...],
@@ -162,8 +163,7 @@ class Compiled:
       return state, pack('start', host, state.steps.shape)
 
     def step(state, actions, params, normalized):
-      if normalized:
-        actions = jax_env.to_box(actions)
+      actions = jnp.where(normalized, jax_env.to_box(actions), actions)
       obs, state, reward, terminated, info = over(
           env.step_env, (None, 0, 0, None))(None, state, actions, params)
       parts = _strong({k: getattr(state, k) for k in _STEP_PARTS})
@@ -176,7 +176,7 @@ class Compiled:
         jax_cache.fast_compile_options() if fast_compile else None))
     self.draw = jit(over(env.draw, (0, None)))
     self.start = jit(start)
-    self.step = jit(step, static_argnums=3)
+    self.step = jit(step)  # Call it with `normalized` a np.bool_.
 
   def unpack(self, name: str, packed: Any) -> Any:
     return self._layouts[name].unpack(packed)
@@ -194,7 +194,7 @@ class Compiled:
     """
     lead = tuple(np.shape(keys))[:-1]
     done = self._ahead.get(lead)
-    if done is not None and done[0] == (id(params), normalized, step):
+    if done is not None and done[0] == (id(params), step):
       return
     try:
       drawn, _ = jax.eval_shape(self.draw, keys, params)
@@ -210,8 +210,8 @@ class Compiled:
     if step:
       futures['step'] = pool.submit(
           lambda: self.step.lower(started, actions, params,
-                                  normalized).compile())
-    self._ahead[lead] = ((id(params), normalized, step), futures)
+                                  np.bool_(normalized)).compile())
+    self._ahead[lead] = ((id(params), step), futures)
 
   def wait(self, name: str) -> None:
     """Blocks until `ahead`'s compile of `name` ('start' or 'step') ended.

@@ -279,7 +279,7 @@ class Balloons(SeedRule):
       raise RuntimeError('reset() must be called before step()')
     self._fns.wait('step')
     parts, packed = self._fns.step(self.state, actions, self.params,
-                                   self.normalize_actions)
+                                   np.bool_(self.normalize_actions))
     self.state = self.state.replace(**parts)
     return self._fns.unpack('step', packed)
 
