@@ -118,7 +118,9 @@ class Compiled:
   Box's raw (a0 [m], a1, a2), or with `normalized` in [-1, 1]^3, mapped
   onto the Box by `jax_env.to_box` (the one mapping) inside the program
   (`normalized` a `np.bool_` argument, not a constant: the Gymnasium
-  env's normalized actions and BLE's raw ones fly one compiled program); `unpack(name, packed)` splits a packed array on the host.
+  env's normalized actions and BLE's raw ones fly one compiled program; a
+  Python bool would be another signature, so callers pass `np.bool_`);
+  `unpack(name, packed)` splits a packed array on the host.
 
   A first reset compiles all three: `ahead` compiles `start` and `step` in
   a background thread while the caller's `draw` compiles (XLA compiles
