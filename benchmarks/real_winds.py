@@ -73,6 +73,9 @@ SOURCES: Dict[str, Tuple[str, str, Optional[Tuple[float, float]]]] = {
 AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
           'latex_mpc', 'latex_mpc_oracle')
 CHEAP_AGENTS = AGENTS[:3]
+# Flown by `fly_planner` (no TensorFlow), PLANNER_BATCH balloons per call.
+PLANNERS = ('latex_mpc', 'latex_mpc_oracle')
+PLANNER_BATCH = 25
 STATION_MODES = ('center', 'per_seed')
 PER_SEED_BINDING = "Era5WindField.stations = 'per_seed'"
 # What a seed's compact record keeps of `eval_lib.fly`'s.
@@ -106,6 +109,12 @@ flags.DEFINE_string('json', os.path.join(_ROOT, 'benchmarks',
 flags.DEFINE_integer('max_episode_length', None, 'Cap on the strides (a '
                      'smoke test; default the suite\'s).', lower_bound=1,
                      flag_values=FLAGS)
+flags.DEFINE_multi_string(
+    'source_copy', [], 'NAME=PATH@SHA256: fly source NAME from PATH, a NetCDF '
+    'copy of its GRIB2 (benchmarks/gpu/decode_grib.py, for a machine '
+    'without eccodes), refused unless the copy reads to arrays of that '
+    'SHA-256 (decode_grib.py prints the original\'s); the run records it.',
+    flag_values=FLAGS)
 flags.DEFINE_boolean('overwrite', False, 'Re-fly cells flown with other '
                      'settings.', flag_values=FLAGS)
 
@@ -188,29 +197,89 @@ def load_record(path: str) -> Dict[str, Any]:
   return record
 
 
+def source_copies(entries: Sequence[str]) -> Dict[str, Tuple[str, str]]:
+  """--source_copy: {name: (copy path, arrays' SHA-256)}, each checked."""
+  sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(
+      __file__)), 'gpu'))
+  import decode_grib  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  copies = {}
+  for entry in entries:
+    name, _, rest = entry.partition('=')
+    path, _, sha = rest.rpartition('@')
+    if name not in SOURCES or not path or len(sha) != 64:
+      raise cli.CommandUsageError(f'--source_copy: {entry!r} is not '
+                                  'NAME=PATH@SHA256 with NAME among '
+                                  f'{list(SOURCES)}')
+    if not os.path.isfile(path):
+      raise cli.CommandUsageError(f'--source_copy: {path}: no such file')
+    got = decode_grib.digest(era5.read_source(path)[1])
+    if got != sha:
+      raise cli.CommandFailure(f'--source_copy: {path} reads to arrays of '
+                               f'SHA-256 {got}, not {sha}')
+    copies[name] = (path, sha)
+  return copies
+
+
+def fly_planner(agent: str, bindings: Sequence[str], seeds: Sequence[int],
+                max_steps: int) -> Tuple[List[Dict[str, Any]], str, float]:
+  """A planner's flights by `benchmarks/planners.py`'s batched path.
+
+  The same worlds and records as `eval_lib.evaluate` (batched: the gym env's
+  reset, then the core), without BLE's gym env, whose modules import
+  TensorFlow: so the planners fly here where TensorFlow is absent (a lent
+  GPU's image, `benchmarks/gpu/`). Returns (records, wind source, seconds).
+  """
+  # pylint: disable=g-import-not-at-top
+  sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+  import planners as planners_bench
+  from ble_latex.agents import plan_config
+  from ble_latex.envs import env_params
+  from ble_latex.run import gin_binding
+  # pylint: enable=g-import-not-at-top
+  gin_binding.bind_gin(None, None, [], list(bindings))
+  config = plan_config.from_gin(agent)
+  began = time.perf_counter()
+  records, timing, compiled = [], {}, set()
+  for b in range(0, len(seeds), PLANNER_BATCH):
+    records += planners_bench.fly_batch(config, seeds[b:b + PLANNER_BATCH],
+                                        max_steps, 0, timing, compiled)
+    print(f'{agent}: {len(records)}/{len(seeds)} seeds', file=sys.stderr,
+          flush=True)
+  return records, env_params.wind_source(), time.perf_counter() - began
+
+
 def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
              ) -> Tuple[List[Dict[str, Any]], str, bool, float]:
   """Flies `seeds`: (compact records, wind source, batched, fly seconds)."""
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params
-  from ble_latex.run import batch_eval
-  from ble_latex.run import eval_lib
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
   bindings = ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
               f'Era5WindField.path = {os.path.abspath(path)!r}',
               f"Era5WindField.start_dates = '{suites.era5_dates(cell['suite'])}'",
               *station_bindings(cell)]
-  agent, env = eval_lib.build(eval_lib.EvalSpec(
-      agent=cell['agent'], gin_bindings=tuple(bindings)))
-  source = env_params.wind_source()
-  batched = batch_eval.flies_batched(agent, env)
   max_steps = cell['max_steps'] or suites.get_eval_suite(
       cell['suite']).max_episode_length
-  began = time.perf_counter()
-  records = eval_lib.evaluate(agent, env, seeds, max_steps,
-                              description=f"{cell['source']} {cell['agent']}")
-  wall = time.perf_counter() - began
+  if cell['agent'] in PLANNERS:
+    records, source, wall = fly_planner(cell['agent'], bindings, seeds,
+                                        max_steps)
+    batched = 'planners.py'
+  else:
+    # pylint: disable=g-import-not-at-top
+    from ble_latex.run import batch_eval
+    from ble_latex.run import eval_lib
+    # pylint: enable=g-import-not-at-top
+    agent, env = eval_lib.build(eval_lib.EvalSpec(
+        agent=cell['agent'], gin_bindings=tuple(bindings)))
+    source = env_params.wind_source()
+    batched = batch_eval.flies_batched(agent, env)
+    began = time.perf_counter()
+    records = eval_lib.evaluate(
+        agent, env, seeds, max_steps,
+        description=f"{cell['source']} {cell['agent']}")
+    wall = time.perf_counter() - began
   kept = [{**{k: r[k] for k in KEPT},
            **{k: r[k] for k in KEPT_IF_THERE if k in r}} for r in records]
   return kept, source, batched, wall
@@ -244,6 +313,7 @@ def _main(argv: Sequence[str]) -> None:
   suite_seeds = list(suites.get_eval_suite(FLAGS.suite).seeds)
   command = ' '.join(['python', 'benchmarks/real_winds.py', *sys.argv[1:]])
   record = load_record(FLAGS.json)
+  copies = source_copies(FLAGS.source_copy)
   for name in FLAGS.sources:
     path = os.path.join(FLAGS.realdata_dir, SOURCES[name][0])
     if not os.path.isfile(path):
@@ -268,7 +338,12 @@ def _main(argv: Sequence[str]) -> None:
         continue
       load_before = [round(x, 2) for x in os.getloadavg()]
       date = dt.datetime.now(dt.timezone.utc).isoformat(timespec='minutes')
-      flights, source, batched, wall = fly_cell(cell, path, todo)
+      copy = copies.get(name)
+      flights, source, batched, wall = fly_cell(
+          cell, copy[0] if copy else path, todo)
+      if copy:  # The copy reads as a plain NetCDF ('ERA5'): name the file.
+        source = (f'GRIB2 (time-invariant): {[os.path.abspath(path)]}, flown '
+                  f'from its decoded NetCDF copy {os.path.basename(copy[0])}')
       flown.update({r['seed']: r for r in flights})
       merged = [flown[s] for s in sorted(flown)]
       runs = (old or {}).get('runs', []) + [{
@@ -276,7 +351,9 @@ def _main(argv: Sequence[str]) -> None:
           'cpus': os.cpu_count(), 'loadavg_before': load_before,
           'loadavg_after': [round(x, 2) for x in os.getloadavg()],
           'seeds': len(todo), 'fly_s': round(wall, 1),
-          'batched': batched, **version}]
+          'batched': batched, **version,
+          **({'flown_from_copy': os.path.basename(copy[0]),
+              'arrays_sha256': copy[1]} if copy else {})}]
       record = load_record(FLAGS.json)  # Another run may have added cells.
       record['cells'][key] = {
           'settings': cell, 'label': SOURCES[name][1],
