@@ -15,7 +15,7 @@ set -u
 out=${1:?usage: real_and_realistic.sh OUT BUDGET_S}
 budget=${2:-540}
 start=$(date +%s)
-export PYTHONPATH=$PWD/gpu_site${PYTHONPATH:+:$PYTHONPATH} PYTHONUNBUFFERED=1
+export PYTHONPATH=$PWD:$PWD/gpu_site${PYTHONPATH:+:$PYTHONPATH} PYTHONUNBUFFERED=1
 py=${PYTHON:-python3}
 log=$out/log.txt
 mkdir -p "$out"

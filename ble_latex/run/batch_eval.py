@@ -41,7 +41,6 @@ through the seeds in order, so its records depend on the order it flies.
 import copy
 import dataclasses
 import functools
-import sys
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
 from balloon_learning_environment.agents import agent as base_agent
@@ -54,6 +53,7 @@ from ble_latex.agents import baselines
 from ble_latex.agents import plan_config
 from ble_latex.agents import planners
 from ble_latex.agents import planning
+from ble_latex.agents import sac
 from ble_latex.agents import sac_core
 from ble_latex.ble import gym_env
 from ble_latex.envs import env_types
@@ -134,13 +134,7 @@ def core_policy(agent: Any, core: CoreEnv) -> Optional[CorePolicy]:
   Returns:
     A `CorePolicy`, or None for agents without one.
   """
-  del core
-  # SAC's policy without importing SAC here: its module imports dopamine's
-  # agent and so TensorFlow, absent where the planners fly on a GPU. An
-  # agent can be a `SACAgent` only once `ble_latex.agents.sac` is imported.
-  sac = sys.modules.get('ble_latex.agents.sac')
-  if sac is not None and isinstance(agent, sac.SACAgent):
-    return _SacPolicy(agent) if agent.eval_mode else None
+  del agent, core
   return None
 
 
@@ -204,8 +198,7 @@ def _mean_actions(network_def: Any, network_params: Any,
 class _SacPolicy(CorePolicy):
   """SAC's deterministic eval policy (`SACAgent` in eval mode)."""
 
-  def __init__(self, agent: Any):
-    """`agent`: a `ble_latex.agents.sac.SACAgent` in eval mode."""
+  def __init__(self, agent: sac.SACAgent):
     self._agent = agent
 
   def _act(self, observations: np.ndarray) -> np.ndarray:
@@ -226,6 +219,12 @@ class _SacPolicy(CorePolicy):
 
   def step(self, states, observations, rewards):
     return self._act(observations)
+
+
+@core_policy.register
+def _sac_policy(agent: sac.SACAgent, core: CoreEnv) -> Optional[CorePolicy]:
+  del core
+  return _SacPolicy(agent) if agent.eval_mode else None
 
 
 class _PlannerPolicy(CorePolicy):

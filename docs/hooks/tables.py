@@ -317,10 +317,14 @@ PHYSICS_ROWS = (
     ('BLE `station_seeker` (discrete)', 'ble_station_seeker_discrete',
      'ble_station_seeker_discrete'),
     ('`latex_station_seeker`', 'latex_station_seeker', 'latex_station_seeker'),
+    ('`latex_mpc` (forecast; plans without the lift walk; H200 GPU)', None,
+     'latex_mpc'),
+    ('`latex_mpc_oracle` (true wind, one whole-episode plan; no lift walk '
+     'foreseen; H200 GPU)', None, 'latex_mpc_oracle'),
     ('`latex_random`', 'latex_random', 'latex_random'),
 )
 # Rows flown before the calibration (lift walk 1.4 g/sqrt(s), +5/-2 K,
-# 150 Pa) that were not flown again: (label, record name).
+# 150 Pa), kept for the record: (label, record name).
 UNCALIBRATED_ROWS = (
     ('SAC retrained on that physics, 3 seeds (mean ± std over seeds)',
      'sac_jax_realistic (3 seeds)'),

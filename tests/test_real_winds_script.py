@@ -1,0 +1,108 @@
+# coding=utf-8
+"""benchmarks/real_winds.py's planner path and GRIB2 copies (issue 45).
+
+The planners fly by `benchmarks/planners.py`'s batched core path, which
+imports no BLE gym env (so no TensorFlow: a lent GPU's image has none), with
+the records `eval_lib.evaluate` gives; a GRIB2 source can fly from a NetCDF
+copy decoded here (`benchmarks/gpu/decode_grib.py`), refused unless the copy
+reads to the original's arrays.
+"""
+
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+from ble_latex.wind import era5
+
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
+                    'realwinds')
+GFS_GRIB = os.path.join(DATA, 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
+HILO = os.path.join(DATA, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
+
+
+@pytest.fixture
+def decode_grib(benchmark_script):
+  return benchmark_script(os.path.join('gpu', 'decode_grib.py'))
+
+
+def test_the_decoded_copy_reads_to_the_grib_arrays(decode_grib, tmp_path,
+                                                    capsys):
+  out = str(tmp_path / 'copy.nc')
+  assert decode_grib.main(['decode_grib.py', GFS_GRIB, out]) == 0
+  printed = capsys.readouterr().out.strip()
+  original = era5.read_source(GFS_GRIB)[1]
+  copy = era5.read_source(out)[1]
+  for a, b in zip(original, copy):
+    np.testing.assert_array_equal(a, b)
+  assert printed == decode_grib.digest(original) == decode_grib.digest(copy)
+  # The digest sees a change of one value.
+  changed = [a.copy() for a in copy]
+  changed[4].flat[7] += 1.0
+  assert decode_grib.digest(changed) != printed
+
+
+def test_decode_grib_refuses_a_file_that_is_not_grib(decode_grib, tmp_path,
+                                                      capsys):
+  assert decode_grib.main(['decode_grib.py', HILO,
+                           str(tmp_path / 'x.nc')]) == 2
+  assert 'is not a GRIB file' in capsys.readouterr().err
+  assert not (tmp_path / 'x.nc').exists()
+
+
+@pytest.mark.parametrize('entry, message, status', [
+    ('gfs_global=COPY@' + '0' * 64, 'reads to arrays of SHA-256', 1),
+    ('gfs_global=COPY', 'is not NAME=PATH@SHA256', 2),
+    ('nowhere=COPY@' + '0' * 64, 'is not NAME=PATH@SHA256', 2),
+    ('gfs_global=MISSING@' + '0' * 64, 'no such file', 2),
+])
+def test_a_copy_that_is_not_the_source_is_refused(benchmark_script,
+                                                  decode_grib, tmp_path,
+                                                  capsys, entry, message,
+                                                  status):
+  real_winds = benchmark_script('real_winds.py')
+  copy = str(tmp_path / 'copy.nc')
+  assert decode_grib.main(['decode_grib.py', GFS_GRIB, copy]) == 0
+  capsys.readouterr()
+  entry = entry.replace('COPY', copy).replace(
+      'MISSING', str(tmp_path / 'missing.nc'))
+  record = tmp_path / 'record.json'
+  code = real_winds.main(['--sources=gfs_global',
+                          '--agents=latex_random', '--seeds=1',
+                          f'--realdata_dir={tmp_path}',
+                          f'--source_copy={entry}', f'--json={record}'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert code == status
+  assert len(err) == 1 and message in err[0], err
+  assert not record.exists()
+
+
+@pytest.mark.slow
+def test_the_planner_path_flies_eval_libs_records(benchmark_script, tmp_path):
+  """`fly_planner` (planners.py's path) = `eval_lib.evaluate`, per seed."""
+  from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
+  real_winds = benchmark_script('real_winds.py')
+  folder = tmp_path / 'soundings'
+  folder.mkdir()
+  path = str(folder / os.path.basename(HILO))
+  shutil.copy(HILO, path)
+  lat, lon = real_winds.SOURCES['hilo'][2]
+  bindings = ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
+              f'Era5WindField.path = {path!r}',
+              f"Era5WindField.start_dates = '{suites.era5_dates('latex_small')}'",
+              f'Era5WindField.center_lat = {lat}',
+              f'Era5WindField.center_lon = {lon}']
+  seeds = list(suites.get_eval_suite('latex_small').seeds)[:2]
+  planner, _, _ = real_winds.fly_planner('latex_mpc', bindings, seeds, 3)
+  agent, env = eval_lib.build(eval_lib.EvalSpec(
+      agent='latex_mpc', gin_bindings=tuple(bindings)))
+  evaluated = eval_lib.evaluate(agent, env, seeds, 3)
+  assert [r['seed'] for r in planner] == seeds
+  for a, b in zip(planner, evaluated):
+    assert a['steps'] == b['steps'] == 3
+    assert a['terminal_reason'] == b['terminal_reason']
+    for key in ('reward', 'helium_vented_mols', 'sand_dropped_kg',
+                'final_distance_km'):
+      assert a[key] == pytest.approx(b[key], rel=1e-4, abs=1e-4), key
