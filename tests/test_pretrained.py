@@ -114,7 +114,7 @@ def test_shipped_policy_flies_the_latex_env():
 
 @pytest.mark.parametrize('gin_files, source', [
     ((), 'benchmarks/sac_jax/n32/seed_'),
-    (('latex_realistic.gin',), 'benchmarks/sac_jax/realistic/seed_')])
+    (('latex_realistic.gin',), 'benchmarks/sac_jax/realistic_calibrated/seed_')])
 def test_sac_pretrained_loads_the_policy_of_the_bound_physics(gin_files,
                                                               source):
   """The paper's policy by default; the realistic one under its gin file."""

@@ -6,8 +6,9 @@ PRNG key, target networks) down to what acting needs: the config, the network
 parameters and the temperature. Policies are msgpack data files
 (`ble_latex.safe_io`; reading one cannot run code). Two are shipped as package
 data: `policies/sac_latex.msgpack`, trained on the paper's physics, and
-`policies/sac_latex_realistic.msgpack`, trained on the realistic latex physics
-(gin_configs/latex_realistic.gin). `sac.SACPretrainedAgent` (the BLE agent)
+`policies/sac_latex_realistic.msgpack`, trained on the calibrated realistic
+latex physics (gin_configs/latex_realistic.gin; seed 2 of
+benchmarks/sac_jax/realistic_calibrated, chosen on validation). `sac.SACPretrainedAgent` (the BLE agent)
 loads the one of the physics gin binds (`shipped_policy`), or the file its
 `policy_path` names:
 

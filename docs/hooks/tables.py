@@ -312,8 +312,10 @@ def wind_compare() -> str:
 PHYSICS_ROWS = (
     ('`sac_pretrained`, the paper-trained policy', 'sac_pretrained',
      'sac_pretrained_paper_policy'),
-    ('`sac_pretrained`, the realistic policy (trained before the '
-     'calibration)', None, 'sac_pretrained'),
+    ('`sac_pretrained`, the realistic policy (retrained on the calibrated '
+     'physics, best-validated of 3 seeds)', None, 'sac_pretrained'),
+    ('SAC retrained on the calibrated physics, 3 seeds (mean ± std over '
+     'seeds)', None, 'sac_jax_realistic_calibrated (3 seeds)'),
     ('BLE `station_seeker` (discrete)', 'ble_station_seeker_discrete',
      'ble_station_seeker_discrete'),
     ('`latex_station_seeker`', 'latex_station_seeker', 'latex_station_seeker'),
@@ -371,7 +373,7 @@ def realistic_short() -> str:
       continue
     p = r['paper'].get(paper) if paper else None
     lines.append(
-        f'| {label} | {_tw(p)} | {_tw(row)} | '
+        f'| {label} | {_tw(p)} | {_tw(row, std="num_seeds" in row)} | '
         f'{_tw(stress.get(realistic), oor=False)} | '
         f'{_days(r["paper_long"].get(paper) if paper else None)} / '
         f'{_days(r["realistic_long"].get(realistic))} |')
