@@ -10,7 +10,9 @@ Each (source, agent, station mode) is one cell: the suite's (--suite,
 default latex_small) first N seeds flown by `eval_lib.evaluate` (the
 batched path, `run/batch_eval.py`, for the JAX-core agents; the one-at-a-
 time path for `latex_random`, whose one random stream runs through the
-seeds in order), on `--wind_file SOURCE`'s gin bindings
+seeds in order, and for `ble_station_seeker_discrete`, BLE's
+`station_seeker` on `LatexBalloonDiscrete-v0`; the planners by
+`benchmarks/planners.py`'s batched path, `fly_planner`), on `--wind_file SOURCE`'s gin bindings
 (`cli.era5_bindings`) and the station's. Every real source here is one
 time step: it flies time-invariant, the analysis (or the sounding's
 column) being the forecast the agents see, the truth the same plus BLE's
@@ -71,7 +73,10 @@ SOURCES: Dict[str, Tuple[str, str, Optional[Tuple[float, float]]]] = {
              'sounding Hilo 2023-11-01 00Z', (19.72, -155.07)),
 }
 AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
-          'latex_mpc', 'latex_mpc_oracle')
+          'latex_mpc', 'latex_mpc_oracle', 'ble_station_seeker_discrete')
+# Agents named here for what they fly: name -> (BLE agent id, env id).
+BLE_AGENTS = {'ble_station_seeker_discrete': ('station_seeker',
+                                              'LatexBalloonDiscrete-v0')}
 CHEAP_AGENTS = AGENTS[:3]
 # Flown by `fly_planner` (no TensorFlow), PLANNER_BATCH balloons per call.
 PLANNERS = ('latex_mpc', 'latex_mpc_oracle')
@@ -271,8 +276,10 @@ def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
     from ble_latex.run import batch_eval
     from ble_latex.run import eval_lib
     # pylint: enable=g-import-not-at-top
+    name, env_name = BLE_AGENTS.get(cell['agent'],
+                                    (cell['agent'], 'LatexBalloon-v0'))
     agent, env = eval_lib.build(eval_lib.EvalSpec(
-        agent=cell['agent'], gin_bindings=tuple(bindings)))
+        agent=name, env_name=env_name, gin_bindings=tuple(bindings)))
     source = env_params.wind_source()
     batched = batch_eval.flies_batched(agent, env)
     began = time.perf_counter()

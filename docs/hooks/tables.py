@@ -185,6 +185,7 @@ REAL_WINDS_AGENTS = (
     ('sac_pretrained', '`sac_pretrained`'),
     ('latex_mpc', '`latex_mpc`'),
     ('latex_mpc_oracle', '`latex_mpc_oracle` (upper bound)'),
+    ('ble_station_seeker_discrete', 'BLE `station_seeker` (discrete)'),
     ('latex_station_seeker', '`latex_station_seeker` (geometric)'),
     ('latex_random', '`latex_random`'),
 )
