@@ -47,7 +47,7 @@ import platform
 import subprocess
 import sys
 import time
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 from absl import flags
 
@@ -78,9 +78,9 @@ AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
 BLE_AGENTS = {'ble_station_seeker_discrete': ('station_seeker',
                                               'LatexBalloonDiscrete-v0')}
 CHEAP_AGENTS = AGENTS[:3]
-# Flown by `fly_planner` (no TensorFlow), PLANNER_BATCH balloons per call.
+# Flown by `fly_planner` (no TensorFlow), planners.py's --batch default per
+# call.
 PLANNERS = ('latex_mpc', 'latex_mpc_oracle')
-PLANNER_BATCH = 25
 STATION_MODES = ('center', 'per_seed')
 PER_SEED_BINDING = "Era5WindField.stations = 'per_seed'"
 # What a seed's compact record keeps of `eval_lib.fly`'s.
@@ -245,9 +245,10 @@ def fly_planner(agent: str, bindings: Sequence[str], seeds: Sequence[int],
   gin_binding.bind_gin(None, None, [], list(bindings))
   config = plan_config.from_gin(agent)
   began = time.perf_counter()
+  batch = planners_bench.FLAGS['batch'].default
   records, timing, compiled = [], {}, set()
-  for b in range(0, len(seeds), PLANNER_BATCH):
-    records += planners_bench.fly_batch(config, seeds[b:b + PLANNER_BATCH],
+  for b in range(0, len(seeds), batch):
+    records += planners_bench.fly_batch(config, seeds[b:b + batch],
                                         max_steps, 0, timing, compiled)
     print(f'{agent}: {len(records)}/{len(seeds)} seeds', file=sys.stderr,
           flush=True)
@@ -255,8 +256,12 @@ def fly_planner(agent: str, bindings: Sequence[str], seeds: Sequence[int],
 
 
 def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
-             ) -> Tuple[List[Dict[str, Any]], str, bool, float]:
-  """Flies `seeds`: (compact records, wind source, batched, fly seconds)."""
+             ) -> Tuple[List[Dict[str, Any]], str, Union[bool, str], float]:
+  """Flies `seeds`: (compact records, wind source, batched, fly seconds).
+
+  `batched`: whether `eval_lib.evaluate` flew them batched, or
+  'planners.py' for a planner (`fly_planner`, batched too).
+  """
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params
   from ble_latex.run import suites
