@@ -181,6 +181,15 @@ def station_bindings(cell: Dict[str, Any]) -> List[str]:
   return list(cell['station_bindings'])
 
 
+def source_bindings(cell: Dict[str, Any], path: str) -> List[str]:
+  """The gin bindings that fly `cell`'s suite on the wind file `path`."""
+  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
+  return ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
+          f'Era5WindField.path = {os.path.abspath(path)!r}',
+          f"Era5WindField.start_dates = '{suites.era5_dates(cell['suite'])}'",
+          *station_bindings(cell)]
+
+
 def code_version() -> Dict[str, Any]:
   """The commit flown and whether the package differed from it."""
   def git(*args):
@@ -266,10 +275,7 @@ def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
   from ble_latex.envs import env_params
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
-  bindings = ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
-              f'Era5WindField.path = {os.path.abspath(path)!r}',
-              f"Era5WindField.start_dates = '{suites.era5_dates(cell['suite'])}'",
-              *station_bindings(cell)]
+  bindings = source_bindings(cell, path)
   max_steps = cell['max_steps'] or suites.get_eval_suite(
       cell['suite']).max_episode_length
   if cell['agent'] in PLANNERS:

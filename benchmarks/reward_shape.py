@@ -22,14 +22,24 @@ Per seed it reports the held-out TW50 window, the fraction of the window at
 of the in-circle time spent at the edge, into --output (JSON: per reward
 and seed, mean +- std, the command, date, machine and load).
 
+With --real_sources, each chosen policy also flies those real wind sources
+(`benchmarks/real_winds.py`'s files and stations: a GFS grid at per-seed
+stations, a sounding at its launch site), --real_seeds seeds each, with the
+same TW50 window and edge fractions per source.
+
 Resumable: training resumes from the run directories
 (BASE_DIR/perciatelli/seed_S, BASE_DIR/tanh_<w>km/seed_S), and a cell
-(reward, seed) already in --output with the same settings is skipped;
-other settings in the same file are refused, naming what differs. The
-full study (3 seeds x 2 rewards) is the lead's to start:
+(reward, seed) already in --output with the same settings is skipped (it
+flies only the real sources it lacks); other settings in the same file are
+refused, naming what differs. --parallel=2 trains and flies two cells at
+once (each in its own processes; this process alone writes the record, and
+a second study on the same --output is refused). The full study (3 seeds x
+2 rewards, 100 rounds each; ~1.5 h on 2 cores):
 
-  nice -n 10 python benchmarks/reward_shape.py --base_dir=/tmp/reward_shape \
-      --seeds=0,1,2 --rounds=60 --output=benchmarks/reward_shape.json
+  nice -n 5 python benchmarks/reward_shape.py \
+      --base_dir=benchmarks/sac_jax/reward_shape --seeds=0,1,2 --rounds=100 \
+      --parallel=2 --output=benchmarks/reward_shape.json \
+      --real_sources=gfs_namerica,gfs_global,boise,hilo
 
 A smoke run (tiny budget; its numbers mean nothing):
 
@@ -55,6 +65,7 @@ from ble_latex import safe_io
 from ble_latex.cli import common as cli
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import real_winds  # pylint: disable=g-import-not-at-top,wrong-import-position
 import sac_seeds  # pylint: disable=g-import-not-at-top,wrong-import-position
 
 FLAGS = flags.FlagValues()
@@ -87,6 +98,20 @@ flags.DEFINE_multi_string('gin_bindings', [], 'Bindings for every reward\'s '
                           flag_values=FLAGS)
 flags.DEFINE_string('output', 'benchmarks/reward_shape.json', 'The record.',
                     flag_values=FLAGS)
+flags.DEFINE_list('real_sources', [], 'Real wind sources each chosen policy '
+                  f'also flies, of {list(real_winds.SOURCES)} '
+                  '(benchmarks/real_winds.py): a GFS grid at per-seed '
+                  'stations, a sounding at its site, as README\'s real-winds '
+                  'table. Done cells fly the sources they lack.',
+                  flag_values=FLAGS)
+flags.DEFINE_integer('real_seeds', 100, 'Seeds per real source (the held-'
+                     'out suite\'s first).', lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_string('realdata_dir', real_winds.REALDATA_DIR, 'Folder of the '
+                    'real files (PROVENANCE.md).', flag_values=FLAGS)
+flags.DEFINE_integer('parallel', 1, 'Cells (reward, seed) trained and flown '
+                     'at once, each in its own processes; the record is '
+                     'written by this process alone, as cells finish.',
+                     lower_bound=1, flag_values=FLAGS)
 
 # The station circle and the edge band of the study. # [km]
 RADIUS_KM = 50.0
@@ -132,6 +157,68 @@ def _held_out(suite_name: str, episodes: Optional[int], policy_path: str,
   return summary, records.load_eval(output)
 
 
+def real_cell(name: str, suite: str) -> Dict[str, Any]:
+  """Where a real source flies (`real_winds`' cell: station and suite)."""
+  site = real_winds.SOURCES[name][2]
+  if site is not None:
+    return {'source': name, 'suite': suite, 'station_mode': 'center',
+            'station_lat_lon': list(site)}
+  return {'source': name, 'suite': suite, 'station_mode': 'per_seed',
+          'station_bindings': [real_winds.PER_SEED_BINDING]}
+
+
+def _fly_real(policy_path: str, cell: Dict[str, Any], path: str,
+              num_seeds: int, max_steps: Optional[int] = None
+              ) -> Dict[str, Any]:
+  """Flies a policy on one real source (a spawned process); its summary.
+
+  `max_steps`: strides per flight (default the suite's; tests shorten it).
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params
+  from ble_latex.run import eval_lib
+  from ble_latex.run import metrics
+  from ble_latex.run import suites
+  # pylint: enable=g-import-not-at-top
+  bindings = [*real_winds.source_bindings(cell, path),
+              f'SACPretrainedAgent.policy_path = {policy_path!r}']
+  agent, env = eval_lib.build(eval_lib.EvalSpec(
+      agent='sac_pretrained', gin_bindings=tuple(bindings)))
+  suite = suites.get_eval_suite(cell['suite'])
+  held = eval_lib.evaluate(agent, env, list(suite.seeds)[:num_seeds],
+                           max_steps or suite.max_episode_length,
+                           description=f"{cell['source']} {policy_path}")
+  summary = metrics.summarize(held)
+  fractions = [edge_fractions(r) for r in held]
+  return {**cell, 'wind_source': env_params.wind_source(),
+          'episodes': len(held),
+          'tw50_window': summary['tw50_window_mean'],
+          'out_of_resources_pct': summary['out_of_resources_pct'],
+          'edge_fraction': statistics.mean(f['edge'] for f in fractions),
+          'core_fraction': statistics.mean(f['core'] for f in fractions)}
+
+
+def real_missing(args: Any, row: Dict[str, Any]) -> List[str]:
+  """The --real_sources a done cell has not flown with these settings."""
+  flown = row.get('real_winds', {})
+  return [name for name in args.real_sources
+          if flown.get(name, {}).get('episodes') != args.real_seeds
+          or flown[name].get('suite') != args.held_out_suite]
+
+
+def fly_real(args: Any, row: Dict[str, Any], policy: str) -> None:
+  """Flies `policy` on the real sources `row` lacks, into row['real_winds']."""
+  for name in real_missing(args, row):
+    path = os.path.join(args.realdata_dir, real_winds.SOURCES[name][0])
+    with futures.ProcessPoolExecutor(
+        max_workers=1,
+        mp_context=multiprocessing.get_context('spawn')) as pool:
+      result = pool.submit(_fly_real, policy,
+                           real_cell(name, args.held_out_suite), path,
+                           args.real_seeds).result()
+    row.setdefault('real_winds', {})[name] = result
+
+
 def settings(args: Any) -> Dict[str, Any]:
   """What a cell's result depends on (a resume must match it)."""
   return {'rounds': args.rounds, 'tanh_scale_km': args.tanh_scale_km,
@@ -146,12 +233,27 @@ def settings(args: Any) -> Dict[str, Any]:
 def _summary(rows: Dict[str, Dict[str, Any]]) -> Dict[str, Any]:
   done = [r for r in rows.values() if 'held_out_tw50_window' in r]
   out: Dict[str, Any] = {'seeds_done': len(done)}
-  for key in ('held_out_tw50_window', 'edge_fraction', 'core_fraction'):
-    values = [r[key] for r in done]
+  def spread(prefix: str, values: List[float]) -> None:
     if values:
-      out[f'{key}_mean'] = statistics.mean(values)
-      out[f'{key}_std'] = statistics.stdev(values) if len(values) > 1 else 0.0
+      out[f'{prefix}_mean'] = statistics.mean(values)
+      out[f'{prefix}_std'] = statistics.stdev(values) if len(values) > 1 else 0.0
+  for key in ('held_out_tw50_window', 'edge_fraction', 'core_fraction'):
+    spread(key, [r[key] for r in done])
+  names = sorted({n for r in done for n in r.get('real_winds', {})})
+  for name in names:
+    flown = [r['real_winds'][name] for r in done
+             if name in r.get('real_winds', {})]
+    out[f'real_{name}_seeds_done'] = len(flown)
+    for key in ('tw50_window', 'edge_fraction', 'core_fraction'):
+      spread(f'real_{name}_{key}', [f[key] for f in flown])
   return out
+
+
+def run_folder(args: Any, reward: str) -> str:
+  """A reward's runs under --base_dir (a tanh folder names its scale: another
+  scale never resumes it)."""
+  return reward if reward == 'perciatelli' else (
+      f'{reward}_{args.tanh_scale_km:g}km')
 
 
 def run_cell(args: Any, reward: str, seed: int) -> Dict[str, Any]:
@@ -160,9 +262,7 @@ def run_cell(args: Any, reward: str, seed: int) -> Dict[str, Any]:
   from ble_latex.run import episode_log
   from ble_latex.run import records
   # pylint: enable=g-import-not-at-top
-  # The tanh runs' folder names their scale: another scale never resumes them.
-  base = os.path.join(args.base_dir, reward if reward == 'perciatelli' else
-                      f'{reward}_{args.tanh_scale_km:g}km')
+  base = os.path.join(args.base_dir, run_folder(args, reward))
   bindings = [*args.gin_bindings,
               *reward_bindings(reward, args.tanh_scale_km)]
   sac_seeds.train(base, [seed], args.rounds, args.snapshot_period,
@@ -242,26 +342,61 @@ def _main(argv: Sequence[str]) -> int:
     raise cli.CommandUsageError(
         f'--snapshot_period={args.snapshot_period} > --rounds={args.rounds}: '
         'no snapshot would be validated')
+  unknown = [n for n in args.real_sources if n not in real_winds.SOURCES]
+  if unknown:
+    raise cli.CommandUsageError(f'--real_sources: unknown {unknown} (known: '
+                                f'{list(real_winds.SOURCES)})')
+  for name in args.real_sources:
+    path = os.path.join(args.realdata_dir, real_winds.SOURCES[name][0])
+    if not os.path.isfile(path):
+      raise cli.CommandUsageError(f'{path}: no such file (--realdata_dir)')
   current = settings(args)
-  data = _load(args.output, current)
-  for reward in args.rewards:
+  # One writer per record: a second study on the same --output is refused.
+  with safe_io.locked_file(args.output, what='reward_shape record'):
+    data = _load(args.output, current)
+    # Seed by seed, each seed's rewards together: a study stopped part way
+    # has both rewards of its first seeds.
+    pending = []
     for seed in seeds:
-      cell = data['rewards'].setdefault(reward, {'seeds': {}})
-      if 'held_out_tw50_window' in cell['seeds'].get(str(seed), {}):
-        print(f'{reward} seed {seed}: done, kept', flush=True)
-        continue
-      load = os.getloadavg()
-      row = run_cell(args, reward, seed)
-      row.update({'date': dt.datetime.now(dt.timezone.utc).isoformat(
-          timespec='seconds'), 'machine': f'{platform.node()} '
-          f'({os.cpu_count()} CPUs)', 'load_at_start': list(load),
-                  'load_at_end': list(os.getloadavg())})
-      cell['seeds'][str(seed)] = row
-      cell['summary'] = _summary(cell['seeds'])
-      data['command'] = ' '.join(['python', 'benchmarks/reward_shape.py',
-                                  *sys.argv[1:]])
-      safe_io.atomic_write(args.output, json.dumps(data, indent=1) + '\n')
-      print(f'{reward} seed {seed}: {json.dumps(row)}', flush=True)
+      for reward in args.rewards:
+        cell = data['rewards'].setdefault(reward, {'seeds': {}})
+        row = cell['seeds'].get(str(seed), {})
+        if 'held_out_tw50_window' in row and not real_missing(args, row):
+          print(f'{reward} seed {seed}: done, kept', flush=True)
+        else:
+          pending.append((reward, seed))
+
+    def one_cell(reward: str, seed: int) -> Dict[str, Any]:
+      row = dict(data['rewards'][reward]['seeds'].get(str(seed), {}))
+      if 'held_out_tw50_window' not in row:
+        load = os.getloadavg()
+        row = run_cell(args, reward, seed)
+        row.update({'date': dt.datetime.now(dt.timezone.utc).isoformat(
+            timespec='seconds'), 'machine': f'{platform.node()} '
+            f'({os.cpu_count()} CPUs)', 'load_at_start': list(load),
+                    'load_at_end': list(os.getloadavg())})
+      if 'held_out_tw50_window' in row and args.real_sources:
+        fly_real(args, row, os.path.join(
+            args.base_dir, run_folder(args, reward), f'seed_{seed}',
+            'chosen_policy.msgpack'))
+      return row
+
+    # Threads only wait here: each cell trains in a `ble-latex-train` process
+    # and flies in a spawned one. The record is read-modify-written by this
+    # thread alone, one finished cell at a time.
+    with futures.ThreadPoolExecutor(max_workers=args.parallel) as pool:
+      running = {pool.submit(one_cell, reward, seed): (reward, seed)
+                 for reward, seed in pending}
+      for done in futures.as_completed(running):
+        reward, seed = running[done]
+        row = done.result()
+        cell = data['rewards'][reward]
+        cell['seeds'][str(seed)] = row
+        cell['summary'] = _summary(cell['seeds'])
+        data['command'] = ' '.join(['python', 'benchmarks/reward_shape.py',
+                                    *sys.argv[1:]])
+        safe_io.atomic_write(args.output, json.dumps(data, indent=1) + '\n')
+        print(f'{reward} seed {seed}: {json.dumps(row)}', flush=True)
   for reward, cell in data['rewards'].items():
     print(reward, json.dumps(cell.get('summary', {})))
   return 0

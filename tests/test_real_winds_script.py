@@ -88,12 +88,9 @@ def test_the_planner_path_flies_eval_libs_records(benchmark_script, tmp_path):
   folder.mkdir()
   path = str(folder / os.path.basename(HILO))
   shutil.copy(HILO, path)
-  lat, lon = real_winds.SOURCES['hilo'][2]
-  bindings = ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
-              f'Era5WindField.path = {path!r}',
-              f"Era5WindField.start_dates = '{suites.era5_dates('latex_small')}'",
-              f'Era5WindField.center_lat = {lat}',
-              f'Era5WindField.center_lon = {lon}']
+  bindings = real_winds.source_bindings(
+      {'suite': 'latex_small', 'station_mode': 'center',
+       'station_lat_lon': list(real_winds.SOURCES['hilo'][2])}, path)
   seeds = list(suites.get_eval_suite('latex_small').seeds)[:2]
   planner, _, _ = real_winds.fly_planner('latex_mpc', bindings, seeds, 3)
   agent, env = eval_lib.build(eval_lib.EvalSpec(

@@ -61,3 +61,84 @@ def test_a_resume_with_other_settings_is_refused(script, tmp_path, capsys):
   err = capsys.readouterr().err.strip().splitlines()
   assert rc == 1 and len(err) == 1, err
   assert 'made with other settings (' in err[0] and 'rounds: 60 -> 61' in err[0]
+
+
+def test_real_sources_fly_where_the_real_winds_table_flies(script):
+  hilo = script.real_cell('hilo', 'latex_small')
+  assert hilo['station_mode'] == 'center'
+  assert hilo['station_lat_lon'] == list(script.real_winds.SOURCES['hilo'][2])
+  grid = script.real_cell('gfs_namerica', 'latex_small')
+  assert grid['station_mode'] == 'per_seed'
+  assert grid['station_bindings'] == [script.real_winds.PER_SEED_BINDING]
+
+
+def test_a_done_cell_flies_only_the_real_sources_it_lacks(script):
+  args = type('Args', (), {'real_sources': ['hilo', 'boise'],
+                           'real_seeds': 100,
+                           'held_out_suite': 'latex_small'})()
+  row = {'real_winds': {'hilo': {'episodes': 100, 'suite': 'latex_small'},
+                        'boise': {'episodes': 20, 'suite': 'latex_small'}}}
+  assert script.real_missing(args, row) == ['boise']
+  assert script.real_missing(args, {}) == ['hilo', 'boise']
+
+
+def test_the_summary_spreads_each_real_source_over_seeds(script):
+  rows = {str(s): {'held_out_tw50_window': 0.5, 'edge_fraction': 0.1,
+                   'core_fraction': 0.4,
+                   'real_winds': {'hilo': {'tw50_window': t,
+                                           'edge_fraction': 0.2,
+                                           'core_fraction': 0.3}}}
+          for s, t in ((0, 0.6), (1, 0.8))}
+  summary = script._summary(rows)  # pylint: disable=protected-access
+  assert summary['seeds_done'] == 2
+  assert summary['real_hilo_seeds_done'] == 2
+  assert summary['real_hilo_tw50_window_mean'] == pytest.approx(0.7)
+  assert summary['real_hilo_tw50_window_std'] == pytest.approx(0.1414, 1e-3)
+
+
+@pytest.mark.parametrize('args, message', [
+    (['--real_sources=mars'], "--real_sources: unknown ['mars']"),
+    (['--real_sources=hilo', '--realdata_dir=/nonexistent'],
+     '/nonexistent/soundings/PHTO-Hilo_2023-11-01T00Z_uwyo.csv: no such file'),
+])
+def test_bad_real_sources_are_one_line(script, tmp_path, capsys, args,
+                                       message):
+  rc = script.main([f'--base_dir={tmp_path}',
+                    f'--output={tmp_path / "r.json"}', *args])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 2 and len(err) == 1 and message in err[0], err
+
+
+def test_a_second_study_on_one_record_is_refused(script, tmp_path, capsys):
+  from ble_latex import safe_io  # pylint: disable=g-import-not-at-top
+  output = tmp_path / 'r.json'
+  output.write_text(json.dumps({'settings': {}, 'rewards': {}}))
+  with safe_io.locked_file(str(output), what='reward_shape record'):
+    rc = script.main([f'--base_dir={tmp_path}', f'--output={output}'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 1 and len(err) == 1 and 'in use' in err[0], err
+  assert json.loads(output.read_text()) == {'settings': {}, 'rewards': {}}
+
+
+@pytest.mark.slow
+def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
+    script, tmp_path):
+  """`_fly_real` with the shipped policy = real_winds' `sac_pretrained`."""
+  import shutil  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
+  folder = tmp_path / 'soundings'
+  folder.mkdir()
+  path = str(folder / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
+  shutil.copy(ROOT / 'tests' / 'data' / 'realwinds' /
+              'PHTO-Hilo_2023-11-01T00Z_uwyo.csv', path)
+  cell = script.real_cell('hilo', 'latex_small')
+  flown = script._fly_real(  # pylint: disable=protected-access
+      pretrained.shipped_policy(False), cell, path, 2, max_steps=12)
+  seeds = list(suites.get_eval_suite('latex_small').seeds)[:2]
+  records, _, _, _ = script.real_winds.fly_cell(
+      {**cell, 'agent': 'sac_pretrained', 'max_steps': 12}, path, seeds)
+  assert flown['episodes'] == len(records) == 2
+  assert flown['tw50_window'] == pytest.approx(
+      sum(r['tw50_window'] for r in records) / 2)
+  assert 'time-invariant' in flown['wind_source']
