@@ -148,6 +148,14 @@ def edge_fractions(record: Dict[str, Any]) -> Dict[str, float]:
   return {'edge': edge, 'core': core, 'edge_share': share}
 
 
+def per_seed(held: List[Dict[str, Any]]) -> Dict[str, List[Any]]:
+  """Each flight's seed, TW50 window and edge fraction (for paired
+  differences between rewards on the same seeds)."""
+  return {'seeds': [r['seed'] for r in held],
+          'tw50_window': [round(r['tw50_window'], 5) for r in held],
+          'edge': [round(edge_fractions(r)['edge'], 5) for r in held]}
+
+
 def _held_out(suite_name: str, episodes: Optional[int], policy_path: str,
               output: str) -> Any:
   """Flies the chosen policy on the held-out seeds (a spawned process)."""
@@ -195,7 +203,8 @@ def _fly_real(policy_path: str, cell: Dict[str, Any], path: str,
           'tw50_window': summary['tw50_window_mean'],
           'out_of_resources_pct': summary['out_of_resources_pct'],
           'edge_fraction': statistics.mean(f['edge'] for f in fractions),
-          'core_fraction': statistics.mean(f['core'] for f in fractions)}
+          'core_fraction': statistics.mean(f['core'] for f in fractions),
+          'per_seed': per_seed(held)}
 
 
 def real_missing(args: Any, row: Dict[str, Any]) -> List[str]:
@@ -300,7 +309,7 @@ def run_cell(args: Any, reward: str, seed: int) -> Dict[str, Any]:
       'core_fraction': statistics.mean(f['core'] for f in fractions),
       'edge_share_of_inside': statistics.mean(shares) if shares else None,
       'held_out_out_of_resources_pct': summary['out_of_resources_pct'],
-      'held_out_file': output})
+      'held_out_file': output, 'held_out_per_seed': per_seed(held)})
   return row
 
 
@@ -361,7 +370,8 @@ def _main(argv: Sequence[str]) -> int:
       for reward in args.rewards:
         cell = data['rewards'].setdefault(reward, {'seeds': {}})
         row = cell['seeds'].get(str(seed), {})
-        if 'held_out_tw50_window' in row and not real_missing(args, row):
+        if ('held_out_tw50_window' in row and 'held_out_per_seed' in row
+            and not real_missing(args, row)):
           print(f'{reward} seed {seed}: done, kept', flush=True)
         else:
           pending.append((reward, seed))
@@ -375,6 +385,11 @@ def _main(argv: Sequence[str]) -> int:
             timespec='seconds'), 'machine': f'{platform.node()} '
             f'({os.cpu_count()} CPUs)', 'load_at_start': list(load),
                     'load_at_end': list(os.getloadavg())})
+      if ('held_out_tw50_window' in row and 'held_out_per_seed' not in row
+          and os.path.exists(row['held_out_file'])):  # Flown before it was kept.
+        from ble_latex.run import records  # pylint: disable=g-import-not-at-top
+        row['held_out_per_seed'] = per_seed(records.load_eval(
+            row['held_out_file']))
       if 'held_out_tw50_window' in row and args.real_sources:
         fly_real(args, row, os.path.join(
             args.base_dir, run_folder(args, reward), f'seed_{seed}',

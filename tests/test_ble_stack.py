@@ -43,6 +43,8 @@ def _station_seeker_micro_eval_reward() -> float:
   return result[0].cumulative_reward
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_station_seeker_micro_eval_matches_old_stack():
   # BLE 1.0.1's published stack (old SciPy interp2d, old jax PRNG) gives
   # 144.573 for seed 0; a wrong ACS table order gave 229.7 here. One run

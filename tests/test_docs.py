@@ -142,3 +142,35 @@ def test_a_result_table_follows_its_record(tmp_path, monkeypatch):
     tables.fill('<!-- table: nosuch -->\n<!-- end table -->')
   # The site's hook regenerates the blocks too.
   assert 'old' not in _hook().on_page_markdown(text)
+
+
+def test_the_reward_study_tables_pair_the_same_flights(tmp_path, monkeypatch):
+  """Over training seeds: mean ± sample std, each seed; per seed: tanh − flat
+  on the same flights with its standard error, ahead / behind."""
+  tables = _tables()
+
+  def row(windows, real):
+    return {'held_out_tw50_window': sum(windows) / len(windows),
+            'edge_fraction': 0.1, 'core_fraction': 0.5,
+            'edge_share_of_inside': 0.2,
+            'held_out_out_of_resources_pct': 3.0,
+            'held_out_per_seed': {'seeds': [1, 2, 3], 'tw50_window': windows},
+            'real_winds': {'hilo': {'tw50_window': real, 'per_seed': {
+                'seeds': [1, 2, 3], 'tw50_window': [real] * 3}}}}
+  record = {'rewards': {
+      'perciatelli': {'seeds': {'0': row([0.4, 0.5, 0.6], 0.3),
+                                '1': row([0.6, 0.6, 0.6], 0.5)}},
+      'tanh': {'seeds': {'0': row([0.5, 0.5, 0.8], 0.4),
+                         '1': row([0.6, 0.6, 0.6], 0.5)}}}}
+  path = tmp_path / 'reward_shape.json'
+  path.write_text(json.dumps(record), encoding='utf-8')
+  monkeypatch.setattr(tables, 'REWARD_SHAPE', path)
+  study = tables.reward_shape()
+  assert '| flat (the paper\'s, default) | 2 | 55.0 % ± 7.1 (50.0 / 60.0) |' \
+      in study
+  assert '40.0 % ± 14.1 (30.0 / 50.0)' in study  # Hilo, flat.
+  paired = tables.reward_shape_paired().splitlines()
+  # Seed 0: differences +0.1, 0, +0.2: mean +10 pts, SE 0.1/sqrt(3).
+  assert paired[2].startswith('| 0 | +10.0 ± 5.8 (2 / 0) |'), paired[2]
+  assert '| +10.0 ± 0.0 (3 / 0) |' in paired[2]  # Hilo.
+  assert paired[3].startswith('| 1 | +0.0 ± 0.0 (0 / 0) |'), paired[3]

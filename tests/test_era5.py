@@ -999,6 +999,8 @@ def test_failed_merge_leaves_no_part_file(monkeypatch, capsys, tmp_path):
 # The environment.
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_env_flies_at_the_sampled_era5_start(tmp_path):
   from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
   path = write_era5(tmp_path / 'era5.nc')

@@ -291,6 +291,8 @@ def _era5_jax_flight(path):
                      jnp.asarray(_ACTIONS, jnp.float32))
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_flight_is_the_gymnasium_envs_on_era5_wind_field(era5_path):
   params, _ = _params(era5_path)
   actions = jnp.asarray(_ACTIONS, jnp.float32)
@@ -303,6 +305,8 @@ def test_flight_is_the_gymnasium_envs_on_era5_wind_field(era5_path):
     np.testing.assert_allclose(where[i], ref_where, atol=1.0, rtol=0)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_vector_env_flies_the_grid_in_its_params(era5_path):
   """The batched Gymnasium env flies ERA5 from `params.wind_grid` too."""
   from ble_latex.envs import gymnasium_vector  # pylint: disable=g-import-not-at-top

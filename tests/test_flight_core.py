@@ -923,6 +923,8 @@ def test_step_derivative_is_finite():
 _STEP_SCHEDULED = dynamics.make_scheduled_step(_analytic_wind)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 @pytest.mark.parametrize('finite', [False, True])
 def test_scheduled_step_equals_static_step_and_compiles_once(finite):
   """A traced `padded_schedule` flies the static stride.

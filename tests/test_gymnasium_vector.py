@@ -59,6 +59,8 @@ def _check_info(vector_info, i, info, mask_key=True):
       assert got == value, (key, got, value)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_equals_per_balloon_flights_and_autoresets(envs, single):
   """Balloon i flies seed s + i as the single env; time limit -> new flight."""
   assert isinstance(envs, gymnasium_vector.LatexBalloonVectorEnv)

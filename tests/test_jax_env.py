@@ -91,6 +91,8 @@ def _fly_golden(source):
   return golden, states, np.stack(observations, 1), np.stack(done, 1)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_gym_env_is_the_batched_env():
   """`gym.make('LatexBalloon-v0')` flies the core: same world, same steps."""
   _, params, batch_reset, batch_step = _setup()
@@ -257,6 +259,8 @@ def test_batched_equals_single_and_auto_reset():
   assert float(s2.flight.x_m) == float(fresh.flight.x_m)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_rollout_many_balloons_in_one_call():
   env, params, _, _ = _setup()
   n, steps = 64, 6
@@ -398,6 +402,8 @@ def test_valid_gin_config_unchanged():
   assert params.flight == flight_params_lib.FlightParams()
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_gymnax_client_loop_without_a_wrapper():
   """A purejaxrl-style loop: spaces, default params, scan of vmapped step."""
   env = jax_env.LatexBalloonJaxEnv()

@@ -169,6 +169,8 @@ def test_agent_trains_and_checkpoints_a_layernorm_critic(tmp_path):
   assert same.unbundle(str(tmp_path), 0, bundle)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_crossq_trainer_snapshot_loads_in_sac_pretrained(tmp_path):
   """A CrossQ run's policy (batch stats included) flies as it was validated."""
   config = sac_trainer.TrainerConfig(

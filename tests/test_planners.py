@@ -82,6 +82,8 @@ class _Driver:
     self.state, self.params = state, params
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_agent_replans_every_period(world):
   """The agent on a core state: the batched planner's plan, every 2 strides."""
   _, params, states = world
@@ -177,6 +179,8 @@ def test_altitude_grid_plans_are_scored(world):
     _config(num_samples=1)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_beam_as_wide_as_the_tree_finds_the_best_plan(world):
   """Two segments, three choices each (low, high, float) and a beam of 9:
   the search is exhaustive, so its plan is the best of the 9 plans."""
@@ -268,6 +272,8 @@ def test_beam_with_one_cell_is_greedy(world):
     _config(search=plan_config.BEAM, beam_cell_m=0.0)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_beam_resource_value_keeps_the_frugal_plan(world):
   """One piece, a beam of 1: with beam_resource_value = 0 the kept choice
   is the best by the objective; with a large value, the one that keeps the
@@ -304,6 +310,8 @@ def test_beam_resource_value_keeps_the_frugal_plan(world):
     _config(search=plan_config.BEAM, beam_resource_value=-1.0)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 @pytest.mark.parametrize('scenarios, search, memory', [
     (0, plan_config.CEM, 0), (2, plan_config.CEM, 0), (0, plan_config.BEAM, 0),
     (0, plan_config.BEAM, 16)])  # The agent's defaults: its program.
@@ -363,6 +371,8 @@ def test_oracle_reads_the_noise(world):
   assert not np.array_equal(a.score, b.score)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_oracle_plan_is_the_flight(world):
   """Under the paper's physics the env flies the oracle's plan exactly: the
   distances its objective scores are the env's, stride by stride (why the

@@ -49,6 +49,8 @@ def _crafted_pickle(path, marker):
                  'payload': _Payload(str(marker))}, f)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_exported_policy_acts_like_the_checkpoint(tmp_path):
   agent = _sac()
   _train_a_little(agent)

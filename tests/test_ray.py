@@ -33,6 +33,8 @@ def local_ray():
   distributed.shutdown()
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 @pytest.mark.parametrize('agent', ['latex_station_seeker', 'sac_pretrained'])
 def test_ray_eval_equals_serial_eval(local_ray, agent):
   del local_ray

@@ -152,6 +152,8 @@ def _episode_return(agent, env, mode):
   return total
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_learns_multi_step_altitude_task():
   agent = sac.SACAgent(3, (2,), action_low=LOW, action_high=HIGH, seed=0,
                        hidden_units=64, batch_size=64, min_replay_history=100,

@@ -111,6 +111,8 @@ def _close_lines(a, b):
         assert y[k] == v, k
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_vmapped_seeds_equal_one_after_another(runs, tmp_path, monkeypatch):
   """`train_seeds(vmap=True)` writes what one run per seed writes.
 
@@ -252,6 +254,8 @@ def test_second_trainer_process_on_a_run_directory_is_refused(tmp_path):
       str(run / episode_log.VALIDATION_LOG))] == [0, 1]
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_snapshot_flies_in_the_gym_env_as_validated(runs):
   """The exported policy, loaded by `sac_pretrained`, flies the gym env."""
   import gym  # pylint: disable=g-import-not-at-top

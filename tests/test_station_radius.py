@@ -30,6 +30,8 @@ def fixture_bound():
   gin.clear_config()
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_one_binding_moves_reward_score_metrics_and_drawing(bound,
                                                             monkeypatch):
   del bound

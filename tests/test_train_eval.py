@@ -106,6 +106,8 @@ def _train_short(base_dir, iterations, capsys, per_iteration=2):
       '--max_episode_length=6', '--collectors=episodes'], capsys)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_resume_finds_numbered_checkpoints_among_stray_files(tmp_path, capsys):
   run = tmp_path / 'run'
   status, _, err = _train_short(run, 2, capsys)
@@ -132,6 +134,8 @@ def test_resume_finds_numbered_checkpoints_among_stray_files(tmp_path, capsys):
   assert log_path.read_bytes() == snapshot
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_train_and_eval_refuse_what_another_process_writes(tmp_path):
   """The agent loop's run directory and an eval's output file, held by this
   process: `ble-latex-train` and `ble-latex-eval` exit with status 1 and one

@@ -34,6 +34,8 @@ def _fly(env, seed):
   return np.stack(obs), np.array(states)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_ble_generative_field_object_flies_like_the_core_field():
   core = env_lib.LatexBalloonEnv(seed=0)
   assert isinstance(core.arena._wind_field,  # pylint: disable=protected-access

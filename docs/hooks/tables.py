@@ -26,6 +26,8 @@ Records read (all committed):
     (`benchmarks/real_winds.py`), one cell per (source, agent, station mode).
   * `benchmarks/wind_compare.json`: BLE's VAE winds against each real source
     (`benchmarks/wind_compare.py`).
+  * `benchmarks/reward_shape.json`: SAC trained with the flat and the tanh
+    reward (`benchmarks/reward_shape.py`, issue 46), per training seed.
 
 Means and standard deviations are over episodes (population std, as
 `ble_latex.run.metrics.summarize`).
@@ -45,6 +47,7 @@ REAL_WINDS = ROOT / 'benchmarks' / 'real_winds.json'
 PHYSICS = ROOT / 'benchmarks' / 'physics_results.json'
 VALBAL = ROOT / 'benchmarks' / 'valbal_check.json'
 WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
+REWARD_SHAPE = ROOT / 'benchmarks' / 'reward_shape.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
                    re.DOTALL)
@@ -484,6 +487,98 @@ def valbal_check() -> str:
   return '\n'.join(lines)
 
 
+REWARDS = (('perciatelli', 'flat (the paper\'s, default)'),
+           ('tanh', 'tanh'))
+
+
+def _reward_cells() -> List[Tuple[str, dict]]:
+  rewards = _load(REWARD_SHAPE)['rewards']
+  out = [(label, rewards[name]) for name, label in REWARDS if name in rewards]
+  if not out:
+    raise ValueError(f'{REWARD_SHAPE}: no rewards')
+  return out
+
+
+def _seeds_done(cell: dict) -> List[dict]:
+  return [cell['seeds'][k] for k in sorted(cell['seeds'], key=int)
+          if 'held_out_tw50_window' in cell['seeds'][k]]
+
+
+def _over_seeds(values: Sequence[float], digits: int = 1) -> str:
+  """mean ± std over training seeds (sample std), then each seed's value."""
+  mean = sum(values) / len(values)
+  std = (math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1))
+         if len(values) > 1 else 0.0)
+  each = ' / '.join(f'{100 * v:.{digits}f}' for v in values)
+  return f'{100 * mean:.{digits}f} % ± {100 * std:.{digits}f} ({each})'
+
+
+def reward_shape() -> str:
+  """docs/launch.md's reward study: each reward over its training seeds."""
+  lines = ['| reward | training seeds | held-out TW50 window | time at 40–50 km '
+           '| time ≤ 40 km | edge share of the time inside | out of resources '
+           '| ' + ' | '.join(f'{label}: TW50 window'
+                              for _, label in REAL_WINDS_SOURCES) + ' |',
+           '|---' * (7 + len(REAL_WINDS_SOURCES)) + '|']
+  for label, cell in _reward_cells():
+    rows = _seeds_done(cell)
+    if not rows:
+      continue
+    real = []
+    for source, _ in REAL_WINDS_SOURCES:
+      flown = [r['real_winds'][source]['tw50_window'] for r in rows
+               if source in r.get('real_winds', {})]
+      real.append(_over_seeds(flown) + (
+          f' [{len(flown)} seeds]' if len(flown) != len(rows) else '')
+                  if flown else '—')
+    oor = ' / '.join(f"{r['held_out_out_of_resources_pct']:.0f}"
+                     for r in rows)
+    lines.append(
+        f'| {label} | {len(rows)} '
+        f"| {_over_seeds([r['held_out_tw50_window'] for r in rows])} "
+        f"| {_over_seeds([r['edge_fraction'] for r in rows])} "
+        f"| {_over_seeds([r['core_fraction'] for r in rows])} "
+        f"| {_over_seeds([r['edge_share_of_inside'] for r in rows], 0)} "
+        f'| {oor} % | ' + ' | '.join(real) + ' |')
+  return '\n'.join(lines)
+
+
+def _paired(a: dict, b: dict) -> str:
+  """b − a on the same flights: mean ± standard error, ahead/behind."""
+  if a['seeds'] != b['seeds']:
+    raise ValueError(f'{REWARD_SHAPE}: paired rows fly other seeds')
+  diff = [y - x for x, y in zip(a['tw50_window'], b['tw50_window'])]
+  mean = sum(diff) / len(diff)
+  se = (math.sqrt(sum((d - mean) ** 2 for d in diff) / (len(diff) - 1)
+                  / len(diff)) if len(diff) > 1 else 0.0)
+  ahead = sum(d > 0 for d in diff)
+  behind = sum(d < 0 for d in diff)
+  return f'{100 * mean:+.1f} ± {100 * se:.1f} ({ahead} / {behind})'
+
+
+def reward_shape_paired() -> str:
+  """Per training seed, tanh − flat on the same flights, TW50 window pts."""
+  cells = dict(_reward_cells())
+  flat, tanh = (cells.get(label) for _, label in REWARDS)
+  lines = ['| training seed | held-out `latex_small` | ' + ' | '.join(
+      label for _, label in REAL_WINDS_SOURCES) + ' |',
+           '|---' * (2 + len(REAL_WINDS_SOURCES)) + '|']
+  if flat is None or tanh is None:
+    return '\n'.join(lines)
+  for key in sorted(set(flat['seeds']) & set(tanh['seeds']), key=int):
+    a, b = flat['seeds'][key], tanh['seeds'][key]
+    if 'held_out_per_seed' not in a or 'held_out_per_seed' not in b:
+      continue
+    real = []
+    for source, _ in REAL_WINDS_SOURCES:
+      ra = a.get('real_winds', {}).get(source, {}).get('per_seed')
+      rb = b.get('real_winds', {}).get(source, {}).get('per_seed')
+      real.append(_paired(ra, rb) if ra and rb else '—')
+    lines.append(f"| {key} | {_paired(a['held_out_per_seed'], b['held_out_per_seed'])} | "
+                 + ' | '.join(real) + ' |')
+  return '\n'.join(lines)
+
+
 TABLES: Dict[str, Callable[[], str]] = {
     'valbal-check': valbal_check,
     'realistic-short': realistic_short,
@@ -497,6 +592,8 @@ TABLES: Dict[str, Callable[[], str]] = {
     'real-winds': real_winds_short,
     'real-winds-full': real_winds_full,
     'wind-compare': wind_compare,
+    'reward-shape': reward_shape,
+    'reward-shape-paired': reward_shape_paired,
 }
 
 
