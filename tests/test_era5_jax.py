@@ -207,6 +207,8 @@ def test_env_wind_is_era5_wind_fields(era5_path, add_noise):
           atol=_WIND_ATOL)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_grid_is_an_argument_shared_by_the_balloons(era5_path):
   _, with_grid = _params(era5_path)
   env = jax_env.LatexBalloonJaxEnv()

@@ -238,6 +238,8 @@ def test_ids_default_to_normalized_actions_and_a_216_step_spec():
   assert gymnasium.make(f'ble_latex:{ID}').spec.id == ID
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_spec_time_limit_ends_with_the_core_not_twice():
   """make()'s TimeLimit(216) and the core's 216 strides end one episode."""
   env = gymnasium.make(ID, episode_steps=3)  # The core's own limit.

@@ -224,6 +224,8 @@ def test_single_steps_from_recorded_states(source):
   assert checked >= 20
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_batched_equals_single_and_auto_reset():
   """(A batch of 3: test_gym_env_is_the_batched_env's compilation.)"""
   _, params, batch_reset, batch_step = _setup()

@@ -150,6 +150,8 @@ def test_bad_critic_names_the_binding(owner, make):
     make('resnet')
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_agent_trains_and_checkpoints_a_layernorm_critic(tmp_path):
   agent = sac.SACAgent(3, (71,), critic='layernorm', min_replay_history=20,
                        batch_size=8, seed=1)

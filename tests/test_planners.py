@@ -156,6 +156,8 @@ def test_deterministic_under_a_seed(world):
   assert set(np.unique(a.floats)) <= {-1.0, 1.0}
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_altitude_grid_plans_are_scored(world):
   """With no random samples (num_samples = 2: the warm start and "float
   here"), the plan is the best of those and the grid's plans."""

@@ -100,6 +100,8 @@ def _run_episodes(agent, env, n):
   return np.array(actions)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_learns_one_step_task_deterministic_eval_improves():
   agent = _agent(seed=0, batch_size=32, min_replay_history=32,
                  actor_learning_rate=1e-3, critic_learning_rate=1e-3,
