@@ -36,7 +36,9 @@ the seeds' compact records (no flight paths), their summary
 load average before/after, wall seconds). Resumable: a cell whose settings
 match flies only the seeds it lacks and merges them; a cell flown with other
 settings is refused (name the difference) unless --overwrite. The file is
-rewritten after every cell. `docs/hooks/tables.py` ('real-winds') renders
+rewritten after every --chunk seeds of a cell (default 25), so a run cut
+short keeps its finished chunks: a planner's cell on 2 CPU cores takes
+~0.5-1 h, and spans sessions. `docs/hooks/tables.py` ('real-winds') renders
 the table from it.
 """
 
@@ -120,6 +122,9 @@ flags.DEFINE_multi_string(
     'without eccodes), refused unless the copy reads to arrays of that '
     'SHA-256 (decode_grib.py prints the original\'s); the run records it.',
     flag_values=FLAGS)
+flags.DEFINE_integer('chunk', 25, 'Seeds flown between two writes of the '
+                     'record (a cut run keeps its finished chunks).',
+                     lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_boolean('overwrite', False, 'Re-fly cells flown with other '
                      'settings.', flag_values=FLAGS)
 
@@ -354,40 +359,45 @@ def _main(argv: Sequence[str]) -> None:
       if not todo:
         print(f'{key}: {len(wanted)} seeds already flown', file=sys.stderr)
         continue
-      load_before = [round(x, 2) for x in os.getloadavg()]
-      date = dt.datetime.now(dt.timezone.utc).isoformat(timespec='minutes')
       copy = copies.get(name)
-      flights, source, batched, wall = fly_cell(
-          cell, copy[0] if copy else path, todo)
-      if copy:  # The copy reads as a plain NetCDF ('ERA5'): name the file.
-        source = (f'GRIB2 (time-invariant): {[os.path.abspath(path)]}, flown '
-                  f'from its decoded NetCDF copy {os.path.basename(copy[0])}')
-      flown.update({r['seed']: r for r in flights})
-      merged = [flown[s] for s in sorted(flown)]
-      runs = (old or {}).get('runs', []) + [{
-          'command': command, 'date_utc': date, 'host': platform.node(),
-          'cpus': os.cpu_count(), 'loadavg_before': load_before,
-          'loadavg_after': [round(x, 2) for x in os.getloadavg()],
-          'seeds': len(todo), 'fly_s': round(wall, 1),
-          'batched': batched, **version,
-          **({'flown_from_copy': os.path.basename(copy[0]),
-              'arrays_sha256': copy[1]} if copy else {})}]
-      record = load_record(FLAGS.json)  # Another run may have added cells.
-      record['cells'][key] = {
-          'settings': cell, 'label': SOURCES[name][1],
-          'wind_source': source, 'summary': metrics.summarize(merged),
-          'runs': runs, 'flights': merged}
-      record['about'] = (
-          'benchmarks/real_winds.py: agents on real wind sources (time-'
-          'invariant snapshots; truth = snapshot + BLE simplex noise). '
-          'Files and licences: shared/realdata/PROVENANCE.md.')
-      safe_io.atomic_write(FLAGS.json, json.dumps(record, indent=1) + '\n')
-      s = record['cells'][key]['summary']
-      print(json.dumps({'cell': key, 'seeds': s['episodes'],
-                        'tw50_window_mean': round(s['tw50_window_mean'], 4),
-                        'out_of_resources_pct': s['out_of_resources_pct'],
-                        'fly_s': round(wall, 1), 'batched': batched}),
-            flush=True)
+      # A chunk of seeds at a time, the record rewritten after each: a run
+      # cut short (a planner on a CPU takes hours) keeps its finished chunks.
+      for at in range(0, len(todo), FLAGS.chunk):
+        chunk = todo[at:at + FLAGS.chunk]
+        load_before = [round(x, 2) for x in os.getloadavg()]
+        date = dt.datetime.now(dt.timezone.utc).isoformat(timespec='minutes')
+        flights, source, batched, wall = fly_cell(
+            cell, copy[0] if copy else path, chunk)
+        if copy:  # The copy reads as a plain NetCDF ('ERA5'): name the file.
+          source = (f'GRIB2 (time-invariant): {[os.path.abspath(path)]}, '
+                    f'flown from its decoded NetCDF copy '
+                    f'{os.path.basename(copy[0])}')
+        flown.update({r['seed']: r for r in flights})
+        merged = [flown[s] for s in sorted(flown)]
+        runs = (old or {}).get('runs', []) + [{
+            'command': command, 'date_utc': date, 'host': platform.node(),
+            'cpus': os.cpu_count(), 'loadavg_before': load_before,
+            'loadavg_after': [round(x, 2) for x in os.getloadavg()],
+            'seeds': len(chunk), 'fly_s': round(wall, 1),
+            'batched': batched, **version,
+            **({'flown_from_copy': os.path.basename(copy[0]),
+                'arrays_sha256': copy[1]} if copy else {})}]
+        record = load_record(FLAGS.json)  # Another run may have added cells.
+        old = record['cells'][key] = {
+            'settings': cell, 'label': SOURCES[name][1],
+            'wind_source': source, 'summary': metrics.summarize(merged),
+            'runs': runs, 'flights': merged}
+        record['about'] = (
+            'benchmarks/real_winds.py: agents on real wind sources (time-'
+            'invariant snapshots; truth = snapshot + BLE simplex noise). '
+            'Files and licences: shared/realdata/PROVENANCE.md.')
+        safe_io.atomic_write(FLAGS.json, json.dumps(record, indent=1) + '\n')
+        s = old['summary']
+        print(json.dumps({'cell': key, 'seeds': s['episodes'],
+                          'tw50_window_mean': round(s['tw50_window_mean'], 4),
+                          'out_of_resources_pct': s['out_of_resources_pct'],
+                          'fly_s': round(wall, 1), 'batched': batched}),
+              flush=True)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -103,3 +103,44 @@ def test_the_planner_path_flies_eval_libs_records(benchmark_script, tmp_path):
     for key in ('reward', 'helium_vented_mols', 'sand_dropped_kg',
                 'final_distance_km'):
       assert a[key] == pytest.approx(b[key], rel=1e-4, abs=1e-4), key
+
+
+def test_a_cut_run_keeps_its_finished_chunks(benchmark_script, tmp_path,
+                                             monkeypatch):
+  """The record is rewritten after every --chunk seeds: a failure in the
+  second chunk keeps the first's flights, and the next run flies the rest."""
+  import json  # pylint: disable=g-import-not-at-top
+  real_winds = benchmark_script('real_winds.py')
+  realdata = tmp_path / 'realdata'
+  (realdata / 'soundings').mkdir(parents=True)
+  shutil.copy(HILO, realdata / 'soundings' / os.path.basename(HILO))
+  calls, cut = [], [True]
+
+  def fly_cell(cell, path, seeds):
+    del cell, path
+    calls.append(list(seeds))
+    if cut[0] and len(calls) == 2:
+      raise RuntimeError('cut')
+    flights = [{'seed': s, 'tw50': 0.5, 'tw50_window': 0.5, 'window_steps': 3,
+                'reward': 1.0, 'steps': 3, 'helium_vented_mols': 0.0,
+                'sand_dropped_kg': 0.0, 'terminal_reason': 'time_limit',
+                'final_distance_km': 1.0} for s in seeds]
+    return flights, 'sounding (time-invariant)', True, 0.1
+
+  monkeypatch.setattr(real_winds, 'fly_cell', fly_cell)
+  record = tmp_path / 'r.json'
+  key = 'hilo/latex_station_seeker/center'
+  argv = [f'--json={record}', f'--realdata_dir={realdata}', '--sources=hilo',
+          '--agents=latex_station_seeker', '--seeds=5', '--chunk=2']
+  with pytest.raises(RuntimeError, match='cut'):
+    real_winds.main(argv)
+  cell = json.loads(record.read_text())['cells'][key]
+  assert [f['seed'] for f in cell['flights']] == calls[0]
+  assert cell['summary']['episodes'] == 2 and len(cell['runs']) == 1
+  first, cut[0] = calls[0], False
+  calls.clear()
+  assert real_winds.main(argv) == 0
+  cell = json.loads(record.read_text())['cells'][key]
+  assert [len(c) for c in calls] == [2, 1]  # Only the 3 seeds it lacked.
+  assert not set(first) & {s for c in calls for s in c}
+  assert len(cell['flights']) == 5 and len(cell['runs']) == 3
