@@ -108,6 +108,9 @@ flags.DEFINE_integer('real_seeds', 100, 'Seeds per real source (the held-'
                      'out suite\'s first).', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_string('realdata_dir', real_winds.REALDATA_DIR, 'Folder of the '
                     'real files (PROVENANCE.md).', flag_values=FLAGS)
+flags.DEFINE_string('edges_of', None, 'Only print an eval JSON\'s TW50 window '
+                    'and edge fractions (e.g. the shipped policy\'s '
+                    '`ble-latex-eval` file) and exit.', flag_values=FLAGS)
 flags.DEFINE_integer('parallel', 1, 'Cells (reward, seed) trained and flown '
                      'at once, each in its own processes; the record is '
                      'written by this process alone, as cells finish.',
@@ -146,6 +149,26 @@ def edge_fractions(record: Dict[str, Any]) -> Dict[str, float]:
   core = sum(d <= EDGE_KM for d in distances) / window
   share = edge / (edge + core) if edge + core > 0 else float('nan')
   return {'edge': edge, 'core': core, 'edge_share': share}
+
+
+def edge_summary(held: List[Dict[str, Any]]) -> Dict[str, Any]:
+  """Means over flights of `edge_fractions` (the share over flights that
+  were ever inside)."""
+  fractions = [edge_fractions(r) for r in held]
+  shares = [f['edge_share'] for f in fractions
+            if not math.isnan(f['edge_share'])]
+  return {'edge_fraction': statistics.mean(f['edge'] for f in fractions),
+          'core_fraction': statistics.mean(f['core'] for f in fractions),
+          'edge_share_of_inside': statistics.mean(shares) if shares else None}
+
+
+def edges_of(path: str) -> Dict[str, Any]:
+  """An eval file's flights: mean TW50 window and `edge_summary`."""
+  from ble_latex.run import records  # pylint: disable=g-import-not-at-top
+  held = records.load_eval(path)
+  return {'file': path, 'episodes': len(held),
+          'tw50_window': statistics.mean(r['tw50_window'] for r in held),
+          **edge_summary(held)}
 
 
 def per_seed(held: List[Dict[str, Any]]) -> Dict[str, List[Any]]:
@@ -197,14 +220,11 @@ def _fly_real(policy_path: str, cell: Dict[str, Any], path: str,
                            max_steps or suite.max_episode_length,
                            description=f"{cell['source']} {policy_path}")
   summary = metrics.summarize(held)
-  fractions = [edge_fractions(r) for r in held]
   return {**cell, 'wind_source': env_params.wind_source(),
           'episodes': len(held),
           'tw50_window': summary['tw50_window_mean'],
           'out_of_resources_pct': summary['out_of_resources_pct'],
-          'edge_fraction': statistics.mean(f['edge'] for f in fractions),
-          'core_fraction': statistics.mean(f['core'] for f in fractions),
-          'per_seed': per_seed(held)}
+          **edge_summary(held), 'per_seed': per_seed(held)}
 
 
 def real_missing(args: Any, row: Dict[str, Any]) -> List[str]:
@@ -296,18 +316,13 @@ def run_cell(args: Any, reward: str, seed: int) -> Dict[str, Any]:
     summary, held = pool.submit(_held_out, args.held_out_suite,
                                 args.held_out_episodes, policy,
                                 output).result()
-  fractions = [edge_fractions(r) for r in held]
-  shares = [f['edge_share'] for f in fractions
-            if not math.isnan(f['edge_share'])]
   row.update({
       'chosen_round': chosen['iteration'],
       'validation_tw50_window': chosen['tw50_window_mean'],
       'validation_out_of_resources_pct': chosen['out_of_resources_pct'],
       'held_out_episodes': len(held),
       'held_out_tw50_window': summary['tw50_window_mean'],
-      'edge_fraction': statistics.mean(f['edge'] for f in fractions),
-      'core_fraction': statistics.mean(f['core'] for f in fractions),
-      'edge_share_of_inside': statistics.mean(shares) if shares else None,
+      **edge_summary(held),
       'held_out_out_of_resources_pct': summary['out_of_resources_pct'],
       'held_out_file': output, 'held_out_per_seed': per_seed(held)})
   return row
@@ -334,6 +349,9 @@ def _load(path: str, current: Dict[str, Any]) -> Dict[str, Any]:
 def _main(argv: Sequence[str]) -> int:
   del argv
   args = FLAGS
+  if args.edges_of:
+    print(json.dumps(edges_of(args.edges_of)))
+    return 0
   if not args.base_dir:
     raise cli.CommandUsageError('--base_dir is required')
   try:

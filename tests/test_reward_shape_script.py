@@ -142,3 +142,11 @@ def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
   assert flown['tw50_window'] == pytest.approx(
       sum(r['tw50_window'] for r in records) / 2)
   assert 'time-invariant' in flown['wind_source']
+
+
+def test_edge_summary_averages_flights_and_skips_never_inside(script):
+  summary = script.edge_summary([_record([45.0, 10.0], 2),
+                                 _record([60.0, 70.0], 2)])
+  assert summary['edge_fraction'] == pytest.approx(0.25)
+  assert summary['core_fraction'] == pytest.approx(0.25)
+  assert summary['edge_share_of_inside'] == pytest.approx(0.5)  # First only.
