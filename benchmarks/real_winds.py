@@ -37,8 +37,8 @@ load average before/after, wall seconds). Resumable: a cell whose settings
 match flies only the seeds it lacks and merges them; a cell flown with other
 settings is refused (name the difference) unless --overwrite. The file is
 rewritten after every --chunk seeds of a cell (default 25), so a run cut
-short keeps its finished chunks: a planner's cell on 2 CPU cores takes
-~0.5-1 h, and spans sessions. `docs/hooks/tables.py` ('real-winds') renders
+short keeps its finished chunks (a planner's cell on 2 CPU cores takes
+long enough to span sessions; not yet timed on real winds). `docs/hooks/tables.py` ('real-winds') renders
 the table from it.
 """
 

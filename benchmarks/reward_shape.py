@@ -34,10 +34,11 @@ flies only the real sources it lacks); other settings in the same file are
 refused, naming what differs. --parallel=2 trains and flies two cells at
 once (each in its own processes; this process alone writes the record, and
 a second study on the same --output is refused). The full study (3 seeds x
-2 rewards, 100 rounds each; ~1.5 h on 2 cores):
+2 rewards, 60 rounds each; 2 h 14 min on 2 cores at load 3-5.5 on
+2026-11-28, real sources included):
 
   nice -n 5 python benchmarks/reward_shape.py \
-      --base_dir=benchmarks/sac_jax/reward_shape --seeds=0,1,2 --rounds=100 \
+      --base_dir=benchmarks/sac_jax/reward_shape --seeds=0,1,2 --rounds=60 \
       --parallel=2 --output=benchmarks/reward_shape.json \
       --real_sources=gfs_namerica,gfs_global,boise,hilo
 
