@@ -38,8 +38,10 @@ match flies only the seeds it lacks and merges them; a cell flown with other
 settings is refused (name the difference) unless --overwrite. The file is
 rewritten after every --chunk seeds of a cell (default 25), so a run cut
 short keeps its finished chunks (a planner's cell on 2 CPU cores takes
-long enough to span sessions; not yet timed on real winds). `docs/hooks/tables.py` ('real-winds') renders
-the table from it.
+long enough to span sessions). Each write rereads the record under its lock
+(`.real_winds.json.lock`), so runs on other cells (one source per core) may
+share one record. `docs/hooks/tables.py` ('real-winds') renders the table
+from it.
 """
 
 import datetime as dt
@@ -74,6 +76,8 @@ SOURCES: Dict[str, Tuple[str, str, Optional[Tuple[float, float]]]] = {
     'hilo': ('soundings/PHTO-Hilo_2023-11-01T00Z_uwyo.csv',
              'sounding Hilo 2023-11-01 00Z', (19.72, -155.07)),
 }
+# How long a chunk's write waits for another run's write of the record. # [s]
+RECORD_WAIT_S = 60.0
 AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
           'latex_mpc', 'latex_mpc_oracle', 'ble_station_seeker_discrete')
 # Agents named here for what they fly: name -> (BLE agent id, env id).
@@ -382,16 +386,21 @@ def _main(argv: Sequence[str]) -> None:
             'batched': batched, **version,
             **({'flown_from_copy': os.path.basename(copy[0]),
                 'arrays_sha256': copy[1]} if copy else {})}]
-        record = load_record(FLAGS.json)  # Another run may have added cells.
-        old = record['cells'][key] = {
-            'settings': cell, 'label': SOURCES[name][1],
-            'wind_source': source, 'summary': metrics.summarize(merged),
-            'runs': runs, 'flights': merged}
-        record['about'] = (
-            'benchmarks/real_winds.py: agents on real wind sources (time-'
-            'invariant snapshots; truth = snapshot + BLE simplex noise). '
-            'Files and licences: shared/realdata/PROVENANCE.md.')
-        safe_io.atomic_write(FLAGS.json, json.dumps(record, indent=1) + '\n')
+        # Another run (other cells, e.g. one per source on two cores) may
+        # have added cells: reread and rewrite under the record's lock.
+        with safe_io.locked_file(FLAGS.json, what='real_winds record',
+                                 wait_s=RECORD_WAIT_S):
+          record = load_record(FLAGS.json)
+          old = record['cells'][key] = {
+              'settings': cell, 'label': SOURCES[name][1],
+              'wind_source': source, 'summary': metrics.summarize(merged),
+              'runs': runs, 'flights': merged}
+          record['about'] = (
+              'benchmarks/real_winds.py: agents on real wind sources (time-'
+              'invariant snapshots; truth = snapshot + BLE simplex noise). '
+              'Files and licences: shared/realdata/PROVENANCE.md.')
+          safe_io.atomic_write(FLAGS.json,
+                               json.dumps(record, indent=1) + '\n')
         s = old['summary']
         print(json.dumps({'cell': key, 'seeds': s['episodes'],
                           'tw50_window_mean': round(s['tw50_window_mean'], 4),

@@ -90,6 +90,8 @@ def test_simulate_step_signature_matches_ble():
   assert list(ours.parameters) == list(ble.parameters)
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 @_SETTINGS
 @given(h=st.floats(14_000.0, 21_000.0), a0=st.floats(14_000.0, 21_000.0),
        a1=st.floats(1.0, 5.0))

@@ -65,28 +65,38 @@ _NEEDED = {
 
 
 # Runs every case's code with all fixes on, in one process (each in its own
-# namespace), and prints {name: 'ok' or the error} as JSON.
+# namespace), and prints {name: ['ok' or the error, what it printed]} as JSON.
 _ALL_FIXED = """
-import json, traceback
+import contextlib, io, json, traceback
 codes = {codes!r}
 results = {{}}
 for name, code in codes.items():
+  out = io.StringIO()
   try:
-    exec(code, {{}})
-    results[name] = 'ok'
+    with contextlib.redirect_stdout(out):
+      exec(code, {{}})
+    results[name] = ['ok', out.getvalue()]
   except BaseException:  # pylint: disable=broad-except
-    results[name] = traceback.format_exc()
+    results[name] = [traceback.format_exc(), out.getvalue()]
 print(json.dumps(results))
 """
 
 
 @pytest.fixture(scope='module')
-def fixed_results():
-  """{fix name: 'ok' or the traceback} of each case's code, fixes on."""
+def fixed_runs():
+  """{name: ('ok' or the traceback, its stdout)} of each case's code and of
+  the threefry check (_SPLIT), fixes on: one process for all of them."""
   codes = {name: code for name, (code, _) in _NEEDED.items()}
+  codes['jax_threefry'] = _SPLIT
   fixed = _run(_ALL_FIXED.format(codes=codes))
   assert fixed.returncode == 0, fixed.stderr[-2000:]
   return json.loads(fixed.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope='module')
+def fixed_results(fixed_runs):
+  """{fix name: 'ok' or the traceback} of each case's code, fixes on."""
+  return {name: fixed_runs[name][0] for name in _NEEDED}
 
 
 @pytest.mark.parametrize('name', sorted(_NEEDED))
@@ -184,10 +194,10 @@ _SPLIT = ('import ble_latex\n'
 _OLD_SPLIT = [[4146024105, 967050713], [2718843009, 1272950319]]
 
 
-def test_threefry_restores_old_streams():
-  fixed = _run(_SPLIT)
-  assert fixed.returncode == 0, fixed.stderr[-2000:]
-  assert json.loads(fixed.stdout.strip().splitlines()[-1]) == _OLD_SPLIT
+def test_threefry_restores_old_streams(fixed_runs):
+  status, printed = fixed_runs['jax_threefry']
+  assert status == 'ok', status[-2000:]
+  assert json.loads(printed.strip().splitlines()[-1]) == _OLD_SPLIT
   stock = _run(_SPLIT, disable='jax_threefry')
   assert stock.returncode == 0, stock.stderr[-2000:]
   assert json.loads(stock.stdout.strip().splitlines()[-1]) != _OLD_SPLIT

@@ -87,6 +87,8 @@ def test_hook_refuses_unknown_generated_blocks():
     _hook().on_page_markdown('<!-- generated: no-such-table -->')
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_site_builds_strictly(tmp_path):
   if importlib.util.find_spec('mkdocs') is None:
     pytest.skip("mkdocs is not installed: pip install -c constraints.txt "

@@ -1025,6 +1025,8 @@ def test_env_flies_at_the_sampled_era5_start(tmp_path):
       reference.data.end - dt.timedelta(hours=1))
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_full_random_episode_on_era5_wind(tmp_path):
   from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
   times = T0 + np.arange(17) * np.timedelta64(6, 'h')  # 4 days of data.

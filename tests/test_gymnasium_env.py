@@ -518,6 +518,8 @@ print('ok')
 '''
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 @pytest.mark.parametrize('agent', [
     'perciatelli44', pytest.param('dqn', marks=pytest.mark.slow),
     pytest.param('quantile', marks=pytest.mark.slow)])
@@ -546,6 +548,8 @@ print('ok')
 '''
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_env_gin_files_then_gym_make_in_a_fresh_process():
   """A script parses the env gin files (gin locks) then makes the gym envs.
 
@@ -725,6 +729,8 @@ except ValueError as e:
 '''
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_params_from_gin_without_the_gym_modules():
   """Unimported configurables read as defaults; imported ones as bound."""
   result = _python(_PARAMS_FROM_GIN, timeout=300)

@@ -104,6 +104,8 @@ def test_equals_per_balloon_flights_and_autoresets(envs, single):
   assert envs.unwrapped._fns.step._cache_size() == 1  # pylint: disable=protected-access
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_unseeded_resets_are_reproducible_training_seeds(envs):
   def starts():
     first, _ = envs.reset(seed=3)

@@ -143,6 +143,8 @@ def test_gym_env_is_the_batched_env():
 _TRAJECTORY_TOL_M = 100.0  # [m] (the issue asks 1 km for 18 of 20 seeds)
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 @pytest.mark.parametrize('source', [
     'random', pytest.param('scripted', marks=pytest.mark.slow)])
 def test_golden_trajectories(source):
@@ -196,6 +198,8 @@ def _restored(state, i, before, step):
   return one.replace(flight=f, steps=jnp.asarray(step, jnp.int32))
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 @pytest.mark.parametrize('source', [
     'random', pytest.param('scripted', marks=pytest.mark.slow)])
 def test_single_steps_from_recorded_states(source):

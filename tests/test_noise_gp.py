@@ -31,6 +31,8 @@ def test_correlation_matches_opensimplex():
     assert abs(measured - float(noise_gp.correlation(r))) < 0.08, r
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_prior_variance_is_ble_noise_variance():
   """k(q, q) is the variance of BLE's noise (about 1.0 m^2/s^2 per
   component; measured over 4000 draws of the noise at one point)."""

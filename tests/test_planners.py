@@ -143,6 +143,8 @@ def test_agent_flies_a_few_strides(world):
   np.testing.assert_array_equal(again.begin_episode(obs), actions[0])
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_deterministic_under_a_seed(world):
   _, params, states = world
   config = _config(grid_levels=0)  # Else a grid plan may win for any seed.
@@ -254,6 +256,8 @@ def _greedy_config():
                  grad_starts=0, beam_cell_km=10_000.0, beam_cell_m=50_000.0)
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_beam_with_one_cell_is_greedy(world):
   """A cell larger than any flight's reach (beam_cell_km, beam_cell_m)
   leaves one partial plan per piece: a greedy search, whose plan is scored
@@ -409,6 +413,8 @@ def test_oracle_plan_is_the_flight(world):
   assert np.abs(np.asarray(flown(one, other)) - expected).max() > 0.1
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_controller_gradient_matches_finite_differences(world):
   """d(sand dropped)/d(a0) of the controller (no scan: fast)."""
   from ble_latex.flight import atmosphere  # pylint: disable=g-import-not-at-top

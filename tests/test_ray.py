@@ -51,6 +51,8 @@ def test_ray_eval_equals_serial_eval(local_ray, agent):
   assert json.dumps(remote) == json.dumps(serial)
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_failed_seed_is_reported_by_seed(local_ray):
   del local_ray
   spec = eval_lib.EvalSpec(agent='latex_station_seeker')

@@ -36,12 +36,14 @@ HILO = os.path.join(DATA, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
 SLICES = ((GFS_NC, 'analysis', 40.0, -103.0), (GFS_GRIB, 'GRIB2', 40.0, -103.0),
           (BOISE, 'sounding', 43.56, -116.21), (HILO, 'sounding', 19.72,
                                                  -155.05))
+# Test ids: the file's name, not its absolute path (the same in any checkout).
+_IDS = [os.path.basename(path) for path, *_ in SLICES]
 _SEEDS = (0, 1)
 _ACTIONS = np.array([[18_000.0, 1.0, -1.0], [19_000.0, 1.0, 1.0],
                      [17_000.0, 2.0, -1.0]], np.float32)
 
 
-@pytest.mark.parametrize('path, source, lat, lon', SLICES)
+@pytest.mark.parametrize('path, source, lat, lon', SLICES, ids=_IDS)
 def test_each_slice_reads_as_a_time_invariant_field(path, source, lat, lon):
   data = era5.load(path)
   assert data.source == source
@@ -101,7 +103,7 @@ def test_gfs_grib_values_are_the_messages():
                              v)
 
 
-@pytest.mark.parametrize('path', (BOISE, HILO))
+@pytest.mark.parametrize('path', (BOISE, HILO), ids=os.path.basename)
 def test_a_sounding_is_its_column_everywhere(path):
   column = sounding.read(path)
   data = era5.load(path)
@@ -123,7 +125,7 @@ def _bind(path, lat, lon):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('path, source, lat, lon', SLICES)
+@pytest.mark.parametrize('path, source, lat, lon', SLICES, ids=_IDS)
 def test_each_slice_flies_the_functional_env_and_gymnasium(path, source, lat,
                                                            lon):
   import gymnasium  # pylint: disable=g-import-not-at-top
@@ -236,7 +238,7 @@ def test_eval_records_name_the_wind_source(tmp_path, capsys):
   assert summary['wind_source'] == want
 
 
-@pytest.mark.parametrize('path, source, lat, lon', SLICES)
+@pytest.mark.parametrize('path, source, lat, lon', SLICES, ids=_IDS)
 def test_bles_wind_field_flies_each_slice(path, source, lat, lon):
   """BLE's `WindField` (gym's agents) over the same time-invariant data."""
   import datetime as dt  # pylint: disable=g-import-not-at-top

@@ -144,3 +144,48 @@ def test_a_cut_run_keeps_its_finished_chunks(benchmark_script, tmp_path,
   assert [len(c) for c in calls] == [2, 1]  # Only the 3 seeds it lacked.
   assert not set(first) & {s for c in calls for s in c}
   assert len(cell['flights']) == 5 and len(cell['runs']) == 3
+
+
+def test_two_runs_on_other_cells_share_the_record(benchmark_script, tmp_path,
+                                                  monkeypatch, capsys):
+  """A chunk's write rereads the record under its lock: a run on another
+  cell that wrote in between keeps its cell, and a write that finds the
+  lock held waits for it (here: refuses after RECORD_WAIT_S, one line)."""
+  import json  # pylint: disable=g-import-not-at-top
+  from ble_latex import safe_io  # pylint: disable=g-import-not-at-top
+  real_winds = benchmark_script('real_winds.py')
+  realdata = tmp_path / 'realdata'
+  (realdata / 'soundings').mkdir(parents=True)
+  shutil.copy(HILO, realdata / 'soundings' / os.path.basename(HILO))
+  record = tmp_path / 'r.json'
+
+  def fly_cell(cell, path, seeds):
+    del path
+    if cell['agent'] == 'latex_random':  # The other run writes meanwhile.
+      other = json.loads(record.read_text())
+      other['cells']['elsewhere/x/center'] = {'flights': []}
+      record.write_text(json.dumps(other))
+    flights = [{'seed': s, 'tw50': 0.5, 'tw50_window': 0.5, 'window_steps': 3,
+                'reward': 1.0, 'steps': 3, 'helium_vented_mols': 0.0,
+                'sand_dropped_kg': 0.0, 'terminal_reason': 'time_limit',
+                'final_distance_km': 1.0} for s in seeds]
+    return flights, 'sounding (time-invariant)', True, 0.1
+
+  monkeypatch.setattr(real_winds, 'fly_cell', fly_cell)
+  argv = [f'--json={record}', f'--realdata_dir={realdata}', '--sources=hilo',
+          '--seeds=2']
+  assert real_winds.main(argv + ['--agents=latex_station_seeker']) == 0
+  assert real_winds.main(argv + ['--agents=latex_random']) == 0
+  cells = json.loads(record.read_text())['cells']
+  assert set(cells) == {'hilo/latex_station_seeker/center',
+                        'hilo/latex_random/center', 'elsewhere/x/center'}
+  monkeypatch.setattr(real_winds, 'RECORD_WAIT_S', 0.2)
+  before = record.read_bytes()
+  capsys.readouterr()
+  with safe_io.locked_file(str(record), what='real_winds record'):
+    assert real_winds.main(argv + ['--agents=latex_station_seeker',
+                                   '--seeds=3']) == 1
+  err = capsys.readouterr().err.strip().splitlines()
+  assert len(err) == 1 and 'real_winds record' in err[0], err
+  assert 'in use by' in err[0] and '(waited 0.2 s)' in err[0], err
+  assert record.read_bytes() == before

@@ -170,6 +170,8 @@ def test_learns_multi_step_altitude_task():
   assert after > 2.0
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_same_seed_same_actions_and_different_seed_differs():
   a = _run_episodes(_agent(seed=3), _WalkEnv(), 8)
   b = _run_episodes(_agent(seed=3), _WalkEnv(), 8)
@@ -468,6 +470,8 @@ def _assert_same_as_dopamine(fast, stock, rng):
     np.testing.assert_array_equal(g, w, err_msg=element.name)
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 @settings(max_examples=25, deadline=None)
 @given(episodes=_EPISODES,
        n_adds=st.integers(_CAPACITY + 2, 3 * _CAPACITY),

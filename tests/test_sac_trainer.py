@@ -59,10 +59,16 @@ def _lines(path, drop):
 
 
 @pytest.fixture(scope='module')
-def runs(tmp_path_factory):
-  """One run of 3 rounds straight, one killed after 2 and resumed."""
+def straight_run(tmp_path_factory):
+  """One run of 3 rounds straight: (its directory, its final learner)."""
   straight = tmp_path_factory.mktemp('straight')
-  final = _train(straight, 3)
+  return straight, _train(straight, 3)
+
+
+@pytest.fixture(scope='module')
+def runs(straight_run, tmp_path_factory):
+  """One run of 3 rounds straight, one killed after 2 and resumed."""
+  straight, final = straight_run
   resumed = tmp_path_factory.mktemp('resumed')
   _train(resumed, 2)
   # A killed run may have logged a round after its last checkpoint.
@@ -76,6 +82,8 @@ def runs(tmp_path_factory):
   return straight, final, resumed, resumed_final
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_resumed_run_equals_straight_run(runs):
   straight, final, resumed, resumed_final = runs
   drop = ('wall_time_s',)
@@ -286,8 +294,8 @@ def test_snapshot_flies_in_the_gym_env_as_validated(runs):
       np.mean([r['tw50_window'] for r in records]))
 
 
-def test_resume_with_other_settings_is_refused(runs, tmp_path):
-  straight = runs[0]
+def test_resume_with_other_settings_is_refused(straight_run):
+  straight = straight_run[0]
   before = (straight / episode_log.EPISODE_LOG).read_text()
   other = sac_trainer.TrainerConfig(**{**CONFIG.__dict__, 'num_envs': 4})
   with pytest.raises(ValueError, match='num_envs'):
@@ -311,10 +319,10 @@ def test_run_started_before_critics_resumes_and_other_critic_is_refused(
     _train(tmp_path, 3, config=other)
 
 
-def test_corrupt_checkpoint_is_named(runs, tmp_path):
+def test_corrupt_checkpoint_is_named(straight_run, tmp_path):
   learner, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
   del learner
-  path = runs[0] / 'checkpoints' / 'checkpoint_00002.msgpack'
+  path = straight_run[0] / 'checkpoints' / 'checkpoint_00002.msgpack'
   bad = tmp_path / 'checkpoint_00002.msgpack'
   bad.write_bytes(path.read_bytes()[:1000])
   with pytest.raises(ValueError, match='checkpoint_00002'):

@@ -165,6 +165,8 @@ def test_train_and_eval_refuse_what_another_process_writes(tmp_path):
   assert os.listdir(os.path.dirname(path)) == ['.latex_random.json.lock']
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_eval_writes_per_episode_json_with_flight_path(tmp_path, capsys):
   # In this process, as the other commands here: no interpreter start and
   # imports of its own (~10 s of the 28 s a subprocess took alone).
@@ -188,6 +190,8 @@ def test_eval_writes_per_episode_json_with_flight_path(tmp_path, capsys):
       'helium_mols', 'sand_kg'}
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_eval_loads_a_trained_checkpoint_and_shards(tmp_path, capsys):
   run = tmp_path / 'run'
   _ok(train.main, _train_args(run, 1), capsys)
@@ -261,6 +265,8 @@ def test_suites_are_registered_explicitly_not_at_import():
   assert result.returncode == 0, result.stderr[-2000:]
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_policy_snapshots_and_validation_selection(tmp_path, capsys,
                                                   benchmark_script):
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top

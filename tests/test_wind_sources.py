@@ -51,6 +51,8 @@ def test_ble_generative_field_object_flies_like_the_core_field():
                                atol=2.0, rtol=0)
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_core_field_answers_bles_queries_like_bles_field():
   core = env_lib.LatexBalloonEnv(seed=0)
   core.reset(seed=4)
