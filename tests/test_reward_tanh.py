@@ -55,6 +55,8 @@ def test_off_has_finite_gradients():
   assert np.isfinite(float(grad)) and float(grad) == 0.0
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_the_gin_option_reaches_the_env_reward():
   """The functional env's step rewards with the bound shape."""
   gin.parse_config(['LatexBalloonArena.max_start_distance_km = 10.0'])

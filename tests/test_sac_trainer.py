@@ -197,7 +197,7 @@ def test_stale_temporary_files_are_removed_at_start(tmp_path):
   for path in stale + kept:
     path.parent.mkdir(exist_ok=True)
     path.write_bytes(b'partial')
-  _train(tmp_path, 1, policy_snapshot_period=0, validation_seeds=())
+  _train(tmp_path, 1)  # The straight run's settings: its compiled programs.
   assert not any(path.exists() for path in stale)
   assert all(path.exists() for path in kept)
 
