@@ -168,18 +168,30 @@ def station(name: str, path: str) -> Tuple[float, float]:
   return float(lat), float((lon + 180.0) % 360.0 - 180.0)
 
 
+def table_station_mode(name: str) -> str:
+  """The real-winds table's stations: a sounding at its site ('center'),
+  a grid's seed s at station s ('per_seed')."""
+  return 'center' if SOURCES[name][2] is not None else 'per_seed'
+
+
+def station_settings(name: str, path: str, mode: str,
+                     extra_bindings: Sequence[str] = ()) -> Dict[str, Any]:
+  """A cell's station part: its mode and its (lat, lon) or bindings."""
+  if mode == 'center':
+    lat, lon = station(name, path)
+    return {'station_mode': mode,
+            'station_lat_lon': [round(lat, 4), round(lon, 4)]}
+  return {'station_mode': mode,
+          'station_bindings': [PER_SEED_BINDING, *extra_bindings]}
+
+
 def settings(name: str, agent: str, path: str) -> Dict[str, Any]:
   """What a cell's records depend on (a resume must match all of it)."""
-  out = {'source': name, 'file': os.path.relpath(path, FLAGS.realdata_dir),
-         'agent': agent, 'suite': FLAGS.suite,
-         'max_steps': FLAGS.max_episode_length,
-         'station_mode': FLAGS.station_mode}
-  if FLAGS.station_mode == 'center':
-    lat, lon = station(name, path)
-    out['station_lat_lon'] = [round(lat, 4), round(lon, 4)]
-  else:
-    out['station_bindings'] = [PER_SEED_BINDING, *FLAGS.station_bindings]
-  return out
+  return {'source': name, 'file': os.path.relpath(path, FLAGS.realdata_dir),
+          'agent': agent, 'suite': FLAGS.suite,
+          'max_steps': FLAGS.max_episode_length,
+          **station_settings(name, path, FLAGS.station_mode,
+                             FLAGS.station_bindings)}
 
 
 def station_bindings(cell: Dict[str, Any]) -> List[str]:

@@ -189,14 +189,11 @@ def _held_out(suite_name: str, episodes: Optional[int], policy_path: str,
   return summary, records.load_eval(output)
 
 
-def real_cell(name: str, suite: str) -> Dict[str, Any]:
+def real_cell(name: str, suite: str, path: str) -> Dict[str, Any]:
   """Where a real source flies (`real_winds`' cell: station and suite)."""
-  site = real_winds.SOURCES[name][2]
-  if site is not None:
-    return {'source': name, 'suite': suite, 'station_mode': 'center',
-            'station_lat_lon': list(site)}
-  return {'source': name, 'suite': suite, 'station_mode': 'per_seed',
-          'station_bindings': [real_winds.PER_SEED_BINDING]}
+  return {'source': name, 'suite': suite,
+          **real_winds.station_settings(
+              name, path, real_winds.table_station_mode(name))}
 
 
 def _fly_real(policy_path: str, cell: Dict[str, Any], path: str,

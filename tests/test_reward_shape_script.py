@@ -64,12 +64,17 @@ def test_a_resume_with_other_settings_is_refused(script, tmp_path, capsys):
 
 
 def test_real_sources_fly_where_the_real_winds_table_flies(script):
-  hilo = script.real_cell('hilo', 'latex_small')
-  assert hilo['station_mode'] == 'center'
-  assert hilo['station_lat_lon'] == list(script.real_winds.SOURCES['hilo'][2])
-  grid = script.real_cell('gfs_namerica', 'latex_small')
-  assert grid['station_mode'] == 'per_seed'
-  assert grid['station_bindings'] == [script.real_winds.PER_SEED_BINDING]
+  """Each source's station settings are its cells' in the committed
+  real-winds record (a sounding at its site, a grid's per-seed stations)."""
+  import json  # pylint: disable=g-import-not-at-top
+  record = json.loads((ROOT / 'benchmarks' / 'real_winds.json').read_text())
+  keys = ('station_mode', 'station_lat_lon', 'station_bindings')
+  for name in ('hilo', 'boise', 'gfs_namerica', 'gfs_global'):
+    cell = script.real_cell(name, 'latex_small', '/not/read')
+    assert cell['suite'] == 'latex_small'
+    table = record['cells'][f'{name}/sac_pretrained/{cell["station_mode"]}']
+    assert {k: cell.get(k) for k in keys} == {
+        k: table['settings'].get(k) for k in keys}, name
 
 
 def test_a_done_cell_flies_only_the_real_sources_it_lacks(script):
@@ -132,7 +137,7 @@ def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
   path = str(folder / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
   shutil.copy(ROOT / 'tests' / 'data' / 'realwinds' /
               'PHTO-Hilo_2023-11-01T00Z_uwyo.csv', path)
-  cell = script.real_cell('hilo', 'latex_small')
+  cell = script.real_cell('hilo', 'latex_small', path)
   flown = script._fly_real(  # pylint: disable=protected-access
       pretrained.shipped_policy(False), cell, path, 2, max_steps=12)
   seeds = list(suites.get_eval_suite('latex_small').seeds)[:2]
