@@ -105,6 +105,14 @@ def test_the_planner_path_flies_eval_libs_records(benchmark_script, tmp_path):
       assert a[key] == pytest.approx(b[key], rel=1e-4, abs=1e-4), key
 
 
+def _fake_flights(seeds):
+  """Compact eval records of `seeds`, as `fly_cell` returns them."""
+  return [{'seed': s, 'tw50': 0.5, 'tw50_window': 0.5, 'window_steps': 3,
+           'reward': 1.0, 'steps': 3, 'helium_vented_mols': 0.0,
+           'sand_dropped_kg': 0.0, 'terminal_reason': 'time_limit',
+           'final_distance_km': 1.0} for s in seeds]
+
+
 def test_a_cut_run_keeps_its_finished_chunks(benchmark_script, tmp_path,
                                              monkeypatch):
   """The record is rewritten after every --chunk seeds: a failure in the
@@ -121,11 +129,7 @@ def test_a_cut_run_keeps_its_finished_chunks(benchmark_script, tmp_path,
     calls.append(list(seeds))
     if cut[0] and len(calls) == 2:
       raise RuntimeError('cut')
-    flights = [{'seed': s, 'tw50': 0.5, 'tw50_window': 0.5, 'window_steps': 3,
-                'reward': 1.0, 'steps': 3, 'helium_vented_mols': 0.0,
-                'sand_dropped_kg': 0.0, 'terminal_reason': 'time_limit',
-                'final_distance_km': 1.0} for s in seeds]
-    return flights, 'sounding (time-invariant)', True, 0.1
+    return _fake_flights(seeds), 'sounding (time-invariant)', True, 0.1
 
   monkeypatch.setattr(real_winds, 'fly_cell', fly_cell)
   record = tmp_path / 'r.json'
@@ -165,11 +169,7 @@ def test_two_runs_on_other_cells_share_the_record(benchmark_script, tmp_path,
       other = json.loads(record.read_text())
       other['cells']['elsewhere/x/center'] = {'flights': []}
       record.write_text(json.dumps(other))
-    flights = [{'seed': s, 'tw50': 0.5, 'tw50_window': 0.5, 'window_steps': 3,
-                'reward': 1.0, 'steps': 3, 'helium_vented_mols': 0.0,
-                'sand_dropped_kg': 0.0, 'terminal_reason': 'time_limit',
-                'final_distance_km': 1.0} for s in seeds]
-    return flights, 'sounding (time-invariant)', True, 0.1
+    return _fake_flights(seeds), 'sounding (time-invariant)', True, 0.1
 
   monkeypatch.setattr(real_winds, 'fly_cell', fly_cell)
   argv = [f'--json={record}', f'--realdata_dir={realdata}', '--sources=hilo',
