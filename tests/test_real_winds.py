@@ -192,6 +192,26 @@ def _bad_files(folder):
   write('small_grid.nc', raw.sel(lat=slice(41.0, 39.0),
                                  lon=slice(254.0, 257.0)),
         'the grid spans 222 km north x 256 km east; a flight needs 400 km')
+
+  def write_bytes(name, data, needle):
+    path = str(folder / name)
+    with open(path, 'wb') as f:
+      f.write(data)
+    cases.append((name, path, needle))
+
+  with open(GFS_GRIB, 'rb') as f:
+    grib = f.read()
+  # Cut inside its 5th message (of 9), where cfgrib's default reads the 4
+  # before it. A GRIB2 message's length is bytes 8-15 of its section 0.
+  fifth = 0
+  for _ in range(4):
+    fifth += int.from_bytes(grib[fifth + 8:fifth + 16], 'big')
+  assert grib[fifth:fifth + 4] == b'GRIB'
+  write_bytes('truncated.grib2', grib[:fifth + 5_000],
+              'is not a readable GRIB2 file')
+  write_bytes('corrupt.grib2', b'GRIB' + bytes(range(256)) * 4,
+              'is not a readable GRIB2 file')
+  write_bytes('empty.nc', b'', 'is empty (0 bytes)')
   return cases
 
 

@@ -71,9 +71,14 @@ def kind_of(path: str) -> str:
 
   GRIB2 and NetCDF by their magic; text is a sounding; other bytes go to
   the NetCDF reader, whose error names them.
+
+  Raises:
+    errors.BadFileError: an empty file.
   """
   with open(path, 'rb') as f:
     head = f.read(4096)
+  if not head:
+    raise errors.BadFileError(f'wind file {path} is empty (0 bytes)')
   if head.startswith(_GRIB_MAGIC):
     return 'grib'
   if any(head.startswith(m) for m in _NETCDF_MAGICS):
@@ -239,9 +244,11 @@ def open_dataset(path: str, label: str
       parts = []
       with _quiet_cfgrib():
         for short in ('u', 'v'):
+          # errors='raise': a corrupt or truncated message is an error
+          # (cfgrib's default logs it and reads the messages before it).
           part = xr.open_dataset(
               path, engine='cfgrib', backend_kwargs={
-                  'indexpath': '', 'filter_by_keys': {
+                  'indexpath': '', 'errors': 'raise', 'filter_by_keys': {
                       'typeOfLevel': 'isobaricInhPa', 'shortName': short}})
           parts.append(part.load())
       dataset = xr.merge(parts, compat='override')
