@@ -338,6 +338,36 @@ def test_launch_wind_file_defaults_and_bad_files(tmp_path):
                        params=params)
 
 
+# Bindings of any type a gin file can hold, each refused as it is bound.
+_BAD_BINDINGS = (('stations', [(41.0, -103.0)]), ('center_lat', [40.0]),
+                 ('center_lat', '40'), ('center_lat', 91.0),
+                 ('center_lon', float('nan')), ('episode_hours', [72]),
+                 ('episode_hours', -1.0), ('add_noise', 'yes'),
+                 ('station_margin_km', [1.0]), ('station_margin_km', -5.0))
+
+
+@pytest.mark.parametrize('field, value', _BAD_BINDINGS)
+def test_bad_era5_settings_are_one_line_naming_the_binding(field, value):
+  with pytest.raises(errors.ConfigError) as info:
+    era5.settings(**{'path': GFS_NC, 'center_lat': 40.0,
+                     'center_lon': -103.0, field: value})
+  # Gin appends 'In call to configurable ...' lines; commands print the first.
+  assert f'Era5WindField.{field}' in str(info.value).splitlines()[0]
+
+
+def test_a_list_of_stations_from_eval_is_a_usage_error(tmp_path, capsys):
+  # It reached the grid cache as a key: TypeError, unhashable type 'list'.
+  from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
+  status = eval_cli.main([
+      f'--output_dir={tmp_path}', '--agent=latex_random',
+      '--suite=latex_micro', f'--wind_file={GFS_NC}',
+      '--gin_bindings=Era5WindField.stations = [(41.0, -103.0)]'])
+  err = capsys.readouterr().err.strip().splitlines()
+  gin.clear_config()
+  assert status == 2, err
+  assert len(err) == 1 and 'Era5WindField.stations' in err[0], err
+
+
 @pytest.mark.slow
 def test_launch_command_bad_wind_file_exits_1(tmp_path, capsys):
   from ble_latex.cli import launch as launch_command  # pylint: disable=g-import-not-at-top

@@ -50,6 +50,7 @@ if TYPE_CHECKING:  # xarray, pandas and SciPy load when a file is read (~2 s).
   import xarray as xr  # pylint: disable=g-bad-import-order
 
 from ble_latex import errors
+from ble_latex import gin_values
 from ble_latex.wind import analysis
 from ble_latex.wind import era5_checks
 from ble_latex.wind import stations as stations_lib
@@ -572,6 +573,12 @@ class Era5Settings:
       value = getattr(self, name)
       if isinstance(value, list):
         object.__setattr__(self, name, tuple(value))
+    # The plain values, checked as they are bound (one line naming the
+    # binding; the file, dates and snapshot time are checked when read).
+    check_target(self.center_lat, self.center_lon, self.episode_hours)
+    gin_values.check_bool('Era5WindField.add_noise', self.add_noise)
+    stations_lib.check_mode(self.stations)
+    stations_lib.check_margin(self.station_margin_km)
 
   def load(self) -> Era5Data:
     """The data of `path` (`load`: checked, cached)."""
@@ -622,6 +629,25 @@ def settings(*,
     `era5_jax.grid_from_data` check them).
   """
   return Era5Settings(**locals())
+
+
+def check_target(center_lat: Any, center_lon: Any, episode_hours: Any) -> None:
+  """Refuses a target or flight length that is no number or out of range.
+
+  Args:
+    center_lat: In [-90, 90]. # [deg N]
+    center_lon: In [-360, 360]. # [deg E]
+    episode_hours: >= 0. # [h]
+
+  Raises:
+    errors.ConfigError: One line naming the `Era5WindField.*` binding.
+  """
+  gin_values.check_number('Era5WindField.center_lat', center_lat,
+                          minimum=-90.0, maximum=90.0)
+  gin_values.check_number('Era5WindField.center_lon', center_lon,
+                          minimum=-360.0, maximum=360.0)
+  gin_values.check_number('Era5WindField.episode_hours', episode_hours,
+                          minimum=0.0)
 
 
 def start_dates_range(start_dates: Any, what: str = 'Era5WindField.start_dates'
@@ -733,17 +759,7 @@ def last_start_minute(data: Era5Data, *, center_lat: float, center_lon: float,
     ValueError: non-finite arguments, target outside the data's area, or
       (`errors.BadFileError`) data shorter than `episode_hours`.
   """
-  for name, value in (('center_lat', center_lat),
-                      ('center_lon', center_lon),
-                      ('episode_hours', episode_hours)):
-    if not math.isfinite(value):
-      raise ValueError(f'Era5WindField.{name} must be finite, got {value}')
-  if not -90.0 <= center_lat <= 90.0:
-    raise ValueError(f'Era5WindField.center_lat must be in [-90, 90], got '
-                     f'{center_lat}')
-  if episode_hours < 0:
-    raise ValueError(f'Era5WindField.episode_hours must be >= 0, got '
-                     f'{episode_hours}')
+  check_target(center_lat, center_lon, episode_hours)
   if data.time_invariant:  # Every start flies the same winds.
     if not data.covers(center_lat, center_lon):
       raise ValueError(

@@ -248,10 +248,12 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
       `era5.load`; ValueError: as `grid_from_data`.
   """
   data = settings.load()
-  base = (id(data), settings.center_lat, settings.center_lon,
-          settings.episode_hours, settings.add_noise, settings.stations,
-          settings.station_margin_km, settings.end_outside_domain,
-          repr(settings.snapshot_time))
+  # Values as their repr: a gin binding of any type (a list, a dict) is a
+  # key here, and `grid_from_data` refuses it in one line.
+  base = (id(data),) + tuple(repr(v) for v in (
+      settings.center_lat, settings.center_lon, settings.episode_hours,
+      settings.add_noise, settings.stations, settings.station_margin_km,
+      settings.end_outside_domain, settings.snapshot_time))
   key = base + (repr(settings.start_dates),)
   cached = _GRIDS.get(key)
   if cached is None or cached[0] is not data:
