@@ -131,6 +131,7 @@ def test_from_box_inverts_to_box():
 @pytest.mark.parametrize('overrides, name', [
     ({'num_balloons': 0}, 'dagger_config.num_balloons'),
     ({'teacher': 'nope'}, 'dagger_config.teacher'),
+    ({'teacher': ['latex_mpc']}, 'dagger_config.teacher'),  # Was a TypeError.
     ({'beta0': 1.5}, 'dagger_config.beta0'),
     ({'learning_rate': float('nan')}, 'dagger_config.learning_rate'),
     ({'seed': -1}, 'dagger_config.seed'),

@@ -121,7 +121,8 @@ class DaggerConfig:
   def __post_init__(self):
     name = lambda field: f'{_GIN_NAME}.{field}'
     run_dir.check_training_seed(self.seed, name('seed'))
-    gin_values.require(self.teacher in plan_config.PLANNERS, name('teacher'),
+    gin_values.require(isinstance(self.teacher, str) and
+                       self.teacher in plan_config.PLANNERS, name('teacher'),
                        f'one of {sorted(plan_config.PLANNERS)}', self.teacher)
     for field, maximum in (('num_balloons', sac_core.MAX_NUM_ENVS),
                            ('episode_steps', suites.EPISODE_STEPS),
