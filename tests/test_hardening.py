@@ -155,7 +155,7 @@ def test_sweep_refuses_seeds_beyond_2_32(tmp_path, capsys):
   settings = sweep_lib.SweepSettings(
       sweep_dir=str(tmp_path / 's'), points=tuple(sweep_lib.points(space)),
       seeds=(2**32,), num_iterations=5, policy_snapshot_period=5,
-      validation_episodes=1, gin_files=(), gin_bindings=(),
+      validation_episodes=1, wind_files=(), gin_bindings=(),
       asha_grace_period=None, cpus_per_trial=1.0)
   with pytest.raises(errors.ConfigError, match='training seed'):
     sweep_lib.check_points(settings)
@@ -256,3 +256,60 @@ def test_wind_stats_levels_outside_the_file_are_refused(tmp_path, capsys):
     assert 'pressure levels [1.0, 2.0] Pa are outside' in _one_line(
         capsys, 'ble-latex-plot')
   assert not out.exists() or not list(out.iterdir())
+
+
+# -- Every gin parameter of the settings builders, bound to odd values. -----
+_ODD_VALUES = ('[1.0]', "'x'", 'None', '1e400', '-1', '{"a": 1}', '(1, 2)')
+
+
+def _settings_builders():
+  """{configurable: the function a command calls to build its settings}."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import plan_config
+  from ble_latex.agents import sac_trainer
+  from ble_latex.envs import env_params
+  from ble_latex.run import dagger
+  from ble_latex.wind import era5
+  # pylint: enable=g-import-not-at-top
+  env = env_params.params_from_gin
+  return {'LatexBalloonArena': env, 'LatexBalloonEnv': env,
+          'latex_reward': env, 'AltitudeController': env, 'LatexBalloon': env,
+          'create_state': env,
+          'LatexMpcAgent': lambda: plan_config.from_gin('latex_mpc'),
+          'sac_trainer_config': sac_trainer.TrainerConfig,
+          'dagger_config': dagger.DaggerConfig, 'Era5WindField': era5.settings}
+
+
+def test_every_settings_binding_is_accepted_or_one_line_naming_it():
+  # A list, dict or string where a number or name goes was a TypeError
+  # traceback in two places (Era5WindField.stations, dagger_config.teacher).
+  import inspect  # pylint: disable=g-import-not-at-top
+  builders = _settings_builders()
+  wind_file = str(pathlib.Path(__file__).parent / 'data' / 'realwinds' /
+                 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
+  failures, tried = [], 0
+  try:
+    for name, build in sorted(builders.items()):
+      configurable = gin.config._REGISTRY.get_match(name)  # pylint: disable=protected-access
+      params = inspect.signature(configurable.wrapped).parameters
+      for param in params:
+        if param in ('kwargs', 'wind_field_factory', 'path'):
+          continue
+        for value in _ODD_VALUES:
+          gin.clear_config()
+          gin.parse_config(f'{name}.{param} = {value}')
+          if name == 'Era5WindField':
+            gin.parse_config(f'Era5WindField.path = {wind_file!r}')
+          tried += 1
+          try:
+            build()
+          except ValueError as error:  # errors.ConfigError is one.
+            first = str(error).splitlines()[0] if str(error) else ''
+            if param not in first:
+              failures.append(f'{name}.{param} = {value}: {first}')
+          except Exception as error:  # pylint: disable=broad-except
+            failures.append(f'{name}.{param} = {value}: '
+                            f'{type(error).__name__}: {error}')
+  finally:
+    gin.clear_config()
+  assert tried > 500 and not failures, failures
