@@ -155,7 +155,7 @@ def test_sweep_refuses_seeds_beyond_2_32(tmp_path, capsys):
   settings = sweep_lib.SweepSettings(
       sweep_dir=str(tmp_path / 's'), points=tuple(sweep_lib.points(space)),
       seeds=(2**32,), num_iterations=5, policy_snapshot_period=5,
-      validation_episodes=1, wind_files=(), gin_bindings=(),
+      validation_episodes=1, gin_files=(), gin_bindings=(),
       asha_grace_period=None, cpus_per_trial=1.0)
   with pytest.raises(errors.ConfigError, match='training seed'):
     sweep_lib.check_points(settings)
