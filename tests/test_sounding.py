@@ -73,6 +73,9 @@ def _write(tmp_path, text, name='s.txt'):
      'winds cover 16000-20000 m'),
     ('PRES,HGHT,DRCT,SKNT\n100,14000,10,5\n50,26000,400,5\n', '0-360'),
     ('PRES,HGHT,DRCT,SKNT\n100,14000,10,5\n50,26000,x,5\n', 'not a number'),
+    # 9999 knots (5 km/s) flew: the grids' wind bound held for no sounding.
+    ('PRES,HGHT,DRCT,SKNT\n100,14000,10,9999\n50,26000,10,5\n',
+     'a wind of 9999 knots at 100 hPa is above 200 m/s'),
 ])
 def test_bad_files_are_one_line_errors(tmp_path, text, match):
   path = _write(tmp_path, text, 's.csv' if ',' in text else 's.txt')

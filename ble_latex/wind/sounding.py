@@ -45,6 +45,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ble_latex import errors
+from ble_latex.wind import era5_checks
 
 KNOT_MPS = 1852.0 / 3600.0  # [m/s] One knot (exact).
 HPA_PA = 100.0  # [Pa] One hectopascal.
@@ -294,6 +295,12 @@ def _column(rows: Sequence[Dict[str, float]], path: str) -> Sounding:
     raise errors.BadFileError(
         f'{path}: a pressure <= 0, a negative speed or a direction outside '
         '0-360 deg')
+  fastest = int(np.argmax(speed_kt))
+  if speed_kt[fastest] * KNOT_MPS > era5_checks.MAX_WIND_MPS:
+    raise errors.BadFileError(
+        f'{path}: a wind of {speed_kt[fastest]:g} knots at '
+        f'{pressure_hpa[fastest]:g} hPa is above '
+        f'{era5_checks.MAX_WIND_MPS:g} m/s (corrupt data)')
   order = np.argsort(-pressure_hpa, kind='stable')
   # The first listed level of each pressure (a stable sort keeps file order).
   first = np.concatenate([[True], np.diff(pressure_hpa[order]) != 0])
