@@ -441,6 +441,21 @@ def test_nan_winds(tmp_path):
     era5.load(path)
 
 
+def test_winds_beyond_memory_are_refused_before_reading(tmp_path, monkeypatch):
+  # A crafted NetCDF4 file can declare 1e12 values and store none (chunks
+  # never written); reading it asked for all of them. Here the machine's
+  # memory is made smaller than a small file's winds.
+  path = write_era5(tmp_path / 'era5.nc')
+  uv = era5.read_file(path)[-1]
+  need = uv[..., 0].size * era5_checks.READ_BYTES_PER_VALUE
+  monkeypatch.setattr(era5_checks, 'memory_bytes', lambda: need - 1)
+  with pytest.raises(errors.BadFileError) as info:
+    era5.read_file(path)
+  message = str(info.value)
+  assert 'reading them needs' in message and path in message
+  assert '\n' not in message
+
+
 def test_target_outside_area(era5_file):
   with pytest.raises(ValueError, match=r'Target \(lat 10.0, lon -113.0\) lies '
                      'outside the area of ERA5 file'):

@@ -361,6 +361,7 @@ def read_file(path: str, layout: Layout = ERA5,
     pressure = pressure * era5_checks.pressure_factor(u[pressure_dim], path,
                                                       label=label)
     era5_checks.check_pressure_pa(path, pressure, label=label)
+    era5_checks.check_size(path, u.shape, label=label)
     try:
       uv = np.stack([u.values.astype(np.float64),
                      v.values.astype(np.float64)], axis=-1)

@@ -15,6 +15,8 @@ file:
     outside [-180, 360] or holding one meridian twice (-113 and 247);
   - `check_time_steps`: gaps in time (a step longer than `GAP_MEDIAN_FACTOR`
     x the median step or than `MAX_TIME_STEP`), never interpolated across;
+  - `check_size`: winds that would not fit this machine's memory once read
+    (a crafted file can declare 1e12 values and hold none);
   - `check_winds`: NaN winds (declared fill values) and winds above
     `MAX_WIND_MPS` (undeclared fill values such as 9.97e36, corrupt data).
 
@@ -450,6 +452,39 @@ def check_time_steps(times: np.ndarray, sources: Sequence[str], *,
       f'is {median / 3600:g} h, at most {GAP_MEDIAN_FACTOR:g}x that and '
       f'{MAX_TIME_STEP / np.timedelta64(1, "h"):g} h are allowed): winds are '
       'not interpolated across a gap; download the missing times')
+
+
+# Bytes a wind value of each component takes while a file is read: u and v
+# as float64, their stack and its sorted copy (`era5.read_file`). # [B]
+READ_BYTES_PER_VALUE = 4 * 8
+
+
+def memory_bytes() -> int:
+  """This machine's physical memory. # [B]"""
+  return os.sysconf('SC_PAGE_SIZE') * os.sysconf('SC_PHYS_PAGES')
+
+
+def check_size(path: str, shape: Sequence[int], *,
+               label: str = 'ERA5') -> None:
+  """Refuses winds whose reading needs more than this machine's memory.
+
+  Args:
+    path: The file (for errors).
+    shape: One wind component's shape, as the file declares it.
+    label: The source's name in errors.
+
+  Raises:
+    errors.BadFileError: `READ_BYTES_PER_VALUE` x the values per component
+      is above `memory_bytes()` (checked before anything is read).
+  """
+  values = math.prod(int(n) for n in shape)
+  need, have = values * READ_BYTES_PER_VALUE, memory_bytes()
+  if need > have:
+    raise errors.BadFileError(
+        f'{label} file {path} declares winds of shape {tuple(shape)} '
+        f'({values:,} values each): reading them needs {need / 2**30:,.1f} '
+        f'GiB, more than this machine\'s {have / 2**30:,.1f} GiB (cut the '
+        'area or period)')
 
 
 def check_winds(path: str, uv: np.ndarray, *, names: Sequence[str],
