@@ -758,6 +758,10 @@ def test_a_layout_reads_another_sources_names(tmp_path, era5_file):
 
 
 def test_paper_gin_file_binds_the_field(era5_file):
+  # BLE's env modules register gin configurables when imported: before the
+  # parse locks the config (it passed only where an earlier test of the same
+  # worker had imported them).
+  from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
   try:
     gin.parse_config_files_and_bindings(
         [configs.gin_file('paper_era5.gin')],
@@ -767,7 +771,6 @@ def test_paper_gin_file_binds_the_field(era5_file):
     assert settings == era5.Era5Settings(path=era5_file, episode_hours=6.0)
     field = era5_field.Era5WindField.from_settings(settings)
     assert field.add_noise and field.settings == settings
-    from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
     factory = gin.query_parameter('LatexBalloonEnv.wind_field_factory')
     assert factory.selector == 'Era5WindField'
     del env_lib
