@@ -355,6 +355,8 @@ def test_bad_era5_settings_are_one_line_naming_the_binding(field, value):
   assert f'Era5WindField.{field}' in str(info.value).splitlines()[0]
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # ~15-25 s: the eval command's imports.
 def test_a_list_of_stations_from_eval_is_a_usage_error(tmp_path, capsys):
   # It reached the grid cache as a key: TypeError, unhashable type 'list'.
   from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
