@@ -454,6 +454,12 @@ def test_winds_beyond_memory_are_refused_before_reading(tmp_path, monkeypatch):
   message = str(info.value)
   assert 'reading them needs' in message and path in message
   assert '\n' not in message
+  # GRIB2: the sum of its messages' data points, from their headers.
+  grib = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
+                      'realwinds', 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
+  monkeypatch.setattr(era5_checks, 'memory_bytes', lambda: 1_000_000)
+  with pytest.raises(errors.BadFileError, match=r'\(189,216 values\)'):
+    era5.read_source(grib)
 
 
 def test_target_outside_area(era5_file):

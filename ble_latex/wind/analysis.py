@@ -241,6 +241,12 @@ def open_dataset(path: str, label: str
   try:
     if kind == 'grib':
       label = 'GRIB2' if label == 'ERA5' else label
+      import cfgrib  # pylint: disable=g-import-not-at-top
+      # The messages' headers only (no values decoded): a constant field
+      # can declare a huge grid in a few bytes.
+      stream = cfgrib.FileStream(path, errors='raise')
+      points = sum(int(m['numberOfDataPoints']) for _, m in stream.items())
+      era5_checks.check_size(path, (points,), label=label)
       parts = []
       with _quiet_cfgrib():
         for short in ('u', 'v'):

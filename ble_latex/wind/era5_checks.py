@@ -470,7 +470,8 @@ def check_size(path: str, shape: Sequence[int], *,
 
   Args:
     path: The file (for errors).
-    shape: One wind component's shape, as the file declares it.
+    shape: One wind component's shape, as the file declares it (GRIB2:
+      the data points of all its messages, an upper bound).
     label: The source's name in errors.
 
   Raises:
@@ -482,7 +483,7 @@ def check_size(path: str, shape: Sequence[int], *,
   if need > have:
     raise errors.BadFileError(
         f'{label} file {path} declares winds of shape {tuple(shape)} '
-        f'({values:,} values each): reading them needs {need / 2**30:,.1f} '
+        f'({values:,} values): reading them needs {need / 2**30:,.1f} '
         f'GiB, more than this machine\'s {have / 2**30:,.1f} GiB (cut the '
         'area or period)')
 
