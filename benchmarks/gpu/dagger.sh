@@ -2,16 +2,23 @@
 # DAgger at a GPU's scale (issue 47): the forecast planner `latex_mpc` labels
 # every stride of NUM_BALLOONS flights per round (`ble_latex.run.dagger`,
 # benchmarks/train_dagger.py), where a 2-core CPU labels 4 flights in ~8 min.
-# Seeds train one after another, each with an equal share of BUDGET_S; a
-# seed's rounds run until its share is spent (the cut round is lost, the
-# finished ones kept: a run resumes from its newest round, and the same
-# command with a run directory carried back continues it).
+# The seeds train side by side, one process each on the one GPU
+# (XLA_PYTHON_CLIENT_PREALLOCATE=false, so they share its memory; their
+# compiles overlap on the host's cores), until BUDGET_S is spent: a seed's
+# rounds run until then (the cut round is lost, the finished ones kept: a
+# run resumes from its newest round, and the same command with a run
+# directory carried back continues it).
+# Settings: 256 balloons a round, 100 validation seeds of latex_validation,
+# 2 000 Adam steps on minibatches of 1 024 rows, an aggregate of up to
+# 1 000 000 rows; DAGGER_BINDINGS (gin lines separated by ';') come after
+# these and override them.
 # The run directories sit in $RUNS (default /tmp/dagger_runs): the aggregate in
-# a checkpoint is too big to come back. Into OUT/seed_S go run.json,
-# summary.json (per-round validation on latex_validation, wall times) and
-# best_policy.msgpack; fly the students on this machine's CPU afterwards:
+# a checkpoint is too big to come back. OUT/dagger.tar holds seed_S/run.json,
+# seed_S/summary.json (per-round validation, wall times) and
+# seed_S/best_policy.msgpack of each seed (one file: at most 8 come back);
+# fly the students on this machine's CPU afterwards:
 #   ble-latex-eval --agent=sac_pretrained --suite=latex_small \
-#     --gin_bindings="SACPretrainedAgent.policy_path='OUT/seed_S/best_policy.msgpack'"
+#     --gin_bindings="SACPretrainedAgent.policy_path='seed_S/best_policy.msgpack'"
 # Needs what benchmarks/gpu/prepare_site.sh builds (gpu_site/). Usage, in the
 # checkout: bash benchmarks/gpu/dagger.sh OUT BUDGET_S [SEEDS] [NUM_BALLOONS]
 set -u
@@ -21,23 +28,35 @@ seeds=${3:-0,1,2}
 balloons=${4:-256}
 start=$(date +%s)
 export PYTHONPATH=$PWD:$PWD/gpu_site${PYTHONPATH:+:$PYTHONPATH} PYTHONUNBUFFERED=1
+export XLA_PYTHON_CLIENT_PREALLOCATE=false
 py=${PYTHON:-python3}
 runs=${RUNS:-/tmp/dagger_runs}
 log=$out/log.txt
 mkdir -p "$out" "$runs"
 . "$(dirname "$0")/budget.sh"
-{ date -u; nvidia-smi -L; $py -c 'import jax; print("jax", jax.__version__, jax.devices())'; uptime; } >>"$log" 2>&1
+{ date -u; nvidia-smi -L; $py -c 'import jax, flax, optax; print("jax", jax.__version__, "flax", flax.__version__, "optax", optax.__version__, jax.devices())'; uptime; } >>"$log" 2>&1
+bindings=(--gin_bindings="dagger_config.num_balloons = $balloons"
+          --gin_bindings='dagger_config.validation_seeds = 100'
+          --gin_bindings='dagger_config.fit_steps = 2000'
+          --gin_bindings='dagger_config.batch_size = 1024'
+          --gin_bindings='dagger_config.dataset_capacity = 1000000')
+IFS=';' read -ra extra <<<"${DAGGER_BINDINGS:-}"
+for b in "${extra[@]}"; do [ -n "$b" ] && bindings+=(--gin_bindings="$b"); done
 IFS=, read -ra list <<<"$seeds"
-share=$(( ($(left) - 20) / ${#list[@]} ))
+limit=$(( $(left) - 30 ))  # Leaves time to pack what came of it.
+echo "== dagger seeds ${list[*]} side by side (limit $limit s): ${bindings[*]}" >>"$log"
 for s in "${list[@]}"; do
-  budget_end=$(( $(date +%s) + share ))
-  # Up to 60 rounds; the share's timeout ends it sooner (the cut round is lost).
-  step "dagger seed $s" timeout $(( budget_end - $(date +%s) )) \
-    $py benchmarks/train_dagger.py --base_dir="$runs/seed_$s" --seed="$s" --rounds=60 \
-    --gin_bindings="dagger_config.num_balloons = $balloons" \
-    --gin_bindings='dagger_config.validation_seeds = 100' \
-    --gin_bindings='dagger_config.fit_steps = 2000'
-  mkdir -p "$out/seed_$s"
-  cp "$runs/seed_$s"/{run.json,summary.json,best_policy.msgpack} "$out/seed_$s/" 2>>"$log"
+  # Up to 200 rounds; the limit ends them sooner (the cut round is lost).
+  ( t0=$(date +%s)
+    timeout "$limit" $py benchmarks/train_dagger.py --base_dir="$runs/seed_$s" \
+      --seed="$s" --rounds=200 "${bindings[@]}" >"$out/seed_$s.log" 2>&1
+    echo "-- dagger seed $s: rc $? in $(( $(date +%s) - t0 )) s" >>"$log" ) &
 done
+wait
+for s in "${list[@]}"; do
+  echo "== seed $s" >>"$log"; grep -E '^round|validation TW50|Error|error' "$out/seed_$s.log" >>"$log"
+  mkdir -p "$runs/pack/seed_$s"
+  cp "$runs/seed_$s"/{run.json,summary.json,best_policy.msgpack} "$runs/pack/seed_$s/" 2>>"$log"
+done
+tar cf "$out/dagger.tar" -C "$runs/pack" . 2>>"$log"
 echo "== done in $(( $(date +%s) - start )) s" >>"$log"
