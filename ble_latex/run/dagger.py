@@ -451,6 +451,17 @@ def best_round(records: List[Dict[str, Any]], max_out_of_resources_pct: float
                                  -r['round'])) if fit else None
 
 
+def round_line(record: Dict[str, Any]) -> str:
+  """A round's log line (benchmarks/dagger_results.py reads it back)."""
+  result = record['validation']
+  return (f'round {record["round"]}: beta {record["beta"]:.2f}, '
+          f'{record["labelled"]} labels ({record["dataset_size"]} in all), '
+          f'fit loss {record["fit_loss"]:.4f}, validation TW50 window '
+          f'{result["tw50_window_mean"]:.3f} '
+          f'({result["out_of_resources_pct"]:.0f} % out of resources); '
+          f'fly {record["fly_s"]:.0f} s, fit {record["fit_s"]:.0f} s')
+
+
 def run_settings(config: DaggerConfig, teacher: plan_config.PlannerConfig
                  ) -> Dict[str, Any]:
   """What `run.json` records and a resume must agree with."""
@@ -563,10 +574,6 @@ def train(*, base_dir: str, num_rounds: int, config: Optional[DaggerConfig] = No
       summary = {'settings': settings, 'rounds': records, 'best': best}
       safe_io.atomic_write(os.path.join(base_dir, SUMMARY),
                            json.dumps(summary, indent=1) + '\n')
-      log(f'round {r}: beta {record["beta"]:.2f}, {record["labelled"]} '
-          f'labels ({data.size} in all), fit loss {loss:.4f}, validation '
-          f'TW50 window {result["tw50_window_mean"]:.3f} '
-          f'({result["out_of_resources_pct"]:.0f} % out of resources); '
-          f'fly {record["fly_s"]:.0f} s, fit {record["fit_s"]:.0f} s')
+      log(round_line(record))
   with open(os.path.join(base_dir, SUMMARY), encoding='utf-8') as f:
     return json.load(f)

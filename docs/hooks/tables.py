@@ -28,6 +28,8 @@ Records read (all committed):
     (`benchmarks/wind_compare.py`).
   * `benchmarks/reward_shape.json`: SAC trained with the flat and the tanh
     reward (`benchmarks/reward_shape.py`, issue 46), per training seed.
+  * `benchmarks/dagger/results.json`: DAgger runs and their best students'
+    held-out flights (`benchmarks/dagger_results.py`, issue 47).
 
 Means and standard deviations are over episodes (population std, as
 `ble_latex.run.metrics.summarize`).
@@ -48,6 +50,7 @@ PHYSICS = ROOT / 'benchmarks' / 'physics_results.json'
 VALBAL = ROOT / 'benchmarks' / 'valbal_check.json'
 WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
 REWARD_SHAPE = ROOT / 'benchmarks' / 'reward_shape.json'
+DAGGER = ROOT / 'benchmarks' / 'dagger' / 'results.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
                    re.DOTALL)
@@ -543,10 +546,10 @@ def reward_shape() -> str:
   return '\n'.join(lines)
 
 
-def _paired(a: dict, b: dict) -> str:
+def _paired(a: dict, b: dict, where: pathlib.Path = REWARD_SHAPE) -> str:
   """b − a on the same flights: mean ± standard error, ahead/behind."""
   if a['seeds'] != b['seeds']:
-    raise ValueError(f'{REWARD_SHAPE}: paired rows fly other seeds')
+    raise ValueError(f'{where}: paired rows fly other seeds')
   diff = [y - x for x, y in zip(a['tw50_window'], b['tw50_window'])]
   mean = sum(diff) / len(diff)
   se = (math.sqrt(sum((d - mean) ** 2 for d in diff) / (len(diff) - 1)
@@ -579,6 +582,44 @@ def reward_shape_paired() -> str:
   return '\n'.join(lines)
 
 
+# (reference name in benchmarks/dagger/results.json, column label).
+DAGGER_REFERENCES = (('sac_pretrained', '`sac_pretrained`'),
+                     ('latex_mpc', '`latex_mpc`'),
+                     ('latex_mpc_oracle', 'the oracle'))
+
+
+def dagger() -> str:
+  """Per DAgger group and training seed: validation, held out, paired."""
+  record = _load(DAGGER)
+  lines = ['| run | training seed | rounds (labels) | best round: validation '
+           '| `latex_small` TW50 window | out of resources | ' + ' | '.join(
+               f'student − {label} per seed' for _, label in DAGGER_REFERENCES)
+           + ' |', '|---' * (6 + len(DAGGER_REFERENCES)) + '|']
+  for name, group in record['groups'].items():
+    held_means = []
+    for seed, entry in sorted(group['seeds'].items(), key=lambda x: int(x[0])):
+      held = entry.get('heldout')
+      cells = ['—'] * (2 + len(DAGGER_REFERENCES))
+      if held:
+        held_means.append(held['tw50_window_mean'])
+        cells = [_pct(held['tw50_window_mean'], held['tw50_window_std']),
+                 f"{held['out_of_resources_pct']:.0f} %"] + [
+                     _paired(group['references'][ref], held, DAGGER)
+                     if ref in group['references'] else '—'
+                     for ref, _ in DAGGER_REFERENCES]
+      lines.append(
+          f"| {name} | {seed} | {len(entry['rounds'])} ({entry['labels']:,}) "
+          f"| {entry['best_round']}: "
+          f"{100 * entry['best_validation_tw50_window']:.1f} % | "
+          + ' | '.join(cells) + ' |')
+    if len(held_means) > 1:
+      mean, std = _mean_std(held_means)
+      lines.append(f'| {name} | mean ± std over seeds | | | '
+                   f'{100 * mean:.1f} % ± {100 * std:.1f} |' + ' |' * (
+                       1 + len(DAGGER_REFERENCES)))
+  return '\n'.join(lines)
+
+
 TABLES: Dict[str, Callable[[], str]] = {
     'valbal-check': valbal_check,
     'realistic-short': realistic_short,
@@ -594,6 +635,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     'wind-compare': wind_compare,
     'reward-shape': reward_shape,
     'reward-shape-paired': reward_shape_paired,
+    'dagger': dagger,
 }
 
 
