@@ -13,9 +13,11 @@
 # 1 000 000 rows; DAGGER_BINDINGS (gin lines separated by ';') come after
 # these and override them.
 # The run directories sit in $RUNS (default /tmp/dagger_runs): the aggregate in
-# a checkpoint is too big to come back. OUT/dagger.tar holds seed_S/run.json,
+# a checkpoint is too big to come back. OUT/seed_S.tar holds seed_S/run.json,
 # seed_S/summary.json (per-round validation, wall times) and
-# seed_S/best_policy.msgpack of each seed (one file: at most 8 come back);
+# seed_S/best_policy.msgpack (one file a seed, under the 16 MB a file may
+# bring back: a 3 x 512 student's three files together were over it), beside
+# OUT/seed_S.log and OUT/log.txt (at most 8 files come back: 3 seeds at most);
 # fly the students on this machine's CPU afterwards:
 #   ble-latex-eval --agent=sac_pretrained --suite=latex_small \
 #     --gin_bindings="SACPretrainedAgent.policy_path='seed_S/best_policy.msgpack'"
@@ -43,6 +45,7 @@ bindings=(--gin_bindings="dagger_config.num_balloons = $balloons"
 IFS=';' read -ra extra <<<"${DAGGER_BINDINGS:-}"
 for b in "${extra[@]}"; do [ -n "$b" ] && bindings+=(--gin_bindings="$b"); done
 IFS=, read -ra list <<<"$seeds"
+[ "${#list[@]}" -le 3 ] || { echo "dagger.sh: at most 3 seeds (8 files come back)" >&2; exit 2; }
 limit=$(( $(left) - 30 ))  # Leaves time to pack what came of it.
 echo "== dagger seeds ${list[*]} side by side (limit $limit s): ${bindings[*]}" >>"$log"
 for s in "${list[@]}"; do
@@ -57,6 +60,6 @@ for s in "${list[@]}"; do
   echo "== seed $s" >>"$log"; grep -E '^round|validation TW50|Error|error' "$out/seed_$s.log" >>"$log"
   mkdir -p "$runs/pack/seed_$s"
   cp "$runs/seed_$s"/{run.json,summary.json,best_policy.msgpack} "$runs/pack/seed_$s/" 2>>"$log"
+  tar cf "$out/seed_$s.tar" -C "$runs/pack" "seed_$s" 2>>"$log"
 done
-tar cf "$out/dagger.tar" -C "$runs/pack" . 2>>"$log"
 echo "== done in $(( $(date +%s) - start )) s" >>"$log"
