@@ -28,6 +28,10 @@ flags.DEFINE_string('agent', None, 'Records of the agent compared.',
                     flag_values=FLAGS)
 flags.DEFINE_string('output', 'oracle_gap.png', 'Figure to write.',
                     flag_values=FLAGS)
+flags.DEFINE_string('upper_name', 'upper bound', 'What --upper flew (axis '
+                    'labels).', flag_values=FLAGS)
+flags.DEFINE_string('agent_name', 'agent', 'What --agent flew (axis labels).',
+                    flag_values=FLAGS)
 
 
 def _tw50(path: str):
@@ -53,14 +57,14 @@ def _main(argv: Sequence[str]) -> int:
   fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4.2))
   left.scatter(100 * a, 100 * u, s=12)
   left.plot([0, 100], [0, 100], 'k--', lw=0.8)
-  left.set_xlabel('agent TW50 window [%]')
-  left.set_ylabel('upper bound TW50 window [%]')
+  left.set_xlabel(f'{FLAGS.agent_name} TW50 window [%]')
+  left.set_ylabel(f'{FLAGS.upper_name} TW50 window [%]')
   left.set_title(f'{len(seeds)} seeds')
   order = np.argsort(-gap)
   right.bar(np.arange(len(seeds)), 100 * gap[order])
   right.axhline(0, color='k', lw=0.8)
   right.set_xlabel('seeds, sorted by gap')
-  right.set_ylabel('upper bound - agent [points]')
+  right.set_ylabel(f'{FLAGS.upper_name} - {FLAGS.agent_name} [points]')
   right.set_title(f'mean gap {100 * gap.mean():.1f} points')
   fig.tight_layout()
   fig.savefig(FLAGS.output, dpi=120)
