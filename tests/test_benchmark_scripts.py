@@ -133,3 +133,17 @@ def test_planners_never_drop_seeds_and_refuse_other_settings(tmp_path, capsys):
   err = capsys.readouterr().err.strip().splitlines()
   assert rc == 2 and err[0].startswith(
       "benchmarks/planners.py: unknown suite 'nosuch'") and len(err) == 1
+
+
+def test_policy_speed_refuses_bad_policies_in_one_line(tmp_path, capsys):
+  """benchmarks/policy_speed.py: a --policy that is not NAME=PATH is a usage
+  error (2), a missing file a failure (1), before anything is flown."""
+  speed = _load('bench_policy_speed', ROOT / 'benchmarks' / 'policy_speed.py')
+  out = tmp_path / 'speed.json'
+  rc = speed.main(['--policy=nonsense', f'--json={out}'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 2 and len(err) == 1 and 'want NAME=PATH' in err[0], err
+  rc = speed.main([f'--policy=a={tmp_path}/absent.msgpack', f'--json={out}'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 1 and len(err) == 1 and 'absent.msgpack' in err[0], err
+  assert not out.exists()

@@ -1,0 +1,128 @@
+"""Seconds per decision of a SAC policy file, one balloon at a time (issue 47).
+
+  python benchmarks/policy_speed.py --json=benchmarks/policy_speed.json \\
+      --policy=shipped --policy=dagger_seed_1=benchmarks/dagger/gpu_h200/seed_1/best_policy.msgpack
+
+Issue 47 asks for a controller that decides in <= 10 ms per balloon on 2 CPU
+cores. Each `--policy NAME=PATH` (or `shipped`: the shipped policy) is
+loaded as BLE's `sac_pretrained` agent in eval mode (its mean action), and
+`agent.step(reward, observation)` is timed on `--steps` observations of real
+flights (the core's, drawn from `latex_small`'s first seed and its strides
+under the agent's own actions), one call per decision, after `--warmup`
+calls that compile. All policies run in the same process, side by side;
+the record holds each one's median and 90th percentile, the load average
+and the machine's cores.
+"""
+
+import json
+import os
+import platform
+import sys
+import time
+from typing import Optional, Sequence
+
+from absl import flags
+import numpy as np
+
+import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex import safe_io
+from ble_latex.cli import common as cli
+
+FLAGS = flags.FlagValues()
+flags.DEFINE_multi_string('policy', ['shipped'], 'NAME=PATH of a SAC policy '
+                          'file, or `shipped`.', flag_values=FLAGS)
+flags.DEFINE_integer('steps', 2000, 'Decisions timed per policy.',
+                     lower_bound=10, flag_values=FLAGS)
+flags.DEFINE_integer('warmup', 20, 'Decisions before timing (compiles).',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_string('json', None, 'Write the record here.',
+                    flag_values=FLAGS)
+
+
+def _observations(count: int) -> np.ndarray:
+  """`count` observations of one `latex_small` flight (random actions)."""
+  import jax  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
+  env = jax_env.LatexBalloonJaxEnv()
+  params = env_params.params_from_gin()
+  seed = list(suites.get_eval_suite('latex_small').seeds)[0]
+  obs, state = env.reset(jax.random.PRNGKey(seed), params)
+  step = jax.jit(env.step)
+  rng = np.random.default_rng(0)
+  out = []
+  key = jax.random.PRNGKey(0)
+  for _ in range(count):
+    out.append(np.asarray(obs))
+    key, step_key = jax.random.split(key)
+    action = rng.uniform(-1.0, 1.0, size=3).astype(np.float32)
+    obs, state, _, _, _, _ = step(step_key, state, action, params)
+  return np.stack(out)
+
+
+def _time(name: str, path: Optional[str], observations: np.ndarray) -> dict:
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise():
+    from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+    agent = sac.SACPretrainedAgent(3, (observations.shape[1],),
+                                   policy_path=path)
+  agent.set_mode('eval')
+  agent.begin_episode(observations[0])
+  for obs in observations[:FLAGS.warmup]:
+    agent.step(0.0, obs)
+  seconds = []
+  for obs in observations:
+    t0 = time.perf_counter()
+    agent.step(0.0, obs)
+    seconds.append(time.perf_counter() - t0)
+  seconds = np.asarray(seconds)
+  return {'name': name, 'path': path or 'shipped', 'decisions': len(seconds),
+          'median_s': float(np.median(seconds)),
+          'p90_s': float(np.percentile(seconds, 90)),
+          'mean_s': float(seconds.mean())}
+
+
+def _main(argv: Sequence[str]) -> int:
+  del argv
+  policies = []
+  for item in FLAGS.policy:
+    if item == 'shipped':
+      policies.append(('shipped', None))
+      continue
+    name, sep, path = item.partition('=')
+    if not sep or not name or not path:
+      raise cli.CommandUsageError(f'--policy {item!r}: want NAME=PATH or '
+                                  'shipped')
+    if not os.path.isfile(path):
+      raise cli.CommandFailure(f'--policy {name}: no file {path}')
+    policies.append((name, path))
+  observations = _observations(FLAGS.steps)
+  load_before = list(os.getloadavg())
+  rows = []
+  for name, path in policies:
+    try:
+      rows.append(_time(name, path, observations))
+    except ValueError as error:
+      raise cli.CommandFailure(f'--policy {name}: {cli.one_line(error)}')
+    print(f"{name}: median {1e3 * rows[-1]['median_s']:.3f} ms, p90 "
+          f"{1e3 * rows[-1]['p90_s']:.3f} ms per decision")
+  record = {'what': 'SAC policy files as BLE agents (sac_pretrained, eval '
+                    'mode), one decision per agent.step call',
+            'date': time.strftime('%Y-%m-%dT%H:%M', time.gmtime()),
+            'host': platform.node(), 'cpus': os.cpu_count(),
+            'loadavg_before': load_before,
+            'loadavg_after': list(os.getloadavg()),
+            'command': ' '.join(sys.argv), 'policies': rows}
+  if FLAGS.json:
+    safe_io.atomic_write(FLAGS.json, json.dumps(record, indent=1) + '\n')
+  return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+  return cli.run_absl(_main, 'benchmarks/policy_speed.py', FLAGS, argv,
+                      doc=__doc__)
+
+
+if __name__ == '__main__':
+  sys.exit(main())
