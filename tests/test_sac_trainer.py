@@ -187,6 +187,8 @@ def test_one_run_directory_twice_in_one_process_is_refused(tmp_path):
     pass
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # 60 s on the idle 2-core machine (2026-11-28): CI runs it.
 def test_stale_temporary_files_are_removed_at_start(tmp_path):
   """What a killed checkpoint or policy write left (up to ~0.6 GB each) is
   removed when the trainer starts; other files stay."""
