@@ -29,6 +29,7 @@ from absl import flags
 
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import dagger
 from ble_latex.run import metrics
 
 FLAGS = flags.FlagValues()
@@ -36,7 +37,9 @@ flags.DEFINE_string('name', None, 'The group written (e.g. gpu_h200).',
                     flag_values=FLAGS)
 flags.DEFINE_string('runs', None, 'Folder of seed_S run directories.',
                     flag_values=FLAGS)
-flags.DEFINE_bool('from_logs', False, 'Read the rounds from seed_S.log.',
+flags.DEFINE_bool('from_logs', False, 'Read the rounds from seed_S.log '
+                  '(the best round within DaggerConfig\'s default '
+                  'out-of-resources bound unless a run.json is beside).',
                   flag_values=FLAGS)
 flags.DEFINE_string('heldout', None, 'Eval record of seed S\'s best student '
                     '(a path with {seed}).', flag_values=FLAGS)
@@ -56,33 +59,52 @@ _ROUND = re.compile(
     r'resources\); fly (\d+) s, fit (\d+) s$')
 
 
-def _rounds_from_summary(path: str) -> list:
+def _records_from_summary(path: str) -> list:
+  """The trainer's per-round records (`dagger.train`'s summary.json)."""
   with open(path, encoding='utf-8') as f:
-    summary = json.load(f)
-  return [{'round': r['round'], 'beta': r['beta'], 'labelled': r['labelled'],
-           'fit_loss': r['fit_loss'],
-           'validation_tw50_window': r['validation']['tw50_window_mean'],
-           'validation_out_of_resources_pct':
-               r['validation']['out_of_resources_pct'],
-           'validation_episodes': r['validation']['episodes'],
-           'wall_s': r['fly_s'] + r['fit_s'] + r['validate_s']}
-          for r in summary['rounds']]
+    return json.load(f)['rounds']
 
 
-def _rounds_from_log(path: str) -> list:
-  rounds = []
+def _records_from_log(path: str) -> list:
+  """What a log's round lines (`dagger.round_line`) keep of those records."""
+  records = []
   with open(path, encoding='utf-8') as f:
     for line in f:
       m = _ROUND.match(line.strip())
       if m:
-        rounds.append({
+        records.append({
             'round': int(m[1]), 'beta': float(m[2]), 'labelled': int(m[3]),
-            'fit_loss': float(m[5]), 'validation_tw50_window': float(m[6]),
-            'validation_out_of_resources_pct': float(m[7]),
-            'wall_s_fly_fit': int(m[8]) + int(m[9])})
-  if not rounds:
+            'fit_loss': float(m[5]),
+            'validation': {'tw50_window_mean': float(m[6]),
+                           'out_of_resources_pct': float(m[7])},
+            'fly_s': int(m[8]), 'fit_s': int(m[9])})
+  if not records:
     raise ValueError(f'{path}: no round lines')
-  return rounds
+  return records
+
+
+def _flat(record: dict) -> dict:
+  """A round as results.json keeps it (wall times as far as known)."""
+  validation = record['validation']
+  out = {'round': record['round'], 'beta': record['beta'],
+         'labelled': record['labelled'], 'fit_loss': record['fit_loss'],
+         'validation_tw50_window': validation['tw50_window_mean'],
+         'validation_out_of_resources_pct': validation['out_of_resources_pct']}
+  if 'validate_s' in record:
+    out['validation_episodes'] = validation['episodes']
+    out['wall_s'] = record['fly_s'] + record['fit_s'] + record['validate_s']
+  else:  # A log line gives no validation time.
+    out['wall_s_fly_fit'] = record['fly_s'] + record['fit_s']
+  return out
+
+
+def _bound(seed_dir: str) -> float:
+  """The run's `max_out_of_resources_pct` (its run.json, else the default)."""
+  path = os.path.join(seed_dir, 'run.json')
+  if os.path.exists(path):
+    with open(path, encoding='utf-8') as f:
+      return float(json.load(f)['config']['max_out_of_resources_pct'])
+  return dagger.DaggerConfig().max_out_of_resources_pct
 
 
 def per_seed(path: str) -> dict:
@@ -126,13 +148,17 @@ def _write() -> int:
   seeds = {}
   for path in found:
     seed = int(re.search(r'seed_(\d+)', path)[1])
-    rounds = (_rounds_from_log(path) if FLAGS.from_logs else
-              _rounds_from_summary(path))
-    fit = [r for r in rounds if r['validation_out_of_resources_pct'] <= 5.0]
-    best = max(fit, key=lambda r: (r['validation_tw50_window'], -r['round']))
-    entry = {'rounds': rounds, 'best_round': best['round'],
-             'best_validation_tw50_window': best['validation_tw50_window'],
-             'labels': sum(r['labelled'] for r in rounds)}
+    records = (_records_from_log(path) if FLAGS.from_logs else
+               _records_from_summary(path))
+    best = dagger.best_round(records, _bound(
+        os.path.join(FLAGS.runs, f'seed_{seed}')))
+    if best is None:
+      raise ValueError(f'{path}: no round within the out-of-resources bound')
+    entry = {'rounds': [_flat(r) for r in records],
+             'best_round': best['round'],
+             'best_validation_tw50_window':
+                 best['validation']['tw50_window_mean'],
+             'labels': sum(r['labelled'] for r in records)}
     if FLAGS.heldout:
       entry['heldout'] = per_seed(FLAGS.heldout.format(seed=seed))
     seeds[str(seed)] = entry
