@@ -58,6 +58,7 @@ from ble_latex.agents import networks
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac_checkpoint
 from ble_latex.agents import sac_core
+from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex import errors
 from ble_latex.flight import params as params_lib
@@ -558,6 +559,8 @@ class SACAgent(sac_checkpoint.SACCheckpoints, agent.Agent,
         'hidden_units': self._hidden_units,
         'critic': self._critic,
         'replay_capacity': self._replay_capacity,
+        # What the env's features mean (gin `latex_observation.*`).
+        'wind_memory': env_params.observation_settings()['wind_memory'],
     }
 
 

@@ -22,6 +22,7 @@ import numpy as np
 import optax
 
 from ble_latex.agents import networks
+from ble_latex.envs import env_params
 from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex import safe_io
@@ -46,9 +47,12 @@ MAX_NUM_ENVS = 4096
 # Every other integer setting is an int32 count on the device.
 MAX_INT32 = 2**31 - 1
 # What `file_config` checks and `check_config` compares: the config entries
-# that fix the network's shapes and the action box. Policies need no more.
+# that fix the network's shapes and the action box, and what the features
+# mean (`wind_memory`: the env's `latex_observation.wind_memory` the policy
+# observed with). Policies need no more.
 ACTING_CONFIG_KEYS = ('observation_shape', 'num_actions', 'action_low',
-                      'action_high', 'num_layers', 'hidden_units', 'critic')
+                      'action_high', 'num_layers', 'hidden_units', 'critic',
+                      'wind_memory')
 
 
 class TrainingDiverged(FloatingPointError):
@@ -511,7 +515,9 @@ def file_config(config: Any, what: str) -> Dict[str, Any]:
   fix the network (`ACTING_CONFIG_KEYS`; sizes at most `MAX_NUM_LAYERS`,
   `MAX_HIDDEN_UNITS`, `MAX_OBSERVATION_SIZE`, `MAX_NUM_ACTIONS`) and of
   `replay_capacity` where present. Files from before critics were
-  configurable hold Dopamine's MLPs: a missing `critic` reads as 'mlp'.
+  configurable hold Dopamine's MLPs: a missing `critic` reads as 'mlp'; files
+  from before the observation could remember winds a missing `wind_memory`
+  as 0 (the paper's observation).
 
   Args:
     config: The `config` entry of the file.
@@ -527,6 +533,9 @@ def file_config(config: Any, what: str) -> Dict[str, Any]:
     raise ValueError(f'{what}: config is not a mapping: {config!r}')
   config = dict(config)
   config.setdefault('critic', 'mlp')  # Files from before critics were set.
+  # Files from before the observation could remember winds observed the
+  # forecast column.
+  config.setdefault('wind_memory', 0)
   missing = [k for k in ACTING_CONFIG_KEYS if k not in config]
   if missing:
     raise ValueError(f'{what}: config misses {missing}')
@@ -538,6 +547,9 @@ def file_config(config: Any, what: str) -> Dict[str, Any]:
     if key in config:
       config[key] = int(config[key])
   networks.check_critic(f'{what}: config', config['critic'])
+  config['wind_memory'] = gin_values.check_int(
+      f'{what}: config.wind_memory', config['wind_memory'], minimum=0,
+      maximum=env_params.MAX_WIND_MEMORY)
   num_actions = safe_io.checked_count(
       config['num_actions'], f'{what}: config.num_actions', low=1,
       high=MAX_NUM_ACTIONS)

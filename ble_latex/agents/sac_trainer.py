@@ -396,9 +396,13 @@ def validate(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
 # --- Policies and stacked seeds ---------------------------------------------
 
 
-def acting_bundle(learner: Learner, state: TrainState,
-                  iteration: int) -> Dict[str, Any]:
-  """What `sac.SACAgent.acting_bundle` holds, for `pretrained` policies."""
+def acting_bundle(learner: Learner, state: TrainState, iteration: int, *,
+                  wind_memory: int) -> Dict[str, Any]:
+  """What `sac.SACAgent.acting_bundle` holds, for `pretrained` policies.
+
+  `wind_memory` is the `EnvParams.wind_memory` of the env the policy
+  observed (what its features mean).
+  """
   c = learner.config
   config = {
       'observation_shape': [jax_env.LatexBalloonJaxEnv.num_features],
@@ -406,7 +410,8 @@ def acting_bundle(learner: Learner, state: TrainState,
       'action_low': np.asarray(jax_env.ACTION_LOW, np.float64).tolist(),
       'action_high': np.asarray(jax_env.ACTION_HIGH, np.float64).tolist(),
       'num_layers': c.num_layers, 'hidden_units': c.hidden_units,
-      'critic': c.critic, 'replay_capacity': c.replay_capacity}
+      'critic': c.critic, 'replay_capacity': c.replay_capacity,
+      'wind_memory': int(wind_memory)}
   return {'format': sac_core.CHECKPOINT_FORMAT, 'iteration': int(iteration),
           'config': config, 'training_steps': int(state.updates),
           'network_params': sac_core.to_numpy(state.network_params),

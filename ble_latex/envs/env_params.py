@@ -50,7 +50,12 @@ _BINDINGS = {
     'max_start_distance_km': 'LatexBalloonArena.max_start_distance_km',
     'stride_s': 'LatexBalloonArena.stride',
     'episode_steps': 'LatexBalloonEnv.episode_steps',
+    'wind_memory': 'latex_observation.wind_memory',
 }
+# The most measurements the observation's Gaussian process keeps (its K x K
+# solve at every step; `plan_config.MAX_SIZES['wind_memory']` is the
+# planners' own bound).
+MAX_WIND_MEMORY = 1_024
 # Start altitudes must lie in (0, top of the atmosphere model): 0 m is the
 # ground (`GROUNDED`), and BLE's standard atmosphere is defined below 85 km
 # (its last layer boundary; BLE asserts above). The burst check
@@ -164,6 +169,8 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
   gin_values.check_number(name('max_start_distance_km'),
                           p.max_start_distance_km, above=0.0)
   gin_values.check_int(name('episode_steps'), p.episode_steps, minimum=1)
+  gin_values.check_int(name('wind_memory'), p.wind_memory, minimum=0,
+                       maximum=MAX_WIND_MEMORY)
   stride = flight_params_lib.seconds(p.stride_s, name('stride_s'))
   for field in ('max_substep_s', 'vertical_step_s', 'actuation_chunk_s'):
     gin_values.check_number(
@@ -192,6 +199,7 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
             'start_altitude_low_m', 'start_altitude_high_m',
             'max_start_distance_km')
   return p.replace(episode_steps=int(p.episode_steps), stride_s=stride,
+                   wind_memory=int(p.wind_memory),
                    **{f: float(getattr(p, f)) for f in floats})
 
 
@@ -336,6 +344,22 @@ def start(*, start_altitude_range_m: Tuple[float, float] = (
               stride_s=stride_seconds(stride))
 
 
+@gin.configurable('latex_observation', module=_GIN_MODULE)
+def observation_settings(
+    *, wind_memory: int = _DEFAULTS['wind_memory']) -> Dict[str, Any]:
+  """The observation (gin `latex_observation.*`).
+
+  Args:
+    wind_memory: 0 (default): the paper's 71 features, the wind column the
+      forecast. K > 0: the same 71 features, the column corrected by the
+      last K measured winds (`EnvParams.wind_memory`).
+
+  Returns:
+    The values by `EnvParams` field (unchecked).
+  """
+  return dict(locals())  # The arguments above, by name.
+
+
 @gin.configurable('LatexBalloonEnv', module=_GIN_MODULE)
 def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
             station_keeping_radius_km: float = _DEFAULTS['radius_km'],
@@ -437,7 +461,8 @@ def params_from_gin() -> env_types.EnvParams:
   grid = winds.era5_grid_from_gin(values.pop('wind_field_factory'))
   params = check_params(env_types.EnvParams(
       flight=flight_params_lib.flight_params_from_gin(), decoder=None,
-      radius_km=radius_km, **reward, **start(), **values, wind_grid=grid))
+      radius_km=radius_km, **reward, **start(), **values,
+      **observation_settings(), wind_grid=grid))
   return params.replace(decoder=generative.decoder_params())
 
 

@@ -23,6 +23,7 @@ from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import state as state_lib
 from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
+from ble_latex.wind import noise_gp
 from ble_latex.wind import simplex
 
 Array = jax.Array
@@ -67,6 +68,13 @@ class EnvParams:
       step); a `ResetPool` (`LatexBalloonJaxEnv.with_reset_pool`): `step`
       auto-resets from the pool's pre-drawn worlds, shared by every balloon
       (cheap, `reset_pool`).
+    wind_memory: 0 (default): the paper's observation, the forecast column
+      (features 0-49). K > 0: that column corrected by the balloon's last K
+      measured winds, forecast + the Gaussian-process posterior mean of
+      BLE's noise given them (`noise_gp`, Eq. (2); what `latex_mpc` plans
+      in, and what BLE's Perciatelli features read through its wind GP);
+      the state keeps them (`EnvState.wind_memory`). Static (it sizes the
+      state); gin `latex_observation.wind_memory`.
   """
   flight: flight_params_lib.FlightParams
   decoder: Any
@@ -83,6 +91,7 @@ class EnvParams:
   stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
   wind_grid: Optional[era5_jax.Era5Grid] = None
   reset_pool: Optional['ResetPool'] = None
+  wind_memory: int = flax.struct.field(pytree_node=False, default=0)
 
   @property
   def max_steps_in_episode(self) -> int:
@@ -113,6 +122,10 @@ class EnvState:
     station: None (BLE's winds, or a wind grid's fixed target); per-seed
       stations (`Era5Grid.station_box`): [2] this flight's station
       (latitude [deg N], longitude [deg E]), drawn at reset. # [deg]
+    wind_memory: None (`EnvParams.wind_memory` 0); else the last K
+      measured-minus-forecast winds at the balloon, one per measurement
+      (reset and every stride), that the observation's column is corrected
+      by (`noise_gp.Measurements`).
   """
   flight: state_lib.FlightState
   atmosphere: atmosphere_lib.AtmosphereParams
@@ -127,6 +140,7 @@ class EnvState:
   steps: Array
   pending_world: Array
   station: Optional[Array] = None
+  wind_memory: Optional[noise_gp.Measurements] = None
 
 
 @flax.struct.dataclass

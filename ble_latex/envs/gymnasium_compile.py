@@ -39,7 +39,8 @@ with quiet.third_party_noise():
 jax_cache.enable_if_requested()
 
 # The parts of `EnvState` a step changes (the world is fixed at reset).
-_STEP_PARTS = ('flight', 'history', 'wind_u', 'wind_v', 'steps')
+_STEP_PARTS = ('flight', 'history', 'wind_u', 'wind_v', 'wind_memory',
+               'steps')
 
 # Set in a child forked from a process whose JAX had started (see
 # `check_not_forked_after_jax`).

@@ -73,6 +73,7 @@ from ble_latex import gin_values
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_features
+from ble_latex.envs import observed_winds
 from ble_latex.envs import reset_pool
 from ble_latex.envs import winds
 from ble_latex.flight import atmosphere as atmosphere_lib
@@ -124,12 +125,14 @@ def observation(state: env_types.EnvState, params: env_types.EnvParams,
     wind: Where the forecast columns come from.
 
   Returns:
-    The observation, shape (71,), float32.
+    The observation, shape (71,), float32; its wind column corrected by
+    the measured winds where `params.wind_memory` > 0 (`observed_winds`).
   """
   f = state.flight
-  column_u, column_v = wind.forecast_column(
-      state, f.x_m, f.y_m,
-      jnp.asarray(jax_features.PRESSURE_LEVELS, f.x_m.dtype), f.time_s)
+  levels = jnp.asarray(jax_features.PRESSURE_LEVELS, f.x_m.dtype)
+  column_u, column_v = observed_winds.column(
+      state, *wind.forecast_column(state, f.x_m, f.y_m, levels, f.time_s),
+      levels)
   return jax_features.features(
       column_u, column_v, f.x_m, f.y_m, f.altitude_m, f.ascent_rate_mps,
       state.wind_u, state.wind_v, f.helium_mols, f.sand_kg,
@@ -146,12 +149,13 @@ def measure(state: env_types.EnvState,
     wind: Where the ground-truth wind comes from.
 
   Returns:
-    `state` with `wind_u`, `wind_v` set to the wind at the balloon.
+    `state` with `wind_u`, `wind_v` set to the wind at the balloon, which
+    its `wind_memory` (if any) remembers (`observed_winds.remember`).
     # [m/s]
   """
   f = state.flight
   u, v = wind.ground_truth(state, f.x_m, f.y_m, f.pressure_pa, f.time_s)
-  return state.replace(wind_u=u, wind_v=v)
+  return observed_winds.remember(state.replace(wind_u=u, wind_v=v), wind)
 
 
 def step_info(state: env_types.EnvState, params: env_types.EnvParams,
@@ -278,6 +282,7 @@ def place(world: env_types.EnvState, params: env_types.EnvParams, *,
       key=burst_key if params.flight.burst_spread else None)
   zero = jnp.zeros_like(flight.altitude_m)
   state = world.replace(flight=flight, wind_u=zero, wind_v=zero,
+                        wind_memory=observed_winds.start(params, zero.dtype),
                         steps=jnp.zeros((), jnp.int32),
                         pending_world=jnp.full((), -1, jnp.int32))
   if params.flight.gas_superheat or params.flight.latex_overpressure:

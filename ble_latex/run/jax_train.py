@@ -278,7 +278,7 @@ class _RunDir:
 
   def __init__(self, *, base_dir: str, seed: int,
                learner: sac_trainer.Learner, num_iterations: int,
-               collectors: Sequence[str], window: int,
+               collectors: Sequence[str], window: int, wind_memory: int,
                validation_seeds: Sequence[int]):
     config = learner.config
     self.base_dir, self.seed, self.learner = base_dir, seed, learner
@@ -287,7 +287,8 @@ class _RunDir:
         run_dir.checkpoint_dir(base_dir))
     self.start = done_iterations[-1] + 1 if done_iterations else 0
     run_info = {'trainer': 'jax', 'seed': seed,
-                'config': dataclasses.asdict(config), 'episode_steps': window}
+                'config': dataclasses.asdict(config), 'episode_steps': window,
+                'wind_memory': wind_memory}
     # Rounds after the newest checkpoint (up to `checkpoint_period`) are
     # flown again: any number of them may be logged.
     run_dir.check_resume(
@@ -377,7 +378,8 @@ class _RunDir:
       save_checkpoint(self.base_dir, iteration, state, self.elapsed)
     if snapshot:
       policy = pretrained.policy_from_bundle(
-          sac_trainer.acting_bundle(self.learner, state, iteration),
+          sac_trainer.acting_bundle(self.learner, state, iteration,
+                                    wind_memory=params.wind_memory),
           f'{self.base_dir} round {iteration}',
           note=f'sac (jax trainer, seed {self.seed}) after '
           f'{(iteration + 1) * n} training episodes')
@@ -543,7 +545,7 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
       opened.append(_RunDir(
           base_dir=base_dir, seed=seed, learner=learner,
           num_iterations=num_iterations, collectors=collectors, window=window,
-          validation_seeds=validation_seeds))
+          wind_memory=params.wind_memory, validation_seeds=validation_seeds))
       if not together:
         alone(opened[-1], num_iterations)
         opened[-1].close()
