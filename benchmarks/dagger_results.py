@@ -107,29 +107,6 @@ def _bound(seed_dir: str) -> float:
   return dagger.DaggerConfig().max_out_of_resources_pct
 
 
-def per_seed(path: str) -> dict:
-  """An eval record's summary and its per-seed TW50 over the window.
-
-  `ble-latex-eval` records and `benchmarks/planners.py`'s (which may lack
-  flight paths) alike: a JSON list of per-episode records with
-  `metrics.summarize`'s keys.
-  """
-  with open(path, encoding='utf-8') as f:
-    records = json.load(f)
-  if not isinstance(records, list) or not records or not all(
-      isinstance(r, dict) and 'seed' in r for r in records):
-    raise ValueError(f'{path}: not a list of per-episode eval records')
-  records = sorted(records, key=lambda r: int(r['seed']))
-  summary = metrics.summarize(records)
-  return {'path': path, 'seeds': [int(r['seed']) for r in records],
-          'tw50_window': [float(r['tw50_window']) for r in records],
-          'tw50_window_mean': summary['tw50_window_mean'],
-          'tw50_window_std': summary['tw50_window_std'],
-          'out_of_resources_pct': summary['out_of_resources_pct'],
-          'helium_vented_mols_mean': summary['helium_vented_mols_mean'],
-          'sand_dropped_kg_mean': summary['sand_dropped_kg_mean']}
-
-
 def _main(argv: Sequence[str]) -> int:
   del argv
   try:
@@ -160,14 +137,14 @@ def _write() -> int:
                  best['validation']['tw50_window_mean'],
              'labels': sum(r['labelled'] for r in records)}
     if FLAGS.heldout:
-      entry['heldout'] = per_seed(FLAGS.heldout.format(seed=seed))
+      entry['heldout'] = metrics.per_seed_summary(FLAGS.heldout.format(seed=seed))
     seeds[str(seed)] = entry
   references = {}
   for item in FLAGS.reference:
     name, sep, path = item.partition('=')
     if not sep or not name or not path:
       raise cli.CommandUsageError(f'--reference {item!r}: want NAME=PATH')
-    references[name] = per_seed(path)
+    references[name] = metrics.per_seed_summary(path)
   record = {}
   if os.path.exists(FLAGS.json):
     with open(FLAGS.json, encoding='utf-8') as f:

@@ -36,6 +36,9 @@ DIFFERS = {
         'purpose',
     ('paper_era5.gin', 'Era5WindField.path'):
         'a required argument (no default): the file the README downloads',
+    ('latex_wind_memory.gin', 'latex_observation.wind_memory'):
+        'the observation corrected by measured winds (issue 47), off by '
+        'default (the paper\'s observation): the file\'s purpose',
 }
 _MISSING = object()
 

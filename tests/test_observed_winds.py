@@ -1,5 +1,10 @@
 """`ble_latex.envs.observed_winds`: the observation's wind column corrected by
-the balloon's measured winds (`latex_observation.wind_memory`)."""
+the balloon's measured winds (`latex_observation.wind_memory`).
+
+The flights (env compiles, ~10-40 s) run in CI (`make test-ci`); the default
+suite checks the column on a hand-made memory."""
+
+import types
 
 import gin
 import jax
@@ -42,6 +47,8 @@ def flights():
   return {k: _flight(k) for k in (0, 3)}
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Env compiles; out of the default suite (<= 8 min).
 def test_memory_holds_the_measured_minus_forecast_winds(flights):
   """One row per measurement (reset and each stride), the newest last, the
   oldest dropped past K: the measured wind minus the forecast at the
@@ -67,6 +74,8 @@ def test_memory_holds_the_measured_minus_forecast_winds(flights):
   assert any(abs(du) > 0.05 for _, du, _ in rows)  # BLE's noise is there.
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Env compiles; out of the default suite (<= 8 min).
 def test_observed_column_is_forecast_plus_posterior_mean(flights):
   """Features 0-49 are those of forecast + Eq. (2) at each level, computed
   here level by level with `noise_gp`; without a memory, the forecast's."""
@@ -95,6 +104,8 @@ def test_observed_column_is_forecast_plus_posterior_mean(flights):
   assert np.abs(flights[0][-1][0][:50] - flights[3][-1][0][:50]).max() > 1e-3
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Env compiles; out of the default suite (<= 8 min).
 def test_column_at_a_measurement_is_the_measured_wind(flights):
   """The Gaussian process interpolates: at the balloon, just measured, the
   corrected forecast is the measured wind (within the jitter's share)."""
@@ -110,6 +121,8 @@ def test_column_at_a_measurement_is_the_measured_wind(flights):
                              atol=0.02)
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Env compiles; out of the default suite (<= 8 min).
 def test_placing_a_balloon_starts_an_empty_memory(flights):
   """`place` (a reset, a launch candidate) forgets an earlier flight's
   measurements."""
@@ -120,6 +133,41 @@ def test_placing_a_balloon_starts_an_empty_memory(flights):
   assert not placed.wind_memory.valid.any()
   measured = jax_env.measure(placed, winds.GENERATIVE_WIND)
   assert measured.wind_memory.valid.tolist() == [False, False, True]
+
+
+def test_column_is_forecast_plus_posterior_mean_of_a_memory():
+  """Without a memory the forecast; with one, forecast + Eq. (2) at each
+  level (computed here level by level); with zero residuals, the forecast."""
+  flight = types.SimpleNamespace(x_m=jnp.float32(12e3), y_m=jnp.float32(-5e3),
+                                 time_s=jnp.float32(7200.0))
+  memory = noise_gp.empty(4)
+  for row, (pressure, du, dv) in enumerate(
+      [(9000.0, 1.0, -0.5), (9500.0, 0.8, -0.2), (11000.0, -0.3, 0.4)]):
+    memory = noise_gp.add(memory, jnp.array(
+        [10.0 + row, -5.0, pressure, 1.0 + 0.3 * row]), du, dv)
+  levels = jnp.asarray(jax_features.PRESSURE_LEVELS, jnp.float32)
+  forecast_u = jnp.linspace(-10.0, 10.0, 25)
+  forecast_v = jnp.linspace(5.0, -5.0, 25)
+  same = observed_winds.column(
+      types.SimpleNamespace(flight=flight, wind_memory=None), forecast_u,
+      forecast_v, levels)
+  assert same[0] is forecast_u and same[1] is forecast_v
+  u, v = observed_winds.column(
+      types.SimpleNamespace(flight=flight, wind_memory=memory), forecast_u,
+      forecast_v, levels)
+  weights = noise_gp.fit(memory)
+  for i, level in enumerate(levels):
+    du, dv = noise_gp.posterior_mean(memory, weights, jnp.array(
+        [12.0, -5.0, level, 2.0]))
+    np.testing.assert_allclose([u[i], v[i]], [forecast_u[i] + du,
+                                              forecast_v[i] + dv], atol=1e-5)
+  assert float(jnp.abs(u - forecast_u).max()) > 0.1  # It corrects.
+  calm = memory.replace(du=jnp.zeros(4), dv=jnp.zeros(4))
+  u, v = observed_winds.column(
+      types.SimpleNamespace(flight=flight, wind_memory=calm), forecast_u,
+      forecast_v, levels)
+  np.testing.assert_allclose(u, forecast_u, atol=1e-6)
+  np.testing.assert_allclose(v, forecast_v, atol=1e-6)
 
 
 @pytest.mark.parametrize('value', [-1, 2.5, True, env_params.MAX_WIND_MEMORY
@@ -146,6 +194,8 @@ def test_policy_records_and_checks_its_wind_memory(tmp_path):
     sac_core.file_config(dict(config, wind_memory=-2), 'x')
 
 
+@pytest.mark.slow
+@pytest.mark.ci  # Env compiles; out of the default suite (<= 8 min).
 def test_pretrained_agent_refuses_a_policy_of_another_observation(tmp_path):
   """A policy trained on the corrected column flown on the paper's (or the
   reverse) is refused before anything is built, naming the setting."""

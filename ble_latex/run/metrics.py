@@ -12,6 +12,7 @@ No TensorFlow: BLE's collectors (which import it) are in `collectors`.
 """
 
 import dataclasses
+import json
 import math
 import time
 from typing import Any, Dict, Mapping, Optional, Sequence
@@ -184,3 +185,26 @@ def summarize(records: Sequence[Mapping[str, Any]]) -> Dict[str, float]:
       [r['terminal_reason'] in records_lib.OUT_OF_RESOURCES_REASONS
        for r in records]))
   return out
+
+
+def per_seed_summary(path: str) -> Dict[str, Any]:
+  """An eval record's summary and its per-seed TW50 over the window.
+
+  `ble-latex-eval` records and `benchmarks/planners.py`'s (which may lack
+  flight paths) alike: a JSON list of per-episode records with
+  `summarize`'s keys.
+  """
+  with open(path, encoding='utf-8') as f:
+    records = json.load(f)
+  if not isinstance(records, list) or not records or not all(
+      isinstance(r, dict) and 'seed' in r for r in records):
+    raise ValueError(f'{path}: not a list of per-episode eval records')
+  records = sorted(records, key=lambda r: int(r['seed']))
+  summary = summarize(records)
+  return {'path': path, 'seeds': [int(r['seed']) for r in records],
+          'tw50_window': [float(r['tw50_window']) for r in records],
+          'tw50_window_mean': summary['tw50_window_mean'],
+          'tw50_window_std': summary['tw50_window_std'],
+          'out_of_resources_pct': summary['out_of_resources_pct'],
+          'helium_vented_mols_mean': summary['helium_vented_mols_mean'],
+          'sand_dropped_kg_mean': summary['sand_dropped_kg_mean']}

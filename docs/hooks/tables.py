@@ -51,6 +51,7 @@ VALBAL = ROOT / 'benchmarks' / 'valbal_check.json'
 WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
 REWARD_SHAPE = ROOT / 'benchmarks' / 'reward_shape.json'
 DAGGER = ROOT / 'benchmarks' / 'dagger' / 'results.json'
+OBSERVATION = ROOT / 'benchmarks' / 'sac_jax' / 'observation_results.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
                    re.DOTALL)
@@ -620,6 +621,61 @@ def dagger() -> str:
   return '\n'.join(lines)
 
 
+def observation() -> str:
+  """Per observation and training seed: chosen on validation, held out,
+  paired with the references seed by seed."""
+  record = _load(OBSERVATION)
+  lines = ['| observation | training seed | chosen round: validation | '
+           '`latex_small` TW50 window | out of resources | ' + ' | '.join(
+               f'− {label} per seed' for _, label in DAGGER_REFERENCES)
+           + ' |', '|---' * (5 + len(DAGGER_REFERENCES)) + '|']
+  for name, run in record['runs'].items():
+    held_means = []
+    for seed, entry in sorted(run['seeds'].items(), key=lambda x: int(x[0])):
+      held_means.append(entry['heldout_tw50_window_mean'])
+      held = entry['heldout']
+      paired = [_paired(record['references'][ref], held, OBSERVATION)
+                if held and ref in record['references'] else '—'
+                for ref, _ in DAGGER_REFERENCES]
+      lines.append(
+          f"| {name} (`wind_memory` {entry['wind_memory']}) | {seed} | "
+          f"{entry['chosen_round']}: "
+          f"{100 * entry['chosen_validation_tw50_window']:.1f} % | "
+          f"{100 * entry['heldout_tw50_window_mean']:.1f} % | "
+          f"{entry['heldout_oor_pct']:.0f} % | " + ' | '.join(paired) + ' |')
+    mean, std = _mean_std(held_means)
+    lines.append(f'| {name} | mean ± std over {len(held_means)} seeds | | '
+                 f'{100 * mean:.1f} % ± {100 * std:.1f} |' + ' |' * (
+                     1 + len(DAGGER_REFERENCES)))
+  return '\n'.join(lines)
+
+
+# Rounds (0-based) at which the validation curves are compared.
+OBSERVATION_ROUNDS = (49, 99, 149, 199, 229)
+
+
+def observation_curve() -> str:
+  """Validation TW50 at equal rounds: mean ± std over seeds, each run."""
+  record = _load(OBSERVATION)
+  lines = ['| observation | seeds | ' + ' | '.join(
+      f'round {r}' for r in OBSERVATION_ROUNDS) + ' |',
+           '|---' * (2 + len(OBSERVATION_ROUNDS)) + '|']
+  for name, run in record['runs'].items():
+    cells = []
+    for r in OBSERVATION_ROUNDS:
+      values = [dict((i, v) for i, v, _ in e['validation']).get(r)
+                for e in run['seeds'].values()]
+      values = [v for v in values if v is not None]
+      if not values:
+        cells.append('—')
+        continue
+      mean, std = _mean_std(values)
+      cells.append(f'{100 * mean:.1f} % ± {100 * std:.1f} ({len(values)})')
+    lines.append(f'| {name} | {len(run["seeds"])} | ' + ' | '.join(cells)
+                 + ' |')
+  return '\n'.join(lines)
+
+
 TABLES: Dict[str, Callable[[], str]] = {
     'valbal-check': valbal_check,
     'realistic-short': realistic_short,
@@ -636,6 +692,8 @@ TABLES: Dict[str, Callable[[], str]] = {
     'reward-shape': reward_shape,
     'reward-shape-paired': reward_shape_paired,
     'dagger': dagger,
+    'observation': observation,
+    'observation-curve': observation_curve,
 }
 
 
