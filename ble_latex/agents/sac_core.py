@@ -378,6 +378,7 @@ def check_hyperparameters(owner: str, **values: Any) -> None:
   number('hidden_units', 1, MAX_HIDDEN_UNITS, integer=True)
   number('num_envs', 1, MAX_NUM_ENVS, integer=True)
   number('updates_per_step', 1, MAX_INT32, integer=True)
+  number('actor_warmup_updates', 0, MAX_INT32, integer=True)
   number('checkpoint_duration', 0, MAX_INT32, integer=True, allow_none=True)
   number('summary_writing_frequency', 1, MAX_INT32, integer=True)
 

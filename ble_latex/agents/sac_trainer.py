@@ -48,6 +48,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
+from ble_latex import gin_values
 from ble_latex.agents import networks
 from ble_latex.agents import sac_core
 from ble_latex.envs import env_types
@@ -75,10 +76,27 @@ class TrainerConfig(sac_core.SACHyperparameters):
       balloons (update-to-data ratio `updates_per_step / num_envs`: 0.25 by
       default; the paper's agent updates once per step of one balloon,
       ratio 1).
+    init_policy: '' (default): the networks start from random weights. A
+      SAC policy file (`.msgpack`, e.g. a DAgger student or a trained
+      policy): a new run starts from its actor, critics and temperature
+      (the targets equal the critics), checked against this config and the
+      env's observation (`warm_start`; the driver loads it).
+    actor_warmup_updates: The first updates of a run that train only the
+      critics: the actor and the temperature are held (their Adam states
+      too), so that a warm-started actor is not pulled around by critics
+      that have not yet learned its values. 0: none (SAC as usual).
   """
   GIN_NAME: ClassVar[str] = 'sac_trainer_config'
   num_envs: int = 32
   updates_per_step: int = 8
+  init_policy: str = ''
+  actor_warmup_updates: int = 0
+
+  def __post_init__(self):
+    gin_values.require(isinstance(self.init_policy, str),
+                       f'{self.GIN_NAME}.init_policy',
+                       "a policy file's path, or ''", self.init_policy)
+    super().__post_init__()
 
 
 @flax.struct.dataclass
@@ -254,12 +272,63 @@ def _update(learner: Learner, state: TrainState, key: Array
                                 c.target_smoothing_coefficient)
   else:  # CrossQ: the targets are the online critics (unused by the update).
     target = out['network_params']
-  state = state.replace(
+  new = state.replace(
       network_params=out['network_params'], target_params=target,
       optimizer_state=out['optimizer_state'], log_alpha=out['log_alpha'],
       alpha_optimizer_state=out['alpha_optimizer_state'],
       updates=state.updates + 1)
-  return state, {k: jnp.mean(out[k]) for k in _LOSS_KEYS}
+  if c.actor_warmup_updates:
+    new = hold_actor(new, state, state.updates < c.actor_warmup_updates)
+  return new, {k: jnp.mean(out[k]) for k in _LOSS_KEYS}
+
+
+def hold_actor(new: 'TrainState', old: 'TrainState',
+               hold: Array) -> 'TrainState':
+  """`new` with the actor, its Adam state and the temperature of `old`
+  where `hold` (a bool scalar): an update that trained the critics only."""
+  labels = sac_core.param_labels(new.network_params)
+  keep = lambda n, o: jnp.where(hold, o, n)
+  params = jax.tree.map(
+      lambda label, n, o: keep(n, o) if label == 'actor' else n, labels,
+      new.network_params, old.network_params)
+  inner = dict(new.optimizer_state.inner_states)
+  inner['actor'] = jax.tree.map(keep, inner['actor'],
+                                old.optimizer_state.inner_states['actor'])
+  return new.replace(
+      network_params=params,
+      optimizer_state=new.optimizer_state._replace(inner_states=inner),
+      log_alpha=keep(new.log_alpha, old.log_alpha),
+      alpha_optimizer_state=jax.tree.map(keep, new.alpha_optimizer_state,
+                                         old.alpha_optimizer_state))
+
+
+def warm_start(learner: Learner, state: 'TrainState', policy: Dict[str, Any],
+               what: str) -> 'TrainState':
+  """A fresh `state` starting from a policy file's networks (`init_policy`).
+
+  Its actor and critics become the online networks and the targets, its
+  log alpha the temperature; the optimizers start fresh, the replay and
+  counters are `state`'s.
+
+  Args:
+    learner: The learner.
+    state: A fresh `TrainState` (`make_learner`).
+    policy: A checked policy dict (`pretrained.load_policy`).
+    what: The file, for messages.
+
+  Raises:
+    ValueError: Naming `what` and the leaf, if its networks are not shaped
+      as this learner's.
+  """
+  params = sac_core.restore_like(state.network_params,
+                                 policy['network_params'],
+                                 f'{what}: network_params')
+  log_alpha = jnp.asarray(policy['log_alpha'], state.log_alpha.dtype).reshape(
+      state.log_alpha.shape)
+  return state.replace(
+      network_params=params, target_params=params,
+      optimizer_state=learner.optimizer.init(params), log_alpha=log_alpha,
+      alpha_optimizer_state=learner.alpha_optimizer.init(log_alpha))
 
 
 def _act(learner: Learner, state: TrainState, obs: Array, key: Array

@@ -31,6 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import errors
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
@@ -267,6 +268,27 @@ def round_seeds(iteration: int, num_envs: int) -> List[int]:
           for i in range(num_envs)]
 
 
+def warm_start(learner: sac_trainer.Learner, state: sac_trainer.TrainState,
+               path: str, wind_memory: int) -> sac_trainer.TrainState:
+  """A new run's state from the policy file `path`
+  (`sac_trainer_config.init_policy`, `sac_trainer.warm_start`).
+
+  Raises:
+    errors.ConfigError: The file observed another wind column than this
+      run's env (`latex_observation.wind_memory`).
+    ValueError: A bad file, or networks not shaped as this learner's.
+  """
+  what = f'sac_trainer_config.init_policy = {path!r}'
+  policy = pretrained.load_policy(path)
+  theirs = policy['config']['wind_memory']
+  if theirs != wind_memory:
+    raise errors.ConfigError(
+        f'{what}: the policy observed with latex_observation.wind_memory = '
+        f'{theirs}, this run observes with {wind_memory}')
+  logging.info('Starting from the networks of %s.', path)
+  return sac_trainer.warm_start(learner, state, policy, what)
+
+
 class _RunDir:
   """The host side of one training seed: its run directory and logs.
 
@@ -301,6 +323,9 @@ class _RunDir:
       self.state, self.elapsed = load_checkpoint(
           run_dir.checkpoint_path(base_dir, self.start - 1), self.state)
       logging.info('%s: resuming after round %d.', base_dir, self.start - 1)
+    elif config.init_policy:
+      self.state = warm_start(learner, self.state, config.init_policy,
+                              wind_memory)
     self.validation_path = os.path.join(base_dir, episode_log.VALIDATION_LOG)
     validated = [r for r in episode_log.read(self.validation_path)
                  if r['iteration'] < self.start]
