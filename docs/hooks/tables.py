@@ -35,6 +35,7 @@ Means and standard deviations are over episodes (population std, as
 `ble_latex.run.metrics.summarize`).
 """
 
+import importlib.util
 import json
 import math
 import pathlib
@@ -50,8 +51,6 @@ PHYSICS = ROOT / 'benchmarks' / 'physics_results.json'
 VALBAL = ROOT / 'benchmarks' / 'valbal_check.json'
 WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
 REWARD_SHAPE = ROOT / 'benchmarks' / 'reward_shape.json'
-DAGGER = ROOT / 'benchmarks' / 'dagger' / 'results.json'
-OBSERVATION = ROOT / 'benchmarks' / 'sac_jax' / 'observation_results.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
                    re.DOTALL)
@@ -584,98 +583,6 @@ def reward_shape_paired() -> str:
 
 
 # (reference name in benchmarks/dagger/results.json, column label).
-DAGGER_REFERENCES = (('sac_pretrained', '`sac_pretrained`'),
-                     ('latex_mpc', '`latex_mpc`'),
-                     ('latex_mpc_oracle', 'the oracle'))
-
-
-def dagger() -> str:
-  """Per DAgger group and training seed: validation, held out, paired."""
-  record = _load(DAGGER)
-  lines = ['| run | training seed | rounds (labels) | best round: validation '
-           '| `latex_small` TW50 window | out of resources | ' + ' | '.join(
-               f'student − {label} per seed' for _, label in DAGGER_REFERENCES)
-           + ' |', '|---' * (6 + len(DAGGER_REFERENCES)) + '|']
-  for name, group in record['groups'].items():
-    held_means = []
-    for seed, entry in sorted(group['seeds'].items(), key=lambda x: int(x[0])):
-      held = entry.get('heldout')
-      cells = ['—'] * (2 + len(DAGGER_REFERENCES))
-      if held:
-        held_means.append(held['tw50_window_mean'])
-        cells = [_pct(held['tw50_window_mean'], held['tw50_window_std']),
-                 f"{held['out_of_resources_pct']:.0f} %"] + [
-                     _paired(group['references'][ref], held, DAGGER)
-                     if ref in group['references'] else '—'
-                     for ref, _ in DAGGER_REFERENCES]
-      lines.append(
-          f"| {name} | {seed} | {len(entry['rounds'])} ({entry['labels']:,}) "
-          f"| {entry['best_round']}: "
-          f"{100 * entry['best_validation_tw50_window']:.1f} % | "
-          + ' | '.join(cells) + ' |')
-    if len(held_means) > 1:
-      mean, std = _mean_std(held_means)
-      lines.append(f'| {name} | mean ± std over seeds | | | '
-                   f'{100 * mean:.1f} % ± {100 * std:.1f} |' + ' |' * (
-                       1 + len(DAGGER_REFERENCES)))
-  return '\n'.join(lines)
-
-
-def observation() -> str:
-  """Per observation and training seed: chosen on validation, held out,
-  paired with the references seed by seed."""
-  record = _load(OBSERVATION)
-  lines = ['| observation | training seed | chosen round: validation | '
-           '`latex_small` TW50 window | out of resources | ' + ' | '.join(
-               f'− {label} per seed' for _, label in DAGGER_REFERENCES)
-           + ' |', '|---' * (5 + len(DAGGER_REFERENCES)) + '|']
-  for name, run in record['runs'].items():
-    held_means = []
-    for seed, entry in sorted(run['seeds'].items(), key=lambda x: int(x[0])):
-      held_means.append(entry['heldout_tw50_window_mean'])
-      held = entry['heldout']
-      paired = [_paired(record['references'][ref], held, OBSERVATION)
-                if held and ref in record['references'] else '—'
-                for ref, _ in DAGGER_REFERENCES]
-      lines.append(
-          f"| {name} (`wind_memory` {entry['wind_memory']}) | {seed} | "
-          f"{entry['chosen_round']}: "
-          f"{100 * entry['chosen_validation_tw50_window']:.1f} % | "
-          f"{100 * entry['heldout_tw50_window_mean']:.1f} % | "
-          f"{entry['heldout_oor_pct']:.0f} % | " + ' | '.join(paired) + ' |')
-    mean, std = _mean_std(held_means)
-    lines.append(f'| {name} | mean ± std over {len(held_means)} seeds | | '
-                 f'{100 * mean:.1f} % ± {100 * std:.1f} |' + ' |' * (
-                     1 + len(DAGGER_REFERENCES)))
-  return '\n'.join(lines)
-
-
-# Rounds (0-based) at which the validation curves are compared.
-OBSERVATION_ROUNDS = (49, 99, 149, 199, 229)
-
-
-def observation_curve() -> str:
-  """Validation TW50 at equal rounds: mean ± std over seeds, each run."""
-  record = _load(OBSERVATION)
-  lines = ['| observation | seeds | ' + ' | '.join(
-      f'round {r}' for r in OBSERVATION_ROUNDS) + ' |',
-           '|---' * (2 + len(OBSERVATION_ROUNDS)) + '|']
-  for name, run in record['runs'].items():
-    cells = []
-    for r in OBSERVATION_ROUNDS:
-      values = [dict((i, v) for i, v, _ in e['validation']).get(r)
-                for e in run['seeds'].values()]
-      values = [v for v in values if v is not None]
-      if not values:
-        cells.append('—')
-        continue
-      mean, std = _mean_std(values)
-      cells.append(f'{100 * mean:.1f} % ± {100 * std:.1f} ({len(values)})')
-    lines.append(f'| {name} | {len(run["seeds"])} | ' + ' | '.join(cells)
-                 + ' |')
-  return '\n'.join(lines)
-
-
 TABLES: Dict[str, Callable[[], str]] = {
     'valbal-check': valbal_check,
     'realistic-short': realistic_short,
@@ -691,10 +598,21 @@ TABLES: Dict[str, Callable[[], str]] = {
     'wind-compare': wind_compare,
     'reward-shape': reward_shape,
     'reward-shape-paired': reward_shape_paired,
-    'dagger': dagger,
-    'observation': observation,
-    'observation-curve': observation_curve,
+    # Issue 47's learned controllers: learned.py beside this file.
+    'dagger': lambda: _learned().dagger(),
+    'observation': lambda: _learned().observation(),
+    'observation-curve': lambda: _learned().observation_curve(),
+    'learned-short': lambda: _learned().learned_short(),
 }
+
+
+def _learned():
+  """`learned.py` beside this file (loaded by path, as MkDocs loads hooks)."""
+  spec = importlib.util.spec_from_file_location(
+      'ble_latex_docs_learned', pathlib.Path(__file__).with_name('learned.py'))
+  module = importlib.util.module_from_spec(spec)
+  spec.loader.exec_module(module)
+  return module
 
 
 def fill(text: str, where: str = 'text') -> str:

@@ -1,0 +1,174 @@
+"""Issue 47's tables (learned controllers), for `tables.py` beside this file.
+
+DAgger students (`benchmarks/dagger/results.json`), SAC on different
+observations (`benchmarks/sac_jax/observation_results.json`) and README's
+learned controllers, with seconds per decision (`benchmarks/policy_speed*.json`).
+The shared helpers are `tables.py`'s (loaded by path, as MkDocs loads hooks).
+"""
+
+import importlib.util
+import pathlib
+from typing import Dict, Tuple
+
+_SPEC = importlib.util.spec_from_file_location(
+    'ble_latex_docs_tables_lib', pathlib.Path(__file__).with_name('tables.py'))
+tables = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(tables)
+ROOT = tables.ROOT
+_load, _mean_std, _paired, _pct = (tables._load, tables._mean_std,  # pylint: disable=protected-access
+                                   tables._paired, tables._pct)  # pylint: disable=protected-access
+DAGGER = ROOT / 'benchmarks' / 'dagger' / 'results.json'
+OBSERVATION = ROOT / 'benchmarks' / 'sac_jax' / 'observation_results.json'
+
+
+DAGGER_REFERENCES = (('sac_pretrained', '`sac_pretrained`'),
+                     ('latex_mpc', '`latex_mpc`'),
+                     ('latex_mpc_oracle', 'the oracle'))
+
+
+def dagger() -> str:
+  """Per DAgger group and training seed: validation, held out, paired."""
+  record = _load(DAGGER)
+  lines = ['| run | training seed | rounds (labels) | best round: validation '
+           '| `latex_small` TW50 window | out of resources | ' + ' | '.join(
+               f'student − {label} per seed' for _, label in DAGGER_REFERENCES)
+           + ' |', '|---' * (6 + len(DAGGER_REFERENCES)) + '|']
+  for name, group in record['groups'].items():
+    held_means = []
+    for seed, entry in sorted(group['seeds'].items(), key=lambda x: int(x[0])):
+      held = entry.get('heldout')
+      cells = ['—'] * (2 + len(DAGGER_REFERENCES))
+      if held:
+        held_means.append(held['tw50_window_mean'])
+        cells = [_pct(held['tw50_window_mean'], held['tw50_window_std']),
+                 f"{held['out_of_resources_pct']:.0f} %"] + [
+                     _paired(group['references'][ref], held, DAGGER)
+                     if ref in group['references'] else '—'
+                     for ref, _ in DAGGER_REFERENCES]
+      lines.append(
+          f"| {name} | {seed} | {len(entry['rounds'])} ({entry['labels']:,}) "
+          f"| {entry['best_round']}: "
+          f"{100 * entry['best_validation_tw50_window']:.1f} % | "
+          + ' | '.join(cells) + ' |')
+    if len(held_means) > 1:
+      mean, std = _mean_std(held_means)
+      lines.append(f'| {name} | mean ± std over seeds | | | '
+                   f'{100 * mean:.1f} % ± {100 * std:.1f} |' + ' |' * (
+                       1 + len(DAGGER_REFERENCES)))
+  return '\n'.join(lines)
+
+
+def observation() -> str:
+  """Per observation and training seed: chosen on validation, held out,
+  paired with the references seed by seed."""
+  record = _load(OBSERVATION)
+  lines = ['| observation | training seed | chosen round: validation | '
+           '`latex_small` TW50 window | out of resources | ' + ' | '.join(
+               f'− {label} per seed' for _, label in DAGGER_REFERENCES)
+           + ' |', '|---' * (5 + len(DAGGER_REFERENCES)) + '|']
+  for name, run in record['runs'].items():
+    held_means = []
+    for seed, entry in sorted(run['seeds'].items(), key=lambda x: int(x[0])):
+      held_means.append(entry['heldout_tw50_window_mean'])
+      held = entry['heldout']
+      paired = [_paired(record['references'][ref], held, OBSERVATION)
+                if held and ref in record['references'] else '—'
+                for ref, _ in DAGGER_REFERENCES]
+      lines.append(
+          f"| {name} (`wind_memory` {entry['wind_memory']}) | {seed} | "
+          f"{entry['chosen_round']}: "
+          f"{100 * entry['chosen_validation_tw50_window']:.1f} % | "
+          f"{100 * entry['heldout_tw50_window_mean']:.1f} % | "
+          f"{entry['heldout_oor_pct']:.0f} % | " + ' | '.join(paired) + ' |')
+    mean, std = _mean_std(held_means)
+    lines.append(f'| {name} | mean ± std over {len(held_means)} seeds | | '
+                 f'{100 * mean:.1f} % ± {100 * std:.1f} |' + ' |' * (
+                     1 + len(DAGGER_REFERENCES)))
+  return '\n'.join(lines)
+
+
+POLICY_SPEED = ROOT / 'benchmarks' / 'policy_speed.json'
+POLICY_SPEED_OBSERVATION = ROOT / 'benchmarks' / 'policy_speed_observation.json'
+
+
+def _best_validated(seeds: Dict[str, dict], score) -> Tuple[str, dict]:
+  """The training seed whose chosen policy validated best (`score`)."""
+  return max(seeds.items(), key=lambda item: (score(item[1]), -int(item[0])))
+
+
+def learned_short() -> str:
+  """README's learned controllers: held out over training seeds, the
+  best-validated seed paired with `latex_mpc`, seconds per decision."""
+  observation_record = _load(OBSERVATION)
+  dagger_record = _load(DAGGER)
+  speed = {p['name']: p for p in _load(POLICY_SPEED)['policies']}
+  observed = _load(POLICY_SPEED_OBSERVATION)
+  observed_speed = {p['name']: p for p in observed['policies']}
+  observe_ms = {o['wind_memory']: 1e3 * o['median_s']
+                for o in observed['observations']}
+  mpc = observation_record['references']['latex_mpc']
+  lines = ['| controller | training seeds | `latex_small` TW50 window (over '
+           'training seeds) | out of resources | best-validated seed − '
+           '`latex_mpc` per seed | ms / decision |', '|---|---|---|---|---|---|']
+
+  def row(label, means, oor, paired, ms):
+    mean, std = _mean_std(means)
+    lines.append(f'| {label} | {len(means)} | {100 * mean:.1f} % ± '
+                 f'{100 * std:.1f} | {oor:.1f} % | {paired} | {ms} |')
+
+  for name, run in observation_record['runs'].items():
+    seeds = run['seeds']
+    memory = next(iter(seeds.values()))['wind_memory']
+    seed, best = _best_validated(
+        seeds, lambda e: e['chosen_validation_tw50_window'])
+    held = best['heldout'] or (
+        observation_record['references'].get('sac_pretrained')
+        if memory == 0 else None)
+    step = observed_speed.get(name, speed['shipped'])
+    ms = (f'{1e3 * step["median_s"]:.2f}' if not memory else
+          f'{observe_ms[memory] + 1e3 * step["median_s"]:.2f} (observation '
+          f'{observe_ms[memory]:.2f})')
+    label = ('SAC, the paper\'s observation' if not memory else
+             f'SAC, wind column corrected by {memory} measured winds')
+    row(f'{label} (seed {seed} best validated)',
+        [e['heldout_tw50_window_mean'] for e in seeds.values()],
+        sum(e['heldout_oor_pct'] for e in seeds.values()) / len(seeds),
+        _paired(mpc, held, OBSERVATION) if held else '—', ms)
+  group = dagger_record['groups']['gpu_h200']
+  seed, best = _best_validated(
+      group['seeds'], lambda e: e['best_validation_tw50_window'])
+  ms = [1e3 * p['median_s'] for n, p in speed.items()
+        if n.startswith('dagger_seed_')]
+  row(f'DAgger student of `latex_mpc` (H200, seed {seed} best validated)',
+      [e['heldout']['tw50_window_mean'] for e in group['seeds'].values()],
+      sum(e['heldout']['out_of_resources_pct']
+          for e in group['seeds'].values()) / len(group['seeds']),
+      _paired(group['references']['latex_mpc'], best['heldout'], DAGGER),
+      f'{min(ms):.2f}–{max(ms):.2f}')
+  return '\n'.join(lines)
+
+
+# Rounds (0-based) at which the validation curves are compared.
+OBSERVATION_ROUNDS = (49, 99, 149, 199, 229)
+
+
+def observation_curve() -> str:
+  """Validation TW50 at equal rounds: mean ± std over seeds, each run."""
+  record = _load(OBSERVATION)
+  lines = ['| observation | seeds | ' + ' | '.join(
+      f'round {r}' for r in OBSERVATION_ROUNDS) + ' |',
+           '|---' * (2 + len(OBSERVATION_ROUNDS)) + '|']
+  for name, run in record['runs'].items():
+    cells = []
+    for r in OBSERVATION_ROUNDS:
+      values = [dict((i, v) for i, v, _ in e['validation']).get(r)
+                for e in run['seeds'].values()]
+      values = [v for v in values if v is not None]
+      if not values:
+        cells.append('—')
+        continue
+      mean, std = _mean_std(values)
+      cells.append(f'{100 * mean:.1f} % ± {100 * std:.1f} ({len(values)})')
+    lines.append(f'| {name} | {len(run["seeds"])} | ' + ' | '.join(cells)
+                 + ' |')
+  return '\n'.join(lines)
