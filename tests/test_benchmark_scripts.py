@@ -151,3 +151,19 @@ def test_policy_speed_refuses_bad_policies_in_one_line(tmp_path, capsys):
   err = capsys.readouterr().err.strip().splitlines()
   assert rc == 2 and len(err) == 1 and "--wind_memory '-1'" in err[0], err
   assert not out.exists()
+
+
+def test_observation_results_refuses_bad_runs_in_one_line(tmp_path, capsys):
+  """benchmarks/observation_results.py: a --run that is not NAME=BASE_DIR is
+  a usage error (2), a run without its report a failure (1); nothing is
+  written either way."""
+  script = _load('bench_observation_results',
+                 ROOT / 'benchmarks' / 'observation_results.py')
+  out = tmp_path / 'record.json'
+  rc = script.main(['--run=nonsense', f'--json={out}'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 2 and len(err) == 1 and 'want NAME=PATH' in err[0], err
+  rc = script.main([f'--run=a={tmp_path}', f'--json={out}'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 1 and len(err) == 1 and 'report.json' in err[0], err
+  assert not out.exists()
