@@ -24,6 +24,7 @@ from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex.envs import jax_env
 from ble_latex.envs import task
+from ble_latex.wind import noise_gp
 
 FORECAST, ORACLE, GRADIENT = 'forecast', 'oracle', 'gradient'
 MODES = (FORECAST, ORACLE, GRADIENT)
@@ -41,7 +42,8 @@ MAX_SIZES: Dict[str, int] = {
     'grid_levels': 1_024,  # Altitudes of the grid (the beam's choices).
     'beam_width': 65_536,  # Partial plans kept by the beam.
     'scenarios': 256,  # Wind scenarios each plan is flown in.
-    'wind_memory': 1_024,  # Measurements of the Gaussian process (K x K).
+    # Measurements of the Gaussian process (K x K).
+    'wind_memory': noise_gp.MAX_MEASUREMENTS,
     'grad_starts': 65_536,  # Plans refined by gradient ascent.
     'grad_steps': 10_000,  # Gradient steps per start (a scan's length).
 }

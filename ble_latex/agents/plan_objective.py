@@ -26,6 +26,7 @@ import numpy as np
 
 from ble_latex.agents import plan_config
 from ble_latex.envs import env_types
+from ble_latex.envs import observed_winds
 from ble_latex.envs import winds
 from ble_latex.flight import dynamics
 from ble_latex.flight import physics
@@ -60,12 +61,7 @@ def measurement(wind: winds.Wind, state: env_types.EnvState
   Returns:
     (point (x [km], y [km], pressure [Pa], time [h]), du, dv [m/s]).
   """
-  f = state.flight
-  u0, v0 = wind.forecast_column(blind(state), f.x_m, f.y_m, f.pressure_pa,
-                                f.time_s)
-  point = jnp.stack([f.x_m / 1000.0, f.y_m / 1000.0, f.pressure_pa,
-                     f.time_s / 3600.0])
-  return point, state.wind_u - u0, state.wind_v - v0
+  return observed_winds.measurement(blind(state), wind)
 
 
 def planning_wind(config: plan_config.PlannerConfig, wind: winds.Wind,
@@ -115,9 +111,9 @@ def planning_wind(config: plan_config.PlannerConfig, wind: winds.Wind,
 
     def expected(x_m, y_m, pressure_pa, t_s):
       u, v = forecast(x_m, y_m, pressure_pa, t_s)
-      point = jnp.stack([x_m / 1000.0, y_m / 1000.0, pressure_pa,
-                         t_s / 3600.0]).astype(memory.du.dtype)
-      du, dv = noise_gp.posterior_mean(memory, weights, point)
+      du, dv = noise_gp.posterior_mean(
+          memory, weights, observed_winds.point(
+              x_m, y_m, pressure_pa, t_s).astype(memory.du.dtype))
       return u + du.astype(u.dtype), v + dv.astype(v.dtype)
 
     return expected

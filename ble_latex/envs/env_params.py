@@ -35,6 +35,7 @@ from ble_latex.flight import physics
 from ble_latex.wind import era5_checks
 from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
+from ble_latex.wind import noise_gp
 
 # The gin binding of each `EnvParams` value (the flight system's are in
 # `flight.params`), for messages.
@@ -52,10 +53,8 @@ _BINDINGS = {
     'episode_steps': 'LatexBalloonEnv.episode_steps',
     'wind_memory': 'latex_observation.wind_memory',
 }
-# The most measurements the observation's Gaussian process keeps (its K x K
-# solve at every step; `plan_config.MAX_SIZES['wind_memory']` is the
-# planners' own bound).
-MAX_WIND_MEMORY = 1_024
+# The most measurements the observation's Gaussian process keeps.
+MAX_WIND_MEMORY = noise_gp.MAX_MEASUREMENTS
 # Start altitudes must lie in (0, top of the atmosphere model): 0 m is the
 # ground (`GROUNDED`), and BLE's standard atmosphere is defined below 85 km
 # (its last layer boundary; BLE asserts above). The burst check

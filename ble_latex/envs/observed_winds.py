@@ -44,6 +44,24 @@ def point(x_m: Array, y_m: Array, pressure_pa: Array, t_s: Array) -> Array:
   return jnp.stack([x_m / 1000.0, y_m / 1000.0, pressure_pa, t_s / 3600.0])
 
 
+def measurement(state: env_types.EnvState, wind: Any
+                ) -> Tuple[Array, Array, Array]:
+  """Where the balloon is and its measured-minus-forecast wind there.
+
+  Args:
+    state: The env state (its measured wind at the balloon, `wind_u`,
+      `wind_v`).
+    wind: The env's `winds.Wind` (its forecast at the balloon's pressure).
+
+  Returns:
+    (`point` of the balloon, du, dv [m/s]).
+  """
+  f = state.flight
+  u0, v0 = wind.forecast_column(state, f.x_m, f.y_m, f.pressure_pa, f.time_s)
+  return (point(f.x_m, f.y_m, f.pressure_pa, f.time_s), state.wind_u - u0,
+          state.wind_v - v0)
+
+
 def remember(state: env_types.EnvState, wind: Any) -> env_types.EnvState:
   """`state` with its measured wind (`wind_u`, `wind_v`) in its memory.
 
@@ -60,13 +78,10 @@ def remember(state: env_types.EnvState, wind: Any) -> env_types.EnvState:
   """
   if state.wind_memory is None:
     return state
-  f = state.flight
-  u0, v0 = wind.forecast_column(state, f.x_m, f.y_m, f.pressure_pa, f.time_s)
   dtype = state.wind_memory.du.dtype
-  memory = noise_gp.add(
-      state.wind_memory,
-      point(f.x_m, f.y_m, f.pressure_pa, f.time_s).astype(dtype),
-      (state.wind_u - u0).astype(dtype), (state.wind_v - v0).astype(dtype))
+  where, du, dv = measurement(state, wind)
+  memory = noise_gp.add(state.wind_memory, where.astype(dtype),
+                        du.astype(dtype), dv.astype(dtype))
   return state.replace(wind_memory=memory)
 
 

@@ -53,6 +53,10 @@ Array = jax.Array
 CORRELATION_LENGTH = 0.45
 # Measurement variance as a fraction of the noise's prior variance. # [.]
 JITTER = 1e-3
+# The most measurements a memory holds (its K x K solve at every use): the
+# bound of the observation's (`latex_observation.wind_memory`) and of the
+# planners' (`LatexMpcAgent.wind_memory`).
+MAX_MEASUREMENTS = 1_024
 
 
 @flax.struct.dataclass
