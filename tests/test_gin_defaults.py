@@ -39,6 +39,9 @@ DIFFERS = {
     ('latex_wind_memory.gin', 'latex_observation.wind_memory'):
         'the observation corrected by measured winds (issue 47), off by '
         'default (the paper\'s observation): the file\'s purpose',
+    ('latex_wind_lookahead.gin', 'latex_observation.wind_lookahead'):
+        'the observation\'s column as 4-hour drifts (issue 47), off by '
+        'default (the paper\'s observation): the file\'s purpose',
 }
 _MISSING = object()
 

@@ -560,7 +560,7 @@ class SACAgent(sac_checkpoint.SACCheckpoints, agent.Agent,
         'critic': self._critic,
         'replay_capacity': self._replay_capacity,
         # What the env's features mean (gin `latex_observation.*`).
-        'wind_memory': env_params.observation_settings()['wind_memory'],
+        **env_params.observation_settings(),
     }
 
 

@@ -48,11 +48,14 @@ MAX_NUM_ENVS = 4096
 MAX_INT32 = 2**31 - 1
 # What `file_config` checks and `check_config` compares: the config entries
 # that fix the network's shapes and the action box, and what the features
-# mean (`wind_memory`: the env's `latex_observation.wind_memory` the policy
-# observed with). Policies need no more.
+# mean (`env_params.OBSERVATION_FIELDS`: the env's `latex_observation.*` the
+# policy observed with). Policies need no more.
 ACTING_CONFIG_KEYS = ('observation_shape', 'num_actions', 'action_low',
-                      'action_high', 'num_layers', 'hidden_units', 'critic',
-                      'wind_memory')
+                      'action_high', 'num_layers', 'hidden_units',
+                      'critic') + env_params.OBSERVATION_FIELDS
+# The bound of each observation setting a file may record.
+_OBSERVATION_MAXIMA = {'wind_memory': env_params.MAX_WIND_MEMORY,
+                       'wind_lookahead': env_params.MAX_WIND_LOOKAHEAD}
 
 
 class TrainingDiverged(FloatingPointError):
@@ -517,8 +520,8 @@ def file_config(config: Any, what: str) -> Dict[str, Any]:
   `MAX_HIDDEN_UNITS`, `MAX_OBSERVATION_SIZE`, `MAX_NUM_ACTIONS`) and of
   `replay_capacity` where present. Files from before critics were
   configurable hold Dopamine's MLPs: a missing `critic` reads as 'mlp'; files
-  from before the observation could remember winds a missing `wind_memory`
-  as 0 (the paper's observation).
+  from before an observation setting existed read it as 0 (the paper's
+  observation).
 
   Args:
     config: The `config` entry of the file.
@@ -534,9 +537,9 @@ def file_config(config: Any, what: str) -> Dict[str, Any]:
     raise ValueError(f'{what}: config is not a mapping: {config!r}')
   config = dict(config)
   config.setdefault('critic', 'mlp')  # Files from before critics were set.
-  # Files from before the observation could remember winds observed the
-  # forecast column.
-  config.setdefault('wind_memory', 0)
+  # Files from before an observation setting observed without it.
+  for key in env_params.OBSERVATION_FIELDS:
+    config.setdefault(key, 0)
   missing = [k for k in ACTING_CONFIG_KEYS if k not in config]
   if missing:
     raise ValueError(f'{what}: config misses {missing}')
@@ -548,9 +551,10 @@ def file_config(config: Any, what: str) -> Dict[str, Any]:
     if key in config:
       config[key] = int(config[key])
   networks.check_critic(f'{what}: config', config['critic'])
-  config['wind_memory'] = gin_values.check_int(
-      f'{what}: config.wind_memory', config['wind_memory'], minimum=0,
-      maximum=env_params.MAX_WIND_MEMORY)
+  for key in env_params.OBSERVATION_FIELDS:
+    config[key] = gin_values.check_int(
+        f'{what}: config.{key}', config[key], minimum=0,
+        maximum=_OBSERVATION_MAXIMA[key])
   num_actions = safe_io.checked_count(
       config['num_actions'], f'{what}: config.num_actions', low=1,
       high=MAX_NUM_ACTIONS)

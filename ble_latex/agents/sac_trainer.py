@@ -39,7 +39,8 @@ directories: episode logs, checkpoints, policy snapshots, resume.
 
 import dataclasses
 import functools
-from typing import Any, ClassVar, Dict, List, NamedTuple, Sequence, Tuple
+from typing import (Any, ClassVar, Dict, List, Mapping, NamedTuple, Sequence,
+                    Tuple)
 
 import flax
 import gin
@@ -466,11 +467,11 @@ def validate(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
 
 
 def acting_bundle(learner: Learner, state: TrainState, iteration: int, *,
-                  wind_memory: int) -> Dict[str, Any]:
+                  observation: Mapping[str, int]) -> Dict[str, Any]:
   """What `sac.SACAgent.acting_bundle` holds, for `pretrained` policies.
 
-  `wind_memory` is the `EnvParams.wind_memory` of the env the policy
-  observed (what its features mean).
+  `observation` is `env_params.observation_of` the env the policy observed
+  (what its features mean).
   """
   c = learner.config
   config = {
@@ -480,7 +481,7 @@ def acting_bundle(learner: Learner, state: TrainState, iteration: int, *,
       'action_high': np.asarray(jax_env.ACTION_HIGH, np.float64).tolist(),
       'num_layers': c.num_layers, 'hidden_units': c.hidden_units,
       'critic': c.critic, 'replay_capacity': c.replay_capacity,
-      'wind_memory': int(wind_memory)}
+      **{k: int(v) for k, v in observation.items()}}
   return {'format': sac_core.CHECKPOINT_FORMAT, 'iteration': int(iteration),
           'config': config, 'training_steps': int(state.updates),
           'network_params': sac_core.to_numpy(state.network_params),

@@ -100,7 +100,7 @@ def callback_wind(field: wind_field.WindField) -> winds.Wind:
         x, y, pressures, t)
     return uv[0], uv[1]
 
-  return winds.Wind(ground_truth, forecast_column)
+  return winds.Wind(ground_truth, forecast_column, host=True)
 
 
 def host_wind(field: wind_field.WindField) -> gymnasium_env.HostWind:

@@ -52,9 +52,17 @@ _BINDINGS = {
     'stride_s': 'LatexBalloonArena.stride',
     'episode_steps': 'LatexBalloonEnv.episode_steps',
     'wind_memory': 'latex_observation.wind_memory',
+    'wind_lookahead': 'latex_observation.wind_lookahead',
 }
 # The most measurements the observation's Gaussian process keeps.
 MAX_WIND_MEMORY = noise_gp.MAX_MEASUREMENTS
+# The longest drift the observation's column averages over: one day of
+# 20-minute strides (72). # [strides]
+MAX_WIND_LOOKAHEAD = 72
+# The `EnvParams` fields that fix what the 71 features mean (gin
+# `latex_observation.*`): a policy records them and is flown only under
+# the same (`observation_of`).
+OBSERVATION_FIELDS = ('wind_memory', 'wind_lookahead')
 # Start altitudes must lie in (0, top of the atmosphere model): 0 m is the
 # ground (`GROUNDED`), and BLE's standard atmosphere is defined below 85 km
 # (its last layer boundary; BLE asserts above). The burst check
@@ -170,6 +178,8 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
   gin_values.check_int(name('episode_steps'), p.episode_steps, minimum=1)
   gin_values.check_int(name('wind_memory'), p.wind_memory, minimum=0,
                        maximum=MAX_WIND_MEMORY)
+  gin_values.check_int(name('wind_lookahead'), p.wind_lookahead, minimum=0,
+                       maximum=MAX_WIND_LOOKAHEAD)
   stride = flight_params_lib.seconds(p.stride_s, name('stride_s'))
   for field in ('max_substep_s', 'vertical_step_s', 'actuation_chunk_s'):
     gin_values.check_number(
@@ -199,6 +209,7 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
             'max_start_distance_km')
   return p.replace(episode_steps=int(p.episode_steps), stride_s=stride,
                    wind_memory=int(p.wind_memory),
+                   wind_lookahead=int(p.wind_lookahead),
                    **{f: float(getattr(p, f)) for f in floats})
 
 
@@ -345,18 +356,29 @@ def start(*, start_altitude_range_m: Tuple[float, float] = (
 
 @gin.configurable('latex_observation', module=_GIN_MODULE)
 def observation_settings(
-    *, wind_memory: int = _DEFAULTS['wind_memory']) -> Dict[str, Any]:
+    *, wind_memory: int = _DEFAULTS['wind_memory'],
+    wind_lookahead: int = _DEFAULTS['wind_lookahead']) -> Dict[str, Any]:
   """The observation (gin `latex_observation.*`).
 
+  Both 0 (the defaults): the paper's 71 features, the wind column the
+  forecast at the balloon. Otherwise the same 71 features with another
+  wind column (`observed_winds.column`).
+
   Args:
-    wind_memory: 0 (default): the paper's 71 features, the wind column the
-      forecast. K > 0: the same 71 features, the column corrected by the
-      last K measured winds (`EnvParams.wind_memory`).
+    wind_memory: K > 0: the column corrected by the last K measured winds
+      (`EnvParams.wind_memory`).
+    wind_lookahead: N > 0: each level's mean wind over a drift of N strides
+      at that level (`EnvParams.wind_lookahead`).
 
   Returns:
     The values by `EnvParams` field (unchecked).
   """
   return dict(locals())  # The arguments above, by name.
+
+
+def observation_of(params: env_types.EnvParams) -> Dict[str, int]:
+  """What `params`' features mean: its `OBSERVATION_FIELDS`, by name."""
+  return {f: int(getattr(params, f)) for f in OBSERVATION_FIELDS}
 
 
 @gin.configurable('LatexBalloonEnv', module=_GIN_MODULE)

@@ -75,6 +75,12 @@ class EnvParams:
       in, and what BLE's Perciatelli features read through its wind GP);
       the state keeps them (`EnvState.wind_memory`). Static (it sizes the
       state); gin `latex_observation.wind_memory`.
+    wind_lookahead: 0 (default): the column is the wind at the balloon's
+      position now. N > 0: at each level, the mean wind of a drift that
+      stays at that level for N strides from the balloon's position, on
+      the same (forecast or corrected) winds (`observed_winds.column`).
+      Static (it sizes the drift's loop); gin
+      `latex_observation.wind_lookahead`.
   """
   flight: flight_params_lib.FlightParams
   decoder: Any
@@ -92,6 +98,7 @@ class EnvParams:
   wind_grid: Optional[era5_jax.Era5Grid] = None
   reset_pool: Optional['ResetPool'] = None
   wind_memory: int = flax.struct.field(pytree_node=False, default=0)
+  wind_lookahead: int = flax.struct.field(pytree_node=False, default=0)
 
   @property
   def max_steps_in_episode(self) -> int:

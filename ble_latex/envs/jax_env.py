@@ -126,13 +126,12 @@ def observation(state: env_types.EnvState, params: env_types.EnvParams,
 
   Returns:
     The observation, shape (71,), float32; its wind column corrected by
-    the measured winds where `params.wind_memory` > 0 (`observed_winds`).
+    the measured winds where `params.wind_memory` > 0 and averaged over
+    drifts where `params.wind_lookahead` > 0 (`observed_winds.column`).
   """
   f = state.flight
   levels = jnp.asarray(jax_features.PRESSURE_LEVELS, f.x_m.dtype)
-  column_u, column_v = observed_winds.column(
-      state, *wind.forecast_column(state, f.x_m, f.y_m, levels, f.time_s),
-      levels)
+  column_u, column_v = observed_winds.column(state, params, wind, levels)
   return jax_features.features(
       column_u, column_v, f.x_m, f.y_m, f.altitude_m, f.ascent_rate_mps,
       state.wind_u, state.wind_v, f.helium_mols, f.sand_kg,

@@ -1,5 +1,5 @@
 # coding=utf-8
-"""The observation's wind column corrected by the balloon's measured winds.
+"""The observation's wind column: corrected by measured winds, or drifted.
 
 With `EnvParams.wind_memory` = K > 0 the env keeps the balloon's last K
 measured-minus-forecast winds (`EnvState.wind_memory`, one per measurement:
@@ -13,8 +13,10 @@ column levels P_i given the K measurements (`wind.noise_gp`, Eq. (2):
 Rasmussen & Williams 2006, Eq. 2.23, with the covariance of BLE's own noise
 harmonics). It is the wind `latex_mpc` plans in (its `wind_memory`), and what
 BLE's Perciatelli features read through BLE's wind GP; nothing of the future
-truth is read. With K = 0 (the default) the column is the forecast, the
-paper's observation, and nothing here runs.
+truth is read. With `EnvParams.wind_lookahead` = N > 0 each level's entry
+is instead the mean of that wind over an N-stride drift at the level
+(`column`). With both 0 (the defaults) the column is the forecast at the
+balloon, the paper's observation.
 
 Pure functions of the env state; the env calls `start` where a balloon is
 placed, `remember` where it measures and `column` where it observes.
@@ -85,28 +87,71 @@ def remember(state: env_types.EnvState, wind: Any) -> env_types.EnvState:
   return state.replace(wind_memory=memory)
 
 
-def column(state: env_types.EnvState, column_u: Array, column_v: Array,
-           pressures_pa: Array) -> Tuple[Array, Array]:
-  """The observed wind column: the forecast column, corrected if remembered.
+def column(state: env_types.EnvState, params: env_types.EnvParams,
+           wind: Any, pressures_pa: Array) -> Tuple[Array, Array]:
+  """The observed wind column (features 0-49 read it).
+
+  At each level P_i the wind w(x, y, P_i, t) the observation reads is the
+  forecast, plus with a memory (`params.wind_memory` = K > 0) the
+  posterior-mean noise given it (Eq. (2) above). Without a lookahead
+  (`params.wind_lookahead` = 0) the column is w at the balloon now. With
+  N > 0 strides it is, level by level, the mean wind of an isobaric drift
+  that starts at the balloon and stays at P_i for N strides of
+  dt = `params.stride_s`, on w, by forward Euler (a kinematic trajectory:
+  Stohl 1998, Atmos. Environ. 32, 947, Sec. 2):
+
+    x_0 = x, x_{k+1} = x_k + w(x_k, P_i, t + k dt) dt,
+    column_i = (x_N - x_0) / (N dt),
+
+  where a level would take the balloon over the next N strides (the
+  forecast planners fly the same winds along their plans). The memory's
+  Gaussian process is fitted once per observation.
 
   Args:
-    state: The env state (its balloon and memory).
-    column_u: Forecast eastward wind at `pressures_pa`. # [m/s]
-    column_v: Forecast northward wind there. # [m/s]
+    state: The env state (its balloon, forecast and memory).
+    params: The env parameters (`wind_memory`, `wind_lookahead`,
+      `stride_s`).
+    wind: The env's `winds.Wind` (its `forecast_column`).
     pressures_pa: The column's levels. # [Pa]
 
   Returns:
-    (u, v): the forecast plus the posterior-mean noise at each level given
-    the memory; the forecast itself without a memory. # [m/s]
+    (u, v) at each level. # [m/s]
   """
-  memory = state.wind_memory
-  if memory is None:
-    return column_u, column_v
   f = state.flight
-  points = jax.vmap(lambda p: point(f.x_m, f.y_m, p, f.time_s))(
-      pressures_pa).astype(memory.du.dtype)
-  weights = noise_gp.fit(memory)
-  du, dv = jax.vmap(noise_gp.posterior_mean, in_axes=(None, None, 0))(
-      memory, weights, points)
-  return (column_u + du.astype(column_u.dtype),
-          column_v + dv.astype(column_v.dtype))
+  memory = state.wind_memory
+  weights = None if memory is None else noise_gp.fit(memory)
+
+  def observed(x_m, y_m, t_s):
+    """w at each level, the balloon at (x_m, y_m) (scalars or per level)."""
+    if jnp.ndim(x_m) == 0:
+      u, v = wind.forecast_column(state, x_m, y_m, pressures_pa, t_s)
+    elif wind.host:  # A host column is asked at one position at a time.
+      u, v = jax.lax.map(
+          lambda a: wind.forecast_column(state, a[0], a[1], a[2][None], t_s),
+          (x_m, y_m, pressures_pa))
+      u, v = u[:, 0], v[:, 0]
+    else:
+      u, v = wind.forecast_column(state, x_m, y_m, pressures_pa, t_s)
+    if memory is None:
+      return u, v
+    at = jnp.broadcast_to
+    points = jax.vmap(point, in_axes=(0, 0, 0, None))(
+        at(x_m, pressures_pa.shape), at(y_m, pressures_pa.shape),
+        pressures_pa, t_s).astype(memory.du.dtype)
+    du, dv = jax.vmap(noise_gp.posterior_mean, in_axes=(None, None, 0))(
+        memory, weights, points)
+    return u + du.astype(u.dtype), v + dv.astype(v.dtype)
+
+  n = params.wind_lookahead
+  if not n:
+    return observed(f.x_m, f.y_m, f.time_s)
+  dt = jnp.asarray(params.stride_s, f.x_m.dtype)  # [s]
+  x0 = jnp.broadcast_to(f.x_m, pressures_pa.shape)
+  y0 = jnp.broadcast_to(f.y_m, pressures_pa.shape)
+
+  def drift(k, xy):
+    u, v = observed(xy[0], xy[1], f.time_s + k * dt)
+    return xy[0] + u * dt, xy[1] + v * dt
+
+  x, y = jax.lax.fori_loop(0, n, drift, (x0, y0))
+  return (x - x0) / (n * dt), (y - y0) / (n * dt)

@@ -90,10 +90,14 @@ class Wind(NamedTuple):
     outside: None (winds everywhere), or (state, x [m], y [m]) -> bool:
       the position has left the source's data; the env ends the flight
       (`FlightStatus.LEFT_WIND_DOMAIN`).
+    host: False: `forecast_column` takes positions of the pressures' shape
+      (one per level); True: it is asked on the host (a BLE `WindField`
+      through callbacks) at one scalar position per call.
   """
   ground_truth: Callable[..., Tuple[Array, Array]]
   forecast_column: Callable[..., Tuple[Array, Array]]
   outside: Optional[Callable[..., Array]] = None
+  host: bool = False
 
 
 # BLE's generative field (VAE forecast + simplex noise), drawn at reset.

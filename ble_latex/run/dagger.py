@@ -44,7 +44,8 @@ import json
 import os
 import re
 import time
-from typing import Any, Callable, Dict, List, NamedTuple, Optional, Tuple
+from typing import (Any, Callable, Dict, List, Mapping, NamedTuple, Optional,
+                    Tuple)
 
 import gin
 import jax
@@ -362,7 +363,7 @@ class _Acting(NamedTuple):
 
 def export_policy(student: Student, params: Any, round_index: int,
                   fit_steps_done: int, path: str, note: str, *,
-                  wind_memory: int) -> None:
+                  observation: Mapping[str, int]) -> None:
   """Writes the student as a SAC policy file (`sac_pretrained` flies it).
 
   The actor is the student; the critics are as initialised (unused by the
@@ -371,7 +372,7 @@ def export_policy(student: Student, params: Any, round_index: int,
   bundle = sac_trainer.acting_bundle(
       student.learner, _Acting(params, np.int64(fit_steps_done),
                                np.zeros((1,), np.float32)), round_index,
-      wind_memory=wind_memory)
+      observation=observation)
   policy = pretrained.policy_from_bundle(
       bundle, f'dagger round {round_index}', note, what='DAgger student')
   pretrained.write_policy(policy, path)
@@ -568,7 +569,7 @@ def train(*, base_dir: str, num_rounds: int, config: Optional[DaggerConfig] = No
             f'DAgger student of {config.teacher} (seed {config.seed}), round '
             f'{r}: validation TW50 window {result["tw50_window_mean"]:.3f} on '
             f'latex_validation[:{config.validation_seeds}]',
-            wind_memory=params.wind_memory)
+            observation=env_params.observation_of(params))
       path = checkpoint_path(base_dir, r)
       _save(path, r, progress)
       if newest is not None and newest[1] != path:

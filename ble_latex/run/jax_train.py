@@ -269,22 +269,25 @@ def round_seeds(iteration: int, num_envs: int) -> List[int]:
 
 
 def warm_start(learner: sac_trainer.Learner, state: sac_trainer.TrainState,
-               path: str, wind_memory: int) -> sac_trainer.TrainState:
+               path: str, observation: Mapping[str, int]
+               ) -> sac_trainer.TrainState:
   """A new run's state from the policy file `path`
   (`sac_trainer_config.init_policy`, `sac_trainer.warm_start`).
 
   Raises:
     errors.ConfigError: The file observed another wind column than this
-      run's env (`latex_observation.wind_memory`).
+      run's env (`observation`: `env_params.observation_of` it, gin
+      `latex_observation.*`).
     ValueError: A bad file, or networks not shaped as this learner's.
   """
   what = f'sac_trainer_config.init_policy = {path!r}'
   policy = pretrained.load_policy(path)
-  theirs = policy['config']['wind_memory']
-  if theirs != wind_memory:
-    raise errors.ConfigError(
-        f'{what}: the policy observed with latex_observation.wind_memory = '
-        f'{theirs}, this run observes with {wind_memory}')
+  for key, mine in observation.items():
+    theirs = policy['config'][key]
+    if theirs != mine:
+      raise errors.ConfigError(
+          f'{what}: the policy observed with latex_observation.{key} = '
+          f'{theirs}, this run observes with {mine}')
   logging.info('Starting from the networks of %s.', path)
   return sac_trainer.warm_start(learner, state, policy, what)
 
@@ -300,7 +303,8 @@ class _RunDir:
 
   def __init__(self, *, base_dir: str, seed: int,
                learner: sac_trainer.Learner, num_iterations: int,
-               collectors: Sequence[str], window: int, wind_memory: int,
+               collectors: Sequence[str], window: int,
+               observation: Mapping[str, int],
                validation_seeds: Sequence[int]):
     config = learner.config
     self.base_dir, self.seed, self.learner = base_dir, seed, learner
@@ -310,7 +314,7 @@ class _RunDir:
     self.start = done_iterations[-1] + 1 if done_iterations else 0
     run_info = {'trainer': 'jax', 'seed': seed,
                 'config': dataclasses.asdict(config), 'episode_steps': window,
-                'wind_memory': wind_memory}
+                **observation}
     # Rounds after the newest checkpoint (up to `checkpoint_period`) are
     # flown again: any number of them may be logged.
     run_dir.check_resume(
@@ -325,7 +329,7 @@ class _RunDir:
       logging.info('%s: resuming after round %d.', base_dir, self.start - 1)
     elif config.init_policy:
       self.state = warm_start(learner, self.state, config.init_policy,
-                              wind_memory)
+                              observation)
     self.validation_path = os.path.join(base_dir, episode_log.VALIDATION_LOG)
     validated = [r for r in episode_log.read(self.validation_path)
                  if r['iteration'] < self.start]
@@ -403,8 +407,9 @@ class _RunDir:
       save_checkpoint(self.base_dir, iteration, state, self.elapsed)
     if snapshot:
       policy = pretrained.policy_from_bundle(
-          sac_trainer.acting_bundle(self.learner, state, iteration,
-                                    wind_memory=params.wind_memory),
+          sac_trainer.acting_bundle(
+              self.learner, state, iteration,
+              observation=env_params_lib.observation_of(params)),
           f'{self.base_dir} round {iteration}',
           note=f'sac (jax trainer, seed {self.seed}) after '
           f'{(iteration + 1) * n} training episodes')
@@ -570,7 +575,8 @@ def train_seeds(*, runs: Sequence[Tuple[int, str]], num_iterations: int,
       opened.append(_RunDir(
           base_dir=base_dir, seed=seed, learner=learner,
           num_iterations=num_iterations, collectors=collectors, window=window,
-          wind_memory=params.wind_memory, validation_seeds=validation_seeds))
+          observation=env_params_lib.observation_of(params),
+          validation_seeds=validation_seeds))
       if not together:
         alone(opened[-1], num_iterations)
         opened[-1].close()
