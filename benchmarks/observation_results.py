@@ -3,14 +3,16 @@
   python benchmarks/observation_results.py \\
       --run=paper=benchmarks/sac_jax/n32 \\
       --run=wind_memory16=benchmarks/sac_jax/wind_memory16 \\
+      --run=wind_lookahead12=benchmarks/sac_jax/wind_lookahead12 \\
       --reference=sac_pretrained=benchmarks/results/latex_small/sac_pretrained.json \\
       --reference=latex_mpc=benchmarks/planners/latex_small/latex_mpc.json \\
       --reference=latex_mpc_oracle=benchmarks/planners/latex_small/latex_mpc_oracle.json
 
 Each `--run NAME=BASE_DIR` is a `benchmarks/sac_seeds.py` run: its seeds'
 validation curves (`seed_S/validation.jsonl`), the observation they trained
-on (`seed_S/run.json`'s `wind_memory`, 0 where it is not recorded: runs from
-before it existed observed the forecast) and its report (`report.json`,
+on (`seed_S/run.json`'s `latex_observation.*` settings, `wind_memory` and
+`wind_lookahead`, 0 where one is not recorded: runs from before it existed
+observed without it) and its report (`report.json`,
 written by `sac_seeds.py report`: each seed's snapshot chosen on
 `latex_validation` and flown held out). Where a seed's held-out eval file is
 here (`held_out_file`, git-ignored), its per-seed TW50s are kept, so the
@@ -28,6 +30,7 @@ from absl import flags
 
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.envs import env_params
 from ble_latex.run import metrics
 from ble_latex.run import records
 
@@ -69,7 +72,8 @@ def run_entry(base_dir: str) -> Dict[str, Any]:
                  os.path.join(seed_dir, 'validation.jsonl'))]
     held = row.get('held_out_file')
     seeds[str(row['seed'])] = {
-        'wind_memory': int(info.get('wind_memory', 0)),
+        'observation': {k: int(info.get(k, 0))
+                        for k in env_params.OBSERVATION_FIELDS},
         'validation': curve,
         'chosen_round': row['iteration'],
         'training_minutes': row['training_minutes'],

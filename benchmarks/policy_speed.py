@@ -11,12 +11,13 @@ flights (the core's, drawn from `latex_small`'s first seed and its strides
 under the agent's own actions), one call per decision, after `--warmup`
 calls that compile. All policies run in the same process, side by side;
 the record holds each one's median and 90th percentile, the load average
-and the machine's cores. A policy trained on the corrected wind column
-(`latex_observation.wind_memory` = K > 0, recorded in its file) is loaded
-under that binding; its observation costs more to compute, so the env's
-observation of one balloon (`jax_env.observation`, jitted) is timed too, for
-each K of `--wind_memory` (the Gaussian-process fit and the 25 levels'
-posterior means): a controller's decision is its observation plus its step.
+and the machine's cores. A policy trained on another wind column
+(`latex_observation.wind_memory` = K > 0, `wind_lookahead` = N > 0, recorded
+in its file) is loaded under those bindings; its observation costs more to
+compute (a Gaussian-process fit and 25 posterior means; 25 drifts of N
+strides), so the env's observation of one balloon (`jax_env.observation`,
+jitted) is timed too, under the paper's observation and under each policy's:
+a controller's decision is its observation plus its step.
 """
 
 import json
@@ -24,7 +25,7 @@ import os
 import platform
 import sys
 import time
-from typing import Optional, Sequence
+from typing import Dict, Optional, Sequence
 
 from absl import flags
 import numpy as np
@@ -42,8 +43,6 @@ flags.DEFINE_integer('warmup', 20, 'Decisions before timing (compiles).',
                      lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_string('json', None, 'Write the record here.',
                     flag_values=FLAGS)
-flags.DEFINE_list('wind_memory', ['0', '16'], 'Observations timed: '
-                  'latex_observation.wind_memory values.', flag_values=FLAGS)
 
 
 def _observations(count: int) -> np.ndarray:
@@ -68,18 +67,18 @@ def _observations(count: int) -> np.ndarray:
   return np.stack(out)
 
 
-def _observation_cost(memory: int, steps: int) -> dict:
-  """Seconds of the env's observation of one balloon (jitted), with the
-  column corrected by `memory` measured winds (0: the paper's)."""
+def _observation_cost(observation: Dict[str, int], steps: int) -> dict:
+  """Seconds of the env's observation of one balloon (jitted) under the
+  `latex_observation.*` settings `observation` (all 0: the paper's)."""
   import jax  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   env = jax_env.LatexBalloonJaxEnv()
   params = env_params.check_params(
-      env_params.params_from_gin().replace(wind_memory=memory))
+      env_params.params_from_gin().replace(**observation))
   _, state = env.reset(jax.random.PRNGKey(0), params)
   step = jax.jit(env.step_env)
-  for _ in range(max(memory, 1)):  # A full memory.
+  for _ in range(max(params.wind_memory, 1)):  # A full memory.
     _, state, *_ = step(None, state, np.zeros(3, np.float32), params)
   observe = jax.jit(jax_env.observation)
   for _ in range(FLAGS.warmup):
@@ -90,19 +89,28 @@ def _observation_cost(memory: int, steps: int) -> dict:
     observe(state, params).block_until_ready()
     seconds.append(time.perf_counter() - t0)
   seconds = np.asarray(seconds)
-  return {'wind_memory': memory, 'calls': len(seconds),
+  return {'observation': dict(observation), 'calls': len(seconds),
           'median_s': float(np.median(seconds)),
           'p90_s': float(np.percentile(seconds, 90))}
+
+
+def _observation_of(path: Optional[str]) -> Dict[str, int]:
+  """The `latex_observation.*` settings a policy file (None: the shipped
+  one) records."""
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
+  config = (pretrained.load_policy(path)['config'] if path else {})
+  return {k: int(config.get(k, 0)) for k in env_params.OBSERVATION_FIELDS}
 
 
 def _time(name: str, path: Optional[str], observations: np.ndarray) -> dict:
   import gin  # pylint: disable=g-import-not-at-top
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
-  memory = (0 if path is None else
-            pretrained.load_policy(path)['config']['wind_memory'])
+  observation = _observation_of(path)
   with gin.unlock_config():  # The observation the policy was trained on.
-    gin.bind_parameter('latex_observation.wind_memory', memory)
+    for key, value in observation.items():
+      gin.bind_parameter(f'latex_observation.{key}', value)
   with quiet.third_party_noise():
     from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
     agent = sac.SACPretrainedAgent(3, (observations.shape[1],),
@@ -117,7 +125,7 @@ def _time(name: str, path: Optional[str], observations: np.ndarray) -> dict:
     agent.step(0.0, obs)
     seconds.append(time.perf_counter() - t0)
   seconds = np.asarray(seconds)
-  return {'name': name, 'path': path or 'shipped', 'wind_memory': memory,
+  return {'name': name, 'path': path or 'shipped', 'observation': observation,
           'decisions': len(seconds),
           'median_s': float(np.median(seconds)),
           'p90_s': float(np.percentile(seconds, 90)),
@@ -138,12 +146,6 @@ def _main(argv: Sequence[str]) -> int:
     if not os.path.isfile(path):
       raise cli.CommandFailure(f'--policy {name}: no file {path}')
     policies.append((name, path))
-  memories = []
-  for value in FLAGS.wind_memory:
-    if not value.isdigit():
-      raise cli.CommandUsageError(
-          f'--wind_memory {value!r}: want integers >= 0')
-    memories.append(int(value))
   observations = _observations(FLAGS.steps)
   load_before = list(os.getloadavg())
   rows = []
@@ -155,9 +157,13 @@ def _main(argv: Sequence[str]) -> int:
     print(f"{name}: median {1e3 * rows[-1]['median_s']:.3f} ms, p90 "
           f"{1e3 * rows[-1]['p90_s']:.3f} ms per decision")
   observing = []
-  for memory in memories:
-    observing.append(_observation_cost(memory, FLAGS.steps))
-    print(f"observation, wind_memory={memory}: median "
+  settings = [_observation_of(None)] + [
+      r['observation'] for r in rows]
+  for observation in settings:
+    if any(o['observation'] == observation for o in observing):
+      continue
+    observing.append(_observation_cost(observation, FLAGS.steps))
+    print(f"observation {observation}: median "
           f"{1e3 * observing[-1]['median_s']:.3f} ms")
   record = {'what': 'SAC policy files as BLE agents (sac_pretrained, eval '
                     'mode), one decision per agent.step call',

@@ -10,10 +10,13 @@ from ble_latex import errors
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
+from ble_latex.envs import env_params
 from ble_latex.run import jax_train
 
 CONFIG = dict(num_envs=2, updates_per_step=1, batch_size=8,
               min_replay_history=0, replay_capacity=32, hidden_units=16)
+# The paper's observation, every setting 0.
+_PAPER = {name: 0 for name in env_params.OBSERVATION_FIELDS}
 
 
 def _filled(config):
@@ -70,10 +73,11 @@ def test_warm_start_takes_the_file_networks_and_temperature(tmp_path):
   trained = trained.replace(log_alpha=jnp.array([-1.25]))
   path = str(tmp_path / 'p.msgpack')
   pretrained.write_policy(pretrained.policy_from_bundle(
-      sac_trainer.acting_bundle(learner, trained, 7, wind_memory=0), 'test'),
+      sac_trainer.acting_bundle(learner, trained, 7, observation=_PAPER),
+      'test'),
       path)
   _, fresh = sac_trainer.make_learner(config, jax.random.PRNGKey(99))
-  started = jax_train.warm_start(learner, fresh, path, wind_memory=0)
+  started = jax_train.warm_start(learner, fresh, path, _PAPER)
   for a, b, c in zip(jax.tree.leaves(started.network_params),
                      jax.tree.leaves(trained.network_params),
                      jax.tree.leaves(started.target_params)):
@@ -84,11 +88,16 @@ def test_warm_start_takes_the_file_networks_and_temperature(tmp_path):
   other = sac_trainer.TrainerConfig(**{**CONFIG, 'hidden_units': 8})
   small_learner, small = sac_trainer.make_learner(other, jax.random.PRNGKey(0))
   with pytest.raises(ValueError, match='init_policy.*network_params'):
-    jax_train.warm_start(small_learner, small, path, wind_memory=0)
+    jax_train.warm_start(small_learner, small, path, _PAPER)
   with pytest.raises(errors.ConfigError,
                      match='latex_observation.wind_memory = 0, this run '
                      'observes with 16'):
-    jax_train.warm_start(learner, fresh, path, wind_memory=16)
+    jax_train.warm_start(learner, fresh, path, dict(_PAPER, wind_memory=16))
+  with pytest.raises(errors.ConfigError,
+                     match='latex_observation.wind_lookahead = 0, this run '
+                     'observes with 12'):
+    jax_train.warm_start(learner, fresh, path,
+                         dict(_PAPER, wind_lookahead=12))
 
 
 @pytest.mark.parametrize('name,value', [('init_policy', 3),
