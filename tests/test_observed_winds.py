@@ -47,6 +47,16 @@ def _flight(memory: int, seed: int = 3, lookahead: int = 0):
   return out
 
 
+def _assert_column_features(obs, u, v, flight):
+  """Features 0-49 of `obs` are those of the wind column (u, v) [m/s]."""
+  speed = 1.0 - np.exp(-np.hypot(u, v) / jax_features.SPEED_SQUASH_MPS)
+  np.testing.assert_allclose(obs[:25], speed, atol=2e-5)
+  bearing = np.asarray(jax_features.bearing_errors(
+      jnp.asarray(u, jnp.float32), jnp.asarray(v, jnp.float32), flight.x_m,
+      flight.y_m)) / np.pi
+  np.testing.assert_allclose(obs[25:50], bearing, atol=2e-4)
+
+
 @pytest.fixture(scope='module')
 def flights():
   return {k: _flight(k) for k in (0, 3)}
@@ -104,12 +114,7 @@ def test_observed_column_is_forecast_plus_posterior_mean(flights):
             state.wind_memory, weights,
             jnp.array([f.x_m / 1e3, f.y_m / 1e3, level, f.time_s / 3600.0]))
         u[i], v[i] = u[i] + float(du), v[i] + float(dv)
-    speed = 1.0 - np.exp(-np.hypot(u, v) / jax_features.SPEED_SQUASH_MPS)
-    np.testing.assert_allclose(obs[:25], speed, atol=2e-5)
-    bearing = np.asarray(jax_features.bearing_errors(
-        jnp.asarray(u, jnp.float32), jnp.asarray(v, jnp.float32), f.x_m,
-        f.y_m)) / np.pi
-    np.testing.assert_allclose(obs[25:50], bearing, atol=2e-4)
+    _assert_column_features(obs, u, v, f)
   # The same flight: everything but the column agrees.
   np.testing.assert_array_equal(flights[0][-1][0][50:], flights[3][-1][0][50:])
   assert np.abs(flights[0][-1][0][:50] - flights[3][-1][0][:50]).max() > 1e-3
@@ -349,12 +354,7 @@ def test_drifted_flight_observes_its_drifts(flights, drifted):
       x, y = x + 1200.0 * u[0], y + 1200.0 * v[0]
     drift.append([(x - f.x_m) / 3600.0, (y - f.y_m) / 3600.0])
   u, v = np.asarray(drift, np.float64).T
-  speed = 1.0 - np.exp(-np.hypot(u, v) / jax_features.SPEED_SQUASH_MPS)
-  np.testing.assert_allclose(obs[:25], speed, atol=2e-5)
-  bearing = np.asarray(jax_features.bearing_errors(
-      jnp.asarray(u, jnp.float32), jnp.asarray(v, jnp.float32), f.x_m,
-      f.y_m)) / np.pi
-  np.testing.assert_allclose(obs[25:50], bearing, atol=2e-4)
+  _assert_column_features(obs, u, v, f)
   assert np.abs(obs[:50] - flights[0][-1][0][:50]).max() > 1e-3
 
 
