@@ -8,7 +8,7 @@ state the flights reach (`best_per_cell`). Plans are scored by
 `plan_objective`'s terms as if they ended where they are.
 """
 
-from typing import Any, Callable, Tuple
+from typing import Any, Callable, Optional, Tuple
 
 import jax
 import jax.numpy as jnp
@@ -54,7 +54,8 @@ def best_per_cell(x_m: Array, y_m: Array, altitude_m: Array, scores: Array,
 
 
 def beam_search(config: plan_config.PlannerConfig, params: env_types.EnvParams,
-                state: env_types.EnvState, wind_fn: Callable[..., Any]
+                state: env_types.EnvState, wind_fn: Callable[..., Any],
+                terminal: Optional[Callable[[Any], Array]] = None
                 ) -> Tuple[Array, Array]:
   """Plans segment by segment, keeping the `beam_width` best partial plans.
 
@@ -73,6 +74,8 @@ def beam_search(config: plan_config.PlannerConfig, params: env_types.EnvParams,
     params: The env parameters.
     state: The balloon's env state the plans start from.
     wind_fn: The wind plans are flown in (`planning_wind`).
+    terminal: None, or V of a flight (`plan_value`): partial plans are
+      scored with it where they end (`plan_objective.beyond`).
 
   Returns:
     [beam_width, num_segments] targets a0 [m] and float flags a2 of the
@@ -121,6 +124,11 @@ def beam_search(config: plan_config.PlannerConfig, params: env_types.EnvParams,
     scores = plan_objective.total(value, jax.vmap(
         lambda f, d, e: plan_objective.end_terms(config, params, state, f, d,
                                                  e))(f, d_last, ended))
+    if terminal is not None:
+      scores = scores + jax.vmap(
+          lambda f, e: plan_objective.beyond(config, params, state, terminal,
+                                             f, (j + 1) * length, e))(
+              f, ended)
     scores = jnp.where(jnp.isfinite(scores) & (score[parent] > -jnp.inf),
                        scores, -jnp.inf)
     if config.beam_resource_value > 0.0:

@@ -16,6 +16,7 @@ otherwise compile and then ask XLA for 2.26 TB (issue 48).
 
 import dataclasses
 import inspect
+import os
 from typing import Any, Callable, Dict
 
 import gin
@@ -126,6 +127,12 @@ class PlannerConfig:
       process posterior mean of BLE's noise given the last K measurements,
       one per decision (`wind.noise_gp`: the covariance of BLE's simplex
       noise harmonics; the wind_correction_* fields are then unused).
+    value_policy: '' (default): nothing beyond the horizon; a SAC policy
+      file (or 'shipped'): a plan's score also gets value_weight x
+      discount^n x V at the state where it (or the beam's partial plan)
+      ends, n strides ahead, V its critics' state-value (`plan_value`).
+    value_weight: The weight of that value (Q in the policy's reward units
+      against the objective's per-stride terms). # [.]
   """
   mode: str = FORECAST
   num_samples: int = 256
@@ -163,6 +170,8 @@ class PlannerConfig:
   beam_cell_m: float = 250.0
   beam_resource_value: float = 0.0
   wind_memory: int = 0
+  value_policy: str = ''
+  value_weight: float = 1.0
 
   def checked(self, owner: str = '') -> 'PlannerConfig':
     """This config with its values checked (one line per bad value).
@@ -243,6 +252,14 @@ class PlannerConfig:
       gin_values.require(self.grid_levels >= 1, name('grid_levels'),
                          f'>= 1 for search={BEAM!r} (its choices)',
                          self.grid_levels)
+    gin_values.require(
+        isinstance(self.value_policy, str) and (
+            self.value_policy in ('', 'shipped')
+            or os.path.isfile(self.value_policy)),
+        name('value_policy'), "'' (none), 'shipped' or a policy file",
+        self.value_policy)
+    gin_values.check_number(name('value_weight'), self.value_weight,
+                            minimum=0.0)
     check_batch(self, 1, owner)
     return self
 

@@ -169,7 +169,8 @@ def plan_actions(config: plan_config.PlannerConfig, targets_m: Array,
 
 def objective(config: plan_config.PlannerConfig, params: env_types.EnvParams,
               state: env_types.EnvState, wind_fn: Callable[..., Any],
-              targets_m: Array, floats: Array) -> Array:
+              targets_m: Array, floats: Array,
+              terminal: Optional[Callable[[Any], Array]] = None) -> Array:
   """The planning objective of one plan from `state` (see module docstring).
 
   Differentiable in `targets_m` (the core's `lax.scan`, smooth within a
@@ -184,10 +185,13 @@ def objective(config: plan_config.PlannerConfig, params: env_types.EnvParams,
       wind the plan is flown in (`planning_wind`).
     targets_m: [num_segments] altitude targets a0. # [m]
     floats: [num_segments] float flags a2.
+    terminal: None, or V of a plan's final flight (`plan_value`): its
+      `beyond` term is added.
 
   Returns:
     The objective (a scalar, higher is better): discounted in-radius value
-    plus shaping and progress, minus resource and terminal costs.
+    plus shaping and progress, minus resource and terminal costs (plus
+    the learned value beyond the horizon).
   """
   actions = plan_actions(config, targets_m, floats)
   f_end, (distance_km, status) = fly(params, state, wind_fn, state.flight,
@@ -201,7 +205,35 @@ def objective(config: plan_config.PlannerConfig, params: env_types.EnvParams,
   # The flight ended inside the plan (before the episode's end).
   ended = status[last] != state_lib.FlightStatus.OK
   return total(value, end_terms(config, params, state, f_end,
-                                distance_km[last], ended))
+                                distance_km[last], ended)) + beyond(
+                                    config, params, state, terminal, f_end,
+                                    config.horizon, ended)
+
+
+def beyond(config: plan_config.PlannerConfig, params: env_types.EnvParams,
+           state: env_types.EnvState,
+           terminal: Optional[Callable[[Any], Array]], f_end: Any, n: Any,
+           ended: Array) -> Array:
+  """value_weight x discount^n x V(f_end): the value after a plan's end.
+
+  Args:
+    config: The planner (value_weight, discount).
+    params: The env parameters (episode_steps).
+    state: The state the plan starts from (its `steps`).
+    terminal: V of a final flight (`plan_value.terminal_fn`), or None (0).
+    f_end: The flight where the plan (so far) ends.
+    n: The strides it flew.
+    ended: Whether the flight ended in it.
+
+  Returns:
+    The term; 0 where the plan reaches the episode's end or the flight
+    ended.
+  """
+  if terminal is None:
+    return jnp.zeros((), f_end.altitude_m.dtype)
+  after = (n < params.episode_steps - state.steps) & ~ended
+  return jnp.where(after, config.value_weight * config.discount ** n *
+                   terminal(f_end), 0.0).astype(f_end.altitude_m.dtype)
 
 
 def total(value: Array, terms: Tuple[Array, Array, Array]) -> Array:

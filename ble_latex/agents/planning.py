@@ -70,6 +70,7 @@ import numpy as np
 from ble_latex.agents import beam
 from ble_latex.agents import plan_config
 from ble_latex.agents import plan_objective
+from ble_latex.agents import plan_value
 from ble_latex.envs import env_types
 from ble_latex.envs import winds
 from ble_latex.wind import noise_gp
@@ -173,6 +174,9 @@ def plan(config: plan_config.PlannerConfig, params: env_types.EnvParams,
   # process fit per decision); scenarios score over their own winds.
   wind_fn = plan_objective.planning_wind(config, wind, measured,
                                          memory=memory)
+  terminal = (plan_value.terminal_fn(config.value_policy, params, state,
+                                     wind, wind_fn)
+              if config.value_policy else None)
   if config.mode != plan_config.ORACLE and config.scenarios:
     key, noise_key = jax.random.split(key)
     noises = plan_objective.scenario_noise(config, noise_key)
@@ -181,11 +185,11 @@ def plan(config: plan_config.PlannerConfig, params: env_types.EnvParams,
       def one(noise):
         noisy = plan_objective.planning_wind(config, wind, measured, noise)
         return plan_objective.objective(config, params, state, noisy,
-                                        targets_m, floats)
+                                        targets_m, floats, terminal)
       return jnp.mean(jax.vmap(one)(noises))
   else:
     score_fn = functools.partial(plan_objective.objective, config, params,
-                                 state, wind_fn)
+                                 state, wind_fn, terminal=terminal)
   scores_of = jax.vmap(score_fn)
   n, m = config.num_samples, config.num_segments
   low, high = config.altitude_low_m, config.altitude_high_m
@@ -230,7 +234,8 @@ def plan(config: plan_config.PlannerConfig, params: env_types.EnvParams,
 
   if config.search == plan_config.BEAM:
     # The final beam, the warm start and "float here", scored exactly.
-    targets, floats = beam.beam_search(config, params, state, wind_fn)
+    targets, floats = beam.beam_search(config, params, state, wind_fn,
+                                       terminal)
     targets = jnp.concatenate([targets, fixed_targets])[None]
     floats = jnp.concatenate([floats, fixed_floats])[None]
     scores = scores_of(targets[0], floats[0])
