@@ -30,6 +30,7 @@ from ble_latex.ble import era5_field
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
+from ble_latex.envs import observed_winds
 from ble_latex.envs import winds
 from ble_latex.wind import era5
 from ble_latex.wind import era5_jax
@@ -205,6 +206,35 @@ def test_env_wind_is_era5_wind_fields(era5_path, add_noise):
           np.stack([cu, cv], axis=-1),
           [[w.u.meters_per_second, w.v.meters_per_second] for w in column],
           atol=_WIND_ATOL)
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_drifted_column_on_era5_winds(era5_path):
+  """`latex_observation.wind_lookahead` on ERA5 winds: each level's 6-stride
+  Euler drift (integrated here one level at a time), finite where the
+  drifts run past the grid's edge (the field is held constant there)."""
+  _, with_grid = _params(era5_path)
+  params = with_grid.replace(wind_lookahead=6)
+  env = jax_env.LatexBalloonJaxEnv()
+  wind = env.wind_for(params)
+  state, _ = jax.jit(env.draw)(jax_env.arena_key(jax.random.PRNGKey(4)),
+                               params)
+  levels = jnp.asarray([6000.0, 9000.0, 13000.0], jnp.float32)
+  for x0 in (20e3, 1.6e6):  # Near the target; at the grid's eastern edge.
+    placed = state.replace(flight=state.flight.replace(
+        x_m=jnp.float32(x0), y_m=jnp.float32(-10e3)))
+    u, v = observed_winds.column(placed, params, wind, levels)
+    assert np.all(np.isfinite(u)) and np.all(np.isfinite(v))
+    for i, level in enumerate(levels):
+      x, y = jnp.float32(x0), jnp.float32(-10e3)
+      for k in range(6):
+        du, dv = wind.forecast_column(placed, x, y, level[None],
+                                      placed.flight.time_s + 1200.0 * k)
+        x, y = x + 1200.0 * du[0], y + 1200.0 * dv[0]
+      np.testing.assert_allclose(
+          [u[i], v[i]], [(x - x0) / 7200.0, (y + 10e3) / 7200.0],
+          rtol=1e-4, atol=1e-3)
 
 
 @pytest.mark.slow
