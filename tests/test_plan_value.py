@@ -94,6 +94,7 @@ def test_value_changes_the_plan_and_weight_zero_does_not(world):
   heavy weight the plan's score carries the value."""
   params, state = world
   states = jax.tree.map(lambda a: a[None], state)
+  plan_value.load.cache_clear()  # First read inside the planner's trace.
 
   def plan(config):
     previous = planning.initial_plans(config, states)

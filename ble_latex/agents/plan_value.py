@@ -33,6 +33,7 @@ from typing import Any, Callable, Tuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ble_latex import errors
 from ble_latex.agents import networks
@@ -68,10 +69,13 @@ def load(path: str) -> Tuple[Any, Any, Tuple[Tuple[str, int], ...]]:
   config = policy['config']
   network = networks.make_network(config['num_actions'], config['num_layers'],
                                   config['hidden_units'], config['critic'])
-  obs = jnp.zeros(tuple(config['observation_shape']), jnp.float32)
-  like = network.init(jax.random.PRNGKey(0), obs, jax.random.PRNGKey(0))
-  params = sac_core.restore_like(like, policy['network_params'],
-                                 f'{path}: network_params')
+  # Concrete arrays even when first asked inside a planner's trace (they
+  # are cached across traces).
+  with jax.ensure_compile_time_eval():
+    obs = jnp.zeros(tuple(config['observation_shape']), jnp.float32)
+    like = network.init(jax.random.PRNGKey(0), obs, jax.random.PRNGKey(0))
+    params = jax.tree.map(np.asarray, sac_core.restore_like(
+        like, policy['network_params'], f'{path}: network_params'))
   observation = tuple((k, int(config[k]))
                       for k in env_params.OBSERVATION_FIELDS)
   return network, params, observation
