@@ -195,3 +195,39 @@ def observation_curve() -> str:
     lines.append(f'| {name} | {len(run["seeds"])} | ' + ' | '.join(cells)
                  + ' |')
   return '\n'.join(lines)
+
+
+# The learned value beyond the planner's horizon (issue 47 item 2), flown on
+# the first 40 `latex_validation` seeds: (record under benchmarks/planners/,
+# label). The first row is the reference of the paired column.
+PLANNER_VALUE_ROWS = (
+    ('latex_validation/latex_mpc', '`latex_mpc` (its defaults)'),
+    ('latex_validation/latex_mpc_value1',
+     '`latex_mpc`, value of the shipped SAC policy, `value_weight` 1'),
+    ('latex_validation/latex_mpc_value03',
+     '`latex_mpc`, value of the shipped SAC policy, `value_weight` 0.3'),
+)
+
+
+def _per_seed(path: str) -> dict:
+  """A planners' record as `_paired` reads it (seeds, TW50 window)."""
+  flights = _load(tables.PLANNERS / f'{path}.json')
+  return {'seeds': [f['seed'] for f in flights],
+          'tw50_window': [f['tw50_window'] for f in flights]}
+
+
+def planner_value() -> str:
+  """`latex_mpc` with and without the learned value, paired per seed."""
+  lines = ['| planner | seeds | TW50 window (mean ± std) | out of resources | '
+           'sand dropped [kg] | s / decision | − `latex_mpc` per seed |',
+           '|---|---|---|---|---|---|---|']
+  reference = _per_seed(PLANNER_VALUE_ROWS[0][0])
+  for i, (path, label) in enumerate(PLANNER_VALUE_ROWS):
+    s = tables.planner_summary(path)
+    paired = _paired(reference, _per_seed(path),
+                     tables.PLANNERS / f'{path}.json') if i else '—'
+    lines.append(f'| {label} | {s["seeds"]} | {_pct(*s["tw50_window"])} | '
+                 f'{s["out_of_resources_pct"]:.0f} % | {s["sand"]:.2f} | '
+                 f'{s["s_per_decision"]:.3g} | {paired} |')
+  return '\n'.join(lines)
+

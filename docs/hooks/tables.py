@@ -603,6 +603,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     'observation': lambda: _learned().observation(),
     'observation-curve': lambda: _learned().observation_curve(),
     'learned-short': lambda: _learned().learned_short(),
+    'planner-value': lambda: _learned().planner_value(),
 }
 
 
