@@ -53,9 +53,6 @@ MAX_INT32 = 2**31 - 1
 ACTING_CONFIG_KEYS = ('observation_shape', 'num_actions', 'action_low',
                       'action_high', 'num_layers', 'hidden_units',
                       'critic') + env_params.OBSERVATION_FIELDS
-# The bound of each observation setting a file may record.
-_OBSERVATION_MAXIMA = {'wind_memory': env_params.MAX_WIND_MEMORY,
-                       'wind_lookahead': env_params.MAX_WIND_LOOKAHEAD}
 
 
 class TrainingDiverged(FloatingPointError):
@@ -554,7 +551,7 @@ def file_config(config: Any, what: str) -> Dict[str, Any]:
   for key in env_params.OBSERVATION_FIELDS:
     config[key] = gin_values.check_int(
         f'{what}: config.{key}', config[key], minimum=0,
-        maximum=_OBSERVATION_MAXIMA[key])
+        maximum=env_params.OBSERVATION_MAXIMA[key])
   num_actions = safe_io.checked_count(
       config['num_actions'], f'{what}: config.num_actions', low=1,
       high=MAX_NUM_ACTIONS)

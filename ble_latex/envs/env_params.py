@@ -63,6 +63,10 @@ MAX_WIND_LOOKAHEAD = 72
 # `latex_observation.*`): a policy records them and is flown only under
 # the same (`observation_of`).
 OBSERVATION_FIELDS = ('wind_memory', 'wind_lookahead')
+# The largest value of each (what `check_params` and a policy file's
+# config accept).
+OBSERVATION_MAXIMA = {'wind_memory': MAX_WIND_MEMORY,
+                      'wind_lookahead': MAX_WIND_LOOKAHEAD}
 # Start altitudes must lie in (0, top of the atmosphere model): 0 m is the
 # ground (`GROUNDED`), and BLE's standard atmosphere is defined below 85 km
 # (its last layer boundary; BLE asserts above). The burst check
@@ -176,10 +180,9 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
   gin_values.check_number(name('max_start_distance_km'),
                           p.max_start_distance_km, above=0.0)
   gin_values.check_int(name('episode_steps'), p.episode_steps, minimum=1)
-  gin_values.check_int(name('wind_memory'), p.wind_memory, minimum=0,
-                       maximum=MAX_WIND_MEMORY)
-  gin_values.check_int(name('wind_lookahead'), p.wind_lookahead, minimum=0,
-                       maximum=MAX_WIND_LOOKAHEAD)
+  for field in OBSERVATION_FIELDS:
+    gin_values.check_int(name(field), getattr(p, field), minimum=0,
+                         maximum=OBSERVATION_MAXIMA[field])
   stride = flight_params_lib.seconds(p.stride_s, name('stride_s'))
   for field in ('max_substep_s', 'vertical_step_s', 'actuation_chunk_s'):
     gin_values.check_number(
