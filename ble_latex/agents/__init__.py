@@ -5,6 +5,9 @@
   LatexBalloon-v0; default gin file `gin_configs/sac.gin`.
 - 'sac_pretrained': `sac.SACPretrainedAgent`, SAC with the policy
   shipped in `agents/policies/sac_latex.msgpack`.
+- 'sac_ensemble': `ensemble.SACEnsembleAgent`, SAC policies whose critics
+  choose among their actions (the shipped three fly under
+  gin_configs/latex_wind_lookahead.gin); eval only.
 - 'latex_random', 'latex_station_seeker': the Box baselines of
   `baselines.py` (no gin file).
 - 'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad': the planners of
@@ -24,7 +27,7 @@ SAC_GIN_FILE = 'sac.gin'
 # Registered agents that take a Box action (constructor keywords action_low,
 # action_high, seed); the others are BLE's discrete-action agents.
 BOX_AGENTS: FrozenSet[str] = frozenset(
-    {'sac', 'sac_pretrained', 'latex_random', 'latex_station_seeker',
+    {'sac', 'sac_pretrained', 'sac_ensemble', 'latex_random', 'latex_station_seeker',
      'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad'})
 # Box agents that plan on the env's core state (`attach_env(env)`).
 PLANNER_AGENTS: FrozenSet[str] = frozenset(
@@ -41,6 +44,7 @@ def register() -> None:
   # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.agents import agent_registry
   from ble_latex.agents import baselines
+  from ble_latex.agents import ensemble
   from ble_latex.agents import planners
   from ble_latex.agents import pretrained
   from ble_latex.agents import sac
@@ -50,6 +54,7 @@ def register() -> None:
                                     configs.gin_file(SAC_GIN_FILE))
   agent_registry.REGISTRY['sac_pretrained'] = (
       sac.SACPretrainedAgent, configs.gin_file(SAC_GIN_FILE))
+  agent_registry.REGISTRY['sac_ensemble'] = (ensemble.SACEnsembleAgent, None)
   agent_registry.REGISTRY['latex_random'] = (baselines.LatexRandomAgent, None)
   agent_registry.REGISTRY['latex_station_seeker'] = (
       baselines.GeometricStationSeeker, None)

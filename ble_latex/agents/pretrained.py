@@ -40,6 +40,13 @@ DEFAULT_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
                               'sac_latex' + POLICY_SUFFIX)
 REALISTIC_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
                                 'sac_latex_realistic' + POLICY_SUFFIX)
+# `ensemble.SACEnsembleAgent`'s default members (agent `sac_ensemble`): the
+# three SAC seeds trained on the drifted wind column
+# (gin_configs/latex_wind_lookahead.gin; benchmarks/sac_jax/wind_lookahead12,
+# each seed's policy chosen on latex_validation).
+SHIPPED_ENSEMBLE = tuple(
+    os.path.join(os.path.dirname(__file__), 'policies',
+                 f'sac_latex_drifts_{k}' + POLICY_SUFFIX) for k in range(3))
 _KEPT = ('config', 'iteration', 'training_steps', 'network_params',
          'log_alpha')
 _TEXT = ('source', 'note')
@@ -56,6 +63,19 @@ def shipped_policy(realistic: bool) -> str:
     `REALISTIC_POLICY` or `DEFAULT_POLICY`.
   """
   return REALISTIC_POLICY if realistic else DEFAULT_POLICY
+
+
+def shipped_ensemble(realistic: bool) -> tuple:
+  """The shipped ensemble's member files (paper physics only).
+
+  Raises:
+    errors.ConfigError: Under realistic physics (none is shipped).
+  """
+  if realistic:
+    raise errors.ConfigError(
+        'no SAC ensemble is shipped for realistic physics; give '
+        'SACEnsembleAgent.policy_paths')
+  return SHIPPED_ENSEMBLE
 
 
 def _is_pickle_path(path: str) -> bool:

@@ -22,6 +22,8 @@ settings (gin bindings included):
   (the same actions as the agent's, `tests/test_launch.py`);
 - `sac.SACAgent` in eval mode (`sac`, `sac_pretrained`): its mean action
   tanh(mu(s)) mapped onto the Box by `jax_env.to_box`;
+- `ensemble.SACEnsembleAgent` (`sac_ensemble`): its members' critics'
+  choice (`ensemble.critic_choice`), mapped the same way;
 - `planners.PlannerAgent` (`latex_mpc`, ...): `planning.plan` every
   `replan_every` strides, the plan's actions (`plan_objective.plan_actions`)
   in between.
@@ -38,6 +40,7 @@ import numpy as np
 
 from ble_latex import errors
 from ble_latex.agents import baselines
+from ble_latex.agents import ensemble
 from ble_latex.agents import plan_objective
 from ble_latex.agents import planners
 from ble_latex.agents import planning
@@ -155,6 +158,21 @@ class SacController(Controller):
     return jax_env.to_box(mean), carry
 
 
+class EnsembleController(Controller):
+  """`sac_ensemble`: `to_box(ensemble.critic_choice(obs))`."""
+
+  name = 'sac_ensemble'
+
+  def __init__(self, agent: ensemble.SACEnsembleAgent):
+    self._network_def = agent.network_def
+    self._members = agent.members
+
+  def act(self, carry, obs, state, i):
+    del state, i
+    return jax_env.to_box(ensemble.critic_choice(
+        self._network_def, self._members, obs)), carry
+
+
 class PlannerController(Controller):
   """A planner: `planning.plan` every `replan_every` strides."""
 
@@ -200,7 +218,8 @@ def controller_for(agent: Any) -> Controller:
   """
   raise errors.ConfigError(
       f'{type(agent).__name__} has no JAX controller for launch planning; '
-      'fly latex_station_seeker, sac, sac_pretrained or a latex_mpc planner')
+      'fly latex_station_seeker, sac, sac_pretrained, sac_ensemble or a '
+      'latex_mpc planner')
 
 
 @controller_for.register
@@ -212,6 +231,11 @@ def _seeker(agent: baselines.GeometricStationSeeker) -> Controller:
 def _sac(agent: sac.SACAgent) -> Controller:
   agent.set_mode(base_agent.AgentMode.EVAL)
   return SacController(agent)
+
+
+@controller_for.register
+def _ensemble(agent: ensemble.SACEnsembleAgent) -> Controller:
+  return EnsembleController(agent)
 
 
 @controller_for.register

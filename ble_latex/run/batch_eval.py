@@ -21,6 +21,8 @@ here for the JAX-core agents:
 - `sac.SACAgent` in eval mode (`sac`, `sac_pretrained`): its mean action
   `tanh(mu(s))` for the batch in one jitted call, mapped onto the Box by the
   agent's own `_to_box`;
+- `ensemble.SACEnsembleAgent` (`sac_ensemble`): the members' critics'
+  choice (`ensemble.choices`), mapped the same way;
 - `planners.PlannerAgent` (`latex_mpc`, `latex_mpc_oracle`,
   `latex_mpc_grad`): one `planning.plan_batch` call for the batch every
   `replan_every` strides (what `benchmarks/planners.py` calls), the actions
@@ -50,6 +52,7 @@ import numpy as np
 import tqdm
 
 from ble_latex.agents import baselines
+from ble_latex.agents import ensemble
 from ble_latex.agents import plan_config
 from ble_latex.agents import planners
 from ble_latex.agents import planning
@@ -225,6 +228,29 @@ class _SacPolicy(CorePolicy):
 def _sac_policy(agent: sac.SACAgent, core: CoreEnv) -> Optional[CorePolicy]:
   del core
   return _SacPolicy(agent) if agent.eval_mode else None
+
+
+class _EnsemblePolicy(_SacPolicy):
+  """`sac_ensemble`: the members' critics choose (`ensemble.choices`)."""
+
+  def _act(self, observations: np.ndarray) -> np.ndarray:
+    agent = self._agent
+    normalized = np.asarray(ensemble.choices(
+        agent.network_def, agent.members,
+        jnp.asarray(observations, jnp.float32)), np.float32)
+    bad = ~np.isfinite(normalized).all(axis=1)
+    if bad.any():
+      raise sac_core.TrainingDiverged(
+          f'SAC ensemble produced a non-finite action '
+          f'{normalized[bad][0].tolist()}: a member has diverged')
+    return agent._to_box(normalized)  # pylint: disable=protected-access
+
+
+@core_policy.register
+def _ensemble_policy(agent: ensemble.SACEnsembleAgent,
+                     core: CoreEnv) -> Optional[CorePolicy]:
+  del core
+  return _EnsemblePolicy(agent)
 
 
 class _PlannerPolicy(CorePolicy):
