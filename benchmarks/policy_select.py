@@ -13,8 +13,15 @@ policy files given (all of the same `latex_observation.*` settings):
   the largest mean over the policies of min(Q1, Q2)(o, a) is flown
   (policy improvement by the learned critics at decision time).
 
-Writes a JSON record: per seed, the within-radius steps, steps flown and
-the flight's status; the mean TW50 over the window and % out of resources.
+Writes a JSON record: per seed, the TW50 over the window and the flight's
+status; the mean TW50 over the window and % out of resources.
+
+`--sweep=benchmarks/ensemble/results.json` flies the committed set
+(`sweep_runs`: each drift seed alone, every 3 of them as a critic-chosen
+ensemble, all together, the rejected variants on validation only, the
+corrected-column seeds) on 100 seeds of `latex_validation` and `latex_small`
+into one record, resuming it; the docs' `ensemble` table is generated from
+it (`docs/hooks/learned.py`).
 
   python benchmarks/policy_select.py --mode=critic --samples=8 \
       --policy=benchmarks/sac_jax/wind_lookahead12/seed_0/chosen_policy.msgpack \
@@ -22,19 +29,22 @@ the flight's status; the mean TW50 over the window and % out of resources.
       --output=/tmp/select.json
 """
 
+import itertools
 import json
 import os
+import platform
 import sys
 import time
-from typing import Any, List, Sequence
+from typing import Any, Dict, List, Sequence
 
-from absl import app
 from absl import flags
 import gin
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import safe_io
+from ble_latex.agents import ensemble
 from ble_latex.agents import plan_value
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
@@ -60,41 +70,35 @@ flags.DEFINE_integer('num_seeds', 100, 'first seeds of the suite.',
 flags.DEFINE_integer('batch', 100, 'balloons per compiled call.',
                      flag_values=FLAGS)
 flags.DEFINE_string('output', '', 'JSON record.', flag_values=FLAGS)
+flags.DEFINE_string('sweep', '', 'Fly the committed sweep (`sweep_runs`) into '
+                    'this record (resumes it).', flag_values=FLAGS)
+flags.DEFINE_list('drift_seeds', ['0', '1', '2'], '--sweep: training seeds of '
+                  'benchmarks/sac_jax/wind_lookahead12 with a chosen policy.',
+                  flag_values=FLAGS)
 
 
-def decider(mode: str, samples: int, nets: List[Any], weights: List[Any],
+def decider(mode: str, samples: int, net: Any, members: Any,
             score: str = 'mean'):
-  """obs [N, F], key -> normalised actions [N, 3]."""
+  """obs [N, F], key -> normalised actions [N, 3] (`ensemble`'s functions)."""
+  combine = jnp.mean if score == 'mean' else jnp.min
 
-  def actor(m, obs, key):
-    return jax.vmap(lambda o, k: nets[m].apply(
-        weights[m], o, k, method=nets[m].actor))(
-            obs, jax.random.split(key, obs.shape[0]))
-
-  def q(m, obs, actions):
-    out = jax.vmap(lambda o, a: nets[m].apply(
-        weights[m], o, a, method=nets[m].critic))(obs, actions)
-    return jnp.minimum(out.q_value1, out.q_value2).reshape(obs.shape[0])
+  def one(obs, key):
+    proposed = ensemble.proposals(net, members, obs)  # [K, 3]
+    if mode == 'mean':
+      return proposed[0]
+    if mode == 'average':
+      return jnp.mean(proposed, axis=0)
+    draws = jax.vmap(lambda p, k: jax.vmap(lambda kk: net.apply(
+        p, obs, kk, method=net.actor).sampled_action)(
+            jax.random.split(k, samples)))(
+                members, jax.random.split(key, proposed.shape[0]))
+    candidates = jnp.concatenate(
+        [proposed, draws.reshape(-1, proposed.shape[1])])
+    return candidates[jnp.argmax(ensemble.scores(net, members, obs,
+                                                 candidates, combine))]
 
   def decide(obs, key):
-    keys = jax.random.split(key, len(nets) * max(samples, 1))
-    means = [actor(m, obs, keys[0]).mean_action for m in range(len(nets))]
-    if mode == 'mean':
-      return means[0]
-    if mode == 'average':
-      return jnp.mean(jnp.stack(means), axis=0)
-    candidates = list(means)
-    for m in range(len(nets)):
-      for s in range(samples):
-        candidates.append(
-            actor(m, obs, keys[m * samples + s]).sampled_action)
-    cands = jnp.stack(candidates)  # [C, N, 3]
-    combine = jnp.mean if score == 'mean' else jnp.min
-    scores = combine(jnp.stack([
-        jax.vmap(lambda a, m=m: q(m, obs, a))(cands)
-        for m in range(len(nets))]), axis=0)  # [C, N]
-    best = jnp.argmax(scores, axis=0)
-    return jnp.take_along_axis(cands, best[None, :, None], axis=0)[0]
+    return jax.vmap(one)(obs, jax.random.split(key, obs.shape[0]))
 
   return decide
 
@@ -130,47 +134,154 @@ def fly(env, params, decide, seeds: Sequence[int], num_steps: int):
                             jax.random.PRNGKey(0)))
 
 
-def main(argv: Sequence[str]) -> int:
-  FLAGS(argv)
-  if not FLAGS.policy:
-    print('policy_select: give at least one --policy', file=sys.stderr)
-    return 2
-  gin.parse_config_files_and_bindings(FLAGS.gin_file, [])
+class Refused(ValueError):
+  """A policy that does not fit the env (usage: exit 2)."""
+
+
+def evaluate(policies: Sequence[str], gin_files: Sequence[str], mode: str,
+             samples: int, score: str, suite: str, num_seeds: int,
+             batch: int) -> Dict[str, Any]:
+  """One decider flown on a suite's first seeds: the record (see module)."""
+  gin.clear_config()
+  gin.parse_config_files_and_bindings(list(gin_files), [])
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   params = env.default_params
   mine = env_params.observation_of(params)
-  nets, weights = [], []
-  for path in FLAGS.policy:
+  weights = []
+  for path in policies:
     net, w, observation = plan_value.load(path)
     if dict(observation) != mine:
-      print(f'policy_select: {path} observed {dict(observation)}, the env '
-            f'{mine}', file=sys.stderr)
-      return 2
-    nets.append(net)
+      raise Refused(f'{path} observed {dict(observation)}, the env {mine}')
     weights.append(w)
-  decide = decider(FLAGS.mode, FLAGS.samples, nets, weights, FLAGS.score)
-  seeds = list(suites.get_eval_suite(FLAGS.suite).seeds)[:FLAGS.num_seeds]
+  members = jax.tree.map(jnp.asarray, ensemble.stack(weights))
+  decide = decider(mode, samples, net, members, score)
+  seeds = list(suites.get_eval_suite(suite).seeds)[:num_seeds]
   window = int(params.episode_steps)
   began = time.time()
-  parts = [fly(env, params, decide, seeds[i:i + FLAGS.batch], window)
-           for i in range(0, len(seeds), FLAGS.batch)]
+  parts = [fly(env, params, decide, seeds[i:i + batch], window)
+           for i in range(0, len(seeds), batch)]
   result = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
   wall = time.time() - began
-  summary = jax_train.validation_summary(result, window)
   tw50 = [metrics.tw50_fractions(int(w), int(s), window)['tw50_window']
           for w, s in zip(result['within_steps'], result['steps'])]
-  record = {'mode': FLAGS.mode, 'samples': FLAGS.samples, 'score': FLAGS.score,
-            'policies': list(FLAGS.policy), 'gin_files': list(FLAGS.gin_file),
-            'suite': FLAGS.suite, 'seeds': seeds, 'tw50_window': tw50,
-            'status': [int(x) for x in result['status']],
-            'wall_s': wall, 'load': os.getloadavg()[0],
-            'date': time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime()),
-            **summary}
+  return {'mode': mode, 'samples': samples, 'score': score,
+          'policies': list(policies), 'gin_files': list(gin_files),
+          'suite': suite, 'seeds': seeds, 'tw50_window': tw50,
+          'status': [int(x) for x in result['status']],
+          'wall_s': wall, 'load': os.getloadavg()[0],
+          'date': time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime()),
+          **jax_train.validation_summary(result, window)}
+
+
+# --- The committed sweep (`--sweep`) ----------------------------------------
+
+DRIFTS_GIN = 'gin_configs/latex_wind_lookahead.gin'
+MEMORY_GIN = 'gin_configs/latex_wind_memory.gin'
+BOTH = ('latex_validation', 'latex_small')
+
+
+def _chosen(run: str, seed: int) -> str:
+  return f'benchmarks/sac_jax/{run}/seed_{seed}/chosen_policy.msgpack'
+
+
+def _best_snapshots(run: str, seed: int, count: int) -> List[str]:
+  """The `count` snapshots of a seed that validated best (<= 5 % out)."""
+  path = f'benchmarks/sac_jax/{run}/seed_{seed}/validation.jsonl'
+  with open(path, encoding='utf-8') as f:
+    rows = [json.loads(line) for line in f if line.strip()]
+  rows = sorted((r for r in rows if r['out_of_resources_pct'] <= 5.0),
+                key=lambda r: (-r['tw50_window_mean'], r['iteration']))
+  return [f'benchmarks/sac_jax/{run}/seed_{seed}/policies/'
+          f'policy_{r["iteration"]:05d}.msgpack' for r in rows[:count]]
+
+
+def sweep_runs(drift_seeds: Sequence[int]) -> Dict[str, Dict[str, Any]]:
+  """name -> (policies, gin file, mode, samples, score, suites)."""
+  runs = {}
+
+  def add(name, policies, gin_file, mode='critic', samples=0, score='mean',
+          suites_=BOTH):
+    runs[name] = {'policies': list(policies), 'gin_files': [gin_file],
+                  'mode': mode, 'samples': samples, 'score': score,
+                  'suites': list(suites_)}
+
+  drifts = {s: _chosen('wind_lookahead12', s) for s in drift_seeds}
+  for s in drift_seeds:
+    add(f'drifts_seed_{s}', [drifts[s]], DRIFTS_GIN, mode='mean')
+  for triple in itertools.combinations(drift_seeds, 3):
+    add('drifts_critic_' + ''.join(map(str, triple)),
+        [drifts[s] for s in triple], DRIFTS_GIN)
+  if len(drift_seeds) > 3:
+    add('drifts_critic_all', list(drifts.values()), DRIFTS_GIN)
+  first = [drifts[s] for s in drift_seeds[:3]]
+  add('drifts_average_012', first, DRIFTS_GIN, mode='average',
+      suites_=BOTH[:1])
+  add('drifts_critic8_012', first, DRIFTS_GIN, samples=8, suites_=BOTH[:1])
+  add('drifts_critic_min_012', first, DRIFTS_GIN, score='min',
+      suites_=BOTH[:1])
+  for s in drift_seeds[:3]:
+    add(f'drifts_snapshots_seed_{s}', _best_snapshots('wind_lookahead12', s,
+                                                      3),
+        DRIFTS_GIN, suites_=BOTH[:1])
+  memory = [_chosen('wind_memory16', s) for s in range(3)]
+  for s in range(3):
+    add(f'memory_seed_{s}', [memory[s]], MEMORY_GIN, mode='mean')
+  add('memory_critic_012', memory, MEMORY_GIN)
+  return runs
+
+
+def sweep(output: str, drift_seeds: Sequence[int], batch: int) -> int:
+  """Flies `sweep_runs` (100 seeds of each suite) into one record."""
+  record = {'what': 'benchmarks/policy_select.py --sweep: SAC policies and '
+                    'their critic-chosen ensembles, batched on the '
+                    'functional env, 100 seeds per suite',
+            'command': ' '.join(sys.argv), 'host': platform.node(),
+            'cpus': os.cpu_count(), 'runs': {}}
+  if os.path.exists(output):  # Resume: runs already flown are kept.
+    with open(output, encoding='utf-8') as f:
+      record['runs'] = json.load(f)['runs']
+  for name, run in sweep_runs(drift_seeds).items():
+    done = record['runs'].setdefault(name, {})
+    for suite in run['suites']:
+      if suite in done:
+        continue
+      result = evaluate(run['policies'], run['gin_files'], run['mode'],
+                        run['samples'], run['score'], suite, 100, batch)
+      done[suite] = result
+      print(f"{name} {suite}: {100 * result['tw50_window_mean']:.1f} %, "
+            f"{result['out_of_resources_pct']:.0f} % out, "
+            f"{result['wall_s']:.0f} s, load {result['load']:.1f}",
+            flush=True)
+      safe_io.atomic_write(output, json.dumps(record) + '\n')
+  return 0
+
+
+def main(argv: Sequence[str]) -> int:
+  FLAGS.unparse_flags()  # Each call parses afresh (tests call it twice).
+  try:
+    FLAGS(argv)
+  except flags.Error as e:
+    print(f'policy_select: {e}', file=sys.stderr)
+    return 2
+  try:
+    if FLAGS.sweep:
+      return sweep(FLAGS.sweep, [int(s) for s in FLAGS.drift_seeds],
+                   FLAGS.batch)
+    if not FLAGS.policy:
+      print('policy_select: give at least one --policy', file=sys.stderr)
+      return 2
+    record = evaluate(FLAGS.policy, FLAGS.gin_file, FLAGS.mode, FLAGS.samples,
+                      FLAGS.score, FLAGS.suite, FLAGS.num_seeds, FLAGS.batch)
+  except Refused as e:
+    print(f'policy_select: {e}', file=sys.stderr)
+    return 2
+  except (OSError, ValueError) as e:
+    print(f'policy_select: {str(e).splitlines()[0]}', file=sys.stderr)
+    return 1
   print(json.dumps({k: v for k, v in record.items()
                     if k not in ('seeds', 'tw50_window', 'status')}))
   if FLAGS.output:
-    with open(FLAGS.output, 'w', encoding='utf-8') as f:
-      json.dump(record, f)
+    safe_io.atomic_write(FLAGS.output, json.dumps(record) + '\n')
   return 0
 
 

@@ -5,7 +5,9 @@
 
 Issue 47 asks for a controller that decides in <= 10 ms per balloon on 2 CPU
 cores. Each `--policy NAME=PATH` (or `shipped`: the shipped policy) is
-loaded as BLE's `sac_pretrained` agent in eval mode (its mean action), and
+loaded as BLE's `sac_pretrained` agent in eval mode (its mean action);
+`NAME=PATH,PATH,...` (or `shipped_ensemble`: its shipped members) as
+`sac_ensemble` (the members' critics choose among their actions); and
 `agent.step(reward, observation)` is timed on `--steps` observations of real
 flights (the core's, drawn from `latex_small`'s first seed and its strides
 under the agent's own actions), one call per decision, after `--warmup`
@@ -36,7 +38,9 @@ from ble_latex.cli import common as cli
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_multi_string('policy', ['shipped'], 'NAME=PATH of a SAC policy '
-                          'file, or `shipped`.', flag_values=FLAGS)
+                          'file, NAME=PATH,PATH,... of a `sac_ensemble`, '
+                          '`shipped` or `shipped_ensemble`.',
+                          flag_values=FLAGS)
 flags.DEFINE_integer('steps', 2000, 'Decisions timed per policy.',
                      lower_bound=10, flag_values=FLAGS)
 flags.DEFINE_integer('warmup', 20, 'Decisions before timing (compiles).',
@@ -106,15 +110,22 @@ def _observation_of(path: Optional[str]) -> Dict[str, int]:
 def _time(name: str, path: Optional[str], observations: np.ndarray) -> dict:
   import gin  # pylint: disable=g-import-not-at-top
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
-  observation = _observation_of(path)
+  paths = path.split(',') if path else []
+  observation = _observation_of(paths[0] if paths else None)
   with gin.unlock_config():  # The observation the policy was trained on.
     for key, value in observation.items():
       gin.bind_parameter(f'latex_observation.{key}', value)
   with quiet.third_party_noise():
-    from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
-    agent = sac.SACPretrainedAgent(3, (observations.shape[1],),
-                                   policy_path=path)
+    # pylint: disable=g-import-not-at-top
+    from ble_latex.agents import ensemble
+    from ble_latex.agents import sac
+    # pylint: enable=g-import-not-at-top
+    if len(paths) > 1:
+      agent = ensemble.SACEnsembleAgent(3, (observations.shape[1],),
+                                        policy_paths=paths)
+    else:
+      agent = sac.SACPretrainedAgent(3, (observations.shape[1],),
+                                     policy_path=path)
   agent.set_mode('eval')
   agent.begin_episode(observations[0])
   for obs in observations[:FLAGS.warmup]:
@@ -139,12 +150,17 @@ def _main(argv: Sequence[str]) -> int:
     if item == 'shipped':
       policies.append(('shipped', None))
       continue
+    if item == 'shipped_ensemble':
+      from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+      policies.append((item, ','.join(pretrained.SHIPPED_ENSEMBLE)))
+      continue
     name, sep, path = item.partition('=')
     if not sep or not name or not path:
       raise cli.CommandUsageError(f'--policy {item!r}: want NAME=PATH or '
                                   'shipped')
-    if not os.path.isfile(path):
-      raise cli.CommandFailure(f'--policy {name}: no file {path}')
+    missing = [p for p in path.split(',') if not os.path.isfile(p)]
+    if missing:
+      raise cli.CommandFailure(f'--policy {name}: no file {missing[0]}')
     policies.append((name, path))
   observations = _observations(FLAGS.steps)
   load_before = list(os.getloadavg())
@@ -165,8 +181,9 @@ def _main(argv: Sequence[str]) -> int:
     observing.append(_observation_cost(observation, FLAGS.steps))
     print(f"observation {observation}: median "
           f"{1e3 * observing[-1]['median_s']:.3f} ms")
-  record = {'what': 'SAC policy files as BLE agents (sac_pretrained, eval '
-                    'mode), one decision per agent.step call',
+  record = {'what': 'SAC policy files as BLE agents (sac_pretrained, or '
+                    'sac_ensemble for several files; eval mode), one '
+                    'decision per agent.step call',
             'date': time.strftime('%Y-%m-%dT%H:%M', time.gmtime()),
             'host': platform.node(), 'cpus': os.cpu_count(),
             'loadavg_before': load_before,

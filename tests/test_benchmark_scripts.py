@@ -146,6 +146,32 @@ def test_policy_speed_refuses_bad_policies_in_one_line(tmp_path, capsys):
   rc = speed.main([f'--policy=a={tmp_path}/absent.msgpack', f'--json={out}'])
   err = capsys.readouterr().err.strip().splitlines()
   assert rc == 1 and len(err) == 1 and 'absent.msgpack' in err[0], err
+  # An ensemble's members are each checked (`sac_ensemble`).
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  rc = speed.main([f'--policy=e={pretrained.SHIPPED_ENSEMBLE[0]},'
+                   f'{tmp_path}/gone.msgpack', f'--json={out}'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 1 and len(err) == 1 and 'gone.msgpack' in err[0], err
+  assert not out.exists()
+
+
+def test_policy_select_refuses_bad_input_in_one_line(tmp_path, capsys):
+  """benchmarks/policy_select.py: a bad flag or a policy of another
+  observation is a usage error (2), a missing file a failure (1); nothing
+  is written."""
+  script = _load('bench_policy_select',
+                 ROOT / 'benchmarks' / 'policy_select.py')
+  out = tmp_path / 'record.json'
+  for argv, rc_want, text in (
+      (['--mode=bogus'], 2, 'mode'),
+      ([], 2, '--policy'),
+      ([f'--policy={tmp_path}/none.msgpack'], 1, 'none.msgpack'),
+      (['--policy=shipped',
+        f"--gin_file={ROOT / 'gin_configs' / 'latex_wind_lookahead.gin'}"],
+       2, 'wind_lookahead')):
+    rc = script.main(['policy_select.py', *argv, f'--output={out}'])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == rc_want and len(err) == 1 and text in err[0], (argv, err)
   assert not out.exists()
 
 

@@ -33,7 +33,7 @@ The agent only acts (eval mode); it does not train.
 """
 
 import functools
-from typing import Any, Optional, Sequence, Union
+from typing import Any, Callable, Optional, Sequence, Union
 
 from balloon_learning_environment.agents import agent
 import gin
@@ -48,6 +48,8 @@ from ble_latex.agents import sac_core
 from ble_latex.flight import params as params_lib
 
 Array = jax.Array
+# The env gin file the shipped members observed under (`configs.gin_file`).
+SHIPPED_GIN_FILE = 'latex_wind_lookahead.gin'
 MAX_MEMBERS = 16  # Each member adds its actor and K critic evaluations.
 
 
@@ -65,8 +67,8 @@ def proposals(network_def: Any, members: Any, obs: Array) -> Array:
           members)
 
 
-def scores(network_def: Any, members: Any, obs: Array,
-           actions: Array) -> Array:
+def scores(network_def: Any, members: Any, obs: Array, actions: Array,
+           combine: Callable[..., Array] = jnp.mean) -> Array:
   """Mean over the members of min(Q1, Q2)(o, a) for each action: [C].
 
   Args:
@@ -74,12 +76,14 @@ def scores(network_def: Any, members: Any, obs: Array,
     members: Their parameters, stacked on a leading axis of K.
     obs: One observation [F].
     actions: Candidate actions in the normalised box [C, num_actions].
+    combine: How the members' values combine (`jnp.mean`; `jnp.min` is
+      measured in `benchmarks/policy_select.py --score=min`).
   """
   def member_q(p):
     out = jax.vmap(lambda a: network_def.apply(
         p, obs, a, method=network_def.critic))(actions)
     return jnp.minimum(out.q_value1, out.q_value2).reshape(actions.shape[0])
-  return jnp.mean(jax.vmap(member_q)(members), axis=0)
+  return combine(jax.vmap(member_q)(members), axis=0)
 
 
 def critic_choice(network_def: Any, members: Any, obs: Array) -> Array:
@@ -143,12 +147,14 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
       **kwargs: Further `SACPretrainedAgent` arguments.
 
     Raises:
-      ValueError: A bad or missing file, or a member whose acting settings
-        differ from the env's or the first member's (one line).
+      FileNotFoundError: A member's file is missing.
+      ValueError: A bad file, or a member whose acting settings differ
+        from the env's or the first member's (one line).
       errors.ConfigError: No paths, too many, or no shipped ensemble for
         the physics gin binds.
     """
-    if policy_paths is None:
+    shipped = policy_paths is None
+    if shipped:
       policy_paths = pretrained.shipped_ensemble(
           params_lib.flight_params_from_gin().realistic)
     if isinstance(policy_paths, str):
@@ -159,9 +165,16 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
           f'SACEnsembleAgent.policy_paths needs 1 to {MAX_MEMBERS} policy '
           f'files, got {len(paths)}')
     kwargs.pop('policy_path', None)
-    super().__init__(num_actions, observation_shape, action_low=action_low,
-                     action_high=action_high, seed=seed,
-                     policy_path=paths[0], **kwargs)
+    try:
+      super().__init__(num_actions, observation_shape, action_low=action_low,
+                       action_high=action_high, seed=seed,
+                       policy_path=paths[0], **kwargs)
+    except ValueError as e:
+      if not shipped:
+        raise
+      first_line = str(e).split('\n', 1)[0]  # Without gin's call notes.
+      raise ValueError(f'{first_line}: the shipped ensemble flies under '
+                       f'gin_configs/{SHIPPED_GIN_FILE}') from e
     members = [self.network_params]
     for path in paths[1:]:
       policy = pretrained.load_policy(path)

@@ -231,3 +231,92 @@ def planner_value() -> str:
                  f'{s["s_per_decision"]:.3g} | {paired} |')
   return '\n'.join(lines)
 
+
+
+ENSEMBLE = ROOT / 'benchmarks' / 'ensemble' / 'results.json'
+# (sweep run name prefix or name, label) of the `ensemble` table's rows, in
+# order; `drifts_critic_` + three seeds is summarised over every triple.
+ENSEMBLE_VARIANTS = (
+    ('drifts_average_012', 'mean of the three actions (no critic)'),
+    ('drifts_critic8_012', 'critics choose among the three actions and 8 '
+     'draws of each actor'),
+    ('drifts_critic_min_012', 'critics choose, the members\' values '
+     'combined by their minimum'),
+)
+
+
+def _members_mean(runs: dict, policies, suite: str) -> dict:
+  """Per seed, the mean TW50 of an ensemble's members flown alone."""
+  alone = {r[suite]['policies'][0]: r[suite] for r in runs.values()
+           if r.get(suite) and r[suite]['mode'] == 'mean'}
+  members = [alone[p] for p in policies]
+  return {'seeds': members[0]['seeds'],
+          'tw50_window': [sum(m['tw50_window'][i] for m in members)
+                          / len(members)
+                          for i in range(len(members[0]['seeds']))]}
+
+
+def _cell(run: dict, suite: str) -> str:
+  r = run.get(suite)
+  return f"{100 * r['tw50_window_mean']:.1f} %" if r else '—'
+
+
+def ensemble() -> str:
+  """SAC policies alone and as critic-chosen ensembles, validation and
+  held out, paired with their members and with `latex_mpc` per seed."""
+  runs = _load(ENSEMBLE)['runs']
+  mpc = _per_seed('latex_small/latex_mpc')
+  lines = ['| controller | `latex_validation` TW50 window | `latex_small` '
+           'TW50 window | out of resources (`latex_small`) | − its members '
+           'alone per seed (`latex_small`) | − `latex_mpc` per seed |',
+           '|---|---|---|---|---|---|']
+
+  def row(label, run):
+    held = run.get('latex_small')
+    members = (_paired(_members_mean(runs, held['policies'], 'latex_small'),
+                       held, ENSEMBLE)
+               if held and held['mode'] == 'critic' else '—')
+    lines.append(
+        f"| {label} | {_cell(run, 'latex_validation')} | "
+        f"{_cell(run, 'latex_small')} | "
+        + (f"{held['out_of_resources_pct']:.0f} %" if held else '—')
+        + f" | {members} | "
+        + (_paired(mpc, held, ENSEMBLE) if held else '—') + ' |')
+
+  for prefix, what in (('drifts', 'drifts'), ('memory', 'corrected column')):
+    alone = sorted(n for n in runs if n.startswith(f'{prefix}_seed_'))
+    for name in alone:
+      row(f"SAC ({what}), seed {name.rsplit('_', 1)[1]} alone", runs[name])
+    triples = sorted(n for n in runs if n.startswith(f'{prefix}_critic_')
+                     and n[len(prefix) + 8:].isdigit())
+    for name in triples[:1] + [n for n in triples[1:] if len(triples) <= 2]:
+      row(f"ensemble of seeds {', '.join(name[len(prefix) + 8:])}, critics "
+          'choose', runs[name])
+    if len(triples) > 2:
+      held = [runs[n]['latex_small']['tw50_window_mean'] for n in triples]
+      valid = [runs[n]['latex_validation']['tw50_window_mean']
+               for n in triples]
+      (hm, hs), (vm, vs) = _mean_std(held), _mean_std(valid)
+      gains = []
+      for n in triples:
+        r = runs[n]['latex_small']
+        base = _members_mean(runs, r['policies'], 'latex_small')
+        gains.append(sum(r['tw50_window']) / len(r['tw50_window'])
+                     - sum(base['tw50_window']) / len(base['tw50_window']))
+      gm, gs = _mean_std(gains)
+      lines.append(
+          f'| every 3 of the {len(alone)} seeds ({len(triples)} ensembles, '
+          f'mean ± std over them) | {100 * vm:.1f} % ± {100 * vs:.1f} | '
+          f'{100 * hm:.1f} % ± {100 * hs:.1f} ({100 * min(held):.1f}–'
+          f'{100 * max(held):.1f}) | — | {100 * gm:+.1f} ± {100 * gs:.1f} '
+          '(over ensembles) | — |')
+    if f'{prefix}_critic_all' in runs:
+      row(f'ensemble of all {len(alone)} seeds, critics choose',
+          runs[f'{prefix}_critic_all'])
+  for name, label in ENSEMBLE_VARIANTS:
+    if name in runs:
+      row(f'seeds 0, 1, 2: {label}', runs[name])
+  for name in sorted(n for n in runs if n.startswith('drifts_snapshots_')):
+    row(f"seed {name.rsplit('_', 1)[1]}'s three best-validated snapshots, "
+        'critics choose', runs[name])
+  return '\n'.join(lines)

@@ -604,6 +604,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     'observation-curve': lambda: _learned().observation_curve(),
     'learned-short': lambda: _learned().learned_short(),
     'planner-value': lambda: _learned().planner_value(),
+    'ensemble': lambda: _learned().ensemble(),
 }
 
 

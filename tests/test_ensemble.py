@@ -1,0 +1,157 @@
+"""sac_ensemble: SAC policies whose critics choose among their actions."""
+
+import os
+
+import ble_latex  # noqa: F401
+import gin
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from ble_latex import configs
+from ble_latex import errors
+from ble_latex.agents import ensemble
+from ble_latex.agents import networks
+from ble_latex.agents import pretrained
+from ble_latex.agents import sac
+from ble_latex.agents import sac_core
+from ble_latex.envs import env_params
+from ble_latex.envs import jax_env
+
+_LOW = np.asarray(jax_env.ACTION_LOW, np.float32)
+_HIGH = np.asarray(jax_env.ACTION_HIGH, np.float32)
+_HIDDEN = 16
+
+
+def _network(hidden=_HIDDEN):
+  return networks.make_network(3, 2, hidden, 'mlp')
+
+
+def _params(seed, hidden=_HIDDEN):
+  net = _network(hidden)
+  return net.init(jax.random.PRNGKey(seed), jnp.zeros((71,), jnp.float32),
+                  jax.random.PRNGKey(0))
+
+
+def _policy_file(tmp_path, seed, hidden=_HIDDEN, **observation):
+  """A SAC policy file of a freshly initialised network."""
+  config = {'observation_shape': [71], 'num_actions': 3,
+            'action_low': _LOW.astype(np.float64).tolist(),
+            'action_high': _HIGH.astype(np.float64).tolist(),
+            'num_layers': 2, 'hidden_units': hidden, 'critic': 'mlp',
+            'replay_capacity': 1000,
+            **{k: 0 for k in env_params.OBSERVATION_FIELDS}, **observation}
+  bundle = {'format': sac_core.CHECKPOINT_FORMAT, 'iteration': 0,
+            'config': config, 'training_steps': 0,
+            'network_params': sac_core.to_numpy(_params(seed, hidden)),
+            'log_alpha': np.zeros((1,), np.float32)}
+  path = str(tmp_path / f'policy_{seed}_{hidden}.msgpack')
+  pretrained.write_policy(pretrained.policy_from_bundle(bundle, 'test'), path)
+  return path
+
+
+def _agent(paths):
+  return ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW,
+                                   action_high=_HIGH, policy_paths=paths,
+                                   hidden_units=_HIDDEN)
+
+
+@settings(max_examples=20, deadline=None)
+@given(members=st.integers(1, 4), seed=st.integers(0, 2**16),
+       scale=st.floats(0.1, 3.0))
+def test_critic_choice_is_the_proposal_the_critics_score_highest(
+    members, seed, scale):
+  net = _network()
+  trees = [_params(seed + k) for k in range(members)]
+  obs = scale * jax.random.normal(jax.random.PRNGKey(seed), (71,))
+  means = np.stack([np.asarray(net.apply(
+      p, obs, jax.random.PRNGKey(1), method=net.actor).mean_action)
+                    for p in trees])
+  score = np.zeros(members)
+  for p in trees:  # Every member's critics score every proposal.
+    for c in range(members):
+      out = net.apply(p, obs, jnp.asarray(means[c]), method=net.critic)
+      score[c] += min(float(out.q_value1[0]), float(out.q_value2[0]))
+  score /= members
+  stacked = ensemble.stack(trees)
+  chosen = np.asarray(ensemble.critic_choice(net, stacked, obs))
+  np.testing.assert_allclose(chosen, means[int(np.argmax(score))],
+                             rtol=1e-5, atol=1e-6)
+  np.testing.assert_allclose(
+      np.asarray(ensemble.scores(net, stacked, obs, jnp.asarray(means))),
+      score, rtol=1e-4, atol=1e-5)
+
+
+def test_one_member_flies_as_sac_pretrained(tmp_path):
+  path = _policy_file(tmp_path, 3)
+  single = sac.SACPretrainedAgent(3, (71,), action_low=_LOW,
+                                  action_high=_HIGH, policy_path=path)
+  single.set_mode('eval')
+  one = _agent([path])
+  rng = np.random.default_rng(0)
+  for _ in range(3):
+    obs = rng.uniform(-1, 1, 71).astype(np.float32)
+    np.testing.assert_allclose(one.begin_episode(obs),
+                               single.begin_episode(obs), rtol=1e-6)
+
+
+def test_batched_eval_and_launch_act_as_the_agent(tmp_path):
+  from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import batch_eval  # pylint: disable=g-import-not-at-top
+  agent = _agent([_policy_file(tmp_path, k) for k in range(3)])
+  rng = np.random.default_rng(1)
+  observations = rng.uniform(-1, 1, (5, 71)).astype(np.float32)
+  one_at_a_time = np.stack([agent.begin_episode(o) for o in observations])
+  batched = batch_eval.core_policy(agent, None).begin(None, observations)
+  np.testing.assert_array_equal(batched, one_at_a_time)
+  controller = controllers.controller_for(agent)
+  launch = np.stack([np.asarray(controller.act(None, jnp.asarray(o), None,
+                                               0)[0])
+                     for o in observations])
+  np.testing.assert_allclose(launch, one_at_a_time, rtol=1e-5, atol=1e-3)
+  # The choice is not always the first member's action.
+  first = np.stack([agent._to_box(np.asarray(sac._mean_action(  # pylint: disable=protected-access
+      agent.network_def, agent.network_params, jnp.asarray(o))))
+                    for o in observations])
+  assert not np.allclose(first, one_at_a_time)
+
+
+def test_shipped_members_observe_the_drifts():
+  with pytest.raises(ValueError,
+                     match='wind_lookahead.*flies under .*wind_lookahead.gin'):
+    ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW, action_high=_HIGH)
+  assert os.path.isfile(configs.gin_file(ensemble.SHIPPED_GIN_FILE))
+  gin.bind_parameter('latex_observation.wind_lookahead', 12)
+  try:
+    agent = ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW,
+                                      action_high=_HIGH)
+  finally:
+    gin.clear_config()
+  assert agent.policy_paths == pretrained.SHIPPED_ENSEMBLE
+  assert all(os.path.isfile(p) for p in agent.policy_paths)
+  action = agent.begin_episode(np.zeros(71, np.float32))
+  assert np.all(action >= _LOW) and np.all(action <= _HIGH)
+  with pytest.raises(errors.ConfigError, match='realistic'):
+    pretrained.shipped_ensemble(True)
+
+
+def test_bad_ensembles_are_refused(tmp_path):
+  with pytest.raises(errors.ConfigError, match='1 to 16'):
+    _agent([])
+  path = _policy_file(tmp_path, 0)
+  with pytest.raises(errors.ConfigError, match='1 to 16'):
+    _agent([path] * 17)
+  with pytest.raises(ValueError, match='hidden_units'):
+    _agent([path, _policy_file(tmp_path, 1, hidden=8)])
+  with pytest.raises(ValueError, match='wind_lookahead'):
+    _agent([path, _policy_file(tmp_path, 2, wind_lookahead=12)])
+  with pytest.raises(FileNotFoundError, match='missing.msgpack'):
+    _agent([path, str(tmp_path / 'missing.msgpack')])
+  agent = _agent([path])
+  with pytest.raises(errors.ConfigError, match='only acts'):
+    agent.set_mode('train')
+  agent.set_mode('eval')
