@@ -155,3 +155,25 @@ def test_bad_ensembles_are_refused(tmp_path):
   with pytest.raises(errors.ConfigError, match='only acts'):
     agent.set_mode('train')
   agent.set_mode('eval')
+
+
+def test_shipped_ensemble_flies_the_latex_env_under_its_gin_file():
+  import gym  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import runner  # pylint: disable=g-import-not-at-top
+  gin.clear_config()
+  try:
+    gin_binding.bind_gin('sac_ensemble', None,
+                         [configs.gin_file(ensemble.SHIPPED_GIN_FILE)], [])
+    env = gym.make('LatexBalloon-v0').unwrapped
+    agent = runner.create_agent('sac_ensemble', env)
+    obs = env.reset(seed=1_000_000)
+    action = agent.begin_episode(obs)
+    for _ in range(3):
+      assert env.action_space.contains(action.astype(np.float32))
+      obs, reward, _, _ = env.step(action)
+      action = agent.step(reward, obs)
+  finally:
+    gin.clear_config()
+  assert agent.get_name() == 'sac_ensemble'
+  assert len(agent.policy_paths) == len(pretrained.SHIPPED_ENSEMBLE)

@@ -8,6 +8,7 @@ The shared helpers are `tables.py`'s (loaded by path, as MkDocs loads hooks).
 
 import importlib.util
 import pathlib
+import re
 from typing import Dict, Tuple
 
 _SPEC = importlib.util.spec_from_file_location(
@@ -135,9 +136,9 @@ def learned_short() -> str:
            'training seeds) | out of resources | best-validated seed − '
            '`latex_mpc` per seed | ms / decision |', '|---|---|---|---|---|---|']
 
-  def row(label, means, oor, paired, ms):
+  def row(label, means, oor, paired, ms, seeds=None):
     mean, std = _mean_std(means)
-    lines.append(f'| {label} | {len(means)} | {100 * mean:.1f} % ± '
+    lines.append(f'| {label} | {seeds or len(means)} | {100 * mean:.1f} % ± '
                  f'{100 * std:.1f} | {oor:.1f} % | {paired} | {ms} |')
 
   for name, run in observation_record['runs'].items():
@@ -156,6 +157,22 @@ def learned_short() -> str:
         [e['heldout_tw50_window_mean'] for e in seeds.values()],
         sum(e['heldout_oor_pct'] for e in seeds.values()) / len(seeds),
         _paired(mpc, held, OBSERVATION) if held else '—', ms)
+  runs = _load(ENSEMBLE)['runs']
+  triples = [r['latex_small'] for n, r in runs.items()
+             if n.startswith('drifts_critic_') and n[14:].isdigit()]
+  shipped = _eval_per_seed(ENSEMBLE_EVAL)
+  step = observed_speed['shipped_ensemble']
+  observe = observe_ms[_key(step['observation'])]
+  pool = len(set(p for t in triples for p in t['policies']))
+  row(f'SAC ensemble, critics choose among 3 drift seeds (over every 3 of '
+      f'{pool} seeds; `sac_ensemble` ships seeds ' + ', '.join(
+          re.search(r'seed_(\d+)', p).group(1)
+          for p in _load(ENSEMBLE)['shipped']['policies']) + ')',
+      [t['tw50_window_mean'] for t in triples],
+      sum(t['out_of_resources_pct'] for t in triples) / len(triples),
+      _paired(mpc, shipped, ENSEMBLE_EVAL),
+      f'{observe + 1e3 * step["median_s"]:.2f} (observation {observe:.2f})',
+      seeds=f'{pool} ({len(triples)} ensembles)')
   group = dagger_record['groups']['gpu_h200']
   seed, best = _best_validated(
       group['seeds'], lambda e: e['best_validation_tw50_window'])
@@ -234,6 +251,15 @@ def planner_value() -> str:
 
 
 ENSEMBLE = ROOT / 'benchmarks' / 'ensemble' / 'results.json'
+# `ble-latex-eval --agent=sac_ensemble` on latex_small (flight paths removed).
+ENSEMBLE_EVAL = ROOT / 'benchmarks' / 'ensemble' / 'latex_small' / 'sac_ensemble.json'
+
+
+def _eval_per_seed(path: pathlib.Path) -> dict:
+  """An eval record as `_paired` reads it (seeds, TW50 window)."""
+  flights = _load(path)
+  return {'seeds': [f['seed'] for f in flights],
+          'tw50_window': [f['tw50_window'] for f in flights]}
 # (sweep run name prefix or name, label) of the `ensemble` table's rows, in
 # order; `drifts_critic_` + three seeds is summarised over every triple.
 ENSEMBLE_VARIANTS = (
