@@ -41,12 +41,13 @@ DEFAULT_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
 REALISTIC_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
                                 'sac_latex_realistic' + POLICY_SUFFIX)
 # `ensemble.SACEnsembleAgent`'s default members (agent `sac_ensemble`): the
-# three SAC seeds trained on the drifted wind column
+# six SAC seeds trained on the drifted wind column
 # (gin_configs/latex_wind_lookahead.gin; benchmarks/sac_jax/wind_lookahead12,
-# each seed's policy chosen on latex_validation).
+# each seed's policy chosen on latex_validation; the six together validated
+# best, benchmarks/ensemble/results.json `shipped`).
 SHIPPED_ENSEMBLE = tuple(
     os.path.join(os.path.dirname(__file__), 'policies',
-                 f'sac_latex_drifts_{k}' + POLICY_SUFFIX) for k in range(3))
+                 f'sac_latex_drifts_{k}' + POLICY_SUFFIX) for k in range(6))
 _KEPT = ('config', 'iteration', 'training_steps', 'network_params',
          'log_alpha')
 _TEXT = ('source', 'note')
