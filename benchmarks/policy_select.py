@@ -46,6 +46,7 @@ import numpy as np
 from ble_latex import safe_io
 from ble_latex.agents import ensemble
 from ble_latex.agents import plan_value
+from ble_latex.agents import sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.run import jax_train
@@ -105,33 +106,9 @@ def decider(mode: str, samples: int, net: Any, members: Any,
 
 def fly(env, params, decide, seeds: Sequence[int], num_steps: int):
   """Within-radius steps, steps and status of each seed's flight."""
-
-  @jax.jit
-  def run(seeds, key):
-    obs, state = jax.vmap(env.reset, in_axes=(0, None))(
-        jax.vmap(jax.random.PRNGKey)(seeds), params)
-    n = seeds.shape[0]
-
-    def one_step(carry, key):
-      state, obs, active, within, steps = carry
-      action = decide(obs, key)
-      obs, state, _, terminated, info = jax.vmap(
-          env.step_env, in_axes=(None, 0, 0, None))(
-              None, state, env.env_action(action), params)
-      done = terminated | info['time_limit']
-      within = within + (active & (info['distance_km'] <= params.radius_km))
-      steps = steps + active
-      return (state, obs, active & ~done, within, steps), None
-
-    zeros = jnp.zeros((n,), jnp.int32)
-    (state, _, _, within, steps), _ = jax.lax.scan(
-        one_step, (state, obs, jnp.ones((n,), bool), zeros, zeros),
-        jax.random.split(key, num_steps))
-    return {'within_steps': within, 'steps': steps,
-            'status': state.flight.status}
-
-  return jax.device_get(run(jnp.asarray(seeds, jnp.int32),
-                            jax.random.PRNGKey(0)))
+  run = jax.jit(lambda seeds: sac_trainer.fly_policy(
+      env, decide, seeds, num_steps, params))
+  return jax.device_get(run(jnp.asarray(seeds, jnp.int32)))
 
 
 class Refused(ValueError):

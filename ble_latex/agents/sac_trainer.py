@@ -39,8 +39,8 @@ directories: episode logs, checkpoints, policy snapshots, resume.
 
 import dataclasses
 import functools
-from typing import (Any, ClassVar, Dict, List, Mapping, NamedTuple, Sequence,
-                    Tuple)
+from typing import (Any, Callable, ClassVar, Dict, List, Mapping, NamedTuple,
+                    Optional, Sequence, Tuple)
 
 import flax
 import gin
@@ -425,6 +425,46 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
   return state, RoundOutput(ep_reward, within, steps, last, losses, nonfinite)
 
 
+def fly_policy(env: jax_env.LatexBalloonJaxEnv,
+               act: Callable[[Array, Array], Array], seeds: Array,
+               num_steps: int, params: env_types.EnvParams,
+               key: Optional[Array] = None) -> Dict[str, Array]:
+  """Flies a batched policy from each seed for `num_steps` strides (traceable).
+
+  Args:
+    env: The functional env (`normalize_actions=False`).
+    act: (observations [N, F], key) -> actions in the normalised box [N, A].
+    seeds: [N] episode seeds.
+    num_steps: Strides (the episode window).
+    params: Env parameters.
+    key: Split into one key per stride for `act` (default PRNGKey(0)).
+
+  Returns:
+    [N] arrays: `within_steps`, `steps`, `status` (`FlightStatus`).
+  """
+  obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(
+      jax.vmap(jax.random.PRNGKey)(seeds), params)
+  n = seeds.shape[0]
+
+  def one_step(carry, step_key):
+    env_state, obs, active, within, steps = carry
+    obs, env_state, _, terminated, info = jax.vmap(
+        env.step_env, in_axes=(None, 0, 0, None))(
+            None, env_state, env.env_action(act(obs, step_key)), params)
+    done = terminated | info['time_limit']
+    within = within + (active & (info['distance_km'] <= params.radius_km))
+    steps = steps + active
+    return (env_state, obs, active & ~done, within, steps), None
+
+  zeros = jnp.zeros((n,), jnp.int32)
+  keys = jax.random.split(jax.random.PRNGKey(0) if key is None else key,
+                          num_steps)
+  (env_state, _, _, within, steps), _ = jax.lax.scan(
+      one_step, (env_state, obs, jnp.ones((n,), bool), zeros, zeros), keys)
+  return {'within_steps': within, 'steps': steps,
+          'status': env_state.flight.status}
+
+
 @functools.partial(jax.jit, static_argnums=(0, 1, 4))
 def validate(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
              network_params: Any, seeds: Array, num_steps: int,
@@ -438,29 +478,11 @@ def validate(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
   Returns:
     [N] arrays: `within_steps`, `steps`, `status` (`FlightStatus`).
   """
-  obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(
-      jax.vmap(jax.random.PRNGKey)(seeds), params)
   mean_action = jax.vmap(lambda o: learner.network_def.apply(
       network_params, o, jax.random.PRNGKey(0),
       method=learner.network_def.actor).mean_action)
-  n = seeds.shape[0]
-
-  def one_step(carry, _):
-    env_state, obs, active, within, steps = carry
-    obs, env_state, _, terminated, info = jax.vmap(
-        env.step_env, in_axes=(None, 0, 0, None))(
-            None, env_state, env.env_action(mean_action(obs)), params)
-    done = terminated | info['time_limit']
-    within = within + (active & (info['distance_km'] <= params.radius_km))
-    steps = steps + active
-    return (env_state, obs, active & ~done, within, steps), None
-
-  zeros = jnp.zeros((n,), jnp.int32)
-  (env_state, _, _, within, steps), _ = jax.lax.scan(
-      one_step, (env_state, obs, jnp.ones((n,), bool), zeros, zeros), None,
-      length=num_steps)
-  return {'within_steps': within, 'steps': steps,
-          'status': env_state.flight.status}
+  return fly_policy(env, lambda obs, _: mean_action(obs), seeds, num_steps,
+                    params)
 
 
 # --- Policies and stacked seeds ---------------------------------------------

@@ -149,28 +149,29 @@ class SacController(Controller):
     self._network_def = agent.network_def
     self._network_params = agent.network_params
 
-  def act(self, carry, obs, state, i):
-    del state, i
+  def normalized(self, obs: Array) -> Array:
+    """The action in the normalised box [-1, 1]^3."""
     # The actor also draws a sample; its key does not change the mean.
-    mean = self._network_def.apply(
+    return self._network_def.apply(
         self._network_params, obs, jax.random.PRNGKey(0),
         method=self._network_def.actor).mean_action
-    return jax_env.to_box(mean), carry
+
+  def act(self, carry, obs, state, i):
+    del state, i
+    return jax_env.to_box(self.normalized(obs)), carry
 
 
-class EnsembleController(Controller):
+class EnsembleController(SacController):
   """`sac_ensemble`: `to_box(ensemble.critic_choice(obs))`."""
 
   name = 'sac_ensemble'
 
   def __init__(self, agent: ensemble.SACEnsembleAgent):
-    self._network_def = agent.network_def
+    super().__init__(agent)
     self._members = agent.members
 
-  def act(self, carry, obs, state, i):
-    del state, i
-    return jax_env.to_box(ensemble.critic_choice(
-        self._network_def, self._members, obs)), carry
+  def normalized(self, obs: Array) -> Array:
+    return ensemble.critic_choice(self._network_def, self._members, obs)
 
 
 class PlannerController(Controller):

@@ -204,18 +204,21 @@ class _SacPolicy(CorePolicy):
   def __init__(self, agent: sac.SACAgent):
     self._agent = agent
 
+  def _normalized(self, observations: jax.Array) -> jax.Array:
+    """The batch's actions in the normalised box [N, 3]."""
+    return _mean_actions(self._agent.network_def, self._agent.network_params,
+                         observations)
+
   def _act(self, observations: np.ndarray) -> np.ndarray:
-    agent = self._agent
-    normalized = np.asarray(_mean_actions(
-        agent.network_def, agent.network_params,
+    normalized = np.asarray(self._normalized(
         jnp.asarray(observations, jnp.float32)), np.float32)
     bad = ~np.isfinite(normalized).all(axis=1)
     if bad.any():
       raise sac_core.TrainingDiverged(
-          f'SAC policy produced a non-finite action '
+          f'{self._agent.get_name()} produced a non-finite action '
           f'{normalized[bad][0].tolist()}: the network parameters have '
           'diverged')
-    return agent._to_box(normalized)  # pylint: disable=protected-access
+    return self._agent._to_box(normalized)  # pylint: disable=protected-access
 
   def begin(self, states, observations):
     return self._act(observations)
@@ -233,17 +236,9 @@ def _sac_policy(agent: sac.SACAgent, core: CoreEnv) -> Optional[CorePolicy]:
 class _EnsemblePolicy(_SacPolicy):
   """`sac_ensemble`: the members' critics choose (`ensemble.choices`)."""
 
-  def _act(self, observations: np.ndarray) -> np.ndarray:
-    agent = self._agent
-    normalized = np.asarray(ensemble.choices(
-        agent.network_def, agent.members,
-        jnp.asarray(observations, jnp.float32)), np.float32)
-    bad = ~np.isfinite(normalized).all(axis=1)
-    if bad.any():
-      raise sac_core.TrainingDiverged(
-          f'SAC ensemble produced a non-finite action '
-          f'{normalized[bad][0].tolist()}: a member has diverged')
-    return agent._to_box(normalized)  # pylint: disable=protected-access
+  def _normalized(self, observations: jax.Array) -> jax.Array:
+    return ensemble.choices(self._agent.network_def, self._agent.members,
+                            observations)
 
 
 @core_policy.register
