@@ -177,3 +177,40 @@ def test_shipped_ensemble_flies_the_latex_env_under_its_gin_file():
     gin.clear_config()
   assert agent.get_name() == 'sac_ensemble'
   assert len(agent.policy_paths) == len(pretrained.SHIPPED_ENSEMBLE)
+
+
+@pytest.mark.slow
+def test_shipped_ensemble_reproduces_its_record():
+  """README's `sac_ensemble` row: its committed eval record
+  (benchmarks/ensemble/latex_small/sac_ensemble.json), all 100 seeds, within
+  the shipped policy's row tolerance (`test_pretrained.ROW_TOLERANCE`)."""
+  import json  # pylint: disable=g-import-not-at-top
+  import pathlib  # pylint: disable=g-import-not-at-top
+  import gym  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import runner  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
+  from test_pretrained import ROW_TOLERANCE  # pylint: disable=g-import-not-at-top
+  root = pathlib.Path(__file__).resolve().parent.parent
+  recorded = metrics.summarize(json.loads(
+      (root / 'benchmarks' / 'ensemble' / 'latex_small' /
+       'sac_ensemble.json').read_text()))
+  gin.clear_config()
+  try:
+    gin_binding.bind_gin('sac_ensemble', None,
+                         [configs.gin_file(ensemble.SHIPPED_GIN_FILE)], [])
+    env = gym.make('LatexBalloon-v0').unwrapped
+    agent = runner.create_agent('sac_ensemble', env)
+    suite = suites.get_eval_suite('latex_small')
+    s = metrics.summarize(eval_lib.evaluate(agent, env, suite.seeds,
+                                            suite.max_episode_length))
+  finally:
+    gin.clear_config()
+  assert s['episodes'] == recorded['episodes'] == 100
+  assert s['tw50_window_mean'] == pytest.approx(
+      recorded['tw50_window_mean'], abs=ROW_TOLERANCE['tw50_window'])
+  assert s['out_of_resources_pct'] == pytest.approx(
+      recorded['out_of_resources_pct'],
+      abs=ROW_TOLERANCE['out_of_resources_pct'])
