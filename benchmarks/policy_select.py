@@ -194,6 +194,10 @@ def sweep_runs(drift_seeds: Sequence[int]) -> Dict[str, Dict[str, Any]]:
         [drifts[s] for s in triple], DRIFTS_GIN)
   if len(drift_seeds) > 3:
     add('drifts_critic_all', list(drifts.values()), DRIFTS_GIN)
+    # Each seed's chosen snapshot and its next-best validated one.
+    add('drifts_critic_all_snapshots', list(drifts.values()) + [
+        _best_snapshots('wind_lookahead12', s, 2)[1] for s in drift_seeds],
+        DRIFTS_GIN, suites_=BOTH[:1])
   first = [drifts[s] for s in drift_seeds[:3]]
   add('drifts_average_012', first, DRIFTS_GIN, mode='average',
       suites_=BOTH[:1])

@@ -359,6 +359,9 @@ def ensemble() -> str:
   for name, label in ENSEMBLE_VARIANTS:
     if name in runs:
       row(f'seeds 0, 1, 2: {label}', runs[name])
+  if 'drifts_critic_all_snapshots' in runs:
+    row('all 6 seeds and each seed\'s next-best validated snapshot (12 '
+        'members), critics choose', runs['drifts_critic_all_snapshots'])
   for name in sorted(n for n in runs if n.startswith('drifts_snapshots_')):
     row(f"seed {name.rsplit('_', 1)[1]}'s three best-validated snapshots, "
         'critics choose', runs[name])
