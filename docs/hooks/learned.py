@@ -325,7 +325,9 @@ def ensemble() -> str:
         + f" | {members} | "
         + (_paired(mpc, held, ENSEMBLE) if held else '—') + ' |')
 
-  for prefix, what in (('drifts', 'drifts'), ('memory', 'corrected column')):
+  for prefix, what, whose in (('drifts', 'drifts', 'drift'),
+                              ('memory', 'corrected column',
+                               'corrected-column')):
     alone = sorted(n for n in runs if n.startswith(f'{prefix}_seed_'))
     for name in alone:
       row(f"SAC ({what}), seed {name.rsplit('_', 1)[1]} alone", runs[name])
@@ -333,8 +335,8 @@ def ensemble() -> str:
                      and n[len(prefix) + 8:].isdigit())
     shown = set(_load(ENSEMBLE).get('shipped', {}).get('candidates', ()))
     for name in [n for n in triples if n in shown or len(triples) <= 2]:
-      row(f"ensemble of seeds {', '.join(name[len(prefix) + 8:])}, critics "
-          'choose', runs[name])
+      row(f"ensemble of the {whose} seeds {', '.join(name[len(prefix) + 8:])}"
+          ', critics choose', runs[name])
     if len(triples) > 2:
       held = [runs[n]['latex_small']['tw50_window_mean'] for n in triples]
       valid = [runs[n]['latex_validation']['tw50_window_mean']
