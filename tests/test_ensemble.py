@@ -1,5 +1,6 @@
 """sac_ensemble: SAC policies whose critics choose among their actions."""
 
+import contextlib
 import os
 
 import ble_latex  # noqa: F401
@@ -157,7 +158,9 @@ def test_bad_ensembles_are_refused(tmp_path):
   agent.set_mode('eval')
 
 
-def test_shipped_ensemble_flies_the_latex_env_under_its_gin_file():
+@contextlib.contextmanager
+def _shipped_on_gym():
+  """(`LatexBalloon-v0`, the shipped `sac_ensemble`) under its gin file."""
   import gym  # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.run import runner  # pylint: disable=g-import-not-at-top
@@ -166,15 +169,19 @@ def test_shipped_ensemble_flies_the_latex_env_under_its_gin_file():
     gin_binding.bind_gin('sac_ensemble', None,
                          [configs.gin_file(ensemble.SHIPPED_GIN_FILE)], [])
     env = gym.make('LatexBalloon-v0').unwrapped
-    agent = runner.create_agent('sac_ensemble', env)
+    yield env, runner.create_agent('sac_ensemble', env)
+  finally:
+    gin.clear_config()
+
+
+def test_shipped_ensemble_flies_the_latex_env_under_its_gin_file():
+  with _shipped_on_gym() as (env, agent):
     obs = env.reset(seed=1_000_000)
     action = agent.begin_episode(obs)
     for _ in range(3):
       assert env.action_space.contains(action.astype(np.float32))
       obs, reward, _, _ = env.step(action)
       action = agent.step(reward, obs)
-  finally:
-    gin.clear_config()
   assert agent.get_name() == 'sac_ensemble'
   assert len(agent.policy_paths) == len(pretrained.SHIPPED_ENSEMBLE)
 
@@ -186,28 +193,18 @@ def test_shipped_ensemble_reproduces_its_record():
   the shipped policy's row tolerance (`test_pretrained.ROW_TOLERANCE`)."""
   import json  # pylint: disable=g-import-not-at-top
   import pathlib  # pylint: disable=g-import-not-at-top
-  import gym  # pylint: disable=g-import-not-at-top
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
-  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
-  from ble_latex.run import runner  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
   from test_pretrained import ROW_TOLERANCE  # pylint: disable=g-import-not-at-top
   root = pathlib.Path(__file__).resolve().parent.parent
   recorded = metrics.summarize(json.loads(
       (root / 'benchmarks' / 'ensemble' / 'latex_small' /
        'sac_ensemble.json').read_text()))
-  gin.clear_config()
-  try:
-    gin_binding.bind_gin('sac_ensemble', None,
-                         [configs.gin_file(ensemble.SHIPPED_GIN_FILE)], [])
-    env = gym.make('LatexBalloon-v0').unwrapped
-    agent = runner.create_agent('sac_ensemble', env)
+  with _shipped_on_gym() as (env, agent):
     suite = suites.get_eval_suite('latex_small')
     s = metrics.summarize(eval_lib.evaluate(agent, env, suite.seeds,
                                             suite.max_episode_length))
-  finally:
-    gin.clear_config()
   assert s['episodes'] == recorded['episodes'] == 100
   assert s['tw50_window_mean'] == pytest.approx(
       recorded['tw50_window_mean'], abs=ROW_TOLERANCE['tw50_window'])
