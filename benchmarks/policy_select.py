@@ -104,13 +104,6 @@ def decider(mode: str, samples: int, net: Any, members: Any,
   return decide
 
 
-def fly(env, params, decide, seeds: Sequence[int], num_steps: int):
-  """Within-radius steps, steps and status of each seed's flight."""
-  run = jax.jit(lambda seeds: sac_trainer.fly_policy(
-      env, decide, seeds, num_steps, params))
-  return jax.device_get(run(jnp.asarray(seeds, jnp.int32)))
-
-
 class Refused(ValueError):
   """A policy that does not fit the env (usage: exit 2)."""
 
@@ -130,12 +123,14 @@ def evaluate(policies: Sequence[str], gin_files: Sequence[str], mode: str,
     if dict(observation) != mine:
       raise Refused(f'{path} observed {dict(observation)}, the env {mine}')
     weights.append(w)
-  members = jax.tree.map(jnp.asarray, ensemble.stack(weights))
+  members = sac_trainer.stack(weights)
   decide = decider(mode, samples, net, members, score)
   seeds = list(suites.get_eval_suite(suite).seeds)[:num_seeds]
   window = int(params.episode_steps)
+  fly = jax.jit(lambda chunk: sac_trainer.fly_policy(
+      env, decide, chunk, window, params))  # One program for every batch.
   began = time.time()
-  parts = [fly(env, params, decide, seeds[i:i + batch], window)
+  parts = [jax.device_get(fly(jnp.asarray(seeds[i:i + batch], jnp.int32)))
            for i in range(0, len(seeds), batch)]
   result = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
   wall = time.time() - began

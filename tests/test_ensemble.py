@@ -20,6 +20,7 @@ from ble_latex.agents import networks
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
+from ble_latex.agents import sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 
@@ -78,7 +79,7 @@ def test_critic_choice_is_the_proposal_the_critics_score_highest(
       out = net.apply(p, obs, jnp.asarray(means[c]), method=net.critic)
       score[c] += min(float(out.q_value1[0]), float(out.q_value2[0]))
   score /= members
-  stacked = ensemble.stack(trees)
+  stacked = sac_trainer.stack(trees)
   chosen = np.asarray(ensemble.critic_choice(net, stacked, obs))
   np.testing.assert_allclose(chosen, means[int(np.argmax(score))],
                              rtol=1e-5, atol=1e-6)
@@ -152,6 +153,9 @@ def test_bad_ensembles_are_refused(tmp_path):
     _agent([path, _policy_file(tmp_path, 2, wind_lookahead=12)])
   with pytest.raises(FileNotFoundError, match='missing.msgpack'):
     _agent([path, str(tmp_path / 'missing.msgpack')])
+  with pytest.raises(errors.ConfigError, match='not policy_path'):
+    ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW, action_high=_HIGH,
+                              policy_paths=[path], policy_path=path)
   agent = _agent([path])
   with pytest.raises(errors.ConfigError, match='only acts'):
     agent.set_mode('train')

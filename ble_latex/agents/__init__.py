@@ -6,7 +6,7 @@
 - 'sac_pretrained': `sac.SACPretrainedAgent`, SAC with the policy
   shipped in `agents/policies/sac_latex.msgpack`.
 - 'sac_ensemble': `ensemble.SACEnsembleAgent`, SAC policies whose critics
-  choose among their actions (the shipped three fly under
+  choose among their actions (the shipped six fly under
   gin_configs/latex_wind_lookahead.gin); eval only.
 - 'latex_random', 'latex_station_seeker': the Box baselines of
   `baselines.py` (no gin file).
@@ -27,8 +27,9 @@ SAC_GIN_FILE = 'sac.gin'
 # Registered agents that take a Box action (constructor keywords action_low,
 # action_high, seed); the others are BLE's discrete-action agents.
 BOX_AGENTS: FrozenSet[str] = frozenset(
-    {'sac', 'sac_pretrained', 'sac_ensemble', 'latex_random', 'latex_station_seeker',
-     'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad'})
+    {'sac', 'sac_pretrained', 'sac_ensemble', 'latex_random',
+     'latex_station_seeker', 'latex_mpc', 'latex_mpc_oracle',
+     'latex_mpc_grad'})
 # Box agents that plan on the env's core state (`attach_env(env)`).
 PLANNER_AGENTS: FrozenSet[str] = frozenset(
     {'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad'})

@@ -20,7 +20,7 @@ proposals ran 10 % of the flights out of resources
 
 The members must share every acting setting (`sac_core.ACTING_CONFIG_KEYS`:
 network sizes, critic, the env's `latex_observation.*`); their parameters
-are stacked and vmapped. The shipped ensemble
+are stacked (`sac_trainer.stack`) and vmapped. The shipped ensemble
 (`pretrained.SHIPPED_ENSEMBLE`) observes the drifted wind column, so it
 flies under gin_configs/latex_wind_lookahead.gin:
 
@@ -45,6 +45,7 @@ from ble_latex import errors
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
+from ble_latex.agents import sac_trainer
 from ble_latex.flight import params as params_lib
 
 Array = jax.Array
@@ -117,12 +118,6 @@ def choices(network_def: Any, members: Any, observations: Array) -> Array:
                      observations)
 
 
-def stack(trees: Sequence[Any]) -> Any:
-  """K parameter trees stacked on a leading axis (NumPy)."""
-  return jax.tree.map(lambda *xs: np.stack([np.asarray(x) for x in xs]),
-                      *trees)
-
-
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
                             'action_high'])
 class SACEnsembleAgent(sac.SACPretrainedAgent):
@@ -150,8 +145,8 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
       FileNotFoundError: A member's file is missing.
       ValueError: A bad file, or a member whose acting settings differ
         from the env's or the first member's (one line).
-      errors.ConfigError: No paths, too many, or no shipped ensemble for
-        the physics gin binds.
+      errors.ConfigError: No paths, too many, a `policy_path`, or no
+        shipped ensemble for the physics gin binds.
     """
     shipped = policy_paths is None
     if shipped:
@@ -164,7 +159,10 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
       raise errors.ConfigError(
           f'SACEnsembleAgent.policy_paths needs 1 to {MAX_MEMBERS} policy '
           f'files, got {len(paths)}')
-    kwargs.pop('policy_path', None)
+    if 'policy_path' in kwargs:
+      raise errors.ConfigError(
+          'sac_ensemble takes policy_paths (a list of files), not '
+          'policy_path')
     try:
       super().__init__(num_actions, observation_shape, action_low=action_low,
                        action_high=action_high, seed=seed,
@@ -183,7 +181,7 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
       members.append(self.restore_network(policy['network_params'],
                                           f'SAC policy {path}'))
     self.policy_paths = tuple(paths)
-    self.members = jax.tree.map(jnp.asarray, stack(members))
+    self.members = sac_trainer.stack(members)
     self.eval_mode = True
 
   def get_name(self) -> str:

@@ -158,29 +158,23 @@ def learned_short() -> str:
         [e['heldout_tw50_window_mean'] for e in seeds.values()],
         sum(e['heldout_oor_pct'] for e in seeds.values()) / len(seeds),
         _paired(mpc, held, OBSERVATION) if held else '—', ms)
-  runs = _load(ENSEMBLE)['runs']
-  triples = [r['latex_small'] for n, r in runs.items()
+  sweep = _load(ENSEMBLE)
+  triples = [r['latex_small'] for n, r in sweep['runs'].items()
              if n.startswith('drifts_critic_') and n[14:].isdigit()]
-  shipped = _eval_per_seed(ENSEMBLE_EVAL)
+  flown = tables.flights_summary(ENSEMBLE_EVAL)
   step = observed_speed['shipped_ensemble']
   observe = observe_ms[_key(step['observation'])]
   pool = len(set(p for t in triples for p in t['policies']))
   members = [re.search(r'seed_(\d+)', p).group(1)
-             for p in _load(ENSEMBLE)['shipped']['policies']]
-  flights = _load(ENSEMBLE_EVAL)
-  flown = {'tw50_window_mean': _mean_std([f['tw50_window']
-                                          for f in flights])[0],
-           'out_of_resources_pct': 100.0 * sum(
-               f['terminal_reason'] in tables.OUT_OF_RESOURCES
-               for f in flights) / len(flights)}
+             for p in sweep['shipped']['policies']]
   spread = _mean_std([t['tw50_window_mean'] for t in triples])
   row(f'`sac_ensemble`: SAC drift seeds {", ".join(members)}, their critics '
       'choose the action',
-      [flown['tw50_window_mean']], flown['out_of_resources_pct'],
-      _paired(mpc, shipped, ENSEMBLE_EVAL),
+      [flown['tw50_window'][0]], flown['out_of_resources_pct'],
+      _paired(mpc, flown['per_seed'], ENSEMBLE_EVAL),
       f'{observe + 1e3 * step["median_s"]:.2f} (observation {observe:.2f})',
       seeds=f'{len(members)} (one ensemble)',
-      tw50=f'{100 * flown["tw50_window_mean"]:.1f} % (any 3 of the {pool}: '
+      tw50=f'{100 * flown["tw50_window"][0]:.1f} % (any 3 of the {pool}: '
       f'{100 * spread[0]:.1f} % ± {100 * spread[1]:.1f})')
   group = dagger_record['groups']['gpu_h200']
   seed, best = _best_validated(
@@ -237,9 +231,7 @@ PLANNER_VALUE_ROWS = (
 
 def _per_seed(path: str) -> dict:
   """A planners' record as `_paired` reads it (seeds, TW50 window)."""
-  flights = _load(tables.PLANNERS / f'{path}.json')
-  return {'seeds': [f['seed'] for f in flights],
-          'tw50_window': [f['tw50_window'] for f in flights]}
+  return tables.flights_summary(tables.PLANNERS / f'{path}.json')['per_seed']
 
 
 def planner_value() -> str:
@@ -250,7 +242,7 @@ def planner_value() -> str:
   reference = _per_seed(PLANNER_VALUE_ROWS[0][0])
   for i, (path, label) in enumerate(PLANNER_VALUE_ROWS):
     s = tables.planner_summary(path)
-    paired = _paired(reference, _per_seed(path),
+    paired = _paired(reference, s['per_seed'],
                      tables.PLANNERS / f'{path}.json') if i else '—'
     lines.append(f'| {label} | {s["seeds"]} | {_pct(*s["tw50_window"])} | '
                  f'{s["out_of_resources_pct"]:.0f} % | {s["sand"]:.2f} | '
@@ -258,17 +250,10 @@ def planner_value() -> str:
   return '\n'.join(lines)
 
 
-
 ENSEMBLE = ROOT / 'benchmarks' / 'ensemble' / 'results.json'
 # `ble-latex-eval --agent=sac_ensemble` on latex_small (flight paths removed).
-ENSEMBLE_EVAL = ROOT / 'benchmarks' / 'ensemble' / 'latex_small' / 'sac_ensemble.json'
-
-
-def _eval_per_seed(path: pathlib.Path) -> dict:
-  """An eval record as `_paired` reads it (seeds, TW50 window)."""
-  flights = _load(path)
-  return {'seeds': [f['seed'] for f in flights],
-          'tw50_window': [f['tw50_window'] for f in flights]}
+ENSEMBLE_EVAL = (ROOT / 'benchmarks' / 'ensemble' / 'latex_small' /
+                 'sac_ensemble.json')
 # (sweep run name prefix or name, label) of the `ensemble` table's rows, in
 # order; `drifts_critic_` + three seeds is summarised over every triple.
 ENSEMBLE_VARIANTS = (
@@ -305,7 +290,8 @@ def _validation_cell(run: dict) -> str:
 def ensemble() -> str:
   """SAC policies alone and as critic-chosen ensembles, validation and
   held out, paired with their members and with `latex_mpc` per seed."""
-  runs = _load(ENSEMBLE)['runs']
+  sweep = _load(ENSEMBLE)
+  runs = sweep['runs']
   mpc = _per_seed('latex_small/latex_mpc')
   lines = ['| controller | `latex_validation` TW50 window (out of '
            'resources) | `latex_small` '
@@ -333,7 +319,7 @@ def ensemble() -> str:
       row(f"SAC ({what}), seed {name.rsplit('_', 1)[1]} alone", runs[name])
     triples = sorted(n for n in runs if n.startswith(f'{prefix}_critic_')
                      and n[len(prefix) + 8:].isdigit())
-    shown = set(_load(ENSEMBLE).get('shipped', {}).get('candidates', ()))
+    shown = set(sweep.get('shipped', {}).get('candidates', ()))
     for name in [n for n in triples if n in shown or len(triples) <= 2]:
       row(f"ensemble of the {whose} seeds {', '.join(name[len(prefix) + 8:])}"
           ', critics choose', runs[name])
@@ -346,8 +332,7 @@ def ensemble() -> str:
       for n in triples:
         r = runs[n]['latex_small']
         base = _members_mean(runs, r['policies'], 'latex_small')
-        gains.append(sum(r['tw50_window']) / len(r['tw50_window'])
-                     - sum(base['tw50_window']) / len(base['tw50_window']))
+        gains.append(r['tw50_window_mean'] - _mean_std(base['tw50_window'])[0])
       gm, gs = _mean_std(gains)
       lines.append(
           f'| every 3 of the {len(alone)} seeds ({len(triples)} ensembles, '
@@ -362,8 +347,10 @@ def ensemble() -> str:
     if name in runs:
       row(f'seeds 0, 1, 2: {label}', runs[name])
   if 'drifts_critic_all_snapshots' in runs:
-    row('all 6 seeds and each seed\'s next-best validated snapshot (12 '
-        'members), critics choose', runs['drifts_critic_all_snapshots'])
+    run = runs['drifts_critic_all_snapshots']
+    count = len(run['latex_validation']['policies'])
+    row(f'all {count // 2} seeds and each seed\'s next-best validated snapshot '
+        f'({count} members), critics choose', run)
   for name in sorted(n for n in runs if n.startswith('drifts_snapshots_')):
     row(f"seed {name.rsplit('_', 1)[1]}'s three best-validated snapshots, "
         'critics choose', runs[name])

@@ -135,25 +135,31 @@ def agents_full() -> str:
   return '\n'.join(lines)
 
 
-def planner_summary(path: str) -> dict:
-  """Mean/std of a planners' record and its timing summary."""
-  record = PLANNERS / f'{path}.json'
-  timing = record.parent / 'timing' / record.name
+def flights_summary(record: pathlib.Path) -> dict:
+  """Mean/std of an eval or planners' record of flights (one per seed)."""
   flights = _load(record)
   if not flights:
     raise ValueError(f'{record}: no flights')
-  seconds = _load(timing)['summary']
   return {
       'seeds': len(flights),
+      'per_seed': {'seeds': [f['seed'] for f in flights],
+                   'tw50_window': [f['tw50_window'] for f in flights]},
       'tw50_window': _mean_std([f['tw50_window'] for f in flights]),
       'out_of_resources_pct': 100.0 * sum(
           f['terminal_reason'] in OUT_OF_RESOURCES for f in flights) /
                               len(flights),
       'sand': _mean_std([f['sand_dropped_kg'] for f in flights])[0],
       'helium': _mean_std([f['helium_vented_mols'] for f in flights])[0],
-      's_per_decision': seconds['s_per_decision_per_balloon'],
-      's_per_episode': seconds['s_per_episode_per_balloon'],
   }
+
+
+def planner_summary(path: str) -> dict:
+  """`flights_summary` of a planners' record and its timing summary."""
+  record = PLANNERS / f'{path}.json'
+  seconds = _load(record.parent / 'timing' / record.name)['summary']
+  return {**flights_summary(record),
+          's_per_decision': seconds['s_per_decision_per_balloon'],
+          's_per_episode': seconds['s_per_episode_per_balloon']}
 
 
 def _seconds(value: float) -> str:
