@@ -58,7 +58,8 @@ flags.DEFINE_multi_string('policy', [], 'SAC policy files (or "shipped").',
                           flag_values=FLAGS)
 flags.DEFINE_multi_string('gin_file', [], 'gin files of the env.',
                           flag_values=FLAGS)
-flags.DEFINE_enum('mode', 'mean', ['mean', 'average', 'critic'], 'decider.',
+flags.DEFINE_enum('mode', 'mean', ['mean', 'average', 'critic', 'mixed'],
+                  'decider.',
                   flag_values=FLAGS)
 flags.DEFINE_integer('samples', 0, 'critic: stochastic draws per policy.',
                      flag_values=FLAGS)
@@ -104,6 +105,35 @@ def decider(mode: str, samples: int, net: Any, members: Any,
   return decide
 
 
+def evaluate_mixed(policies: Sequence[str], suite: str, num_seeds: int,
+                   batch: int) -> Dict[str, Any]:
+  """`mixed`: policies of different observation settings (see module)."""
+  loaded = [plan_value.load(p) for p in policies]
+  member_views = [obs for _, _, obs in loaded]
+  # The env observes as the member that remembers the most winds.
+  env_view = max(member_views, key=lambda v: dict(v)['wind_memory'])
+  gin.clear_config()
+  gin.parse_config_files_and_bindings(
+      [], [f'latex_observation.{k} = {v}' for k, v in env_view])
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  params = env.default_params
+  wind = env.wind_for(params)
+  views, group = ensemble.views_of(member_views, env_view)
+  net, members = loaded[0][0], sac_trainer.stack([w for _, w, _ in loaded])
+
+  def decide(rows, key):
+    del key
+    return jax.vmap(lambda r: ensemble.critic_choice(net, members, r,
+                                                     group))(rows)
+
+  def observe(state):
+    return ensemble.observe(state, params, wind, views)
+
+  return {'mode': 'mixed', 'samples': 0, 'score': 'mean',
+          'policies': list(policies), 'gin_files': [],
+          **_fly(env, params, decide, suite, num_seeds, batch, observe)}
+
+
 class Refused(ValueError):
   """A policy that does not fit the env (usage: exit 2)."""
 
@@ -125,10 +155,18 @@ def evaluate(policies: Sequence[str], gin_files: Sequence[str], mode: str,
     weights.append(w)
   members = sac_trainer.stack(weights)
   decide = decider(mode, samples, net, members, score)
+  return {'mode': mode, 'samples': samples, 'score': score,
+          'policies': list(policies), 'gin_files': list(gin_files),
+          **_fly(env, params, decide, suite, num_seeds, batch)}
+
+
+def _fly(env: Any, params: Any, decide: Any, suite: str, num_seeds: int,
+         batch: int, observe: Any = None) -> Dict[str, Any]:
+  """Flies `decide` on a suite's first seeds: the record's flights."""
   seeds = list(suites.get_eval_suite(suite).seeds)[:num_seeds]
   window = int(params.episode_steps)
   fly = jax.jit(lambda chunk: sac_trainer.fly_policy(
-      env, decide, chunk, window, params))  # One program for every batch.
+      env, decide, chunk, window, params, observe=observe))  # One program.
   began = time.time()
   parts = [jax.device_get(fly(jnp.asarray(seeds[i:i + batch], jnp.int32)))
            for i in range(0, len(seeds), batch)]
@@ -136,9 +174,7 @@ def evaluate(policies: Sequence[str], gin_files: Sequence[str], mode: str,
   wall = time.time() - began
   tw50 = [metrics.tw50_fractions(int(w), int(s), window)['tw50_window']
           for w, s in zip(result['within_steps'], result['steps'])]
-  return {'mode': mode, 'samples': samples, 'score': score,
-          'policies': list(policies), 'gin_files': list(gin_files),
-          'suite': suite, 'seeds': seeds, 'tw50_window': tw50,
+  return {'suite': suite, 'seeds': seeds, 'tw50_window': tw50,
           'status': [int(x) for x in result['status']],
           'wall_s': wall, 'load': os.getloadavg()[0],
           'date': time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime()),
@@ -263,8 +299,13 @@ def main(argv: Sequence[str]) -> int:
     if not FLAGS.policy:
       print('policy_select: give at least one --policy', file=sys.stderr)
       return 2
-    record = evaluate(FLAGS.policy, FLAGS.gin_file, FLAGS.mode, FLAGS.samples,
-                      FLAGS.score, FLAGS.suite, FLAGS.num_seeds, FLAGS.batch)
+    if FLAGS.mode == 'mixed':
+      record = evaluate_mixed(FLAGS.policy, FLAGS.suite, FLAGS.num_seeds,
+                              FLAGS.batch)
+    else:
+      record = evaluate(FLAGS.policy, FLAGS.gin_file, FLAGS.mode,
+                        FLAGS.samples, FLAGS.score, FLAGS.suite,
+                        FLAGS.num_seeds, FLAGS.batch)
   except Refused as e:
     print(f'policy_select: {e}', file=sys.stderr)
     return 2

@@ -122,6 +122,89 @@ def test_batched_eval_and_launch_act_as_the_agent(tmp_path):
   assert not np.allclose(first, one_at_a_time)
 
 
+def test_views_are_the_env_s_first_then_the_others():
+  env = ensemble.view_of({'wind_memory': 16, 'wind_lookahead': 0})
+  drifts = ensemble.view_of({'wind_memory': 0, 'wind_lookahead': 12})
+  both = ensemble.view_of({'wind_memory': 16, 'wind_lookahead': 12})
+  views, group = ensemble.views_of([drifts, env, both, drifts], env)
+  assert views[0] == env and set(views) == {env, drifts, both}
+  assert [views[g] for g in group] == [drifts, env, both, drifts]
+  with pytest.raises(errors.ConfigError, match='no member'):
+    ensemble.views_of([drifts], env)
+  with pytest.raises(errors.ConfigError, match='remembers 0 winds'):
+    ensemble.views_of([drifts, both], drifts)
+
+
+def _fly(env, params, seed, strides):
+  """The state of a balloon flown `strides` fixed actions from a seed."""
+  obs, state = env.reset(jax.random.PRNGKey(seed), params)
+  for i in range(strides):
+    obs, state, *_ = env.step_env(
+        None, state, jnp.asarray([16_000.0 + 1_000.0 * i, 1.0, -1.0]),
+        params)
+  return obs, state
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_a_view_reads_the_column_its_settings_observe():
+  """`observe` of a memory-holding state: its memory-free view is the
+  observation of the env without a memory, the drift view that of the env
+  with a lookahead, and the env's own view its observation."""
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  plain = env.default_params
+  memory = plain.replace(wind_memory=16)
+  obs, state = _fly(env, memory, 1_000_000, 3)
+  views = (ensemble.view_of({'wind_memory': 16, 'wind_lookahead': 0}),
+           ensemble.view_of({'wind_memory': 0, 'wind_lookahead': 0}),
+           ensemble.view_of({'wind_memory': 0, 'wind_lookahead': 12}))
+  rows = np.asarray(ensemble.observe(state, memory, env.wind, views))
+  np.testing.assert_array_equal(rows[0], obs)
+  np.testing.assert_allclose(rows[1], _fly(env, plain, 1_000_000, 3)[0],
+                             atol=1e-6)
+  np.testing.assert_allclose(
+      rows[2], _fly(env, plain.replace(wind_lookahead=12), 1_000_000, 3)[0],
+      atol=1e-6)
+  assert not np.allclose(rows[0][:50], rows[1][:50])  # The memory matters.
+
+
+def test_members_of_other_views_fly_from_the_env_s_state(tmp_path):
+  """One balloon (BLE's gym env, `attach_env`), the batched eval and the
+  launch controller choose the same action from the members' own views."""
+  import gym  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import batch_eval  # pylint: disable=g-import-not-at-top
+  paths = [_policy_file(tmp_path, 5, wind_lookahead=12),
+           _policy_file(tmp_path, 6),
+           _policy_file(tmp_path, 7, wind_lookahead=12)]
+  env = gym.make('LatexBalloon-v0').unwrapped
+  agent = _agent(paths)
+  assert agent.needs_env and agent.group == (1, 0, 1)
+  with pytest.raises(RuntimeError, match='attach_env'):
+    agent.begin_episode(env.reset(seed=1_000_001))
+  agent.attach_env(env)
+  obs = env.reset(seed=1_000_001)
+  obs, *_ = env.step(agent.begin_episode(obs))
+  action = agent.step(0.0, obs)
+  driver, wind = planners.core_of(env)
+  rows = ensemble.observe(driver.state, driver.params, wind, agent.views)
+  np.testing.assert_allclose(np.asarray(rows[0]), obs, atol=1e-6)
+  expected = agent._to_box(np.asarray(ensemble.critic_choice(  # pylint: disable=protected-access
+      agent.network_def, agent.members, rows, agent.group)))
+  np.testing.assert_allclose(action, expected, rtol=1e-5, atol=1e-6)
+  states = jax.tree.map(lambda a: a[None], driver.state)
+  batched = batch_eval.core_policy(agent, batch_eval.core_env(env)).step(
+      states, obs[None], np.zeros(1))
+  np.testing.assert_allclose(batched[0], action, rtol=1e-5, atol=1e-6)
+  controller = controllers.controller_for(agent)
+  carry = controller.plan(controller.init(jnp.asarray(obs), driver.state),
+                          jnp.asarray(obs), driver.state, driver.params, wind)
+  np.testing.assert_allclose(
+      np.asarray(controller.act(carry, jnp.asarray(obs), driver.state, 0)[0]),
+      action, rtol=1e-5, atol=1e-3)
+
+
 def test_shipped_members_observe_the_drifts():
   with pytest.raises(ValueError,
                      match='wind_lookahead.*flies under .*wind_lookahead.gin'):
@@ -149,8 +232,11 @@ def test_bad_ensembles_are_refused(tmp_path):
     _agent([path] * 17)
   with pytest.raises(ValueError, match='hidden_units'):
     _agent([path, _policy_file(tmp_path, 1, hidden=8)])
-  with pytest.raises(ValueError, match='wind_lookahead'):
-    _agent([path, _policy_file(tmp_path, 2, wind_lookahead=12)])
+  drifts = _policy_file(tmp_path, 2, wind_lookahead=12)
+  with pytest.raises(errors.ConfigError, match='no member .* observes as'):
+    _agent([drifts])
+  with pytest.raises(errors.ConfigError, match='memory must be 0 or'):
+    _agent([path, _policy_file(tmp_path, 4, wind_memory=8)])
   with pytest.raises(FileNotFoundError, match='missing.msgpack'):
     _agent([path, str(tmp_path / 'missing.msgpack')])
   with pytest.raises(errors.ConfigError, match='not policy_path'):

@@ -18,9 +18,15 @@ are scored: on 100 `latex_validation` seeds, adding 8 draws per member as
 proposals ran 10 % of the flights out of resources
 (`benchmarks/policy_select.py`).
 
-The members must share every acting setting (`sac_core.ACTING_CONFIG_KEYS`:
-network sizes, critic, the env's `latex_observation.*`); their parameters
-are stacked (`sac_trainer.stack`) and vmapped. The shipped ensemble
+The members must share every acting setting but the observation
+(`sac_core.ACTING_CONFIG_KEYS`: network sizes, critic); their parameters
+are stacked (`sac_trainer.stack`) and vmapped. Members may observe the
+wind column differently (`latex_observation.*`, `observed_winds.column`):
+each member proposes and scores from its own view of the balloon,
+computed from the env's core state (`observe`; the agent reads it as the
+planners do, `attach_env`). The env must observe as one of the members,
+and a member with a wind memory must remember as many winds as the env
+(the state holds them). The shipped ensemble
 (`pretrained.SHIPPED_ENSEMBLE`) observes the drifted wind column, so it
 flies under gin_configs/latex_wind_lookahead.gin:
 
@@ -33,7 +39,7 @@ The agent only acts (eval mode); it does not train.
 """
 
 import functools
-from typing import Any, Callable, Optional, Sequence, Union
+from typing import Any, Callable, Mapping, Optional, Sequence, Tuple, Union
 
 from balloon_learning_environment.agents import agent
 import gin
@@ -42,10 +48,15 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import errors
+from ble_latex.agents import planners
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
+from ble_latex.envs import env_params
+from ble_latex.envs import env_types
+from ble_latex.envs import jax_env
+from ble_latex.envs import winds
 from ble_latex.flight import params as params_lib
 
 Array = jax.Array
@@ -54,57 +65,137 @@ SHIPPED_GIN_FILE = 'latex_wind_lookahead.gin'
 MAX_MEMBERS = 16  # Each member adds its actor and K critic evaluations.
 
 
-def proposals(network_def: Any, members: Any, obs: Array) -> Array:
+def proposals(network_def: Any, members: Any, obs: Array,
+              per_member: bool = False) -> Array:
   """Each member's deterministic action tanh(mu_k(o)): [K, num_actions].
 
   Args:
     network_def: The members' network (`networks.LatexSACNetwork`).
     members: Their parameters, stacked on a leading axis of K.
-    obs: One observation [F].
+    obs: One observation; with `per_member`, each member's own [K, ...].
+    per_member: Whether `obs` has a leading axis of the K members.
   """
   # The actor also draws a sample; its key does not change the mean.
-  return jax.vmap(lambda p: network_def.apply(
-      p, obs, jax.random.PRNGKey(0), method=network_def.actor).mean_action)(
-          members)
+  return jax.vmap(lambda p, o: network_def.apply(
+      p, o, jax.random.PRNGKey(0), method=network_def.actor).mean_action,
+                  in_axes=(0, 0 if per_member else None))(members, obs)
 
 
 def scores(network_def: Any, members: Any, obs: Array, actions: Array,
-           combine: Callable[..., Array] = jnp.mean) -> Array:
+           combine: Callable[..., Array] = jnp.mean,
+           per_member: bool = False) -> Array:
   """Mean over the members of min(Q1, Q2)(o, a) for each action: [C].
 
   Args:
     network_def: The members' network.
     members: Their parameters, stacked on a leading axis of K.
-    obs: One observation [F].
+    obs: One observation; with `per_member`, each member's own [K, ...].
     actions: Candidate actions in the normalised box [C, num_actions].
     combine: How the members' values combine (`jnp.mean`; `jnp.min` is
       measured in `benchmarks/policy_select.py --score=min`).
+    per_member: Whether `obs` has a leading axis of the K members.
   """
-  def member_q(p):
+  def member_q(p, o):
     out = jax.vmap(lambda a: network_def.apply(
-        p, obs, a, method=network_def.critic))(actions)
+        p, o, a, method=network_def.critic))(actions)
     return jnp.minimum(out.q_value1, out.q_value2).reshape(actions.shape[0])
-  return combine(jax.vmap(member_q)(members), axis=0)
+  return combine(jax.vmap(member_q, in_axes=(0, 0 if per_member else None))(
+      members, obs), axis=0)
 
 
-def critic_choice(network_def: Any, members: Any, obs: Array) -> Array:
+def critic_choice(network_def: Any, members: Any, obs: Array,
+                  group: Optional[Sequence[int]] = None) -> Array:
   """The proposal the members' critics score highest (normalised box).
 
   Args:
     network_def: The members' network.
     members: Their parameters, stacked on a leading axis of K.
-    obs: One observation [F].
+    obs: One observation [F]; with `group`, the views [G, F] (`observe`).
+    group: None: every member reads `obs`; else member k reads view
+      group[k].
 
   Returns:
     [num_actions] in [-1, 1].
   """
-  actions = proposals(network_def, members, obs)
-  return actions[jnp.argmax(scores(network_def, members, obs, actions))]
+  per_member = group is not None
+  if per_member:
+    obs = obs[np.asarray(group)]  # [K, F]: each member's own view.
+  actions = proposals(network_def, members, obs, per_member)
+  return actions[jnp.argmax(scores(network_def, members, obs, actions,
+                                   per_member=per_member))]
+
+
+View = Tuple[Tuple[str, int], ...]  # `env_params.OBSERVATION_FIELDS` values.
+
+
+def view_of(settings: Mapping[str, Any]) -> View:
+  """The observation settings of a policy config or env, as a view."""
+  return tuple((k, int(settings[k])) for k in env_params.OBSERVATION_FIELDS)
+
+
+def views_of(member_views: Sequence[View], env_view: View
+             ) -> Tuple[Tuple[View, ...], Tuple[int, ...]]:
+  """The distinct views (the env's first) and each member's index in them.
+
+  Raises:
+    errors.ConfigError: No member observes as the env, or a member
+      remembers another number of winds than the env's state holds.
+  """
+  if env_view not in member_views:
+    raise errors.ConfigError(
+        f'no member of the ensemble observes as the env ({dict(env_view)}); '
+        'bind the env\'s latex_observation.* to one member\'s')
+  memory = dict(env_view)['wind_memory']
+  for view in member_views:
+    if dict(view)['wind_memory'] not in (0, memory):
+      raise errors.ConfigError(
+          f'a member observes {dict(view)} and the env remembers '
+          f'{memory} winds (latex_observation.wind_memory): a member\'s '
+          'memory must be 0 or the env\'s')
+  views = (env_view,) + tuple(sorted(set(member_views) - {env_view}))
+  return views, tuple(views.index(v) for v in member_views)
+
+
+def observe(state: env_types.EnvState, params: env_types.EnvParams,
+            wind: winds.Wind, views: Sequence[View]) -> Array:
+  """One balloon's 71 features under each view: [G, F] (traceable).
+
+  A view without a memory reads the state without it (the forecast column,
+  `observed_winds.column`); one with a memory reads the state's, which
+  `views_of` has checked to be of its size.
+  """
+  rows = []
+  for view in views:
+    settings = dict(view)
+    seen = state if settings['wind_memory'] else state.replace(
+        wind_memory=None)
+    rows.append(jax_env.observation(seen, params.replace(**settings), wind))
+  return jnp.stack(rows)
 
 
 @functools.partial(jax.jit, static_argnums=0)
 def _choice(network_def: Any, members: Any, obs: Array) -> Array:
   return critic_choice(network_def, members, obs)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1, 2, 3))
+def choice_from_state(network_def: Any, group: Tuple[int, ...],
+                      views: Tuple[View, ...], wind: winds.Wind, members: Any,
+                      state: env_types.EnvState,
+                      params: env_types.EnvParams) -> Array:
+  """`critic_choice` of one balloon, each member on its own view."""
+  return critic_choice(network_def, members,
+                       observe(state, params, wind, views), group)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1, 2, 3))
+def choices_from_states(network_def: Any, group: Tuple[int, ...],
+                        views: Tuple[View, ...], wind: winds.Wind,
+                        members: Any, states: env_types.EnvState,
+                        params: env_types.EnvParams) -> Array:
+  """`choice_from_state` of [N] balloons, one by one (`lax.map`): [N, A]."""
+  return jax.lax.map(lambda s: critic_choice(
+      network_def, members, observe(s, params, wind, views), group), states)
 
 
 @functools.partial(jax.jit, static_argnums=0)
@@ -163,26 +254,46 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
       raise errors.ConfigError(
           'sac_ensemble takes policy_paths (a list of files), not '
           'policy_path')
+    policies = [pretrained.load_policy(path) for path in paths]
     try:
+      member_views = [view_of(sac_core.file_config(
+          policy['config'], f'SAC policy {path}'))
+                      for path, policy in zip(paths, policies)]
+      self.views, self.group = views_of(
+          member_views, view_of(env_params.observation_settings()))
+      # The first member that observes as the env builds the agent (its
+      # acting settings, the env's observation included, are checked).
+      first = member_views.index(self.views[0])
       super().__init__(num_actions, observation_shape, action_low=action_low,
                        action_high=action_high, seed=seed,
-                       policy_path=paths[0], **kwargs)
-    except ValueError as e:
+                       policy_path=paths[first], **kwargs)
+    except ValueError as e:  # errors.ConfigError is one.
       if not shipped:
         raise
       first_line = str(e).split('\n', 1)[0]  # Without gin's call notes.
-      raise ValueError(f'{first_line}: the shipped ensemble flies under '
-                       f'gin_configs/{SHIPPED_GIN_FILE}') from e
-    members = [self.network_params]
-    for path in paths[1:]:
-      policy = pretrained.load_policy(path)
-      self.check_config(policy['config'], f'SAC policy {path}',
-                        keys=sac_core.ACTING_CONFIG_KEYS)
+      raise type(e)(f'{first_line}: the shipped ensemble flies under '
+                    f'gin_configs/{SHIPPED_GIN_FILE}') from e
+    others = [k for k in sac_core.ACTING_CONFIG_KEYS
+              if k not in env_params.OBSERVATION_FIELDS]
+    members = []
+    for path, policy in zip(paths, policies):
+      self.check_config(policy['config'], f'SAC policy {path}', keys=others)
       members.append(self.restore_network(policy['network_params'],
                                           f'SAC policy {path}'))
     self.policy_paths = tuple(paths)
     self.members = sac_trainer.stack(members)
     self.eval_mode = True
+    self._driver = None
+    self._wind = None
+
+  @property
+  def needs_env(self) -> bool:
+    """True when a member observes otherwise than the env (`observe`)."""
+    return len(self.views) > 1
+
+  def attach_env(self, env: Any) -> None:
+    """Reads `env`'s core state at each decision (`planners.core_of`)."""
+    self._driver, self._wind = planners.core_of(env)
 
   def get_name(self) -> str:
     return 'sac_ensemble'
@@ -199,8 +310,18 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
     self.eval_mode = True
 
   def _choose_normalized_action(self) -> np.ndarray:
-    action = np.asarray(_choice(self.network_def, self.members, self.state),
-                        np.float32)
+    if not self.needs_env:
+      action = _choice(self.network_def, self.members, self.state)
+    elif self._driver is None:
+      raise RuntimeError(
+          'sac_ensemble: members observe otherwise than the env, so the '
+          'agent reads its core state: call attach_env(env) first '
+          '(ble-latex-eval does)')
+    else:
+      action = choice_from_state(self.network_def, self.group, self.views,
+                                 self._wind, self.members,
+                                 self._driver.state, self._driver.params)
+    action = np.asarray(action, np.float32)
     if not np.all(np.isfinite(action)):
       raise sac_core.TrainingDiverged(
           f'SAC ensemble produced a non-finite action {action.tolist()}: a '

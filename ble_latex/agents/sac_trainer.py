@@ -428,16 +428,21 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
 def fly_policy(env: jax_env.LatexBalloonJaxEnv,
                act: Callable[[Array, Array], Array], seeds: Array,
                num_steps: int, params: env_types.EnvParams,
-               key: Optional[Array] = None) -> Dict[str, Array]:
+               key: Optional[Array] = None,
+               observe: Optional[Callable[[Any], Array]] = None
+               ) -> Dict[str, Array]:
   """Flies a batched policy from each seed for `num_steps` strides (traceable).
 
   Args:
     env: The functional env (`normalize_actions=False`).
-    act: (observations [N, F], key) -> actions in the normalised box [N, A].
+    act: (observations [N, ...], key) -> actions in the normalised box
+      [N, A].
     seeds: [N] episode seeds.
     num_steps: Strides (the episode window).
     params: Env parameters.
     key: Split into one key per stride for `act` (default PRNGKey(0)).
+    observe: One balloon's env state -> what `act` reads of it (vmapped
+      over the balloons); None: the env's observation.
 
   Returns:
     [N] arrays: `within_steps`, `steps`, `status` (`FlightStatus`).
@@ -445,12 +450,16 @@ def fly_policy(env: jax_env.LatexBalloonJaxEnv,
   obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(
       jax.vmap(jax.random.PRNGKey)(seeds), params)
   n = seeds.shape[0]
+  if observe is not None:
+    obs = jax.vmap(observe)(env_state)
 
   def one_step(carry, step_key):
     env_state, obs, active, within, steps = carry
     obs, env_state, _, terminated, info = jax.vmap(
         env.step_env, in_axes=(None, 0, 0, None))(
             None, env_state, env.env_action(act(obs, step_key)), params)
+    if observe is not None:
+      obs = jax.vmap(observe)(env_state)
     done = terminated | info['time_limit']
     within = within + (active & (info['distance_km'] <= params.radius_km))
     steps = steps + active

@@ -162,16 +162,39 @@ class SacController(Controller):
 
 
 class EnsembleController(SacController):
-  """`sac_ensemble`: `to_box(ensemble.critic_choice(obs))`."""
+  """`sac_ensemble`: `to_box(ensemble.critic_choice(obs))`.
+
+  Members that observe otherwise than the env choose in `plan` (each
+  stride) from their views of the state (`ensemble.observe`); the carry
+  holds the choice.
+  """
 
   name = 'sac_ensemble'
 
   def __init__(self, agent: ensemble.SACEnsembleAgent):
     super().__init__(agent)
     self._members = agent.members
+    self._views = agent.views
+    self._group = agent.group
 
   def normalized(self, obs: Array) -> Array:
     return ensemble.critic_choice(self._network_def, self._members, obs)
+
+  def init(self, obs, state):
+    del state
+    return jnp.zeros_like(self.normalized(obs))
+
+  def plan(self, carry, obs, state, params, wind):
+    if len(self._views) == 1:
+      return carry
+    return ensemble.critic_choice(
+        self._network_def, self._members,
+        ensemble.observe(state, params, wind, self._views), self._group)
+
+  def act(self, carry, obs, state, i):
+    if len(self._views) == 1:
+      return super().act(carry, obs, state, i)
+    return jax_env.to_box(carry), carry
 
 
 class PlannerController(Controller):

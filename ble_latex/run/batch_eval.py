@@ -234,18 +234,38 @@ def _sac_policy(agent: sac.SACAgent, core: CoreEnv) -> Optional[CorePolicy]:
 
 
 class _EnsemblePolicy(_SacPolicy):
-  """`sac_ensemble`: the members' critics choose (`ensemble.choices`)."""
+  """`sac_ensemble`: the members' critics choose (`ensemble.choices`).
+
+  Members that observe otherwise than the env read their views of the
+  states (`ensemble.choices_from_states`).
+  """
+
+  def __init__(self, agent: ensemble.SACEnsembleAgent, core: CoreEnv):
+    super().__init__(agent)
+    self._core = core
+    self._states = None
 
   def _normalized(self, observations: jax.Array) -> jax.Array:
-    return ensemble.choices(self._agent.network_def, self._agent.members,
-                            observations)
+    agent = self._agent
+    if not agent.needs_env:
+      return ensemble.choices(agent.network_def, agent.members, observations)
+    return ensemble.choices_from_states(
+        agent.network_def, agent.group, agent.views, self._core.wind,
+        agent.members, self._states, self._core.params)
+
+  def begin(self, states, observations):
+    self._states = states
+    return super().begin(states, observations)
+
+  def step(self, states, observations, rewards):
+    self._states = states
+    return super().step(states, observations, rewards)
 
 
 @core_policy.register
 def _ensemble_policy(agent: ensemble.SACEnsembleAgent,
                      core: CoreEnv) -> Optional[CorePolicy]:
-  del core
-  return _EnsemblePolicy(agent)
+  return _EnsemblePolicy(agent, core)
 
 
 class _PlannerPolicy(CorePolicy):
