@@ -152,12 +152,13 @@ train-sac: venv
 	$(PY) benchmarks/train_sac.py train --base_dir=$(RUN) --episodes=2500
 
 # Issue 47: SAC policies alone and as critic-chosen ensembles (benchmarks/ensemble/, docs/ensemble.md); the
-# drift seeds' chosen policies come from `benchmarks/sac_seeds.py report` (git-ignored).
+# seeds' chosen policies come from `benchmarks/sac_seeds.py report` (git-ignored).
 ENSEMBLE ?= benchmarks/ensemble
 ensemble: venv
-	$(PY) benchmarks/policy_select.py --sweep=$(ENSEMBLE)/results.json --drift_seeds=0,1,2,3,4,5
+	$(PY) benchmarks/policy_select.py --sweep=$(ENSEMBLE)/results.json --drift_seeds=0,1,2,3,4,5 \
+		--memory_seeds=0,1,2
 	$(PY) -m ble_latex.cli.eval --agent=sac_ensemble --suite=latex_small --output_dir=$(ENSEMBLE) \
-		--gin_file=gin_configs/latex_wind_lookahead.gin
+		--gin_file=gin_configs/latex_wind_memory.gin
 	$(PY) -c "import json, sys; p = sys.argv[1]; r = json.load(open(p)); [f.pop('flight_path') for f in r]; \
 		json.dump(r, open(p, 'w'), indent=0)" $(ENSEMBLE)/latex_small/sac_ensemble.json
 

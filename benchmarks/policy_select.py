@@ -3,7 +3,8 @@ r"""Test-time action selection over SAC policies (issue 47): a measurement.
 
 Flies the first `--num_seeds` seeds of a suite, batched on the functional
 env (as `sac_trainer.validate` does), with one of these deciders over the
-policy files given (all of the same `latex_observation.*` settings):
+policy files given (all of the same `latex_observation.*` settings but for
+`mixed`):
 
 - `mean`: the first policy's deterministic action tanh(mu(o)) (what
   `sac_pretrained` flies; reproduces the trainer's validation);
@@ -11,7 +12,11 @@ policy files given (all of the same `latex_observation.*` settings):
 - `critic`: candidates = each policy's deterministic action and
   `--samples` draws from each policy's stochastic actor; the candidate with
   the largest mean over the policies of min(Q1, Q2)(o, a) is flown
-  (policy improvement by the learned critics at decision time).
+  (policy improvement by the learned critics at decision time);
+- `mixed`: `critic` over policies of different `latex_observation.*`
+  settings (`sac_ensemble`'s views, `ensemble.observe`): each proposes and
+  scores from its own observation of the balloon; the env observes as the
+  one that remembers the most winds.
 
 Writes a JSON record: per seed, the TW50 over the window and the flight's
 status; the mean TW50 over the window and % out of resources.
@@ -19,7 +24,8 @@ status; the mean TW50 over the window and % out of resources.
 `--sweep=benchmarks/ensemble/results.json` flies the committed set
 (`sweep_runs`: each drift seed alone, every 3 of them as a critic-chosen
 ensemble, all together, the rejected variants on validation only, the
-corrected-column seeds) on 100 seeds of `latex_validation` and `latex_small`
+corrected-column seeds, the mixed ensembles of `--memory_seeds` and
+`--both_seeds`) on 100 seeds of `latex_validation` and `latex_small`
 into one record, resuming it; the docs' `ensemble` table is generated from
 it (`docs/hooks/learned.py`).
 
@@ -76,6 +82,12 @@ flags.DEFINE_string('sweep', '', 'Fly the committed sweep (`sweep_runs`) into '
                     'this record (resumes it).', flag_values=FLAGS)
 flags.DEFINE_list('drift_seeds', ['0', '1', '2'], '--sweep: training seeds of '
                   'benchmarks/sac_jax/wind_lookahead12 with a chosen policy.',
+                  flag_values=FLAGS)
+flags.DEFINE_list('memory_seeds', ['0', '1', '2'], '--sweep: those of '
+                  'benchmarks/sac_jax/wind_memory16 (the first three are '
+                  'always flown alone).', flag_values=FLAGS)
+flags.DEFINE_list('both_seeds', [], '--sweep: those of '
+                  'benchmarks/sac_jax/memory_lookahead (both corrections).',
                   flag_values=FLAGS)
 
 
@@ -185,11 +197,19 @@ def _fly(env: Any, params: Any, decide: Any, suite: str, num_seeds: int,
 
 DRIFTS_GIN = 'gin_configs/latex_wind_lookahead.gin'
 MEMORY_GIN = 'gin_configs/latex_wind_memory.gin'
+BOTH_GIN = 'gin_configs/latex_wind_memory_lookahead.gin'
 BOTH = ('latex_validation', 'latex_small')
 # The ensembles `sac_ensemble` may ship, declared before seeds 3-5 were
 # trained: the first three drift seeds, the next three, all of them.
 SHIP_CANDIDATES = ('drifts_critic_012', 'drifts_critic_345',
-                   'drifts_critic_all')
+                   'drifts_critic_all',
+                   # Declared 2026-11-29 06:50, before any was flown held
+                   # out: every drift seed with the corrected-column seeds
+                   # (each member on its own view, `--mode=mixed`), and
+                   # with the seeds that observe both corrections: every
+                   # run named MIXED_CANDIDATE + its memory (and both) seeds.
+                  )
+MIXED_CANDIDATE = 'mixed_drifts_all_memory_'
 
 
 def _chosen(run: str, seed: int) -> str:
@@ -207,7 +227,8 @@ def _best_snapshots(run: str, seed: int, count: int) -> List[str]:
           f'policy_{r["iteration"]:05d}.msgpack' for r in rows[:count]]
 
 
-def sweep_runs(drift_seeds: Sequence[int]) -> Dict[str, Dict[str, Any]]:
+def sweep_runs(drift_seeds: Sequence[int], memory_seeds: Sequence[int] = (0, 1, 2),
+               both_seeds: Sequence[int] = ()) -> Dict[str, Dict[str, Any]]:
   """name -> (policies, gin file, mode, samples, score, suites)."""
   runs = {}
 
@@ -243,10 +264,31 @@ def sweep_runs(drift_seeds: Sequence[int]) -> Dict[str, Dict[str, Any]]:
   for s in range(3):
     add(f'memory_seed_{s}', [memory[s]], MEMORY_GIN, mode='mean')
   add('memory_critic_012', memory, MEMORY_GIN)
+  # Mixed views: each member proposes and scores from its own observation.
+  more = {s: _chosen('wind_memory16', s) for s in memory_seeds}
+  for s in memory_seeds:
+    if f'memory_seed_{s}' not in runs:
+      add(f'memory_seed_{s}', [more[s]], MEMORY_GIN, mode='mean')
+  for part in ((0, 1, 2), (3, 4, 5)):
+    if set(part) <= set(drift_seeds):
+      add('mixed_drifts_{}{}{}_memory_012'.format(*part),
+          [drifts[s] for s in part] + memory, MEMORY_GIN, mode='mixed')
+  seeds_ = lambda seeds: ''.join(map(str, seeds))
+  add(MIXED_CANDIDATE + seeds_(memory_seeds),
+      list(drifts.values()) + list(more.values()), MEMORY_GIN, mode='mixed')
+  if both_seeds:
+    both = [_chosen('memory_lookahead', s) for s in both_seeds]
+    for s, path in zip(both_seeds, both):
+      add(f'both_seed_{s}', [path], BOTH_GIN, mode='mean')
+    add(MIXED_CANDIDATE + seeds_(memory_seeds) + '_both_' + seeds_(both_seeds),
+        list(drifts.values()) + list(more.values()) + both, MEMORY_GIN,
+        mode='mixed')
   return runs
 
 
-def sweep(output: str, drift_seeds: Sequence[int], batch: int) -> int:
+def sweep(output: str, drift_seeds: Sequence[int], batch: int,
+          memory_seeds: Sequence[int] = (0, 1, 2),
+          both_seeds: Sequence[int] = ()) -> int:
   """Flies `sweep_runs` (100 seeds of each suite) into one record."""
   record = {'what': 'benchmarks/policy_select.py --sweep: SAC policies and '
                     'their critic-chosen ensembles, batched on the '
@@ -256,13 +298,16 @@ def sweep(output: str, drift_seeds: Sequence[int], batch: int) -> int:
   if os.path.exists(output):  # Resume: runs already flown are kept.
     with open(output, encoding='utf-8') as f:
       record['runs'] = json.load(f)['runs']
-  for name, run in sweep_runs(drift_seeds).items():
+  for name, run in sweep_runs(drift_seeds, memory_seeds, both_seeds).items():
     done = record['runs'].setdefault(name, {})
     for suite in run['suites']:
       if suite in done:
         continue
-      result = evaluate(run['policies'], run['gin_files'], run['mode'],
-                        run['samples'], run['score'], suite, 100, batch)
+      if run['mode'] == 'mixed':
+        result = evaluate_mixed(run['policies'], suite, 100, batch)
+      else:
+        result = evaluate(run['policies'], run['gin_files'], run['mode'],
+                          run['samples'], run['score'], suite, 100, batch)
       done[suite] = result
       print(f"{name} {suite}: {100 * result['tw50_window_mean']:.1f} %, "
             f"{result['out_of_resources_pct']:.0f} % out, "
@@ -271,8 +316,9 @@ def sweep(output: str, drift_seeds: Sequence[int], batch: int) -> int:
       safe_io.atomic_write(output, json.dumps(record) + '\n')
   # The ensemble `sac_ensemble` ships: the best validated of the declared
   # candidates (at most 5 % out of resources on validation).
-  candidates = [(record['runs'][n]['latex_validation'], n)
-                for n in SHIP_CANDIDATES if n in record['runs']]
+  candidates = [(run['latex_validation'], n)
+                for n, run in record['runs'].items()
+                if n in SHIP_CANDIDATES or n.startswith(MIXED_CANDIDATE)]
   fit = [(r['tw50_window_mean'], n, r['policies']) for r, n in candidates
          if r['out_of_resources_pct'] <= 5.0]
   if fit:
@@ -295,7 +341,8 @@ def main(argv: Sequence[str]) -> int:
   try:
     if FLAGS.sweep:
       return sweep(FLAGS.sweep, [int(s) for s in FLAGS.drift_seeds],
-                   FLAGS.batch)
+                   FLAGS.batch, [int(s) for s in FLAGS.memory_seeds],
+                   [int(s) for s in FLAGS.both_seeds])
     if not FLAGS.policy:
       print('policy_select: give at least one --policy', file=sys.stderr)
       return 2

@@ -10,7 +10,7 @@ loaded as BLE's `sac_pretrained` agent in eval mode (its mean action);
 `sac_ensemble` (the members' critics choose among their actions); and
 `agent.step(reward, observation)` is timed on `--steps` observations of real
 flights (the core's, drawn from `latex_small`'s first seed and its strides
-under the agent's own actions), one call per decision, after `--warmup`
+under random actions), one call per decision, after `--warmup`
 calls that compile. All policies run in the same process, side by side;
 the record holds each one's median and 90th percentile, the load average
 and the machine's cores. A policy trained on another wind column
@@ -19,7 +19,9 @@ in its file) is loaded under those bindings; its observation costs more to
 compute (a Gaussian-process fit and 25 posterior means; 25 drifts of N
 strides), so the env's observation of one balloon (`jax_env.observation`,
 jitted) is timed too, under the paper's observation and under each policy's:
-a controller's decision is its observation plus its step.
+a controller's decision is its observation plus its step. An ensemble
+whose members observe otherwise than the env (`ensemble.observe`) computes
+their views from the env's state inside its step: that is timed with it.
 """
 
 import json
@@ -49,26 +51,38 @@ flags.DEFINE_string('json', None, 'Write the record here.',
                     flag_values=FLAGS)
 
 
-def _observations(count: int) -> np.ndarray:
-  """`count` observations of one `latex_small` flight (random actions)."""
+class _Core:
+  """What `ensemble.SACEnsembleAgent.attach_env` reads: a core's state."""
+
+  def __init__(self, params):
+    self.params = params
+    self.state = None
+
+
+def _observations(count: int, observation: Dict[str, int]):
+  """`count` observations and states of one `latex_small` flight (random
+  actions), observed under the `latex_observation.*` settings given, and
+  the env parameters."""
   import jax  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
   env = jax_env.LatexBalloonJaxEnv()
-  params = env_params.params_from_gin()
+  params = env_params.check_params(
+      env_params.params_from_gin().replace(**observation))
   seed = list(suites.get_eval_suite('latex_small').seeds)[0]
   obs, state = env.reset(jax.random.PRNGKey(seed), params)
   step = jax.jit(env.step)
   rng = np.random.default_rng(0)
-  out = []
+  out, states = [], []
   key = jax.random.PRNGKey(0)
   for _ in range(count):
     out.append(np.asarray(obs))
+    states.append(state)
     key, step_key = jax.random.split(key)
     action = rng.uniform(-1.0, 1.0, size=3).astype(np.float32)
     obs, state, _, _, _, _ = step(step_key, state, action, params)
-  return np.stack(out)
+  return np.stack(out), states, params
 
 
 def _observation_cost(observation: Dict[str, int], steps: int) -> dict:
@@ -107,11 +121,16 @@ def _observation_of(path: Optional[str]) -> Dict[str, int]:
   return {k: int(config.get(k, 0)) for k in env_params.OBSERVATION_FIELDS}
 
 
-def _time(name: str, path: Optional[str], observations: np.ndarray) -> dict:
+def _time(name: str, path: Optional[str], steps: int) -> dict:
+  """Times one policy (or ensemble) on `steps` decisions (see module)."""
   import gin  # pylint: disable=g-import-not-at-top
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   paths = path.split(',') if path else []
-  observation = _observation_of(paths[0] if paths else None)
+  # The env observes as the member that remembers the most winds (an
+  # ensemble's other members read their views of its state).
+  observation = max((_observation_of(p) for p in paths or [None]),
+                    key=lambda o: o['wind_memory'])
+  observations, states, params = _observations(steps, observation)
   with gin.unlock_config():  # The observation the policy was trained on.
     for key, value in observation.items():
       gin.bind_parameter(f'latex_observation.{key}', value)
@@ -127,16 +146,23 @@ def _time(name: str, path: Optional[str], observations: np.ndarray) -> dict:
       agent = sac.SACPretrainedAgent(3, (observations.shape[1],),
                                      policy_path=path)
   agent.set_mode('eval')
+  core = _Core(params)
+  if getattr(agent, 'needs_env', False):
+    agent.attach_env(core)
+  core.state = states[0]
   agent.begin_episode(observations[0])
-  for obs in observations[:FLAGS.warmup]:
+  for obs, state in zip(observations[:FLAGS.warmup], states):
+    core.state = state
     agent.step(0.0, obs)
   seconds = []
-  for obs in observations:
+  for obs, state in zip(observations, states):
+    core.state = state
     t0 = time.perf_counter()
     agent.step(0.0, obs)
     seconds.append(time.perf_counter() - t0)
   seconds = np.asarray(seconds)
   return {'name': name, 'path': path or 'shipped', 'observation': observation,
+          'views': [dict(v) for v in getattr(agent, 'views', ())],
           'decisions': len(seconds),
           'median_s': float(np.median(seconds)),
           'p90_s': float(np.percentile(seconds, 90)),
@@ -162,12 +188,11 @@ def _main(argv: Sequence[str]) -> int:
     if missing:
       raise cli.CommandFailure(f'--policy {name}: no file {missing[0]}')
     policies.append((name, path))
-  observations = _observations(FLAGS.steps)
   load_before = list(os.getloadavg())
   rows = []
   for name, path in policies:
     try:
-      rows.append(_time(name, path, observations))
+      rows.append(_time(name, path, FLAGS.steps))
     except ValueError as error:
       raise cli.CommandFailure(f'--policy {name}: {cli.one_line(error)}')
     print(f"{name}: median {1e3 * rows[-1]['median_s']:.3f} ms, p90 "

@@ -205,12 +205,12 @@ def test_members_of_other_views_fly_from_the_env_s_state(tmp_path):
       action, rtol=1e-5, atol=1e-3)
 
 
-def test_shipped_members_observe_the_drifts():
-  with pytest.raises(ValueError,
-                     match='wind_lookahead.*flies under .*wind_lookahead.gin'):
+def test_shipped_members_observe_the_drifts_and_the_memory():
+  with pytest.raises(errors.ConfigError,
+                     match='no member.*flies under .*latex_wind_memory.gin'):
     ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW, action_high=_HIGH)
   assert os.path.isfile(configs.gin_file(ensemble.SHIPPED_GIN_FILE))
-  gin.bind_parameter('latex_observation.wind_lookahead', 12)
+  gin.parse_config_file(configs.gin_file(ensemble.SHIPPED_GIN_FILE))
   try:
     agent = ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW,
                                       action_high=_HIGH)
@@ -218,8 +218,11 @@ def test_shipped_members_observe_the_drifts():
     gin.clear_config()
   assert agent.policy_paths == pretrained.SHIPPED_ENSEMBLE
   assert all(os.path.isfile(p) for p in agent.policy_paths)
-  action = agent.begin_episode(np.zeros(71, np.float32))
-  assert np.all(action >= _LOW) and np.all(action <= _HIGH)
+  configs_ = [pretrained.load_policy(p)['config'] for p in agent.policy_paths]
+  assert [dict(agent.views[g]) for g in agent.group] == [
+      {k: c[k] for k in env_params.OBSERVATION_FIELDS} for c in configs_]
+  assert {dict(v)['wind_lookahead'] for v in agent.views} == {0, 12}
+  assert agent.needs_env  # Its drift members read the env's state.
   with pytest.raises(errors.ConfigError, match='realistic'):
     pretrained.shipped_ensemble(True)
 

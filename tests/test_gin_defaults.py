@@ -42,6 +42,12 @@ DIFFERS = {
     ('latex_wind_lookahead.gin', 'latex_observation.wind_lookahead'):
         'the observation\'s column as 4-hour drifts (issue 47), off by '
         'default (the paper\'s observation): the file\'s purpose',
+    ('latex_wind_memory_lookahead.gin', 'latex_observation.wind_memory'):
+        'both corrections of the observed column (issue 47): the file\'s '
+        'purpose',
+    ('latex_wind_memory_lookahead.gin', 'latex_observation.wind_lookahead'):
+        'both corrections of the observed column (issue 47): the file\'s '
+        'purpose',
 }
 _MISSING = object()
 

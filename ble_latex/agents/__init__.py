@@ -6,8 +6,9 @@
 - 'sac_pretrained': `sac.SACPretrainedAgent`, SAC with the policy
   shipped in `agents/policies/sac_latex.msgpack`.
 - 'sac_ensemble': `ensemble.SACEnsembleAgent`, SAC policies whose critics
-  choose among their actions (the shipped six fly under
-  gin_configs/latex_wind_lookahead.gin); eval only.
+  choose among their actions, each member on its own view of the wind
+  column (the shipped nine fly under gin_configs/latex_wind_memory.gin);
+  eval only.
 - 'latex_random', 'latex_station_seeker': the Box baselines of
   `baselines.py` (no gin file).
 - 'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad': the planners of

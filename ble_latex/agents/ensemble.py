@@ -27,11 +27,12 @@ computed from the env's core state (`observe`; the agent reads it as the
 planners do, `attach_env`). The env must observe as one of the members,
 and a member with a wind memory must remember as many winds as the env
 (the state holds them). The shipped ensemble
-(`pretrained.SHIPPED_ENSEMBLE`) observes the drifted wind column, so it
-flies under gin_configs/latex_wind_lookahead.gin:
+(`pretrained.SHIPPED_ENSEMBLE`) holds members of the drifted column and of
+the column corrected by the last 16 measured winds, so it flies under
+gin_configs/latex_wind_memory.gin (the env's state keeps the memory):
 
   ble-latex-eval --agent=sac_ensemble --suite=latex_small \
-      --gin_file=gin_configs/latex_wind_lookahead.gin
+      --gin_file=gin_configs/latex_wind_memory.gin
   ble-latex-eval --agent=sac_ensemble --gin_file=... \
       --gin_bindings="SACEnsembleAgent.policy_paths=['a.msgpack', 'b.msgpack']"
 
@@ -61,7 +62,7 @@ from ble_latex.flight import params as params_lib
 
 Array = jax.Array
 # The env gin file the shipped members observed under (`configs.gin_file`).
-SHIPPED_GIN_FILE = 'latex_wind_lookahead.gin'
+SHIPPED_GIN_FILE = 'latex_wind_memory.gin'
 MAX_MEMBERS = 16  # Each member adds its actor and K critic evaluations.
 
 

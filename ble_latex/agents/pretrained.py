@@ -40,14 +40,18 @@ DEFAULT_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
                               'sac_latex' + POLICY_SUFFIX)
 REALISTIC_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
                                 'sac_latex_realistic' + POLICY_SUFFIX)
-# `ensemble.SACEnsembleAgent`'s default members (agent `sac_ensemble`): the
-# six SAC seeds trained on the drifted wind column
-# (gin_configs/latex_wind_lookahead.gin; benchmarks/sac_jax/wind_lookahead12,
-# each seed's policy chosen on latex_validation; the six together validated
-# best, benchmarks/ensemble/results.json `shipped`).
+# `ensemble.SACEnsembleAgent`'s default members (agent `sac_ensemble`),
+# each seed's policy chosen on latex_validation: the SAC seeds trained on
+# the drifted wind column (gin_configs/latex_wind_lookahead.gin;
+# benchmarks/sac_jax/wind_lookahead12) and on the column corrected by the
+# measured winds (gin_configs/latex_wind_memory.gin; .../wind_memory16),
+# each member on its own view. This set validated best among the declared
+# candidates (benchmarks/ensemble/results.json `shipped`).
 SHIPPED_ENSEMBLE = tuple(
     os.path.join(os.path.dirname(__file__), 'policies',
-                 f'sac_latex_drifts_{k}' + POLICY_SUFFIX) for k in range(6))
+                 f'sac_latex_{name}' + POLICY_SUFFIX)
+    for name in [f'drifts_{k}' for k in range(6)] +
+    [f'memory_{k}' for k in range(3)])
 _KEPT = ('config', 'iteration', 'training_steps', 'network_params',
          'log_alpha')
 _TEXT = ('source', 'note')
