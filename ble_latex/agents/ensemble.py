@@ -213,7 +213,17 @@ def choices(network_def: Any, members: Any, observations: Array) -> Array:
 @gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
                             'action_high'])
 class SACEnsembleAgent(sac.SACPretrainedAgent):
-  """K SAC policies; their critics choose among their actions (eval only)."""
+  """K SAC policies; their critics choose among their actions (eval only).
+
+  Attributes:
+    policy_paths: The members' files.
+    members: Their parameters, stacked on a leading axis of K.
+    views: The distinct observation settings of the members, the env's
+      first (`views_of`).
+    group: Member k observes `views[group[k]]`.
+    needs_env: Some member observes otherwise than the env; the agent then
+      reads the core state of the env it is attached to (`attach_env`).
+  """
 
   def __init__(self, num_actions: int, observation_shape: Sequence[int], *,
                action_low: Optional[Sequence[float]] = None,
