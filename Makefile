@@ -156,7 +156,7 @@ train-sac: venv
 ENSEMBLE ?= benchmarks/ensemble
 ensemble: venv
 	$(PY) benchmarks/policy_select.py --sweep=$(ENSEMBLE)/results.json --drift_seeds=0,1,2,3,4,5 \
-		--memory_seeds=0,1,2
+		--memory_seeds=0,1,2,3,4 --both_seeds=0
 	$(PY) -m ble_latex.cli.eval --agent=sac_ensemble --suite=latex_small --output_dir=$(ENSEMBLE) \
 		--gin_file=gin_configs/latex_wind_memory.gin
 	$(PY) -c "import json, sys; p = sys.argv[1]; r = json.load(open(p)); [f.pop('flight_path') for f in r]; \

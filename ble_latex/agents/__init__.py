@@ -7,7 +7,7 @@
   shipped in `agents/policies/sac_latex.msgpack`.
 - 'sac_ensemble': `ensemble.SACEnsembleAgent`, SAC policies whose critics
   choose among their actions, each member on its own view of the wind
-  column (the shipped nine fly under gin_configs/latex_wind_memory.gin);
+  column (the shipped twelve fly under gin_configs/latex_wind_memory.gin);
   eval only.
 - 'latex_random', 'latex_station_seeker': the Box baselines of
   `baselines.py` (no gin file).

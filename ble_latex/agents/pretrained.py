@@ -43,15 +43,17 @@ REALISTIC_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
 # `ensemble.SACEnsembleAgent`'s default members (agent `sac_ensemble`),
 # each seed's policy chosen on latex_validation: the SAC seeds trained on
 # the drifted wind column (gin_configs/latex_wind_lookahead.gin;
-# benchmarks/sac_jax/wind_lookahead12) and on the column corrected by the
-# measured winds (gin_configs/latex_wind_memory.gin; .../wind_memory16),
-# each member on its own view. This set validated best among the declared
-# candidates (benchmarks/ensemble/results.json `shipped`).
+# benchmarks/sac_jax/wind_lookahead12), on the column corrected by the
+# measured winds (gin_configs/latex_wind_memory.gin; .../wind_memory16) and
+# on both (gin_configs/latex_wind_memory_lookahead.gin;
+# .../memory_lookahead), each member on its own view. This set validated
+# best among the declared candidates (benchmarks/ensemble/results.json
+# `shipped`).
 SHIPPED_ENSEMBLE = tuple(
     os.path.join(os.path.dirname(__file__), 'policies',
                  f'sac_latex_{name}' + POLICY_SUFFIX)
     for name in [f'drifts_{k}' for k in range(6)] +
-    [f'memory_{k}' for k in range(3)])
+    [f'memory_{k}' for k in range(5)] + ['both_0'])
 _KEPT = ('config', 'iteration', 'training_steps', 'network_params',
          'log_alpha')
 _TEXT = ('source', 'note')
