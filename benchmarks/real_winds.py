@@ -267,11 +267,13 @@ def fly_planner(agent: str, bindings: Sequence[str], seeds: Sequence[int],
   """
   # pylint: disable=g-import-not-at-top
   sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+  import gin
   import planners as planners_bench
   from ble_latex.agents import plan_config
   from ble_latex.envs import env_params
   from ble_latex.run import gin_binding
   # pylint: enable=g-import-not-at-top
+  gin.clear_config()  # As `eval_lib.build`: only these bindings count.
   gin_binding.bind_gin(None, None, [], list(bindings))
   config = plan_config.from_gin(agent)
   began = time.perf_counter()
