@@ -122,8 +122,7 @@ def evaluate_mixed(policies: Sequence[str], suite: str, num_seeds: int,
   """`mixed`: policies of different observation settings (see module)."""
   loaded = [plan_value.load(p) for p in policies]
   member_views = [obs for _, _, obs in loaded]
-  # The env observes as the member that remembers the most winds.
-  env_view = max(member_views, key=lambda v: dict(v)['wind_memory'])
+  env_view = ensemble.env_view_for(member_views)
   gin.clear_config()
   gin.parse_config_files_and_bindings(
       [], [f'latex_observation.{k} = {v}' for k, v in env_view])

@@ -126,19 +126,18 @@ def _time(name: str, path: Optional[str], steps: int) -> dict:
   import gin  # pylint: disable=g-import-not-at-top
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   paths = path.split(',') if path else []
+  with quiet.third_party_noise():
+    from ble_latex.agents import ensemble  # pylint: disable=g-import-not-at-top
   # The env observes as the member that remembers the most winds (an
   # ensemble's other members read their views of its state).
-  observation = max((_observation_of(p) for p in paths or [None]),
-                    key=lambda o: o['wind_memory'])
+  observation = dict(ensemble.env_view_for(
+      [ensemble.view_of(_observation_of(p)) for p in paths or [None]]))
   observations, states, params = _observations(steps, observation)
   with gin.unlock_config():  # The observation the policy was trained on.
     for key, value in observation.items():
       gin.bind_parameter(f'latex_observation.{key}', value)
   with quiet.third_party_noise():
-    # pylint: disable=g-import-not-at-top
-    from ble_latex.agents import ensemble
-    from ble_latex.agents import sac
-    # pylint: enable=g-import-not-at-top
+    from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
     if len(paths) > 1:
       agent = ensemble.SACEnsembleAgent(3, (observations.shape[1],),
                                         policy_paths=paths)

@@ -134,6 +134,12 @@ def view_of(settings: Mapping[str, Any]) -> View:
   return tuple((k, int(settings[k])) for k in env_params.OBSERVATION_FIELDS)
 
 
+def env_view_for(member_views: Sequence[View]) -> View:
+  """The view an env must observe to hold every member's: the first of
+  those that remember the most winds (a memory sizes the state)."""
+  return max(member_views, key=lambda v: dict(v)['wind_memory'])
+
+
 def views_of(member_views: Sequence[View], env_view: View
              ) -> Tuple[Tuple[View, ...], Tuple[int, ...]]:
   """The distinct views (the env's first) and each member's index in them.
