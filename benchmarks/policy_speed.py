@@ -19,7 +19,9 @@ in its file) is loaded under those bindings; its observation costs more to
 compute (a Gaussian-process fit and 25 posterior means; 25 drifts of N
 strides), so the env's observation of one balloon (`jax_env.observation`,
 jitted) is timed too, under the paper's observation and under each policy's:
-a controller's decision is its observation plus its step. An ensemble
+a controller's decision is its observation plus its step.
+`--lookahead=1,3_follow` also times each ensemble with its proposals flown
+ahead (`SACEnsembleAgent.lookahead_strides`, `lookahead_follow`). An ensemble
 whose members observe otherwise than the env (`ensemble.observe`) computes
 their views from the env's state inside its step: that is timed with it.
 """
@@ -29,7 +31,7 @@ import os
 import platform
 import sys
 import time
-from typing import Dict, Optional, Sequence
+from typing import Dict, Optional, Sequence, Tuple
 
 from absl import flags
 import numpy as np
@@ -49,6 +51,9 @@ flags.DEFINE_integer('warmup', 20, 'Decisions before timing (compiles).',
                      lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_string('json', None, 'Write the record here.',
                     flag_values=FLAGS)
+flags.DEFINE_list('lookahead', [], 'Also time each ensemble with these '
+                  'lookaheads: H (`SACEnsembleAgent.lookahead_strides`) or '
+                  'H_follow (and `lookahead_follow`).', flag_values=FLAGS)
 
 
 class _Core:
@@ -121,7 +126,8 @@ def _observation_of(path: Optional[str]) -> Dict[str, int]:
   return {k: int(config.get(k, 0)) for k in env_params.OBSERVATION_FIELDS}
 
 
-def _time(name: str, path: Optional[str], steps: int) -> dict:
+def _time(name: str, path: Optional[str], steps: int,
+          lookahead: Tuple[int, bool] = (0, False)) -> dict:
   """Times one policy (or ensemble) on `steps` decisions (see module)."""
   import gin  # pylint: disable=g-import-not-at-top
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
@@ -138,9 +144,10 @@ def _time(name: str, path: Optional[str], steps: int) -> dict:
       gin.bind_parameter(f'latex_observation.{key}', value)
   with quiet.third_party_noise():
     from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
-    if len(paths) > 1:
-      agent = ensemble.SACEnsembleAgent(3, (observations.shape[1],),
-                                        policy_paths=paths)
+    if len(paths) > 1 or lookahead[0]:
+      agent = ensemble.SACEnsembleAgent(
+          3, (observations.shape[1],), policy_paths=paths,
+          lookahead_strides=lookahead[0], lookahead_follow=lookahead[1])
     else:
       agent = sac.SACPretrainedAgent(3, (observations.shape[1],),
                                      policy_path=path)
@@ -162,6 +169,8 @@ def _time(name: str, path: Optional[str], steps: int) -> dict:
   seconds = np.asarray(seconds)
   return {'name': name, 'path': path or 'shipped', 'observation': observation,
           'views': [dict(v) for v in getattr(agent, 'views', ())],
+          'lookahead': getattr(agent, 'lookahead', ensemble.NO_LOOKAHEAD
+                               )._asdict(),
           'decisions': len(seconds),
           'median_s': float(np.median(seconds)),
           'p90_s': float(np.percentile(seconds, 90)),
@@ -187,12 +196,21 @@ def _main(argv: Sequence[str]) -> int:
     if missing:
       raise cli.CommandFailure(f'--policy {name}: no file {missing[0]}')
     policies.append((name, path))
+  lookaheads = []
+  for item in FLAGS.lookahead:
+    strides, _, follow = item.partition('_')
+    if not strides.isdigit() or follow not in ('', 'follow'):
+      raise cli.CommandUsageError(f'--lookahead {item!r}: want H or H_follow')
+    lookaheads.append((item, (int(strides), bool(follow))))
+  timed = [(name, path, (0, False)) for name, path in policies]
+  timed += [(f'{name}_lookahead{item}', path, h) for name, path in policies
+            if path and ',' in path for item, h in lookaheads]
   load_before = list(os.getloadavg())
   rows = []
-  for name, path in policies:
+  for name, path, h in timed:
     try:
-      rows.append(_time(name, path, FLAGS.steps))
-    except ValueError as error:
+      rows.append(_time(name, path, FLAGS.steps, h))
+    except ValueError as error:  # errors.ConfigError is one.
       raise cli.CommandFailure(f'--policy {name}: {cli.one_line(error)}')
     print(f"{name}: median {1e3 * rows[-1]['median_s']:.3f} ms, p90 "
           f"{1e3 * rows[-1]['p90_s']:.3f} ms per decision")

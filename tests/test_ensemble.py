@@ -1,6 +1,7 @@
 """sac_ensemble: SAC policies whose critics choose among their actions."""
 
 import contextlib
+import functools
 import os
 
 import ble_latex  # noqa: F401
@@ -17,12 +18,16 @@ from ble_latex import configs
 from ble_latex import errors
 from ble_latex.agents import ensemble
 from ble_latex.agents import networks
+from ble_latex.agents import plan_config
+from ble_latex.agents import plan_objective
+from ble_latex.agents import plan_value
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
 from ble_latex.agents import sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
+from ble_latex.flight import state as state_lib
 
 _LOW = np.asarray(jax_env.ACTION_LOW, np.float32)
 _HIGH = np.asarray(jax_env.ACTION_HIGH, np.float32)
@@ -56,10 +61,12 @@ def _policy_file(tmp_path, seed, hidden=_HIDDEN, **observation):
   return path
 
 
-def _agent(paths):
+def _agent(paths, lookahead_strides=0):
+  """The critics' choice where the balloon is (no lookahead) by default."""
   return ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW,
                                    action_high=_HIGH, policy_paths=paths,
-                                   hidden_units=_HIDDEN)
+                                   hidden_units=_HIDDEN,
+                                   lookahead_strides=lookahead_strides)
 
 
 @settings(max_examples=20, deadline=None)
@@ -205,6 +212,144 @@ def test_members_of_other_views_fly_from_the_env_s_state(tmp_path):
       action, rtol=1e-5, atol=1e-3)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
+def test_an_imagined_stride_is_the_env_s_stride_in_the_same_wind():
+  """`imagine` in the ground truth is the env's own stride, but for the
+  memory of measured winds, which an imagined wind does not join."""
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  params = env.default_params.replace(wind_memory=4)
+  _, state = _fly(env, params, 1_000_002, 2)
+  wind = env.wind_for(params)
+  truth = functools.partial(wind.ground_truth, state)
+  for action in ([0.3, -0.2, 0.5], [-0.9, 0.8, -0.5]):
+    action = jnp.asarray(action, jnp.float32)
+    imagined, reward = ensemble.imagine(params, truth, state, action)
+    _, stepped, env_reward, _, _ = env.step_env(
+        None, state, jax_env.to_box(action), params)
+    assert _equal(imagined.replace(wind_memory=None),
+                  stepped.replace(wind_memory=None))
+    assert float(reward) == float(env_reward)
+    assert _equal(imagined.wind_memory, state.wind_memory)
+    assert not _equal(stepped.wind_memory, state.wind_memory)
+  ended = state.replace(flight=state.flight.replace(
+      status=jnp.asarray(state_lib.FlightStatus.OUT_OF_SAND,
+                         state.flight.status.dtype)))
+  assert float(ensemble.imagine(params, truth, ended, action)[1]) == 0.0
+
+
+def _equal(a, b):
+  return all(jax.tree.leaves(jax.tree.map(
+      lambda x, y: bool(np.array_equal(x, y)), a, b)))
+
+
+def _lookahead_setup(tmp_path, seeds=(5, 6, 7)):
+  paths = [_policy_file(tmp_path, k, wind_memory=4 * (k % 2))
+           for k in seeds]
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  params = env.default_params.replace(wind_memory=4)
+  _, state = _fly(env, params, 1_000_003, 3)
+  views, group = ensemble.views_of(
+      [ensemble.view_of(pretrained.load_policy(p)['config']) for p in paths],
+      ensemble.view_of(env_params.observation_of(params)))
+  members = sac_trainer.stack([plan_value.load(p)[1] for p in paths])
+  return _network(), members, group, views, env.wind_for(params), params, state
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_lookahead_scores_are_the_rewards_and_the_members_value(tmp_path):
+  """H = 1: score_k = r(s, a_k) + gamma V(s'_k), V the members' mean of
+  min(Q1, Q2) at their mean actions on their own views of s'_k, s'_k the
+  stride flown in the planning wind (forecast + the memory's correction),
+  observed with the columns of s."""
+  net, members, group, views, wind, params, state = _lookahead_setup(
+      tmp_path)
+  one = ensemble.Lookahead(1)
+  actions, scores = ensemble.lookahead_scores(net, members, group, views, one,
+                                              wind, params, state)
+  rows = ensemble.observe(state, params, wind, views)[np.asarray(group)]
+  np.testing.assert_array_equal(actions, ensemble.proposals(
+      net, members, rows, per_member=True))
+  blind = plan_objective.blind(state)
+  wind_fn = plan_objective.planning_wind(plan_config.PlannerConfig(), wind,
+                                         blind, memory=blind.wind_memory)
+  columns = ensemble.view_columns(state, params, wind, views)
+  for k in range(3):
+    after, reward = ensemble.imagine(params, wind_fn, blind, actions[k])
+    ends = ensemble.observe_columns(after, params, columns)
+    value = np.mean([plan_value.state_value(
+        net, jax.tree.map(lambda x: x[j], members), ends[group[j]])  # pylint: disable=cell-var-from-loop
+                     for j in range(3)])
+    np.testing.assert_allclose(scores[k], reward + one.discount * value,
+                               rtol=1e-5)
+  chosen = ensemble.lookahead_choice(net, members, group, views, one, wind,
+                                     params, state)
+  np.testing.assert_array_equal(chosen, actions[int(np.argmax(scores))])
+  # One stride ahead, following the members is holding the proposal.
+  followed = ensemble.lookahead_scores(
+      net, members, group, views, ensemble.Lookahead(1, follow=True), wind,
+      params, state)[1]
+  np.testing.assert_array_equal(followed, scores)
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_the_lookahead_reads_no_future_truth(tmp_path):
+  """The scores do not move when the flight's future (its noise) does; they
+  move with what it has measured (its memory)."""
+  net, members, group, views, wind, params, state = _lookahead_setup(
+      tmp_path)
+  other = jax_env.LatexBalloonJaxEnv(normalize_actions=False).reset(
+      jax.random.PRNGKey(7), params)[1]
+  for lookahead in (ensemble.Lookahead(2), ensemble.Lookahead(2, True)):
+    score = lambda s: np.asarray(ensemble.lookahead_scores(  # pylint: disable=cell-var-from-loop
+        net, members, group, views, lookahead, wind, params, s)[1])
+    base = score(state)
+    np.testing.assert_array_equal(
+        score(state.replace(noise_u=other.noise_u, noise_v=other.noise_v)),
+        base)
+    remembered = state.wind_memory.replace(du=state.wind_memory.du + 3.0)
+    assert not np.allclose(score(state.replace(wind_memory=remembered)),
+                           base)
+
+
+def test_an_ensemble_with_a_lookahead_flies_from_the_env_s_state(tmp_path):
+  """BLE's gym env (`attach_env`), the batched eval and the launch
+  controller fly the same lookahead choice."""
+  import gym  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import batch_eval  # pylint: disable=g-import-not-at-top
+  paths = [_policy_file(tmp_path, k) for k in (8, 9)]
+  env = gym.make('LatexBalloon-v0').unwrapped
+  agent = ensemble.SACEnsembleAgent(
+      3, (71,), action_low=_LOW, action_high=_HIGH, policy_paths=paths,
+      hidden_units=_HIDDEN, lookahead_strides=2, lookahead_follow=True)
+  assert len(agent.views) == 1 and agent.needs_env
+  with pytest.raises(RuntimeError, match='attach_env'):
+    agent.begin_episode(env.reset(seed=1_000_004))
+  agent.attach_env(env)
+  obs = env.reset(seed=1_000_004)
+  obs, *_ = env.step(agent.begin_episode(obs))
+  action = agent.step(0.0, obs)
+  driver, wind = planners.core_of(env)
+  expected = agent._to_box(np.asarray(ensemble.lookahead_choice(  # pylint: disable=protected-access
+      agent.network_def, agent.members, agent.group, agent.views,
+      ensemble.Lookahead(2, True), wind, driver.params, driver.state)))
+  np.testing.assert_allclose(action, expected, rtol=1e-5, atol=1e-6)
+  states = jax.tree.map(lambda a: a[None], driver.state)
+  batched = batch_eval.core_policy(agent, batch_eval.core_env(env)).step(
+      states, obs[None], np.zeros(1))
+  np.testing.assert_allclose(batched[0], action, rtol=1e-5, atol=1e-6)
+  controller = controllers.controller_for(agent)
+  carry = controller.plan(controller.init(jnp.asarray(obs), driver.state),
+                          jnp.asarray(obs), driver.state, driver.params, wind)
+  np.testing.assert_allclose(
+      np.asarray(controller.act(carry, jnp.asarray(obs), driver.state, 0)[0]),
+      action, rtol=1e-5, atol=1e-3)
+
+
 def test_shipped_members_observe_the_drifts_and_the_memory():
   with pytest.raises(errors.ConfigError,
                      match='no member.*flies under .*latex_wind_memory.gin'):
@@ -245,6 +390,13 @@ def test_bad_ensembles_are_refused(tmp_path):
   with pytest.raises(errors.ConfigError, match='not policy_path'):
     ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW, action_high=_HIGH,
                               policy_paths=[path], policy_path=path)
+  for bad in (-1, 25, 1.5, True, '2'):
+    with pytest.raises(errors.ConfigError, match='lookahead_strides must be'):
+      ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW, action_high=_HIGH,
+                                policy_paths=[path], lookahead_strides=bad)
+  with pytest.raises(errors.ConfigError, match='lookahead_follow must be'):
+    ensemble.SACEnsembleAgent(3, (71,), action_low=_LOW, action_high=_HIGH,
+                              policy_paths=[path], lookahead_follow='yes')
   agent = _agent([path])
   with pytest.raises(errors.ConfigError, match='only acts'):
     agent.set_mode('train')

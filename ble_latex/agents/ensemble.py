@@ -13,7 +13,7 @@ This is policy improvement by the learned critics at decision time over
 an ensemble's proposals (the critics of an ensemble pick among its actors,
 as in Lee et al., "SUNRISE", ICML 2021, which adds an exploration bonus
 while training; Anschel et al. 2017 average target values). With one
-member it is that member's `sac_pretrained` action. No stochastic draws
+member and no lookahead it is that member's `sac_pretrained` action. No stochastic draws
 are scored: on 100 `latex_validation` seeds, adding 8 draws per member as
 proposals ran 10 % of the flights out of resources
 (`benchmarks/policy_select.py`).
@@ -36,11 +36,22 @@ gin_configs/latex_wind_memory.gin (the env's state keeps the memory):
   ble-latex-eval --agent=sac_ensemble --gin_file=... \
       --gin_bindings="SACEnsembleAgent.policy_paths=['a.msgpack', 'b.msgpack']"
 
+With `lookahead_strides` = H > 0 each proposal is first flown H strides
+ahead in the wind a forecast planner plans in (`plan_objective.planning_wind`:
+the forecast plus the Gaussian-process correction by the measured winds the
+env's state remembers) and scored by the rewards on the way and the
+members' value where it ends, a short model rollout bootstrapped by the
+learned value (MuZero's and TD-MPC's backup; `lookahead_choice`):
+
+  score_k = sum_{t<H} gamma^t r_t + gamma^H (1/K) sum_j V_j(o_j(s_H)),
+  V_j(o) = min(Q1_j, Q2_j)(o, mu_j(o)).
+
 The agent only acts (eval mode); it does not train.
 """
 
 import functools
-from typing import Any, Callable, Mapping, Optional, Sequence, Tuple, Union
+from typing import (Any, Callable, Mapping, NamedTuple, Optional, Sequence,
+                    Tuple, Union)
 
 from balloon_learning_environment.agents import agent
 import gin
@@ -49,6 +60,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import errors
+from ble_latex.agents import plan_config
+from ble_latex.agents import plan_objective
+from ble_latex.agents import plan_value
 from ble_latex.agents import planners
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
@@ -57,13 +71,19 @@ from ble_latex.agents import sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
+from ble_latex.envs import jax_features
+from ble_latex.envs import observed_winds
 from ble_latex.envs import winds
+from ble_latex.flight import dynamics
 from ble_latex.flight import params as params_lib
+from ble_latex.flight import state as state_lib
 
 Array = jax.Array
 # The env gin file the shipped members observed under (`configs.gin_file`).
 SHIPPED_GIN_FILE = 'latex_wind_memory.gin'
 MAX_MEMBERS = 16  # Each member adds its actor and K critic evaluations.
+# Strides: at most the forecast planner's horizon (its forecast-only wind).
+MAX_LOOKAHEAD = plan_config.PlannerConfig.horizon
 
 
 def proposals(network_def: Any, members: Any, obs: Array,
@@ -163,21 +183,42 @@ def views_of(member_views: Sequence[View], env_view: View
   return views, tuple(views.index(v) for v in member_views)
 
 
-def observe(state: env_types.EnvState, params: env_types.EnvParams,
-            wind: winds.Wind, views: Sequence[View]) -> Array:
-  """One balloon's 71 features under each view: [G, F] (traceable).
+def view_columns(state: env_types.EnvState, params: env_types.EnvParams,
+                 wind: winds.Wind, views: Sequence[View]
+                 ) -> Tuple[Array, Array]:
+  """One balloon's wind column under each view: (u, v), each [G, L]. # [m/s]
 
   A view without a memory reads the state without it (the forecast column,
   `observed_winds.column`); one with a memory reads the state's, which
   `views_of` has checked to be of its size.
   """
-  rows = []
+  levels = jnp.asarray(jax_features.PRESSURE_LEVELS, state.flight.x_m.dtype)
+  us, vs = [], []
   for view in views:
     settings = dict(view)
     seen = state if settings['wind_memory'] else state.replace(
         wind_memory=None)
-    rows.append(jax_env.observation(seen, params.replace(**settings), wind))
-  return jnp.stack(rows)
+    u, v = observed_winds.column(seen, params.replace(**settings), wind,
+                                 levels)
+    us.append(u)
+    vs.append(v)
+  return jnp.stack(us), jnp.stack(vs)
+
+
+def observe_columns(state: env_types.EnvState, params: env_types.EnvParams,
+                    columns: Tuple[Array, Array]) -> Array:
+  """The 71 features of `state` read with each view's column: [G, F]."""
+  return jax.vmap(lambda u, v: jax_env.observation_of_column(
+      state, params, u, v))(*columns)
+
+
+def observe(state: env_types.EnvState, params: env_types.EnvParams,
+            wind: winds.Wind, views: Sequence[View]) -> Array:
+  """One balloon's 71 features under each view: [G, F] (traceable): the
+  env's own observation (`jax_env.observation`) under each view's
+  settings."""
+  return observe_columns(state, params,
+                         view_columns(state, params, wind, views))
 
 
 @functools.partial(jax.jit, static_argnums=0)
@@ -185,24 +226,170 @@ def _choice(network_def: Any, members: Any, obs: Array) -> Array:
   return critic_choice(network_def, members, obs)
 
 
-@functools.partial(jax.jit, static_argnums=(0, 1, 2, 3))
-def choice_from_state(network_def: Any, group: Tuple[int, ...],
-                      views: Tuple[View, ...], wind: winds.Wind, members: Any,
-                      state: env_types.EnvState,
-                      params: env_types.EnvParams) -> Array:
-  """`critic_choice` of one balloon, each member on its own view."""
+class Lookahead(NamedTuple):
+  """How far each proposal is flown ahead before it is scored.
+
+  Attributes:
+    strides: H imagined strides; 0: the critics score the proposals where
+      the balloon is (`critic_choice`).
+    follow: Strides after the first fly member k's own mean action on its
+      view of the imagined state; else proposal k is held.
+    discount: gamma, the members' discount (policy files do not record it:
+      the trainers' default, `sac_core.SACHyperparameters.gamma`).
+  """
+  strides: int = 0
+  follow: bool = False
+  discount: float = sac_core.SACHyperparameters.gamma
+
+
+NO_LOOKAHEAD = Lookahead()
+# Only the planner's mode and its one-point correction (unused with a memory).
+_FORECAST = plan_config.PlannerConfig()
+
+
+def imagine(params: env_types.EnvParams, wind_fn: Callable[..., Any],
+            state: env_types.EnvState, action: Array
+            ) -> Tuple[env_types.EnvState, Array]:
+  """One imagined stride of `lookahead_choice`: (state after it, reward).
+
+  The env's stride (`jax_env.LatexBalloonJaxEnv.step_env`) in the planning
+  wind: the flight in `wind_fn` without the lift walk (as the planners,
+  `plan_objective.fly`), its measured wind the planning wind where it ends,
+  its altitude history pushed, its memory of measured winds kept (an
+  imagined wind is not a measurement); the reward is the env's
+  (`jax_features.reward`), 0 where the flight had already ended.
+
+  Args:
+    params: The env parameters.
+    wind_fn: The planning wind (x [m], y [m], P [Pa], t [s]) -> (u, v).
+      # [m/s]
+    state: The imagined state (`plan_objective.blind`).
+    action: In the normalised box [-1, 1]^3.
+  """
+  before = state.flight
+  box = jnp.clip(jax_env.to_box(action).astype(before.altitude_m.dtype),
+                 jax_env.ACTION_LOW, jax_env.ACTION_HIGH)
+  flight = dynamics.step(
+      env_types.flight_params_of(params, state).replace(lift_walk=False),
+      state.atmosphere, before, box, wind_fn, params.stride_s)
+  u, v = wind_fn(flight.x_m, flight.y_m, flight.pressure_pa, flight.time_s)
+  after = state.replace(
+      flight=flight, wind_u=u.astype(state.wind_u.dtype),
+      wind_v=v.astype(state.wind_v.dtype),
+      history=jax_features.push_history(state.history, flight.altitude_m,
+                                        flight.ascent_rate_mps, box[2]),
+      steps=state.steps + 1)
+  reward = jax_features.reward(
+      jnp.hypot(flight.x_m, flight.y_m) / 1000.0, params.radius_km,
+      params.reward_dropoff, params.reward_halflife_km,
+      flight.helium_vented_mols - before.helium_vented_mols,
+      flight.sand_dropped_kg - before.sand_dropped_kg,
+      params.helium_penalty_per_mol, params.sand_penalty_per_kg,
+      params.reward_tanh_scale_km)
+  return after, jnp.where(before.status == state_lib.FlightStatus.OK,
+                          reward, 0.0)
+
+
+def lookahead_scores(network_def: Any, members: Any, group: Tuple[int, ...],
+                     views: Sequence[View], lookahead: Lookahead,
+                     wind: winds.Wind, params: env_types.EnvParams,
+                     state: env_types.EnvState) -> Tuple[Array, Array]:
+  """The proposals and their lookahead scores (module docstring).
+
+  It reads no future truth: the state's noise is zeroed
+  (`plan_objective.blind`) before anything is imagined. Nothing is added
+  after an imagined flight ends (its value counts 0). The imagined states
+  are observed with the wind columns of the state the decision is made
+  from (each view's `view_columns`, read against the imagined position,
+  altitude and measured wind): a column costs 12 to 36 times a stride's
+  features, and over a few strides the balloon moves tens of km while the
+  column's levels stay.
+
+  Args:
+    network_def: The members' network.
+    members: Their parameters, stacked on a leading axis of K.
+    group: Member k observes `views[group[k]]` (`views_of`).
+    views: The distinct views, the env's first.
+    lookahead: H >= 1 strides, follow, discount.
+    wind: The env's wind.
+    params: The env parameters (the env's view).
+    state: One balloon's env state.
+
+  Returns:
+    (proposals [K, num_actions] in [-1, 1], scores [K]).
+  """
+  index = jnp.asarray(group)
+  gamma = lookahead.discount
+  columns = view_columns(state, params, wind, views)  # Each [G, L].
+  obs = observe_columns(state, params, columns)[index]  # [K, F]
+  actions = proposals(network_def, members, obs, per_member=True)
+  blind = plan_objective.blind(state)
+  wind_fn = plan_objective.planning_wind(_FORECAST, wind, blind,
+                                         memory=blind.wind_memory)
+
+  def score(k, action):
+    def stride(carry, t):
+      s, total, a = carry
+      s, r = imagine(params, wind_fn, s, a)
+      if lookahead.follow:  # Member k's own mean action on its view of s.
+        a = network_def.apply(
+            jax.tree.map(lambda x: x[k], members),
+            jax_env.observation_of_column(s, params, columns[0][index[k]],
+                                          columns[1][index[k]]),
+            jax.random.PRNGKey(0), method=network_def.actor).mean_action
+      return (s, total + gamma ** t * r, a), None
+
+    (end, total, _), _ = jax.lax.scan(
+        stride, (blind, jnp.zeros((), jnp.float32), action),
+        jnp.arange(lookahead.strides, dtype=jnp.float32))
+    value = jnp.mean(jax.vmap(
+        lambda p, o: plan_value.state_value(network_def, p, o))(
+            members, observe_columns(end, params, columns)[index]))
+    return total + jnp.where(end.flight.status == state_lib.FlightStatus.OK,
+                             gamma ** lookahead.strides * value, 0.0)
+
+  return actions, jax.vmap(score)(jnp.arange(actions.shape[0]), actions)
+
+
+def lookahead_choice(*args: Any) -> Array:
+  """The proposal of best `lookahead_scores` (its arguments): [A]."""
+  actions, scores_k = lookahead_scores(*args)
+  return actions[jnp.argmax(scores_k)]
+
+
+def state_choice(network_def: Any, group: Tuple[int, ...],
+                 views: Tuple[View, ...], lookahead: Lookahead,
+                 wind: winds.Wind, members: Any, state: env_types.EnvState,
+                 params: env_types.EnvParams) -> Array:
+  """The ensemble's choice for one balloon's env state (traceable): each
+  member on its own view, with `lookahead` if it has strides."""
+  if lookahead.strides:
+    return lookahead_choice(network_def, members, group, views, lookahead,
+                            wind, params, state)
   return critic_choice(network_def, members,
                        observe(state, params, wind, views), group)
 
 
-@functools.partial(jax.jit, static_argnums=(0, 1, 2, 3))
+@functools.partial(jax.jit, static_argnums=(0, 1, 2, 3, 4))
+def choice_from_state(network_def: Any, group: Tuple[int, ...],
+                      views: Tuple[View, ...], lookahead: Lookahead,
+                      wind: winds.Wind, members: Any,
+                      state: env_types.EnvState,
+                      params: env_types.EnvParams) -> Array:
+  """`state_choice` of one balloon (jitted)."""
+  return state_choice(network_def, group, views, lookahead, wind, members,
+                      state, params)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1, 2, 3, 4))
 def choices_from_states(network_def: Any, group: Tuple[int, ...],
-                        views: Tuple[View, ...], wind: winds.Wind,
-                        members: Any, states: env_types.EnvState,
+                        views: Tuple[View, ...], lookahead: Lookahead,
+                        wind: winds.Wind, members: Any,
+                        states: env_types.EnvState,
                         params: env_types.EnvParams) -> Array:
-  """`choice_from_state` of [N] balloons, one by one (`lax.map`): [N, A]."""
-  return jax.lax.map(lambda s: critic_choice(
-      network_def, members, observe(s, params, wind, views), group), states)
+  """`state_choice` of [N] balloons, one by one (`lax.map`): [N, A]."""
+  return jax.lax.map(lambda s: state_choice(
+      network_def, group, views, lookahead, wind, members, s, params), states)
 
 
 @functools.partial(jax.jit, static_argnums=0)
@@ -236,6 +423,8 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
                action_high: Optional[Sequence[float]] = None,
                seed: int = 0,
                policy_paths: Optional[Sequence[str]] = None,
+               lookahead_strides: int = 3,
+               lookahead_follow: bool = True,
                **kwargs: Any):
     """Loads and checks every member.
 
@@ -247,15 +436,33 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
       seed: Unused (the agent acts deterministically).
       policy_paths: SAC policy files (`.msgpack`), 1 to `MAX_MEMBERS`.
         None: `pretrained.SHIPPED_ENSEMBLE` (paper physics only).
+      lookahead_strides: H, 0 to `MAX_LOOKAHEAD` strides each proposal is
+        flown ahead in the forecast before it is scored
+        (`lookahead_choice`); 0: scored where the balloon is. The default
+        (3, following the members) validated best of the lookaheads
+        declared in `benchmarks/policy_select.py` (`LOOKAHEADS`).
+      lookahead_follow: The imagined strides after the first fly each
+        member's own action (`Lookahead.follow`).
       **kwargs: Further `SACPretrainedAgent` arguments.
 
     Raises:
       FileNotFoundError: A member's file is missing.
       ValueError: A bad file, or a member whose acting settings differ
         from the env's or the first member's (one line).
-      errors.ConfigError: No paths, too many, a `policy_path`, or no
-        shipped ensemble for the physics gin binds.
+      errors.ConfigError: No paths, too many, a `policy_path`, no
+        shipped ensemble for the physics gin binds, or a bad lookahead.
     """
+    if (isinstance(lookahead_strides, bool) or
+        not isinstance(lookahead_strides, (int, np.integer)) or
+        not 0 <= lookahead_strides <= MAX_LOOKAHEAD):
+      raise errors.ConfigError(
+          f'SACEnsembleAgent.lookahead_strides must be an integer from 0 to '
+          f'{MAX_LOOKAHEAD}, got {lookahead_strides!r}')
+    if not isinstance(lookahead_follow, (bool, np.bool_)):
+      raise errors.ConfigError(
+          'SACEnsembleAgent.lookahead_follow must be True or False, got '
+          f'{lookahead_follow!r}')
+    self.lookahead = Lookahead(int(lookahead_strides), bool(lookahead_follow))
     shipped = policy_paths is None
     if shipped:
       policy_paths = pretrained.shipped_ensemble(
@@ -305,8 +512,9 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
 
   @property
   def needs_env(self) -> bool:
-    """True when a member observes otherwise than the env (`observe`)."""
-    return len(self.views) > 1
+    """True when a member observes otherwise than the env (`observe`) or
+    the proposals are flown ahead (`lookahead_choice` reads the state)."""
+    return len(self.views) > 1 or self.lookahead.strides > 0
 
   def attach_env(self, env: Any) -> None:
     """Reads `env`'s core state at each decision (`planners.core_of`)."""
@@ -331,12 +539,11 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
       action = _choice(self.network_def, self.members, self.state)
     elif self._driver is None:
       raise RuntimeError(
-          'sac_ensemble: members observe otherwise than the env, so the '
-          'agent reads its core state: call attach_env(env) first '
-          '(ble-latex-eval does)')
+          'sac_ensemble reads the env\'s core state (members of other views '
+          'or a lookahead): call attach_env(env) first (ble-latex-eval does)')
     else:
       action = choice_from_state(self.network_def, self.group, self.views,
-                                 self._wind, self.members,
+                                 self.lookahead, self._wind, self.members,
                                  self._driver.state, self._driver.params)
     action = np.asarray(action, np.float32)
     if not np.all(np.isfinite(action)):

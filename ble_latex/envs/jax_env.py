@@ -129,9 +129,18 @@ def observation(state: env_types.EnvState, params: env_types.EnvParams,
     the measured winds where `params.wind_memory` > 0 and averaged over
     drifts where `params.wind_lookahead` > 0 (`observed_winds.column`).
   """
-  f = state.flight
-  levels = jnp.asarray(jax_features.PRESSURE_LEVELS, f.x_m.dtype)
+  levels = jnp.asarray(jax_features.PRESSURE_LEVELS, state.flight.x_m.dtype)
   column_u, column_v = observed_winds.column(state, params, wind, levels)
+  return observation_of_column(state, params, column_u, column_v)
+
+
+def observation_of_column(state: env_types.EnvState,
+                          params: env_types.EnvParams, column_u: Array,
+                          column_v: Array) -> Array:
+  """`observation` of `state` given its wind column (u, v at each of
+  `jax_features.PRESSURE_LEVELS` [m/s]): the column's features are read
+  against the balloon's position and measured wind in `state`."""
+  f = state.flight
   return jax_features.features(
       column_u, column_v, f.x_m, f.y_m, f.altitude_m, f.ascent_rate_mps,
       state.wind_u, state.wind_v, f.helium_mols, f.sand_kg,

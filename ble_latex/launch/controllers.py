@@ -164,8 +164,8 @@ class SacController(Controller):
 class EnsembleController(SacController):
   """`sac_ensemble`: `to_box(ensemble.critic_choice(obs))`.
 
-  Members that observe otherwise than the env choose in `plan` (each
-  stride) from their views of the state (`ensemble.observe`); the carry
+  Members that observe otherwise than the env, or a lookahead, choose in
+  `plan` (each stride) from the state (`ensemble.state_choice`); the carry
   holds the choice.
   """
 
@@ -176,6 +176,8 @@ class EnsembleController(SacController):
     self._members = agent.members
     self._views = agent.views
     self._group = agent.group
+    self._lookahead = agent.lookahead
+    self._reads_state = agent.needs_env
 
   def normalized(self, obs: Array) -> Array:
     return ensemble.critic_choice(self._network_def, self._members, obs)
@@ -185,14 +187,14 @@ class EnsembleController(SacController):
     return jnp.zeros_like(self.normalized(obs))
 
   def plan(self, carry, obs, state, params, wind):
-    if len(self._views) == 1:
+    if not self._reads_state:
       return carry
-    return ensemble.critic_choice(
-        self._network_def, self._members,
-        ensemble.observe(state, params, wind, self._views), self._group)
+    return ensemble.state_choice(self._network_def, self._group, self._views,
+                                 self._lookahead, wind, self._members, state,
+                                 params)
 
   def act(self, carry, obs, state, i):
-    if len(self._views) == 1:
+    if not self._reads_state:
       return super().act(carry, obs, state, i)
     return jax_env.to_box(carry), carry
 

@@ -236,7 +236,7 @@ def _sac_policy(agent: sac.SACAgent, core: CoreEnv) -> Optional[CorePolicy]:
 class _EnsemblePolicy(_SacPolicy):
   """`sac_ensemble`: the members' critics choose (`ensemble.choices`).
 
-  Members that observe otherwise than the env read their views of the
+  Members that observe otherwise than the env, or a lookahead, read the
   states (`ensemble.choices_from_states`).
   """
 
@@ -250,8 +250,8 @@ class _EnsemblePolicy(_SacPolicy):
     if not agent.needs_env:
       return ensemble.choices(agent.network_def, agent.members, observations)
     return ensemble.choices_from_states(
-        agent.network_def, agent.group, agent.views, self._core.wind,
-        agent.members, self._states, self._core.params)
+        agent.network_def, agent.group, agent.views, agent.lookahead,
+        self._core.wind, agent.members, self._states, self._core.params)
 
   def begin(self, states, observations):
     self._states = states

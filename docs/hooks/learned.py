@@ -160,13 +160,14 @@ def learned_short() -> str:
         _paired(mpc, held, OBSERVATION) if held else '—', ms)
   sweep = _load(ENSEMBLE)
   flown = tables.flights_summary(ENSEMBLE_EVAL)
-  step = observed_speed['shipped_ensemble']
+  chosen = sweep['runs'][sweep['lookahead_chosen']]['latex_validation']
+  step = observed_speed[_lookahead_speed_name(chosen)]
   observe = observe_ms[_key(step['observation'])]
   shipped = sweep['shipped']['policies']
   alone = _alone(sweep['runs'], 'latex_small')
   spread = _mean_std([alone[p]['tw50_window_mean'] for p in shipped])
-  row(f'`sac_ensemble`: {_members_label(shipped)}, their critics '
-      'choose the action',
+  row(f'`sac_ensemble`: {_members_label(shipped)}; their critics choose '
+      f'among their actions, each flown {_lookahead_words(chosen)}',
       [flown['tw50_window'][0]], flown['out_of_resources_pct'],
       _paired(mpc, flown['per_seed'], ENSEMBLE_EVAL),
       f'{observe + 1e3 * step["median_s"]:.2f} (observation {observe:.2f})',
@@ -378,4 +379,91 @@ def ensemble() -> str:
   for name in sorted(n for n in runs if n.startswith('drifts_snapshots_')):
     row(f"seed {name.rsplit('_', 1)[1]}'s three best-validated snapshots, "
         'critics choose', runs[name])
+  return '\n'.join(lines)
+
+
+def _lookahead_words(run: dict) -> str:
+  """'3 strides ahead in the forecast (then its member's actions)'."""
+  return (f"{run['horizon']} stride{'s' if run['horizon'] > 1 else ''} "
+          'ahead in the forecast' +
+          (' (then its member\'s actions)' if run['follow'] else ' (held)'))
+
+
+def _lookahead_speed_name(run: dict) -> str:
+  """`benchmarks/policy_speed.py --lookahead`'s name of a lookahead run."""
+  return (f"shipped_ensemble_lookahead{run['horizon']}"
+          + ('_follow' if run['follow'] else ''))
+
+
+def ensemble_lookahead() -> str:
+  """The shipped members with their proposals flown ahead: validation,
+  held out (the best validated only), paired with the same members without
+  a lookahead, and milliseconds per decision."""
+  sweep = _load(ENSEMBLE)
+  runs = sweep['runs']
+  base = runs[sweep['shipped']['name']]
+  speed = {p['name']: p for p in _load(POLICY_SPEED_OBSERVATION)['policies']}
+  mpc = _per_seed('latex_small/latex_mpc')
+  lines = ['| each proposal flown | `latex_validation` TW50 window (out of '
+           'resources) | − no lookahead per seed (validation) | '
+           '`latex_small` TW50 window (out of resources) | − no lookahead '
+           'per seed (`latex_small`) | − `latex_mpc` per seed | ms / '
+           'decision (step) |', '|---|---|---|---|---|---|---|']
+  names = [n for n in runs if n.startswith('shipped_lookahead_')]
+  for name in sorted(names, key=lambda n: (
+      runs[n]['latex_validation']['horizon'],
+      runs[n]['latex_validation']['follow'])):
+    run = runs[name]
+    valid = run['latex_validation']
+    held = run.get('latex_small')
+    step = speed.get(_lookahead_speed_name(valid))
+    held_cells = (f"{100 * held['tw50_window_mean']:.1f} % "
+                  f"({held['out_of_resources_pct']:.0f} %) | "
+                  f"{_paired(base['latex_small'], held, ENSEMBLE)} | "
+                  f'{_paired(mpc, held, ENSEMBLE)}' if held else '— | — | —')
+    ms = f"{1e3 * step['median_s']:.2f}" if step else '—'
+    lines.append(
+        f'| {_lookahead_words(valid)} | {_validation_cell(run)} | '
+        f"{_paired(base['latex_validation'], valid, ENSEMBLE)} | "
+        f'{held_cells} | {ms} |')
+  lines.append(
+      f"| not flown ahead (the shipped members' critics score where the "
+      f"balloon is) | {_validation_cell(base)} | — | "
+      f"{100 * base['latex_small']['tw50_window_mean']:.1f} % "
+      f"({base['latex_small']['out_of_resources_pct']:.0f} %) | — | "
+      f"{_paired(mpc, base['latex_small'], ENSEMBLE)} | "
+      f"{1e3 * speed['shipped_ensemble']['median_s']:.2f} |")
+  return '\n'.join(lines)
+
+
+def ensemble_replicates() -> str:
+  """The recipe replicated on disjoint training seeds (`REPLICATES` of
+  benchmarks/policy_select.py): without and with the chosen lookahead."""
+  sweep = _load(ENSEMBLE)
+  runs = sweep['runs']
+  mpc = _per_seed('latex_small/latex_mpc')
+  lines = ['| members (4 training seeds each) | `latex_validation`: without '
+           '/ with the lookahead | `latex_small`: without / with (out of '
+           'resources with) | with − without per seed (`latex_small`) | '
+           'with − `latex_mpc` per seed |', '|---|---|---|---|---|']
+  held = []
+  names = sorted(n for n in runs
+                 if re.fullmatch(r'replicate_\d+', n) and
+                 'latex_small' in runs.get(f'{n}_lookahead', {}))
+  for name in names:
+    without, with_ = runs[name], runs[f'{name}_lookahead']
+    small = with_['latex_small']
+    held.append(small['tw50_window_mean'])
+    lines.append(
+        f"| {_members_label(small['policies'])} | "
+        f"{_cell(without, 'latex_validation')} / "
+        f"{_cell(with_, 'latex_validation')} | "
+        f"{_cell(without, 'latex_small')} / {_cell(with_, 'latex_small')} "
+        f"({small['out_of_resources_pct']:.0f} %) | "
+        f"{_paired(without['latex_small'], small, ENSEMBLE)} | "
+        f'{_paired(mpc, small, ENSEMBLE)} |')
+  if held:
+    mean, std = _mean_std(held)
+    lines.append(f'| mean ± std over the {len(held)} replicates | | '
+                 f'with: {100 * mean:.1f} % ± {100 * std:.1f} | | |')
   return '\n'.join(lines)

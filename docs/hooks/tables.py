@@ -611,6 +611,8 @@ TABLES: Dict[str, Callable[[], str]] = {
     'learned-short': lambda: _learned().learned_short(),
     'planner-value': lambda: _learned().planner_value(),
     'ensemble': lambda: _learned().ensemble(),
+    'ensemble-lookahead': lambda: _learned().ensemble_lookahead(),
+    'ensemble-replicates': lambda: _learned().ensemble_replicates(),
 }
 
 
