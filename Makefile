@@ -127,6 +127,7 @@ planners-wide: venv
 
 results: baselines planners
 	$(EVAL) --agent=sac_pretrained
+	$(EVAL) --agent=sac_ensemble --gin_file=gin_configs/latex_wind_memory.gin
 	$(PY) benchmarks/results_table.py --json=benchmarks/results.json $(RESULTS)/latex_small/*.json \
 		$(PLANNERS)/latex_small/*.json | tee benchmarks/results.md
 

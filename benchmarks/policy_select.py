@@ -54,11 +54,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import quiet
 from ble_latex import safe_io
-from ble_latex.agents import ensemble
-from ble_latex.agents import plan_value
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac_trainer
+
+with quiet.third_party_noise():  # Dopamine's import-time notices.
+  from ble_latex.agents import ensemble  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import plan_value  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.run import jax_train
@@ -417,7 +420,8 @@ def sweep(output: str, drift_seeds: Sequence[int], batch: int,
 
 
 def main(argv: Sequence[str]) -> int:
-  FLAGS.unparse_flags()  # Each call parses afresh (tests call it twice).
+  for name in FLAGS:  # Each call parses afresh (tests call it twice);
+    FLAGS[name].unparse()  # unparse_flags() would log to a stale handler.
   try:
     FLAGS(argv)
   except flags.Error as e:
@@ -430,6 +434,12 @@ def main(argv: Sequence[str]) -> int:
                    [int(s) for s in FLAGS.both_seeds])
     if not FLAGS.policy:
       print('policy_select: give at least one --policy', file=sys.stderr)
+      return 2
+    if (FLAGS.mode == 'lookahead' and
+        not 1 <= FLAGS.horizon <= ensemble.MAX_LOOKAHEAD):
+      print(f'policy_select: --horizon must be 1 to {ensemble.MAX_LOOKAHEAD} '
+            f'strides with --mode=lookahead, got {FLAGS.horizon}',
+            file=sys.stderr)
       return 2
     if FLAGS.mode in ('mixed', 'lookahead'):
       record = evaluate_mixed(

@@ -152,6 +152,9 @@ def test_policy_speed_refuses_bad_policies_in_one_line(tmp_path, capsys):
                    f'{tmp_path}/gone.msgpack', f'--json={out}'])
   err = capsys.readouterr().err.strip().splitlines()
   assert rc == 1 and len(err) == 1 and 'gone.msgpack' in err[0], err
+  rc = speed.main(['--policy=shipped', '--lookahead=3_ahead', f'--json={out}'])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert rc == 2 and len(err) == 1 and 'H_follow' in err[0], err
   assert not out.exists()
 
 
@@ -168,7 +171,9 @@ def test_policy_select_refuses_bad_input_in_one_line(tmp_path, capsys):
       ([f'--policy={tmp_path}/none.msgpack'], 1, 'none.msgpack'),
       (['--policy=shipped',
         f"--gin_file={ROOT / 'gin_configs' / 'latex_wind_lookahead.gin'}"],
-       2, 'wind_lookahead')):
+       2, 'wind_lookahead'),
+      (['--policy=shipped', '--mode=lookahead', '--horizon=0'], 2,
+       '--horizon')):
     rc = script.main(['policy_select.py', *argv, f'--output={out}'])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == rc_want and len(err) == 1 and text in err[0], (argv, err)

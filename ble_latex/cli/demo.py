@@ -1,7 +1,8 @@
 # coding=utf-8
 """`ble-latex-demo` (`make demo`): what the project can do, in a few minutes.
 
-1. Flies the shipped trained SAC policy (`sac_pretrained`) and a baseline
+1. Flies the shipped trained SAC policy (`sac_pretrained`), the shipped
+   learned controller (`sac_ensemble`, under its gin file) and a baseline
    (--baseline, default the geometric station seeker) on the held-out seeds
    of --suite (default `latex_tiny`, 10 seeds) of `LatexBalloon-v0`, writing
    `ble-latex-eval` files to OUTPUT_DIR/eval/;
@@ -9,7 +10,7 @@
    (flight paths of the trained policy, the same seed flown by both in 3D,
    forecast wind fields, training curves and terminal conditions of --run_dir)
    and `ble-latex-validate` (venting and ballasting);
-3. prints both agents' summaries (TW50 over the window, TW50 over the flown
+3. prints the agents' summaries (TW50 over the window, TW50 over the flown
    steps, helium, sand, % out of resources).
 
 --run_dir defaults to the training run of the shipped policy
@@ -40,9 +41,12 @@ eval_lib = cli.lazy_module('ble_latex.run.eval_lib')
 metrics = cli.lazy_module('ble_latex.run.metrics')
 suites = cli.lazy_module('ble_latex.run.suites')
 train_lib = cli.lazy_module('ble_latex.run.train_lib')
+configs = cli.lazy_module('ble_latex.configs')
+ensemble = cli.lazy_module('ble_latex.agents.ensemble')
 
 _SAC = 'ble_latex.agents.sac.SACAgent'
 TRAINED = 'sac_pretrained'
+LEARNED = 'sac_ensemble'  # Issue 47's controller, under its gin file.
 # The shipped policy's training run, in a checkout of the repository.
 SHIPPED_RUN = (pathlib.Path(__file__).resolve().parents[2] / 'benchmarks' /
                'sac_jax' / 'n32' / 'seed_2')
@@ -78,9 +82,11 @@ def _train(run_dir: str, episodes: int) -> None:
                   collectors=['progress', 'episodes', 'tensorboard'])
 
 
-def _fly(agent: str, seeds: List[int], path: str) -> Dict[str, float]:
+def _fly(agent: str, seeds: List[int], path: str,
+         gin_files: Sequence[str] = ()) -> Dict[str, float]:
   """Flies `agent` on `seeds`, writes its eval file; returns its summary."""
-  built, env = eval_lib.build(eval_lib.EvalSpec(agent=agent))
+  built, env = eval_lib.build(eval_lib.EvalSpec(agent=agent,
+                                                gin_files=tuple(gin_files)))
   results = eval_lib.evaluate(built, env, seeds, suites.EPISODE_STEPS,
                               description=f'eval {agent}')
   eval_lib.write_results(path, results)
@@ -105,12 +111,14 @@ def run(output_dir: str, suite: str, baseline: str, run_dir: Optional[str],
   seeds = suites.get_eval_suite(suite).seeds
   eval_dir = os.path.join(output_dir, 'eval')
   figures = os.path.join(output_dir, 'figures')
-  print(f'[{steps - 1}/{steps}] Flying {TRAINED} and {baseline} on {suite} '
-        f'({len(seeds)} held-out seeds)', flush=True)
+  print(f'[{steps - 1}/{steps}] Flying {TRAINED}, {LEARNED} and {baseline} '
+        f'on {suite} ({len(seeds)} held-out seeds)', flush=True)
   paths, summaries = {}, {}
-  for name in (TRAINED, baseline):
+  learned_gin = [configs.gin_file(ensemble.SHIPPED_GIN_FILE)]
+  for name in (TRAINED, LEARNED, baseline):
     paths[name] = eval_lib.output_path(eval_dir, suite, name, 1, 0)
-    summaries[name] = _fly(name, list(seeds), paths[name])
+    summaries[name] = _fly(name, list(seeds), paths[name],
+                           learned_gin if name == LEARNED else ())
 
   print(f'[{steps}/{steps}] Figures into {figures}', flush=True)
   argv = [f'--output_dir={figures}', f'--eval_json={paths[TRAINED]}',
@@ -134,7 +142,8 @@ def _check() -> None:
   cli.check_agent(FLAGS.baseline)
   if FLAGS.baseline not in agents.BOX_AGENTS:
     raise cli.CommandUsageError(cli.unknown(
-        'Box agent', FLAGS.baseline, agents.BOX_AGENTS - {TRAINED, 'sac'}))
+        'Box agent', FLAGS.baseline,
+        agents.BOX_AGENTS - {TRAINED, LEARNED, 'sac'}))
   if FLAGS.run_dir is not None and FLAGS.train_episodes:
     raise cli.CommandUsageError('--run_dir and --train_episodes exclude each '
                                 'other (the demo draws the run it trains)')

@@ -467,3 +467,37 @@ def ensemble_replicates() -> str:
     lines.append(f'| mean ± std over the {len(held)} replicates | | '
                  f'with: {100 * mean:.1f} % ± {100 * std:.1f} | | |')
   return '\n'.join(lines)
+
+
+# `sac_ensemble` under gin_configs/latex_realistic.gin (ble-latex-eval
+# records, flight paths removed; docs/ensemble.md says how they were flown).
+ENSEMBLE_REALISTIC = ROOT / 'benchmarks' / 'ensemble' / 'realistic'
+
+
+def ensemble_realistic() -> str:
+  """Realistic physics: the ensemble of three realistic SAC seeds, without
+  and with the lookahead on validation, the chosen one held out, paired
+  with the shipped realistic `sac_pretrained` on the same flights."""
+  def summary(suite, name):
+    return tables.flights_summary(ENSEMBLE_REALISTIC / suite / f'{name}.json')
+
+  def cell(s):
+    return (f"{100 * s['tw50_window'][0]:.1f} % "
+            f"({s['out_of_resources_pct']:.0f} %)")
+
+  valid = {False: summary('latex_validation', 'sac_ensemble_no_lookahead'),
+           True: summary('latex_validation', 'sac_ensemble')}
+  held = summary('latex_small', 'sac_ensemble')
+  single = summary('latex_small', 'sac_pretrained')
+  where = ENSEMBLE_REALISTIC / 'latex_small'
+  return '\n'.join([
+      '| controller (realistic physics) | `latex_validation` TW50 window (out '
+      'of resources) | `latex_small` TW50 window (out of resources) | − '
+      '`sac_pretrained` (realistic policy) per seed |', '|---|---|---|---|',
+      f'| `sac_ensemble` of 3 realistic SAC seeds, no lookahead | '
+      f'{cell(valid[False])} | — | — |',
+      f'| `sac_ensemble` of 3 realistic SAC seeds, 3 strides ahead '
+      f'(then its member\'s actions) | {cell(valid[True])} | {cell(held)} | '
+      f"{_paired(single['per_seed'], held['per_seed'], where)} |",
+      f'| `sac_pretrained`, the shipped realistic policy | — | {cell(single)} '
+      '| — |'])

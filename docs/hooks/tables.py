@@ -57,6 +57,8 @@ BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
 
 # (record name in benchmarks/results.json, label).
 AGENTS = (
+    ('sac_ensemble', '`sac_ensemble` (12 SAC policies, each proposal flown 3 '
+     'strides ahead; issue 47)'),
     ('sac_pretrained', '`sac_pretrained` (jitted trainer, seed 2, 6880 training '
      'episodes)'),
     ('ble_station_seeker_discrete',
@@ -613,6 +615,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     'ensemble': lambda: _learned().ensemble(),
     'ensemble-lookahead': lambda: _learned().ensemble_lookahead(),
     'ensemble-replicates': lambda: _learned().ensemble_replicates(),
+    'ensemble-realistic': lambda: _learned().ensemble_realistic(),
 }
 
 
