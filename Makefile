@@ -56,7 +56,7 @@ clean:
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.cli.eval --suite=latex_small --output_dir=$(RESULTS)
 
-.PHONY: baselines baselines-realistic long-flights physics-results realistic-sensitivity planners planners-wide results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac ensemble
+.PHONY: baselines baselines-realistic long-flights physics-results realistic-sensitivity planners planners-wide results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac ensemble learned-controller
 baselines: venv
 	$(EVAL) --agent=latex_random
 	$(EVAL) --agent=latex_station_seeker
@@ -155,6 +155,25 @@ train-sac: venv
 # Issue 47: SAC policies alone and as critic-chosen ensembles (benchmarks/ensemble/, docs/ensemble.md); the
 # seeds' chosen policies come from `benchmarks/sac_seeds.py report` (git-ignored).
 ENSEMBLE ?= benchmarks/ensemble
+# The whole recipe in one command, resumable (each step resumes or skips what is done), seeded: the members'
+# SAC seeds on each wind column, each seed's snapshot chosen on validation, then `ensemble` (about 7 hours of
+# the 2-core machine, docs/ensemble.md). Copy the chosen members into ble_latex/agents/policies/ to ship them.
+LEARNED_ROUNDS ?= 230
+learned-controller: venv
+	$(PY) benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/wind_lookahead12 --seeds=0,1,2,3,4,5 \
+		--num_iterations=$(LEARNED_ROUNDS) --parallel=3 --gin_file=gin_configs/latex_wind_lookahead.gin
+	$(PY) benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/wind_memory16 --seeds=0,1,2,3,4 \
+		--num_iterations=$(LEARNED_ROUNDS) --parallel=3 --gin_file=gin_configs/latex_wind_memory.gin
+	$(PY) benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/memory_lookahead --seeds=0 \
+		--num_iterations=$(LEARNED_ROUNDS) --parallel=1 --gin_file=gin_configs/latex_wind_memory_lookahead.gin
+	$(PY) benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/wind_lookahead12 --seeds=0,1,2,3,4,5 \
+		--max_iteration=$$(($(LEARNED_ROUNDS) - 1)) --parallel=2 --gin_file=gin_configs/latex_wind_lookahead.gin
+	$(PY) benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/wind_memory16 --seeds=0,1,2,3,4 \
+		--max_iteration=$$(($(LEARNED_ROUNDS) - 1)) --parallel=2 --gin_file=gin_configs/latex_wind_memory.gin
+	$(PY) benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/memory_lookahead --seeds=0 \
+		--max_iteration=$$(($(LEARNED_ROUNDS) - 1)) --parallel=1 --gin_file=gin_configs/latex_wind_memory_lookahead.gin
+	$(MAKE) ensemble
+
 ensemble: venv
 	$(PY) benchmarks/policy_select.py --sweep=$(ENSEMBLE)/results.json --drift_seeds=0,1,2,3,4,5 \
 		--memory_seeds=0,1,2,3,4 --both_seeds=0
