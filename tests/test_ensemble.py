@@ -175,13 +175,30 @@ def test_a_view_reads_the_column_its_settings_observe():
   assert not np.allclose(rows[0][:50], rows[1][:50])  # The memory matters.
 
 
+def _batched_and_launch_fly(agent, env, obs, action):
+  """The batched eval and the launch controller choose `action`, the
+  attached agent's choice from `env`'s core state and observation `obs`."""
+  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import batch_eval  # pylint: disable=g-import-not-at-top
+  driver, wind = planners.core_of(env)
+  states = jax.tree.map(lambda a: a[None], driver.state)
+  batched = batch_eval.core_policy(agent, batch_eval.core_env(env)).step(
+      states, obs[None], np.zeros(1))
+  np.testing.assert_allclose(batched[0], action, rtol=1e-5, atol=1e-6)
+  controller = controllers.controller_for(agent)
+  carry = controller.plan(controller.init(jnp.asarray(obs), driver.state),
+                          jnp.asarray(obs), driver.state, driver.params, wind)
+  np.testing.assert_allclose(
+      np.asarray(controller.act(carry, jnp.asarray(obs), driver.state, 0)[0]),
+      action, rtol=1e-5, atol=1e-3)
+
+
 def test_members_of_other_views_fly_from_the_env_s_state(tmp_path):
   """One balloon (BLE's gym env, `attach_env`), the batched eval and the
   launch controller choose the same action from the members' own views."""
   import gym  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
-  from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
-  from ble_latex.run import batch_eval  # pylint: disable=g-import-not-at-top
   paths = [_policy_file(tmp_path, 5, wind_lookahead=12),
            _policy_file(tmp_path, 6),
            _policy_file(tmp_path, 7, wind_lookahead=12)]
@@ -200,16 +217,7 @@ def test_members_of_other_views_fly_from_the_env_s_state(tmp_path):
   expected = agent._to_box(np.asarray(ensemble.critic_choice(  # pylint: disable=protected-access
       agent.network_def, agent.members, rows, agent.group)))
   np.testing.assert_allclose(action, expected, rtol=1e-5, atol=1e-6)
-  states = jax.tree.map(lambda a: a[None], driver.state)
-  batched = batch_eval.core_policy(agent, batch_eval.core_env(env)).step(
-      states, obs[None], np.zeros(1))
-  np.testing.assert_allclose(batched[0], action, rtol=1e-5, atol=1e-6)
-  controller = controllers.controller_for(agent)
-  carry = controller.plan(controller.init(jnp.asarray(obs), driver.state),
-                          jnp.asarray(obs), driver.state, driver.params, wind)
-  np.testing.assert_allclose(
-      np.asarray(controller.act(carry, jnp.asarray(obs), driver.state, 0)[0]),
-      action, rtol=1e-5, atol=1e-3)
+  _batched_and_launch_fly(agent, env, obs, action)
 
 
 @pytest.mark.slow
@@ -319,8 +327,6 @@ def test_an_ensemble_with_a_lookahead_flies_from_the_env_s_state(tmp_path):
   controller fly the same lookahead choice."""
   import gym  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
-  from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
-  from ble_latex.run import batch_eval  # pylint: disable=g-import-not-at-top
   paths = [_policy_file(tmp_path, k) for k in (8, 9)]
   env = gym.make('LatexBalloon-v0').unwrapped
   agent = ensemble.SACEnsembleAgent(
@@ -338,16 +344,7 @@ def test_an_ensemble_with_a_lookahead_flies_from_the_env_s_state(tmp_path):
       agent.network_def, agent.members, agent.group, agent.views,
       ensemble.Lookahead(2, True), wind, driver.params, driver.state)))
   np.testing.assert_allclose(action, expected, rtol=1e-5, atol=1e-6)
-  states = jax.tree.map(lambda a: a[None], driver.state)
-  batched = batch_eval.core_policy(agent, batch_eval.core_env(env)).step(
-      states, obs[None], np.zeros(1))
-  np.testing.assert_allclose(batched[0], action, rtol=1e-5, atol=1e-6)
-  controller = controllers.controller_for(agent)
-  carry = controller.plan(controller.init(jnp.asarray(obs), driver.state),
-                          jnp.asarray(obs), driver.state, driver.params, wind)
-  np.testing.assert_allclose(
-      np.asarray(controller.act(carry, jnp.asarray(obs), driver.state, 0)[0]),
-      action, rtol=1e-5, atol=1e-3)
+  _batched_and_launch_fly(agent, env, obs, action)
 
 
 def test_shipped_members_observe_the_drifts_and_the_memory():

@@ -255,9 +255,10 @@ def imagine(params: env_types.EnvParams, wind_fn: Callable[..., Any],
   The env's stride (`jax_env.LatexBalloonJaxEnv.step_env`) in the planning
   wind: the flight in `wind_fn` without the lift walk (as the planners,
   `plan_objective.fly`), its measured wind the planning wind where it ends,
-  its altitude history pushed, its memory of measured winds kept (an
-  imagined wind is not a measurement); the reward is the env's
-  (`jax_features.reward`), 0 where the flight had already ended.
+  its altitude history pushed (`jax_env.stride_state`), its memory of
+  measured winds kept (an imagined wind is not a measurement); the reward
+  is the env's (`jax_env.stride_reward`), 0 where the flight had already
+  ended.
 
   Args:
     params: The env parameters.
@@ -273,21 +274,11 @@ def imagine(params: env_types.EnvParams, wind_fn: Callable[..., Any],
       env_types.flight_params_of(params, state).replace(lift_walk=False),
       state.atmosphere, before, box, wind_fn, params.stride_s)
   u, v = wind_fn(flight.x_m, flight.y_m, flight.pressure_pa, flight.time_s)
-  after = state.replace(
-      flight=flight, wind_u=u.astype(state.wind_u.dtype),
-      wind_v=v.astype(state.wind_v.dtype),
-      history=jax_features.push_history(state.history, flight.altitude_m,
-                                        flight.ascent_rate_mps, box[2]),
-      steps=state.steps + 1)
-  reward = jax_features.reward(
-      jnp.hypot(flight.x_m, flight.y_m) / 1000.0, params.radius_km,
-      params.reward_dropoff, params.reward_halflife_km,
-      flight.helium_vented_mols - before.helium_vented_mols,
-      flight.sand_dropped_kg - before.sand_dropped_kg,
-      params.helium_penalty_per_mol, params.sand_penalty_per_kg,
-      params.reward_tanh_scale_km)
+  after = jax_env.stride_state(state, flight, box).replace(
+      wind_u=u.astype(state.wind_u.dtype),
+      wind_v=v.astype(state.wind_v.dtype))
   return after, jnp.where(before.status == state_lib.FlightStatus.OK,
-                          reward, 0.0)
+                          jax_env.stride_reward(params, before, flight), 0.0)
 
 
 def lookahead_scores(network_def: Any, members: Any, group: Tuple[int, ...],

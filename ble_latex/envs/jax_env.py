@@ -166,6 +166,32 @@ def measure(state: env_types.EnvState,
   return observed_winds.remember(state.replace(wind_u=u, wind_v=v), wind)
 
 
+def stride_state(state: env_types.EnvState, flight: Any,
+                 action: Array) -> env_types.EnvState:
+  """`state` after a stride that flew `action` (the Box's) to `flight`: the
+  state after it becomes history slot t-1 (`jax_features.push_history`) and
+  the step count grows; its measured wind is not yet set (`measure`)."""
+  return state.replace(
+      flight=flight,
+      history=jax_features.push_history(state.history, flight.altitude_m,
+                                        flight.ascent_rate_mps, action[2]),
+      steps=state.steps + 1)
+
+
+def stride_reward(params: env_types.EnvParams, before: Any,
+                  after: Any) -> Array:
+  """The env's reward of a stride from flight `before` to `after`
+  (`jax_features.reward`: BLE's Perciatelli reward at the distance reached
+  minus the penalties of the helium vented and sand dropped on the way)."""
+  return jax_features.reward(
+      jax_features.distance_km(after.x_m, after.y_m), params.radius_km,
+      params.reward_dropoff, params.reward_halflife_km,
+      after.helium_vented_mols - before.helium_vented_mols,
+      after.sand_dropped_kg - before.sand_dropped_kg,
+      params.helium_penalty_per_mol, params.sand_penalty_per_kg,
+      params.reward_tanh_scale_km)
+
+
 def step_info(state: env_types.EnvState, params: env_types.EnvParams,
               invalid_action: Any = False) -> Dict[str, Array]:
   """The numbers behind the envs' `info` after a reset or step (arrays).
@@ -571,21 +597,9 @@ class LatexBalloonJaxEnv:
           wind.outside(state, flight.x_m, flight.y_m),
           state_lib.FlightStatus.LEFT_WIND_DOMAIN, flight.status).astype(
               flight.status.dtype))
-    state = state.replace(
-        flight=flight,
-        # The state after the step becomes history slot t-1 (jax_features).
-        history=jax_features.push_history(state.history, flight.altitude_m,
-                                          flight.ascent_rate_mps, action[2]),
-        steps=state.steps + 1)
-    state = measure(state, wind)
+    state = measure(stride_state(state, flight, action), wind)
     info = step_info(state, params, invalid_action=invalid)
-    reward = jax_features.reward(
-        info['distance_km'], params.radius_km, params.reward_dropoff,
-        params.reward_halflife_km,
-        flight.helium_vented_mols - before.helium_vented_mols,
-        flight.sand_dropped_kg - before.sand_dropped_kg,
-        params.helium_penalty_per_mol, params.sand_penalty_per_kg,
-        params.reward_tanh_scale_km)
+    reward = stride_reward(params, before, flight)
     terminated = flight.status != state_lib.FlightStatus.OK
     return (observation(state, params, wind), state, reward, terminated,
             info)

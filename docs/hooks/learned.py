@@ -299,10 +299,14 @@ def _cell(run: dict, suite: str) -> str:
   return f"{100 * r['tw50_window_mean']:.1f} %" if r else '—'
 
 
-def _validation_cell(run: dict) -> str:
-  r = run['latex_validation']
+def _result_cell(r: dict) -> str:
+  """'TW50 window % (out of resources %)' of one sweep flight."""
   return (f"{100 * r['tw50_window_mean']:.1f} % "
           f"({r['out_of_resources_pct']:.0f} %)")
+
+
+def _validation_cell(run: dict) -> str:
+  return _result_cell(run['latex_validation'])
 
 
 def ensemble() -> str:
@@ -417,8 +421,7 @@ def ensemble_lookahead() -> str:
     valid = run['latex_validation']
     held = run.get('latex_small')
     step = speed.get(_lookahead_speed_name(valid))
-    held_cells = (f"{100 * held['tw50_window_mean']:.1f} % "
-                  f"({held['out_of_resources_pct']:.0f} %) | "
+    held_cells = (f'{_result_cell(held)} | '
                   f"{_paired(base['latex_small'], held, ENSEMBLE)} | "
                   f'{_paired(mpc, held, ENSEMBLE)}' if held else '— | — | —')
     ms = f"{1e3 * step['median_s']:.2f}" if step else '—'
@@ -429,8 +432,7 @@ def ensemble_lookahead() -> str:
   lines.append(
       f"| not flown ahead (the shipped members' critics score where the "
       f"balloon is) | {_validation_cell(base)} | — | "
-      f"{100 * base['latex_small']['tw50_window_mean']:.1f} % "
-      f"({base['latex_small']['out_of_resources_pct']:.0f} %) | — | "
+      f"{_result_cell(base['latex_small'])} | — | "
       f"{_paired(mpc, base['latex_small'], ENSEMBLE)} | "
       f"{1e3 * speed['shipped_ensemble']['median_s']:.2f} |")
   return '\n'.join(lines)
