@@ -9,7 +9,9 @@ the latex env and suites:
 
 Writes OUTPUT_DIR/SUITE/NAME.json: one object per seed with seed, reward,
 tw50, tw50_window, window_steps, steps, helium_vented_mols, sand_dropped_kg, terminal_reason,
-final_distance_km and flight_path (docs/training.md, "Eval output").
+final_distance_km and flight_path (docs/training.md, "Eval output"), with
+the flight's station (station_lat, station_lon, station_source), its start
+(start_utc) and each point's lat, lon and utc (`ble_latex.run.tracks`).
 
 With --ray_address the seeds (after --num_shards/--shard_idx) are Ray tasks
 on a local Ray (`local`) or a cluster (`auto`, `HOST:PORT`); the file written
@@ -23,9 +25,10 @@ paper_era5.gin`) the flights start inside the suite's dates
 (`suites.era5_dates`: latex_validation flies 'validation', every other
 suite 'eval'; `--era5_dates` to choose), never the training dates. On any
 wind file each record also has `wind_source` and its flight's station,
-`station_lat`/`station_lon` [deg]: on a gridded snapshot (GFS, GRIB2)
---wind_file draws station s for seed s (`Era5WindField.stations =
-'per_seed'`) unless a station is bound (docs/winds.md).
+`station_lat`/`station_lon` [deg] from the file: on a gridded snapshot (GFS,
+GRIB2) --wind_file draws station s for seed s (`Era5WindField.stations =
+'per_seed'`) unless a station is bound (docs/winds.md); on BLE's winds the
+station is the nominal position `LatexBalloon.latitude_deg/longitude_deg`.
 
 If seeds fail on Ray, the others are written to NAME.partial.json and the
 command exits with status 1, listing each failed seed with its error.
@@ -51,11 +54,10 @@ from ble_latex.run import gin_binding
 batch_eval = cli.lazy_module('ble_latex.run.batch_eval')
 distributed = cli.lazy_module('ble_latex.run.distributed')
 env_params = cli.lazy_module('ble_latex.envs.env_params')
-jax_env = cli.lazy_module('ble_latex.envs.jax_env')
-winds = cli.lazy_module('ble_latex.envs.winds')
 eval_lib = cli.lazy_module('ble_latex.run.eval_lib')
 metrics = cli.lazy_module('ble_latex.run.metrics')
 suites = cli.lazy_module('ble_latex.run.suites')
+tracks = cli.lazy_module('ble_latex.run.tracks')
 
 # The command's own flags (`cli.run_absl`).
 FLAGS = flags.FlagValues()
@@ -176,15 +178,9 @@ def _fly(spec: 'eval_lib.EvalSpec', path: str, agent: Any, env: Any) -> None:
         distributed.shutdown()
   source = env_params.wind_source()  # Each record names its winds.
   results = [{**r, 'wind_source': source} for r in results]
-  # On a wind file, each record names its flight's station (per seed).
-  stations = None
-  if winds.is_era5(env_params.episode()['wind_field_factory']):
-    stations = jax_env.flight_stations(env_params.params_from_gin(),
-                                       [r['seed'] for r in results])
-  if stations is not None:
-    results = [{**r, 'station_lat': round(float(lat), 5),
-                'station_lon': round(float(lon), 5)}
-               for r, (lat, lon) in zip(results, stations)]
+  # Each record names its flight's station and start, each point its
+  # lat/lon and UTC time (`tracks.locate`).
+  results = tracks.locate(results, env_params.params_from_gin())
   eval_lib.write_results(path, results, FLAGS.pretty_json)
   print(json.dumps({'output': path, 'wind_source': source,
                     **metrics.summarize(results)}))

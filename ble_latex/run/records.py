@@ -57,10 +57,13 @@ class FieldType:
     accepts: True for a valid value (already parsed from JSON).
     items: For a list of records: the schema of each item (then `accepts`
       checks the list itself).
+    optional_items: For a list of records: the fields an item may hold,
+      checked when present.
   """
   description: str
   accepts: Callable[[Any], bool]
   items: Optional[Mapping[str, 'FieldType']] = None
+  optional_items: Optional[Mapping[str, 'FieldType']] = None
 
 
 NUMBER = FieldType('a finite number', _is_finite_number)
@@ -77,10 +80,23 @@ def one_of(values: Sequence[str]) -> FieldType:
                    lambda v: isinstance(v, str) and v in allowed)
 
 
-def list_of(schema: Mapping[str, FieldType], what: str) -> FieldType:
-  """A non-empty list whose items are records of `schema`."""
+def list_of(schema: Mapping[str, FieldType], what: str,
+            optional: Optional[Mapping[str, FieldType]] = None) -> FieldType:
+  """A non-empty list whose items are records of `schema` (and `optional`)."""
   return FieldType(f'a non-empty list of {what}',
-                   lambda v: isinstance(v, list) and bool(v), items=schema)
+                   lambda v: isinstance(v, list) and bool(v), items=schema,
+                   optional_items=optional)
+
+
+def number_within(bound: float) -> FieldType:
+  """A finite number in [-bound, bound]."""
+  return FieldType(f'a finite number in [-{bound:g}, {bound:g}]',
+                   lambda v: _is_finite_number(v) and abs(v) <= bound)
+
+
+TEXT = FieldType('a string', lambda v: isinstance(v, str))
+LATITUDE = number_within(90.0)
+LONGITUDE = number_within(360.0)
 
 
 TERMINAL_REASON = one_of(TERMINAL_REASONS)
@@ -94,6 +110,12 @@ FLIGHT_POINT_SCHEMA: Mapping[str, FieldType] = {
     'decision': one_of(DECISIONS),
     'helium_mols': NUMBER,
     'sand_kg': NUMBER,
+}
+# What a flight point may also hold (`tracks.locate`): its place and time.
+FLIGHT_POINT_OPTIONAL: Mapping[str, FieldType] = {
+    'lat': LATITUDE,  # [deg N]
+    'lon': LONGITUDE,  # [deg E], -180..180 as written
+    'utc': TEXT,  # ISO 8601
 }
 
 
@@ -137,7 +159,16 @@ EPISODE_SCHEMA: Mapping[str, FieldType] = {
 EVAL_SCHEMA: Mapping[str, FieldType] = {
     **{k: v for k, v in EPISODE_SCHEMA.items()
        if k not in ('episode', 'wall_time_s')},
-    'flight_path': list_of(FLIGHT_POINT_SCHEMA, 'flight points'),
+    'flight_path': list_of(FLIGHT_POINT_SCHEMA, 'flight points',
+                           FLIGHT_POINT_OPTIONAL),
+}
+# What an eval record may also hold (`cli/eval.py`, `tracks.locate`).
+EVAL_OPTIONAL: Mapping[str, FieldType] = {
+    'wind_source': TEXT,
+    'station_lat': LATITUDE,  # [deg N]
+    'station_lon': LONGITUDE,  # [deg E]
+    'station_source': TEXT,
+    'start_utc': TEXT,  # ISO 8601
 }
 # One line of RUN/validation.jsonl (the jitted trainer's policy snapshots
 # flown on latex_validation seeds, `jax_train.train`).
@@ -187,13 +218,16 @@ def _describe(value: Any, limit: int = 60) -> str:
 
 
 def validate_record(record: Any, schema: Mapping[str, FieldType],
-                    where: str) -> None:
+                    where: str,
+                    optional: Optional[Mapping[str, FieldType]] = None
+                    ) -> None:
   """Checks one record against a schema (extra fields are allowed).
 
   Args:
     record: A parsed JSON value that should be an object.
     schema: field -> `FieldType`; every field is required.
     where: Names the record in errors ("FILE: record 3 (seed 5)").
+    optional: field -> `FieldType` of fields checked when present.
 
   Raises:
     ValueError: '{where}: ...' naming the field if `record` is not an object,
@@ -207,14 +241,17 @@ def validate_record(record: Any, schema: Mapping[str, FieldType],
   if missing:
     raise ValueError(f'{where}: missing field(s) '
                      f'{", ".join(repr(k) for k in missing)}')
-  for name, field in schema.items():
+  present = {**schema, **{k: v for k, v in (optional or {}).items()
+                          if k in record}}
+  for name, field in present.items():
     value = record[name]
     if not field.accepts(value):
       raise ValueError(f'{where}: field {name!r}: expected '
                        f'{field.description}, got {_show(value)}')
     if field.items is not None:
       for j, item in enumerate(value):
-        validate_record(item, field.items, f'{where}: {name}[{j}]')
+        validate_record(item, field.items, f'{where}: {name}[{j}]',
+                        field.optional_items)
 
 
 def _record_label(record: Any, index: int, key: str,
@@ -289,7 +326,7 @@ def validate_eval(records: Any, path: str) -> None:
   first_index = {}
   for i, record in enumerate(records):
     where = f'{path}: {_record_label(record, i, "seed", INTEGER)}'
-    validate_record(record, EVAL_SCHEMA, where)
+    validate_record(record, EVAL_SCHEMA, where, EVAL_OPTIONAL)
     seed = record['seed']
     if seed in first_index:
       raise ValueError(f'{where}: seed {seed} already in record '
