@@ -57,10 +57,11 @@ FLIGHT_BAND_M = sounding.FLIGHT_BAND_M
 # `STATION_MARGIN_M` of wind around it on every side. # [m]
 STATION_MARGIN_M = 150_000.0  # [m]
 MIN_DOMAIN_M = 2.0 * STATION_MARGIN_M + 100_000.0  # [m]
-# A sounding's uniform column is stored on this lat/lon box (any point
-# outside takes the edge value, so the field is uniform everywhere). # [deg]
-SOUNDING_BOX_LAT = (-89.0, 89.0)  # [deg N]
-SOUNDING_BOX_LON = (-180.0, 179.0)  # [deg E]
+# A sounding's uniform column is stored on the whole sphere: pole to pole,
+# and longitudes -180 and 0, a global axis (`globe`: closed at +180), so a
+# site anywhere is inside and the field is uniform everywhere. # [deg]
+SOUNDING_BOX_LAT = (-90.0, 90.0)  # [deg N]
+SOUNDING_BOX_LON = (-180.0, 0.0)  # [deg E]
 _MERIDIAN_M_PER_DEG = 6_371_000.0 * math.pi / 180.0  # [m/deg]
 _GRIB_MAGIC = b'GRIB'
 _NETCDF_MAGICS = (b'CDF\x01', b'CDF\x02', b'CDF\x05', b'\x89HDF')

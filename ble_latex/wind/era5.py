@@ -53,6 +53,7 @@ from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex.wind import analysis
 from ble_latex.wind import era5_checks
+from ble_latex.wind import globe
 from ble_latex.wind import stations as stations_lib
 
 # Dimension names accepted in the files, new CDS layout first.
@@ -123,6 +124,8 @@ class Era5Data:
       every time (`interpolate` clips to the edges).
     site: A sounding's site and time as its file names them
       (`sounding.Site`: its time is times[0]); None for other sources.
+    global_longitude: The longitudes go round the globe (`globe`):
+      `longitude` and `uv` end with the wrapped column (the first at +360).
   """
   paths: Tuple[str, ...]
   times: np.ndarray
@@ -134,14 +137,23 @@ class Era5Data:
   source: str = 'ERA5'
   time_invariant: bool = False
   site: Any = None
+  global_longitude: bool = False
 
   @property
   def description(self) -> str:
     """The source for records: e.g. 'GRIB2 (time-invariant)', 'sounding BOI
     72681 43.56N -116.21E 2010-12-09T12:00Z (time-invariant)'."""
     label = self.site.label if self.site is not None else ''
+    notes = ['time-invariant'] if self.time_invariant else []
+    if getattr(self.site, 'top_m', None) is not None:  # Held above it.
+      notes.append(f'wind above its top, {self.site.top_m / 1000:.1f} km, held')
     return (self.source + (f' {label}' if label else '') +
-            (' (time-invariant)' if self.time_invariant else ''))
+            (f' ({"; ".join(notes)})' if notes else ''))
+
+  @property
+  def latitude_bounds(self) -> Tuple[float, float]:
+    """The latitudes the area spans (`globe.latitude_bounds`). # [deg N]"""
+    return globe.latitude_bounds(self.latitude, self.global_longitude)
 
   def __post_init__(self):
     import scipy.interpolate  # pylint: disable=g-import-not-at-top
@@ -180,7 +192,8 @@ class Era5Data:
   def covers(self, lat: float, lon: float) -> bool:
     """Whether the file's area holds (lat [deg N], lon [deg E], any convention)."""
     lon = float(self.wrap_longitude(lon))
-    return bool(self.latitude[0] <= lat <= self.latitude[-1] and
+    low, high = self.latitude_bounds
+    return bool(low <= lat <= high and
                 self.longitude[0] <= lon <= self.longitude[-1])
 
   def interpolate(self, time_s: Union[float, np.ndarray],
@@ -379,7 +392,6 @@ def read_file(path: str, layout: Layout = ERA5,
           longitude[orders[3]], uv)
 
 
-
 def expand_paths(path: Union[str, Sequence[str]]) -> Tuple[str, ...]:
   """Expands a path, a glob pattern or a list of them into sorted files.
 
@@ -492,13 +504,16 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
       raise errors.BadFileError(
           f'{label} file(s) {[s[0] for s in stamps]} hold {axis.size} '
           f'{name} value(s); interpolation needs at least 2')
+  global_longitude = globe.is_global_longitude(longitude)
+  if global_longitude:  # Close the seam (`Era5Data.global_longitude`).
+    longitude, uv = globe.with_wrapped_column(longitude, uv)
   time_s = (times - times[0]) / np.timedelta64(1, 's')
   arrays = [times, time_s, pressure, latitude, longitude, uv]
   for a in arrays:
     a.flags.writeable = False
   return Era5Data(tuple(s[0] for s in stamps), *arrays, source=source,
-                  time_invariant=time_invariant, site=site)
-
+                  time_invariant=time_invariant, site=site,
+                  global_longitude=global_longitude)
 
 
 def latlng_of_offset(center_lat: float, center_lon: float, x_m: float,

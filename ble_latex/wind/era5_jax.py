@@ -88,6 +88,15 @@ class Era5Grid:
       drawn in it at reset (`draw_station`, `wind.stations`).
     end_outside_domain: Whether a flight that leaves the grid's area ends
       (`outside`; `stations.end_outside_domain`). Static.
+    latitude_bounds: None: the area's latitudes are the first and last
+      rows; else [2] (south, north edge after `latitude_origin`): a global
+      grid's rows within one spacing of a pole reach it
+      (`globe.latitude_bounds`). # [deg]
+
+  A global grid (`era5.Era5Data.global_longitude`) holds the wrapped column
+  (its longitudes end 360 deg after `longitude_origin`): `_wrap` maps every
+  longitude into it, so the wind is bilinear across the seam and no flight
+  leaves it east or west.
   """
   time_s: Array
   pressure_pa: Array
@@ -106,6 +115,7 @@ class Era5Grid:
   station_box: Optional[Array] = None
   end_outside_domain: bool = flax.struct.field(pytree_node=False,
                                                default=False)
+  latitude_bounds: Optional[Array] = None
 
 
 def _snapshot_minute(data: era5.Era5Data, when: Any) -> Optional[int]:
@@ -149,7 +159,8 @@ def station_center(data: era5.Era5Data, stations: str,
         "Era5WindField.stations = 'per_seed' needs a gridded source; "
         f'{list(data.paths)} is a sounding (the same winds everywhere)')
   box = stations_lib.station_box(data.latitude, data.longitude,
-                                 station_margin_km, data.paths)
+                                 station_margin_km, data.paths,
+                                 global_longitude=data.global_longitude)
   return 0.5 * (box[0] + box[1]), 0.5 * (box[2] + box[3]), box
 
 
@@ -221,7 +232,9 @@ def grid_from_data(data: era5.Era5Data, *,
           int(first_s // 60) if snapshot is None else snapshot, jnp.int32),
       add_noise=bool(add_noise),
       station_box=None if box is None else f32(box),
-      end_outside_domain=ends)
+      end_outside_domain=ends,
+      latitude_bounds=(f32(np.array(data.latitude_bounds) - lat0)
+                       if data.global_longitude else None))
 
 
 # Grids built from settings, by (data, target, flight, noise, dates): every
@@ -392,8 +405,8 @@ def outside(grid: Era5Grid, x_m: Array, y_m: Array,
             station: Optional[Array] = None) -> Array:
   """Whether the offset (x east, y north) of the target has left the grid.
 
-  Outside the latitudes and longitudes of the data's nodes (the file's
-  convention; `latlng` of the offset from the fixed target, or from a
+  Outside the latitudes (`latitude_bounds`) and longitudes of the data's
+  nodes (the file's convention; never east or west of a global grid; `latlng` of the offset from the fixed target, or from a
   flight's `station`).
 
   Args:
@@ -406,7 +419,11 @@ def outside(grid: Era5Grid, x_m: Array, y_m: Array,
     bool, of the inputs' broadcast shape.
   """
   lat, lon = _offsets(grid, x_m, y_m, station)
-  return ((lat < 0.0) | (lat > grid.latitude[-1]) | (lon < 0.0) |
+  if grid.latitude_bounds is None:
+    south, north = 0.0, grid.latitude[-1]
+  else:
+    south, north = grid.latitude_bounds[0], grid.latitude_bounds[1]
+  return ((lat < south) | (lat > north) | (lon < 0.0) |
           (lon > grid.longitude[-1]))
 
 

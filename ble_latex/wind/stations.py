@@ -24,7 +24,10 @@ flight leaves the data (`FlightStatus.LEFT_WIND_DOMAIN`).
 import math
 from typing import Any, Optional, Sequence, Tuple
 
+import numpy as np
+
 from ble_latex import errors
+from ble_latex.wind import globe
 
 STATION_MODES = ('fixed', 'per_seed')
 # 200 km (the start distance's scale) + 200 km to fly in. # [km]
@@ -56,16 +59,22 @@ def check_margin(margin_km: Any) -> float:
 
 
 def station_box(latitude: Sequence[float], longitude: Sequence[float],
-                margin_km: float, paths: Sequence[str] = ()
+                margin_km: float, paths: Sequence[str] = (),
+                global_longitude: bool = False
                 ) -> Tuple[float, float, float, float]:
   """The box per-seed stations are drawn in: the grid less its margins.
 
+  A global grid (`global_longitude`) has no edge east or west nor at a pole
+  its rows reach (`globe`): its box spans every longitude, and the margin
+  applies only to a latitude edge short of a pole.
+
   Args:
     latitude: The grid's latitudes, ascending. # [deg N]
-    longitude: The grid's longitudes, ascending (the file's convention).
-      # [deg E]
+    longitude: The grid's longitudes, ascending (the file's convention;
+      a global grid's end with the wrapped column). # [deg E]
     margin_km: Wind around every station, each side (checked). # [km]
     paths: The files, named in errors.
+    global_longitude: The longitudes go round the globe.
 
   Returns:
     (lowest, highest latitude [deg N], lowest, highest longitude [deg E],
@@ -76,13 +85,18 @@ def station_box(latitude: Sequence[float], longitude: Sequence[float],
       that margin (one line naming the files).
   """
   margin_km = check_margin(margin_km)
-  lat0, lat1 = float(latitude[0]), float(latitude[-1])
+  lat0, lat1 = globe.latitude_bounds(np.asarray(latitude, np.float64),
+                                     global_longitude)
   lon0, lon1 = float(longitude[0]), float(longitude[-1])
   margin_deg = margin_km / KM_PER_DEG
-  lat_lo = max(lat0 + margin_deg, -MAX_STATION_ABS_LAT)
-  lat_hi = min(lat1 - margin_deg, MAX_STATION_ABS_LAT)
+  lat_lo = max(lat0 + (margin_deg if lat0 > -90.0 else 0.0),
+               -MAX_STATION_ABS_LAT)
+  lat_hi = min(lat1 - (margin_deg if lat1 < 90.0 else 0.0),
+               MAX_STATION_ABS_LAT)
   lon_lo = lon_hi = math.nan
-  if lat_lo <= lat_hi:
+  if lat_lo <= lat_hi and global_longitude:
+    lon_lo, lon_hi = lon0, lon1
+  elif lat_lo <= lat_hi:
     poleward = math.radians(max(abs(lat_lo), abs(lat_hi)))
     lon_margin = margin_km / (KM_PER_DEG * math.cos(poleward))
     lon_lo, lon_hi = lon0 + lon_margin, lon1 - lon_margin
