@@ -43,7 +43,7 @@ def worker(name: str, steps: int, profile: bool) -> dict:
   space = env.action_space
 
   def action():
-    if hasattr(space, 'n'):
+    if isinstance(space, gym.spaces.Discrete):  # The latex Box has `n` too.
       return int(rng.integers(space.n))
     return rng.uniform(space.low, space.high)
 

@@ -25,6 +25,8 @@ in docs/ble-compat.md.
 | 8 | jax.tree_map removed (dopamine agents, BLE)        | `_jax_tree_map` (add)       |
 | 9 | jax_threefry_partitionable default flipped         | `_jax_threefry` (global)    |
 |10 | gym's RandomNumberGenerator uncopyable on NumPy 2  | `_gym_rng_copy` (gym class) |
+|11 | BLE's commands parse gin before the latex names exist | `_ble_commands` (wraps) |
+|12 | BLE's console collector counts only discrete actions  | `_ble_console_collector`  |
 
 The same hook also runs three integration steps that are not fixes:
 `gymnasium_register` (the `ble_latex/...` ids, after `import gymnasium`),
@@ -357,6 +359,33 @@ def _import_latex_configurables(unused_config: Any) -> None:
     importlib.import_module(name)
 
 
+# What BLE's own train/eval commands need (wrapped `bind_gin_variables`, the
+# Box-aware console collector); imported only where BLE's run_helpers /
+# collector_dispatcher are.
+BLE_COMMANDS_SUPPORT = 'ble_latex.run.ble_support'
+
+
+def _ble_commands(run_helpers: types.ModuleType) -> None:
+  """BLE's train/eval: latex agents and gin names declared before parsing.
+
+  BLE's commands parse `--agent`'s gin file and `--gin_bindings` in
+  `run_helpers.bind_gin_variables` before `gym.make` imports the latex env,
+  so a latex binding is "No configurable matching 'LatexBalloonEnv'" and
+  `--agent=sac` is "Agent sac not recognized". The wrapper registers
+  ble_latex's agents and declares the latex configurables first
+  (`ble_latex.run.ble_support.install`).
+  """
+  import importlib  # pylint: disable=g-import-not-at-top
+  importlib.import_module(BLE_COMMANDS_SUPPORT).install(run_helpers)
+
+
+def _ble_console_collector(collector_dispatcher: types.ModuleType) -> None:
+  """BLE's `console` collector counts only discrete actions: Box-aware one."""
+  import importlib  # pylint: disable=g-import-not-at-top
+  importlib.import_module(BLE_COMMANDS_SUPPORT).install_collectors(
+      collector_dispatcher)
+
+
 def _gin_finalize_hook(gin_config: types.ModuleType) -> None:
   if _import_latex_configurables not in gin_config._FINALIZE_HOOKS:  # pylint: disable=protected-access
     gin_config.register_finalize_hook(_import_latex_configurables)
@@ -385,6 +414,9 @@ _HOOKS: Dict[str, Tuple[str, _Around, _After]] = {
     # Integration hooks.
     'gymnasium': ('gymnasium_register', None, _register_gymnasium_envs),
     'gin.config': ('gin_latex_configurables', None, _gin_finalize_hook),
+    f'{_BLE}.utils.run_helpers': ('ble_commands', None, _ble_commands),
+    f'{_BLE}.metrics.collector_dispatcher': (
+        'ble_console_collector', None, _ble_console_collector),
     'ble_latex.ble.gym_env': ('quiet_import', _quiet_import, None),
     # gym's own import prints its "unmaintained" notice and loads the gym.envs
     # plugins, BLE's among them (BLE's env modules, TensorFlow's start-up

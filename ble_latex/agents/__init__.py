@@ -34,6 +34,10 @@ BOX_AGENTS: FrozenSet[str] = frozenset(
 # Box agents that plan on the env's core state (`attach_env(env)`).
 PLANNER_AGENTS: FrozenSet[str] = frozenset(
     {'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad'})
+# Agents that only act, reading the env's core state (`attach_env`), which
+# BLE's own train/eval do not give an agent: `ble-latex-eval` and
+# `ble-latex-ble eval --env_name=...` fly them.
+EVAL_ONLY_AGENTS: FrozenSet[str] = PLANNER_AGENTS | {'sac_ensemble'}
 
 
 def register() -> None:

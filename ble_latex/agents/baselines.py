@@ -17,6 +17,7 @@ import gin
 import jax
 import numpy as np
 
+from ble_latex.envs import jax_env
 from ble_latex.envs import jax_features
 
 
@@ -26,11 +27,16 @@ class _BoxAgent(agent.Agent):
   supports_box_actions = True
 
   def __init__(self, num_actions: int, observation_shape: Sequence[int], *,
-               action_low: Sequence[float], action_high: Sequence[float],
+               action_low: Optional[Sequence[float]] = None,
+               action_high: Optional[Sequence[float]] = None,
                seed: int = 0):
     super().__init__(num_actions, observation_shape)
-    self._low = np.asarray(action_low, dtype=np.float64)
-    self._high = np.asarray(action_high, dtype=np.float64)
+    # None: the latex core's Box (as SACAgent; BLE's create_agent passes none).
+    self._low = np.asarray(
+        jax_env.ACTION_LOW if action_low is None else action_low, np.float64)
+    self._high = np.asarray(
+        jax_env.ACTION_HIGH if action_high is None else action_high,
+        np.float64)
     if self._low.shape != (num_actions,) or self._high.shape != (num_actions,):
       raise ValueError(f'action_low/high must have shape ({num_actions},)')
     self._seed = seed
@@ -41,8 +47,8 @@ class _BoxAgent(agent.Agent):
 class LatexRandomAgent(_BoxAgent):
   """Uniform random actions in the Box (seeded)."""
 
-  def __init__(self, num_actions, observation_shape, *, action_low,
-               action_high, seed: int = 0):
+  def __init__(self, num_actions, observation_shape, *, action_low=None,
+               action_high=None, seed: int = 0):
     super().__init__(num_actions, observation_shape, action_low=action_low,
                      action_high=action_high, seed=seed)
     self._rng = np.random.default_rng(seed)
@@ -68,8 +74,8 @@ class LatexRandomAgent(_BoxAgent):
 class GeometricStationSeeker(_BoxAgent):
   """Du et al. (2019): fly to the level whose wind points at the target."""
 
-  def __init__(self, num_actions, observation_shape, *, action_low,
-               action_high, seed: int = 0,
+  def __init__(self, num_actions, observation_shape, *, action_low=None,
+               action_high=None, seed: int = 0,
                time_factor: float = 2.0,
                float_within_m: float = 300.0,  # [m]
                min_gain_mps: float = 0.5,  # [m/s]
@@ -80,8 +86,8 @@ class GeometricStationSeeker(_BoxAgent):
     Args:
       num_actions: Action dimension (3).
       observation_shape: (71,) latex features.
-      action_low: Box low.
-      action_high: Box high.
+      action_low: Box low (None: the latex core's, `jax_env.ACTION_LOW`).
+      action_high: Box high (None: `jax_env.ACTION_HIGH`).
       seed: Unused (deterministic policy); kept for the common signature.
       time_factor: a1 used when moving (larger = slower, cheaper).
       float_within_m: Float when this close to the chosen altitude. # [m]
@@ -96,8 +102,8 @@ class GeometricStationSeeker(_BoxAgent):
       raise ValueError('GeometricStationSeeker reads LatexBalloon-v0 features '
                        f'({jax_features.NUM_FEATURES}), got '
                        f'{observation_shape}')
-    self._time_factor = float(np.clip(time_factor, action_low[1],
-                                      action_high[1]))
+    self._time_factor = float(np.clip(time_factor, self._low[1],
+                                      self._high[1]))
     self._float_within_m = float_within_m
     self._min_gain_mps = min_gain_mps
     # Level altitudes from BLE's standard atmosphere (nominal lapse rates).

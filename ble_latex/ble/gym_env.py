@@ -60,6 +60,21 @@ def validate_discrete_action(action: Any) -> int:
   return int(value)
 
 
+class LatexActionBox(gym.spaces.Box):
+  """The (a0, a1, a2) Box, plus `n`: its dimension, where BLE's commands read it.
+
+  BLE 1.0.1's train and eval pass `env.action_space.n` to the agent's
+  constructor (`num_actions`) and to the metric collectors; ble_latex's Box
+  agents take the action dimension there (`agents.sac.SACAgent`). The space
+  is a Box: test `isinstance(space, gym.spaces.Discrete)`, not `n`.
+  """
+
+  @property
+  def n(self) -> int:
+    """The action dimension (3), BLE's `num_actions` for a Box agent."""
+    return int(self.shape[0])
+
+
 class LatexBalloonEnv(balloon_env.BalloonEnv):
   """Station-keeping with a vent/ballast latex balloon, continuous actions."""
 
@@ -135,7 +150,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
   @property
   def action_space(self) -> gym.spaces.Box:
     """(desired altitude a0 [m], time factor a1 [.], float flag a2 [.])."""
-    return gym.spaces.Box(low=jax_env.ACTION_LOW, high=jax_env.ACTION_HIGH,
+    return LatexActionBox(low=jax_env.ACTION_LOW, high=jax_env.ACTION_HIGH,
                           dtype=np.float32)
 
   @property

@@ -16,6 +16,8 @@ ENV_IDS = {
     'LatexBalloonDiscrete-v0':
         'ble_latex.ble.gym_registration:make_latex_balloon_discrete',
 }
+# The ids whose action space is the (a0, a1, a2) Box (the others: Discrete(3)).
+BOX_ENV_IDS = ('LatexBalloon-v0',)
 
 
 def _gym_env():

@@ -101,8 +101,8 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
     if start_iteration:
       logging.info('Resuming after checkpoint %d (episode %d).',
                    start_iteration - 1, start_episode)
-    action_dim = (env.action_space.n if hasattr(env.action_space, 'n') else
-                  env.action_space.shape[0])
+    action_dim = (env.action_space.n if isinstance(
+        env.action_space, gym.spaces.Discrete) else env.action_space.shape[0])
     dispatcher = collectors_lib.dispatcher(
         base_dir, action_dim, collectors, start_episode,
         num_iterations * episodes_per_iteration, f'train {agent_name}')
