@@ -38,6 +38,9 @@ _INSTALL_REQUIRES = [
     'tqdm',
     # Launch planning's Bayesian optimiser (ble_latex.launch.search).
     'bayesian-optimization==3.4.0',
+    # Coastlines of `ble-latex-plot`'s track map: GSHHG's distance to the
+    # coast on a 0.1 deg grid, shipped in the wheel (ble_latex.plots.maps).
+    'landmetrics==1.0.0',
 ]
 
 setuptools.setup(

@@ -564,8 +564,8 @@ def test_main_only_given_inputs(tmp_path):
   trained = _write_json(tmp_path / 'a.json', _eval_records())
   out = tmp_path / 'plots'
   assert plot.main([f'--output_dir={out}', f'--eval_json={trained}']) == 0
-  assert sorted(p.name for p in out.iterdir()) == [plot.SUMMARY,
-                                                   plot.TRAJECTORIES]
+  assert sorted(p.name for p in out.iterdir()) == sorted(
+      [plot.SUMMARY, plot.TRAJECTORIES, plot.TRACK_MAP, plot.FLIGHT_TIME])
 
 
 def test_main_bad_inputs(tmp_path, capsys):

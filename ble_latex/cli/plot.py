@@ -42,6 +42,21 @@ Writes into --output_dir, each only when its inputs are given:
                            >= 135 deg apart, vertical shear). A sounding is
                            one column: a single sample, said so in both
                            files. See ble_latex.wind.stats.
+  track_map.png            --eval_json (the first one): the tracks of up to
+                           --max_trajectories seeds on a latitude/longitude
+                           map with coastlines (landmetrics' bundled GSHHG
+                           grid), launch, end, station and its circle.
+  flight_time.png          --eval_json: the same seeds' altitude, sand,
+                           helium and distance from the station against
+                           time since launch.
+  tracks.kml               --export=kml,geojson,csv (any of them): every
+  tracks.geojson           record of the first --eval_json as KML 2.2,
+  tracks.csv               GeoJSON (RFC 7946) and CSV (one row per point:
+                           seed, t_s, utc, lat, lon, altitude_m, ...). Lat/lon
+                           and UTC are the record's (`ble_latex.run.tracks`);
+                           a record written before them gets its lat/lon
+                           from its station (or the nominal 1 N 113 W) and
+                           no times.
   summary.json             for every eval file: mean/std of TW50, reward,
                            helium vented, sand dropped, % out of resources
                            (also printed).
@@ -70,9 +85,12 @@ from ble_latex import safe_io
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding
+  from ble_latex.plots import exports
   from ble_latex.plots import figures as plots
+  from ble_latex.plots import maps
   from ble_latex.run import episode_log
   from ble_latex.run import records as records_lib
+  from ble_latex.run import tracks as tracks_lib
   # pylint: enable=g-import-not-at-top
 # Imported on first use (BLE's collectors import TensorFlow): `--help` stays
 # fast.
@@ -82,6 +100,8 @@ TRAINING_CURVES = 'training_curves.png'
 TERMINAL_CONDITIONS = 'terminal_conditions.png'
 TRAJECTORIES = 'trajectories.png'
 TRAJECTORY_3D = 'trajectory_3d.png'
+TRACK_MAP = 'track_map.png'
+FLIGHT_TIME = 'flight_time.png'
 WIND_FIELD = 'wind_field.png'
 SEED_CURVES = 'seed_curves.png'
 SUMMARY = 'summary.json'
@@ -108,7 +128,13 @@ flags.DEFINE_string('baseline_eval_json', None,
                     'Eval file of the untrained/baseline agent for the 3D '
                     'comparison (also summarized).', flag_values=FLAGS)
 flags.DEFINE_integer('max_trajectories', 6, 'Most flight paths in '
-                     f'{TRAJECTORIES}.', lower_bound=1, flag_values=FLAGS)
+                     f'{TRAJECTORIES}, {TRACK_MAP} and {FLIGHT_TIME}.',
+                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_list('export', [], 'Formats to export every record of the '
+                  'first --eval_json in (comma-separated): ' +
+                  ', '.join(f'{k} ({v[0]})' for k, v in
+                            exports.FORMATS.items()) + '.',
+                  flag_values=FLAGS)
 flags.DEFINE_integer('seed', None, f'Seed shown in {TRAJECTORY_3D} (default: '
                      'the first seed common to both eval files).',
                      flag_values=FLAGS)
@@ -383,6 +409,8 @@ def run(f: flags.FlagValues) -> List[str]:
   baseline = (records_lib.load_eval(f.baseline_eval_json)
               if f.baseline_eval_json else None)
   first = next(iter(evals.values())) if evals else None
+  flights = ([tracks_lib.track(r, f'{f.eval_json[0]}: seed {r["seed"]}')
+              for r in first] if first else [])
   seed_3d = None
   if first and baseline:
     try:
@@ -427,6 +455,18 @@ def run(f: flags.FlagValues) -> List[str]:
   if first is not None:
     draw(plots.plot_trajectories, TRAJECTORIES, first,
          max_trajectories=f.max_trajectories)
+  if flights:
+    shown = flights[:f.max_trajectories]
+    title = (f'{os.path.basename(f.eval_json[0])}: '
+             f'{first[0].get("wind_source", "winds not recorded")}')
+    title = title if len(title) <= 90 else title[:87] + '...'
+    draw(maps.plot_track_map, TRACK_MAP, shown, title=title)
+    draw(maps.plot_flight_time, FLIGHT_TIME, shown, title=title)
+  for name in dict.fromkeys(f.export):  # In the order given, once each.
+    file_name, writer = exports.FORMATS[name]
+    path = os.path.join(out, file_name)
+    safe_io.atomic_write(path, writer(flights))
+    written.append(path)
   if seed_3d is not None:
     by_seed = lambda records: next(r for r in records if r['seed'] == seed_3d)
     names = (os.path.splitext(os.path.basename(f.eval_json[0]))[0],
@@ -456,6 +496,14 @@ def run(f: flags.FlagValues) -> List[str]:
 
 
 def _check() -> None:
+  unknown = [n for n in FLAGS.export if n not in exports.FORMATS]
+  if unknown:
+    raise cli.CommandUsageError(
+        f'--export: unknown format(s) {", ".join(unknown)}; choose from '
+        f'{", ".join(exports.FORMATS)}')
+  if FLAGS.export and not FLAGS.eval_json:
+    raise cli.CommandUsageError('--export needs --eval_json (the records '
+                                'exported)')
   if not (FLAGS.run_dir or FLAGS.seed_run_dirs or FLAGS.eval_json or
           FLAGS.baseline_eval_json or
           FLAGS.wind_seed is not None or FLAGS.wind_seeds or

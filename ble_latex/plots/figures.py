@@ -151,7 +151,7 @@ def _flight_arrays(record: Mapping[str, Any]) -> Dict[str, np.ndarray]:
   }
 
 
-def _save(fig: mpl_figure.Figure, path: str) -> mpl_figure.Figure:
+def save_png(fig: mpl_figure.Figure, path: str) -> mpl_figure.Figure:
   """Writes `fig` to `path` (PNG); returns it, for callers that inspect it."""
   folder = os.path.dirname(os.path.abspath(path))
   os.makedirs(folder, exist_ok=True)
@@ -216,7 +216,7 @@ def plot_training_curves(episodes: Sequence[Mapping[str, Any]], path: str, *,
       f'{np.mean([e["reward"] for e in episodes[last]]):.1f}, TW50 window '
       f'{100 * np.mean([e["tw50_window"] for e in episodes[last]]):.1f}% '
       f'(flown {100 * np.mean([e["tw50"] for e in episodes[last]]):.1f}%)')
-  return _save(fig, path)
+  return save_png(fig, path)
 
 
 def seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]], key: str,
@@ -310,7 +310,7 @@ def plot_seed_curves(runs: Mapping[str, Sequence[Mapping[str, Any]]],
     ax.legend(loc='lower right', fontsize=8, ncol=2)
   fig.suptitle(f'{len(runs)} training runs, {window}-episode rolling means '
                f'over their first {n} episodes')
-  return _save(fig, path)
+  return save_png(fig, path)
 
 
 def plot_terminal_conditions(episodes: Sequence[Mapping[str, Any]],
@@ -339,7 +339,7 @@ def plot_terminal_conditions(episodes: Sequence[Mapping[str, Any]],
   ax.set_title('Terminal conditions')
   ax.grid(alpha=0.3)
   ax.legend(loc='upper left')
-  return _save(fig, path)
+  return save_png(fig, path)
 
 
 def _station_circle(radius_km: float, **kwargs: Any) -> mpl_patches.Circle:
@@ -405,7 +405,7 @@ def plot_trajectories(records: Sequence[Mapping[str, Any]], path: str, *,
   fig.colorbar(lines, ax=axes[:n].tolist(), label='flight time [h]',
                shrink=0.8)
   fig.suptitle(f'Flight paths, {radius_km:g} km station-keeping radius')
-  return _save(fig, path)
+  return save_png(fig, path)
 
 
 def plot_trajectory_3d(trained: Mapping[str, Any], untrained: Mapping[str, Any],
@@ -466,7 +466,7 @@ def plot_trajectory_3d(trained: Mapping[str, Any], untrained: Mapping[str, Any],
   ax.set_title(f'seed {trained["seed"]}: start o, end x; cylinder '
                f'{radius_km:g} km, {altitude_band_km[0]:g}-'
                f'{altitude_band_km[1]:g} km')
-  return _save(fig, path)
+  return save_png(fig, path)
 
 
 @dataclasses.dataclass
@@ -566,7 +566,7 @@ def plot_wind_fields(rows: Sequence[WindPanelRow], path: str, *,
     bar.ax.set_yticklabels(['W', 'S', 'E', 'N', 'W'])
   fig.suptitle('Forecast wind (circle: station-keeping radius, star: balloon '
                'at reset)')
-  return _save(fig, path)
+  return save_png(fig, path)
 
 
 def plot_wind_stats(a: Any, b: Any, stats: Mapping[str, Any], path: str
@@ -637,7 +637,7 @@ def plot_wind_stats(a: Any, b: Any, stats: Mapping[str, Any], path: str
   if single:
     fig.suptitle(f'{", ".join(single)}: one column (a sounding): a single '
                  'sample, not a distribution', fontsize=9)
-  return _save(fig, path)
+  return save_png(fig, path)
 
 
 def plot_wind_compare(profiles: Sequence[Mapping[str, Any]], path: str
@@ -695,7 +695,7 @@ def plot_wind_compare(profiles: Sequence[Mapping[str, Any]], path: str
   axes[2].set_ylabel('largest wind difference in the band [m/s]')
   axes[2].set_title('spread over 15-25 km (median, 5-95 %)')
   axes[2].set_ylim(bottom=0.0)
-  return _save(fig, path)
+  return save_png(fig, path)
 
 
 def _short(label: str, length: int = 40) -> str:
