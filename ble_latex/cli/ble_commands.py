@@ -1,13 +1,20 @@
 # coding=utf-8
 r"""Runs BLE's own train/eval commands with the compatibility fixes applied.
 
-BLE 1.0.1's `python -m balloon_learning_environment.eval.eval` does not import on
-today's stack by itself; run it through ble_latex instead, with BLE's own flags:
+BLE's own flags; BLE's modules run as they are (`python -m
+balloon_learning_environment.train ...` works too, docs/ble-commands.md):
 
+  ble-latex-ble train --env_name=LatexBalloon-v0 --agent=sac \
+      --base_dir=/tmp/ble/train --num_iterations=1 --episodes_per_iteration=1
   ble-latex-ble eval --agent=station_seeker --suite=micro_eval \
       --output_dir=/tmp/ble/eval
-  ble-latex-ble train --agent=random --base_dir=/tmp/ble/train \
-      --num_iterations=1 --episodes_per_iteration=1
+
+BLE's eval builds only BLE's env; with --env_name (or a latex suite) it runs
+as BLE's eval on that env, the latex suites among --suite's choices
+(`ble_latex.run.ble_eval`, records in BLE's format):
+
+  ble-latex-ble eval --env_name=LatexBalloon-v0 --agent=sac_pretrained \
+      --suite=latex_micro --output_dir=/tmp/ble/eval
 """
 
 import importlib
@@ -34,6 +41,14 @@ _DEPENDENCIES = {
 _HELP = ('-h', '--help', '-help', '--helpshort', '--helpfull')
 
 
+def _latex_eval(args: Sequence[str]) -> bool:
+  """Whether eval's flags ask for a latex env (--env_name) or suite."""
+  return any(a.startswith(('--env_name', '-env_name', '--suite=latex_'))
+             for a in args) or any(
+                 a in ('--suite', '-suite') and b.startswith('latex_')
+                 for a, b in zip(args, args[1:]))
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
   argv = list(sys.argv[1:] if argv is None else argv)
   if argv and argv[0] in ('-h', '--help', 'help'):
@@ -44,6 +59,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     print(f'usage: ble-latex-ble {{{"|".join(COMMANDS)}}} [BLE flags...]\n'
           f'{__doc__}', file=sys.stderr)
     return 2
+  if argv[0] == 'eval' and _latex_eval(argv[1:]):
+    from ble_latex.run import ble_eval  # pylint: disable=g-import-not-at-top
+    cli.quiet_init_callbacks()
+    return ble_eval.main(['ble-latex-ble eval', *argv[1:]])
   module = COMMANDS[argv[0]]
   with quiet.third_party_noise():
     for name in _DEPENDENCIES[argv[0]]:

@@ -51,9 +51,9 @@ def ble_command() -> Optional[str]:
   return name if name in BLE_COMMANDS else None
 
 
-def usage_exit(message: str) -> NoReturn:
+def usage_exit(message: str, prog: Optional[str] = None) -> NoReturn:
   """One line on stderr, exit status 2 (BLE's commands, a usage mistake)."""
-  prog = ble_command() or 'ble_latex'
+  prog = prog or ble_command() or 'ble_latex'
   print(f'{prog}: {message}', file=sys.stderr)
   raise SystemExit(2)
 
@@ -139,9 +139,12 @@ def _bind_gin_variables(original, agent: str, agent_gin_file=None,
     usage_exit(unknown_agent_message(agent))
   try:
     check_agent_fits(agent, _env_name(), command)
+  except errors.ConfigError as e:
+    usage_exit(str(e))
+  try:
     original(agent, agent_gin_file, gin_bindings, additional_gin_files)
-  except (errors.ConfigError, ValueError) as e:
-    usage_exit(f'gin/agent: {str(e).splitlines()[0]}')
+  except ValueError as e:  # gin's unknown name or parameter, a bad value.
+    usage_exit(f'gin: {str(e).splitlines()[0]}')
   except OSError as e:
     usage_exit(f'gin file: {e}')
 
