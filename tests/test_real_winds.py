@@ -48,7 +48,9 @@ def test_each_slice_reads_as_a_time_invariant_field(path, source, lat, lon):
   data = era5.load(path)
   assert data.source == source
   assert data.time_invariant
-  assert data.description == f'{source} (time-invariant)'
+  held = (f'; wind above its top, {data.site.top_m / 1000:.1f} km, held'
+          if source == 'sounding' else '')
+  assert data.description == f'{source} (time-invariant{held})'
   assert data.covers(lat, lon)
   # The same winds at the first time and ten days later.
   for t_s in (0.0, 1800.0, 10 * 86400.0):
@@ -182,9 +184,9 @@ def _bad_files(folder):
 
   write('no_winds.nc', raw[['Geopotential_height_isobaric']],
         'has no wind variables')
-  write('one_level.nc', raw.isel(isobaric3=[4]), 'holds 1 pressure level')
+  write('one_level.nc', raw.isel(isobaric3=[4]), 'hold 1 pressure level')
   write('no_band.nc', raw.sel(isobaric3=[1000.0, 2000.0, 3000.0, 5000.0]),
-        'miss the flight band 15-25 km')
+        'miss the flight band 13-22 km')
   nan = raw.copy(deep=True)
   nan['u-component_of_wind_isobaric'].loc[dict(isobaric3=5000.0, lat=40.0,
                                                lon=255.0)] = np.nan

@@ -279,8 +279,10 @@ def test_a_soundings_date_is_its_flights_and_label(tmp_path):
   data = era5.load(page)
   assert data.start == dt.datetime(2010, 12, 9, 12, tzinfo=dt.timezone.utc)
   assert data.description == ('sounding BOI 72681 43.56N -116.21E '
-                              '2010-12-09T12:00Z (time-invariant)')
-  assert era5.load(BOISE).description == 'sounding (time-invariant)'
+                              '2010-12-09T12:00Z (time-invariant; wind above '
+                              'its top, 32.3 km, held)')
+  assert era5.load(BOISE).description == (
+      'sounding (time-invariant; wind above its top, 32.3 km, held)')
   epoch = env_types.START_EPOCH
   for when, want in ((None, dt.datetime(2010, 12, 9, 12)),
                      ('2023-06-21T06:00', dt.datetime(2023, 6, 21, 6))):

@@ -303,8 +303,43 @@ ERA5_DATES_HELP = ("Date range ERA5 flights start in: a split (train, "
                    "(--era5_path or a gin file binding @Era5WindField).")
 
 
+STATION_HELP = ('Wind file: the station-keeping target {what} (with '
+                '--station_{other}; every flight keeps station there; '
+                'default: per-seed stations on a gridded snapshot, a '
+                "sounding's site).")
+
+
+def define_station_flags(flag_values: Any) -> None:
+  """--station_lat / --station_lon of eval and train (`station_bindings`)."""
+  for name, what, other in (('station_lat', '[deg N]', 'lon'),
+                            ('station_lon', '[deg E]', 'lat')):
+    flags.DEFINE_float(name, None, STATION_HELP.format(what=what, other=other),
+                       flag_values=flag_values)
+
+
+def station_bindings(lat: Optional[float], lon: Optional[float]
+                     ) -> List[str]:
+  """The gin bindings of --station_lat / --station_lon (a fixed station).
+
+  Raises:
+    CommandUsageError: one without the other, or a value out of range.
+  """
+  if lat is None and lon is None:
+    return []
+  if lat is None or lon is None:
+    raise CommandUsageError('--station_lat and --station_lon go together')
+  if not (-90.0 <= lat <= 90.0 and -360.0 <= lon <= 360.0):
+    raise CommandUsageError(
+        f'--station_lat={lat:g} --station_lon={lon:g}: expected a latitude '
+        'in [-90, 90] and a longitude in [-360, 360] [deg]')
+  return ["Era5WindField.stations = 'fixed'",
+          f'Era5WindField.center_lat = {float(lat)!r}',
+          f'Era5WindField.center_lon = {float(lon)!r}']
+
+
 def era5_bindings(path: Optional[str], dates: Optional[str],
-                  default_dates: str) -> List[str]:
+                  default_dates: str, station: Sequence[str] = ()
+                  ) -> List[str]:
   """The gin bindings of --wind_file / --era5_dates (after `bind_gin`).
 
   Call after the user's gin is bound: ERA5 is on with `path`, or when gin
@@ -316,12 +351,15 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
     path: --wind_file (--era5_path), or None.
     dates: --era5_dates, or None.
     default_dates: The command's split (train: 'train'; eval: the suite's).
+    station: `station_bindings` of --station_lat/--station_lon (they
+      replace `wind_file_defaults`).
 
   Returns:
     Bindings to add after the user's (empty without ERA5).
 
   Raises:
-    CommandUsageError: --era5_dates without ERA5, or a bad range.
+    CommandUsageError: --era5_dates or a station without ERA5, or a bad
+      range.
   """
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params
@@ -337,13 +375,18 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
     # Absolute (the Ray workers' working directory may differ).
     path = os.path.abspath(os.path.expandvars(os.path.expanduser(path)))
     bindings += ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
-                 f'Era5WindField.path = {path!r}'] + wind_file_defaults(path)
+                 f'Era5WindField.path = {path!r}'] + (
+                     list(station) or wind_file_defaults(path))
   elif not winds.is_era5(env_params.episode()['wind_field_factory']):
-    if dates is not None:
-      raise CommandUsageError(
-          '--era5_dates needs ERA5 winds: --wind_file, or a gin file binding '
-          'LatexBalloonEnv.wind_field_factory = @Era5WindField')
+    for flag, given in (('--era5_dates', dates is not None),
+                        ('--station_lat/--station_lon', bool(station))):
+      if given:
+        raise CommandUsageError(
+            f'{flag} needs ERA5 winds: --wind_file, or a gin file binding '
+            'LatexBalloonEnv.wind_field_factory = @Era5WindField')
     return []
+  else:
+    bindings += list(station)
   if dates is None:
     try:
       gin.query_parameter('Era5WindField.start_dates')

@@ -101,6 +101,7 @@ flags.DEFINE_string('ray_address', None,
                     flag_values=FLAGS)
 flags.DEFINE_string('wind_file', None, cli.WIND_FILE_HELP, flag_values=FLAGS)
 flags.DEFINE_alias('era5_path', 'wind_file', flag_values=FLAGS)
+cli.define_station_flags(FLAGS)
 flags.DEFINE_string('era5_dates', None,
                     cli.ERA5_DATES_HELP.format(
                         default="the suite's (latex_validation: validation; "
@@ -117,8 +118,9 @@ def _main(argv: Sequence[str]) -> None:
   # bindings travel in the spec (Ray workers bind the same).
   gin_binding.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
                        FLAGS.gin_bindings)
-  era5_bindings = cli.era5_bindings(FLAGS.wind_file, FLAGS.era5_dates,
-                                    suites.era5_dates(FLAGS.suite))
+  era5_bindings = cli.era5_bindings(
+      FLAGS.wind_file, FLAGS.era5_dates, suites.era5_dates(FLAGS.suite),
+      station=cli.station_bindings(FLAGS.station_lat, FLAGS.station_lon))
   spec = eval_lib.EvalSpec(
       agent=FLAGS.agent, env_name=FLAGS.env_name,
       agent_gin_file=FLAGS.agent_gin_file, gin_files=tuple(FLAGS.gin_file),

@@ -111,6 +111,7 @@ flags.DEFINE_integer('policy_snapshot_period', 0,
                      flag_values=FLAGS)
 flags.DEFINE_string('wind_file', None, cli.WIND_FILE_HELP, flag_values=FLAGS)
 flags.DEFINE_alias('era5_path', 'wind_file', flag_values=FLAGS)
+cli.define_station_flags(FLAGS)
 flags.DEFINE_string('era5_dates', None,
                     cli.ERA5_DATES_HELP.format(default='train (the jax '
                                                "trainer's validation flies "
@@ -141,8 +142,9 @@ def _main(argv: Sequence[str]) -> None:
     agent_gin_file = configs.gin_file('sac_jax.gin')
   gin_binding.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                        FLAGS.gin_bindings)
-  era5_bindings = cli.era5_bindings(FLAGS.wind_file, FLAGS.era5_dates,
-                                    suites.TRAIN_DATES)
+  era5_bindings = cli.era5_bindings(
+      FLAGS.wind_file, FLAGS.era5_dates, suites.TRAIN_DATES,
+      station=cli.station_bindings(FLAGS.station_lat, FLAGS.station_lon))
   if era5_bindings:  # ERA5: the file, and the training dates.
     gin_binding.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                          [*FLAGS.gin_bindings, *era5_bindings])

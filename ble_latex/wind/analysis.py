@@ -20,12 +20,14 @@ A file with one time step is a snapshot: `era5.load` flies it as a
 time-invariant field (`Era5Data.time_invariant`), and every record says so.
 
 `check_flight_band` and `check_domain` add the checks of real sources (one
-line naming the file, `errors.BadFileError`): levels that miss the flight
-band (`FLIGHT_BAND_M`, 15-25 km by the US Standard Atmosphere 1976), and a
-grid too small for a station with its margins (`MIN_DOMAIN_M`).
+line naming the file, `errors.BadFileError`): levels that miss the altitudes
+the balloon can reach (`reach.flight_band_m`, 13-22 km by default, in
+pressure by the US Standard Atmosphere 1976), and a grid too small for a
+station with its margins (`MIN_DOMAIN_M`).
 """
 
 import contextlib
+import dataclasses
 import datetime as dt
 import logging
 import math
@@ -38,6 +40,7 @@ if TYPE_CHECKING:  # xarray loads when a file is read (~2 s).
 
 from ble_latex import errors
 from ble_latex.wind import era5_checks
+from ble_latex.wind import reach
 from ble_latex.wind import sounding
 
 # CF standard names of the wind components.
@@ -50,9 +53,6 @@ _TIME_NAMES = ('valid_time', 'time')
 _LAT_NAMES = ('latitude', 'lat')
 _LON_NAMES = ('longitude', 'lon')
 _PRESSURE_NAMES = ('pressure_level', 'level', 'isobaricInhPa', 'plev')
-# The altitudes a latex station-keeping flight uses (the sounding reader's
-# band); a source must hold winds over all of it. # [m]
-FLIGHT_BAND_M = sounding.FLIGHT_BAND_M
 # Smallest extent of a gridded domain, each direction: a station with
 # `STATION_MARGIN_M` of wind around it on every side. # [m]
 STATION_MARGIN_M = 150_000.0  # [m]
@@ -110,19 +110,19 @@ def pressure_of_height(height_m: float) -> float:
 
 
 def check_flight_band(path: str, pressure_pa: np.ndarray, label: str) -> None:
-  """Refuses levels that do not span the flight band (one line)."""
-  low_pa = pressure_of_height(FLIGHT_BAND_M[1])
-  high_pa = pressure_of_height(FLIGHT_BAND_M[0])
+  """Refuses levels that do not span `reach.flight_band_m` (one line)."""
+  band = reach.flight_band_m()
+  low_pa = pressure_of_height(band[1])
+  high_pa = pressure_of_height(band[0])
   if pressure_pa.size < 2:
     raise errors.BadFileError(
         f'{label} file {path} holds {pressure_pa.size} pressure level(s); a '
-        'flight needs levels over 15-25 km')
+        f'flight needs levels over {reach.band_text(band)}')
   if pressure_pa.min() > low_pa or pressure_pa.max() < high_pa:
     raise errors.BadFileError(
         f'{label} file {path}: levels {pressure_pa.min() / 100:g}-'
-        f'{pressure_pa.max() / 100:g} hPa miss the flight band '
-        f'{FLIGHT_BAND_M[0] / 1000:g}-{FLIGHT_BAND_M[1] / 1000:g} km '
-        f'({low_pa / 100:.0f}-{high_pa / 100:.0f} hPa)')
+        f'{pressure_pa.max() / 100:g} hPa miss {reach.band_text(band)}, '
+        f'{low_pa / 100:.0f}-{high_pa / 100:.0f} hPa')
 
 
 def check_domain(path: str, latitude: np.ndarray, longitude: np.ndarray,
@@ -294,7 +294,7 @@ def sounding_arrays(path: str) -> Tuple[Tuple[np.ndarray, ...],
     observation time the file names, else the Unix epoch), pressure [Pa]
     ascending, latitude [deg N], longitude [deg E], uv [m/s] of shape (1,
     levels, 2, 2, 2)), the sounding's winds at every node; site: where and
-    when the file says it was made (`sounding.Site`).
+    when the file says it was made (`sounding.Site`), and its top.
 
   Raises:
     errors.BadFileError: as `sounding.read`.
@@ -309,5 +309,6 @@ def sounding_arrays(path: str) -> Tuple[Tuple[np.ndarray, ...],
   text = ('1970-01-01T00:00:00' if when is None else
           when.astimezone(dt.timezone.utc).strftime('%Y-%m-%dT%H:%M:%S'))
   times = np.array([text], dtype='datetime64[ns]')
+  site = dataclasses.replace(column.site, top_m=float(column.height_m[-1]))
   return (times, pressure, np.array(SOUNDING_BOX_LAT, np.float64),
-          np.array(SOUNDING_BOX_LON, np.float64), uv), column.site
+          np.array(SOUNDING_BOX_LON, np.float64), uv), site

@@ -115,8 +115,7 @@ class Era5Data:
     pressure: Pressure levels. # [Pa]
     latitude: Latitudes. # [deg N]
     longitude: Longitudes (the file's convention). # [deg E]
-    uv: Winds, shape (time, pressure, lat, lon, 2): eastward u and northward
-      v. # [m/s]
+    uv: Winds (time, pressure, lat, lon, 2): eastward u, northward v. # [m/s]
     source: The wind source: 'ERA5', 'analysis' (another CF NetCDF file),
       'GRIB2' or 'sounding' (`analysis`).
     time_invariant: True for a snapshot (one time step in the files): its
@@ -142,11 +141,11 @@ class Era5Data:
   @property
   def description(self) -> str:
     """The source for records: e.g. 'GRIB2 (time-invariant)', 'sounding BOI
-    72681 43.56N -116.21E 2010-12-09T12:00Z (time-invariant)'."""
+    72681 43.56N -116.21E 2010-12-09T12:00Z (time-invariant; wind above
+    its top, 32.3 km, held)' (`sounding.Site.notes`)."""
     label = self.site.label if self.site is not None else ''
-    notes = ['time-invariant'] if self.time_invariant else []
-    if getattr(self.site, 'top_m', None) is not None:  # Held above it.
-      notes.append(f'wind above its top, {self.site.top_m / 1000:.1f} km, held')
+    notes = ['time-invariant'] * self.time_invariant + (
+        self.site.notes if self.site is not None else [])
     return (self.source + (f' {label}' if label else '') +
             (f' ({"; ".join(notes)})' if notes else ''))
 
@@ -314,8 +313,8 @@ def read_source(path: str) -> Tuple[str, Tuple[np.ndarray, ...], Any]:
 
   ERA5 and other CF NetCDF files, GRIB2 and soundings; the arrays are
   `read_file`'s, the site a sounding's (`sounding.Site`; None otherwise).
-  Sources other than ERA5 must also hold the flight band and a domain a
-  flight fits in (`analysis.check_flight_band`, `check_domain`).
+  Other grids than ERA5 must hold a domain a flight fits in (`analysis.
+  check_domain`; `load` checks their levels, `check_flight_band`).
   """
   if analysis.kind_of(path) == 'sounding':
     return ('sounding',) + analysis.sounding_arrays(path)
@@ -323,7 +322,6 @@ def read_source(path: str) -> Tuple[str, Tuple[np.ndarray, ...], Any]:
   layout = Layout(label=label, **names)
   arrays = read_file(path, layout, dataset=dataset)
   if label != ERA5.label:
-    analysis.check_flight_band(path, arrays[1], label)
     analysis.check_domain(path, arrays[2], arrays[3], label)
   return label, arrays, None
 
@@ -453,7 +451,10 @@ def load(path: Union[str, Sequence[str]], layout: Layout = ERA5) -> Era5Data:
       era5_checks.check_file(p, label=layout.label)  # Raises.
   stamps = tuple((p, os.stat(p).st_mtime_ns, os.stat(p).st_size)
                  for p in paths)
-  return _load_cached(stamps, layout)
+  data = _load_cached(stamps, layout)
+  if layout is ERA5 and data.source not in (ERA5.label, 'sounding'):
+    analysis.check_flight_band(', '.join(data.paths), data.pressure, data.source)
+  return data
 
 
 @functools.lru_cache(maxsize=4)

@@ -39,6 +39,7 @@ grid flies the BLE object's flight (host callbacks) to a few metres over
 """
 
 import datetime as dt
+import logging
 import math
 from typing import Any, Dict, Optional, Tuple
 
@@ -164,6 +165,34 @@ def station_center(data: era5.Era5Data, stations: str,
   return 0.5 * (box[0] + box[1]), 0.5 * (box[2] + box[3]), box
 
 
+def _warn_unnamed_sounding(data: era5.Era5Data, center_lat: float,
+                           center_lon: float, snapshot_time: Any) -> None:
+  """One logged line where a sounding names no site or time (issue 64).
+
+  Such a file flies at the paper's target (1 N, -113 E) and 1970-01-01
+  00:00 UTC unless bound: it says so, and how to choose them.
+  """
+  site = data.site
+  if data.source != 'sounding' or site is None:
+    return
+  missing = []
+  if (site.latitude is None and
+      (center_lat, center_lon) == (era5.PAPER_CENTER_LAT,
+                                   era5.PAPER_CENTER_LON)):
+    missing.append(f'its station is the paper\'s target ({center_lat:g} N, '
+                   f'{center_lon:g} E; --station_lat/--station_lon or '
+                   'Era5WindField.center_lat/center_lon choose it)')
+  if site.time is None and snapshot_time is None:
+    missing.append('its date is 1970-01-01 00:00 UTC (Era5WindField.'
+                   'snapshot_time chooses it)')
+  if missing:
+    unnamed = [n for n, m in (('site', site.latitude is None),
+                              ('time', site.time is None)) if m]
+    logging.getLogger(__name__).warning(
+        'sounding %s names no %s: %s', list(data.paths), ' or '.join(unnamed),
+        '; '.join(missing))
+
+
 def grid_from_data(data: era5.Era5Data, *,
                    center_lat: float = era5.PAPER_CENTER_LAT,  # [deg N]
                    center_lon: float = era5.PAPER_CENTER_LON,  # [deg E]
@@ -200,6 +229,7 @@ def grid_from_data(data: era5.Era5Data, *,
   """
   center_lat, center_lon, box = station_center(
       data, stations, station_margin_km, center_lat, center_lon)
+  _warn_unnamed_sounding(data, center_lat, center_lon, snapshot_time)
   ends = stations_lib.end_outside_domain(end_outside_domain, data.source,
                                          stations)
   snapshot = _snapshot_minute(data, snapshot_time)

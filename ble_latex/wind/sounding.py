@@ -21,8 +21,10 @@ Only levels with pressure, height, direction and speed are kept; levels are
 ordered by pressure, descending with height. Real files list a level twice
 where a mandatory level is also a significant one (Boise 2010-12-09: 115 hPa
 at 15 240 and 15 237 m): the first listed is kept. A height that does not
-grow as pressure falls is refused (a file that is not a sounding). A column that flies must cover the flight band: winds
-from 15 to 25 km at least (`FLIGHT_BAND_M`).
+grow as pressure falls is refused (a file that is not a sounding). A column
+that flies must cover the altitudes the balloon can reach
+(`reach.flight_band_m`, 13-22 km by default); above its top the wind is held
+(`Site.top_m`, named in the record).
 
 The site and time are read from the file where it has them (`Site`,
 `read_site`): the "Station information" lines of the TEXT:LIST page
@@ -46,12 +48,10 @@ import numpy as np
 
 from ble_latex import errors
 from ble_latex.wind import era5_checks
+from ble_latex.wind import reach
 
 KNOT_MPS = 1852.0 / 3600.0  # [m/s] One knot (exact).
 HPA_PA = 100.0  # [Pa] One hectopascal.
-# The altitudes a latex station-keeping flight uses; a column must hold
-# winds over all of it. # [m]
-FLIGHT_BAND_M = (15_000.0, 25_000.0)
 MAX_FILE_BYTES = 4 * 1024 * 1024  # A sounding is ~10 kB; refuse anything big.
 MIN_LEVELS = 2
 _COLUMNS = ('PRES', 'HGHT', 'DRCT', 'SKNT')
@@ -75,12 +75,15 @@ class Site:
     time: The observation time, UTC (timezone-aware).
     latitude: The station's latitude. # [deg N]
     longitude: The station's longitude. # [deg E]
+    top_m: The highest level with a wind: above it the wind is held at
+      its value (set by the reader, `analysis.sounding_arrays`). # [m]
   """
   identifier: Optional[str] = None
   number: Optional[str] = None
   time: Optional[dt.datetime] = None
   latitude: Optional[float] = None
   longitude: Optional[float] = None
+  top_m: Optional[float] = None
 
   @property
   def label(self) -> str:
@@ -91,6 +94,14 @@ class Site:
     if self.time is not None:
       parts.append(f'{self.time:%Y-%m-%dT%H:%M}Z')
     return ' '.join(parts)
+
+  @property
+  def notes(self) -> List[str]:
+    """What a record says of the column: ['wind above its top, 22.5 km,
+    held'] (nothing without `top_m`)."""
+    if self.top_m is None:
+      return []
+    return [f'wind above its top, {self.top_m / 1000:.1f} km, held']
 
 
 def _observation_time(value: str, path: str) -> dt.datetime:
@@ -254,8 +265,8 @@ def read(path: str) -> Sounding:
 
   Raises:
     errors.BadFileError: Not a sounding, unreadable, too big, levels out of
-      order, or winds that do not cover `FLIGHT_BAND_M` (one line naming
-      the file).
+      order, or winds that do not cover `reach.flight_band_m` (one line
+      naming the file).
   """
   try:
     size = os.path.getsize(path)
@@ -309,11 +320,11 @@ def _column(rows: Sequence[Dict[str, float]], path: str) -> Sounding:
   if np.any(np.diff(height_m) <= 0):
     raise errors.BadFileError(
         f'{path}: heights do not grow as pressure falls')
-  low, high = FLIGHT_BAND_M
+  low, high = reach.flight_band_m()
   if height_m[0] > low or height_m[-1] < high:
     raise errors.BadFileError(
         f'{path}: winds cover {height_m[0]:.0f}-{height_m[-1]:.0f} m; a '
-        f'flight needs {low:.0f}-{high:.0f} m')
+        f'flight needs {reach.band_text((low, high))}')
   u, v = wind_components(direction[order], speed_kt[order] * KNOT_MPS)
   return Sounding(pressure_pa=pressure_hpa * HPA_PA, height_m=height_m,
                   u_mps=u, v_mps=v, source=str(path))
