@@ -5,14 +5,19 @@ import copy
 import datetime as dt
 import inspect
 import math
+import types
 
+from balloon_learning_environment.env import balloon_arena
+from balloon_learning_environment.env import features as ble_features
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import balloon as ble_balloon
 from balloon_learning_environment.env.balloon import control
+from balloon_learning_environment.utils import constants
 from balloon_learning_environment.utils import units
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
+import numpy as np
 import pytest
 import s2sphere as s2
 
@@ -82,6 +87,50 @@ def test_state_defaults_and_ble_fields(atmosphere):
 def test_state_rejects_bad_values(atmosphere, field, value):
   with pytest.raises(ValueError, match=field):
     _state(atmosphere, **{field: value})
+
+
+class _NoFeatures(ble_features.FeatureConstructor):
+  """The cheapest BLE feature constructor: BLE's arena needs one."""
+
+  def __init__(self, unused_wind_field, unused_atmosphere):
+    pass
+
+  def observe(self, observation):
+    self.observation = observation
+
+  def get_features(self):
+    return np.zeros(1, np.float32)
+
+  @property
+  def observation_space(self):
+    return None
+
+
+def test_ble_arena_holding_a_latex_balloon_steps_it(atmosphere):
+  """BLE's own `BalloonArena.step` steps the Balloon it holds: ours."""
+  # BLE's arena without its __init__/reset (which cold-starts BLE's own
+  # balloon, ~15 s): the attributes `step` reads, set as reset sets them.
+  arena = balloon_arena.BalloonArena.__new__(balloon_arena.BalloonArena)
+  s = _state(atmosphere, 17_000.0)
+  b = balloon_lib.LatexBalloon(s)
+  assert isinstance(b, ble_balloon.Balloon)
+  # pylint: disable=protected-access
+  arena._balloon = b
+  arena._atmosphere = atmosphere
+  # Calm (the step compiled for CALM is the other tests' too).
+  arena._wind_field = types.SimpleNamespace(get_ground_truth=lambda *_: CALM)
+  arena._step_duration = constants.AGENT_TIME_STEP
+  # pylint: enable=protected-access
+  arena.feature_constructor = _NoFeatures(None, None)
+  arena.step(np.array([18_000.0, 1.0, -1.0]))  # BLE's 3-minute step.
+  state = arena.get_balloon_state()
+  assert state is s
+  assert state.time_elapsed == dt.timedelta(minutes=3)
+  assert state.last_decision == Decision.BALLAST
+  assert state.ascent_rate_mps > 0.0
+  assert state.pressure == pytest.approx(
+      atmosphere.at_height(units.Distance(m=state.altitude_m)).pressure,
+      rel=1e-4)
 
 
 def test_simulate_step_signature_matches_ble():

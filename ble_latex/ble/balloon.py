@@ -7,13 +7,15 @@ latex balloon's vertical state and resources. It is a view: the flight core
 (`ble_latex.flight`) computes, `write_flight` copies a core `FlightState`
 into it (BLE's fields are written there and nowhere else).
 
-`LatexBalloon` keeps BLE's `simulate_step(wind_vector, atmosphere, action,
-time_delta)` interface for code that drives one balloon object (the paper's
-(a0, a1, a2) action): it runs the core's `flight.dynamics.step` (controller
-once per action, sub-steps of at most 3 simulated minutes re-querying the
-wind, the exact vertical relax of Eq. fullN2L, finite-rate releases, the
-in-stride band guard) and writes the result back. The envs do not use it:
-the gym envs fly the same core through `ble_latex.ble.arena`.
+`LatexBalloon` is a BLE `balloon.Balloon` whose `simulate_step(wind_vector,
+atmosphere, action, time_delta)` is the override, for code that drives one
+balloon object (BLE's `BalloonArena.step` holds one; the action is the paper's
+(a0, a1, a2), not BLE's `AltitudeControlCommand`): it runs the core's
+`flight.dynamics.step` (controller once per action, sub-steps of at most 3
+simulated minutes re-querying the wind, the exact vertical relax of Eq.
+fullN2L, finite-rate releases, the in-stride band guard) and writes the result
+back. The envs do not use it: the gym envs fly the same core through
+`ble_latex.ble.arena`.
 
 Terminal statuses (`LatexBalloonStatus` = the core's `FlightStatus`, field
 `latex_status`): out of sand (sand aboard < m_s_min), out of helium
@@ -351,8 +353,8 @@ def _jitted_step(wind: Any) -> Callable[..., Any]:
   return dynamics.make_scheduled_step(wind_fn)
 
 
-class LatexBalloon:
-  """One latex balloon object stepped by the flight core (BLE interface)."""
+class LatexBalloon(balloon.Balloon):
+  """A BLE `Balloon` stepped by the flight core (`simulate_step` overridden)."""
 
   def __init__(self, balloon_state: LatexBalloonState, **settings: Any):
     """Constructor.
@@ -373,7 +375,7 @@ class LatexBalloon:
     if not isinstance(balloon_state, LatexBalloonState):
       raise ValueError('LatexBalloon needs a LatexBalloonState, got '
                        f'{type(balloon_state).__name__}')
-    self.state = balloon_state
+    super().__init__(balloon_state)  # BLE's: holds the state as `state`.
     gin_settings = {**params_lib.controller(), **params_lib.simulation()}
     unknown = sorted(set(settings) - set(gin_settings))
     if unknown:
