@@ -279,10 +279,11 @@ def test_params_defaults_have_one_home():
   assert params_lib.make_flight_params() == p
   # Numeric constants are leaves, structure is static.
   leaves = jax.tree.leaves(p)
-  # 12 of the paper's model, 21 of the realistic physics (issues 28, 44: the
+  # 12 of the paper's model, 23 of the realistic physics (issues 28, 44: the
   # lift walk's time constant, the gas's thermal lag and the intermittent
-  # disturbance's calm intensity and two dwell times).
-  assert len(leaves) == 33 and all(isinstance(v, float) for v in leaves)
+  # disturbance's calm intensity and two dwell times; issue 68: the heating
+  # disturbance's rms and correlation time).
+  assert len(leaves) == 35 and all(isinstance(v, float) for v in leaves)
   assert not p.realistic
 
 

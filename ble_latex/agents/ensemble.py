@@ -271,7 +271,7 @@ def imagine(params: env_types.EnvParams, wind_fn: Callable[..., Any],
   box = jnp.clip(jax_env.to_box(action).astype(before.altitude_m.dtype),
                  jax_env.ACTION_LOW, jax_env.ACTION_HIGH)
   flight = dynamics.step(
-      env_types.flight_params_of(params, state).replace(lift_walk=False),
+      env_types.flight_params_of(params, state).noiseless(),
       state.atmosphere, before, box, wind_fn, params.stride_s)
   u, v = wind_fn(flight.x_m, flight.y_m, flight.pressure_pa, flight.time_s)
   after = jax_env.stride_state(state, flight, box).replace(

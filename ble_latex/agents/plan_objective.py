@@ -255,7 +255,7 @@ def fly(params: env_types.EnvParams, state: env_types.EnvState,
     The flight after the last stride, and per stride its distance to the
     station [km] and its `FlightStatus`.
   """
-  flight = params.flight.replace(lift_walk=False)
+  flight = params.flight.noiseless()
 
   def stride(f, action):
     f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,

@@ -319,7 +319,8 @@ def place(world: env_types.EnvState, params: env_types.EnvParams, *,
                         wind_memory=observed_winds.start(params, zero.dtype),
                         steps=jnp.zeros((), jnp.int32),
                         pending_world=jnp.full((), -1, jnp.int32))
-  if params.flight.gas_superheat or params.flight.latex_overpressure:
+  if (params.flight.gas_superheat or params.flight.latex_overpressure or
+      params.flight.gas_state):
     flight = launch_lib.neutral_launch(
         env_types.flight_params_of(params, state), world.atmosphere, flight)
   state = state.replace(
@@ -590,7 +591,7 @@ class LatexBalloonJaxEnv:
     flight = dynamics.step(
         env_types.flight_params_of(params, state), state.atmosphere, before,
         action, wind_fn, params.stride_s,
-        key=env_types.walk_key(state) if params.flight.lift_walk else None)
+        key=env_types.walk_key(state) if params.flight.stochastic else None)
     if wind.outside is not None:  # The flight ends where the data end.
       flight = flight.replace(status=jnp.where(
           (flight.status == state_lib.FlightStatus.OK) &

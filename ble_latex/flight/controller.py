@@ -290,6 +290,12 @@ def decide_realistic(params: params_lib.FlightParams,
       at the new helium's diameter), vent = (L - L_vent) / (M_air beta -
       M_He);
     * Eq. float: L -> 0 with this L.
+  Under `gas_state` the targets are for the gas as it settles under the
+  commanded rate (`envelope.settled`: T_g = T + f(sun) - the adiabatic lag
+  of steady motion), so that Eq. ballast / vent hold hdot_des once the gas
+  has settled and Eq. float nulls the lift of a gas at rest: L, its lift
+  per mol and the targets are all taken in that gas (computed from the
+  air's T and P, the sun and the command; not from the heating disturbance).
   `lift_after_kg` is the paper's ledger after the release (the state's
   `settled_lift_kg`): L_paper - vent (M_air - M_He) + drop.
 
@@ -307,11 +313,15 @@ def decide_realistic(params: params_lib.FlightParams,
   a0, a1, a2 = action[..., 0], action[..., 1], action[..., 2]
   h, v = state.altitude_m, state.ascent_rate_mps
   n, sand = state.helium_mols, state.sand_kg
-  g = envelope.gas(params, temperature, pressure, state.time_s, state.x_m,
-                   state.y_m)
+  g = envelope.of_state(params, state, temperature, pressure, state.time_s)
+  rate = desired_ascent_rate(params, h, a0, a1)
+  rest = g
+  if params.gas_state:  # The gas as it settles (see above).
+    forcing = envelope.forcing_k(params, state.time_s, state.x_m, state.y_m)
+    rest = envelope.settled(params, g, forcing, jnp.zeros_like(rate))
+    g = envelope.settled(params, g, forcing, rate)
   lift = envelope.free_lift_kg(params, state, g)
   per_mol = envelope.lift_per_mol(params, g)
-  rate = desired_ascent_rate(params, h, a0, a1)
 
   lift_ballast = envelope.steady_lift_kg(params, n, g, rate)
   drop_needed = lift_ballast - lift  # [kg]
@@ -335,8 +345,9 @@ def decide_realistic(params: params_lib.FlightParams,
       guarded=jnp.zeros(rate.shape, bool),
       lift_after_kg=(state.free_lift_kg - vent * physics.LIFT_PER_MOL +
                      drop))
-  floated = functools.partial(float_actuation, lift_kg=lift,
-                              lift_per_mol=per_mol)
+  floated = functools.partial(
+      float_actuation, lift_kg=envelope.free_lift_kg(params, state, rest),
+      lift_per_mol=envelope.lift_per_mol(params, rest))
   actuation = band_guard(params, state, actuation,
                          floated=floated(state, guarded=True))
   return select(a2 > 0.0, floated(state), actuation)

@@ -51,6 +51,7 @@ from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import disturbance
 from ble_latex.flight import envelope
+from ble_latex.flight import gas as gas_lib
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
@@ -243,15 +244,67 @@ def actuate(params: params_lib.FlightParams, state: FlightState,
   return f
 
 
+def _gas_pressure(params: params_lib.FlightParams, pressure: Array) -> Array:
+  """P_g = P (+ the latex overpressure). # [Pa]"""
+  if params.latex_overpressure:
+    return pressure + params.overpressure_pa
+  return pressure
+
+
+def _integrate_gas(params: params_lib.FlightParams,
+                   atm: atmosphere_lib.AtmosphereParams, f: FlightState,
+                   duration: Array, forcing: Array) -> FlightState:
+  """Eq. fullN2L with the helium's temperature as a state (`gas`).
+
+  Strang splitting of Eq. (1) of `gas`: relax T_g toward T + f + dT_h for
+  half the chunk at the start altitude, the vertical step with T_g adiabatic
+  along the path (T_g(h) = T_g0 (P_g(h) / P_g0)^kappa in the lift and drag
+  at every altitude the step evaluates), relax for the other half at the
+  end altitude.
+  """
+  tau = params.gas_thermal_lag_s
+  half = 0.5 * duration
+  start = atmosphere_lib.at_height(atm, _clamp(f.altitude_m))
+  p0 = _gas_pressure(params, start.pressure)
+  t0 = gas_lib.relax(f.gas_temperature_k,
+                     start.temperature + forcing + f.heating_k, half, tau)
+
+  def gas_at(h):
+    ambient = atmosphere_lib.at_height(atm, _clamp(h))
+    p = _gas_pressure(params, ambient.pressure)
+    return ambient, envelope.Gas(ambient.temperature, ambient.pressure,
+                                 gas_lib.adiabatic(t0, p0, p), p)
+
+  def forces_at(h, v):
+    _, g = gas_at(h)
+    return (envelope.free_lift_kg(params, f, g) * physics.GRAVITY,
+            envelope.drag_factor(params, f.helium_mols, g, v))
+
+  mass = physics.total_mass(params.payload_kg, f.sand_kg, f.helium_mols)
+  h, v = physics.vertical_step_varying(
+      f.altitude_m, f.ascent_rate_mps, duration, mass=mass,
+      forces_at=forces_at)
+  end, g = gas_at(h)
+  t1 = gas_lib.relax(g.temperature, end.temperature + forcing + f.heating_k,
+                     half, tau)
+  return _keep(f.replace(altitude_m=h, ascent_rate_mps=v,
+                         gas_temperature_k=t1), f)
+
+
 def _integrate(params: params_lib.FlightParams,
                atm: atmosphere_lib.AtmosphereParams, f: FlightState,
-               duration: Array, time_s: Array = None) -> FlightState:
+               duration: Array, time_s: Array = None,
+               forcing: Array = None) -> FlightState:
   """Eq. fullN2L over `duration` (one `physics.vertical_step`).
 
   With realistic physics (`params.realistic`) the lift and the drag factor
   are those of `envelope` at the altitude (gas at `time_s`) and, for c_d(Re),
-  the speed (`physics.vertical_step_varying`).
+  the speed (`physics.vertical_step_varying`); under `gas_state` the gas's
+  temperature is integrated too (`_integrate_gas`, `forcing` = f(sun) of
+  the sub-step).
   """
+  if params.gas_state:
+    return _integrate_gas(params, atm, f, duration, forcing)
   if params.realistic:
     def forces_at(h, v):
       ambient = atmosphere_lib.at_height(atm, _clamp(h))
@@ -299,9 +352,8 @@ def envelope_status(params: params_lib.FlightParams,
   """
   ambient = atmosphere_lib.at_height(atm, _clamp(state.altitude_m))
   if params.realistic:
-    volume = envelope.volume(state.helium_mols, envelope.gas(
-        params, ambient.temperature, ambient.pressure, time_s, state.x_m,
-        state.y_m))
+    volume = envelope.volume(state.helium_mols, envelope.of_state(
+        params, state, ambient.temperature, ambient.pressure, time_s))
     burst = envelope.burst_volume_m3(params, state)
   else:
     volume = physics.volume(state.helium_mols, ambient.temperature,
@@ -340,21 +392,27 @@ def resource_status(params: params_lib.FlightParams,
 
 def _after_chunk(params: params_lib.FlightParams,
                  atm: atmosphere_lib.AtmosphereParams,
-                 f: FlightState, time_s: Array = None) -> FlightState:
-  """Envelope check, then the in-stride band guard (if enabled)."""
+                 f: FlightState, time_s: Array = None,
+                 forcing: Array = None) -> FlightState:
+  """Envelope check, then the in-stride band guard (if enabled).
+
+  Under gas_state the guard's float nulls the lift of the gas settled at
+  rest (`envelope.settled`, as the controller's Eq. float).
+  """
   f = f.replace(status=envelope_status(params, atm, f, time_s))
   if not params.guard_within_stride:
     return f
   if params.realistic:
     ambient = atmosphere_lib.at_height(atm, _clamp(f.altitude_m))
-    g = envelope.gas(params, ambient.temperature, ambient.pressure, time_s,
-                     f.x_m, f.y_m)
+    g = envelope.of_state(params, f, ambient.temperature, ambient.pressure,
+                          time_s)
     lift = envelope.free_lift_kg(params, f, g)
     heading = (f.status == FlightStatus.OK) & (
         controller_lib.heading_out_of_band(params, f, lift))
+    rest = envelope.settled(params, g, forcing, 0.0)
     guard = controller_lib.float_actuation(
-        f, guarded=True, lift_kg=lift,
-        lift_per_mol=envelope.lift_per_mol(params, g))
+        f, guarded=True, lift_kg=envelope.free_lift_kg(params, f, rest),
+        lift_per_mol=envelope.lift_per_mol(params, rest))
   else:
     heading = (f.status == FlightStatus.OK) & (
         controller_lib.heading_out_of_band(params, f))
@@ -392,13 +450,15 @@ def _time_to_release(params: params_lib.FlightParams,
 
 def _chunks_static(params: params_lib.FlightParams,
                    atm: atmosphere_lib.AtmosphereParams, f: FlightState,
-                   chunks: Array, time_s: Array = None) -> FlightState:
+                   chunks: Array, time_s: Array = None,
+                   forcing: Array = None) -> FlightState:
   """A sub-step on the static chunk grid (instantaneous releases)."""
 
   def body(f, chunk):
     active = (f.status == FlightStatus.OK) & (chunk > 0.0)
-    g = _after_chunk(params, atm, _integrate(params, atm, f, chunk, time_s),
-                     time_s)
+    g = _after_chunk(params, atm,
+                     _integrate(params, atm, f, chunk, time_s, forcing),
+                     time_s, forcing)
     return _select(active, g, f), None
 
   f, _ = jax.lax.scan(body, f, chunks)
@@ -407,7 +467,8 @@ def _chunks_static(params: params_lib.FlightParams,
 
 def _chunks_dynamic(params: params_lib.FlightParams,
                     atm: atmosphere_lib.AtmosphereParams, f: FlightState,
-                    duration: Array, time_s: Array = None) -> FlightState:
+                    duration: Array, time_s: Array = None,
+                    forcing: Array = None) -> FlightState:
   """A sub-step with finite-rate releases (NumPy's chunking, while_loop)."""
   eps = jnp.finfo(jnp.result_type(duration)).eps
   tolerance = jnp.maximum(1e-9, 16.0 * eps * duration)  # [s]
@@ -424,16 +485,17 @@ def _chunks_dynamic(params: params_lib.FlightParams,
     releasing = _releasing(params, f)
     piece = jnp.minimum(jnp.minimum(chunk, params.actuation_chunk_s),
                         _time_to_release(params, f))
-    whole = _integrate(params, atm, f, chunk, time_s)
-    half = _integrate(params, atm, f, 0.5 * piece, time_s)
+    whole = _integrate(params, atm, f, chunk, time_s, forcing)
+    half = _integrate(params, atm, f, 0.5 * piece, time_s, forcing)
     half = release(
         half,
         vent=(params.valve_flow_mols_per_s * piece
               if params.finite_valve else zero),
         drop=(params.ballast_rate_kg_per_s * piece
               if params.finite_ballast else zero))
-    half = _integrate(params, atm, half, 0.5 * piece, time_s)
-    g = _after_chunk(params, atm, _select(releasing, half, whole), time_s)
+    half = _integrate(params, atm, half, 0.5 * piece, time_s, forcing)
+    g = _after_chunk(params, atm, _select(releasing, half, whole), time_s,
+                     forcing)
     done = done + jnp.where(releasing, piece, chunk)
     return _keep(g, f), done, count + 1
 
@@ -463,8 +525,9 @@ def step(params: params_lib.FlightParams,
       grid is built into the program), or its `padded_schedule` (traced:
       one compiled step serves every stride with the same padded shapes;
       the same values but x, y within 1 ulp). # [s]
-    key: PRNG key of the stride's free-lift random walk; needed (and used)
-      only when `params.lift_walk` (one key per stride: split yours).
+    key: PRNG key of the stride's disturbances; needed (and used) only
+      when `params.stochastic` (lift_walk, heating_noise; one key per
+      stride: split yours).
     decide_fn: Another controller in place of Eq. fullcontroller
       (`controller.decide`), with its signature (params, state, action,
       T [K], P [Pa]) -> `controller.Actuation`; the action is clipped into
@@ -502,8 +565,8 @@ def step_with_trajectory(
       [m/s], queried at the start of every sub-step at the balloon.
     time_delta_s: Simulated time to advance, a static number or its
       `padded_schedule` (as in `step`). # [s]
-    key: PRNG key of the stride's free-lift random walk; needed (and used)
-      only when `params.lift_walk`.
+    key: PRNG key of the stride's disturbances; needed (and used) only
+      when `params.stochastic`.
 
   Returns:
     (state after the stride, state right after the controller's actuation,
@@ -521,10 +584,10 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
           record: bool, key: Optional[Array] = None,
           decide_fn: Optional['DecideFn'] = None):
   """`step`'s body; `record` also returns the actuated and sub-step states."""
-  if params.lift_walk and key is None:
-    raise ValueError('FlightParams.lift_walk (LatexBalloon.lift_walk_kg_per_'
-                     'sqrt_s) draws a random walk: dynamics.step needs a PRNG '
-                     'key per stride')
+  if params.stochastic and key is None:
+    raise ValueError('FlightParams.lift_walk / heating_noise (LatexBalloon.'
+                     'lift_walk_kg_per_sqrt_s / heating_noise_k) draw a '
+                     'disturbance: dynamics.step needs a PRNG key per stride')
   action = _keep(controller_lib.clip_action(action), state.last_action)
   ambient = atmosphere_lib.at_height(atm_params, _clamp(state.altitude_m))
   actuation = (decide_fn or controller_lib.decide)(
@@ -543,7 +606,7 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
     xs = tuple(jnp.asarray(a, dtype) for a in schedule(
         time_delta_s, params.max_substep_s, params.vertical_step_s))
   finite = params.finite_valve or params.finite_ballast
-  if params.lift_walk:  # One key per sub-step row.
+  if params.stochastic:  # One key per sub-step row.
     xs = xs + (jax.random.split(key, len(xs[0])),)
 
   def substep(carry, x):
@@ -552,6 +615,10 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
     active = f.status == FlightStatus.OK
     time_s = state.time_s + start  # The sun's time of this sub-step.
     f_before = f
+    if params.lift_walk and params.heating_noise:
+      walk_key, heat_key = jax.random.split(x[-1])
+    elif params.stochastic:
+      walk_key = heat_key = x[-1]
     if params.lift_walk_intermittent:  # Calm / gusty spells.
       walk, gusty = disturbance.intermittent_transition(
           f.lift_walk_kg, f.lift_walk_gusty, duration,
@@ -559,12 +626,19 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
           calm_sigma=params.lift_walk_calm_kg_per_sqrt_s,
           time_constant_s=params.lift_walk_time_constant_s,
           calm_mean_s=params.lift_walk_calm_mean_s,
-          gusty_mean_s=params.lift_walk_gusty_mean_s, key=x[-1])
+          gusty_mean_s=params.lift_walk_gusty_mean_s, key=walk_key)
       f = f.replace(lift_walk_kg=walk, lift_walk_gusty=gusty)
     elif params.lift_walk:  # The disturbance's exact transition.
       f = f.replace(lift_walk_kg=disturbance.transition(
           f.lift_walk_kg, duration, sigma=params.lift_walk_kg_per_sqrt_s,
-          time_constant_s=params.lift_walk_time_constant_s, key=x[-1]))
+          time_constant_s=params.lift_walk_time_constant_s, key=walk_key))
+    if params.heating_noise:  # The bounded heating disturbance.
+      f = f.replace(heating_k=gas_lib.heating_transition(
+          f.heating_k, duration, rms_k=params.heating_noise_k,
+          time_constant_s=params.heating_noise_time_s, key=heat_key))
+    # f(sun) of this sub-step at the balloon (gas_state's relaxation).
+    forcing = (envelope.forcing_k(params, time_s, f.x_m, f.y_m)
+               if params.gas_state else None)
     pressure = atmosphere_lib.at_height(atm_params,
                                         _clamp(f.altitude_m)).pressure
     query = (f.x_m, f.y_m, pressure, state.time_s + start)
@@ -577,9 +651,9 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
     else:
       u, v = wind_fn(*query)
     if finite:
-      g = _chunks_dynamic(params, atm_params, f, duration, time_s)
+      g = _chunks_dynamic(params, atm_params, f, duration, time_s, forcing)
     else:
-      g = _chunks_static(params, atm_params, f, chunk_row, time_s)
+      g = _chunks_static(params, atm_params, f, chunk_row, time_s, forcing)
     g = g.replace(x_m=g.x_m + u * duration, y_m=g.y_m + v * duration)
     g = _select(active, g, f_before)
     return (g, jnp.where(active, end, elapsed).astype(elapsed.dtype)), (
@@ -590,9 +664,9 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
 
   ambient = atmosphere_lib.at_height(atm_params, _clamp(f.altitude_m))
   if params.realistic:
-    lift = envelope.free_lift_kg(params, f, envelope.gas(
-        params, ambient.temperature, ambient.pressure,
-        state.time_s + elapsed, f.x_m, f.y_m))
+    lift = envelope.free_lift_kg(params, f, envelope.of_state(
+        params, f, ambient.temperature, ambient.pressure,
+        state.time_s + elapsed))
   else:
     lift = None
   status = jnp.where(f.status == FlightStatus.OK,

@@ -9,6 +9,7 @@ temperature, gas pressure, lift and drag:
 | quantity        | paper model (default)      | realistic switch                 |
 |-----------------|----------------------------|----------------------------------|
 | helium T        | ambient T                  | gas_superheat: T + dT(sun, lag)  |
+|                 |                            | gas_state: the state T_g (`gas`) |
 | helium P        | ambient P                  | latex_overpressure: P + dP       |
 | free lift       | n (M_air - M_He) - m_p - m_s | n (M_air beta - M_He) - m_p - m_s + W |
 | c_d             | drag_coefficient           | drag_model: ASTRA's c_d(Re)      |
@@ -16,7 +17,12 @@ temperature, gas pressure, lift and drag:
 
 beta = (T_gas / T) (P / P_gas) (`physics.buoyant_lift_per_mol`), W the
 free-lift disturbance carried in `FlightState.lift_walk_kg` (`disturbance`),
-dT the lagged solar forcing at the balloon's position (`thermal`).
+dT the lagged solar forcing at the balloon's position (`thermal`). Under
+`gas_state` the helium's temperature is the flight's state T_g (`gas`:
+adiabatic compression and relaxation toward T + f(sun) + dT_h), and the
+controller's targets are taken at the temperature the gas settles at under
+the commanded rate (`settled`: T + f(sun) - `gas.steady_lag_k`), which the
+balloon can compute from the air's temperature, the sun and its command.
 
 The state carries the paper's lift ledger L_paper = n (M_air - M_He) - m_p
 - m_s (`FlightState.free_lift_kg`, exact in float32); the realistic free lift
@@ -28,6 +34,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from ble_latex.flight import gas as gas_lib
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import solar
@@ -63,25 +70,98 @@ def sun_elevation_deg(params: params_lib.FlightParams,
 
 def gas(params: params_lib.FlightParams, air_temperature: Array,
         air_pressure: Array, time_s: Array, x_m: Array = 0.0,
-        y_m: Array = 0.0) -> Gas:
+        y_m: Array = 0.0, gas_temperature: Array = None) -> Gas:
   """The helium's T and P around a balloon in air at (T, P) at `time_s`.
 
   Args:
-    params: The flight system (gas_superheat, latex_overpressure).
+    params: The flight system (gas_superheat, latex_overpressure,
+      gas_state).
     air_temperature: Ambient T. # [K]
     air_pressure: Ambient P. # [Pa]
     time_s: Flight time (for the sun). # [s]
     x_m: The balloon's offset east of the station (for the sun). # [m]
     y_m: The balloon's offset north of the station (for the sun). # [m]
+    gas_temperature: The state T_g (`FlightState.gas_temperature_k`), used
+      under `gas_state`; None = a gas at rest (the air's plus the lagged
+      solar forcing, as without gas_state). # [K]
   """
   temperature = air_temperature
-  if params.gas_superheat:
+  if params.gas_state and gas_temperature is not None:
+    temperature = jnp.asarray(gas_temperature).astype(
+        jnp.result_type(air_temperature)) + jnp.zeros_like(air_temperature)
+  elif params.gas_superheat:
     temperature = air_temperature + thermal.gas_excess_k(
         params, time_s, x_m, y_m).astype(jnp.result_type(air_temperature))
   pressure = air_pressure
   if params.latex_overpressure:
     pressure = air_pressure + params.overpressure_pa
   return Gas(air_temperature, air_pressure, temperature, pressure)
+
+
+def of_state(params: params_lib.FlightParams, state, air_temperature: Array,
+             air_pressure: Array, time_s: Array) -> Gas:
+  """`gas` of a flight state: its T_g under gas_state, else the model's.
+
+  Args:
+    params: The flight system.
+    state: The flight state (position, gas_temperature_k).
+    air_temperature: Ambient T at the balloon. # [K]
+    air_pressure: Ambient P at the balloon. # [Pa]
+    time_s: Flight time (for the sun without gas_state). # [s]
+  """
+  return gas(params, air_temperature, air_pressure, time_s, state.x_m,
+             state.y_m, state.gas_temperature_k)
+
+
+def forcing_k(params: params_lib.FlightParams, time_s: Array,
+              x_m: Array = 0.0, y_m: Array = 0.0) -> Array:
+  """f(sun): T_eq - T of the gas's relaxation at the balloon, unlagged. # [K]
+
+  `thermal.gas_temperature_offset` of the sun's elevation at the balloon's
+  position (`thermal.position_lat_lon`) and time; 0 without gas_superheat.
+
+  Args:
+    params: The flight system (sun clock, station, superheat window).
+    time_s: Flight time. # [s]
+    x_m: Offset east of the station. # [m]
+    y_m: Offset north of the station. # [m]
+  """
+  shape = jnp.zeros_like(jnp.asarray(time_s) + jnp.asarray(x_m) + y_m)
+  if not params.gas_superheat:
+    return shape
+  lat, lon = thermal.position_lat_lon(params.latitude_deg,
+                                      params.longitude_deg, x_m, y_m)
+  elevation = solar.sun_elevation_deg(params.start_day_j2000,
+                                      params.start_second_of_day, time_s,
+                                      lat, lon)
+  return shape + thermal.gas_temperature_offset(
+      elevation, day_k=params.superheat_day_k,
+      night_k=params.cooling_night_k,
+      night_deg=params.sun_elevation_night_deg,
+      day_deg=params.sun_elevation_day_deg).astype(shape.dtype)
+
+
+def settled(params: params_lib.FlightParams, g: Gas, forcing: Array,
+            rate: Array) -> Gas:
+  """The gas as it settles at a steady `rate` (the controller's targets).
+
+  Under gas_state: T_g = T + f - `gas.steady_lag_k` (T_g below its target
+  by the adiabatic cooling a steady rise keeps up against the relaxation);
+  without it, `g` itself (the lagged forcing has no rate in it).
+
+  Args:
+    params: The flight system (gas_state, gas_thermal_lag_s).
+    g: The gas now (the air's T and P, the gas's P).
+    forcing: f(sun) at the balloon (`forcing_k`). # [K]
+    rate: The steady ascent rate. # [m/s]
+  """
+  if not params.gas_state:
+    return g
+  target = g.air_temperature + forcing
+  rho = physics.air_density(g.air_temperature, g.air_pressure)
+  lag = gas_lib.steady_lag_k(target, g.pressure, rho, rate,
+                             params.gas_thermal_lag_s)
+  return g._replace(temperature=target - lag)
 
 
 def lift_per_mol(params: params_lib.FlightParams, g: Gas) -> Array:
@@ -95,7 +175,8 @@ def lift_per_mol(params: params_lib.FlightParams, g: Gas) -> Array:
     Net lift per mol; `physics.LIFT_PER_MOL` when neither switch is on.
     # [kg/mol]
   """
-  if not (params.gas_superheat or params.latex_overpressure):
+  if not (params.gas_superheat or params.latex_overpressure or
+          params.gas_state):
     return jnp.asarray(physics.LIFT_PER_MOL, g.air_temperature.dtype)
   return physics.buoyant_lift_per_mol(g.air_temperature, g.air_pressure,
                                       g.temperature, g.pressure)
@@ -117,7 +198,7 @@ def free_lift_kg(params: params_lib.FlightParams, state, g: Gas) -> Array:
     The free lift. # [kg]
   """
   lift = state.free_lift_kg
-  if params.gas_superheat or params.latex_overpressure:
+  if params.gas_superheat or params.latex_overpressure or params.gas_state:
     lift = lift + state.helium_mols * (lift_per_mol(params, g) -
                                        physics.LIFT_PER_MOL)
   if params.lift_walk:

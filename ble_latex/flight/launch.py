@@ -12,7 +12,9 @@ altitude, position and time:
   n = (m_p + m_s - W) / (M_air beta - M_He)      (Eq. float, realistic gas)
 
 and keeps the paper's lift ledger consistent (`FlightState.free_lift_kg` =
-n (M_air - M_He) - m_p - m_s). Pure, jittable, vmappable; the paper's model
+n (M_air - M_He) - m_p - m_s). Under `gas_state` it also sets the helium's
+temperature state to that of a gas at rest there (the air's plus the lagged
+solar forcing of the flight's own sun clock). Pure, jittable, vmappable; the paper's model
 (and an explicit `FlightParams.initial_helium_mols`) is returned unchanged.
 """
 
@@ -46,12 +48,17 @@ def neutral_launch(params: params_lib.FlightParams,
     `latex_overpressure`) or the launch helium is given
     (`initial_helium_mols`).
   """
-  if not (params.gas_superheat or params.latex_overpressure) or (
-      params.initial_helium_mols is not None):
+  if not (params.gas_superheat or params.latex_overpressure or
+          params.gas_state):
     return state
   ambient = atmosphere_lib.at_height(atm_params, state.altitude_m)
   g = envelope.gas(params, ambient.temperature, ambient.pressure,
                    state.time_s, state.x_m, state.y_m)
+  if params.gas_state:
+    state = state.replace(gas_temperature_k=g.temperature.astype(
+        state.gas_temperature_k.dtype))
+  if params.initial_helium_mols is not None:
+    return state
   per_mol = envelope.lift_per_mol(params, g)
   weight = params.payload_kg + state.sand_kg - state.lift_walk_kg  # [kg]
   helium = weight / per_mol

@@ -97,7 +97,12 @@ class FlightParams:
     lift_walk_gusty_mean_s: Mean dwell time tau_g of the gusty regime (used
       when lift_walk_intermittent). # [s]
     gas_thermal_lag_s: First-order thermal lag tau of the helium's
-      temperature behind the sun's forcing (`thermal`); 0 = none. # [s]
+      temperature behind the sun's forcing (`thermal`) and, with gas_state,
+      behind the air (`gas`); 0 = none. # [s]
+    heating_noise_k: Stationary rms of the heating disturbance dT_h, an
+      Ornstein-Uhlenbeck process added to the gas's relaxation target (used
+      when heating_noise; `gas`). # [K]
+    heating_noise_time_s: Correlation time of dT_h. # [s]
     burst_weibull_scale_m: Weibull scale lambda of the burst diameter
       (used when burst_spread). # [m]
     burst_weibull_shape: Weibull shape k of the burst diameter. # [.]
@@ -109,6 +114,13 @@ class FlightParams:
     lift_walk_intermittent: The disturbance switches between a calm and a
       gusty regime (a two-state Markov chain, `disturbance.switch`); needs
       lift_walk. Static.
+    gas_state: The helium's temperature is a state of the flight
+      (`FlightState.gas_temperature_k`): adiabatic compression under the
+      pressure the balloon sees plus relaxation toward the air (and the
+      sun's forcing) with gas_thermal_lag_s (`gas`); else it is the air's
+      plus the lagged forcing at once (`thermal`). Static.
+    heating_noise: The bounded heating disturbance dT_h (needs gas_state
+      and a PRNG key per stride). Static.
     burst_spread: Burst diameter drawn per flight from the Weibull law
       (needs a PRNG key at launch; else burst_volume_m3). Static.
   """
@@ -155,6 +167,8 @@ class FlightParams:
   lift_walk_calm_mean_s: float = 7200.0  # [s]
   lift_walk_gusty_mean_s: float = 2600.0  # [s]
   gas_thermal_lag_s: float = 0.0  # [s]
+  heating_noise_k: float = 0.0  # [K]
+  heating_noise_time_s: float = 1800.0  # [s]
   burst_weibull_scale_m: float = 9.6758  # [m]
   burst_weibull_shape: float = 14.3577  # [.]
   drag_model: str = struct.field(pytree_node=False, default='constant')
@@ -164,11 +178,28 @@ class FlightParams:
   lift_walk_intermittent: bool = struct.field(pytree_node=False,
                                               default=False)
   burst_spread: bool = struct.field(pytree_node=False, default=False)
+  gas_state: bool = struct.field(pytree_node=False, default=False)
+  heating_noise: bool = struct.field(pytree_node=False, default=False)
 
   @property
   def realistic_lift(self) -> bool:
     """The free lift depends on altitude, time or a disturbance. Static."""
-    return self.gas_superheat or self.latex_overpressure or self.lift_walk
+    return (self.gas_superheat or self.latex_overpressure or self.lift_walk
+            or self.gas_state)
+
+  @property
+  def stochastic(self) -> bool:
+    """A stride draws random numbers (needs a PRNG key). Static."""
+    return self.lift_walk or self.heating_noise
+
+  def noiseless(self) -> 'FlightParams':
+    """These params with the disturbances held: no new draws per stride.
+
+    What planners and lookaheads fly (the disturbance so far, carried in
+    the state, is kept as it is).
+    """
+    return self.replace(lift_walk=False, lift_walk_intermittent=False,
+                        heating_noise=False)
 
   @property
   def realistic(self) -> bool:
@@ -324,8 +355,20 @@ def check_flight_params(params: FlightParams) -> None:
   gin_values.check_number(binding('start_second_of_day'),
                           p.start_second_of_day, minimum=0.0, below=86400.0)
   for flag in ('gas_superheat', 'latex_overpressure', 'lift_walk',
-               'lift_walk_intermittent', 'burst_spread'):
+               'lift_walk_intermittent', 'burst_spread', 'heating_noise'):
     gin_values.check_bool(f'FlightParams.{flag}', getattr(p, flag))
+  gin_values.check_bool(binding('gas_state'), p.gas_state)
+  # A heating change of more than ~30 K would be a day-night swing of its own
+  # (docs/physics.md: the swing is 11.4 K). # [K]
+  gin_values.check_number(binding('heating_noise_k'), p.heating_noise_k,
+                          minimum=0.0, maximum=30.0, why=' (kelvin, <= 30)')
+  gin_values.check_number(binding('heating_noise_time_s'),
+                          p.heating_noise_time_s, minimum=MIN_DURATION_S,
+                          maximum=864_000.0, why=' (seconds, 1 s to 10 days)')
+  gin_values.require(
+      p.gas_state or not p.heating_noise, binding('heating_noise_k'),
+      f'None unless {gin_name("gas_state")} is True (the disturbance heats '
+      'the gas state)', p.heating_noise_k)
   gin_values.require(
       p.lift_walk or not p.lift_walk_intermittent,
       binding('lift_walk_calm_kg_per_sqrt_s'),
@@ -376,7 +419,11 @@ def make_flight_params(
     lift_walk_calm_kg_per_sqrt_s: Optional[float] = None,
     lift_walk_calm_mean_s: float = DEFAULTS.lift_walk_calm_mean_s,
     lift_walk_gusty_mean_s: float = DEFAULTS.lift_walk_gusty_mean_s,
-    gas_thermal_lag_s: float = DEFAULTS.gas_thermal_lag_s) -> FlightParams:
+    gas_thermal_lag_s: float = DEFAULTS.gas_thermal_lag_s,
+    gas_state: bool = DEFAULTS.gas_state,
+    heating_noise_k: Optional[float] = None,
+    heating_noise_time_s: float = DEFAULTS.heating_noise_time_s
+) -> FlightParams:
   """Validated `FlightParams` from the NumPy code's argument names.
 
   Durations may be numbers of seconds or `datetime.timedelta`s (at least
@@ -384,7 +431,8 @@ def make_flight_params(
   Likewise None switches a realistic-physics effect off (the paper's model):
   overpressure_pa (latex_overpressure), burst_weibull_scale_m
   (burst_spread), superheat_day_k (gas_superheat), lift_walk_kg_per_sqrt_s
-  (lift_walk), lift_walk_calm_kg_per_sqrt_s (lift_walk_intermittent).
+  (lift_walk), lift_walk_calm_kg_per_sqrt_s (lift_walk_intermittent),
+  heating_noise_k (heating_noise).
   start_time (a UTC datetime or ISO string) sets the sun's
   clock (start_day_j2000, start_second_of_day).
 
@@ -449,6 +497,10 @@ def make_flight_params(
       lift_walk_calm_mean_s=lift_walk_calm_mean_s,
       lift_walk_gusty_mean_s=lift_walk_gusty_mean_s,
       gas_thermal_lag_s=gas_thermal_lag_s,
+      heating_noise_k=0.0 if heating_noise_k is None else heating_noise_k,
+      heating_noise_time_s=heating_noise_time_s,
+      gas_state=gas_state,
+      heating_noise=heating_noise_k is not None,
       gas_superheat=superheat_day_k is not None,
       latex_overpressure=overpressure_pa is not None,
       lift_walk=lift_walk_kg_per_sqrt_s is not None,
@@ -459,6 +511,7 @@ def make_flight_params(
       initial_helium_mols=(None if helium_mols is None else
                            float(helium_mols)),
       guard_within_stride=bool(guard_within_stride),
+      gas_state=bool(gas_state),
       **{f.name: float(getattr(raw, f.name))
          for f in dataclasses.fields(FlightParams)
          if f.type in (float, 'float')})
@@ -558,7 +611,10 @@ def simulation(*, max_substep: Any = DEFAULTS.max_substep_s,
                lift_walk_calm_mean_s: float = DEFAULTS.lift_walk_calm_mean_s,
                lift_walk_gusty_mean_s: float = (
                    DEFAULTS.lift_walk_gusty_mean_s),
-               gas_thermal_lag_s: float = DEFAULTS.gas_thermal_lag_s
+               gas_thermal_lag_s: float = DEFAULTS.gas_thermal_lag_s,
+               gas_state: bool = DEFAULTS.gas_state,
+               heating_noise_k: Optional[float] = None,
+               heating_noise_time_s: float = DEFAULTS.heating_noise_time_s
                ) -> Dict[str, Any]:
   """Actuators and the step structure (gin `LatexBalloon.*`).
 
@@ -589,8 +645,14 @@ def simulation(*, max_substep: Any = DEFAULTS.max_substep_s,
       regime's (`disturbance`). # [kg/sqrt(s)]
     lift_walk_calm_mean_s: Mean dwell time of the calm regime. # [s]
     lift_walk_gusty_mean_s: Mean dwell time of the gusty regime. # [s]
-    gas_thermal_lag_s: Thermal lag of the helium behind the sun; 0 =
-      none. # [s]
+    gas_thermal_lag_s: Thermal lag of the helium behind the sun (and,
+      with gas_state, the air); 0 = none. # [s]
+    gas_state: The helium's temperature as a state: adiabatic compression
+      and thermal relaxation (`flight.gas`); False = the air's plus the
+      lagged solar forcing.
+    heating_noise_k: Stationary rms of the bounded heating disturbance
+      (needs gas_state); None = none. # [K]
+    heating_noise_time_s: Its correlation time. # [s]
 
   Returns:
     These values as `make_flight_params` arguments (unchecked).

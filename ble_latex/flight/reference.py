@@ -25,6 +25,7 @@ import numpy as np
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import dynamics
 from ble_latex.flight import envelope
+from ble_latex.flight import gas as gas_lib
 from ble_latex.flight import launch
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
@@ -69,8 +70,11 @@ def run_validation(
     seed: PRNG seed of BLE's atmosphere (lapse-rate blend).
     start_altitude_m: Start altitude (neutrally buoyant under `params`'
       gas, `launch.neutral_launch`). # [m]
-    reference: Also integrate each stride with the fine RK4 reference (the
-      paper's model only: it integrates the paper's Eq. fullN2L).
+    reference: Also integrate each stride with the fine RK4 reference: the
+      paper's Eq. fullN2L (`rk4_reference`), or, under realistic physics
+      with `gas_state` and no disturbance, the motion and the gas's
+      temperature as one ODE (`rk4_gas_reference`); other realistic
+      settings have no reference.
     params: The flight system; None = `flight_params_from_gin()`.
     start_time_s: Flight time at the first command (the sun's clock of
       realistic physics). # [s]
@@ -95,7 +99,8 @@ def run_validation(
       params, start_altitude_m, atm_params=atm, time_s=start_time_s,
       key=burst_key))
   stride_s = params.stride_s
-  reference = reference and not params.realistic
+  reference = reference and (not params.realistic or (
+      params.gas_state and not params.stochastic))
 
   def calm(x_m, y_m, pressure_pa, t_s):
     del y_m, pressure_pa, t_s
@@ -122,7 +127,7 @@ def run_validation(
     walk_key, stride_key = jax.random.split(walk_key)
     state, actuated, samples = fly(
         params, atm, state, jnp.asarray(command, jnp.float32),
-        key=stride_key if params.lift_walk else None)
+        key=stride_key if params.stochastic else None)
     samples = host(samples)
     n_sub = len(samples.time_s)
     # Right after the actuation (an instantaneous release), then the end of
@@ -256,10 +261,88 @@ def rk4_reference(params, atm, start, duration_s: float,
     return float(h), float(v)
 
 
+def rk4_gas_reference(params, atm, start, duration_s: float,
+                      dt_s: float = RK4_DT_S):
+  """The realistic motion and the gas's temperature by fine RK4, float64.
+
+  One ODE in (h, hdot, T_g) (`gas`, Eq. (1)):
+
+    m hdot' = L(h, T_g) g - k(h, hdot, T_g) |hdot| hdot
+    T_g'    = kappa T_g (dP_g/dh) hdot / P_g + (T + f + dT_h - T_g) / tau
+
+  with L and k of `envelope` (the helium at T_g and P_g), dP/dh by
+  automatic differentiation of the atmosphere, f the sun's forcing held per
+  physics sub-step at the sub-step's start (as the core defines it), helium,
+  sand and the disturbances fixed (as after an instantaneous release).
+  Checks the core's split integrator (`dynamics._integrate_gas`), not the
+  model. In a local `jax.enable_x64` scope.
+
+  Args:
+    params: The flight system (gas_state).
+    atm: The atmosphere.
+    start: The state right after the actuation.
+    duration_s: Time to integrate. # [s]
+    dt_s: RK4 step. # [s]
+
+  Returns:
+    (altitude [m], ascent rate [m/s], gas temperature [K]) at the end.
+  """
+  with jax.enable_x64(True):
+    to64 = lambda tree: jax.tree.map(  # pylint: disable=unnecessary-lambda-assignment
+        lambda a: jnp.asarray(np.asarray(a).astype(np.float64))
+        if np.asarray(a).dtype.kind == 'f' else jnp.asarray(a), tree)
+    f = to64(start)
+    p64 = to64(params)
+    atm64 = atmosphere_lib.params_from_alpha(jnp.float64(atm.alpha))
+    mass = physics.total_mass(p64.payload_kg, f.sand_kg, f.helium_mols)
+    tau = p64.gas_thermal_lag_s
+    over = p64.overpressure_pa if params.latex_overpressure else 0.0
+
+    def pressure(h):
+      return atmosphere_lib.at_height(atm64, h).pressure
+
+    def rates(y, forcing):
+      h, v, temp = y
+      ambient = atmosphere_lib.at_height(atm64, h)
+      p_gas = ambient.pressure + over
+      g = envelope.Gas(ambient.temperature, ambient.pressure, temp, p_gas)
+      lift = envelope.free_lift_kg(params, f, g) * physics.GRAVITY
+      k = envelope.drag_factor(params, f.helium_mols, g, v)
+      dp_dh = jax.grad(pressure)(h)
+      target = ambient.temperature + forcing + f.heating_k
+      return (v, (lift - k * jnp.abs(v) * v) / mass,
+              gas_lib.KAPPA_HELIUM * temp * dp_dh * v / p_gas +
+              (target - temp) / tau)
+
+    def rk4(y, forcing):
+      k1 = rates(y, forcing)
+      k2 = rates(tuple(a + 0.5 * dt_s * b for a, b in zip(y, k1)), forcing)
+      k3 = rates(tuple(a + 0.5 * dt_s * b for a, b in zip(y, k2)), forcing)
+      k4 = rates(tuple(a + dt_s * b for a, b in zip(y, k3)), forcing)
+      return tuple(a + dt_s / 6.0 * (b1 + 2 * b2 + 2 * b3 + b4)
+                   for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4))
+
+    @jax.jit
+    def substep(y, time_s, steps):
+      forcing = envelope.forcing_k(p64, time_s, f.x_m, f.y_m)
+      return jax.lax.fori_loop(0, steps, lambda _, y: rk4(y, forcing), y)
+
+    y = (f.altitude_m, f.ascent_rate_mps, f.gas_temperature_k)
+    done = 0.0
+    while done < duration_s - 1e-9:
+      length = min(params.max_substep_s, duration_s - done)
+      y = substep(y, f.time_s + done, int(round(length / dt_s)))
+      done += length
+    return tuple(float(a) for a in y)
+
+
 def _rk4_errors(params, atm, actuated, end, duration: float
                 ) -> Tuple[float, float]:
   """(|h - h_ref| [m], |v - v_ref| / max(|v_ref|, 0.05 m/s)) at stride end."""
-  h_ref, v_ref = rk4_reference(params, atm, actuated, duration)
+  if params.realistic:
+    h_ref, v_ref, _ = rk4_gas_reference(params, atm, actuated, duration)
+  else:
+    h_ref, v_ref = rk4_reference(params, atm, actuated, duration)
   return (abs(float(end.altitude_m) - h_ref),
           abs(float(end.ascent_rate_mps) - v_ref) / max(abs(v_ref), 0.05))
 

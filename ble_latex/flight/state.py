@@ -21,6 +21,7 @@ import jax.numpy as jnp
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
+from ble_latex.flight import thermal
 
 Array = jax.Array
 
@@ -91,6 +92,11 @@ class FlightState:
       calm; `disturbance.switch`).
     burst_volume_m3: This flight's burst volume (`FlightParams.
       burst_volume_m3` unless `burst_spread`: drawn at launch). # [m^3]
+    gas_temperature_k: The helium's temperature T_g, a state under
+      `FlightParams.gas_state` (`gas`); otherwise the air's at the start
+      and not advanced. # [K]
+    heating_k: The heating disturbance dT_h (0 unless
+      `FlightParams.heating_noise`; `gas.heating_transition`). # [K]
   """
   x_m: Array
   y_m: Array
@@ -114,6 +120,8 @@ class FlightState:
   lift_walk_kg: Array
   lift_walk_gusty: Array
   burst_volume_m3: Array
+  gas_temperature_k: Array
+  heating_k: Array
 
   @property
   def free_lift_kg(self) -> Array:
@@ -144,6 +152,11 @@ def initial_state(params: params_lib.FlightParams,
                   time_s: Array = 0.0,
                   key: Optional[Array] = None) -> FlightState:
   """A new balloon as `balloon.create_state` builds it.
+
+  The helium's temperature (`gas_temperature_k`) starts at the air's plus
+  the lagged solar forcing at the balloon (`thermal.gas_excess_k`: a gas at
+  rest in the sun since the infinite past) under `gas_superheat`, else at
+  the air's.
 
   Sand defaults to `params.initial_sand_kg`; helium to
   `params.initial_helium_mols`, or, when that is None, neutral buoyancy
@@ -216,7 +229,21 @@ def initial_state(params: params_lib.FlightParams,
       temperature_k=ambient.temperature,
       lift_walk_kg=zero,
       lift_walk_gusty=jnp.zeros(h.shape, bool),
-      burst_volume_m3=burst)
+      burst_volume_m3=burst,
+      gas_temperature_k=ambient.temperature + _excess(params, time_s, x_m,
+                                                      y_m, h),
+      heating_k=zero)
+
+
+def _excess(params: params_lib.FlightParams, time_s, x_m, y_m,
+            like: Array) -> Array:
+  """The lagged solar T_g - T at launch (0 without gas_superheat). # [K]"""
+  if not params.gas_superheat:
+    return jnp.zeros_like(like)
+  return thermal.gas_excess_k(params, _float(time_s) + jnp.zeros_like(like),
+                              _float(x_m) + jnp.zeros_like(like),
+                              _float(y_m) + jnp.zeros_like(like)
+                              ).astype(like.dtype)
 
 
 def with_resources(params: params_lib.FlightParams, state: FlightState, *,
