@@ -277,3 +277,39 @@ def test_a_flight_on_a_real_file_exports_its_track_in_lat_lon(tmp_path,
         dt.timedelta(seconds=record['flight_path'][-1]['t_s']))
   kml = ElementTree.parse(plots / 'tracks.kml').getroot()
   assert len(kml.findall(f'.//{KML}LineString')) == len(flown)
+
+
+@pytest.mark.slow
+def test_launch_plan_on_a_0_360_file_speaks_minus_180_180_and_utc(
+    tmp_path, capsys):
+  import struct  # pylint: disable=g-import-not-at-top
+  import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import launch as launch_command  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'launch'
+  status = launch_command.main([
+      f'--output_dir={out}', f'--wind_file={GFS_NC}', '--station_lat=40',
+      '--station_lon=-100', '--east_km=-30,30', '--north_km=-30,30',
+      '--hours=0,3', '--grid=2,2,2', '--draws=1', '--max_steps=2',
+      '--top=4', '--paths=1'])
+  gin.clear_config()
+  printed = capsys.readouterr().out
+  assert status == 0
+  plan = json.loads((out / 'launches.json').read_text())
+  assert plan['world']['station_lon'] == pytest.approx(-100.0)
+  assert plan['world']['winds_vary_in_time'] is False  # A snapshot.
+  for row in plan['ranked']:
+    assert -180.0 <= row['lon'] < 180.0
+    assert (row['lat'], row['lon']) == pytest.approx(
+        _destination(40.0, -100.0, row['east_km'], row['north_km']),
+        abs=1e-5)
+    assert row['launch_utc'] == tracks.utc_text(
+        dt.datetime(2010, 10, 26, 12, tzinfo=dt.timezone.utc) +
+        dt.timedelta(hours=row['hours']))
+  best = plan['ranked'][0]
+  line = next(l for l in printed.splitlines() if l.startswith('best launch'))
+  assert f'{best["lat"]:.4f} N {best["lon"]:.4f} E' in line
+  assert best['launch_utc'] in line
+  # A snapshot's winds are the same at every delay: the map alone.
+  png = (out / 'launch_map.png').read_bytes()
+  width, height = struct.unpack('>II', png[16:24])
+  assert width < 1.5 * height, (width, height)

@@ -211,14 +211,17 @@ def _main(argv: Sequence[str]) -> None:
   safe_io.atomic_write(json_path, json.dumps(record, indent=1))
   fig = launch_map.launch_map(
       scores, shape, radius, best, paths,
+      delay_panel=world.describe['winds_vary_in_time'],
       title=(f'{FLAGS.agent}, {world.describe["source"]} world '
              f'{world.describe.get("date", world.describe["seed"])}: '
              f'{n} launches x {FLAGS.draws} draws'))
   png_path = os.path.join(FLAGS.output_dir, 'launch_map.png')
   fig.savefig(png_path, dpi=110)
   top = table[0]
-  print(f'best launch: {top["east_km"]:g} km east, {top["north_km"]:g} km '
-        f'north, +{top["hours"]:g} h, {top["altitude_m"]:g} m: TW50 '
+  print(f'best launch: {top["lat"]:.4f} N {top["lon"]:.4f} E '
+        f'({top["east_km"]:g} km east, {top["north_km"]:g} km north), '
+        f'{top["launch_utc"]} (+{top["hours"]:g} h), {top["altitude_m"]:g} '
+        f'm: TW50 '
         f'{top["tw50_mean"]:.3f} +- {top["tw50_stderr"]:.3f} '
         f'({top["distance_km"]:.0f} km from the station)')
   print(f'scored in {wall_s:.1f} s (load {load_before[0]:.1f}); wrote '

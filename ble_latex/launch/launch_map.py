@@ -14,13 +14,16 @@ from ble_latex.launch import scoring
 def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
                best: List[Dict[str, Any]],
                paths: Optional[np.ndarray] = None,
-               title: str = '') -> figure_lib.Figure:
-  """Two panels: the map and expected TW50 against the launch delay.
+               title: str = '', *,
+               delay_panel: bool = True) -> figure_lib.Figure:
+  """The map and (winds that vary in time) expected TW50 against delay.
 
   Left: each site's expected TW50 at its best delay (and altitude), the
   station (star) and its radius (dashed), the best launches (numbered) and
   their flight paths (draw 0). Right: the best site's and the station's
-  expected TW50 per delay, with +- one standard error.
+  expected TW50 per delay, with +- one standard error; drawn only with
+  `delay_panel` (a time-invariant snapshot, e.g. a sounding, flies the same
+  winds at every delay: only the sun's clock would differ).
 
   Args:
     scores: The dense grid's scores (`scoring.grid(space, *shape)` order).
@@ -29,6 +32,7 @@ def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
     best: The best launches' records (`scoring.ranked`), best first.
     paths: [len(best), strides + 1, 2] their paths (east, north) [km].
     title: The figure's title.
+    delay_panel: Draw the right panel (False: the map alone).
   """
   matplotlib.use('Agg', force=False)
   n_east, n_north, n_hours = (list(shape) + [1, 1])[:3]
@@ -39,8 +43,12 @@ def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
   east = scores.launches.east_km[:n_east]
   north = scores.launches.north_km[::n_east][:n_north]
   hours = scores.launches.hours[::n_east * n_north][:n_hours]
-  fig = figure_lib.Figure(figsize=(12.5, 5.5))
-  ax, side = fig.subplots(1, 2, gridspec_kw={'width_ratios': [1.25, 1]})
+  if delay_panel:
+    fig = figure_lib.Figure(figsize=(12.5, 5.5))
+    ax, side = fig.subplots(1, 2, gridspec_kw={'width_ratios': [1.25, 1]})
+  else:
+    fig = figure_lib.Figure(figsize=(7.0, 5.5))
+    ax, side = fig.subplots(), None
   site = mean.max(axis=(0, 1))
   image = ax.pcolormesh(east, north, site, shading='nearest', cmap='viridis',
                         vmin=0.0, vmax=max(float(site.max()), 1e-6))
@@ -66,6 +74,17 @@ def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
   ax.set_xlabel('launch east of the station [km]')
   ax.set_ylabel('launch north of the station [km]')
   ax.legend(loc='lower left', fontsize=8)
+  if side is not None:
+    _delay_panel(side, mean, stderr, east, north, hours, best)
+  fig.suptitle(title)
+  fig.tight_layout()
+  return fig
+
+
+def _delay_panel(side: Any, mean: np.ndarray, stderr: np.ndarray,
+                 east: np.ndarray, north: np.ndarray, hours: np.ndarray,
+                 best: List[Dict[str, Any]]) -> None:
+  """Expected TW50 per delay at the best site and at the station."""
   k, j = (np.argmin(np.abs(east - best[0]['east_km'])),
           np.argmin(np.abs(north - best[0]['north_km']))) if best else (0, 0)
   a = int(np.argmax(mean[:, :, j, k].max(axis=1)))
@@ -80,6 +99,3 @@ def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
   side.set_ylim(-0.02, 1.02)
   side.grid(alpha=0.3)
   side.legend(fontsize=8)
-  fig.suptitle(title)
-  fig.tight_layout()
-  return fig

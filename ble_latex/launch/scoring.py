@@ -39,6 +39,7 @@ from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
 from ble_latex.launch import controllers as controllers_lib
+from ble_latex.run import tracks
 from ble_latex.wind import era5
 from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
@@ -223,7 +224,8 @@ def generative_world(seed: int, params: Optional[env_types.EnvParams] = None,
                              'use era5_world')
   params = _with_steps(params, steps)
   return _world(params, seed, {'source': 'generative',
-                               'station': 'the forecast grid\'s centre'})
+                               'station': 'the forecast grid\'s centre',
+                               'winds_vary_in_time': True})
 
 
 def era5_world(path: Any, *, center_lat: Optional[float] = None,
@@ -286,7 +288,8 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
       'source': 'era5' if data.source == 'ERA5' else data.source,
       'wind_source': f'{data.description}: {list(data.paths)}',
       'path': str(path), 'station_lat': float(center_lat),
-      'station_lon': float(center_lon),
+      'station_lon': float(tracks.wrap_longitude(center_lon)),
+      'winds_vary_in_time': not data.time_invariant,
       'date': (data.start.replace(tzinfo=None) if data.time_invariant
                else start).isoformat()})
 
@@ -493,35 +496,43 @@ def flight_paths(world: World, controller: controllers_lib.Controller,
   return np.asarray(paths, np.float64)
 
 
+def world_start(world: World) -> dt.datetime:
+  """The world's start (launch delay 0), UTC: its draw's start time."""
+  return env_types.START_EPOCH + dt.timedelta(
+      seconds=int(world.state.start_time_offset_s))
+
+
 def ranked(scores: Scores, world: World, top: Optional[int] = None
            ) -> List[Dict[str, Any]]:
   """The launches best first, as records (JSON-ready).
 
   Each: rank, east_km, north_km, hours, altitude_m, distance_km (from the
-  station), inside_radius, tw50_mean, tw50_std, tw50_stderr; on ERA5 the
-  launch's lat/lon too.
+  station), inside_radius, tw50_mean, tw50_std, tw50_stderr, the launch's
+  lat/lon (lon in -180..180; from the world's station, on BLE's generative
+  winds the nominal one: `tracks.stations`) and launch_utc (the world's
+  start plus the delay, ISO 8601 UTC; on BLE's winds the date BLE draws).
   """
   order = scores.order()[:top]
   launches, radius = scores.launches, world.params.radius_km
   mean, std, stderr = scores.mean, scores.std, scores.stderr
-  lat = lon = None
-  if world.params.wind_grid is not None:
-    lat, lon = jax.device_get(era5_jax.latlng(
-        world.params.wind_grid, jnp.asarray(launches.east_km[order] * 1000.0),
-        jnp.asarray(launches.north_km[order] * 1000.0)))
+  station, _ = tracks.stations(world.params, [world.describe['seed']])
+  start = world_start(world)
   records = []
   for rank, i in enumerate(order):
     distance = math.hypot(launches.east_km[i], launches.north_km[i])
+    lat, lon = tracks.point_lat_lon(station[0][0], station[0][1],
+                                    float(launches.east_km[i]),
+                                    float(launches.north_km[i]))
     record = {'rank': rank + 1, 'index': int(i),
               'east_km': float(launches.east_km[i]),
               'north_km': float(launches.north_km[i]),
               'hours': float(launches.hours[i]),
+              'launch_utc': tracks.utc_text(
+                  start + dt.timedelta(hours=float(launches.hours[i]))),
+              'lat': lat, 'lon': lon,
               'altitude_m': float(launches.altitude_m[i]),
               'distance_km': distance, 'inside_radius': distance <= radius,
               'tw50_mean': float(mean[i]), 'tw50_std': float(std[i]),
               'tw50_stderr': float(stderr[i])}
-    if lat is not None:
-      record['lat'] = float(lat[rank])
-      record['lon'] = float(lon[rank])
     records.append(record)
   return records
