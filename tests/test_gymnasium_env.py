@@ -625,8 +625,12 @@ def test_quiet_passes_other_output_through(capfd):
   assert 'interp1d' not in err and 'cuda drivers' not in err
 
 
-def test_feature_range_warning_at_most_once_per_episode(discrete_env, caplog):
-  """BLE warns at every step outside the feature range; we, once an episode."""
+def test_feature_range_message_dropped(discrete_env, caplog):
+  """BLE logs at every step above its 5000 Pa top; the latex env, never.
+
+  The reason (BLE's features saturate there, its winds are clipped there):
+  `discrete_features.LatexPerciatelliFeatureConstructor.get_features`.
+  """
   base = discrete_env.unwrapped
   outside_steps = []
   with caplog.at_level(logging.WARNING, logger='absl'):
@@ -643,7 +647,7 @@ def test_feature_range_warning_at_most_once_per_episode(discrete_env, caplog):
       outside_steps.append(outside)
       warned = [r for r in caplog.records
                 if 'not fully represented' in r.getMessage()]
-      assert len(warned) == 1, (episode, outside, len(warned))
+      assert not warned, (episode, outside, len(warned))
   assert min(outside_steps) >= 2  # BLE alone would have warned more often.
 
 
