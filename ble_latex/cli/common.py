@@ -400,16 +400,17 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
 def wind_file_defaults(path: str) -> List[str]:
   """The station bindings --wind_file implies, where the user bound none.
 
-  On a gridded snapshot other than ERA5 (a GFS analysis, GRIB2): per-seed
-  stations (`Era5WindField.stations = 'per_seed'`: eval seed s flies
-  station s, `wind.stations`), unless `Era5WindField.stations`,
-  `center_lat` or `center_lon` is bound. On a sounding whose file names its
-  site: the station there (`center_lat`/`center_lon`), unless bound.
+  `stations.file_defaults` (per-seed stations on a gridded snapshot other
+  than ERA5: eval seed s flies station s; a sounding's named site), unless
+  `Era5WindField.stations`, `center_lat` or `center_lon` is bound.
 
   Raises:
     FileNotFoundError, errors.BadFileError: as `era5.load`.
   """
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5
+  from ble_latex.wind import stations
+  # pylint: enable=g-import-not-at-top
 
   def bound(name: str) -> bool:
     try:
@@ -420,16 +421,9 @@ def wind_file_defaults(path: str) -> List[str]:
 
   if any(bound(n) for n in ('stations', 'center_lat', 'center_lon')):
     return []
-  data = era5.load(path)
-  if data.source == 'sounding':
-    site = data.site
-    if site is None or site.latitude is None or site.longitude is None:
-      return []
-    return [f'Era5WindField.center_lat = {site.latitude!r}',
-            f'Era5WindField.center_lon = {site.longitude!r}']
-  if data.time_invariant and data.source != 'ERA5':
-    return ["Era5WindField.stations = 'per_seed'"]
-  return []
+  defaults = stations.file_defaults(era5.load(path))
+  return [f'Era5WindField.{name} = {value!r}'
+          for name, value in defaults.items()]
 
 
 def era5_dates_value(dates: str) -> Any:

@@ -456,8 +456,11 @@ def wind_source() -> str:
   return winds.wind_source_from_gin(episode()['wind_field_factory'])
 
 
-def params_from_gin() -> env_types.EnvParams:
+def params_from_gin(*, wind_file: Any = None) -> env_types.EnvParams:
   """`EnvParams` from the gin bindings (the defaults where unbound).
+
+  `wind_file` (a file, glob or list): the params fly it, as --wind_file
+  does (`winds.grid_from_file`), whatever gin's wind field factory.
 
   The configurables above and the flight system's
   (`flight.params.flight_params_from_gin`). BLE's
@@ -482,7 +485,9 @@ def params_from_gin() -> env_types.EnvParams:
   for name, value in ours.items():
     if name in ble_bound:
       check_ble_repeat(name, value, ble_bound[name])
-  grid = winds.era5_grid_from_gin(values.pop('wind_field_factory'))
+  factory = values.pop('wind_field_factory')
+  grid = (winds.era5_grid_from_gin(factory) if wind_file is None else
+          winds.grid_from_file(wind_file))
   params = check_params(env_types.EnvParams(
       flight=flight_params_lib.flight_params_from_gin(), decoder=None,
       radius_km=radius_km, **reward, **start(), **values,

@@ -63,6 +63,7 @@ with quiet.third_party_noise():
   from ble_latex.envs import env_types
   from ble_latex.envs import gymnasium_compile as compile_lib
   from ble_latex.envs import jax_env
+  from ble_latex.envs import winds
   # pylint: enable=g-import-not-at-top
 
 # Names of the action components in messages.
@@ -223,21 +224,33 @@ class Balloons(SeedRule):
 
   def _setup(self, params: Optional[env_types.EnvParams],
              episode_steps: Optional[int], normalize_actions: bool,
-             compiled: compile_lib.Compiled, host_wind: bool = False) -> None:
+             compiled: compile_lib.Compiled, host_wind: bool = False,
+             wind_file: Any = None) -> None:
     """Checks and sets the params, spaces and compiled functions.
+
+    `wind_file`: the env flies that wind file (`winds.grid_from_file`, as
+    --wind_file: per-seed stations on a gridded snapshot, a sounding's
+    site), in `params` or gin's.
 
     Raises:
       ValueError: A bad `episode_steps` or params (`errors.ConfigError`);
         params read from gin whose `LatexBalloonEnv.wind_field_factory` is
-        neither None nor ERA5 without `host_wind`.
+        neither None nor ERA5 without `host_wind`; a bad wind file
+        (`errors.BadFileError`) or one given with `host_wind`.
     """
     if episode_steps is not None:
       gin_values.check_int('episode_steps', episode_steps, minimum=1)
+    if wind_file is not None and host_wind:
+      raise errors.ConfigError('wind_file and host_wind are two wind '
+                               'sources: give one')
+    if params is not None and wind_file is not None:
+      params = params.replace(wind_grid=winds.grid_from_file(wind_file))
     if params is None:
       with quiet.third_party_noise():
-        params = env_params.params_from_gin()
+        params = env_params.params_from_gin(wind_file=wind_file)
       factory = env_params.episode()['wind_field_factory']
-      if factory is not None and params.wind_grid is None and not host_wind:
+      if (factory is not None and params.wind_grid is None and not host_wind
+          and wind_file is None):
         raise errors.ConfigError(
             f'gin binding LatexBalloonEnv.wind_field_factory = {factory!r}: '
             'the Gymnasium envs fly the core\'s generative field or ERA5 in '
@@ -300,6 +313,8 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
       host at every sub-step (`ble_latex.ble.wind.host_wind(field)` for a
       BLE `WindField`).
     params: `env_types.EnvParams` to fly instead of the gin-bound ones.
+    wind_file: A wind file (ERA5, GFS NetCDF/GRIB2, a sounding; a glob or
+      list): the env flies it as --wind_file does (`winds.grid_from_file`).
 
   Attributes:
     flight: The balloon's `FlightState` after the last reset or step, as
@@ -323,7 +338,8 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
                episode_steps: Optional[int] = None,
                station_keeping_radius_km: Optional[float] = None,
                host_wind: Optional[HostWind] = None,
-               params: Optional[env_types.EnvParams] = None):
+               params: Optional[env_types.EnvParams] = None,
+               wind_file: Any = None):
     render_lib.check_render_mode(self, render_mode)
     self.render_mode = render_mode
     compile_lib.check_not_forked_after_jax()
@@ -340,7 +356,7 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
       compiled = compile_lib.Compiled(jax_env.LatexBalloonJaxEnv(
           host_wind.wind, normalize_actions=False), batched=False)
     self._setup(params, episode_steps, normalize_actions, compiled,
-                host_wind=host_wind is not None)
+                host_wind=host_wind is not None, wind_file=wind_file)
     if station_keeping_radius_km is not None:
       self.params = self.params.replace(radius_km=station_keeping_radius_km)
     self.action_space = self._single_action_space

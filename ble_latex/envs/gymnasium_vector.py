@@ -180,6 +180,7 @@ class LatexBalloonVectorEnv(gymnasium_env.Balloons,
     params: `env_types.EnvParams` to fly (checked, `env_params.check_params`);
       `env_params.params_from_gin()` if None.
     render_mode: Only None (use vectorization_mode='sync' to render).
+    wind_file: A wind file every balloon flies (`winds.grid_from_file`).
 
   Attributes:
     episode_seeds: Each balloon's current seed.
@@ -197,7 +198,7 @@ class LatexBalloonVectorEnv(gymnasium_env.Balloons,
                episode_steps: Optional[int] = None,
                max_episode_steps: Optional[int] = None,
                params: Optional[env_types.EnvParams] = None,
-               render_mode: Optional[str] = None):
+               render_mode: Optional[str] = None, wind_file: Any = None):
     num_envs = check_num_envs(num_envs)
     if render_mode is not None:
       raise ValueError(
@@ -207,7 +208,7 @@ class LatexBalloonVectorEnv(gymnasium_env.Balloons,
     compile_lib.check_not_forked_after_jax()
     self.num_envs = int(num_envs)
     self._setup(params, episode_steps, normalize_actions,
-                compile_lib.generative(batched=True))
+                compile_lib.generative(batched=True), wind_file=wind_file)
     if max_episode_steps is not None:
       limit = gin_values.check_int('max_episode_steps', max_episode_steps,
                                    minimum=1)

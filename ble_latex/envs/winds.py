@@ -16,6 +16,7 @@ balloon flies in and the forecast column the features read (BLE's
 by `wind.era5`) into the grid the env flies; nothing here is a BLE object.
 """
 
+import os
 from typing import Any, Callable, NamedTuple, Optional, Tuple
 
 import gin
@@ -27,6 +28,7 @@ from ble_latex.wind import era5
 from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
 from ble_latex.wind import simplex
+from ble_latex.wind import stations
 
 Array = jax.Array
 
@@ -205,6 +207,37 @@ def era5_grid_from_gin(factory: Any) -> Optional[era5_jax.Era5Grid]:
     raise
   except ValueError as e:
     raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
+
+
+def grid_from_file(wind_file: Any, **settings: Any) -> era5_jax.Era5Grid:
+  """The grid a wind file flies, as --wind_file flies it (issue 64).
+
+  The file(s) by the one reader (`era5.load`), with the station the file
+  implies (`stations.file_defaults`: per-seed stations on a gridded
+  snapshot, a sounding's site) unless `settings` names one, and flights
+  starting anywhere in the data.
+
+  Args:
+    wind_file: A file, glob pattern or list of them (`era5.load`).
+    **settings: `era5.Era5Settings` values (center_lat, center_lon,
+      stations, add_noise, start_dates, ...).
+
+  Raises:
+    FileNotFoundError, errors.BadFileError: as `era5.load`;
+    errors.ConfigError: a bad setting, or a target the file does not hold.
+  """
+  path = (os.path.abspath(os.path.expanduser(wind_file))
+          if isinstance(wind_file, (str, os.PathLike)) else tuple(wind_file))
+  if not {'stations', 'center_lat', 'center_lon'} & set(settings):
+    settings = {**stations.file_defaults(era5.load(path)), **settings}
+  try:
+    return era5_jax.grid_from_settings(era5.Era5Settings(path=path,
+                                                         **settings))
+  except errors.BadFileError:
+    raise
+  except (TypeError, ValueError) as e:
+    raise errors.ConfigError(
+        f'wind_file={wind_file!r}: {str(e).splitlines()[0]}') from e
 
 
 def wind_source_from_gin(factory: Any) -> str:

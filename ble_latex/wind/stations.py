@@ -22,7 +22,7 @@ flight leaves the data (`FlightStatus.LEFT_WIND_DOMAIN`).
 """
 
 import math
-from typing import Any, Optional, Sequence, Tuple
+from typing import Any, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -107,6 +107,30 @@ def station_box(latitude: Sequence[float], longitude: Sequence[float],
         f'no station {margin_km:g} km from every edge within '
         f'{MAX_STATION_ABS_LAT:g} deg of the equator; bind a smaller margin')
   return lat_lo, lat_hi, lon_lo, lon_hi
+
+
+def file_defaults(data: Any) -> Dict[str, Any]:
+  """The station settings a wind file implies (`Era5WindField.*`).
+
+  A gridded snapshot other than ERA5 (a GFS analysis, GRIB2): per-seed
+  stations; a sounding whose file names its site: the station there;
+  anything else (ERA5, a bare sounding): none (the target bound, or the
+  paper's). Used by --wind_file and by the envs' `wind_file=`.
+
+  Args:
+    data: The file's `era5.Era5Data`.
+
+  Returns:
+    `Era5Settings` keyword values, e.g. {'stations': 'per_seed'}.
+  """
+  site = data.site
+  if data.source == 'sounding':
+    if site is None or site.latitude is None or site.longitude is None:
+      return {}
+    return {'center_lat': site.latitude, 'center_lon': site.longitude}
+  if data.time_invariant and data.source != 'ERA5':
+    return {'stations': 'per_seed'}
+  return {}
 
 
 def end_outside_domain(setting: Optional[bool], source: str,
