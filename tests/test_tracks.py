@@ -313,3 +313,20 @@ def test_launch_plan_on_a_0_360_file_speaks_minus_180_180_and_utc(
   png = (out / 'launch_map.png').read_bytes()
   width, height = struct.unpack('>II', png[16:24])
   assert width < 1.5 * height, (width, height)
+
+
+def test_an_undated_wind_file_writes_no_times():
+  import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
+  gin.clear_config()
+  # The committed Hilo CSV names neither its site nor its time.
+  data = era5.load(str(DATA / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv'))
+  params = env_params.params_from_gin().replace(
+      wind_grid=era5_jax.grid_from_data(data))
+  assert tracks.start_times(params, [0, 1]) == [None, None]
+  located = tracks.locate([_record(located=False)], params)[0]
+  assert 'start_utc' not in located
+  assert 'utc' not in located['flight_path'][0]
+  assert tracks.track(located).utc(0) is None

@@ -220,10 +220,10 @@ def _main(argv: Sequence[str]) -> None:
   top = table[0]
   print(f'best launch: {top["lat"]:.4f} N {top["lon"]:.4f} E '
         f'({top["east_km"]:g} km east, {top["north_km"]:g} km north), '
-        f'{top["launch_utc"]} (+{top["hours"]:g} h), {top["altitude_m"]:g} '
-        f'm: TW50 '
-        f'{top["tw50_mean"]:.3f} +- {top["tw50_stderr"]:.3f} '
-        f'({top["distance_km"]:.0f} km from the station)')
+        f'{top["launch_utc"] or "undated"} (+{top["hours"]:g} h), '
+        f'{top["altitude_m"]:g} m: TW50 {top["tw50_mean"]:.3f} +- '
+        f'{top["tw50_stderr"]:.3f} ({top["distance_km"]:.0f} km from the '
+        'station)')
   print(f'scored in {wall_s:.1f} s (load {load_before[0]:.1f}); wrote '
         f'{json_path} and {png_path}')
 

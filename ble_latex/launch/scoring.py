@@ -496,10 +496,12 @@ def flight_paths(world: World, controller: controllers_lib.Controller,
   return np.asarray(paths, np.float64)
 
 
-def world_start(world: World) -> dt.datetime:
-  """The world's start (launch delay 0), UTC: its draw's start time."""
-  return env_types.START_EPOCH + dt.timedelta(
-      seconds=int(world.state.start_time_offset_s))
+def world_start(world: World) -> Optional[dt.datetime]:
+  """The world's start (launch delay 0), UTC: its draw's start time (None
+  where its wind file names no time, `tracks.known_start`)."""
+  return tracks.known_start(world.params, env_types.START_EPOCH +
+                            dt.timedelta(seconds=int(
+                                world.state.start_time_offset_s)))
 
 
 def ranked(scores: Scores, world: World, top: Optional[int] = None
@@ -510,7 +512,8 @@ def ranked(scores: Scores, world: World, top: Optional[int] = None
   station), inside_radius, tw50_mean, tw50_std, tw50_stderr, the launch's
   lat/lon (lon in -180..180; from the world's station, on BLE's generative
   winds the nominal one: `tracks.stations`) and launch_utc (the world's
-  start plus the delay, ISO 8601 UTC; on BLE's winds the date BLE draws).
+  start plus the delay, ISO 8601 UTC; on BLE's winds the date BLE draws;
+  None where the wind file names no time).
   """
   order = scores.order()[:top]
   launches, radius = scores.launches, world.params.radius_km
@@ -527,7 +530,7 @@ def ranked(scores: Scores, world: World, top: Optional[int] = None
               'east_km': float(launches.east_km[i]),
               'north_km': float(launches.north_km[i]),
               'hours': float(launches.hours[i]),
-              'launch_utc': tracks.utc_text(
+              'launch_utc': None if start is None else tracks.utc_text(
                   start + dt.timedelta(hours=float(launches.hours[i]))),
               'lat': lat, 'lon': lon,
               'altitude_m': float(launches.altitude_m[i]),

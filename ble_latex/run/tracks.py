@@ -14,7 +14,8 @@ the track on a map, on every wind source:
   `station_source`: 'wind file' or 'nominal'.
 - `start_utc`: the flight's start (ISO 8601, UTC): the env's draw
   (`EnvState.start_time_offset_s` after `env_types.START_EPOCH`): on a wind
-  file a time in the file; on BLE's winds the date BLE draws (it sets the
+  file a time in the file (none where the file names no time, e.g. a
+  sounding without one); on BLE's winds the date BLE draws (it sets the
   sun's clock, not the winds).
 - per flight point, `lat`, `lon` [deg, lon in -180..180] and `utc`: the
   point's offset from the station mapped as the winds read it (BLE's
@@ -40,6 +41,9 @@ from ble_latex.wind import era5
 
 STATION_FROM_WIND_FILE = 'wind file'
 STATION_NOMINAL = 'nominal'
+# Where a wind file names no time (a sounding without one) its flights fly
+# at this time (`era5_jax`, issue 64): not a date, so no times are written.
+UNDATED_START = dt.datetime(1970, 1, 1, tzinfo=dt.timezone.utc)
 
 
 def wrap_longitude(lon: Any) -> Any:
@@ -68,7 +72,7 @@ def parse_utc(text: str, what: str) -> dt.datetime:
 
 
 def start_times(params: env_types.EnvParams,
-                seeds: Sequence[int]) -> List[dt.datetime]:
+                seeds: Sequence[int]) -> List[Optional[dt.datetime]]:
   """The UTC start of each env seed's flight under `params`.
 
   `reset(PRNGKey(seed), params)`'s `start_time_offset_s` (the env's own
@@ -79,15 +83,25 @@ def start_times(params: env_types.EnvParams,
     seeds: Env seeds (ints in [0, 2**32)).
 
   Returns:
-    One aware UTC datetime per seed.
+    One aware UTC datetime per seed (`known_start`: None where the wind
+    file names no time).
   """
   env = jax_env.LatexBalloonJaxEnv()
   keys = jax.vmap(jax.random.PRNGKey)(np.asarray(seeds, np.uint32))
   offsets = jax.device_get(jax.jit(jax.vmap(
       lambda k: env.draw(jax_env.arena_key(k), params)[0].start_time_offset_s
   ))(keys))
-  return [env_types.START_EPOCH + dt.timedelta(seconds=int(s))
+  return [known_start(params, env_types.START_EPOCH +
+                      dt.timedelta(seconds=int(s)))
           for s in np.asarray(offsets).reshape(-1)]
+
+
+def known_start(params: env_types.EnvParams,
+                start: dt.datetime) -> Optional[dt.datetime]:
+  """`start`, or None where it is a wind file's `UNDATED_START`."""
+  if params.wind_grid is not None and start == UNDATED_START:
+    return None
+  return start
 
 
 def stations(params: env_types.EnvParams,
