@@ -307,7 +307,7 @@ def test_launch_plan_on_a_0_360_file_speaks_minus_180_180_and_utc(
         dt.timedelta(hours=row['hours']))
   best = plan['ranked'][0]
   line = next(l for l in printed.splitlines() if l.startswith('best launch'))
-  assert f'{best["lat"]:.4f} N {best["lon"]:.4f} E' in line
+  assert f'{best["lat"]:.4f} N {-best["lon"]:.4f} W' in line
   assert best['launch_utc'] in line
   # A snapshot's winds are the same at every delay: the map alone.
   png = (out / 'launch_map.png').read_bytes()

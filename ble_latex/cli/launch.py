@@ -43,6 +43,7 @@ env_params = cli.lazy_module('ble_latex.envs.env_params')
 launch_map = cli.lazy_module('ble_latex.launch.launch_map')
 scoring = cli.lazy_module('ble_latex.launch.scoring')
 gin_binding = cli.lazy_module('ble_latex.run.gin_binding')
+tracks = cli.lazy_module('ble_latex.run.tracks')
 
 PROG = 'ble-latex-launch'
 FLAGS = flags.FlagValues()
@@ -218,7 +219,7 @@ def _main(argv: Sequence[str]) -> None:
   png_path = os.path.join(FLAGS.output_dir, 'launch_map.png')
   fig.savefig(png_path, dpi=110)
   top = table[0]
-  print(f'best launch: {top["lat"]:.4f} N {top["lon"]:.4f} E '
+  print(f'best launch: {tracks.lat_lon_text(top["lat"], top["lon"])} '
         f'({top["east_km"]:g} km east, {top["north_km"]:g} km north), '
         f'{top["launch_utc"] or "undated"} (+{top["hours"]:g} h), '
         f'{top["altitude_m"]:g} m: TW50 {top["tw50_mean"]:.3f} +- '

@@ -205,9 +205,10 @@ def plot_flight_time(flights: Sequence[tracks_lib.Track], path: str, *,
                    label=f'{radius_km:g} km')
   axes[-1].set_ylim(bottom=0.0)
   axes[-1].set_xlabel('time since launch [h]')
-  axes[0].legend(fontsize=8, loc='best')
   axes[-1].legend(handles=axes[-1].get_lines()[-1:], fontsize=8,
                   loc='upper left')
+  fig.legend(handles=axes[0].get_lines(), loc='outside lower center',
+             ncols=min(len(flights), 3), fontsize=8)
   if title:
     fig.suptitle(title, fontsize=10)
   return figures.save_png(fig, path)

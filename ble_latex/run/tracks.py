@@ -51,6 +51,13 @@ def wrap_longitude(lon: Any) -> Any:
   return (np.asarray(lon, dtype=float) + 180.0) % 360.0 - 180.0
 
 
+def lat_lon_text(lat: float, lon: float) -> str:
+  """'39.9867 N 101.7607 W': a place as operators write it. # [deg]"""
+  lon = float(wrap_longitude(lon))
+  return (f'{abs(lat):.4f} {"N" if lat >= 0 else "S"} '
+          f'{abs(lon):.4f} {"E" if lon >= 0 else "W"}')
+
+
 def utc_text(when: dt.datetime) -> str:
   """ISO 8601 UTC with a 'Z' ('2010-10-26T12:00:00Z')."""
   return when.astimezone(dt.timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
