@@ -50,7 +50,8 @@ def test_each_slice_reads_as_a_time_invariant_field(path, source, lat, lon):
   assert data.time_invariant
   held = (f'; wind above its top, {data.site.top_m / 1000:.1f} km, held'
           if source == 'sounding' else '')
-  assert data.description == f'{source} (time-invariant{held})'
+  run = ' run 2011-10-08T00Z +72 h' if source == 'GRIB2' else ''
+  assert data.description == f'{source}{run} (time-invariant{held})'
   assert data.covers(lat, lon)
   # The same winds at the first time and ten days later.
   for t_s in (0.0, 1800.0, 10 * 86400.0):
@@ -254,7 +255,7 @@ def test_eval_records_name_the_wind_source(tmp_path, capsys):
   assert code == 0, capsys.readouterr().err
   records = json.loads((out / 'latex_micro' / 'latex_station_seeker.json'
                         ).read_text())
-  want = f"GRIB2 (time-invariant): ['{GFS_GRIB}']"
+  want = f"GRIB2 run 2011-10-08T00Z +72 h (time-invariant): ['{GFS_GRIB}']"
   assert [r['wind_source'] for r in records] == [want] * len(records)
   summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
   assert summary['wind_source'] == want

@@ -244,8 +244,9 @@ def wind_source_from_gin(factory: Any) -> str:
   """What a `LatexBalloonEnv.wind_field_factory` value flies, for records.
 
   'BLE generative (VAE)' for BLE's winds; for a wind file (`@Era5WindField`)
-  its source and files, e.g. "GRIB2 (time-invariant): ['/data/gfs.grib2']"
-  (`era5.Era5Data.description`: snapshots say "time-invariant").
+  its source and files, e.g. "GRIB2 run 2011-10-08T00Z +72 h
+  (time-invariant): ['/data/gfs.grib2']" (`era5.Era5Data.description`:
+  snapshots say "time-invariant", forecasts their run and lead times).
   """
   if factory is era5.settings:
     data = factory().load()

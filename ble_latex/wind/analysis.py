@@ -31,7 +31,7 @@ import dataclasses
 import datetime as dt
 import logging
 import math
-from typing import Dict, Optional, Tuple, TYPE_CHECKING
+from typing import Dict, List, Optional, Sequence, Tuple, TYPE_CHECKING
 
 import numpy as np
 
@@ -196,6 +196,10 @@ def normalise(dataset: 'xr.Dataset', path: str, label: str
         f'standard_name {"/".join(STANDARD_NAMES)} or one of '
         f'{["/".join(a) for a in WIND_ALIASES]})')
   array = dataset[winds[0]]
+  if ('step' in array.dims and 'valid_time' in array.coords and
+      array['valid_time'].dims == ('step',)):  # A run's steps: valid times.
+    dataset = dataset.swap_dims({'step': 'valid_time'})
+    array = dataset[winds[0]]
   dims = [str(d) for d in array.dims]
   level = _pressure_dim(array)
   lat, lon = _first(dims, _LAT_NAMES), _first(dims, _LON_NAMES)
@@ -206,7 +210,7 @@ def normalise(dataset: 'xr.Dataset', path: str, label: str
                    array[c].ndim == 0), None)
     if scalar is not None:
       others = [c for c in _TIME_NAMES if c != scalar and c in dataset.coords]
-      dataset = dataset.drop_vars(others)
+      dataset = dataset.rename_vars({c: f'{c}_{scalar}' for c in others})
       dataset = dataset.assign({
           w: dataset[w].expand_dims(scalar) for w in winds})
       time = scalar
@@ -216,6 +220,59 @@ def normalise(dataset: 'xr.Dataset', path: str, label: str
            'latitude': (lat,) if lat else _LAT_NAMES,
            'longitude': (lon,) if lon else _LON_NAMES}
   return dataset, names
+
+
+@dataclasses.dataclass(frozen=True)
+class ForecastRun:
+  """The run and lead times of forecast files (GRIB2 `time` and `step`).
+
+  Attributes:
+    runs: Each file's run (initial time), naive UTC.
+    hours: The lead times read, over all files. # [h]
+  """
+  runs: Tuple[np.datetime64, ...]
+  hours: Tuple[float, ...]
+
+  @property
+  def label(self) -> str:
+    """E.g. 'run 2011-10-08T00Z +72 h', 'run 2011-10-08T00Z +72..+78 h'."""
+    runs = sorted({str(r)[:13] + 'Z' for r in self.runs})
+    hours = sorted(set(self.hours))
+    lead = (f'+{hours[0]:g} h' if len(hours) == 1 else
+            f'+{hours[0]:g}..+{hours[-1]:g} h')
+    return (f'run {runs[0]}' if len(runs) == 1 else
+            f'runs {runs[0]}..{runs[-1]}') + f' {lead}'
+
+  @property
+  def notes(self) -> List[str]:
+    """Nothing more for the record than `label`."""
+    return []
+
+  @staticmethod
+  def join(parts: Sequence[Optional['ForecastRun']]
+           ) -> Optional['ForecastRun']:
+    """The files' runs together; None unless every file names its run."""
+    if not parts or any(p is None for p in parts):
+      return None
+    return ForecastRun(tuple(r for p in parts for r in p.runs),
+                       tuple(h for p in parts for h in p.hours))
+
+
+def forecast_run(dataset: 'xr.Dataset') -> Optional[ForecastRun]:
+  """The run and lead times a (`normalise`d) GRIB2 dataset names, or None.
+
+  cfgrib's scalar `time` (the run; `time_valid_time` once `normalise` made
+  `valid_time` the time axis) and `step` (one lead time or one per time).
+  """
+  run = next((dataset[c] for c in ('time_valid_time', 'time')
+              if c in dataset.coords and dataset[c].ndim == 0), None)
+  step = dataset.coords.get('step')
+  if run is None or step is None or not (
+      np.issubdtype(run.dtype, np.datetime64) and
+      np.issubdtype(step.dtype, np.timedelta64)):
+    return None
+  hours = np.atleast_1d(step.values) / np.timedelta64(1, 'h')
+  return ForecastRun((run.values,), tuple(float(h) for h in hours))
 
 
 @contextlib.contextmanager

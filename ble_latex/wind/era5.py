@@ -35,7 +35,6 @@ pressure values that contradict their `units`, NaN winds and winds above
 import dataclasses
 import datetime as dt
 import functools
-import glob
 import math
 import os
 from typing import Any, Optional, Sequence, Tuple, TYPE_CHECKING, Union
@@ -125,6 +124,7 @@ class Era5Data:
       (`sounding.Site`: its time is times[0]); None for other sources.
     global_longitude: The longitudes go round the globe (`globe`):
       `longitude` and `uv` end with the wrapped column (the first at +360).
+    forecast: A forecast's run and lead times (`analysis.ForecastRun`).
   """
   paths: Tuple[str, ...]
   times: np.ndarray
@@ -137,15 +137,18 @@ class Era5Data:
   time_invariant: bool = False
   site: Any = None
   global_longitude: bool = False
+  forecast: Any = None
 
   @property
   def description(self) -> str:
-    """The source for records: e.g. 'GRIB2 (time-invariant)', 'sounding BOI
-    72681 43.56N -116.21E 2010-12-09T12:00Z (time-invariant; wind above
-    its top, 32.3 km, held)' (`sounding.Site.notes`)."""
-    label = self.site.label if self.site is not None else ''
+    """The source for records, e.g. 'GRIB2 run 2011-10-08T00Z +72 h
+    (time-invariant)' (`forecast`), 'sounding BOI 72681 43.56N -116.21E
+    2010-12-09T12:00Z (time-invariant; wind above its top, 32.3 km, held)'
+    (`site`)."""
+    about = self.site or self.forecast
+    label = about.label if about is not None else ''
     notes = ['time-invariant'] * self.time_invariant + (
-        self.site.notes if self.site is not None else [])
+        about.notes if about is not None else [])
     return (self.source + (f' {label}' if label else '') +
             (f' ({"; ".join(notes)})' if notes else ''))
 
@@ -319,11 +322,11 @@ def read_source(path: str) -> Tuple[str, Tuple[np.ndarray, ...], Any]:
   if analysis.kind_of(path) == 'sounding':
     return ('sounding',) + analysis.sounding_arrays(path)
   dataset, label, names = analysis.open_dataset(path, ERA5.label)
-  layout = Layout(label=label, **names)
-  arrays = read_file(path, layout, dataset=dataset)
+  forecast = analysis.forecast_run(dataset)
+  arrays = read_file(path, Layout(label=label, **names), dataset=dataset)
   if label != ERA5.label:
     analysis.check_domain(path, arrays[2], arrays[3], label)
-  return label, arrays, None
+  return label, arrays, forecast
 
 
 def read_file(path: str, layout: Layout = ERA5,
@@ -390,36 +393,6 @@ def read_file(path: str, layout: Layout = ERA5,
           longitude[orders[3]], uv)
 
 
-def expand_paths(path: Union[str, Sequence[str]]) -> Tuple[str, ...]:
-  """Expands a path, a glob pattern or a list of them into sorted files.
-
-  Args:
-    path: A file, a glob pattern (e.g. 'era5_*.nc'), or a list of them; `~`
-      and environment variables are expanded.
-
-  Returns:
-    The absolute file paths, sorted, without duplicates.
-
-  Raises:
-    FileNotFoundError: if a pattern matches nothing or a file is missing.
-  """
-  patterns = [path] if isinstance(path, (str, os.PathLike)) else list(path)
-  if not patterns:
-    raise FileNotFoundError('No ERA5 file given (empty path list)')
-  files = []
-  for pattern in patterns:
-    pattern = os.path.expandvars(os.path.expanduser(os.fspath(pattern)))
-    if glob.has_magic(pattern):
-      matches = glob.glob(pattern)
-      if not matches:
-        raise FileNotFoundError(f'No ERA5 file matches {pattern} (download '
-                                'with ble-latex-download-era5)')
-      files.extend(matches)
-    else:
-      files.append(pattern)
-  return tuple(sorted({os.path.abspath(f) for f in files}))
-
-
 def load(path: Union[str, Sequence[str]], layout: Layout = ERA5) -> Era5Data:
   """Loads ERA5 u, v from one or more files (joined along time).
 
@@ -429,7 +402,7 @@ def load(path: Union[str, Sequence[str]], layout: Layout = ERA5) -> Era5Data:
   single time step is a snapshot, flown time-invariant.
 
   Args:
-    path: A file, a glob pattern, or a list of them (see `expand_paths`).
+    path: A file, a glob pattern, or a list of them (see `era5_checks.expand_paths`).
     layout: How the files name their winds and axes.
 
   Returns:
@@ -445,7 +418,7 @@ def load(path: Union[str, Sequence[str]], layout: Layout = ERA5) -> Era5Data:
       impossible coordinates (`era5_checks.check_coordinates`), a gap in
       time (`era5_checks.check_time_steps`), or files do not share one grid.
   """
-  paths = expand_paths(path)
+  paths = era5_checks.expand_paths(path)
   for p in paths:
     if os.path.isdir(p) or not os.path.isfile(p):
       era5_checks.check_file(p, label=layout.label)  # Raises.
@@ -465,13 +438,15 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
   if layout is ERA5:
     reads = [read_source(p) for p in paths]
     parts = [(p,) + arrays for p, (_, arrays, _) in zip(paths, reads)]
-    source, site = reads[0][0], reads[0][2]
+    source, about = reads[0][0], [r[2] for r in reads]
+    site = about[0] if source == 'sounding' else None
+    forecast = None if site else analysis.ForecastRun.join(about)
     if len({s for s, _, _ in reads}) > 1:
       raise errors.BadFileError(
           f'Wind files {paths} mix sources {[s for s, _, _ in reads]}')
     label = source
   else:
-    source, site = label, None
+    source, site, forecast = label, None, None
     parts = [(p,) + read_file(p, layout) for p in paths]
   first_path, _, pressure, latitude, longitude, _ = parts[0]
   for p, _, other_p, other_lat, other_lon, _ in parts[1:]:
@@ -514,7 +489,7 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
     a.flags.writeable = False
   return Era5Data(tuple(s[0] for s in stamps), *arrays, source=source,
                   time_invariant=time_invariant, site=site,
-                  global_longitude=global_longitude)
+                  global_longitude=global_longitude, forecast=forecast)
 
 
 def latlng_of_offset(center_lat: float, center_lon: float, x_m: float,

@@ -20,15 +20,20 @@ file:
   - `check_winds`: NaN winds (declared fill values) and winds above
     `MAX_WIND_MPS` (undeclared fill values such as 9.97e36, corrupt data).
 
+`expand_paths` turns a path, glob pattern or list of them into the files
+to read (a pattern that matches nothing is an error).
+
 Every check takes the source's `label` ('ERA5' by default), the name its
 messages give the file, so readers of other CF-style files (GFS analyses)
 reuse them.
 """
 
+import glob
 import math
 import os
 import struct
-from typing import BinaryIO, Optional, Sequence, Tuple, TYPE_CHECKING
+from typing import (BinaryIO, Optional, Sequence, Tuple, TYPE_CHECKING,
+                    Union)
 
 import numpy as np
 
@@ -541,3 +546,33 @@ def check_pressure_pa(path: str, pressure: np.ndarray, *,
         f'{label} file {path}: pressure level {pressure.max():g} Pa is below '
         f'the ground (levels must be <= {MAX_PRESSURE_PA:g} Pa = '
         f'{MAX_PRESSURE_PA / 100:g} hPa)')
+
+
+def expand_paths(path: Union[str, Sequence[str]]) -> Tuple[str, ...]:
+  """Expands a path, a glob pattern or a list of them into sorted files.
+
+  Args:
+    path: A file, a glob pattern (e.g. 'era5_*.nc'), or a list of them; `~`
+      and environment variables are expanded.
+
+  Returns:
+    The absolute file paths, sorted, without duplicates.
+
+  Raises:
+    FileNotFoundError: if a pattern matches nothing or a file is missing.
+  """
+  patterns = [path] if isinstance(path, (str, os.PathLike)) else list(path)
+  if not patterns:
+    raise FileNotFoundError('No ERA5 file given (empty path list)')
+  files = []
+  for pattern in patterns:
+    pattern = os.path.expandvars(os.path.expanduser(os.fspath(pattern)))
+    if glob.has_magic(pattern):
+      matches = glob.glob(pattern)
+      if not matches:
+        raise FileNotFoundError(f'No ERA5 file matches {pattern} (download '
+                                'with ble-latex-download-era5)')
+      files.extend(matches)
+    else:
+      files.append(pattern)
+  return tuple(sorted({os.path.abspath(f) for f in files}))

@@ -1,0 +1,75 @@
+# coding=utf-8
+"""One GRIB2 file holding several forecast steps flies as a time series, and
+records name the run and lead times (issue 64, "Why" 5, in part).
+
+The files are the real GFS +72 h slice's u/v messages written again with
+lead times +72, +75, +78 h (eccodes; winds + 0, 1, 2 m/s). No network.
+"""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+from ble_latex.wind import analysis
+from ble_latex.wind import era5
+
+eccodes = pytest.importorskip('eccodes')
+pytest.importorskip('cfgrib')
+
+SLICE = (pathlib.Path(__file__).parent / 'data' / 'realwinds' /
+         'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
+HOURS = (72, 75, 78)
+
+
+def _write_steps(path, hours):
+  """The slice's fields at each lead time, winds + its index [m/s]."""
+  eccodes.codes_grib_multi_support_on()
+  try:
+    with open(SLICE, 'rb') as f:
+      fields = []
+      while (handle := eccodes.codes_grib_new_from_file(f)) is not None:
+        fields.append(handle)
+    with open(path, 'wb') as out:
+      for hour in hours:
+        for field in fields:
+          clone = eccodes.codes_clone(field)
+          eccodes.codes_set(clone, 'forecastTime', hour)
+          eccodes.codes_set_values(clone, eccodes.codes_get_values(clone) +
+                                   HOURS.index(hour))
+          eccodes.codes_write(clone, out)
+          eccodes.codes_release(clone)
+    for field in fields:
+      eccodes.codes_release(field)
+  finally:
+    eccodes.codes_grib_multi_support_off()
+  return str(path)
+
+
+def test_one_file_of_several_steps_is_a_time_series(tmp_path):
+  data = era5.load(_write_steps(tmp_path / 'steps.grib2', HOURS))
+  assert not data.time_invariant
+  assert data.times.tolist() == [
+      np.datetime64(f'2011-10-11T{h:02d}:00', 'ns').astype(int)
+      for h in (0, 3, 6)]
+  assert data.description == 'GRIB2 run 2011-10-08T00Z +72..+78 h'
+  first = data.interpolate(0.0, 5000.0, 10.0, 10.0)
+  np.testing.assert_allclose(data.interpolate(5400.0, 5000.0, 10.0, 10.0),
+                             first + 0.5, atol=1e-5)
+  # The same steps as three files, joined along time.
+  parts = [_write_steps(tmp_path / f'f{h:03d}.grib2', (h,)) for h in HOURS]
+  joined = era5.load(parts)
+  np.testing.assert_array_equal(joined.uv, data.uv)
+  assert joined.description == data.description
+
+
+def test_a_snapshot_names_its_run_and_lead_time():
+  data = era5.load(str(SLICE))
+  assert data.forecast == analysis.ForecastRun(
+      (np.datetime64('2011-10-08T00:00', 'ns'),), (72.0,))
+  assert data.description == 'GRIB2 run 2011-10-08T00Z +72 h (time-invariant)'
+  runs = analysis.ForecastRun.join([
+      data.forecast, analysis.ForecastRun(
+          (np.datetime64('2011-10-08T06:00', 'ns'),), (66.0,))])
+  assert runs.label == 'runs 2011-10-08T00Z..2011-10-08T06Z +66..+72 h'
+  assert analysis.ForecastRun.join([data.forecast, None]) is None
