@@ -31,6 +31,8 @@ from typing import Optional, Sequence
 from ble_latex import quiet
 
 ENV_FLAG = 'env_name'
+BLE_EVAL_MODULE = 'balloon_learning_environment.eval.eval'
+HELP = ('-h', '--help', '-help', '--helpshort', '--helpfull')
 
 
 def _define_flags() -> None:
@@ -124,6 +126,11 @@ def main(argv: Optional[Sequence[str]] = None,
   from absl import flags  # pylint: disable=g-import-not-at-top
   argv = list(sys.argv if argv is None else argv)
   _define_flags()
+  if set(argv[1:]) & set(HELP):
+    f = flags.FLAGS
+    print(f'usage: {prog} --env_name=ENV [BLE eval flags...]\n\n'
+          f'{f.module_help(BLE_EVAL_MODULE)}\n{f.module_help(__name__)}')
+    return 0
   try:
     rest = flags.FLAGS(argv)
   except flags.Error as e:
