@@ -10,20 +10,21 @@ import pathlib
 
 import numpy as np
 import pytest
+import xarray as xr
 
 from ble_latex.wind import analysis
 from ble_latex.wind import era5
 
-eccodes = pytest.importorskip('eccodes')
-pytest.importorskip('cfgrib')
-
-SLICE = (pathlib.Path(__file__).parent / 'data' / 'realwinds' /
-         'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
+REAL = pathlib.Path(__file__).parent / 'data' / 'realwinds'
+SLICE = REAL / 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2'
+GFS_NC = REAL / 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc'
 HOURS = (72, 75, 78)
 
 
 def _write_steps(path, hours):
   """The slice's fields at each lead time, winds + its index [m/s]."""
+  eccodes = pytest.importorskip('eccodes')
+  pytest.importorskip('cfgrib')
   eccodes.codes_grib_multi_support_on()
   try:
     with open(SLICE, 'rb') as f:
@@ -63,7 +64,26 @@ def test_one_file_of_several_steps_is_a_time_series(tmp_path):
   assert joined.description == data.description
 
 
+def test_a_netcdf_analysis_with_several_times_is_a_time_series(tmp_path):
+  one = xr.open_dataset(GFS_NC).load()
+  steps = [one.assign_coords(time=one.time + np.timedelta64(6 * i, 'h'))
+           for i in range(3)]
+  for i, step in enumerate(steps):
+    for name in ('u-component_of_wind_isobaric',
+                 'v-component_of_wind_isobaric'):
+      step[name] = step[name] + i
+  path = tmp_path / 'series.nc'
+  xr.concat(steps, dim='time').to_netcdf(path)
+  data = era5.load(str(path))
+  assert not data.time_invariant and data.times.size == 3
+  assert data.description == 'analysis'
+  first = data.interpolate(0.0, 5000.0, 40.0, -103.0)
+  np.testing.assert_allclose(data.interpolate(9 * 3600.0, 5000.0, 40.0,
+                                              -103.0), first + 1.5, atol=1e-4)
+
+
 def test_a_snapshot_names_its_run_and_lead_time():
+  pytest.importorskip('cfgrib')
   data = era5.load(str(SLICE))
   assert data.forecast == analysis.ForecastRun(
       (np.datetime64('2011-10-08T00:00', 'ns'),), (72.0,))
