@@ -175,26 +175,26 @@ def box_console_collector(console_collector: Any) -> type:
       self._action_sum = None
       self._action_steps = 0
 
-    def _add(self, action: Any) -> None:
-      a = np.asarray(action, np.float64)
+    def _add(self, statistics: Any) -> None:
+      """Adds a Box transition's reward and action to the episode's."""
+      self._current_episode_reward += statistics.reward
+      a = np.asarray(statistics.action, np.float64)
       self._action_sum = a if self._action_sum is None else (
           self._action_sum + a)
       self._action_steps += 1
 
     def step(self, statistics: Any) -> None:
-      if not _is_box_action(statistics.action):
+      if _is_box_action(statistics.action):
+        self._add(statistics)
+      else:
         super().step(statistics)
-        return
-      self._current_episode_reward += statistics.reward
-      self._add(statistics.action)
 
     def end_episode(self, statistics: Any) -> None:
       if not _is_box_action(statistics.action):
         super().end_episode(statistics)
         return
       from absl import logging  # pylint: disable=g-import-not-at-top
-      self._current_episode_reward += statistics.reward
-      self._add(statistics.action)
+      self._add(statistics)
       mean = np.round(self._action_sum / self._action_steps, 3).tolist()
       text = (f'Episode {self.current_episode}: '
               f'reward: {self._current_episode_reward:07.2f}, '
