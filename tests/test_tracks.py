@@ -330,3 +330,13 @@ def test_an_undated_wind_file_writes_no_times():
   assert 'start_utc' not in located
   assert 'utc' not in located['flight_path'][0]
   assert tracks.track(located).utc(0) is None
+
+
+def test_launch_progress_gives_an_eta(capsys, monkeypatch):
+  from ble_latex.cli import launch as launch_command  # pylint: disable=g-import-not-at-top
+  monkeypatch.setattr(launch_command.time, 'monotonic', lambda: 170.0)
+  launch_command._progress(2048, 13448, start=100.0)  # pylint: disable=protected-access
+  launch_command._progress(13448, 13448, start=100.0)  # pylint: disable=protected-access
+  lines = capsys.readouterr().out.splitlines()
+  assert lines == ['  2048/13448 launches, 70 s, ETA 6 min 29 s',
+                   '  13448/13448 launches, 70 s']

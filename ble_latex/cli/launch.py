@@ -143,6 +143,16 @@ def _check() -> None:
   cli.prepare_output_dir(FLAGS.output_dir, '--output_dir')
 
 
+def _progress(done: int, n: int, start: float) -> None:
+  """'  2048/13448 launches, 70 s, ETA 6 min 29 s' (the rate so far; the
+  first chunk includes the compile, so the first ETA is pessimistic)."""
+  elapsed = time.monotonic() - start
+  left = elapsed / max(done, 1) * (n - done)
+  eta = (f', ETA {int(left // 60)} min {int(left % 60)} s' if done < n
+         else '')
+  print(f'  {done}/{n} launches, {elapsed:.0f} s{eta}', flush=True)
+
+
 def _main(argv: Sequence[str]) -> None:
   del argv
   gin_binding.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
@@ -171,9 +181,7 @@ def _main(argv: Sequence[str]) -> None:
   load_before = os.getloadavg()
   start = time.monotonic()
   scores = scoring.score(world, controller, launches, draws=FLAGS.draws,
-                         progress=lambda done: print(
-                             f'  {done}/{n} launches, '
-                             f'{time.monotonic() - start:.0f} s', flush=True))
+                         progress=lambda done: _progress(done, n, start))
   wall_s = time.monotonic() - start
   table = scoring.ranked(scores, world, FLAGS.top)
   best = table[:FLAGS.paths]

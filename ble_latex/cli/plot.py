@@ -409,8 +409,10 @@ def run(f: flags.FlagValues) -> List[str]:
   baseline = (records_lib.load_eval(f.baseline_eval_json)
               if f.baseline_eval_json else None)
   first = next(iter(evals.values())) if evals else None
-  flights = ([tracks_lib.track(r, f'{f.eval_json[0]}: seed {r["seed"]}')
-              for r in first] if first else [])
+  # The map's flights, or every record when exported.
+  flights = [tracks_lib.track(r, f'{f.eval_json[0]}: seed {r["seed"]}')
+             for r in (first or [])[:None if f.export else
+                                     f.max_trajectories]]
   seed_3d = None
   if first and baseline:
     try:

@@ -19,8 +19,9 @@ def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
   """The map and (winds that vary in time) expected TW50 against delay.
 
   Left: each site's expected TW50 at its best delay (and altitude), the
-  station (star) and its radius (dashed), the best launches (numbered) and
-  their flight paths (draw 0). Right: the best site's and the station's
+  station (star) and its radius (dashed), the best launches (each named in
+  the legend with its rank, delay and score) and their flight paths (draw
+  0). Right: the best site's and the station's
   expected TW50 per delay, with +- one standard error; drawn only with
   `delay_panel` (a time-invariant snapshot, e.g. a sounding, flies the same
   winds at every delay: only the sun's clock would differ).
@@ -63,11 +64,12 @@ def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
   for i, record in enumerate(best):
     if paths is not None:
       ax.plot(paths[i, :, 0], paths[i, :, 1], color=colors[i], lw=1.0)
+    # Named in the legend, not beside the marker: on a fine grid the best
+    # launches are neighbours and their labels overlapped.
     ax.plot(record['east_km'], record['north_km'], 'o', mfc=colors[i],
-            mec='k', ms=7)
-    ax.annotate(f"{record['rank']}: {record['hours']:g} h",
-                (record['east_km'], record['north_km']), fontsize=8,
-                color='white', xytext=(4, 4), textcoords='offset points')
+            mec='k', ms=7, ls='',
+            label=(f"{record['rank']}: +{record['hours']:g} h, TW50 "
+                   f"{record['tw50_mean']:.2f}"))
   ax.set_xlim(east.min(), east.max())
   ax.set_ylim(north.min(), north.max())
   ax.set_aspect('equal')
