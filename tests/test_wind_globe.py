@@ -141,3 +141,29 @@ def test_a_sounding_flies_anywhere_on_the_sphere(lat, lon):
   got = era5_jax.forecast(grid, 0.0, jnp.float32(0.0), jnp.float32(0.0),
                           P_PA)
   np.testing.assert_allclose(np.array(got), column, atol=1e-4)
+
+
+@pytest.mark.slow
+def test_a_flight_across_the_seam_does_not_leave_the_wind_domain(globe_file):
+  # pylint: disable=g-import-not-at-top
+  import gin
+  from ble_latex.envs import env_params
+  from ble_latex.envs import jax_env
+  from ble_latex.flight import state as state_lib
+  # pylint: enable=g-import-not-at-top
+  gin.clear_config()
+  grid = era5_jax.grid_from_data(era5.load(globe_file), center_lat=51.5,
+                                 center_lon=-1.0, end_outside_domain=True)
+  params = env_params.params_from_gin().replace(wind_grid=grid)
+  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
+  keys = jnp.stack([jax.random.PRNGKey(0)] * 2)
+  state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)[1]
+  # 150 km east and west of 1 W: 1.2 E and 3.2 W, across 0 E.
+  state = state.replace(flight=state.flight.replace(
+      x_m=jnp.array([150e3, -150e3], jnp.float32),
+      y_m=jnp.zeros(2, jnp.float32)))
+  step = jax.jit(jax.vmap(env.step_env, in_axes=(0, 0, 0, None)))
+  action = jnp.broadcast_to(jnp.array([18_000.0, 1.0, 1.0]), (2, 3))
+  after = step(keys, state, action, params)[1]
+  left = int(state_lib.FlightStatus.LEFT_WIND_DOMAIN)
+  assert left not in np.asarray(after.flight.status).tolist()
