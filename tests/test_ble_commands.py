@@ -96,7 +96,7 @@ def _records(path: pathlib.Path):
 
 
 @pytest.mark.slow
-@pytest.mark.ci  # ~3-5 min on 2 cores: CI runs it (`make test-ci`).
+@pytest.mark.ci  # 7 min on 2 busy cores (2026-12-05): CI runs it (make test-ci).
 def test_documented_commands_run_and_ble_eval_equals_latex_eval(tmp_path):
   """Every command of the page, in order; BLE's records = ble-latex-eval's."""
   commands = documented_commands()
