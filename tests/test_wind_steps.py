@@ -12,8 +12,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from ble_latex import errors
 from ble_latex.wind import analysis
 from ble_latex.wind import era5
+from ble_latex.wind import stations
 
 REAL = pathlib.Path(__file__).parent / 'data' / 'realwinds'
 SLICE = REAL / 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2'
@@ -62,6 +64,20 @@ def test_one_file_of_several_steps_is_a_time_series(tmp_path):
   joined = era5.load(parts)
   np.testing.assert_array_equal(joined.uv, data.uv)
   assert joined.description == data.description
+
+
+def test_a_series_off_the_era5_split_flies_per_seed_or_says_the_fix(
+    tmp_path):
+  data = era5.load(_write_steps(tmp_path / 'steps.grib2', HOURS))
+  # Not the paper's ERA5 target: per-seed stations, as on a snapshot.
+  assert stations.file_defaults(data) == {'stations': 'per_seed'}
+  with pytest.raises(errors.ConfigError) as raised:
+    era5.start_window(data, center_lat=0.0, center_lon=0.0,
+                      episode_hours=3.0, start_dates='eval')
+  message = str(raised.value)
+  assert '--era5_dates=all' in message and '\n' not in message
+  assert era5.start_window(data, center_lat=0.0, center_lon=0.0,
+                           episode_hours=3.0) == (0, 180)
 
 
 def test_a_netcdf_analysis_with_several_times_is_a_time_series(tmp_path):

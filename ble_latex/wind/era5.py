@@ -727,8 +727,10 @@ def start_window(data: Era5Data, *, center_lat: float, center_lon: float,
     raise errors.ConfigError(
         f'Era5WindField.start_dates = {start_dates!r}: no flight of '
         f'{episode_hours:g} h can start in [{window[0]:%Y-%m-%d %H:%M}, '
-        f'{window[1]:%Y-%m-%d %H:%M}) inside ERA5 file(s) {list(data.paths)} '
-        f'({data.start:%Y-%m-%d %H:%M} to {data.end:%Y-%m-%d %H:%M})')
+        f'{window[1]:%Y-%m-%d %H:%M}) inside {data.source} file(s) '
+        f'{list(data.paths)} ({data.start:%Y-%m-%d %H:%M} to '
+        f'{data.end:%Y-%m-%d %H:%M}); --era5_dates=all (or FIRST,END inside '
+        'them) flies their dates')
   return int(first), int(last)
 
 

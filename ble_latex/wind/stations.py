@@ -112,10 +112,11 @@ def station_box(latitude: Sequence[float], longitude: Sequence[float],
 def file_defaults(data: Any) -> Dict[str, Any]:
   """The station settings a wind file implies (`Era5WindField.*`).
 
-  A gridded snapshot other than ERA5 (a GFS analysis, GRIB2): per-seed
-  stations; a sounding whose file names its site: the station there;
-  anything else (ERA5, a bare sounding): none (the target bound, or the
-  paper's). Used by --wind_file and by the envs' `wind_file=`.
+  A grid other than ERA5 (a GFS analysis, GRIB2; a snapshot or a time
+  series): per-seed stations; a sounding whose file names its site: the
+  station there; anything else (ERA5, a bare sounding): none (the target
+  bound, or the paper's). Used by --wind_file and by the envs'
+  `wind_file=`.
 
   Args:
     data: The file's `era5.Era5Data`.
@@ -128,7 +129,7 @@ def file_defaults(data: Any) -> Dict[str, Any]:
     if site is None or site.latitude is None or site.longitude is None:
       return {}
     return {'center_lat': site.latitude, 'center_lon': site.longitude}
-  if data.time_invariant and data.source != 'ERA5':
+  if data.source != 'ERA5':
     return {'stations': 'per_seed'}
   return {}
 
