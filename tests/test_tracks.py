@@ -340,3 +340,55 @@ def test_launch_progress_gives_an_eta(capsys, monkeypatch):
   lines = capsys.readouterr().out.splitlines()
   assert lines == ['  2048/13448 launches, 70 s, ETA 6 min 29 s',
                    '  13448/13448 launches, 70 s']
+
+
+# -- The Operators page's commands. -------------------------------------------
+
+OPERATORS_PAGE = pathlib.Path(__file__).parent.parent / 'docs' / 'operators.md'
+# What makes the page's commands quick here: fewer seeds, strides, launches.
+_SMALLER = (('latex_tiny', 'latex_micro'),
+            ('--max_episode_length=72', '--max_episode_length=4'),
+            ('--grid=7,7,1', '--grid=2,2,1'), ('--draws=2', '--draws=1'),
+            ('--max_steps=36', '--max_steps=2'), ('--paths=3', '--paths=1'))
+
+
+def _operators_commands():
+  """The page's first `sh` block, one command per (continued) line."""
+  import re  # pylint: disable=g-import-not-at-top
+  block = re.search(r'```sh\n(.*?)```', OPERATORS_PAGE.read_text('utf-8'),
+                    re.S).group(1)
+  return [line.strip() for line in block.replace('\\\n', ' ').splitlines()
+          if line.strip() and not line.strip().startswith('#')]
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_the_operators_page_commands_run(tmp_path, capsys, monkeypatch):
+  import shlex  # pylint: disable=g-import-not-at-top
+  import gin  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import launch as launch_cli  # pylint: disable=g-import-not-at-top
+  programs = {'ble-latex-eval': eval_cli.main, 'ble-latex-plot': plot.main,
+              'ble-latex-launch': launch_cli.main}
+  commands = _operators_commands()
+  assert [shlex.split(c)[0] for c in commands] == [
+      'ble-latex-eval', 'ble-latex-plot', 'ble-latex-launch']
+  monkeypatch.chdir(pathlib.Path(__file__).parent.parent)  # Its paths.
+  for command in commands:
+    for big, small in _SMALLER:
+      command = command.replace(big, small)
+    program, *args = shlex.split(command.replace('ops/', f'{tmp_path}/ops/'))
+    code = programs[program](args)
+    gin.clear_config()
+    assert code == 0, (command, capsys.readouterr().err[-2000:])
+  (record,) = records.load_eval(
+      str(tmp_path / 'ops/eval/latex_micro/latex_station_seeker.json'))
+  assert (record['station_lat'], record['station_lon']) == (19.72, -155.05)
+  assert record['start_utc'] == '2023-11-01T00:00:00Z'
+  for name in (plot.TRACK_MAP, plot.FLIGHT_TIME, 'tracks.kml',
+               'tracks.geojson', 'tracks.csv'):
+    assert (tmp_path / 'ops/plots' / name).is_file(), name
+  assert (tmp_path / 'ops/launch/launches.json').is_file()
+  import re  # pylint: disable=g-import-not-at-top
+  assert re.search(r'best launch: \d+\.\d{4} N \d+\.\d{4} W .* '
+                   r'2010-10-26T1\d:00:00Z', capsys.readouterr().out)
