@@ -10,7 +10,7 @@ the track on a map, on every wind source:
   target); on BLE's generative winds, which have no place, the flight
   system's nominal position (`FlightParams.latitude_deg/longitude_deg`, gin
   `LatexBalloon.latitude_deg/longitude_deg`, 1 N 113 W by default: where the
-  sun is computed, near the Loon flights' equatorial Pacific); and
+  sun is computed, the paper's ERA5 region); and
   `station_source`: 'wind file' or 'nominal'.
 - `start_utc`: the flight's start (ISO 8601, UTC): the env's draw
   (`EnvState.start_time_offset_s` after `env_types.START_EPOCH`): on a wind
