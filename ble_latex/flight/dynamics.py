@@ -551,7 +551,8 @@ def step_with_trajectory(
     action: Array,
     wind_fn: WindFn,
     time_delta_s: Union[float, Schedule] = DEFAULT_TIME_DELTA_S,
-    key: Optional[Array] = None
+    key: Optional[Array] = None,
+    decide_fn: Optional[DecideFn] = None
 ) -> Tuple[FlightState, FlightState, FlightState]:
   """`step`, also returning the states inside the stride (plots, checks).
 
@@ -567,6 +568,8 @@ def step_with_trajectory(
       `padded_schedule` (as in `step`). # [s]
     key: PRNG key of the stride's disturbances; needed (and used) only
       when `params.stochastic`.
+    decide_fn: Another controller in place of Eq. fullcontroller (as in
+      `step`).
 
   Returns:
     (state after the stride, state right after the controller's actuation,
@@ -577,7 +580,7 @@ def step_with_trajectory(
     ValueError: `params.lift_walk` without a key (at trace time).
   """
   return _step(params, atm_params, state, action, wind_fn, time_delta_s,
-               record=True, key=key)
+               record=True, key=key, decide_fn=decide_fn)
 
 
 def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,

@@ -20,6 +20,9 @@ Records read (all committed):
     (`benchmarks/physics_results.py`, issue 44), summaries per agent.
   * `benchmarks/valbal_check.json`: the ValBal preset's flights
     (`benchmarks/valbal_check.py`, issue 44).
+  * `benchmarks/float_calibration.json`, `float_calibration_before.json`:
+    the realistic float's calibration table on the plant of issue 68 and
+    before it (`benchmarks/float_calibration.py`).
   * `benchmarks/planners/**/SUITE/NAME.json`: the per-seed records of
     `benchmarks/planners.py`, and `.../timing/NAME.json` its timing summary.
   * `benchmarks/real_winds.json`: agents on the real wind sources
@@ -49,6 +52,8 @@ PLANNERS = ROOT / 'benchmarks' / 'planners'
 REAL_WINDS = ROOT / 'benchmarks' / 'real_winds.json'
 PHYSICS = ROOT / 'benchmarks' / 'physics_results.json'
 VALBAL = ROOT / 'benchmarks' / 'valbal_check.json'
+FLOAT_CALIBRATION = ROOT / 'benchmarks' / 'float_calibration.json'
+FLOAT_CALIBRATION_BEFORE = ROOT / 'benchmarks' / 'float_calibration_before.json'
 WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
 REWARD_SHAPE = ROOT / 'benchmarks' / 'reward_shape.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
@@ -502,6 +507,23 @@ REWARDS = (('perciatelli', 'flat (the paper\'s, default)'),
            ('tanh', 'tanh'))
 
 
+def _float_calibration(path: pathlib.Path) -> str:
+  """The rows of a `benchmarks/float_calibration.py` record (issue 68)."""
+  record = _load(path)
+  lines = ['| row | measured | range | inside |', '|---|---|---|---|']
+  for row in record['rows']:
+    value = row['value']
+    text = (f'{value:.3g}' if isinstance(value, float) else
+            ' - '.join(f'{v:g}' for v in value))
+    span = ('—' if row['range'] is None else
+            f'{row["range"][0]:g}–{row["range"][1]:g}')
+    inside = {None: '—', True: 'yes', False: '**no**'}[row['inside']]
+    lines.append(f'| {row["row"]} | {text} | {span} | {inside} |')
+  lines.append(f'\n({record["date"][:10]}, {record["machine"]}, '
+               f'{record["seconds"]:.0f} s: `{record["command"]}`)')
+  return '\n'.join(lines)
+
+
 def _reward_cells() -> List[Tuple[str, dict]]:
   rewards = _load(REWARD_SHAPE)['rewards']
   out = [(label, rewards[name]) for name, label in REWARDS if name in rewards]
@@ -593,6 +615,9 @@ def reward_shape_paired() -> str:
 # (reference name in benchmarks/dagger/results.json, column label).
 TABLES: Dict[str, Callable[[], str]] = {
     'valbal-check': valbal_check,
+    'float-calibration': lambda: _float_calibration(FLOAT_CALIBRATION),
+    'float-calibration-before': lambda: _float_calibration(
+        FLOAT_CALIBRATION_BEFORE),
     'realistic-short': realistic_short,
     'realistic-full': realistic_full,
     'realistic-long': realistic_long,

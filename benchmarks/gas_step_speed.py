@@ -1,0 +1,108 @@
+# coding=utf-8
+"""The flight core's stride cost: paper and realistic, this tree against another.
+
+  git worktree add /tmp/ble_before 1e397a1
+  python benchmarks/gas_step_speed.py --compare_tree=/tmp/ble_before \
+      --json=benchmarks/gas_step_speed.json
+
+Times `dynamics.step` (one 20-minute stride in calm air, jitted, vmapped
+over --batch balloons at 16-18 km under a ballast command; the best of
+--repeats calls after a warm-up) for the paper's model and for
+`flight.params.REALISTIC` (issue 68: the gas state, 20 s vertical steps, the
+heating disturbance), then runs the same measurement of the other tree's
+`ble_latex` (its own REALISTIC: before issue 68, the lagged forcing and the
+random walk) in a subprocess right after, under the same load, and prints
+the ratios side by side. Issue 68's bound: realistic <= 1.3x the other
+tree's realistic; the paper's model unchanged.
+"""
+
+import argparse
+import datetime as dt
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+
+from ble_latex import safe_io
+
+PROGRAM = r'''
+import json, sys, time
+import jax, jax.numpy as jnp
+from ble_latex.flight import atmosphere, dynamics, launch, params, state
+batch, repeats = int(sys.argv[1]), int(sys.argv[2])
+
+def calm(x, y, p, t):
+  return jnp.zeros_like(x), jnp.zeros_like(x)
+
+def best(p):
+  atm = atmosphere.reset(jax.random.PRNGKey(0))
+  new = lambda h: launch.neutral_launch(p, atm, state.initial_state(
+      p, h, atm_params=atm, key=jax.random.PRNGKey(1)))
+  states = jax.vmap(new)(jnp.linspace(16000.0, 18000.0, batch))
+  actions = jnp.tile(jnp.asarray([17500.0, 1.0, -1.0]), (batch, 1))
+  keys = jax.random.split(jax.random.PRNGKey(2), batch)
+  stochastic = p.lift_walk or getattr(p, 'heating_noise', False)
+  fly = jax.jit(jax.vmap(lambda s, a, k: dynamics.step(
+      p, atm, s, a, calm, 1200.0, key=k if stochastic else None)))
+  jax.block_until_ready(fly(states, actions, keys))
+  times = []
+  for _ in range(repeats):
+    start = time.perf_counter()
+    jax.block_until_ready(fly(states, actions, keys))
+    times.append(time.perf_counter() - start)
+  return min(times)
+
+print(json.dumps({
+    'paper': best(params.make_flight_params()),
+    'realistic': best(params.make_flight_params(**params.REALISTIC))}))
+'''
+
+
+def measure(tree: str, batch: int, repeats: int) -> dict:
+  """Best seconds per stride of `tree`'s ble_latex, in a subprocess."""
+  env = dict(os.environ, PYTHONPATH=tree)
+  out = subprocess.run(
+      [sys.executable, '-c', PROGRAM, str(batch), str(repeats)], env=env,
+      cwd=tree, check=True, capture_output=True, text=True)
+  return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> int:
+  parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+  parser.add_argument('--compare_tree', required=True,
+                      help='a checkout of the commit to compare against')
+  parser.add_argument('--batch', type=int, default=256)
+  parser.add_argument('--repeats', type=int, default=7)
+  parser.add_argument('--json', default='')
+  args = parser.parse_args(argv)
+  if not os.path.isdir(os.path.join(args.compare_tree, 'ble_latex')):
+    parser.error(f'--compare_tree: no ble_latex/ in {args.compare_tree!r}')
+  if args.batch < 1 or args.repeats < 1:
+    parser.error('--batch and --repeats must be >= 1')
+  here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+  record = {
+      'command': 'python benchmarks/gas_step_speed.py ' + ' '.join(
+          sys.argv[1:] if argv is None else argv),
+      'date': dt.datetime.now(dt.timezone.utc).isoformat(timespec='seconds'),
+      'machine': f'{platform.machine()}, {os.cpu_count()} CPUs',
+      'batch': args.batch, 'load_before': round(os.getloadavg()[0], 1)}
+  start = time.time()
+  record['this_tree'] = measure(here, args.batch, args.repeats)
+  record['other_tree'] = measure(args.compare_tree, args.batch, args.repeats)
+  record['load_after'] = round(os.getloadavg()[0], 1)
+  record['seconds'] = round(time.time() - start, 1)
+  record['ratio'] = {k: record['this_tree'][k] / record['other_tree'][k]
+                     for k in ('paper', 'realistic')}
+  for k in ('paper', 'realistic'):
+    print(f'{k}: {1e3 * record["this_tree"][k]:.2f} ms per stride of '
+          f'{args.batch} against {1e3 * record["other_tree"][k]:.2f} ms: '
+          f'{record["ratio"][k]:.2f}x')
+  if args.json:
+    safe_io.atomic_write(args.json, json.dumps(record, indent=1) + '\n')
+  return 0
+
+
+if __name__ == '__main__':
+  sys.exit(main())
