@@ -27,6 +27,7 @@ from ble_latex.run import tracks as tracks_lib
 
 # [deg] Spacing of the coastline's grid (landmetrics' bundled grid: 0.1).
 COAST_STEP_DEG = 0.05
+COAST_POINTS = 600  # The most coastline grid points per side.
 # [deg] The least half-width of the map around the tracks.
 MIN_HALF_WIDTH_DEG = 1.0
 
@@ -69,10 +70,15 @@ def _extent(flights: Sequence[tracks_lib.Track], lon_ref: float,
   pad_lon = pad_lat / max(math.cos(math.radians(mid)), 0.1)
   lat0, lat1 = lats.min() - pad_lat, lats.max() + pad_lat
   lon0, lon1 = lons.min() - pad_lon, lons.max() + pad_lon
-  widen = lambda lo, hi: (lo - max(MIN_HALF_WIDTH_DEG - 0.5 * (hi - lo), 0.0),
-                          hi + max(MIN_HALF_WIDTH_DEG - 0.5 * (hi - lo), 0.0))
-  lat0, lat1 = widen(lat0, lat1)
-  lon0, lon1 = widen(lon0, lon1)
+  widen = lambda lo, hi, half: (lo - max(half - 0.5 * (hi - lo), 0.0),
+                                hi + max(half - 0.5 * (hi - lo), 0.0))
+  lat0, lat1 = widen(lat0, lat1, MIN_HALF_WIDTH_DEG)
+  lon0, lon1 = widen(lon0, lon1, MIN_HALF_WIDTH_DEG)
+  # No long thin strip: the drawn width within 2/3..3/2 of the height.
+  stretch = 1.0 / max(math.cos(math.radians(0.5 * (lat0 + lat1))), 0.1)
+  height = (lat1 - lat0) * stretch
+  lon0, lon1 = widen(lon0, lon1, height / 3.0)
+  lat0, lat1 = widen(lat0, lat1, (lon1 - lon0) / 3.0 / stretch)
   return lon0, lon1, max(lat0, -90.0), min(lat1, 90.0)
 
 
@@ -113,8 +119,11 @@ def plot_track_map(flights: Sequence[tracks_lib.Track], path: str, *,
   lon0, lon1, lat0, lat1 = _extent(flights, lon_ref, radius_km)
   fig = mpl_figure.Figure(figsize=(8.0, 7.0), layout='constrained')
   ax = fig.subplots()
-  grid_lat = np.arange(lat0, lat1 + COAST_STEP_DEG, COAST_STEP_DEG)
-  grid_lon = np.arange(lon0, lon1 + COAST_STEP_DEG, COAST_STEP_DEG)
+  # At most COAST_POINTS per side (a flight that crossed an ocean).
+  step = max(COAST_STEP_DEG, (lat1 - lat0) / COAST_POINTS,
+             (lon1 - lon0) / COAST_POINTS)
+  grid_lat = np.arange(lat0, lat1 + step, step)
+  grid_lon = np.arange(lon0, lon1 + step, step)
   mesh_lat, mesh_lon = np.meshgrid(grid_lat, grid_lon, indexing='ij')
   distance = coast_distance_km(mesh_lat,
                                tracks_lib.wrap_longitude(mesh_lon))
@@ -139,8 +148,9 @@ def plot_track_map(flights: Sequence[tracks_lib.Track], path: str, *,
             f', {t.start_utc:%Y-%m-%d %H:%M}Z')
     ax.plot(lon, t.lat, color=color, lw=1.6,
             label=f'seed {t.seed}{when}, {t.t_s[-1] / 3600.0:.0f} h')
-    ax.plot(lon[0], t.lat[0], 'o', color=color, mec='k', ms=6)
-    ax.plot(lon[-1], t.lat[-1], 'X', color=color, mec='k', ms=8)
+    # Above the stations' stars (a launch at the station stays visible).
+    ax.plot(lon[0], t.lat[0], 'o', color=color, mec='k', ms=6, zorder=5)
+    ax.plot(lon[-1], t.lat[-1], 'X', color=color, mec='k', ms=8, zorder=5)
     key = (round(t.station_lat, 4), round(t.station_lon, 4))
     if key not in stations:
       stations.add(key)
