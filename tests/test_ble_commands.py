@@ -32,12 +32,16 @@ PROGRAMS = {
 }
 
 
-def documented_commands():
-  """The page's `sh` blocks, one command per (continued) line."""
-  blocks = re.findall(r'```sh\n(.*?)```', PAGE.read_text(encoding='utf-8'),
-                      re.S)
+MISTAKES = '## Mistakes are one line'
+
+
+def documented_commands(section: str = ''):
+  """The page's `sh` blocks (of one `## ` section), one per (continued) line."""
+  text = PAGE.read_text(encoding='utf-8')
+  if section:
+    text = text.split(section, 1)[1].split('\n## ', 1)[0]
   commands = []
-  for block in blocks:
+  for block in re.findall(r'```sh\n(.*?)```', text, re.S):
     commands += [c.strip() for c in block.replace('\\\n', ' ').splitlines()
                  if c.strip()]
   return commands
@@ -87,7 +91,7 @@ def test_agent_fit_errors_name_the_way_out():
 def _run(command: str, tmp_path: pathlib.Path) -> subprocess.CompletedProcess:
   args = shlex.split(command.replace(PLACEHOLDER, str(tmp_path)))
   env = dict(os.environ, TF_CPP_MIN_LOG_LEVEL='3', JAX_PLATFORMS='cpu')
-  return subprocess.run(PROGRAMS[args[0]] + args[1:], env=env, cwd=tmp_path,
+  return subprocess.run(PROGRAMS[args[0]] + args[1:], env=env, cwd=ROOT,
                         capture_output=True, text=True, timeout=900)
 
 
@@ -99,14 +103,15 @@ def _records(path: pathlib.Path):
 @pytest.mark.ci  # 7 min on 2 busy cores (2026-12-05): CI runs it (make test-ci).
 def test_documented_commands_run_and_ble_eval_equals_latex_eval(tmp_path):
   """Every command of the page, in order; BLE's records = ble-latex-eval's."""
-  commands = documented_commands()
-  for command in commands:
+  mistakes = documented_commands(MISTAKES)
+  assert len(mistakes) == 2
+  for command in documented_commands():
     result = _run(command, tmp_path)
-    expect_error = '--agent=sacc' in command
-    if expect_error:
+    if command in mistakes:
       assert result.returncode == 2, (command, result.stderr[-3000:])
-      lines = [l for l in result.stderr.splitlines() if 'sacc' in l]
-      assert len(lines) == 1 and 'ble-latex-train' in lines[0], lines
+      agent = re.search(r'--agent=(\w+)', command).group(1)
+      lines = [l for l in result.stderr.splitlines() if repr(agent) in l]
+      assert len(lines) == 1, (command, result.stderr[-3000:])
       assert 'Traceback' not in result.stderr
     else:
       assert result.returncode == 0, (command, result.stderr[-3000:])
@@ -123,5 +128,5 @@ def test_documented_commands_run_and_ble_eval_equals_latex_eval(tmp_path):
           ours[seed]['reward'], rel=1e-5), agent
       assert record['time_within_radius'] == pytest.approx(
           ours[seed]['tw50'], abs=1.5 / record['final_timestep']), agent
-  assert (tmp_path / 'ble_eval' / 'latex_micro' / 'sac_pretrained.json'
-          ).is_file()
+  for agent in ('sac_pretrained', 'sac_ensemble'):
+    assert (tmp_path / 'ble_eval' / 'latex_micro' / f'{agent}.json').is_file()

@@ -24,6 +24,7 @@ from typing import Optional, Sequence
 
 import ble_latex  # pylint: disable=unused-import  # Installs the fixes first.
 from ble_latex.cli import common as cli
+from ble_latex import errors
 from ble_latex import quiet
 
 COMMANDS = {
@@ -49,6 +50,23 @@ def _latex_eval(args: Sequence[str]) -> bool:
                  for a, b in zip(args, args[1:]))
 
 
+def _latex_ble_eval(args: Sequence[str]) -> int:
+  """BLE's eval on a latex env (`run.ble_eval`); refused input is one line."""
+  from ble_latex.run import ble_eval  # pylint: disable=g-import-not-at-top
+  prog = 'ble-latex-ble eval'
+  cli.quiet_init_callbacks()
+  try:
+    return ble_eval.main([prog, *args], prog)
+  except (OSError, errors.BadFileError) as e:
+    print(f'{prog}: {cli.one_line(e)}', file=sys.stderr)
+    return cli.EXIT_FAILURE
+  except ValueError as e:  # A refused configuration (gin, agent, env).
+    message = cli.refused_config_message(e)
+    if message is None:
+      raise
+    return cli.usage(prog, message)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
   argv = list(sys.argv[1:] if argv is None else argv)
   if argv and argv[0] in ('-h', '--help', 'help'):
@@ -60,9 +78,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
           f'{__doc__}', file=sys.stderr)
     return 2
   if argv[0] == 'eval' and _latex_eval(argv[1:]):
-    from ble_latex.run import ble_eval  # pylint: disable=g-import-not-at-top
-    cli.quiet_init_callbacks()
-    return ble_eval.main(['ble-latex-ble eval', *argv[1:]])
+    return _latex_ble_eval(argv[1:])
   module = COMMANDS[argv[0]]
   with quiet.third_party_noise():
     for name in _DEPENDENCIES[argv[0]]:
