@@ -57,6 +57,12 @@ Writes into --output_dir, each only when its inputs are given:
                            a record written before them gets its lat/lon
                            from its station (or the nominal 1 N 113 W) and
                            no times.
+  feasibility_map.png      --feasibility --wind_file: where station-keeping
+  feasibility.json         is possible: zero inside the hull of the winds
+  hodograph*.png           of the flight band, every column of a grid (a
+                           sounding: its one column, hodograph.png), with
+                           a hodograph per --feasibility_sites LAT:LON.
+                           See ble_latex.wind.feasibility.
   summary.json             for every eval file: mean/std of TW50, reward,
                            helium vented, sand dropped, % out of resources
                            (also printed).
@@ -86,6 +92,7 @@ with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding
   from ble_latex.plots import exports
+  from ble_latex.plots import feasibility as feasibility_plots
   from ble_latex.plots import figures as plots
   from ble_latex.plots import maps
   from ble_latex.run import episode_log
@@ -192,6 +199,25 @@ flags.DEFINE_integer('wind_stats_points', 32, 'Samples (place, time) per VAE '
 flags.DEFINE_integer('wind_stats_seed', 0, 'Seed of the samples.',
                      lower_bound=0, flag_values=FLAGS)
 flags.mark_flag_as_required('output_dir', flag_values=FLAGS)
+
+
+flags.DEFINE_boolean('feasibility', False, 'Station-keeping feasibility '
+                     'map of --wind_file (ble_latex.wind.feasibility).',
+                     flag_values=FLAGS)
+flags.DEFINE_list('feasibility_sites', [], 'LAT:LON sites of --feasibility '
+                  'hodographs (a grid), e.g. 19.7:-155.1.', flag_values=FLAGS)
+
+
+def _sites(values: Sequence[str]) -> List[List[float]]:
+  """--feasibility_sites as [[lat, lon], ...] (usage error if malformed)."""
+  try:
+    sites = [[float(x) for x in v.split(':')] for v in values]
+  except ValueError:
+    sites = [[]]
+  if any(len(site) != 2 for site in sites):
+    raise flags.ValidationError(f'--feasibility_sites={",".join(values)}: '
+                                'expected LAT:LON[,LAT:LON...] [deg]')
+  return sites
 
 
 def wind_stats(f: flags.FlagValues) -> Any:
@@ -486,6 +512,9 @@ def run(f: flags.FlagValues) -> List[str]:
     if 'note' in comparison:
       print(f'ble-latex-plot: --wind_stats: {comparison["note"]}',
             file=sys.stderr)
+  if f.feasibility:  # With --wind_file (`_check`).
+    written += feasibility_plots.write(f.wind_file, out,
+                                       _sites(f.feasibility_sites))['outputs']
   if baseline is not None:
     evals[f.baseline_eval_json] = baseline
   if evals:
@@ -509,18 +538,24 @@ def _check() -> None:
   if not (FLAGS.run_dir or FLAGS.seed_run_dirs or FLAGS.eval_json or
           FLAGS.baseline_eval_json or
           FLAGS.wind_seed is not None or FLAGS.wind_seeds or
-          FLAGS.wind_stats):
+          FLAGS.wind_stats or FLAGS.feasibility):
     raise cli.CommandUsageError(
         'nothing to plot; give --run_dir, --seed_run_dirs, --eval_json, '
-        '--baseline_eval_json, --wind_seed(s) or --wind_stats. Try --help.')
+        '--baseline_eval_json, --wind_seed(s), --wind_stats or --feasibility. '
+        'Try --help.')
   if FLAGS.wind_stats and not FLAGS.wind_file:
     raise cli.CommandUsageError('--wind_stats needs --wind_file (alias '
                                 '--era5_path): a wind file (ERA5, GFS NetCDF '
                                 'or GRIB2, a sounding)')
-  if not FLAGS.wind_stats and (FLAGS.wind_file or any(
+  if FLAGS.feasibility_sites and not FLAGS.feasibility:
+    raise cli.CommandUsageError('--feasibility_sites needs --feasibility')
+  if FLAGS.feasibility and not FLAGS.wind_file:
+    raise cli.CommandUsageError('--feasibility needs --wind_file: a wind file')
+  if not FLAGS.wind_stats and (FLAGS.wind_file and not FLAGS.feasibility or any(
       FLAGS[name].present for name in FLAGS if
       name.startswith('wind_stats_'))):
-    raise cli.CommandUsageError('--wind_file (--era5_path) and '
+    raise cli.CommandUsageError('--wind_file (--era5_path) needs '
+                                '--wind_stats or --feasibility, and '
                                 '--wind_stats_* need --wind_stats')
   cli.check_gin_files(FLAGS.gin_file)
 
