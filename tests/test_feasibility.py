@@ -134,3 +134,38 @@ def test_plot_command_usage_errors(capsys):
   assert plot.main(['--feasibility', f'--wind_file={GRIB}',
                     '--feasibility_sites=20', '--output_dir=/tmp/x']) == 2
   assert 'LAT:LON' in capsys.readouterr().err
+
+
+def test_launch_keeps_feasible_stations_only():
+  from ble_latex.launch import sites  # pylint: disable=g-import-not-at-top
+  data = era5.load(str(GRIB))
+  fmap = feasibility.grid_map(data)
+  i_in, j_in = np.argwhere(fmap.margin_mps > 0.5)[0]
+  i_out, j_out = np.argwhere(fmap.margin_mps < -5.0)[0]
+  found = sites.feasible_stations(str(GRIB), [
+      (fmap.latitude[i_in], fmap.longitude[j_in]),
+      (fmap.latitude[i_out], fmap.longitude[j_out])])
+  assert [s['keep'] for s in found] == [True, False]
+  assert found[1]['margin_mps'] < -5.0
+  # A larger margin asked for drops the first too.
+  strict = sites.feasible_stations(str(GRIB), [
+      (fmap.latitude[i_in], fmap.longitude[j_in])],
+                                   min_margin_mps=fmap.margin_mps[i_in, j_in]
+                                   + 0.1)
+  assert not strict[0]['keep']
+
+
+@pytest.mark.slow  # ~12 s: the command's agent check imports TensorFlow.
+def test_launch_command_skips_a_hopeless_station(tmp_path, capsys):
+  from ble_latex.cli import launch  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'launch'
+  # Boise's column: zero 3.5 m/s outside; nothing is flown or written.
+  assert launch.main([f'--wind_file={BOISE}', '--min_hull_margin_mps=0',
+                      '--station_lat=43.56', '--station_lon=-116.21',
+                      f'--output_dir={out}']) == 0
+  said = capsys.readouterr().out
+  assert 'skipped: zero lies outside the hull' in said and '3.54' in said
+  assert not (out / 'launches.json').exists()
+  assert launch.main(['--min_hull_margin_mps=0',
+                      f'--output_dir={out}']) == 2
+  assert 'need --wind_file' in capsys.readouterr().err

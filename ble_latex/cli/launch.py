@@ -43,6 +43,8 @@ env_params = cli.lazy_module('ble_latex.envs.env_params')
 launch_map = cli.lazy_module('ble_latex.launch.launch_map')
 scoring = cli.lazy_module('ble_latex.launch.scoring')
 gin_binding = cli.lazy_module('ble_latex.run.gin_binding')
+sites = cli.lazy_module('ble_latex.launch.sites')
+era5 = cli.lazy_module('ble_latex.wind.era5')
 tracks = cli.lazy_module('ble_latex.run.tracks')
 
 PROG = 'ble-latex-launch'
@@ -69,6 +71,11 @@ flags.DEFINE_float('station_lat', None, 'Wind file: the station [deg N] '
                    "(default: the domain's centre).", flag_values=FLAGS)
 flags.DEFINE_float('station_lon', None, 'Wind file: the station [deg E] '
                    "(default: the domain's centre).", flag_values=FLAGS)
+flags.DEFINE_float('min_hull_margin_mps', None, 'Wind file: skip a station '
+                   'whose column holds zero inside the hull of the reachable '
+                   'winds by less than this [m/s] (0: zero outside; '
+                   'ble_latex.wind.feasibility); nothing is flown.',
+                   flag_values=FLAGS)
 flags.DEFINE_string('date', None, "Wind file: the world's start (launch delay "
                     "0), ISO date-time, UTC (default: the file's first time).",
                     flag_values=FLAGS)
@@ -124,10 +131,12 @@ def _check() -> None:
   for name in ('east_km', 'north_km', 'hours', 'altitude_m'):
     _pair(name)
   _grid()
-  era5_flags = [FLAGS.station_lat, FLAGS.station_lon, FLAGS.date]
+  era5_flags = [FLAGS.station_lat, FLAGS.station_lon, FLAGS.date,
+                FLAGS.min_hull_margin_mps]
   if FLAGS.wind_file is None and any(v is not None for v in era5_flags):
-    raise cli.CommandUsageError('--station_lat, --station_lon and --date '
-                                'need --wind_file (--era5_path)')
+    raise cli.CommandUsageError('--station_lat, --station_lon, --date and '
+                                '--min_hull_margin_mps need --wind_file '
+                                '(--era5_path)')
   if (FLAGS.station_lat is None) != (FLAGS.station_lon is None):
     raise cli.CommandUsageError('--station_lat and --station_lon go '
                                 "together (neither: the domain's centre)")
@@ -153,10 +162,32 @@ def _progress(done: int, n: int, start: float) -> None:
   print(f'  {done}/{n} launches, {elapsed:.0f} s{eta}', flush=True)
 
 
+def _hopeless() -> bool:
+  """--min_hull_margin_mps: True (and says so) when the station is skipped."""
+  if FLAGS.min_hull_margin_mps is None:
+    return False
+  station = (FLAGS.station_lat, FLAGS.station_lon)
+  if station[0] is None:  # The launch's default station (`era5_world`).
+    station = scoring.domain_centre(era5.load(FLAGS.wind_file))
+  site, = sites.feasible_stations(FLAGS.wind_file, [station],
+                                  FLAGS.min_hull_margin_mps)
+  if site['keep']:
+    return False
+  print(f'{PROG}: station {tracks.lat_lon_text(site["lat"], site["lon"])} '
+        'skipped: zero lies '
+        f'{"inside" if site["margin_mps"] >= 0 else "outside"} the hull of '
+        f'the reachable winds by {abs(site["margin_mps"]):.2f} m/s, less '
+        f'than --min_hull_margin_mps={FLAGS.min_hull_margin_mps:g}; nothing '
+        'flown')
+  return True
+
+
 def _main(argv: Sequence[str]) -> None:
   del argv
   gin_binding.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
                        FLAGS.gin_bindings)
+  if FLAGS.wind_file is not None and _hopeless():
+    return
   hours = _pair('hours')
   altitude = _pair('altitude_m')
   space = scoring.SearchSpace(
