@@ -185,9 +185,13 @@ def test_eval_writes_per_episode_json_with_flight_path(tmp_path, capsys):
   # The window is the step cap when it is shorter than the episode.
   assert record['window_steps'] == 6
   assert record['tw50_window'] == record['tw50']
+  # Each point also says where and when it is (`tracks.locate`): on BLE's
+  # winds from the nominal station, and the date BLE drew.
   assert set(record['flight_path'][0]) == {
       't_s', 'x_km', 'y_km', 'altitude_m', 'ascent_rate_mps', 'decision',
-      'helium_mols', 'sand_kg'}
+      'helium_mols', 'sand_kg', 'lat', 'lon', 'utc'}
+  assert record['station_source'] == 'nominal'
+  assert (record['station_lat'], record['station_lon']) == (1.0, -113.0)
 
 
 @pytest.mark.slow
