@@ -17,7 +17,7 @@ no GIS dependency is needed:
 import csv
 import io
 import json
-from typing import Callable, Dict, List, Sequence
+from typing import Callable, Dict, List, Sequence, Tuple
 from xml.etree import ElementTree
 
 from ble_latex.run import tracks as tracks_lib
@@ -133,7 +133,8 @@ def to_csv(flights: Sequence[tracks_lib.Track]) -> str:
 
 
 # --export's formats: name -> (file name, writer).
-FORMATS: Dict[str, 'tuple[str, Callable[[Sequence[tracks_lib.Track]], str]]'] = {
+Writer = Callable[[Sequence[tracks_lib.Track]], str]
+FORMATS: Dict[str, Tuple[str, Writer]] = {
     'kml': ('tracks.kml', to_kml),
     'geojson': ('tracks.geojson', to_geojson),
     'csv': ('tracks.csv', to_csv),
