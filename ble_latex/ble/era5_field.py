@@ -26,6 +26,7 @@ import numpy as np
 
 from ble_latex import errors
 from ble_latex.wind import era5
+from ble_latex.wind import forecast_error
 
 
 class Era5WindField(wind_field.WindField):
@@ -57,7 +58,8 @@ class Era5WindField(wind_field.WindField):
                center_lon: float = era5.PAPER_CENTER_LON,  # [deg E]
                episode_hours: float = 72.0,  # [h]
                add_noise: bool = True,
-               start_dates: Any = None):
+               start_dates: Any = None,
+               noise_scale: Optional[float] = None):
     """Loads the ERA5 file(s).
 
     Args:
@@ -73,6 +75,8 @@ class Era5WindField(wind_field.WindField):
         `era5.DATE_SPLITS` ('train', 'validation', 'eval') or a (first, end)
         pair of ISO dates: flights start in [first, end)
         (`era5.start_window`).
+      noise_scale: The truth's factor on BLE's noise; None: the source
+        decides (`forecast_error.noise_scale`: 1 on ERA5).
 
     Raises:
       FileNotFoundError: a file is missing.
@@ -84,8 +88,10 @@ class Era5WindField(wind_field.WindField):
     self.settings = era5.Era5Settings(
         path=path, center_lat=center_lat, center_lon=center_lon,
         episode_hours=episode_hours, add_noise=add_noise,
-        start_dates=start_dates)
+        start_dates=start_dates, noise_scale=noise_scale)
     self._data = self.settings.load()
+    self.noise_scale = forecast_error.noise_scale(noise_scale,
+                                                  self._data.source)
     self._first_start, self._start_minutes = self.settings.start_window(
         self._data)
     self.center_lat, self.center_lon = float(center_lat), float(center_lon)
@@ -113,7 +119,8 @@ class Era5WindField(wind_field.WindField):
                center_lon=settings.center_lon,
                episode_hours=settings.episode_hours,
                add_noise=settings.add_noise,
-               start_dates=settings.start_dates)
+               start_dates=settings.start_dates,
+               noise_scale=settings.noise_scale)
 
   @property
   def data(self) -> era5.Era5Data:
@@ -218,10 +225,18 @@ class Era5WindField(wind_field.WindField):
   def get_ground_truth(self, x: units.Distance, y: units.Distance,
                        pressure: float,
                        elapsed_time: dt.timedelta) -> wind_field.WindVector:
-    """Forecast plus BLE's simplex noise (forecast only if not add_noise)."""
-    if not self.add_noise:
+    """Forecast plus `noise_scale` x BLE's simplex noise (forecast only if
+    not add_noise)."""
+    if not self.add_noise or self.noise_scale == 0.0:
       return self.get_forecast(x, y, pressure, elapsed_time)
-    return super().get_ground_truth(x, y, pressure, elapsed_time)
+    truth = super().get_ground_truth(x, y, pressure, elapsed_time)
+    if self.noise_scale == 1.0:
+      return truth
+    forecast = self.get_forecast(x, y, pressure, elapsed_time)
+    return wind_field.WindVector(*(
+        units.Velocity(mps=f.meters_per_second + self.noise_scale * (
+            t.meters_per_second - f.meters_per_second))
+        for f, t in ((forecast.u, truth.u), (forecast.v, truth.v))))
 
 
 def grid_settings(wind: Any) -> Optional[era5.Era5Settings]:

@@ -52,12 +52,14 @@ def ground_truth_wind(state: env_types.EnvState, x_m: Array, y_m: Array,
 
 
 def _add_noise(state: env_types.EnvState, u: Array, v: Array, x_m: Array,
-               y_m: Array, pressure_pa: Array,
-               t_s: Array) -> Tuple[Array, Array]:
-  """(u, v) plus BLE's simplex noise of the flight. # [m/s]"""
+               y_m: Array, pressure_pa: Array, t_s: Array,
+               scale: float = 1.0) -> Tuple[Array, Array]:
+  """(u, v) plus `scale` x BLE's simplex noise of the flight. # [m/s]"""
   x_km, y_km, hours = x_m / 1000.0, y_m / 1000.0, t_s / 3600.0
   noise_u, noise_v = simplex.wind_noise_uv(state.noise_u, state.noise_v, x_km,
                                            y_km, pressure_pa, hours)
+  if scale != 1.0:  # Static (`Era5Grid.noise_scale`).
+    noise_u, noise_v = scale * noise_u, scale * noise_v
   return u + noise_u, v + noise_v
 
 
@@ -138,8 +140,9 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
     grid: The ERA5 grid (`era5_jax.grid_from_data`).
 
   Returns:
-    The wind: ground truth = ERA5 forecast + BLE's simplex noise (forecast
-    only if not `grid.add_noise`), forecast columns of the ERA5 forecast,
+    The wind: ground truth = ERA5 forecast + `grid.noise_scale` x BLE's
+    simplex noise (`wind.forecast_error`; forecast only if not
+    `grid.add_noise` or a scale of 0), forecast columns of the ERA5 forecast,
     both around the flight's station (`EnvState.station`, per-seed
     stations) or the grid's fixed target; `outside` where
     `grid.end_outside_domain`.
@@ -152,9 +155,10 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
   def ground_truth(state, x_m, y_m, pressure_pa, t_s):
     u, v = era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
                              pressure_pa, state.station)
-    if not grid.add_noise:
+    if not grid.add_noise or grid.noise_scale == 0.0:
       return u, v
-    return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s)
+    return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s,
+                      grid.noise_scale)
 
   def column(state, x_m, y_m, pressures_pa, t_s):
     return era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,

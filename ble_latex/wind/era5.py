@@ -52,6 +52,7 @@ from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex.wind import analysis
 from ble_latex.wind import era5_checks
+from ble_latex.wind import forecast_error
 from ble_latex.wind import globe
 from ble_latex.wind import stations as stations_lib
 
@@ -548,6 +549,8 @@ class Era5Settings:
       (`stations.end_outside_domain`).
     snapshot_time: A time-invariant source's date (ISO date-time, UTC; the
       flight's sun clock): None: the file's time (a sounding's header).
+    noise_scale: The truth's factor on BLE's simplex noise; None: the
+      source decides (`forecast_error.noise_scale`: ERA5 1, others 2.39).
   """
   path: Union[str, Tuple[str, ...]]
   center_lat: float = PAPER_CENTER_LAT  # [deg N]
@@ -559,6 +562,7 @@ class Era5Settings:
   station_margin_km: float = stations_lib.DEFAULT_MARGIN_KM  # [km]
   end_outside_domain: Optional[bool] = None
   snapshot_time: Any = None
+  noise_scale: Optional[float] = None
 
   def __post_init__(self):
     for name in ('path', 'start_dates'):
@@ -571,6 +575,7 @@ class Era5Settings:
     gin_values.check_bool('Era5WindField.add_noise', self.add_noise)
     stations_lib.check_mode(self.stations)
     stations_lib.check_margin(self.station_margin_km)
+    forecast_error.check_scale(self.noise_scale)
 
   def load(self) -> Era5Data:
     """The data of `path` (`load`: checked, cached)."""
@@ -595,7 +600,8 @@ def settings(*,
              stations: str = 'fixed',
              station_margin_km: float = stations_lib.DEFAULT_MARGIN_KM,
              end_outside_domain: Optional[bool] = None,
-             snapshot_time: Any = None) -> Era5Settings:
+             snapshot_time: Any = None,
+             noise_scale: Optional[float] = None) -> Era5Settings:
   """ERA5's settings from gin: the configurable `Era5WindField`.
 
   `LatexBalloonEnv.wind_field_factory = @Era5WindField` and the
@@ -615,6 +621,7 @@ def settings(*,
     station_margin_km: As `Era5Settings`. # [km]
     end_outside_domain: As `Era5Settings`.
     snapshot_time: As `Era5Settings`.
+    noise_scale: As `Era5Settings`.
 
   Returns:
     The settings (unchecked: `load`, `start_window` and

@@ -50,6 +50,7 @@ import numpy as np
 
 from ble_latex import errors
 from ble_latex.wind import era5
+from ble_latex.wind import forecast_error
 from ble_latex.wind import stations as stations_lib
 
 Array = jax.Array
@@ -83,6 +84,8 @@ class Era5Grid:
     first_time_min: The data's first time after 1970-01-01 UTC (int32). # [min]
     add_noise: Whether the ground truth adds BLE's simplex noise to the
       forecast (`Era5WindField.add_noise`). Static.
+    noise_scale: The truth's factor on that noise (`forecast_error.
+      noise_scale`: 1 on ERA5, 2.39 on other files). Static.
     station_box: None: every flight keeps station at the target above
       (fixed); else [4] (lowest, highest latitude [deg N], lowest, highest
       longitude [deg E], the file's convention): each flight's station is
@@ -113,6 +116,7 @@ class Era5Grid:
   last_start_minute: Array
   first_time_min: Array
   add_noise: bool = flax.struct.field(pytree_node=False, default=True)
+  noise_scale: float = flax.struct.field(pytree_node=False, default=1.0)
   station_box: Optional[Array] = None
   end_outside_domain: bool = flax.struct.field(pytree_node=False,
                                                default=False)
@@ -203,7 +207,8 @@ def grid_from_data(data: era5.Era5Data, *,
                    station_margin_km: float = (
                        stations_lib.DEFAULT_MARGIN_KM),  # [km]
                    end_outside_domain: Optional[bool] = None,
-                   snapshot_time: Any = None) -> Era5Grid:
+                   snapshot_time: Any = None,
+                   noise_scale: Optional[float] = None) -> Era5Grid:
   """The device grid of loaded ERA5 data (`era5.load(path)`).
 
   The keyword arguments are `era5.Era5Settings`'s, with its defaults
@@ -216,6 +221,8 @@ def grid_from_data(data: era5.Era5Data, *,
     center_lon: Longitude of the station-keeping target. # [deg E]
     episode_hours: Flight length that must fit after the start. # [h]
     add_noise: Whether the ground truth adds BLE's simplex noise.
+    noise_scale: Its factor; None: the source decides
+      (`forecast_error.noise_scale`).
     start_dates: None, a split of `era5.DATE_SPLITS` or a (first, end)
       pair of dates: the range flights start in (`era5.start_window`).
 
@@ -261,6 +268,7 @@ def grid_from_data(data: era5.Era5Data, *,
       first_time_min=jnp.asarray(
           int(first_s // 60) if snapshot is None else snapshot, jnp.int32),
       add_noise=bool(add_noise),
+      noise_scale=forecast_error.noise_scale(noise_scale, data.source),
       station_box=None if box is None else f32(box),
       end_outside_domain=ends,
       latitude_bounds=(f32(np.array(data.latitude_bounds) - lat0)
@@ -296,7 +304,8 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
   base = (id(data),) + tuple(repr(v) for v in (
       settings.center_lat, settings.center_lon, settings.episode_hours,
       settings.add_noise, settings.stations, settings.station_margin_km,
-      settings.end_outside_domain, settings.snapshot_time))
+      settings.end_outside_domain, settings.snapshot_time,
+      settings.noise_scale))
   key = base + (repr(settings.start_dates),)
   cached = _GRIDS.get(key)
   if cached is None or cached[0] is not data:
@@ -310,7 +319,8 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
           start_dates=settings.start_dates, stations=settings.stations,
           station_margin_km=settings.station_margin_km,
           end_outside_domain=settings.end_outside_domain,
-          snapshot_time=settings.snapshot_time)
+          snapshot_time=settings.snapshot_time,
+          noise_scale=settings.noise_scale)
     else:
       center_lat, center_lon, _ = station_center(
           data, settings.stations, settings.station_margin_km,

@@ -1,0 +1,108 @@
+# coding=utf-8
+"""The forecast error on real files: BLE's noise scaled (`wind.forecast_error`)."""
+
+import pathlib
+import types
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from ble_latex import errors
+from ble_latex.envs import winds
+from ble_latex.wind import era5
+from ble_latex.wind import era5_jax
+from ble_latex.wind import forecast_error
+from ble_latex.wind import simplex
+
+HILO = str(pathlib.Path(__file__).resolve().parent / 'data' / 'realwinds' /
+           'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
+
+
+def test_default_scale_by_source():
+  realistic = forecast_error.noise_scale(None, 'GRIB2')
+  assert realistic == pytest.approx(2.5 / 1.045)
+  assert forecast_error.noise_scale(None, 'analysis') == realistic
+  assert forecast_error.noise_scale(None, 'sounding') == realistic
+  assert forecast_error.noise_scale(None, 'ERA5') == 1.0  # The paper's.
+  assert forecast_error.noise_scale(0, 'GRIB2') == 0.0
+  assert forecast_error.noise_scale(3, 'ERA5') == 3.0
+  assert '2.5 m/s rms' in forecast_error.describe(realistic)
+
+
+@pytest.mark.parametrize('bad', [-1.0, float('nan'), True, '2', [1]])
+def test_bad_scale_is_one_line(bad):
+  with pytest.raises(errors.ConfigError, match='Era5WindField.noise_scale'):
+    era5.Era5Settings(path=HILO, noise_scale=bad)
+
+
+def _fake_noise(noise_u, noise_v, x_km, y_km, pressure, hours):
+  """A cheap stand-in for BLE's noise (no simplex to compile). # [m/s]"""
+  del noise_u, noise_v
+  return 0.3 + 1e-3 * x_km + 1e-5 * pressure, 0.2 - 1e-3 * y_km + 0.01 * hours
+
+
+def _truth_minus_forecast(grid):
+  """Truth - forecast [2, 64] of `grid` along a line (x, p, t). # [m/s]"""
+  wind = winds.era5_wind(grid)
+  state = types.SimpleNamespace(
+      noise_u=None, noise_v=None, station=None,
+      start_time_offset_s=(grid.first_time_min - winds._EPOCH_MIN) * 60)
+  x = jnp.linspace(-2e5, 2e5, 64)
+  p = jnp.linspace(5000.0, 15000.0, 64)
+  t = jnp.linspace(0.0, 2e5, 64)
+  truth = jnp.stack(wind.ground_truth(state, x, -x, p, t))
+  forecast = jnp.stack(wind.forecast_column(state, x, -x, p, t))
+  return np.asarray(truth - forecast, np.float64)
+
+
+def test_truth_noise_scales_on_the_device(monkeypatch):
+  monkeypatch.setattr(simplex, 'wind_noise_uv', _fake_noise)
+  data = era5.load(HILO)
+  one = _truth_minus_forecast(era5_jax.grid_from_data(data, noise_scale=1.0))
+  x = np.linspace(-200.0, 200.0, 64)
+  np.testing.assert_allclose(
+      one[0], 0.3 + 1e-3 * x + 1e-5 * np.linspace(5000.0, 15000.0, 64),
+      atol=1e-5)
+  three = _truth_minus_forecast(era5_jax.grid_from_data(data,
+                                                        noise_scale=3.0))
+  np.testing.assert_allclose(three, 3.0 * one, atol=1e-5)
+  default = era5_jax.grid_from_data(data)  # A sounding: the realistic size.
+  assert default.noise_scale == pytest.approx(2.5 / 1.045)
+  np.testing.assert_allclose(_truth_minus_forecast(default),
+                             default.noise_scale * one, atol=1e-5)
+  zero = era5_jax.grid_from_data(data, noise_scale=0.0)
+  assert not np.any(_truth_minus_forecast(zero))
+
+
+def test_gin_settings_reach_the_grid():
+  grid = era5_jax.grid_from_settings(era5.Era5Settings(path=HILO,
+                                                       noise_scale=1.5))
+  assert grid.noise_scale == 1.5
+  assert era5_jax.grid_from_settings(
+      era5.Era5Settings(path=HILO)).noise_scale == pytest.approx(2.5 / 1.045)
+
+
+def test_ble_field_object_scales_its_noise(tmp_path):
+  import datetime as dt  # pylint: disable=g-import-not-at-top
+  import jax  # pylint: disable=g-import-not-at-top
+  from balloon_learning_environment.utils import units  # pylint: disable=g-import-not-at-top
+  from ble_latex.ble import era5_field  # pylint: disable=g-import-not-at-top
+  import test_era5  # pylint: disable=g-import-not-at-top
+  path = test_era5.write_era5(tmp_path / 'era5.nc')
+  args = (units.Distance(km=20.0), units.Distance(km=-10.0), 8000.0,
+          dt.timedelta(hours=1))
+  differences = {}
+  for scale in (None, 1.0, 2.5, 0.0):
+    field = era5_field.Era5WindField(path=path, episode_hours=6.0,
+                                     noise_scale=scale)
+    field.reset(jax.random.PRNGKey(7), dt.datetime(2013, 1, 1))
+    truth, forecast = field.get_ground_truth(*args), field.get_forecast(*args)
+    differences[scale] = np.array([
+        truth.u.meters_per_second - forecast.u.meters_per_second,
+        truth.v.meters_per_second - forecast.v.meters_per_second])
+  np.testing.assert_array_equal(differences[None], differences[1.0])  # ERA5.
+  assert np.abs(differences[1.0]).max() > 1e-3
+  np.testing.assert_allclose(differences[2.5], 2.5 * differences[1.0],
+                             rtol=1e-6, atol=1e-9)
+  assert not differences[0.0].any()
