@@ -38,16 +38,19 @@ def test_a_cell_sets_sigma_and_the_swing_in_the_calibrated_split(module):
                 params_lib.REALISTIC['cooling_night_k'])
   assert cell.superheat_day_k / cell.cooling_night_k == pytest.approx(
       day / night)
-  # Only those three numbers change.
+  # Only those three numbers change, and the walk flies (issue 68: on top of
+  # the preset's heating disturbance; a static switch, so set with it).
+  assert cell.lift_walk and not params.flight.lift_walk
   assert cell.replace(
+      lift_walk=False,
       lift_walk_kg_per_sqrt_s=params.flight.lift_walk_kg_per_sqrt_s,
       superheat_day_k=day, cooling_night_k=night) == params.flight
-  # The calibrated cell is the calibrated physics.
+  # The walk that was the default before issue 68, at the calibrated swing.
   same = module.cell_params(params, 0.35, day + night).flight
   np.testing.assert_allclose(
       [same.lift_walk_kg_per_sqrt_s, same.superheat_day_k,
        same.cooling_night_k],
-      [params.flight.lift_walk_kg_per_sqrt_s, day, night])
+      [params_lib.LIFT_WALK_RANDOM['lift_walk_kg_per_sqrt_s'], day, night])
 
 
 def test_summary_counts_days_and_tw50(module):

@@ -251,6 +251,23 @@ def _gas_pressure(params: params_lib.FlightParams, pressure: Array) -> Array:
   return pressure
 
 
+def _vertical_in_gas(params: params_lib.FlightParams, f: FlightState,
+                     duration: Array, gas_at) -> Tuple[Array, Array]:
+  """Eq. fullN2L with the lift and drag of the gas `gas_at(h)` on the path.
+
+  (`physics.vertical_step_varying`; realistic physics.) Returns (h, hdot).
+  """
+  def forces_at(h, v):
+    g = gas_at(h)
+    return (envelope.free_lift_kg(params, f, g) * physics.GRAVITY,
+            envelope.drag_factor(params, f.helium_mols, g, v))
+
+  mass = physics.total_mass(params.payload_kg, f.sand_kg, f.helium_mols)
+  return physics.vertical_step_varying(
+      f.altitude_m, f.ascent_rate_mps, duration, mass=mass,
+      forces_at=forces_at)
+
+
 def _integrate_gas(params: params_lib.FlightParams,
                    atm: atmosphere_lib.AtmosphereParams, f: FlightState,
                    duration: Array, forcing: Array) -> FlightState:
@@ -272,20 +289,12 @@ def _integrate_gas(params: params_lib.FlightParams,
   def gas_at(h):
     ambient = atmosphere_lib.at_height(atm, _clamp(h))
     p = _gas_pressure(params, ambient.pressure)
-    return ambient, envelope.Gas(ambient.temperature, ambient.pressure,
-                                 gas_lib.adiabatic(t0, p0, p), p)
+    return envelope.Gas(ambient.temperature, ambient.pressure,
+                        gas_lib.adiabatic(t0, p0, p), p)
 
-  def forces_at(h, v):
-    _, g = gas_at(h)
-    return (envelope.free_lift_kg(params, f, g) * physics.GRAVITY,
-            envelope.drag_factor(params, f.helium_mols, g, v))
-
-  mass = physics.total_mass(params.payload_kg, f.sand_kg, f.helium_mols)
-  h, v = physics.vertical_step_varying(
-      f.altitude_m, f.ascent_rate_mps, duration, mass=mass,
-      forces_at=forces_at)
-  end, g = gas_at(h)
-  t1 = gas_lib.relax(g.temperature, end.temperature + forcing + f.heating_k,
+  h, v = _vertical_in_gas(params, f, duration, gas_at)
+  g = gas_at(h)
+  t1 = gas_lib.relax(g.temperature, g.air_temperature + forcing + f.heating_k,
                      half, tau)
   return _keep(f.replace(altitude_m=h, ascent_rate_mps=v,
                          gas_temperature_k=t1), f)
@@ -306,17 +315,12 @@ def _integrate(params: params_lib.FlightParams,
   if params.gas_state:
     return _integrate_gas(params, atm, f, duration, forcing)
   if params.realistic:
-    def forces_at(h, v):
+    def gas_at(h):
       ambient = atmosphere_lib.at_height(atm, _clamp(h))
-      g = envelope.gas(params, ambient.temperature, ambient.pressure, time_s,
-                       f.x_m, f.y_m)
-      return (envelope.free_lift_kg(params, f, g) * physics.GRAVITY,
-              envelope.drag_factor(params, f.helium_mols, g, v))
+      return envelope.gas(params, ambient.temperature, ambient.pressure,
+                          time_s, f.x_m, f.y_m)
 
-    mass = physics.total_mass(params.payload_kg, f.sand_kg, f.helium_mols)
-    h, v = physics.vertical_step_varying(
-        f.altitude_m, f.ascent_rate_mps, duration, mass=mass,
-        forces_at=forces_at)
+    h, v = _vertical_in_gas(params, f, duration, gas_at)
     return _keep(f.replace(altitude_m=h, ascent_rate_mps=v), f)
 
   def drag_k_at(h):
