@@ -62,6 +62,7 @@ from typing import Any, Dict, List, Optional, Sequence
 
 from absl import flags
 
+from ble_latex import gin_values
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 
@@ -166,10 +167,14 @@ def edge_summary(held: List[Dict[str, Any]]) -> Dict[str, Any]:
 def edges_of(path: str) -> Dict[str, Any]:
   """An eval file's flights: mean TW50 window and `edge_summary`."""
   from ble_latex.run import records  # pylint: disable=g-import-not-at-top
-  held = records.load_eval(path)
-  return {'file': path, 'episodes': len(held),
-          'tw50_window': statistics.mean(r['tw50_window'] for r in held),
-          **edge_summary(held)}
+  try:
+    held = records.load_eval(path)
+    return {'file': path, 'episodes': len(held),
+            'tw50_window': statistics.mean(r['tw50_window'] for r in held),
+            **edge_summary(held)}
+  except (ValueError, KeyError, TypeError, statistics.StatisticsError) as e:
+    raise cli.CommandFailure(f'--edges_of: {path} is not a usable eval file '
+                             f'({cli.one_line(e)})') from e
 
 
 def per_seed(held: List[Dict[str, Any]]) -> Dict[str, List[Any]]:
@@ -329,10 +334,21 @@ def run_cell(args: Any, reward: str, seed: int) -> Dict[str, Any]:
 def _load(path: str, current: Dict[str, Any]) -> Dict[str, Any]:
   if not os.path.exists(path):
     return {'settings': current, 'rewards': {}}
-  with open(path, encoding='utf-8') as f:
-    data = json.load(f)
+  try:
+    with open(path, encoding='utf-8') as f:
+      data = json.load(f)
+  except (json.JSONDecodeError, UnicodeDecodeError) as e:
+    raise cli.CommandFailure(f'{path}: truncated or not JSON ({e}); fix or '
+                             'move it, or use another --output') from e
   if not isinstance(data, dict) or not isinstance(data.get('rewards'), dict):
     raise cli.CommandFailure(f'{path}: not a reward_shape record')
+  for reward, cell in data['rewards'].items():
+    if not (isinstance(cell, dict) and isinstance(cell.get('seeds', {}), dict)
+            and all(isinstance(row, dict) for row in cell.get(
+                'seeds', {}).values())):
+      raise cli.CommandFailure(
+          f'{path}: rewards.{reward} is not a {{"seeds": {{seed: row}}}} '
+          'object (not a reward_shape record)')
   recorded = data.get('settings', {})
   differ = sorted(k for k in set(recorded) | set(current)
                   if recorded.get(k) != current.get(k))
@@ -352,17 +368,14 @@ def _main(argv: Sequence[str]) -> int:
     return 0
   if not args.base_dir:
     raise cli.CommandUsageError('--base_dir is required')
-  try:
-    seeds = [int(s) for s in args.seeds]
-  except ValueError as e:
-    raise cli.CommandUsageError(
-        f'--seeds takes integers, got {",".join(args.seeds)!r}') from e
+  # Training seeds in [0, 2**32), checked before any child is started.
+  seeds = cli.training_seeds(args.seeds)
   for reward in args.rewards:
     reward_bindings(reward, args.tanh_scale_km)
-  if not (math.isfinite(args.tanh_scale_km) and args.tanh_scale_km > 0):
+  if not gin_values.is_positive(args.tanh_scale_km):
     raise cli.CommandUsageError(
-        f'--tanh_scale_km must be a finite number > 0, got '
-        f'{args.tanh_scale_km!r}')
+        f'--tanh_scale_km must be a finite number > 0 in float32 (>= 1.2e-38;'
+        f' smaller is 0, the flat reward), got {args.tanh_scale_km!r}')
   if args.snapshot_period > args.rounds:
     raise cli.CommandUsageError(
         f'--snapshot_period={args.snapshot_period} > --rounds={args.rounds}: '

@@ -105,6 +105,20 @@ def is_real(value: Any) -> bool:
 # The flight core computes in float32: a value finite in float64 but beyond
 # float32's largest (3.4e38) is inf there (and NaN once multiplied by 0).
 FLOAT32_MAX = float(np.finfo(np.float32).max)
+# XLA on CPU flushes float32 subnormals to 0: a value below float32's smallest
+# normal (1.2e-38) in magnitude is 0 in the core, so "> 0" must mean >= this.
+FLOAT32_TINY = float(np.finfo(np.float32).tiny)
+
+
+def core_float(value: Any) -> float:
+  """`value` as the float32 core sees it: rounded, subnormals flushed to 0."""
+  x = float(np.float32(value))
+  return 0.0 if abs(x) < FLOAT32_TINY else x
+
+
+def is_positive(value: Any) -> bool:
+  """A number (`is_number`) that is > 0 in the float32 core (>= 1.2e-38)."""
+  return is_number(value) and core_float(value) > 0
 
 
 def is_number(value: Any) -> bool:
@@ -155,9 +169,18 @@ def check_number(name: str, value: Any, *, minimum: Optional[float] = None,
   ok = is_number(value)
   if ok:
     x = float(value)
-    ok = ((minimum is None or x >= minimum) and (above is None or x > above)
-          and (maximum is None or x <= maximum) and
-          (below is None or x < below))
+    ok = ((minimum is None or x >= minimum) and
+          (maximum is None or x <= maximum))
+    # Strict bounds hold in the float32 core too (1e-40 > 0 in float64 is 0
+    # there).
+    strict = ((above is None or (x > above and core_float(x) > core_float(
+        above))) and (below is None or (x < below and core_float(x) <
+                                        core_float(below))))
+    if ok and not strict and ((above is None or x > above) and
+                              (below is None or x < below)):
+      requirement += (' in float32 (|x| >= 1.2e-38: smaller is 0 in the '
+                      'core)')
+    ok = ok and strict
   require(ok, name, requirement, value, why)
   return float(value)
 
@@ -213,12 +236,13 @@ def check_reward_values(latex: Mapping[str, Any]) -> None:
   prefix = 'latex_reward.'
   if 'reward_halflife_km' in latex:
     value = latex['reward_halflife_km']
-    _require(is_number(value) and value > 0, prefix + 'reward_halflife_km',
-             'a finite number > 0', value)
+    _require(is_positive(value), prefix + 'reward_halflife_km',
+             'a finite number > 0 in float32 (>= 1.2e-38)', value)
   if 'reward_tanh_scale_km' in latex:
     value = latex['reward_tanh_scale_km']
-    _require(is_number(value) and value >= 0, prefix + 'reward_tanh_scale_km',
-             'a finite number >= 0 (0: off)', value)
+    _require(is_number(value) and (value == 0 or is_positive(value)),
+             prefix + 'reward_tanh_scale_km',
+             '0 (off) or a finite number > 0 in float32 (>= 1.2e-38)', value)
   if 'reward_dropoff' in latex:
     value = latex['reward_dropoff']
     _require(is_number(value) and 0 <= value <= 1, prefix + 'reward_dropoff',
