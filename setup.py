@@ -102,6 +102,7 @@ setuptools.setup(
             'ble-latex-train = ble_latex.cli.train:main',
             'ble-latex-eval = ble_latex.cli.eval:main',
             'ble-latex-download-era5 = ble_latex.cli.download_era5:main',
+            'ble-latex-download-gfs = ble_latex.cli.download_gfs:main',
             'ble-latex-plot = ble_latex.cli.plot:main',
             'ble-latex-sweep = ble_latex.cli.sweep:main',
             'ble-latex-demo = ble_latex.cli.demo:main',

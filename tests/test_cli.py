@@ -151,6 +151,7 @@ def test_train_and_export_policy_help_and_usage_errors(capsys):
 @pytest.mark.parametrize('module, flag', [
     ('validate', '--max_error_percent'),
     ('download_era5', '--dry_run'),
+    ('download_gfs', '--dry_run'),
     ('plot', '--eval_json'),
     ('demo', '--train_episodes'),
 ])
