@@ -20,6 +20,7 @@ a figure (regret vs rollouts, mean over cases and repeats, +- one standard
 error) and a Markdown table beside it.
 """
 
+import io
 import json
 import os
 import sys
@@ -53,18 +54,57 @@ BOX = {'east_km': (-150.0, 150.0), 'north_km': (-150.0, 150.0),
        'hours': (0.0, 21.0)}
 
 
+def _ints(flag: str, low: int, high: int = 2**32 - 1) -> list:
+  """--flag's list as ints in [low, high], or a one-line usage error."""
+  values = FLAGS[flag].value
+  try:
+    ints = [int(v) for v in values]
+  except ValueError:
+    ints = []
+  if not ints or not all(low <= v <= high for v in ints):
+    raise cli.CommandUsageError(f'--{flag} takes integers in [{low}, {high}],'
+                                f' got {",".join(values)!r}')
+  return ints
+
+
 def _settings() -> Dict[str, Any]:
-  return {'grid': [int(v) for v in FLAGS.grid], 'draws': FLAGS.draws,
+  """The flags, checked before anything is scored (sizes bounded)."""
+  from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
+  _ints('seeds', 0)
+  grid = _ints('grid', 1, scoring.MAX_BALLOONS)
+  if len(grid) != 3:
+    raise cli.CommandUsageError(f'--grid takes east,north,hours, got '
+                                f'{",".join(FLAGS.grid)!r}')
+  for name in ('draws', 'max_steps', 'repeats'):
+    if FLAGS[name].value < 1:
+      raise cli.CommandUsageError(f'--{name} must be >= 1, got '
+                                  f'{FLAGS[name].value}')
+  n = grid[0] * grid[1] * grid[2]
+  try:
+    scoring.check_balloons(n, FLAGS.draws, 'grid launches')
+  except ValueError as e:
+    raise cli.CommandUsageError(f'--grid, --draws: {e}') from e
+  budgets = _ints('budgets', 1, n)
+  return {'grid': grid, 'draws': FLAGS.draws,
           'max_steps': FLAGS.max_steps, 'box': BOX,
-          'budgets': [int(v) for v in FLAGS.budgets],
-          'repeats': FLAGS.repeats, 'agent': 'latex_station_seeker'}
+          'budgets': budgets, 'repeats': FLAGS.repeats,
+          'agent': 'latex_station_seeker'}
 
 
 def _load(path: str) -> Optional[Dict[str, Any]]:
   if not os.path.exists(path):
     return None
-  with open(path) as f:
-    return json.load(f)
+  try:
+    with open(path, encoding='utf-8') as f:
+      record = json.load(f)
+  except (json.JSONDecodeError, UnicodeDecodeError) as e:
+    raise cli.CommandFailure(f'{path}: truncated or not JSON ({e}); give '
+                             'another --output') from e
+  if not (isinstance(record, dict) and isinstance(record.get('settings'), dict)
+          and isinstance(record.get('cases'), dict)):
+    raise cli.CommandFailure(f'{path}: not a launch_search record (settings '
+                             'and cases expected); give another --output')
+  return record
 
 
 def _write(path: str, record: Dict[str, Any]) -> None:
@@ -156,7 +196,9 @@ def _report(record: Dict[str, Any]) -> None:
   ax.legend()
   fig.tight_layout()
   stem = os.path.splitext(FLAGS.output)[0]
-  fig.savefig(stem + '.png', dpi=110)
+  png = io.BytesIO()
+  fig.savefig(png, format='png', dpi=110)
+  safe_io.atomic_write(stem + '.png', png.getvalue())
   case_lines = ['| world seed | grid optimum | best launch (east, north km, '
                 '+h) | its distance | station launch, best delay | top-10 '
                 'outside 50 km | grid wall (load) |',
@@ -178,13 +220,22 @@ def _report(record: Dict[str, Any]) -> None:
 
 def _main(argv: Sequence[str]) -> None:
   del argv
-  record = _load(FLAGS.output)
   if FLAGS.report_only:
+    record = _load(FLAGS.output)
     if record is None:
       raise cli.CommandFailure(f'{FLAGS.output}: no record')
     _report(record)
     return
   settings = _settings()
+  cli.prepare_output_dir(os.path.dirname(os.path.abspath(FLAGS.output)),
+                         '--output')
+  # One writer per record.
+  with safe_io.locked_file(FLAGS.output, what='launch_search record'):
+    _resume(settings)
+
+
+def _resume(settings: Dict[str, Any]) -> None:
+  record = _load(FLAGS.output)
   if record is None:
     record = {'settings': settings, 'cases': {}}
   elif record['settings'] != json.loads(json.dumps(settings)):

@@ -89,3 +89,86 @@ def test_reward_shape_edges_of_a_bad_eval_file_is_one_line(
                     json.dumps(content))
     assert script.main([f'--edges_of={path}']) == 1
     assert str(path) in _one_line(capsys, 'benchmarks/reward_shape.py')
+
+
+# -- Items 9, 14 and the lock: ble-latex-launch. ----------------------------
+@pytest.mark.parametrize('argv, needle', [
+    (['--grid=100000,100000,100'], 'balloons, more than'),
+    (['--grid=2000,2000,1', '--draws=2'], 'balloons, more than'),
+])
+def test_launch_grid_too_big_is_refused_before_allocation(argv, needle,
+                                                           tmp_path, capsys):
+  from ble_latex.cli import launch  # pylint: disable=g-import-not-at-top
+  assert launch.main([f'--output_dir={tmp_path / "o"}', *argv]) == 2
+  assert needle in _one_line(capsys, 'ble-latex-launch')
+
+
+def test_launch_library_grid_is_bounded_before_meshgrid():
+  from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
+  space = scoring.SearchSpace(east_km=(-1.0, 1.0), north_km=(-1.0, 1.0),
+                              hours=(0.0, 1.0))
+  with pytest.raises(errors.ConfigError, match='balloons, more than'):
+    scoring.grid(space, 100000, 100000, 100)
+  with pytest.raises(errors.ConfigError, match='balloons, more than'):
+    scoring.uniform(space, 10**8, None)
+
+
+def test_launch_date_at_the_end_of_time_is_one_line(tmp_path, capsys):
+  import test_era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import launch  # pylint: disable=g-import-not-at-top
+  path = test_era5.write_era5(tmp_path / 'era5.nc')
+  assert launch.main([f'--output_dir={tmp_path / "o"}', f'--wind_file={path}',
+                      '--date=9999-12-31T23:59', '--grid=1,1,1',
+                      '--max_steps=1', '--draws=1']) == 2
+  assert 'year 9999' in _one_line(capsys, 'ble-latex-launch')
+
+
+def test_launch_has_one_writer_per_output_dir(tmp_path, capsys):
+  from ble_latex import safe_io  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import launch  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'o'
+  with safe_io.locked_dir(str(out), what='launch output folder'):
+    assert launch.main([f'--output_dir={out}', '--grid=1,1,1',
+                        '--max_steps=1', '--draws=1']) == 1
+  assert 'in use by' in _one_line(capsys, 'ble-latex-launch')
+  assert not (out / 'launches.json').exists()
+
+
+# -- Items 13, 14: benchmarks/launch_search.py. -----------------------------
+@pytest.mark.parametrize('argv, needle', [
+    (['--seeds=abc'], '--seeds'),
+    (['--seeds=-1'], '--seeds'),
+    (['--budgets=0'], '--budgets'),
+    (['--budgets=x'], '--budgets'),
+    (['--grid=100000,100000,100'], 'balloons, more than'),
+    (['--grid=3,3'], '--grid'),
+    (['--draws=0'], '--draws'),
+])
+def test_launch_search_flags_are_checked_up_front(argv, needle, tmp_path,
+                                                  capsys, benchmark_script):
+  script = benchmark_script('launch_search.py')
+  out = tmp_path / 'ls.json'
+  assert script.main([f'--output={out}', *argv]) == 2
+  assert needle in _one_line(capsys, 'launch_search')
+  assert not out.exists()
+
+
+@pytest.mark.parametrize('text', ['{"settings": {"gri', '[1, 2]',
+                                  '{"settings": {}, "cases": []}'])
+def test_launch_search_bad_record_is_one_line(text, tmp_path, capsys,
+                                              benchmark_script):
+  script = benchmark_script('launch_search.py')
+  out = tmp_path / 'ls.json'
+  out.write_text(text)
+  assert script.main([f'--output={out}', '--seeds=0']) == 1
+  assert str(out) in _one_line(capsys, 'launch_search')
+  assert out.read_text() == text
+
+
+def test_launch_search_output_folder_checked_first(tmp_path, capsys,
+                                                   benchmark_script):
+  script = benchmark_script('launch_search.py')
+  blocker = tmp_path / 'file'
+  blocker.write_text('x')
+  assert script.main([f'--output={blocker / "ls.json"}', '--seeds=0']) == 1
+  assert '--output' in _one_line(capsys, 'launch_search')

@@ -124,6 +124,14 @@ def _grid() -> List[int]:
     raise cli.CommandUsageError(
         '--grid must be 3 or 4 positive integers east,north,hours[,altitudes]'
         f', got {",".join(FLAGS.grid)!r}')
+  n = 1
+  for points in shape:
+    n *= points
+  if n * max(FLAGS.draws, 1) > scoring.MAX_BALLOONS:  # Before any allocation.
+    raise cli.CommandUsageError(
+        f'--grid={",".join(map(str, shape))} x --draws={FLAGS.draws} = '
+        f'{n * max(FLAGS.draws, 1)} balloons, more than '
+        f'{scoring.MAX_BALLOONS}; use a coarser grid or fewer draws')
   return shape
 
 
@@ -184,6 +192,12 @@ def _hopeless() -> bool:
 
 def _main(argv: Sequence[str]) -> None:
   del argv
+  # One writer per output folder: a second run on it is refused, not raced.
+  with safe_io.locked_dir(FLAGS.output_dir, what='launch output folder'):
+    _plan()
+
+
+def _plan() -> None:
   gin_binding.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
                        FLAGS.gin_bindings)
   if FLAGS.wind_file is not None and _hopeless():

@@ -152,6 +152,18 @@ class Launches:
     return Launches.from_array(self.array()[np.asarray(index, np.int64)])
 
 
+def check_balloons(n: int, draws: int, what: str = 'launches') -> None:
+  """Refuses n x draws > MAX_BALLOONS before anything is allocated.
+
+  Raises:
+    errors.ConfigError: One line naming `what` and the count.
+  """
+  if int(n) * int(draws) > MAX_BALLOONS:
+    raise errors.ConfigError(
+        f'{n} {what} x {draws} draws = {int(n) * int(draws)} balloons, more '
+        f'than {MAX_BALLOONS}; use a coarser grid or fewer draws')
+
+
 def grid(space: SearchSpace, n_east: int, n_north: int, n_hours: int,
          n_altitudes: int = 1) -> Launches:
   """The dense grid over a (checked) box, east fastest... hours, altitude last.
@@ -161,10 +173,12 @@ def grid(space: SearchSpace, n_east: int, n_north: int, n_hours: int,
   middle of its range.
   """
   axes = []
-  for name, n, (low, high) in zip(space.names,
-                                  (n_east, n_north, n_hours, n_altitudes),
-                                  space.bounds()):
+  for name, n in zip(space.names, (n_east, n_north, n_hours, n_altitudes)):
     gin_values.check_int(f'launch grid points ({name})', n, minimum=1)
+  check_balloons(int(n_east) * int(n_north) * int(n_hours) *
+                 int(n_altitudes), 1, 'launch grid points')
+  for n, (low, high) in zip((n_east, n_north, n_hours, n_altitudes),
+                            space.bounds()):
     axes.append(np.linspace(low, high, n) if n > 1 else
                 np.array([0.5 * (low + high)]))
   a, t, j, k = np.meshgrid(axes[3], axes[2], axes[1], axes[0], indexing='ij')
@@ -173,6 +187,8 @@ def grid(space: SearchSpace, n_east: int, n_north: int, n_hours: int,
 
 def uniform(space: SearchSpace, n: int, rng: np.random.Generator) -> Launches:
   """n launches uniform in a (checked) box."""
+  gin_values.check_int('launch candidates', n, minimum=1)
+  check_balloons(n, 1, 'launch candidates')
   bounds = space.bounds()
   return Launches.from_array(rng.uniform(bounds[:, 0], bounds[:, 1], (n, 4)))
 
@@ -282,6 +298,10 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
         start_dates=(start, start + dt.timedelta(minutes=1)))
   except errors.ConfigError:
     raise
+  except OverflowError as e:  # A date near 9999-12-31: start + 1 minute.
+    raise errors.ConfigError(
+        f'launch date {date!r}: the window after it ({hours:g} h) ends past '
+        'year 9999') from e
   except ValueError as e:
     raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
   return _world(params.replace(wind_grid=wind_grid), seed, {
@@ -464,11 +484,9 @@ def score(world: World, controller: controllers_lib.Controller,
   n = len(launches)
   if n == 0:
     raise errors.ConfigError('launch planning needs at least one candidate')
+  gin_values.check_int('launch noise draws', draws, minimum=1)
+  check_balloons(n, draws)
   noise_u, noise_v = noise_draws(world, draws)
-  if n * draws > MAX_BALLOONS:
-    raise errors.ConfigError(
-        f'{n} launches x {draws} draws = {n * draws} balloons, more than '
-        f'{MAX_BALLOONS}; use a coarser grid or fewer draws')
   gin_values.check_int('launch chunk', chunk, minimum=1)
   size = min(chunk, n)
   fly = _flier(world.env, controller, int(world.params.episode_steps), False)
