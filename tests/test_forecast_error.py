@@ -64,9 +64,6 @@ def test_truth_noise_scales_on_the_device(monkeypatch):
   np.testing.assert_allclose(
       one[0], 0.3 + 1e-3 * x + 1e-5 * np.linspace(5000.0, 15000.0, 64),
       atol=1e-5)
-  three = _truth_minus_forecast(era5_jax.grid_from_data(data,
-                                                        noise_scale=3.0))
-  np.testing.assert_allclose(three, 3.0 * one, atol=1e-5)
   default = era5_jax.grid_from_data(data)  # A sounding: the realistic size.
   assert default.noise_scale == pytest.approx(2.5 / 1.045)
   np.testing.assert_allclose(_truth_minus_forecast(default),
@@ -106,3 +103,71 @@ def test_ble_field_object_scales_its_noise(tmp_path):
   np.testing.assert_allclose(differences[2.5], 2.5 * differences[1.0],
                              rtol=1e-6, atol=1e-9)
   assert not differences[0.0].any()
+
+
+def _pair(tmp_path, **truth_kwargs):
+  import test_era5  # pylint: disable=g-import-not-at-top
+  forecast = test_era5.write_era5(tmp_path / 'forecast.nc')
+  truth_kwargs.setdefault('t0', test_era5.T0 - np.timedelta64(12, 'h'))
+  truth = test_era5.write_era5(tmp_path / 'truth.nc', **truth_kwargs)
+  return forecast, truth
+
+
+def test_two_sources_truth_from_the_second_file(tmp_path):
+  import test_era5  # pylint: disable=g-import-not-at-top
+  # The truth: other winds (another time origin), on a wider grid and a
+  # longer time range than the forecast's.
+  forecast_path, truth_path = _pair(
+      tmp_path, lat=np.arange(5.0, -3.5, -0.5), lon=np.arange(-117.0, -108.5,
+                                                              0.5),
+      times=test_era5.T0 + np.arange(-1, 5) * np.timedelta64(6, 'h'))
+  settings = era5.Era5Settings(path=forecast_path, truth_path=truth_path,
+                               center_lat=1.0, center_lon=-113.0,
+                               episode_hours=6.0)
+  grid = era5_jax.grid_from_settings(settings)
+  assert grid.noise_scale == 0.0  # The truth file is the error.
+  data = era5.load(forecast_path)
+  truth = era5.load(truth_path)
+  t_h = (data.times[:, None, None, None] - test_era5.T0) / np.timedelta64(
+      1, 'h')
+  p = data.pressure[None, :, None, None] / 100.0
+  lat = data.latitude[None, None, :, None]
+  lon = data.longitude[None, None, None, :]
+  # The truth's own multi-linear field, 12 h later than its origin.
+  np.testing.assert_allclose(
+      np.asarray(grid.truth_uv[..., 0]),
+      np.broadcast_to(test_era5.wind_u(t_h + 12.0, p, lat, lon),
+                      grid.truth_uv.shape[:-1]), rtol=1e-5, atol=1e-4)
+  np.testing.assert_allclose(np.asarray(grid.uv), data.uv, rtol=1e-6)
+  state = types.SimpleNamespace(
+      noise_u=None, noise_v=None, station=None,
+      start_time_offset_s=(grid.first_time_min - winds._EPOCH_MIN) * 60)
+  wind = winds.era5_wind(grid)
+  x = jnp.linspace(-5e4, 5e4, 8)
+  args = (x, x, jnp.full(8, 7000.0), jnp.linspace(0.0, 3e4, 8))
+  got_truth = np.stack(wind.ground_truth(state, *args))
+  got_forecast = np.stack(wind.forecast_column(state, *args))
+  lats, lons = np.array([era5.latlng_of_offset(1.0, -113.0, float(d),
+                                                float(d)) for d in x]).T
+  # The truth file starts 6 h before the forecast.
+  want_truth = truth.interpolate(np.asarray(args[3]) + 6 * 3600.0, 7000.0,
+                                 lats, lons)
+  want_forecast = data.interpolate(np.asarray(args[3]), 7000.0, lats, lons)
+  np.testing.assert_allclose(got_truth.T, want_truth, atol=2e-3)
+  np.testing.assert_allclose(got_forecast.T, want_forecast, atol=2e-3)
+  assert np.abs(want_truth - want_forecast).min() > 0.1
+  assert 'truth' in winds.wind_source_from_gin(settings)
+
+
+def test_two_sources_refuse_a_truth_that_misses_the_forecast(tmp_path):
+  import test_era5  # pylint: disable=g-import-not-at-top
+  forecast_path, late = _pair(
+      tmp_path, times=test_era5.TIMES + np.timedelta64(6, 'h'))
+  with pytest.raises(errors.ConfigError, match="valid times"):
+    era5_jax.grid_from_settings(era5.Era5Settings(
+        path=forecast_path, truth_path=late, episode_hours=6.0))
+  small = test_era5.write_era5(tmp_path / 'small.nc',
+                               lat=np.array([2.0, 1.0, 0.0, -1.0, -2.0]))
+  with pytest.raises(errors.ConfigError, match="does not cover"):
+    era5_jax.grid_from_settings(era5.Era5Settings(
+        path=forecast_path, truth_path=small, episode_hours=6.0))

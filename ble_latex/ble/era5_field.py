@@ -109,6 +109,11 @@ class Era5WindField(wind_field.WindField):
       errors.ConfigError: per-seed stations (this BLE object keeps one
         fixed station; the envs fly them in the core's grid).
     """
+    if settings.truth_path is not None:
+      raise errors.ConfigError(
+          "Era5WindField.truth_path: BLE's Era5WindField object flies one "
+          'file; the two-source mode flies in the envs '
+          '(LatexBalloonEnv.wind_field_factory = @Era5WindField)')
     if settings.stations != 'fixed':
       raise errors.ConfigError(
           f"Era5WindField.stations = {settings.stations!r}: BLE's "

@@ -152,8 +152,11 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
                                            _EPOCH_MIN) * 60
     return start_s.astype(t_s.dtype) + t_s
 
+  # The two-source mode: the truth is a second file on the same nodes.
+  truth = grid if grid.truth_uv is None else grid.replace(uv=grid.truth_uv)
+
   def ground_truth(state, x_m, y_m, pressure_pa, t_s):
-    u, v = era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
+    u, v = era5_jax.forecast(truth, data_time_s(state, t_s), x_m, y_m,
                              pressure_pa, state.station)
     if not grid.add_noise or grid.noise_scale == 0.0:
       return u, v
@@ -252,10 +255,12 @@ def wind_source_from_gin(factory: Any) -> str:
   (time-invariant): ['/data/gfs.grib2']" (`era5.Era5Data.description`:
   snapshots say "time-invariant", forecasts their run and lead times).
   """
-  if factory is era5.settings:
-    data = factory().load()
-    return f'{data.description}: {list(data.paths)}'
-  if isinstance(factory, era5.Era5Settings):
-    data = factory.load()
-    return f'{data.description}: {list(data.paths)}'
+  settings = factory() if factory is era5.settings else factory
+  if isinstance(settings, era5.Era5Settings):
+    data = settings.load()
+    if settings.truth_path is None:
+      return f'{data.description}: {list(data.paths)}'
+    truth = era5.load(settings.truth_path)
+    return (f'{data.description}: {list(data.paths)}; truth '
+            f'{truth.description}: {list(truth.paths)}')
   return 'BLE generative (VAE)'

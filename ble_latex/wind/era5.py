@@ -551,6 +551,8 @@ class Era5Settings:
       flight's sun clock): None: the file's time (a sounding's header).
     noise_scale: The truth's factor on BLE's simplex noise; None: the
       source decides (`forecast_error.noise_scale`: ERA5 1, others 2.39).
+    truth_path: None, or a second file (glob, list) whose winds are the
+      truth (`forecast_error.truth_on_forecast_grid`; noise 0 by default).
   """
   path: Union[str, Tuple[str, ...]]
   center_lat: float = PAPER_CENTER_LAT  # [deg N]
@@ -563,9 +565,10 @@ class Era5Settings:
   end_outside_domain: Optional[bool] = None
   snapshot_time: Any = None
   noise_scale: Optional[float] = None
+  truth_path: Any = None
 
   def __post_init__(self):
-    for name in ('path', 'start_dates'):
+    for name in ('path', 'start_dates', 'truth_path'):
       value = getattr(self, name)
       if isinstance(value, list):
         object.__setattr__(self, name, tuple(value))
@@ -601,7 +604,8 @@ def settings(*,
              station_margin_km: float = stations_lib.DEFAULT_MARGIN_KM,
              end_outside_domain: Optional[bool] = None,
              snapshot_time: Any = None,
-             noise_scale: Optional[float] = None) -> Era5Settings:
+             noise_scale: Optional[float] = None,
+             truth_path: Any = None) -> Era5Settings:
   """ERA5's settings from gin: the configurable `Era5WindField`.
 
   `LatexBalloonEnv.wind_field_factory = @Era5WindField` and the
@@ -622,6 +626,7 @@ def settings(*,
     end_outside_domain: As `Era5Settings`.
     snapshot_time: As `Era5Settings`.
     noise_scale: As `Era5Settings`.
+    truth_path: As `Era5Settings`.
 
   Returns:
     The settings (unchecked: `load`, `start_window` and

@@ -85,7 +85,10 @@ class Era5Grid:
     add_noise: Whether the ground truth adds BLE's simplex noise to the
       forecast (`Era5WindField.add_noise`). Static.
     noise_scale: The truth's factor on that noise (`forecast_error.
-      noise_scale`: 1 on ERA5, 2.39 on other files). Static.
+      noise_scale`: 1 on ERA5, 2.39 on other files, 0 with a truth file).
+      Static.
+    truth_uv: None: the truth is `uv` (+ noise); else a second file's winds
+      on the same nodes (`forecast_error.truth_on_forecast_grid`). # [m/s]
     station_box: None: every flight keeps station at the target above
       (fixed); else [4] (lowest, highest latitude [deg N], lowest, highest
       longitude [deg E], the file's convention): each flight's station is
@@ -117,6 +120,7 @@ class Era5Grid:
   first_time_min: Array
   add_noise: bool = flax.struct.field(pytree_node=False, default=True)
   noise_scale: float = flax.struct.field(pytree_node=False, default=1.0)
+  truth_uv: Optional[Array] = None
   station_box: Optional[Array] = None
   end_outside_domain: bool = flax.struct.field(pytree_node=False,
                                                default=False)
@@ -208,7 +212,8 @@ def grid_from_data(data: era5.Era5Data, *,
                        stations_lib.DEFAULT_MARGIN_KM),  # [km]
                    end_outside_domain: Optional[bool] = None,
                    snapshot_time: Any = None,
-                   noise_scale: Optional[float] = None) -> Era5Grid:
+                   noise_scale: Optional[float] = None,
+                   truth: Optional[era5.Era5Data] = None) -> Era5Grid:
   """The device grid of loaded ERA5 data (`era5.load(path)`).
 
   The keyword arguments are `era5.Era5Settings`'s, with its defaults
@@ -223,6 +228,7 @@ def grid_from_data(data: era5.Era5Data, *,
     add_noise: Whether the ground truth adds BLE's simplex noise.
     noise_scale: Its factor; None: the source decides
       (`forecast_error.noise_scale`).
+    truth: None, or a second file's data: the truth (two-source mode).
     start_dates: None, a split of `era5.DATE_SPLITS` or a (first, end)
       pair of dates: the range flights start in (`era5.start_window`).
 
@@ -268,7 +274,10 @@ def grid_from_data(data: era5.Era5Data, *,
       first_time_min=jnp.asarray(
           int(first_s // 60) if snapshot is None else snapshot, jnp.int32),
       add_noise=bool(add_noise),
-      noise_scale=forecast_error.noise_scale(noise_scale, data.source),
+      noise_scale=forecast_error.noise_scale(noise_scale, data.source,
+                                             truth is not None),
+      truth_uv=(None if truth is None else
+                f32(forecast_error.truth_on_forecast_grid(data, truth))),
       station_box=None if box is None else f32(box),
       end_outside_domain=ends,
       latitude_bounds=(f32(np.array(data.latitude_bounds) - lat0)
@@ -305,7 +314,7 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
       settings.center_lat, settings.center_lon, settings.episode_hours,
       settings.add_noise, settings.stations, settings.station_margin_km,
       settings.end_outside_domain, settings.snapshot_time,
-      settings.noise_scale))
+      settings.noise_scale, settings.truth_path))
   key = base + (repr(settings.start_dates),)
   cached = _GRIDS.get(key)
   if cached is None or cached[0] is not data:
@@ -320,7 +329,9 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
           station_margin_km=settings.station_margin_km,
           end_outside_domain=settings.end_outside_domain,
           snapshot_time=settings.snapshot_time,
-          noise_scale=settings.noise_scale)
+          noise_scale=settings.noise_scale,
+          truth=(None if settings.truth_path is None else
+                 era5.load(settings.truth_path)))
     else:
       center_lat, center_lon, _ = station_center(
           data, settings.stations, settings.station_margin_km,

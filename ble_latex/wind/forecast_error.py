@@ -29,6 +29,8 @@ the paper's setting. `Era5WindField.noise_scale = X` chooses any scale
 import math
 from typing import Any, Optional
 
+import numpy as np
+
 from ble_latex import errors
 
 # BLE's simplex noise, rms per component, measured by
@@ -54,21 +56,25 @@ def check_scale(scale: Any) -> Optional[float]:
   return float(scale)
 
 
-def noise_scale(setting: Any, source: str) -> float:
+def noise_scale(setting: Any, source: str, two_source: bool = False) -> float:
   """The factor on BLE's simplex noise in a file's truth.
 
   Args:
     setting: `Era5WindField.noise_scale` (None: the source decides).
     source: `era5.Era5Data.source` ('ERA5', 'analysis', 'GRIB2',
       'sounding').
+    two_source: The truth is a second file (`truth_on_forecast_grid`).
 
   Returns:
-    The setting; else 1 on ERA5, REAL_FILE_NOISE_RMS_MPS /
-    BLE_NOISE_RMS_MPS (2.39) on other files.
+    The setting; else 0 with a truth file (its own winds are the error),
+    1 on ERA5, REAL_FILE_NOISE_RMS_MPS / BLE_NOISE_RMS_MPS (2.39) on other
+    files.
   """
   scale = check_scale(setting)
   if scale is not None:
     return scale
+  if two_source:
+    return 0.0
   if source in BLE_NOISE_SOURCES:
     return 1.0
   return REAL_FILE_NOISE_RMS_MPS / BLE_NOISE_RMS_MPS
@@ -78,3 +84,46 @@ def describe(scale: float) -> str:
   """E.g. 'truth = file + 2.39 x BLE noise (2.5 m/s rms per component)'."""
   return (f'truth = file + {scale:.3g} x BLE noise '
           f'({scale * BLE_NOISE_RMS_MPS:.2g} m/s rms per component)')
+
+
+def truth_on_forecast_grid(forecast: Any, truth: Any) -> np.ndarray:
+  """A second file's winds as the truth, on the forecast file's grid.
+
+  The two-source mode (`Era5WindField.truth_path`): the agents see the
+  forecast (e.g. a forecast run's lead times), the balloon flies in the
+  truth (e.g. analyses at the same valid times), each read by `era5.load`.
+  The truth is interpolated multi-linearly (`Era5Data.interpolate`) at every
+  node of the forecast's grid (its times, levels, latitudes, longitudes), so
+  the device grid interpolates both alike.
+
+  Args:
+    forecast: The forecast's `era5.Era5Data`.
+    truth: The truth's `era5.Era5Data`.
+
+  Returns:
+    [time, pressure, lat, lon, 2] the truth's (u, v), float32. # [m/s]
+
+  Raises:
+    errors.ConfigError: a truth that does not hold the forecast's valid
+      times or area (one line naming both files).
+  """
+  def label(data):
+    return f'{data.description}: {list(data.paths)}'
+  first, last = forecast.times[0], forecast.times[-1]
+  if not (truth.times[0] <= first and last <= truth.times[-1]):
+    raise errors.ConfigError(
+        f'Era5WindField.truth_path: the truth ({label(truth)}, '
+        f'{truth.times[0]}..{truth.times[-1]}) does not hold the forecast\'s '
+        f'valid times {first}..{last} ({label(forecast)})')
+  corners = [(lat, lon) for lat in forecast.latitude[[0, -1]]
+             for lon in forecast.longitude[[0, -1]]]
+  outside = [c for c in corners if not truth.covers(*c)]
+  if outside:
+    raise errors.ConfigError(
+        f'Era5WindField.truth_path: the truth ({label(truth)}) does not cover '
+        f'the forecast\'s area at (lat, lon) {outside[0]} '
+        f'({label(forecast)})')
+  time_s = (forecast.times - truth.times[0]) / np.timedelta64(1, 's')
+  tt, pp, la, lo = np.meshgrid(time_s, forecast.pressure, forecast.latitude,
+                               forecast.longitude, indexing='ij')
+  return truth.interpolate(tt, pp, la, lo).astype(np.float32)
