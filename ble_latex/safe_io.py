@@ -45,6 +45,63 @@ _LOCK_POLL_S = 0.5  # [s] Between tries while waiting for a lock.
 _HELD_LOCKS: Dict[int, int] = {}
 
 
+# A policy is ~1 MB (an ensemble member too); a policy file above this is
+# refused before it is read. Checkpoints (replay buffers) are bounded by the
+# memory available instead. # [B]
+MAX_POLICY_BYTES = 256 * 2**20
+
+
+def available_memory_bytes() -> int:
+  """Memory available to a new allocation now (MemAvailable). # [B]
+
+  Linux's /proc/meminfo MemAvailable; elsewhere the free pages, else the
+  physical memory.
+  """
+  try:
+    with open('/proc/meminfo', encoding='ascii') as f:
+      for line in f:
+        if line.startswith('MemAvailable:'):
+          return int(line.split()[1]) * 1024
+  except (OSError, ValueError, IndexError):
+    pass
+  page = os.sysconf('SC_PAGE_SIZE')
+  try:
+    return page * os.sysconf('SC_AVPHYS_PAGES')
+  except (ValueError, OSError):
+    return page * os.sysconf('SC_PHYS_PAGES')
+
+
+def check_file_size(path: str, what: str,
+                    max_bytes: Optional[int] = None) -> int:
+  """A regular file's size, refused above `max_bytes` before it is read.
+
+  Args:
+    path: The file.
+    what: What it is, for the message (e.g. 'SAC policy').
+    max_bytes: The most bytes; None: the memory available now
+      (`available_memory_bytes`). # [B]
+
+  Returns:
+    The size. # [B]
+
+  Raises:
+    errors.BadFileError: Not a regular file (a FIFO, a device), or too big;
+      one line naming `path`.
+  """
+  import stat  # pylint: disable=g-import-not-at-top
+  info = os.stat(path)
+  if not stat.S_ISREG(info.st_mode):
+    raise errors.BadFileError(f'{what} {path} is not a regular file')
+  limit = available_memory_bytes() if max_bytes is None else int(max_bytes)
+  if info.st_size > limit:
+    where = ('the memory available now' if max_bytes is None else
+             f'the most a {what} may be')
+    raise errors.BadFileError(
+        f'{what} {path} is {info.st_size / 2**20:,.1f} MiB, more than '
+        f'{where} ({limit / 2**20:,.1f} MiB); not read')
+  return info.st_size
+
+
 class UntrustedFileError(errors.BadFileError):
   """A pickle file was given without the explicit opt-in to trust it."""
 
@@ -256,13 +313,16 @@ def write_tree(path: str, tree: dict, *, file_format: str) -> None:
   atomic_write(path, serialization.msgpack_serialize(tree))
 
 
-def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
+def read_tree(path: str, *, file_format: str, what: str = 'file',
+              max_bytes: Optional[int] = None) -> dict:
   """Reads a `write_tree` file; decodes data only (no code can run).
 
   Args:
     path: File to read.
     file_format: The format tag the file must carry.
     what: What the file is, for error messages (e.g. 'SAC checkpoint').
+    max_bytes: The largest file read (`check_file_size`; None: the memory
+      available now). # [B]
 
   Returns:
     The tree (dict), including `FORMAT_KEY`. Arrays are read-only views of
@@ -271,13 +331,15 @@ def read_tree(path: str, *, file_format: str, what: str = 'file') -> dict:
   Raises:
     FileNotFoundError: If `path` does not exist.
     errors.BadFileError (a ValueError): If `path` is a directory, not a
-      msgpack file, truncated or corrupt, or carries another format tag; the
-      message names `path`.
+      msgpack file, truncated or corrupt, carries another format tag, or is
+      not a regular file or bigger than `max_bytes`; the message names
+      `path`.
   """
   if os.path.isdir(path):
     raise errors.BadFileError(f'{what} {path} is a directory, not a file')
   if not os.path.exists(path):
     raise FileNotFoundError(f'no {what} at {path}')
+  check_file_size(path, what, max_bytes)  # Before a byte is read.
   with open(path, 'rb') as f:
     data = f.read()
   if data[:1] == b'\x80' and data[1:2] in (b'\x02', b'\x03', b'\x04',
@@ -452,6 +514,7 @@ def read_legacy_pickle(path: str, *, trust: bool, what: str = 'file') -> Any:
     raise errors.BadFileError(f'{what} {path} is a directory, not a file')
   if not os.path.exists(path):
     raise FileNotFoundError(f'no {what} at {path}')
+  check_file_size(path, what)
   try:
     with open(path, 'rb') as f:
       return _DataOnlyUnpickler(f).load()

@@ -172,3 +172,42 @@ def test_launch_search_output_folder_checked_first(tmp_path, capsys,
   blocker.write_text('x')
   assert script.main([f'--output={blocker / "ls.json"}', '--seeds=0']) == 1
   assert '--output' in _one_line(capsys, 'launch_search')
+
+
+# -- Item 15: policy and checkpoint files are size-bounded before reading. ---
+def test_a_huge_policy_is_refused_before_it_is_read(tmp_path):
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  path = tmp_path / 'huge.msgpack'
+  with open(path, 'wb') as f:
+    f.truncate(2**30)  # Sparse: 1 GiB on no disk.
+  with pytest.raises(errors.BadFileError, match='more than the most a SAC'):
+    pretrained.load_policy(str(path))
+
+
+def test_a_huge_checkpoint_is_refused_before_it_is_read(tmp_path, capsys):
+  from ble_latex.cli import export_policy  # pylint: disable=g-import-not-at-top
+  path = tmp_path / 'checkpoint_00001.msgpack'
+  with open(path, 'wb') as f:
+    f.truncate(2**43)  # Sparse: 8 TiB, more than any memory here.
+  out = tmp_path / 'p.msgpack'
+  assert export_policy.main([f'--checkpoint={path}', f'--output={out}']) == 1
+  assert 'memory available' in _one_line(capsys, 'ble-latex-export-policy')
+  assert not out.exists()
+
+
+def test_a_fifo_is_not_read_as_a_policy(tmp_path):
+  from ble_latex import safe_io  # pylint: disable=g-import-not-at-top
+  path = tmp_path / 'fifo.msgpack'
+  import os  # pylint: disable=g-import-not-at-top
+  os.mkfifo(path)
+  with pytest.raises(errors.BadFileError, match='not a regular file'):
+    safe_io.read_tree(str(path), file_format='x', what='SAC policy')
+
+
+def test_the_wind_memory_guard_uses_available_memory(monkeypatch):
+  from ble_latex import safe_io  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5_checks  # pylint: disable=g-import-not-at-top
+  monkeypatch.setattr(safe_io, 'available_memory_bytes', lambda: 10**6)
+  assert era5_checks.memory_bytes() == 10**6
+  with pytest.raises(errors.BadFileError, match='available now'):
+    era5_checks.check_size('f.nc', (10, 10, 10, 1000))

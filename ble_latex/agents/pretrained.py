@@ -221,7 +221,8 @@ def load_policy(path: str, trust_legacy_pickle: bool = False
     policy = dict(policy, format=POLICY_FORMAT)
   else:
     policy = safe_io.read_tree(path, file_format=POLICY_FORMAT,
-                               what='SAC policy')
+                               what='SAC policy',
+                               max_bytes=safe_io.MAX_POLICY_BYTES)
   missing = [k for k in (*_KEPT, *_TEXT) if k not in policy]
   if missing:
     raise errors.BadFileError(f'SAC policy {path} misses {missing}')

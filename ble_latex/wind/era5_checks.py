@@ -41,6 +41,7 @@ if TYPE_CHECKING:  # xarray loads when a file is read (~2 s).
   import xarray as xr  # pylint: disable=g-bad-import-order
 
 from ble_latex import errors
+from ble_latex import safe_io
 
 # `units` attributes of the pressure coordinate, and their factor to Pa.
 PRESSURE_UNITS = {'pa': 1.0, 'hpa': 100.0, 'mbar': 100.0, 'millibars': 100.0,
@@ -465,8 +466,9 @@ READ_BYTES_PER_VALUE = 4 * 8
 
 
 def memory_bytes() -> int:
-  """This machine's physical memory. # [B]"""
-  return os.sysconf('SC_PAGE_SIZE') * os.sysconf('SC_PHYS_PAGES')
+  """The memory available now (not the physical: other processes hold
+  some). # [B]"""
+  return safe_io.available_memory_bytes()
 
 
 def check_size(path: str, shape: Sequence[int], *,
@@ -489,7 +491,7 @@ def check_size(path: str, shape: Sequence[int], *,
     raise errors.BadFileError(
         f'{label} file {path} declares winds of shape {tuple(shape)} '
         f'({values:,} values): reading them needs {need / 2**30:,.1f} '
-        f'GiB, more than this machine\'s {have / 2**30:,.1f} GiB (cut the '
+        f'GiB, more than the {have / 2**30:,.1f} GiB available now (cut the '
         'area or period)')
 
 
