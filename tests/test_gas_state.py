@@ -205,3 +205,46 @@ def test_bad_gas_bindings_name_their_binding(bindings, match):
       params_lib.flight_params_from_gin()
   finally:
     gin.clear_config()
+
+
+# -- Physical ranges of the flight parameters (issue 67, items 5 and 6) -----
+
+
+@pytest.mark.parametrize('binding, match', [
+    ('create_state.drag_coefficient_subcritical = 3e38',
+     'drag_coefficient_subcritical'),
+    ('LatexBalloon.lift_walk_kg_per_sqrt_s = 3e38', 'lift_walk_kg_per_sqrt_s'),
+    ('LatexBalloon.cooling_night_k = 250.0', 'cooling_night_k'),
+    ('create_state.payload_kg = 1e-46', 'payload_kg'),
+    ('create_state.burst_weibull_scale_m = 1e-40', 'burst_weibull_scale_m'),
+    ('LatexBalloon.valve_flow_mols_per_s = 1e-46', 'valve_flow_mols_per_s'),
+    ('create_state.drag_coefficient = 1e30', 'drag_coefficient'),
+])
+def test_physically_absurd_values_are_refused_where_bound(binding, match):
+  from ble_latex import configs  # pylint: disable=import-outside-toplevel
+  gin.clear_config()
+  try:
+    gin.parse_config_files_and_bindings(
+        [configs.gin_file('latex_physics.gin'),
+         configs.gin_file('latex_realistic.gin')], [binding])
+    with pytest.raises(errors.ConfigError, match=match) as raised:
+      params_lib.flight_params_from_gin()
+    assert '\n' not in str(raised.value)
+  finally:
+    gin.clear_config()
+
+
+def test_every_numeric_flight_value_has_a_physical_range():
+  # The presets sit inside their ranges; every float field but the clock,
+  # the band and the sun window (checked against each other) has one.
+  for preset in (params_lib.FlightParams(), REALISTIC):
+    for field, (low, high, _) in params_lib.PHYSICAL_RANGES.items():
+      assert low <= getattr(preset, field) <= high, field
+  floats = {f for f, v in vars(params_lib.FlightParams()).items()
+            if isinstance(v, float)}
+  related = {'band_low_m', 'band_high_m', 'stride_s', 'actuation_chunk_s',
+             'valve_flow_mols_per_s', 'ballast_rate_kg_per_s',
+             'sun_elevation_night_deg', 'sun_elevation_day_deg',
+             'latitude_deg', 'longitude_deg', 'start_day_j2000',
+             'start_second_of_day', 'max_substep_s', 'vertical_step_s'}
+  assert floats - related == set(params_lib.PHYSICAL_RANGES)

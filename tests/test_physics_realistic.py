@@ -100,11 +100,11 @@ def test_keys_are_required_where_something_is_drawn():
 
 
 def test_solar_clock_of_a_date():
-  day, second = params_lib.solar_clock('2022-11-01T06:30:00', 'x')
+  day, second = solar.solar_clock('2022-11-01T06:30:00', 'x')
   assert day == 8339.5 and second == 6.5 * 3600
   aware = dt.datetime(2022, 11, 1, 7, 30, tzinfo=dt.timezone(
       dt.timedelta(hours=1)))
-  assert params_lib.solar_clock(aware, 'x') == (day, second)
+  assert solar.solar_clock(aware, 'x') == (day, second)
 
 
 # -- Equations against their sources ----------------------------------------
@@ -158,7 +158,7 @@ def test_sun_elevation_matches_bles_solar_calculator():
   import s2sphere as s2
   # pylint: enable=g-import-not-at-top
   start = dt.datetime(2022, 11, 1, 3, 0, tzinfo=dt.timezone.utc)
-  day, second = params_lib.solar_clock(start, 'x')
+  day, second = solar.solar_clock(start, 'x')
   times = np.arange(0.0, 2 * 86_400.0, 2_700.0, dtype=np.float32)
   for lat, lng in ((1.0, -113.0), (37.4, -122.2), (-60.0, 45.0)):
     ours = np.asarray(solar.sun_elevation_deg(day, second, times, lat, lng))

@@ -20,6 +20,7 @@ from ble_latex.envs import jax_features
 from ble_latex.envs import task
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import params as flight_params_lib
+from ble_latex.flight import solar
 from ble_latex.flight import state as state_lib
 from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
@@ -34,7 +35,7 @@ START_EPOCH = dt.datetime(2011, 1, 1, tzinfo=dt.timezone.utc)
 # step count) is folded in with this, so the paper's draws stay as they were.
 _WALK_KEY_DATA = 28_002
 # START_EPOCH's day for the sun's clock (`FlightParams.start_day_j2000`).
-_EPOCH_DAY_J2000 = flight_params_lib.solar_clock(START_EPOCH, 'START_EPOCH')[0]
+_EPOCH_DAY_J2000 = solar.solar_clock(START_EPOCH, 'START_EPOCH')[0]
 
 
 @flax.struct.dataclass

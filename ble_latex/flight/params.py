@@ -17,12 +17,13 @@ the jit cache key.
 import dataclasses
 import datetime as dt
 import inspect
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, Optional
 
 from flax import struct
 import gin
 
 from ble_latex import gin_values
+from ble_latex.flight import solar
 
 
 @struct.dataclass
@@ -213,41 +214,42 @@ DEFAULTS = FlightParams()
 
 # `FlightParams.drag_model` values.
 DRAG_MODELS = ('constant', 'two_regime', 'smooth')
-# J2000.0 (the epoch of `start_day_j2000`), 2000-01-01 12:00 UTC.
-J2000 = dt.datetime(2000, 1, 1, 12, tzinfo=dt.timezone.utc)
 # The default start of the sun's clock (`start_day_j2000` = 8339.5).
 DEFAULT_START_TIME = '2022-11-01T00:00:00'
 
-
-def solar_clock(start_time: Any, name: str) -> Tuple[float, float]:
-  """(start_day_j2000 [day], start_second_of_day [s]) of a UTC start time.
-
-  Args:
-    start_time: A `datetime.datetime` (naive = UTC) or an ISO 8601 string
-      ('2022-11-01T00:00:00').
-    name: What it is in the message.
-
-  Returns:
-    The Julian date of 0h UTC of the start day minus 2451545.0, and the
-    second of that day.
-
-  Raises:
-    ValueError: Naming `name` (not a date).
-  """
-  value = start_time
-  if isinstance(value, str):
-    try:
-      value = dt.datetime.fromisoformat(value)
-    except ValueError:
-      value = None
-  gin_values.require(isinstance(value, dt.datetime), name,
-                     "a UTC date, e.g. '2022-11-01T00:00:00'", start_time)
-  if value.tzinfo is None:
-    value = value.replace(tzinfo=dt.timezone.utc)
-  value = value.astimezone(dt.timezone.utc)
-  midnight = value.replace(hour=0, minute=0, second=0, microsecond=0)
-  return ((midnight - J2000).total_seconds() / 86400.0,
-          (value - midnight).total_seconds())
+# The physical range of each numeric flight parameter (issue 67: finite in
+# float32 is not enough; a value outside these is refused where it is bound,
+# naming its binding): (minimum, maximum, why), inclusive. # [field's unit]
+_DAYS_10 = 864_000.0  # [s]
+PHYSICAL_RANGES = {
+    'payload_kg': (0.05, 100.0, 'kg: a latex envelope alone weighs > 50 g'),
+    'initial_sand_kg': (0.0, 100.0, 'kg'),
+    'drag_coefficient': (0.01, 2.0, 'a sphere: 0.07-0.5'),
+    'burst_volume_m3': (0.01, 1.0e5, 'm^3: TA-1200 bursts at ~340'),
+    'min_vent_mols': (0.0, 1.0e3, 'mol'),
+    'min_drop_kg': (0.0, 10.0, 'kg'),
+    'drag_coefficient_subcritical': (0.01, 2.0, 'ASTRA: 0.425'),
+    'drag_coefficient_supercritical': (0.01, 2.0, 'ASTRA: 0.225'),
+    'reynolds_transition': (1.0e3, 1.0e8, 'ASTRA: 3.3e5'),
+    'reynolds_band': (0.0, 1.0e8, 'ASTRA: 3.6e4'),
+    'burst_weibull_scale_m': (0.1, 100.0, 'm: TA-1200 9.7'),
+    'burst_weibull_shape': (0.5, 1000.0, 'TA-1200 14.4'),
+    'superheat_day_k': (0.0, 60.0, 'kelvin: the calibrated 8.1'),
+    'cooling_night_k': (0.0, 60.0, 'kelvin: the calibrated 3.3; more would '
+                        'take the gas toward 0 K'),
+    'lift_walk_kg_per_sqrt_s': (0.0, 0.05, 'kg/sqrt(s): 35x ValBal\'s '
+                                '1.4e-3 stress value'),
+    'lift_walk_calm_kg_per_sqrt_s': (0.0, 0.05, 'kg/sqrt(s)'),
+    'lift_walk_time_constant_s': (0.0, _DAYS_10, 'seconds, <= 10 days'),
+    'gas_thermal_lag_s': (0.0, _DAYS_10, 'seconds, <= 10 days'),
+    'lift_walk_calm_mean_s': (1.0, _DAYS_10, 'seconds, 1 s to 10 days'),
+    'lift_walk_gusty_mean_s': (1.0, _DAYS_10, 'seconds, 1 s to 10 days'),
+    'overpressure_pa': (0.0, 4999.0, 'latex holds ~150 Pa; more would burst '
+                        'it'),
+    # More than ~30 K would be a day-night swing of its own (11.4 K).
+    'heating_noise_k': (0.0, 30.0, 'kelvin, <= 30'),
+    'heating_noise_time_s': (1.0, _DAYS_10, 'seconds, 1 s to 10 days'),
+}
 
 # Shortest duration of a stride, sub-step, vertical step or release chunk:
 # shorter ones only multiply the work (a 20-minute stride in 1 s sub-steps is
@@ -299,10 +301,9 @@ def check_flight_params(params: FlightParams) -> None:
       inconsistent value).
   """
   p = params
-  for field in ('payload_kg', 'drag_coefficient', 'burst_volume_m3'):
-    gin_values.check_number(binding(field), getattr(p, field), above=0.0)
-  for field in ('initial_sand_kg', 'min_vent_mols', 'min_drop_kg'):
-    gin_values.check_number(binding(field), getattr(p, field), minimum=0.0)
+  for field, (low, high, why) in PHYSICAL_RANGES.items():
+    gin_values.check_number(binding(field), getattr(p, field), minimum=low,
+                            maximum=high, why=f' ({why})')
   if p.initial_helium_mols is not None:
     gin_values.check_number(binding('initial_helium_mols'),
                             p.initial_helium_mols, above=0.0,
@@ -315,32 +316,14 @@ def check_flight_params(params: FlightParams) -> None:
                       ('ballast_rate_kg_per_s', 'finite_ballast')):
     gin_values.check_bool(f'FlightParams.{flag}', getattr(p, flag))
     if getattr(p, flag):
-      gin_values.check_number(binding(field), getattr(p, field), above=0.0,
-                              why=' (or None: instantaneous)')
+      gin_values.check_number(binding(field), getattr(p, field),
+                            minimum=1e-7, maximum=1e3,
+                            why=' (or None: instantaneous)')
   gin_values.check_bool(binding('guard_within_stride'),
                         p.guard_within_stride)
   gin_values.require(p.drag_model in DRAG_MODELS, binding('drag_model'),
                      f'one of {", ".join(map(repr, DRAG_MODELS))}',
                      p.drag_model)
-  for field in ('drag_coefficient_subcritical',
-                'drag_coefficient_supercritical', 'reynolds_transition',
-                'burst_weibull_scale_m', 'burst_weibull_shape'):
-    gin_values.check_number(binding(field), getattr(p, field), above=0.0)
-  for field in ('reynolds_band', 'superheat_day_k', 'cooling_night_k',
-                'lift_walk_kg_per_sqrt_s', 'overpressure_pa'):
-    gin_values.check_number(binding(field), getattr(p, field), minimum=0.0)
-  for field in ('lift_walk_time_constant_s', 'gas_thermal_lag_s'):
-    gin_values.check_number(binding(field), getattr(p, field), minimum=0.0,
-                            maximum=864_000.0, why=' (seconds, <= 10 days)')
-  gin_values.check_number(binding('lift_walk_calm_kg_per_sqrt_s'),
-                          p.lift_walk_calm_kg_per_sqrt_s, minimum=0.0)
-  for field in ('lift_walk_calm_mean_s', 'lift_walk_gusty_mean_s'):
-    gin_values.check_number(binding(field), getattr(p, field),
-                            minimum=MIN_DURATION_S, maximum=864_000.0,
-                            why=' (seconds, 1 s to 10 days)')
-  gin_values.check_number(binding('overpressure_pa'), p.overpressure_pa,
-                          below=5000.0,
-                          why=' (latex holds ~150 Pa; more would burst it)')
   night = gin_values.check_number(binding('sun_elevation_night_deg'),
                                   p.sun_elevation_night_deg, minimum=-90.0)
   gin_values.check_number(
@@ -358,13 +341,6 @@ def check_flight_params(params: FlightParams) -> None:
                'lift_walk_intermittent', 'burst_spread', 'heating_noise'):
     gin_values.check_bool(f'FlightParams.{flag}', getattr(p, flag))
   gin_values.check_bool(binding('gas_state'), p.gas_state)
-  # A heating change of more than ~30 K would be a day-night swing of its own
-  # (docs/physics.md: the swing is 11.4 K). # [K]
-  gin_values.check_number(binding('heating_noise_k'), p.heating_noise_k,
-                          minimum=0.0, maximum=30.0, why=' (kelvin, <= 30)')
-  gin_values.check_number(binding('heating_noise_time_s'),
-                          p.heating_noise_time_s, minimum=MIN_DURATION_S,
-                          maximum=864_000.0, why=' (seconds, 1 s to 10 days)')
   gin_values.require(
       p.gas_state or not p.heating_noise, binding('heating_noise_k'),
       f'None unless {gin_name("gas_state")} is True (the disturbance heats '
@@ -447,7 +423,8 @@ def make_flight_params(
   def duration(value: Any, field: str) -> Any:
     return seconds(value, binding(field))
 
-  start_day, start_second = solar_clock(start_time, binding('start_day_j2000'))
+  start_day, start_second = solar.solar_clock(
+      start_time, binding('start_day_j2000'))
   raw = FlightParams(
       payload_kg=payload_kg,
       initial_sand_kg=sand_kg,

@@ -15,8 +15,13 @@ only near the horizon; the gas-temperature model spreads the sunset over
 checks the elevation against BLE's `solar_calculator` (< 0.7 deg).
 """
 
+import datetime as dt
+from typing import Any, Tuple
+
 import jax
 import jax.numpy as jnp
+
+from ble_latex import gin_values
 
 Array = jax.Array
 
@@ -89,3 +94,38 @@ def sun_elevation_deg(start_day_j2000: Array, start_second_of_day: Array,
   cos_zenith = (jnp.sin(lat) * jnp.sin(declination) +
                 jnp.cos(lat) * jnp.cos(declination) * jnp.cos(hour_angle))
   return 90.0 - jnp.degrees(jnp.arccos(jnp.clip(cos_zenith, -1.0, 1.0)))
+
+
+# J2000.0 (the epoch of `start_day_j2000`), 2000-01-01 12:00 UTC.
+J2000 = dt.datetime(2000, 1, 1, 12, tzinfo=dt.timezone.utc)
+
+
+def solar_clock(start_time: Any, name: str) -> Tuple[float, float]:
+  """(start_day_j2000 [day], start_second_of_day [s]) of a UTC start time.
+
+  Args:
+    start_time: A `datetime.datetime` (naive = UTC) or an ISO 8601 string
+      ('2022-11-01T00:00:00').
+    name: What it is in the message.
+
+  Returns:
+    The Julian date of 0h UTC of the start day minus 2451545.0, and the
+    second of that day.
+
+  Raises:
+    ValueError: Naming `name` (not a date).
+  """
+  value = start_time
+  if isinstance(value, str):
+    try:
+      value = dt.datetime.fromisoformat(value)
+    except ValueError:
+      value = None
+  gin_values.require(isinstance(value, dt.datetime), name,
+                     "a UTC date, e.g. '2022-11-01T00:00:00'", start_time)
+  if value.tzinfo is None:
+    value = value.replace(tzinfo=dt.timezone.utc)
+  value = value.astimezone(dt.timezone.utc)
+  midnight = value.replace(hour=0, minute=0, second=0, microsecond=0)
+  return ((midnight - J2000).total_seconds() / 86400.0,
+          (value - midnight).total_seconds())
