@@ -38,6 +38,7 @@ with quiet.third_party_noise():
   from ble_latex import gin_values
   from ble_latex.envs import env_types
   from ble_latex.envs import gymnasium_compile as compile_lib
+  from ble_latex.envs import jax_env
   # pylint: enable=g-import-not-at-top
 
 # The vector env resets a few ended balloons in one padded call (N > this);
@@ -49,10 +50,17 @@ _GROUP_COLUMNS = ('status', 'decision', 'truncated', 'time_limit', 'time_s')
 
 
 def check_num_envs(num_envs: Any) -> int:
-  """`num_envs` as an int; ValueError unless it is an int >= 1."""
+  """`num_envs` as an int; ValueError unless it is an int in [1, N_max].
+
+  N_max is the functional rollout's `jax_env.MAX_ROLLOUT_BALLOONS` (65 536),
+  checked before any balloon, space or env is allocated.
+  """
+  most = jax_env.MAX_ROLLOUT_BALLOONS
   if (isinstance(num_envs, (bool, np.bool_)) or
-      not isinstance(num_envs, (int, np.integer)) or num_envs < 1):
-    raise ValueError(f'num_envs must be an int >= 1, got {num_envs!r}')
+      not isinstance(num_envs, (int, np.integer)) or
+      not 1 <= num_envs <= most):
+    raise ValueError(f'num_envs must be an int in [1, {most}], got '
+                     f'{num_envs!r}')
   return int(num_envs)
 
 
