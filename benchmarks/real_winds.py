@@ -186,10 +186,20 @@ def station_settings(name: str, path: str, mode: str,
 
 
 def settings(name: str, agent: str, path: str) -> Dict[str, Any]:
-  """What a cell's records depend on (a resume must match all of it)."""
+  """What a cell's records depend on (a resume must match all of it).
+
+  The truth's noise scale too (`wind.forecast_error`, the file's default):
+  cells flown before it was recorded (at scale 1) are refused on resume.
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5
+  from ble_latex.wind import forecast_error
+  # pylint: enable=g-import-not-at-top
+  scale = forecast_error.noise_scale(None, era5.load(path).source)
   return {'source': name, 'file': os.path.relpath(path, FLAGS.realdata_dir),
           'agent': agent, 'suite': FLAGS.suite,
           'max_steps': FLAGS.max_episode_length,
+          'noise_scale': round(scale, 4),
           **station_settings(name, path, FLAGS.station_mode,
                              FLAGS.station_bindings)}
 

@@ -171,3 +171,37 @@ def test_two_sources_refuse_a_truth_that_misses_the_forecast(tmp_path):
   with pytest.raises(errors.ConfigError, match="does not cover"):
     era5_jax.grid_from_settings(era5.Era5Settings(
         path=forecast_path, truth_path=small, episode_hours=6.0))
+
+
+def test_real_winds_cells_record_the_noise_scale(benchmark_script, tmp_path,
+                                                 monkeypatch, capsys):
+  """benchmarks/real_winds.py: a cell records its truth's noise scale, and a
+  cell flown before (no scale recorded: BLE's noise at scale 1) is refused
+  on resume instead of merging flights of two noise sizes."""
+  import json  # pylint: disable=g-import-not-at-top
+  import os  # pylint: disable=g-import-not-at-top
+  import shutil  # pylint: disable=g-import-not-at-top
+  real_winds = benchmark_script('real_winds.py')
+  realdata = tmp_path / 'realdata'
+  (realdata / 'soundings').mkdir(parents=True)
+  shutil.copy(HILO, realdata / 'soundings' / os.path.basename(HILO))
+  flights = lambda seeds: [{'seed': s, 'tw50': 0.5, 'tw50_window': 0.5,
+                            'window_steps': 3, 'reward': 1.0, 'steps': 3,
+                            'helium_vented_mols': 0.0, 'sand_dropped_kg': 0.0,
+                            'terminal_reason': 'time_limit',
+                            'final_distance_km': 1.0} for s in seeds]
+  monkeypatch.setattr(real_winds, 'fly_cell', lambda cell, path, seeds: (
+      flights(seeds), 'sounding (time-invariant)', True, 0.1))
+  record = tmp_path / 'r.json'
+  argv = [f'--json={record}', f'--realdata_dir={realdata}', '--sources=hilo',
+          '--agents=latex_random', '--seeds=2']
+  assert real_winds.main(argv) == 0
+  key = 'hilo/latex_random/center'
+  cells = json.loads(record.read_text())
+  assert cells['cells'][key]['settings']['noise_scale'] == pytest.approx(
+      2.3923)
+  del cells['cells'][key]['settings']['noise_scale']  # As flown before.
+  record.write_text(json.dumps(cells))
+  capsys.readouterr()
+  assert real_winds.main(argv[:-1] + ['--seeds=3']) == 2
+  assert 'other settings (noise_scale)' in capsys.readouterr().err
