@@ -126,7 +126,7 @@ def test_plot_command_writes_map_json_and_hodographs(tmp_path):
       'inside']
 
 
-def test_plot_command_usage_errors(capsys):
+def test_plot_command_usage_errors(tmp_path, capsys):
   from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
   assert plot.main(['--feasibility',
                     '--output_dir=/tmp/x']) == 2
@@ -134,6 +134,11 @@ def test_plot_command_usage_errors(capsys):
   assert plot.main(['--feasibility', f'--wind_file={GRIB}',
                     '--feasibility_sites=20', '--output_dir=/tmp/x']) == 2
   assert 'LAT:LON' in capsys.readouterr().err
+  out = tmp_path / 'outside'
+  assert plot.main(['--feasibility', f'--wind_file={GRIB}',
+                    '--feasibility_sites=95:0', f'--output_dir={out}']) == 2
+  assert 'outside' in capsys.readouterr().err
+  assert not out.exists() or not os.listdir(out)  # Nothing written.
 
 
 def test_launch_keeps_feasible_stations_only():

@@ -180,6 +180,10 @@ def write(path: str, output_dir: str,
                   band_m=list(reach.flight_band_m()))
     record['outputs'].append(out)
   else:
+    outside = [site for site in sites if not data.covers(*site)]
+    if outside:  # Before anything is written.
+      raise errors.ConfigError(f'--feasibility_sites: {outside[0][0]:g}, '
+                               f'{outside[0][1]:g} is outside {path}')
     fmap = feasibility.grid_map(data, time_index)
     out = os.path.join(output_dir, MAP_PNG)
     note = plot_map(fmap, out, f'{os.path.basename(str(path))} '
@@ -192,9 +196,6 @@ def write(path: str, output_dir: str,
                   weakest_mps=fmap.weakest_mps.round(3).tolist(), sites=[])
     record['outputs'].append(out)
     for lat, lon in sites:
-      if not data.covers(lat, lon):
-        raise errors.ConfigError(f'--feasibility_sites: {lat:g}, {lon:g} is '
-                                 f'outside {path}')
       col, winds = feasibility.at(data, lat, lon,
                                   time_s=float(data.time_s[time_index]))
       levels = np.concatenate([[fmap.band_pa[0]], data.pressure[
