@@ -85,7 +85,7 @@ def measure(before: bool, flights: int, days: float) -> dict:
   details['plant_valbal'] = plant
   rows.append(_row('plant constant, ValBal preset at 13.5 km [m/s per g]',
                    plant['mps_per_g'], targets['plant_valbal_mps_per_g']))
-  calm = calibration.calm_probability(valbal, flights=4 * flights)
+  calm = calibration.calm_probability(valbal, flights=32 * flights)
   details['calm'] = calm
   rows.append(_row('calm probability, ValBal preset (2 h, |dh| <= 100 m)',
                    calm['probability'], targets['calm_probability']))
@@ -132,7 +132,7 @@ def table(rows) -> str:
 def main(argv=None) -> int:
   parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
   parser.add_argument('--flights', type=int, default=16,
-                      help='deadband flights per row (calm: 4x)')
+                      help='deadband flights per row (calm: 32x)')
   parser.add_argument('--days', type=float, default=7.0)
   parser.add_argument('--plant', choices=('now', 'before'), default='now')
   parser.add_argument('--json', default='',
