@@ -105,6 +105,44 @@ flags.DEFINE_list('both_seeds', [], '--sweep: those of '
                   flag_values=FLAGS)
 
 
+# Critic candidates scored in one compiled call: balloons x members x
+# (1 + samples); bounded before anything is compiled (1e9 samples asked 4 TB).
+MAX_CANDIDATES = 2**20
+
+
+def check_sizes(batch: int, samples: int, num_seeds: int) -> None:
+  """--batch, --samples and --num_seeds bounded before anything compiles.
+
+  Raises:
+    Refused: One line naming the flag (exit 2).
+  """
+  most = jax_env.MAX_ROLLOUT_BALLOONS
+  if not 1 <= batch <= most:
+    raise Refused(f'--batch must be in [1, {most}] balloons per compiled '
+                  f'call, got {batch}')
+  if num_seeds < 1:
+    raise Refused(f'--num_seeds must be >= 1, got {num_seeds}')
+  per_sample = batch * ensemble.MAX_MEMBERS
+  if samples < 0 or per_sample * (1 + samples) > MAX_CANDIDATES:
+    raise Refused(
+        f'--samples must be in [0, {MAX_CANDIDATES // per_sample - 1}] with '
+        f'--batch={batch} (--batch x up to {ensemble.MAX_MEMBERS} members x '
+        f'(1 + samples) <= {MAX_CANDIDATES} candidates per call), got '
+        f'{samples}')
+
+
+def check_folder(path: str, flag: str) -> None:
+  """The record's folder exists and is writable, before anything is flown.
+
+  Raises:
+    OSError: One line naming `flag` (exit 1).
+  """
+  folder = os.path.dirname(os.path.abspath(path))
+  if not os.path.isdir(folder) or not os.access(folder, os.W_OK | os.X_OK):
+    raise OSError(f'{flag}: the folder {folder} does not exist or is not '
+                  'writable')
+
+
 def decider(mode: str, samples: int, net: Any, members: Any,
             score: str = 'mean'):
   """obs [N, F], key -> normalised actions [N, 3] (`ensemble`'s functions)."""
@@ -429,12 +467,17 @@ def main(argv: Sequence[str]) -> int:
     return 2
   try:
     if FLAGS.sweep:
+      check_sizes(FLAGS.batch, 0, 1)
+      check_folder(FLAGS.sweep, '--sweep')
       return sweep(FLAGS.sweep, [int(s) for s in FLAGS.drift_seeds],
                    FLAGS.batch, [int(s) for s in FLAGS.memory_seeds],
                    [int(s) for s in FLAGS.both_seeds])
     if not FLAGS.policy:
       print('policy_select: give at least one --policy', file=sys.stderr)
       return 2
+    check_sizes(FLAGS.batch, FLAGS.samples, FLAGS.num_seeds)
+    if FLAGS.output:
+      check_folder(FLAGS.output, '--output')
     if (FLAGS.mode == 'lookahead' and
         not 1 <= FLAGS.horizon <= ensemble.MAX_LOOKAHEAD):
       print(f'policy_select: --horizon must be 1 to {ensemble.MAX_LOOKAHEAD} '

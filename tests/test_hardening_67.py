@@ -223,3 +223,45 @@ def test_make_vec_caps_num_envs_before_allocating(kwargs, num_envs):
                      r'65536\]'):
     gymnasium.make_vec('ble_latex/LatexBalloon-v0', num_envs=num_envs,
                        **kwargs)
+
+
+# -- Items 18, 23: benchmarks/policy_select.py sizes before compiling. ------
+@pytest.mark.parametrize('argv, needle', [
+    (['--samples=1000000000'], '--samples must be in [0, '),
+    (['--samples=-1'], '--samples must be in [0, '),
+    (['--batch=0'], '--batch must be in [1, 65536]'),
+    (['--batch=100000'], '--batch must be in [1, 65536]'),
+    (['--num_seeds=0'], '--num_seeds'),
+])
+def test_policy_select_sizes_are_checked_before_compiling(
+    argv, needle, tmp_path, capsys, benchmark_script):
+  script = benchmark_script('policy_select.py')
+  out = tmp_path / 'r.json'
+  assert script.main(['policy_select.py', '--policy=shipped',
+                      '--mode=critic', *argv, f'--output={out}']) == 2
+  assert needle in _one_line(capsys, 'policy_select')
+  assert not out.exists()
+
+
+def test_policy_select_output_folder_checked_first(tmp_path, capsys,
+                                                   benchmark_script):
+  script = benchmark_script('policy_select.py')
+  out = tmp_path / 'missing' / 'r.json'
+  assert script.main(['policy_select.py', '--policy=shipped',
+                      f'--output={out}']) == 1
+  assert '--output' in _one_line(capsys, 'policy_select')
+
+
+# -- Item 17: wind statistics' sample counts are bounded. -------------------
+@pytest.mark.parametrize('flag', ['--wind_stats_samples=2000000000',
+                                  '--wind_stats_fields=100000',
+                                  ])
+def test_wind_stats_sample_counts_are_bounded(flag, tmp_path, capsys):
+  import test_era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
+  era5_file = test_era5.write_era5(tmp_path / 'era5.nc')
+  out = tmp_path / 'plots'
+  assert plot.main([f'--output_dir={out}', '--wind_stats',
+                    f'--era5_path={era5_file}', '--wind_stats_points=1000',
+                    flag]) == 2
+  assert flag.split('=')[0] in _one_line(capsys, 'ble-latex-plot')

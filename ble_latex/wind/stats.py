@@ -68,6 +68,9 @@ RADIUS_KM = (50.0, 200.0)
 VAE_HORIZON_S = 48 * 3600.0  # [s] The VAE field's time grid.
 # Where a grid is sampled: around the centre of its area, or all of it.
 REGIONS = ('station', 'domain')
+# Samples (columns) one call may draw: a file's grid samples, or the VAE's
+# fields x points. Checked before anything is allocated (2e9 asked 15 GiB).
+MAX_SAMPLES = 1_000_000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -175,6 +178,11 @@ def sample_vae(key: jnp.ndarray, pressures_pa: Sequence[float], *,
   if num_fields < 1 or points_per_field < 1:
     raise ValueError(f'num_fields and points_per_field must be >= 1, got '
                      f'{num_fields}, {points_per_field}')
+  if num_fields * points_per_field > MAX_SAMPLES:
+    raise errors.ConfigError(
+        f'wind stats: {num_fields} VAE fields x {points_per_field} points = '
+        f'{num_fields * points_per_field} samples, more than {MAX_SAMPLES} '
+        '(--wind_stats_fields, --wind_stats_points)')
   check_levels(pressures_pa, BAND_PA[0], BAND_PA[1], "the VAE forecast's grid")
   params = generative.decoder_params() if params is None else params
   field_key, point_key = jax.random.split(key)
@@ -233,6 +241,10 @@ def sample_era5(path: Union[str, Sequence[str]],
   """
   if num_samples < 1:
     raise ValueError(f'num_samples must be >= 1, got {num_samples}')
+  if num_samples > MAX_SAMPLES:
+    raise errors.ConfigError(
+        f'wind stats: {num_samples} samples, more than {MAX_SAMPLES} '
+        '(--wind_stats_samples)')
   if region not in REGIONS:
     raise ValueError(f'region must be one of {REGIONS}, got {region!r}')
   data = era5.load(path)
