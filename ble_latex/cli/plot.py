@@ -554,9 +554,9 @@ def _check() -> None:
   if not FLAGS.wind_stats and (FLAGS.wind_file and not FLAGS.feasibility or any(
       FLAGS[name].present for name in FLAGS if
       name.startswith('wind_stats_'))):
-    raise cli.CommandUsageError('--wind_file (--era5_path) needs '
-                                '--wind_stats or --feasibility, and '
-                                '--wind_stats_* need --wind_stats')
+    raise cli.CommandUsageError('--wind_file (--era5_path) and '
+                                '--wind_stats_* need --wind_stats '
+                                '(--wind_file: or --feasibility)')
   cli.check_gin_files(FLAGS.gin_file)
 
 
