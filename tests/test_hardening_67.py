@@ -265,3 +265,16 @@ def test_wind_stats_sample_counts_are_bounded(flag, tmp_path, capsys):
                     f'--era5_path={era5_file}', '--wind_stats_points=1000',
                     flag]) == 2
   assert flag.split('=')[0] in _one_line(capsys, 'ble-latex-plot')
+
+
+# -- Item 22: ble-latex-download-era5's grid spacing is bounded. ------------
+@pytest.mark.parametrize('grid', ['1e-30', '0.001', '50'])
+def test_download_era5_grid_deg_out_of_range_is_refused(grid, capsys):
+  from ble_latex.cli import download_era5  # pylint: disable=g-import-not-at-top
+  assert download_era5.main(['--dry_run', f'--grid_deg={grid}']) == 2
+  assert 'grid_deg must be in [0.05, ' in capsys.readouterr().err
+
+
+def test_download_era5_paper_grid_is_accepted(capsys):
+  from ble_latex.cli import download_era5  # pylint: disable=g-import-not-at-top
+  assert download_era5.main(['--dry_run', '--grid_deg=0.25']) == 0

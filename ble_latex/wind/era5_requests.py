@@ -26,6 +26,10 @@ PAPER_GRID_DEG = 0.4  # [deg]
 PAPER_TIMES = ('00:00', '06:00', '12:00', '18:00')
 # Covers the 200 km start radius and the 500 km the balloon may drift.
 DEFAULT_HALF_WIDTH_DEG = 5.0  # [deg]
+# ERA5's native grid is 0.25 deg; CDS only interpolates finer, and a grid
+# finer than this asks for an area of (2 x half width / grid)^2 points that
+# no request can return. # [deg]
+MIN_GRID_DEG = 0.05
 
 
 def pressure_levels_hpa(min_hpa: float = PAPER_MIN_PRESSURE_HPA,
@@ -97,6 +101,11 @@ def build_requests(
   if not 0 < half_width_deg <= 90 or not grid_deg > 0:
     raise ValueError(f'half_width_deg must be in (0, 90] and grid_deg > 0, '
                      f'got {half_width_deg}, {grid_deg}')
+  if not MIN_GRID_DEG <= grid_deg <= 2 * half_width_deg:
+    raise ValueError(
+        f'grid_deg must be in [{MIN_GRID_DEG:g}, 2 x half_width_deg = '
+        f'{2 * half_width_deg:g}] deg (ERA5\'s native grid is 0.25 deg; at '
+        f'least two points across the area), got {grid_deg:g}')
   north = min(center_lat + half_width_deg, 90.0)
   south = max(center_lat - half_width_deg, -90.0)
   if north <= south:
