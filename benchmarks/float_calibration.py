@@ -21,6 +21,16 @@ sources of the ranges in `calibration.TARGETS`):
 
 `--plant=before` measures the same rows on the plant before issue 68 (gas
 temperature not a state, the 0.35 g/sqrt(s) random walk) for comparison.
+
+`--sweep=RMS:TAU,...` instead flies, for each heating disturbance (stationary
+rms [K] : correlation time [s]) on the ValBal preset, the calm probability
+(256 flights) and the band cost and days aloft of the 1 kg payload displacing
+ballast (8 flights, 7 days): the trade-off between the calm row and the cost
+rows (docs/physics.md):
+
+  python benchmarks/float_calibration.py \
+      --sweep=0.25:1800,0.25:600,1:1800,2:1800,3:1800,2:600 \
+      --json=benchmarks/float_calibration_sweep.json
 """
 
 import argparse
@@ -117,6 +127,37 @@ def measure(before: bool, flights: int, days: float) -> dict:
   return out
 
 
+def sweep(cells) -> list:
+  """Calm probability against band cost per heating disturbance."""
+  rows = []
+  for rms, tau in cells:
+    over = {'heating_noise_k': rms, 'heating_noise_time_s': tau}
+    calm = calibration.calm_probability(flight_params(True, **over),
+                                        flights=256)
+    band = calibration.band_flights(
+        flight_params(True, **over, **LOADS['payload_takes_ballast']),
+        flights=8, days=7.0)
+    rows.append({'rms_k': rms, 'time_s': tau,
+                 'calm': calm['probability'],
+                 'cost': band['ballast_kg_per_day_mean'],
+                 'days': band['days_aloft_mean'],
+                 'inband': band['time_in_band_pct']})
+    print(rows[-1], flush=True)
+  return rows
+
+
+def _cells(text: str):
+  try:
+    cells = [tuple(float(x) for x in c.split(':')) for c in text.split(',')]
+  except ValueError:
+    cells = []
+  if not cells or any(len(c) != 2 or not 0 <= c[0] <= 30 or
+                      not 1 <= c[1] <= 864_000 for c in cells):
+    raise argparse.ArgumentTypeError(
+        f'--sweep must be RMS:TAU,... (0-30 K : 1 s-10 days), got {text!r}')
+  return cells
+
+
 def table(rows) -> str:
   """The rows as Markdown."""
   lines = ['| row | value | range | inside |', '|---|---|---|---|']
@@ -135,6 +176,8 @@ def main(argv=None) -> int:
                       help='deadband flights per row (calm: 32x)')
   parser.add_argument('--days', type=float, default=7.0)
   parser.add_argument('--plant', choices=('now', 'before'), default='now')
+  parser.add_argument('--sweep', type=_cells, default=None,
+                      help='RMS:TAU,...: the heating-disturbance sweep')
   parser.add_argument('--json', default='',
                       help='write the record here (atomically)')
   args = parser.parse_args(argv)
@@ -152,10 +195,13 @@ def main(argv=None) -> int:
                  f'{os.getloadavg()[0]:.1f} at start',
       'plant': args.plant,
   }
-  record.update(measure(args.plant == 'before', args.flights, args.days))
+  if args.sweep:
+    record['sweep'] = sweep(args.sweep)
+  else:
+    record.update(measure(args.plant == 'before', args.flights, args.days))
+    print(table(record['rows']))
   record['seconds'] = round(time.time() - start, 1)
   record['load_at_end'] = round(os.getloadavg()[0], 1)
-  print(table(record['rows']))
   if args.json:
     safe_io.atomic_write(args.json, json.dumps(record, indent=1) + '\n')
   return 0

@@ -54,6 +54,7 @@ PHYSICS = ROOT / 'benchmarks' / 'physics_results.json'
 VALBAL = ROOT / 'benchmarks' / 'valbal_check.json'
 FLOAT_CALIBRATION = ROOT / 'benchmarks' / 'float_calibration.json'
 FLOAT_CALIBRATION_BEFORE = ROOT / 'benchmarks' / 'float_calibration_before.json'
+FLOAT_CALIBRATION_SWEEP = ROOT / 'benchmarks' / 'float_calibration_sweep.json'
 WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
 REWARD_SHAPE = ROOT / 'benchmarks' / 'reward_shape.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
@@ -524,6 +525,18 @@ def _float_calibration(path: pathlib.Path) -> str:
   return '\n'.join(lines)
 
 
+def float_calibration_sweep() -> str:
+  """The heating-disturbance sweep of `float_calibration.py --sweep`."""
+  record = _load(FLOAT_CALIBRATION_SWEEP)
+  lines = ['| heating rms [K] | correlation time [s] | calm probability | '
+           'band cost [kg/day] | days aloft (of 7) | within ±750 m |',
+           '|---|---|---|---|---|---|']
+  for r in record['sweep']:
+    lines.append(f'| {r["rms_k"]:g} | {r["time_s"]:g} | {r["calm"]:.3f} | '
+                 f'{r["cost"]:.2f} | {r["days"]:.2f} | {r["inband"]:.0f} % |')
+  return '\n'.join(lines)
+
+
 def _reward_cells() -> List[Tuple[str, dict]]:
   rewards = _load(REWARD_SHAPE)['rewards']
   out = [(label, rewards[name]) for name, label in REWARDS if name in rewards]
@@ -618,6 +631,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     'float-calibration': lambda: _float_calibration(FLOAT_CALIBRATION),
     'float-calibration-before': lambda: _float_calibration(
         FLOAT_CALIBRATION_BEFORE),
+    'float-calibration-sweep': float_calibration_sweep,
     'realistic-short': realistic_short,
     'realistic-full': realistic_full,
     'realistic-long': realistic_long,
