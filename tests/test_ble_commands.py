@@ -100,7 +100,7 @@ def _records(path: pathlib.Path):
 
 
 @pytest.mark.slow
-@pytest.mark.ci  # 7-10 min on 2 busy cores (2026-12-05): CI runs it (make test-ci).
+@pytest.mark.ci  # 7-13 min on 2 busy cores (load 4-8, 2026-12-05): make test-ci.
 @pytest.mark.timeout(1800)  # Ten processes in a row, each importing BLE and TF.
 def test_documented_commands_run_and_ble_eval_equals_latex_eval(tmp_path):
   """Every command of the page, in order; BLE's records = ble-latex-eval's."""
