@@ -2,6 +2,7 @@
 work; each test fails without its fix."""
 
 import json
+import os
 
 import gin
 import pytest
@@ -278,3 +279,55 @@ def test_download_era5_grid_deg_out_of_range_is_refused(grid, capsys):
 def test_download_era5_paper_grid_is_accepted(capsys):
   from ble_latex.cli import download_era5  # pylint: disable=g-import-not-at-top
   assert download_era5.main(['--dry_run', '--grid_deg=0.25']) == 0
+
+
+# -- Items 19, 20: a BOM in a sounding; what a missing wind file is. ---------
+_DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
+                     'realwinds')
+
+
+def test_a_sounding_csv_with_a_byte_order_mark_reads(tmp_path):
+  from ble_latex.wind import sounding  # pylint: disable=g-import-not-at-top
+  hilo = os.path.join(_DATA, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
+  with open(hilo, 'rb') as f:
+    raw = f.read()
+  path = tmp_path / 'bom.csv'
+  path.write_bytes(b'\xef\xbb\xbf' + raw)
+  plain, bom = sounding.read(hilo), sounding.read(str(path))
+  assert len(bom.pressure_pa) == len(plain.pressure_pa) > 10
+
+
+@pytest.mark.parametrize('name, needle', [
+    ('gfs.grib2', 'ble-latex-download-gfs'),
+    ('PHTO_uwyo.csv', 'University of Wyoming sounding'),
+    ('station.txt', 'University of Wyoming sounding'),
+])
+def test_a_missing_wind_file_hint_names_its_kind(name, needle, tmp_path):
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  with pytest.raises(FileNotFoundError) as info:
+    era5.load(str(tmp_path / name))
+  assert needle in str(info.value)
+  assert 'download-era5' not in str(info.value)
+
+
+def test_a_fifo_or_symlink_loop_is_not_called_missing(tmp_path):
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import sounding  # pylint: disable=g-import-not-at-top
+  fifo = tmp_path / 'winds.nc'
+  os.mkfifo(fifo)
+  loop = tmp_path / 'loop.nc'
+  os.symlink(loop, loop)
+  for path, needle in ((fifo, 'is a FIFO'), (loop, 'symbolic link')):
+    with pytest.raises(errors.BadFileError, match=needle):
+      era5.load(str(path))
+  with pytest.raises(errors.BadFileError, match='is a FIFO'):
+    sounding.read(str(fifo))
+
+
+def test_wind_file_fifo_is_one_line_exit_1(tmp_path, capsys):
+  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
+  fifo = tmp_path / 'winds.nc'
+  os.mkfifo(fifo)
+  assert plot.main([f'--output_dir={tmp_path / "p"}', '--wind_stats',
+                    f'--wind_file={fifo}']) == 1
+  assert 'is a FIFO' in _one_line(capsys, 'ble-latex-plot')

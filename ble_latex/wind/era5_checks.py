@@ -318,6 +318,49 @@ def _hdf5_needed_size(file: BinaryIO, size: int, path: str,
   return needed, f'its HDF5 superblock puts the end at byte {needed}'
 
 
+# How to get a missing wind file, by its name's ending (the content, which
+# picks the reader, cannot be read).
+_HINTS = (((".grib2", ".grb2", ".grib", ".grb"),
+           'a GFS analysis: download one with ble-latex-download-gfs'),
+          ((".csv", ".txt"), 'a University of Wyoming sounding: save one '
+           'from weather.uwyo.edu (docs/winds.md)'))
+
+
+def missing_hint(path: str, label: str = 'ERA5') -> str:
+  """' (what the file is and how to get it)' for a missing wind file."""
+  name = os.path.basename(path).lower()
+  for endings, hint in _HINTS:
+    if name.endswith(endings):
+      return f' ({hint})'
+  if label == 'ERA5':
+    return (' (an ERA5 or other NetCDF analysis: download ERA5 with '
+            'ble-latex-download-era5, GFS with ble-latex-download-gfs)')
+  return ''
+
+
+def not_regular(path: str, label: str = 'ERA5') -> None:
+  """Refuses a path that exists but is not a regular file (a FIFO, a
+  device, a socket) or a symbolic link that loops or dangles.
+
+  Raises:
+    errors.BadFileError: One line naming `path` and what it is.
+  """
+  import stat  # pylint: disable=g-import-not-at-top
+  if not os.path.lexists(path):
+    return
+  try:
+    mode = os.stat(path).st_mode
+  except OSError as e:  # ELOOP: a symlink loop; ENOENT: a dangling link.
+    raise errors.BadFileError(
+        f'{label} file {path} is a symbolic link that cannot be followed '
+        f'({e.strerror or e})') from e
+  if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+    kind = ('a FIFO' if stat.S_ISFIFO(mode) else 'a socket' if
+            stat.S_ISSOCK(mode) else 'a device')
+    raise errors.BadFileError(f'{label} file {path} is {kind}, not a '
+                              'regular file')
+
+
 def check_file(path: str, *, label: str = 'ERA5') -> None:
   """Checks that `path` is a whole file: not a directory, missing or cut.
 
@@ -341,8 +384,9 @@ def check_file(path: str, *, label: str = 'ERA5') -> None:
         f'{label} path {path} is a directory, not a NetCDF file (give a file '
         f'or a glob pattern such as {os.path.join(path, "*.nc")})')
   if not os.path.isfile(path):
-    hint = ' (download it with ble-latex-download-era5)' * (label == 'ERA5')
-    raise FileNotFoundError(f'{label} file {path} does not exist{hint}')
+    not_regular(path, label)
+    raise FileNotFoundError(f'{label} file {path} does not exist'
+                            f'{missing_hint(path, label)}')
   size = os.path.getsize(path)
   with open(path, 'rb') as file:
     magic = file.read(4)

@@ -268,6 +268,7 @@ def read(path: str) -> Sounding:
       order, or winds that do not cover `reach.flight_band_m` (one line
       naming the file).
   """
+  era5_checks.not_regular(path, 'sounding')  # A FIFO would block open().
   try:
     size = os.path.getsize(path)
     if size > MAX_FILE_BYTES:
@@ -278,7 +279,7 @@ def read(path: str) -> Sounding:
   except OSError as e:
     raise errors.BadFileError(f'{path}: cannot read: {e.strerror or e}') from e
   try:
-    text = raw.decode('utf-8')
+    text = raw.decode('utf-8-sig')  # Spreadsheets save a byte-order mark.
   except UnicodeDecodeError as e:
     raise errors.BadFileError(f'{path}: not a text file') from e
   lines = text.splitlines()
