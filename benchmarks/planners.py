@@ -276,6 +276,8 @@ def _main(argv: Sequence[str]) -> int:
   if FLAGS.agent not in plan_config.PLANNERS:
     raise cli.CommandUsageError(
         f'--agent={FLAGS.agent!r}: one of {sorted(plan_config.PLANNERS)}')
+  if FLAGS.name_override is not None:  # Kept inside --output_dir.
+    cli.output_name(FLAGS.name_override, '--name_override')
   gin_binding.bind_gin(None, None, FLAGS.gin_file, FLAGS.gin_bindings)
   # --wind_file: its bindings (and the suite's dates) join the user's.
   bindings = [*FLAGS.gin_bindings, *cli.era5_bindings(

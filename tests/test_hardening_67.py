@@ -331,3 +331,31 @@ def test_wind_file_fifo_is_one_line_exit_1(tmp_path, capsys):
   assert plot.main([f'--output_dir={tmp_path / "p"}', '--wind_stats',
                     f'--wind_file={fifo}']) == 1
   assert 'is a FIFO' in _one_line(capsys, 'ble-latex-plot')
+
+
+# -- Item 21: output names stay inside the output folder. -------------------
+@pytest.mark.parametrize('name', ['../../x', '/tmp/abs', '..', 'a/b', ''])
+def test_eval_name_override_stays_inside_output_dir(name, tmp_path, capsys):
+  from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'a' / 'b' / 'out'
+  rc = eval_cli.main([f'--output_dir={out}', f'--name_override={name}',
+                      '--agent=latex_station_seeker', '--suite=latex_micro'])
+  if name == '':  # absl: an empty override is no override; nothing checked.
+    capsys.readouterr()
+    return
+  assert rc == 2
+  assert '--name_override must be a plain file name' in _one_line(
+      capsys, 'ble-latex-eval')
+  assert not list(tmp_path.rglob('*.json'))
+
+
+@pytest.mark.parametrize('name', ['../../x', '/tmp/abs'])
+def test_planners_name_override_stays_inside_output_dir(
+    name, tmp_path, capsys, benchmark_script):
+  script = benchmark_script('planners.py')
+  out = tmp_path / 'a' / 'out'
+  assert script.main([f'--output_dir={out}', f'--name_override={name}',
+                      '--suite=latex_small', '--seeds=0']) == 2
+  assert '--name_override must be a plain file name' in _one_line(
+      capsys, 'benchmarks/planners.py')
+  assert not list(tmp_path.rglob('*.json'))

@@ -253,6 +253,30 @@ def quiet_init_callbacks() -> None:
   callbacks.extend(pending)
 
 
+def output_name(name: str, flag: str) -> str:
+  """A name of output files kept inside the output folder.
+
+  Args:
+    name: The name (e.g. --name_override's), used as `<folder>/<name>.json`.
+    flag: The flag that gave it, for the message.
+
+  Returns:
+    `name`.
+
+  Raises:
+    CommandUsageError: An empty name, '.' or '..', or one holding a path
+      separator or NUL (an absolute or `../` name would write outside the
+      folder).
+  """
+  seps = {os.sep, os.altsep} - {None}
+  if (not name or name in ('.', '..') or '\0' in name or
+      any(sep in name for sep in seps)):
+    raise CommandUsageError(
+        f'{flag} must be a plain file name (no {"/".join(sorted(seps))}, not '
+        f'"." or ".."), kept inside the output folder, got {name!r}')
+  return name
+
+
 def prepare_output_dir(path: str, flag: str) -> None:
   """Creates the output folder `path` before the work starts.
 

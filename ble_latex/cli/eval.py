@@ -114,6 +114,8 @@ flags.DEFINE_integer('ray_num_cpus', None,
 def _main(argv: Sequence[str]) -> None:
   if (FLAGS.checkpoint_dir is None) != (FLAGS.checkpoint_idx is None):
     raise app.UsageError('--checkpoint_dir and --checkpoint_idx go together.')
+  if FLAGS.name_override is not None:  # Kept inside --output_dir.
+    cli.output_name(FLAGS.name_override, '--name_override')
   # ERA5 (--era5_path, or a gin file binding it): the suite's dates; the
   # bindings travel in the spec (Ray workers bind the same).
   gin_binding.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
