@@ -46,6 +46,7 @@ from it.
 
 import datetime as dt
 import json
+import math
 import os
 import platform
 import subprocess
@@ -232,14 +233,81 @@ def code_version() -> Dict[str, Any]:
 
 
 def load_record(path: str) -> Dict[str, Any]:
+  """The record at `path` ({'cells': {}} if none); one line if unreadable."""
   if not os.path.exists(path):
     return {'cells': {}}
-  with open(path, encoding='utf-8') as f:
-    record = json.load(f)
-  if not isinstance(record.get('cells'), dict):
+  try:
+    with open(path, encoding='utf-8') as f:
+      record = json.load(f)
+  except (json.JSONDecodeError, UnicodeDecodeError) as e:
+    raise cli.CommandFailure(f'{path}: truncated or not JSON ({e}); fix or '
+                             'move it, or give another --json') from e
+  if not isinstance(record, dict) or not isinstance(record.get('cells'),
+                                                    dict):
     raise cli.CommandUsageError(f'{path}: not a real_winds record (no '
                                 "'cells')")
   return record
+
+
+# What a compact flight's fields may hold: (type check, range) by field.
+_UNIT = (0.0, 1.0)
+_NON_NEGATIVE = (0.0, math.inf)
+_FLIGHT_FIELDS = {'tw50': _UNIT, 'tw50_window': _UNIT,
+                  'helium_vented_mols': _NON_NEGATIVE,
+                  'sand_dropped_kg': _NON_NEGATIVE,
+                  'final_distance_km': _NON_NEGATIVE,
+                  'reward': (-math.inf, math.inf)}
+
+
+def checked_cell(record: Dict[str, Any], key: str, path: str,
+                 suite_seeds: Sequence[int]) -> Optional[Dict[str, Any]]:
+  """The record's cell `key`, its flights checked before they are merged.
+
+  Raises:
+    cli.CommandFailure: One line naming the file, cell, flight and field:
+      a cell without settings, runs or flights; a flight of a seed outside
+      the suite or flown twice, a TW50 outside [0, 1], a negative or
+      non-finite amount, a count that is no integer >= 0.
+  """
+  cell = record['cells'].get(key)
+  if cell is None:
+    return None
+  where = f'{path}: cell {key}'
+
+  def bad(what: str) -> cli.CommandFailure:
+    return cli.CommandFailure(f'{where}: {what} (not a real_winds record; '
+                              '--overwrite re-flies the cell)')
+
+  if not (isinstance(cell, dict) and isinstance(cell.get('settings'), dict)
+          and isinstance(cell.get('flights'), list) and
+          isinstance(cell.get('runs', []), list)):
+    raise bad('needs settings (object), flights and runs (lists)')
+  allowed, seen = set(suite_seeds), set()
+  for i, flight in enumerate(cell['flights']):
+    if not isinstance(flight, dict) or any(k not in flight for k in KEPT):
+      raise bad(f'flight {i} lacks fields of {list(KEPT)}')
+    seed = flight['seed']
+    if isinstance(seed, bool) or not isinstance(seed, int) or (
+        seed not in allowed):
+      raise bad(f'flight {i}: seed {seed!r} is not a seed of suite '
+                f'{cell["settings"].get("suite")!r}')
+    if seed in seen:
+      raise bad(f'seed {seed} flown twice')
+    seen.add(seed)
+    for field, (low, high) in _FLIGHT_FIELDS.items():
+      value = flight[field]
+      if (isinstance(value, bool) or not isinstance(value, (int, float)) or
+          not math.isfinite(value) or not low <= value <= high):
+        raise bad(f'seed {seed}: {field} {value!r} is not a finite number '
+                  f'in [{low:g}, {high:g}]')
+    for field in ('steps', 'window_steps'):
+      value = flight[field]
+      if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise bad(f'seed {seed}: {field} {value!r} is not an integer >= 0')
+    if not isinstance(flight['terminal_reason'], str):
+      raise bad(f'seed {seed}: terminal_reason {flight["terminal_reason"]!r}'
+                ' is not a string')
+  return cell
 
 
 def source_copies(entries: Sequence[str]) -> Dict[str, Tuple[str, str]]:
@@ -363,6 +431,9 @@ def _main(argv: Sequence[str]) -> None:
   counts = seeds_per_source(FLAGS.seeds, FLAGS.sources)
   suite_seeds = list(suites.get_eval_suite(FLAGS.suite).seeds)
   command = ' '.join(['python', 'benchmarks/real_winds.py', *sys.argv[1:]])
+  # The record's folder, before anything is flown.
+  cli.prepare_output_dir(os.path.dirname(os.path.abspath(FLAGS.json)),
+                         '--json')
   record = load_record(FLAGS.json)
   copies = source_copies(FLAGS.source_copy)
   for name in FLAGS.sources:
@@ -373,7 +444,7 @@ def _main(argv: Sequence[str]) -> None:
     for agent in FLAGS.agents:
       cell = settings(name, agent, path)
       key = f'{name}/{agent}/{FLAGS.station_mode}'
-      old = record['cells'].get(key)
+      old = checked_cell(record, key, FLAGS.json, suite_seeds)
       if old is not None and old['settings'] != cell:
         if not FLAGS.overwrite:
           differ = [k for k in set(cell) | set(old['settings'])
@@ -401,20 +472,29 @@ def _main(argv: Sequence[str]) -> None:
                     f'flown from its decoded NetCDF copy '
                     f'{os.path.basename(copy[0])}')
         flown.update({r['seed']: r for r in flights})
-        merged = [flown[s] for s in sorted(flown)]
-        runs = (old or {}).get('runs', []) + [{
+        run = {
             'command': command, 'date_utc': date, 'host': platform.node(),
             'cpus': os.cpu_count(), 'loadavg_before': load_before,
             'loadavg_after': [round(x, 2) for x in os.getloadavg()],
             'seeds': len(chunk), 'fly_s': round(wall, 1),
             'batched': batched, **version,
             **({'flown_from_copy': os.path.basename(copy[0]),
-                'arrays_sha256': copy[1]} if copy else {})}]
-        # Another run (other cells, e.g. one per source on two cores) may
-        # have added cells: reread and rewrite under the record's lock.
+                'arrays_sha256': copy[1]} if copy else {})}
+        # Another run (other cells, e.g. one per source on two cores, or
+        # this cell restarted while it still runs) may have written: reread
+        # and merge by seed under the record's lock, never replace.
         with safe_io.locked_file(FLAGS.json, what='real_winds record',
                                  wait_s=RECORD_WAIT_S):
           record = load_record(FLAGS.json)
+          current = checked_cell(record, key, FLAGS.json, suite_seeds)
+          runs = [run]
+          if current is not None and current['settings'] == cell:
+            flown.update({r['seed']: r for r in current['flights']
+                          if r['seed'] not in flown})
+            runs = current.get('runs', []) + runs
+          elif old is not None:  # --overwrite of a cell flown before.
+            runs = [*old.get('runs', []), run]
+          merged = [flown[s] for s in sorted(flown)]
           old = record['cells'][key] = {
               'settings': cell, 'label': SOURCES[name][1],
               'wind_source': source, 'summary': metrics.summarize(merged),
