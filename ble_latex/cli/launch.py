@@ -42,6 +42,7 @@ controllers = cli.lazy_module('ble_latex.launch.controllers')
 env_params = cli.lazy_module('ble_latex.envs.env_params')
 launch_map = cli.lazy_module('ble_latex.launch.launch_map')
 scoring = cli.lazy_module('ble_latex.launch.scoring')
+ascent_lib = cli.lazy_module('ble_latex.launch.ascent')
 gin_binding = cli.lazy_module('ble_latex.run.gin_binding')
 sites = cli.lazy_module('ble_latex.launch.sites')
 era5 = cli.lazy_module('ble_latex.wind.era5')
@@ -98,6 +99,18 @@ flags.DEFINE_integer('top', 100, 'Ranked launches written in full.',
                      flag_values=FLAGS)
 flags.DEFINE_integer('paths', 3, 'Best launches whose flight paths are '
                      'drawn.', flag_values=FLAGS)
+flags.DEFINE_boolean('from_ground', False, 'Launch from the ground: each '
+                     "launch's offset and delay are its site and time on the "
+                     'ground, its altitude where it is stopped to float; the '
+                     'realistic ascent (ASTRA\'s drag and burst) with its '
+                     'drift comes first (ble_latex.launch.ascent).',
+                     flag_values=FLAGS)
+flags.DEFINE_float('ascent_rate_mps', None, '--from_ground: the steady ascent '
+                   'rate on the ground the balloon is filled for [m/s] '
+                   '(default 5).', flag_values=FLAGS)
+flags.DEFINE_float('descent_rate_mps', None, '--from_ground: the parachute\'s '
+                   'descent rate at sea level after a burst [m/s] (default '
+                   '5).', flag_values=FLAGS)
 flags.mark_flags_as_required(['output_dir'], flag_values=FLAGS)
 
 
@@ -135,9 +148,25 @@ def _grid() -> List[int]:
   return shape
 
 
+def _ascent() -> Optional[object]:
+  """--from_ground's `ascent.Ascent`, or None; bad rates are usage errors."""
+  rates = {name: FLAGS[name].value for name in ('ascent_rate_mps',
+                                                'descent_rate_mps')
+           if FLAGS[name].value is not None}
+  if not FLAGS.from_ground:
+    if rates:
+      raise cli.CommandUsageError(f'--{next(iter(rates))} needs --from_ground')
+    return None
+  try:
+    return ascent_lib.Ascent(**rates)
+  except ValueError as error:
+    raise cli.CommandUsageError(f'--from_ground: {error}') from error
+
+
 def _check() -> None:
   for name in ('east_km', 'north_km', 'hours', 'altitude_m'):
     _pair(name)
+  _ascent()
   _grid()
   era5_flags = [FLAGS.station_lat, FLAGS.station_lon, FLAGS.date,
                 FLAGS.min_hull_margin_mps]
@@ -225,22 +254,29 @@ def _plan() -> None:
         f'{world.describe["source"]} world', flush=True)
   load_before = os.getloadavg()
   start = time.monotonic()
+  ascent = _ascent()
   scores = scoring.score(world, controller, launches, draws=FLAGS.draws,
-                         progress=lambda done: _progress(done, n, start))
+                         progress=lambda done: _progress(done, n, start),
+                         ascent=ascent)
   wall_s = time.monotonic() - start
   table = scoring.ranked(scores, world, FLAGS.top)
+  if ascent is not None and table:
+    table = scoring.with_ascent(table, scoring.ascent_legs(
+        world, launches.take([r['index'] for r in table]), ascent), world)
   best = table[:FLAGS.paths]
   paths = None
   if best:
     paths = scoring.flight_paths(world, controller, launches.take(
-        [r['index'] for r in best]))[0]
+        [r['index'] for r in best]), ascent=ascent)[0]
   radius = world.params.radius_km
   inside = [r for r in scoring.ranked(scores, world) if r['inside_radius']]
   record = {
       'flags': {name: FLAGS[name].value for name in (
           'agent', 'seed', 'wind_file', 'station_lat', 'station_lon', 'date',
           'east_km', 'north_km', 'hours', 'altitude_m', 'grid', 'draws',
-          'max_steps', 'gin_file', 'gin_bindings')},
+          'max_steps', 'gin_file', 'gin_bindings', 'from_ground',
+          'ascent_rate_mps', 'descent_rate_mps')},
+      'ascent': None if ascent is None else dict(vars(ascent)),
       'agent': FLAGS.agent, 'world': world.describe,
       'space': {k: list(v) for k, v in zip(space.names, space.bounds())},
       'grid': shape, 'draws': FLAGS.draws,
@@ -278,8 +314,32 @@ def _plan() -> None:
         f'{top["altitude_m"]:g} m: TW50 {top["tw50_mean"]:.3f} +- '
         f'{top["tw50_stderr"]:.3f} ({top["distance_km"]:.0f} km from the '
         'station)')
+  if ascent is not None:
+    print(f'  {_ascent_text(top["ascent"], top["altitude_m"], ascent)}')
   print(f'scored in {wall_s:.1f} s (load {load_before[0]:.1f}); wrote '
         f'{json_path} and {png_path}')
+
+
+def _ascent_text(leg: dict, altitude_m: float, ascent: object) -> str:
+  """The console's line on a launch's way up (`scoring.with_ascent`)."""
+  def where(name):
+    lat, lon = leg[f'{name}_lat'], leg[f'{name}_lon']
+    place = ('(outside its descent bound)' if lat is None else
+             tracks.lat_lon_text(lat, lon))
+    return f'{place}{", " + leg[name + "_utc"] if leg[name + "_utc"] else ""}'
+
+  if leg['floats']:
+    return (f'from the ground at {ascent.ascent_rate_mps:g} m/s: reaches '
+            f'float ({altitude_m:g} m) at {where("float")} after '
+            f'{leg["ascent_min"]:.0f} min, {leg["ascent_drift_km"]:.1f} km '
+            'from the launch site')
+  if 'burst_altitude_m' in leg:
+    return (f'from the ground at {ascent.ascent_rate_mps:g} m/s: bursts at '
+            f'{leg["burst_altitude_m"] / 1000:.1f} km, below its float '
+            f'({altitude_m:g} m), at {where("burst")}; lands at '
+            f'{where("landing")}')
+  return (f'from the ground: reaches neither float nor burst within '
+          f'{ascent.max_hours:g} h')
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

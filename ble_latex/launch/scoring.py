@@ -38,6 +38,7 @@ from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
+from ble_latex.launch import ascent as ascent_lib
 from ble_latex.launch import controllers as controllers_lib
 from ble_latex.run import tracks
 from ble_latex.wind import era5
@@ -379,13 +380,71 @@ def launch_state(params: env_types.EnvParams, world: env_types.EnvState,
           params))
 
 
+def launch_helium(world: World, ascent: ascent_lib.Ascent) -> float:
+  """The launch fill of a launch from the ground in this world. # [mol]
+
+  `ascent.launch_helium_mols` of the world's balloon in the realistic
+  ascent's flight system, at the release height, in the world's atmosphere.
+  """
+  return ascent_lib.launch_helium_mols(
+      ascent_lib.ascent_flight_params(world.params.flight),
+      world.state.atmosphere, ascent.ascent_rate_mps,
+      ascent.launch_altitude_m)
+
+
+def _ascend(env: jax_env.LatexBalloonJaxEnv, ascent: ascent_lib.Ascent,
+            params: env_types.EnvParams, world: env_types.EnvState,
+            noise_u: Any, noise_v: Any, launch: Array,
+            helium: Array) -> ascent_lib.Leg:
+  """One launch from the ground (`ascent.fly`) in a world and noise draw.
+
+  The launch's site (east, north [km]) and delay [h] are where and when the
+  balloon leaves the ground; its altitude [m] is where it is stopped to
+  float. The winds are the world's truth with this draw's noise; the burst
+  draw's key is `launch_state`'s.
+  """
+  east_km, north_km, hours, altitude_m = launch
+  state = launch_state(params, world, noise_u, noise_v, *launch)
+  wind = env.wind_for(params)
+
+  def wind_fn(x_m, y_m, pressure_pa, t_s):
+    return wind.ground_truth(state, x_m, y_m, pressure_pa, t_s)
+
+  dtype = state.flight.x_m.dtype
+  return ascent_lib.fly(
+      ascent_lib.ascent_flight_params(
+          env_types.flight_params_of(params, state)),
+      world.atmosphere, wind_fn, x_m=jnp.asarray(east_km, dtype) * 1000.0,
+      y_m=jnp.asarray(north_km, dtype) * 1000.0,
+      time_s=jnp.asarray(hours, dtype) * 3600.0, float_altitude_m=altitude_m,
+      helium_mols=helium,
+      burst_key=jax.random.fold_in(jax.random.PRNGKey(0),
+                                   world.start_time_offset_s),
+      ascent=ascent)
+
+
 def _fly_one(env: jax_env.LatexBalloonJaxEnv,
              controller: controllers_lib.Controller, steps: int, record: bool,
+             ascent: Optional[ascent_lib.Ascent],
              params: env_types.EnvParams, world: env_types.EnvState,
-             noise_u: Any, noise_v: Any, launch: Array):
-  """One launch's TW50 (and its [strides, 2] path [km] if `record`)."""
+             noise_u: Any, noise_v: Any, launch: Array, helium: Array):
+  """One launch's TW50 (and its [strides, 2] path [km] if `record`).
+
+  With `ascent` the launch is from the ground: the float phase starts where
+  and when the ascent reaches the launch's altitude (`_ascend`); a balloon
+  that bursts first scores 0, and its path stays at the launch site.
+  """
   wind = env.wind_for(params)
-  state = launch_state(params, world, noise_u, noise_v, *launch)
+  floats = jnp.ones((), bool)
+  afloat = launch
+  if ascent is not None:
+    leg = _ascend(env, ascent, params, world, noise_u, noise_v, launch,
+                  helium)
+    floats = leg.floats
+    afloat = jnp.where(floats, jnp.stack([
+        leg.float_x_m / 1000.0, leg.float_y_m / 1000.0,
+        leg.float_time_s / 3600.0, launch[3]]).astype(launch.dtype), launch)
+  state = launch_state(params, world, noise_u, noise_v, *afloat)
   obs = jax_env.observation(state, params, wind)
   radius = params.radius_km
 
@@ -394,9 +453,10 @@ def _fly_one(env: jax_env.LatexBalloonJaxEnv,
     alive = state.flight.status == state_lib.FlightStatus.OK
     action, control = controller.act(control, obs, state, i)
     obs, state, _, _, info = env.step_env(None, state, action, params)
-    within = within + (alive & (info['distance_km'] <= radius) &
+    within = within + (alive & floats & (info['distance_km'] <= radius) &
                        (state.steps <= steps))
-    path = (jnp.stack([state.flight.x_m, state.flight.y_m]) / 1000.0
+    path = (jnp.where(floats, jnp.stack([state.flight.x_m, state.flight.y_m]),
+                      jnp.stack([launch[0], launch[1]]) * 1000.0) / 1000.0
             if record else None)
     return (state, obs, control, within), path
 
@@ -418,11 +478,13 @@ def _fly_one(env: jax_env.LatexBalloonJaxEnv,
 
 @functools.lru_cache(maxsize=8)
 def _flier(env: jax_env.LatexBalloonJaxEnv,
-           controller: controllers_lib.Controller, steps: int, record: bool):
-  """Jitted: (params, world, noise [K], launches [N, 4]) -> TW50 [K, N]."""
-  one = functools.partial(_fly_one, env, controller, steps, record)
-  over_launches = jax.vmap(one, in_axes=(None, None, None, None, 0))
-  over_draws = jax.vmap(over_launches, in_axes=(None, None, 0, 0, None))
+           controller: controllers_lib.Controller, steps: int, record: bool,
+           ascent: Optional[ascent_lib.Ascent] = None):
+  """Jitted: (params, world, noise [K], launches [N, 4], helium) -> TW50
+  [K, N] (and paths)."""
+  one = functools.partial(_fly_one, env, controller, steps, record, ascent)
+  over_launches = jax.vmap(one, in_axes=(None, None, None, None, 0, None))
+  over_draws = jax.vmap(over_launches, in_axes=(None, None, 0, 0, None, None))
   return jax.jit(over_draws, compiler_options=jax_cache.fast_compile_options())
 
 
@@ -464,7 +526,8 @@ class Scores:
 
 def score(world: World, controller: controllers_lib.Controller,
           launches: Launches, *, draws: int = 4, chunk: int = CHUNK,
-          progress: Any = None) -> Scores:
+          progress: Any = None,
+          ascent: Optional[ascent_lib.Ascent] = None) -> Scores:
   """Every launch flown under K noise draws, batched; their TW50s.
 
   Args:
@@ -474,6 +537,9 @@ def score(world: World, controller: controllers_lib.Controller,
     draws: K noise draws per candidate.
     chunk: Candidates per jitted call.
     progress: Called with the number of candidates done after each call.
+    ascent: Launch from the ground (`_fly_one`): each launch's offset and
+      delay are its site and time on the ground, its altitude its float;
+      None: launched afloat at its altitude.
 
   Returns:
     The scores.
@@ -489,14 +555,17 @@ def score(world: World, controller: controllers_lib.Controller,
   noise_u, noise_v = noise_draws(world, draws)
   gin_values.check_int('launch chunk', chunk, minimum=1)
   size = min(chunk, n)
-  fly = _flier(world.env, controller, int(world.params.episode_steps), False)
+  fly = _flier(world.env, controller, int(world.params.episode_steps), False,
+               ascent)
+  helium = jnp.float32(0.0 if ascent is None else
+                       launch_helium(world, ascent))
   values = launches.array()
   out = []
   for start in range(0, n, size):
     part = values[start:start + size]
     padded = np.concatenate([part, np.repeat(part[-1:], size - len(part), 0)])
     tw50, _ = fly(world.params, world.state, noise_u, noise_v,
-                  jnp.asarray(padded, jnp.float32))
+                  jnp.asarray(padded, jnp.float32), helium)
     out.append(np.asarray(tw50)[:, :len(part)])
     if progress is not None:
       progress(start + len(part))
@@ -505,13 +574,35 @@ def score(world: World, controller: controllers_lib.Controller,
 
 
 def flight_paths(world: World, controller: controllers_lib.Controller,
-                 launches: Launches, draws: int = 1) -> np.ndarray:
-  """[K, N, steps + 1, 2] (east, north) paths [km] of a few launches."""
+                 launches: Launches, draws: int = 1,
+                 ascent: Optional[ascent_lib.Ascent] = None) -> np.ndarray:
+  """[K, N, steps + 1, 2] (east, north) paths [km] of a few launches (from
+  the ground with `ascent`: the launch site, then the float phase)."""
   noise_u, noise_v = noise_draws(world, draws)
-  fly = _flier(world.env, controller, int(world.params.episode_steps), True)
+  fly = _flier(world.env, controller, int(world.params.episode_steps), True,
+               ascent)
+  helium = jnp.float32(0.0 if ascent is None else
+                       launch_helium(world, ascent))
   _, paths = fly(world.params, world.state, noise_u, noise_v,
-                 jnp.asarray(launches.array(), jnp.float32))
+                 jnp.asarray(launches.array(), jnp.float32), helium)
   return np.asarray(paths, np.float64)
+
+
+def ascent_legs(world: World, launches: Launches,
+                ascent: ascent_lib.Ascent) -> Dict[str, np.ndarray]:
+  """The launches' ways up in the world's own noise (draw 0), batched.
+
+  Returns:
+    `ascent.Leg`'s fields by name, each [N] (`ascent.leg_to_host`).
+  """
+  noise_u, noise_v = noise_draws(world, 1)
+  one = functools.partial(_ascend, world.env, ascent)
+  legs = jax.jit(jax.vmap(one, in_axes=(None, None, None, None, 0, None)))(
+      world.params, world.state, jax.tree.map(lambda a: a[0], noise_u),
+      jax.tree.map(lambda a: a[0], noise_v),
+      jnp.asarray(launches.array(), jnp.float32),
+      jnp.float32(launch_helium(world, ascent)))
+  return ascent_lib.leg_to_host(legs)
 
 
 def world_start(world: World) -> Optional[dt.datetime]:
@@ -557,3 +648,51 @@ def ranked(scores: Scores, world: World, top: Optional[int] = None
               'tw50_stderr': float(stderr[i])}
     records.append(record)
   return records
+
+
+def with_ascent(records: List[Dict[str, Any]], legs: Dict[str, np.ndarray],
+                world: World) -> List[Dict[str, Any]]:
+  """`ranked` records with their ways up (`ascent_legs` of the same
+  launches, in order) under 'ascent' (JSON-ready).
+
+  Each 'ascent': `floats`; where it floats, `float_lat`, `float_lon`,
+  `float_utc`, `ascent_min` (launch to float) and `ascent_drift_km` (launch
+  site to float point); where it bursts first, `burst_altitude_m`,
+  `burst_lat`, `burst_lon`, `burst_utc`, and `landing_lat`, `landing_lon`,
+  `landing_utc` (None where the descent did not end within its bound).
+  Latitudes and longitudes (-180..180) from the world's station; times
+  None where the world names no time.
+  """
+  station, _ = tracks.stations(world.params, [world.describe['seed']])
+  start = world_start(world)
+
+  def place(x_m, y_m, t_s, name):
+    if not (np.isfinite(x_m) and np.isfinite(y_m)):
+      return {f'{name}_lat': None, f'{name}_lon': None, f'{name}_utc': None}
+    lat, lon = tracks.point_lat_lon(station[0][0], station[0][1],
+                                    float(x_m) / 1000.0, float(y_m) / 1000.0)
+    utc = None if start is None or not np.isfinite(t_s) else tracks.utc_text(
+        start + dt.timedelta(seconds=float(t_s)))
+    return {f'{name}_lat': lat, f'{name}_lon': lon, f'{name}_utc': utc}
+
+  out = []
+  for k, record in enumerate(records):
+    leg = {name: value[k] for name, value in legs.items()}
+    site_x, site_y = record['east_km'] * 1000.0, record['north_km'] * 1000.0
+    about: Dict[str, Any] = {'floats': bool(leg['floats'])}
+    if about['floats']:
+      about.update(place(leg['float_x_m'], leg['float_y_m'],
+                         leg['float_time_s'], 'float'))
+      about['ascent_min'] = float(leg['float_time_s'] -
+                                  record['hours'] * 3600.0) / 60.0
+      about['ascent_drift_km'] = math.hypot(
+          float(leg['float_x_m']) - site_x,
+          float(leg['float_y_m']) - site_y) / 1000.0
+    elif bool(leg['bursts']):
+      about['burst_altitude_m'] = float(leg['burst_altitude_m'])
+      about.update(place(leg['burst_x_m'], leg['burst_y_m'],
+                         leg['burst_time_s'], 'burst'))
+      about.update(place(leg['land_x_m'], leg['land_y_m'],
+                         leg['land_time_s'], 'landing'))
+    out.append({**record, 'ascent': about})
+  return out
