@@ -193,3 +193,18 @@ def test_plan_ascent_leg_is_the_realistic_ascent(tmp_path):
   assert best['ascent']['ascent_drift_km'] == pytest.approx(
       np.hypot(legs['float_x_m'][0] + 100_000.0,
                legs['float_y_m'][0] - 50_000.0) / 1000.0, rel=1e-4)
+
+
+@pytest.mark.parametrize('args, match', [
+    (['--ascent_rate_mps=4'], '--ascent_rate_mps needs --from_ground'),
+    (['--descent_rate_mps=4'], '--descent_rate_mps needs --from_ground'),
+    (['--from_ground', '--ascent_rate_mps=-1'],
+     '--from_ground: ascent ascent_rate_mps must be > 0, got -1.0'),
+])
+def test_command_ascent_flags_are_one_line(tmp_path, capsys, args, match):
+  from ble_latex.cli import launch as launch_command  # pylint: disable=g-import-not-at-top
+  status = launch_command.main([f'--output_dir={tmp_path}', '--grid=2,2,1',
+                                '--max_steps=2', *args])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert status == 2 and len(err) == 1, err
+  assert err[0] == f'ble-latex-launch: {match}'
