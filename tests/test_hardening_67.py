@@ -459,3 +459,16 @@ def test_real_winds_output_folder_checked_first(real_winds_run, tmp_path,
   blocker.write_text('x')
   assert real_winds.main(argv[1:] + [f'--json={blocker / "r.json"}']) == 1
   assert '--json' in _one_line(capsys, 'real_winds.py')
+
+
+# -- Item 7: a GRIB2 file with two messages of one field is refused. --------
+def test_grib2_with_a_duplicated_message_is_refused(tmp_path):
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  grib = os.path.join(_DATA, 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
+  with open(grib, 'rb') as f:
+    raw = f.read()
+  end = raw.index(b'7777') + 4  # The first message, appended once more.
+  path = tmp_path / 'twice.grib2'
+  path.write_bytes(raw + raw[:end])
+  with pytest.raises(errors.BadFileError, match='holds two messages of'):
+    era5.read_source(str(path))

@@ -31,7 +31,7 @@ import dataclasses
 import datetime as dt
 import logging
 import math
-from typing import Dict, List, Optional, Sequence, Tuple, TYPE_CHECKING
+from typing import Any, Dict, List, Optional, Sequence, Tuple, TYPE_CHECKING
 
 import numpy as np
 
@@ -303,8 +303,10 @@ def open_dataset(path: str, label: str
       # The messages' headers only (no values decoded): a constant field
       # can declare a huge grid in a few bytes.
       stream = cfgrib.FileStream(path, errors='raise')
-      points = sum(int(m['numberOfDataPoints']) for _, m in stream.items())
+      messages = [m for _, m in stream.items()]
+      points = sum(int(m['numberOfDataPoints']) for m in messages)
       era5_checks.check_size(path, (points,), label=label)
+      _check_unique_messages(path, label, messages)
       parts = []
       with _quiet_cfgrib():
         for short in ('u', 'v'):
@@ -335,6 +337,35 @@ def open_dataset(path: str, label: str
     dataset.close()
     raise
   return dataset, label, names
+
+
+def _check_unique_messages(path: str, label: str,
+                           messages: Sequence[Any]) -> None:
+  """One GRIB message per wind component, pressure level and time.
+
+  cfgrib keeps the first of two messages with the same keys and drops the
+  other silently; a duplicated NetCDF level is refused, so is this.
+
+  Raises:
+    errors.BadFileError: One line naming the component, level and time.
+  """
+  seen = set()
+  for message in messages:
+    try:
+      if (message['shortName'] not in ('u', 'v') or
+          message['typeOfLevel'] != 'isobaricInhPa'):
+        continue
+      key = (message['shortName'], message['level'], message['dataDate'],
+             message['dataTime'], str(message['stepRange']))
+    except KeyError:
+      continue  # Not a field cfgrib reads as a wind; it reads the rest.
+    if key in seen:
+      short, level, date, hhmm, step = key
+      raise errors.BadFileError(
+          f'{label} file {path} holds two messages of {short} at {level} hPa'
+          f', run {date} {int(hhmm):04d}Z, step {step} (one per component, '
+          'level and time; cfgrib would keep the first and drop the other)')
+    seen.add(key)
 
 
 def _first_line(error: Exception) -> str:
