@@ -519,7 +519,11 @@ def _float_calibration(path: pathlib.Path) -> str:
     span = ('—' if row['range'] is None else
             f'{row["range"][0]:g}–{row["range"][1]:g}')
     inside = {None: '—', True: 'yes', False: '**no**'}[row['inside']]
-    lines.append(f'| {row["row"]} | {text} | {span} | {inside} |')
+    name = row['row'].replace('|', '\\|')
+    if name.startswith('days aloft') and value >= record['details'][
+        'band']['max_days']:
+      text += ' (all up at the limit)'
+    lines.append(f'| {name} | {text} | {span} | {inside} |')
   lines.append(f'\n({record["date"][:10]}, {record["machine"]}, '
                f'{record["seconds"]:.0f} s: `{record["command"]}`)')
   return '\n'.join(lines)
