@@ -472,3 +472,43 @@ def test_grib2_with_a_duplicated_message_is_refused(tmp_path):
   path.write_bytes(raw + raw[:end])
   with pytest.raises(errors.BadFileError, match='holds two messages of'):
     era5.read_source(str(path))
+
+
+# -- Item 3: a sounding's pressures are checked against their heights. ------
+def _hilo_scaled(tmp_path, factor):
+  hilo = os.path.join(_DATA, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
+  with open(hilo, encoding='utf-8') as f:
+    lines = f.read().splitlines()
+  rows = [lines[0]] + [
+      ','.join([repr(float(l.split(',')[0]) * factor), *l.split(',')[1:]])
+      for l in lines[1:] if l.strip()]
+  path = tmp_path / f'PHTO-Hilo_x{factor:g}_uwyo.csv'
+  path.write_text('\n'.join(rows) + '\n')
+  return str(path)
+
+
+@pytest.mark.parametrize('factor', [100.0, 0.1, 1e34])
+def test_a_sounding_in_other_pressure_units_is_refused(factor, tmp_path):
+  from ble_latex.wind import sounding  # pylint: disable=g-import-not-at-top
+  with pytest.raises(errors.BadFileError, match='PRES must be in hPa'):
+    sounding.read(_hilo_scaled(tmp_path, factor))
+  assert len(sounding.read(_hilo_scaled(tmp_path, 1.0)).pressure_pa) == 162
+
+
+def test_launch_refuses_a_sounding_in_pa_in_one_line(tmp_path, capsys):
+  from ble_latex.cli import launch  # pylint: disable=g-import-not-at-top
+  path = _hilo_scaled(tmp_path, 100.0)
+  assert launch.main([f'--output_dir={tmp_path / "o"}', f'--wind_file={path}',
+                      '--grid=1,1,1', '--max_steps=1', '--draws=1']) == 1
+  line = _one_line(capsys, 'ble-latex-launch')
+  assert path in line and 'PRES must be in hPa' in line
+
+
+def test_launch_world_params_go_through_check_params(tmp_path):
+  import test_era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
+  from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
+  path = test_era5.write_era5(tmp_path / 'era5.nc')
+  bad = env_params.params_from_gin().replace(radius_km=-1.0)
+  with pytest.raises(errors.ConfigError, match='radius_km'):
+    scoring.era5_world(path, max_hours=0.0, params=bad, steps=1)

@@ -305,7 +305,10 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
         'year 9999') from e
   except ValueError as e:
     raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
-  return _world(params.replace(wind_grid=wind_grid), seed, {
+  # The one validator of every path (the eval's and train's params are
+  # checked where they are built): the grid's winds and levels too.
+  params = env_params.check_params(params.replace(wind_grid=wind_grid))
+  return _world(params, seed, {
       'source': 'era5' if data.source == 'ERA5' else data.source,
       'wind_source': f'{data.description}: {list(data.paths)}',
       'path': str(path), 'station_lat': float(center_lat),
@@ -659,7 +662,8 @@ def with_ascent(records: List[Dict[str, Any]], legs: Dict[str, np.ndarray],
   `float_utc`, `ascent_min` (launch to float) and `ascent_drift_km` (launch
   site to float point); where it bursts first, `burst_altitude_m`,
   `burst_lat`, `burst_lon`, `burst_utc`, and `landing_lat`, `landing_lon`,
-  `landing_utc` (None where the descent did not end within its bound).
+  `landing_utc` (None where the descent did not end within its bound); each
+  point also as `<name>_east_km`, `<name>_north_km` from the station.
   Latitudes and longitudes (-180..180) from the world's station; times
   None where the world names no time.
   """
@@ -668,12 +672,15 @@ def with_ascent(records: List[Dict[str, Any]], legs: Dict[str, np.ndarray],
 
   def place(x_m, y_m, t_s, name):
     if not (np.isfinite(x_m) and np.isfinite(y_m)):
-      return {f'{name}_lat': None, f'{name}_lon': None, f'{name}_utc': None}
+      return {f'{name}_{key}': None for key in ('lat', 'lon', 'utc',
+                                                'east_km', 'north_km')}
     lat, lon = tracks.point_lat_lon(station[0][0], station[0][1],
                                     float(x_m) / 1000.0, float(y_m) / 1000.0)
     utc = None if start is None or not np.isfinite(t_s) else tracks.utc_text(
         start + dt.timedelta(seconds=float(t_s)))
-    return {f'{name}_lat': lat, f'{name}_lon': lon, f'{name}_utc': utc}
+    return {f'{name}_lat': lat, f'{name}_lon': lon, f'{name}_utc': utc,
+            f'{name}_east_km': float(x_m) / 1000.0,
+            f'{name}_north_km': float(y_m) / 1000.0}
 
   out = []
   for k, record in enumerate(records):

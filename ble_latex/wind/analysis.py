@@ -31,6 +31,8 @@ import dataclasses
 import datetime as dt
 import logging
 import math
+import os
+import tempfile
 from typing import Any, Dict, List, Optional, Sequence, Tuple, TYPE_CHECKING
 
 import numpy as np
@@ -40,6 +42,7 @@ if TYPE_CHECKING:  # xarray loads when a file is read (~2 s).
 
 from ble_latex import errors
 from ble_latex.wind import era5_checks
+from ble_latex.wind import grib_subset
 from ble_latex.wind import reach
 from ble_latex.wind import sounding
 
@@ -91,22 +94,9 @@ def kind_of(path: str) -> str:
   return 'netcdf' if b'\x00' in head else 'sounding'
 
 
-def pressure_of_height(height_m: float) -> float:
-  """US Standard Atmosphere 1976 pressure at a geopotential height. # [Pa]
-
-  Layers 0-11 km (lapse -6.5 K/km), 11-20 km (isothermal 216.65 K), 20-32 km
-  (lapse +1 K/km): p = p_b (T_b / T)^(g0 M / (R L)) or p_b exp(-g0 M dh /
-  (R T_b)) (NOAA/NASA/USAF, 1976, eq. 33a/33b).
-  """
-  g_m_r = 9.80665 * 0.0289644 / 8.3144598  # g0 M / R. # [K/m]
-  layers = ((0.0, 288.15, -0.0065, 101325.0), (11_000.0, 216.65, 0.0, 22632.1),
-            (20_000.0, 216.65, 0.001, 5474.89), (32_000.0, 228.65, 0.0028,
-                                                 868.019))
-  base, temp, lapse, p_base = [l for l in layers if l[0] <= height_m][-1]
-  dh = height_m - base
-  if lapse == 0.0:
-    return p_base * math.exp(-g_m_r * dh / temp)
-  return p_base * (temp / (temp + lapse * dh)) ** (g_m_r / lapse)
+# US Standard Atmosphere 1976 pressure of a height: its home is `reach`
+# (the sounding reader checks its pressures with it too).
+pressure_of_height = reach.pressure_of_height
 
 
 def check_flight_band(path: str, pressure_pa: np.ndarray, label: str) -> None:
@@ -299,25 +289,8 @@ def open_dataset(path: str, label: str
   try:
     if kind == 'grib':
       label = 'GRIB2' if label == 'ERA5' else label
-      import cfgrib  # pylint: disable=g-import-not-at-top
-      # The messages' headers only (no values decoded): a constant field
-      # can declare a huge grid in a few bytes.
-      stream = cfgrib.FileStream(path, errors='raise')
-      messages = [m for _, m in stream.items()]
-      points = sum(int(m['numberOfDataPoints']) for m in messages)
-      era5_checks.check_size(path, (points,), label=label)
-      _check_unique_messages(path, label, messages)
-      parts = []
-      with _quiet_cfgrib():
-        for short in ('u', 'v'):
-          # errors='raise': a corrupt or truncated message is an error
-          # (cfgrib's default logs it and reads the messages before it).
-          part = xr.open_dataset(
-              path, engine='cfgrib', backend_kwargs={
-                  'indexpath': '', 'errors': 'raise', 'filter_by_keys': {
-                      'typeOfLevel': 'isobaricInhPa', 'shortName': short}})
-          parts.append(part.load())
-      dataset = xr.merge(parts, compat='override')
+      with tempfile.TemporaryDirectory(prefix='ble_latex_grib') as folder:
+        dataset = _open_grib(path, label, folder)
     else:
       era5_checks.check_file(path, label=label)
       dataset = xr.open_dataset(path)
@@ -337,6 +310,48 @@ def open_dataset(path: str, label: str
     dataset.close()
     raise
   return dataset, label, names
+
+
+def _open_grib(path: str, label: str, folder: str) -> 'xr.Dataset':
+  """u and v on isobaric levels of a GRIB2 file, loaded.
+
+  Only the messages that may be winds are indexed and decoded
+  (`grib_subset.wind_messages`, copied to `folder`); cfgrib indexes every
+  message it is given, once per open.
+  """
+  import cfgrib  # pylint: disable=g-import-not-at-top
+  import xarray as xr  # pylint: disable=g-import-not-at-top,redefined-outer-name
+  subset = grib_subset.wind_messages(path)
+  read = path
+  if subset is not None:
+    read = os.path.join(folder, 'winds.grib2')
+    with open(read, 'wb') as stream:
+      stream.write(subset)
+  # The messages' headers only (no values decoded): a constant field
+  # can declare a huge grid in a few bytes.
+  stream = cfgrib.FileStream(read, errors='raise')
+  messages = [m for _, m in stream.items()]
+  points = sum(int(m['numberOfDataPoints']) for m in messages)
+  era5_checks.check_size(path, (points,), label=label)
+  _check_unique_messages(path, label, messages)
+
+  def opened(shorts):
+    # The messages read above (errors='raise': a corrupt or truncated one
+    # is an error; cfgrib's default logs it and reads those before it),
+    # indexed and decoded once.
+    part = xr.open_dataset(
+        messages, engine='cfgrib', backend_kwargs={'filter_by_keys': {
+            'typeOfLevel': 'isobaricInhPa', 'shortName': shorts}})
+    with part:
+      return part.load()
+
+  with _quiet_cfgrib():
+    try:  # One index of both components.
+      return opened(['u', 'v'])
+    except cfgrib.dataset.DatasetBuildError:
+      # u and v on other levels or grids: each on its own, merged.
+      return xr.merge([opened(short) for short in ('u', 'v')],
+                      compat='override')
 
 
 def _check_unique_messages(path: str, label: str,

@@ -293,6 +293,35 @@ def read(path: str) -> Sounding:
   return dataclasses.replace(_column(rows, path), site=read_site(text, path))
 
 
+# How far a level's pressure may lie from the US Standard Atmosphere 1976's
+# at its height (`reach.pressure_of_height`): real columns stay within ~30 %
+# up to 35 km; PRES in Pa (x100) or kPa (/10) does not. # [.]
+MAX_PRESSURE_RATIO = 2.0
+
+
+def check_pressure_units(pressure_hpa: np.ndarray, height_m: np.ndarray,
+                         path: str) -> None:
+  """Each level's PRES [hPa] within `MAX_PRESSURE_RATIO` of the standard
+  atmosphere's at its HGHT [m].
+
+  Raises:
+    errors.BadFileError: One line naming the file and the first level that
+      is not (a file whose PRES is in Pa, or whose heights are not metres).
+  """
+  with np.errstate(all='ignore'):
+    standard = np.array([reach.pressure_of_height(float(h)) for h in
+                         height_m]) / HPA_PA
+    ratio = pressure_hpa / standard
+  bad = ~((ratio >= 1 / MAX_PRESSURE_RATIO) & (ratio <= MAX_PRESSURE_RATIO))
+  if np.any(bad):
+    i = int(np.argmax(bad))
+    raise errors.BadFileError(
+        f'{path}: PRES {pressure_hpa[i]:g} hPa at HGHT {height_m[i]:g} m is '
+        f'{ratio[i]:.3g} x the standard atmosphere\'s {standard[i]:.4g} hPa '
+        f'there (more than {MAX_PRESSURE_RATIO:g}x off): PRES must be in hPa '
+        'and HGHT in m')
+
+
 def _column(rows: Sequence[Dict[str, float]], path: str) -> Sounding:
   table = np.array([[r[c] for c in _COLUMNS] for r in rows], np.float64)
   if table.size:
@@ -321,6 +350,7 @@ def _column(rows: Sequence[Dict[str, float]], path: str) -> Sounding:
   if np.any(np.diff(height_m) <= 0):
     raise errors.BadFileError(
         f'{path}: heights do not grow as pressure falls')
+  check_pressure_units(pressure_hpa, height_m, path)
   low, high = reach.flight_band_m()
   if height_m[0] > low or height_m[-1] < high:
     raise errors.BadFileError(
