@@ -208,3 +208,28 @@ def test_command_ascent_flags_are_one_line(tmp_path, capsys, args, match):
   err = capsys.readouterr().err.strip().splitlines()
   assert status == 2 and len(err) == 1, err
   assert err[0] == f'ble-latex-launch: {match}'
+
+
+@pytest.mark.slow  # Imports the launch planner (~15 s on 2 busy cores).
+def test_launch_map_draws_the_way_up():
+  from ble_latex.launch import launch_map  # pylint: disable=g-import-not-at-top
+  from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
+  launches = scoring.Launches.from_array(np.array(
+      [[e, n, 0.0, 17_500.0] for n in (-50.0, 50.0) for e in (-50.0, 50.0)],
+      np.float32))
+  scores = scoring.Scores(launches, np.array([[0.1, 0.4, 0.2, 0.0]]), 3)
+  base = {'hours': 0.0, 'tw50_mean': 0.4}
+  best = [{**base, 'rank': 1, 'east_km': 50.0, 'north_km': -50.0,
+           'ascent': {'floats': True, 'float_east_km': 180.0,
+                      'float_north_km': -60.0, 'ascent_min': 51.0}},
+          {**base, 'rank': 2, 'east_km': -50.0, 'north_km': 50.0,
+           'ascent': {'floats': False, 'landing_east_km': -20.0,
+                      'landing_north_km': 260.0}}]
+  paths = np.array([[[50.0, -50.0], [190.0, -55.0], [200.0, -50.0],
+                     [210.0, -40.0]], [[-50.0, 50.0]] * 4])
+  fig = launch_map.launch_map(scores, (2, 2, 1), 50.0, best, paths,
+                              title='t', delay_panel=False)
+  ax = fig.axes[0]
+  assert ax.get_xlim()[1] > 210.0 and ax.get_ylim()[1] > 260.0
+  labels = ax.get_legend_handles_labels()[1]
+  assert '1: reaches float (51 min)' in labels and '2: bursts, lands' in labels

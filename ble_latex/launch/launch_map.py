@@ -32,6 +32,9 @@ def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
     radius_km: The station-keeping radius. # [km]
     best: The best launches' records (`scoring.ranked`), best first.
     paths: [len(best), strides + 1, 2] their paths (east, north) [km].
+      Records from the ground (`scoring.with_ascent`) also draw the way up
+      (dotted, to the float point or the landing), the float phase from the
+      float point, and the axes take them in.
     title: The figure's title.
     delay_panel: Draw the right panel (False: the map alone).
   """
@@ -61,17 +64,53 @@ def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
           label='station')
   colors = matplotlib.colormaps['autumn'](np.linspace(0.0, 0.8,
                                                       max(len(best), 1)))
+  drawn = []  # From the ground: the paths the axes take in.
   for i, record in enumerate(best):
     if paths is not None:
-      ax.plot(paths[i, :, 0], paths[i, :, 1], color=colors[i], lw=1.0)
+      path, leg = paths[i], record.get('ascent')
+      if leg and leg['floats'] and leg.get('float_east_km') is not None:
+        # From the ground: the float phase from where the ascent ends.
+        path = np.concatenate([[[leg['float_east_km'],
+                                 leg['float_north_km']]], path[1:]])
+      elif leg:
+        path = path[:1]  # It never floats.
+      ax.plot(path[:, 0], path[:, 1], color=colors[i], lw=1.0)
+      if leg:
+        drawn.append(path)
     # Named in the legend, not beside the marker: on a fine grid the best
     # launches are neighbours and their labels overlapped.
     ax.plot(record['east_km'], record['north_km'], 'o', mfc=colors[i],
             mec='k', ms=7, ls='',
             label=(f"{record['rank']}: +{record['hours']:g} h, TW50 "
                    f"{record['tw50_mean']:.2f}"))
-  ax.set_xlim(east.min(), east.max())
-  ax.set_ylim(north.min(), north.max())
+  low, high = [east.min(), north.min()], [east.max(), north.max()]
+  for i, record in enumerate(best):  # From the ground: the way up.
+    leg = record.get('ascent')
+    if not leg:
+      continue
+    end = 'float' if leg['floats'] else 'landing'
+    if leg.get(f'{end}_east_km') is None:
+      continue
+    x, y = leg[f'{end}_east_km'], leg[f'{end}_north_km']
+    ax.plot([record['east_km'], x], [record['north_km'], y], ':',
+            color=colors[i], lw=1.5)
+    ax.plot(x, y, '^' if leg['floats'] else 'v', mfc=colors[i], mec='k',
+            ms=7, ls='', label=(f"{record['rank']}: reaches float "
+                                f"({leg['ascent_min']:.0f} min)"
+                                if leg['floats'] else
+                                f"{record['rank']}: bursts, lands"))
+    low = [min(low[0], x), min(low[1], y)]
+    high = [max(high[0], x), max(high[1], y)]
+  for path in drawn:
+    low = [min(low[0], path[:, 0].min()), min(low[1], path[:, 1].min())]
+    high = [max(high[0], path[:, 0].max()), max(high[1], path[:, 1].max())]
+  if any(record.get('ascent') for record in best):  # Show the drift.
+    pad = 0.05 * max(high[0] - low[0], high[1] - low[1], 1.0)
+    ax.set_xlim(low[0] - pad, high[0] + pad)
+    ax.set_ylim(low[1] - pad, high[1] + pad)
+  else:
+    ax.set_xlim(east.min(), east.max())
+    ax.set_ylim(north.min(), north.max())
   ax.set_aspect('equal')
   ax.set_xlabel('launch east of the station [km]')
   ax.set_ylabel('launch north of the station [km]')

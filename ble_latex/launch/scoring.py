@@ -42,6 +42,7 @@ from ble_latex.launch import ascent as ascent_lib
 from ble_latex.launch import controllers as controllers_lib
 from ble_latex.run import tracks
 from ble_latex.wind import era5
+from ble_latex.wind import era5_checks
 from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
 from ble_latex.wind import simplex
@@ -276,12 +277,20 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
   """
   params = _with_steps(
       env_params.params_from_gin() if params is None else params, steps)
+  bound = bound_wind_settings(path)  # Before the file is read.
   data = era5.load(path)  # FileNotFoundError, BadFileError: exit 1.
+  if center_lat is None and center_lon is None:
+    center_lat = bound.pop('center_lat', None)
+    center_lon = bound.pop('center_lon', None)
+  bound.pop('center_lat', None), bound.pop('center_lon', None)
   if (center_lat is None) != (center_lon is None):
     raise errors.ConfigError('launch station: give both latitude and '
                              'longitude, or neither (the domain centre)')
   if center_lat is None:
     center_lat, center_lon = domain_centre(data)
+  if bound.get('truth_path') is not None:
+    bound['truth'] = era5.load(bound['truth_path'])
+  bound.pop('truth_path', None)
   if date is None:
     date = data.start.replace(tzinfo=None)
   try:
@@ -296,7 +305,7 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
     wind_grid = era5_jax.grid_from_data(
         data, center_lat=center_lat, center_lon=center_lon,
         episode_hours=hours,
-        start_dates=(start, start + dt.timedelta(minutes=1)))
+        start_dates=(start, start + dt.timedelta(minutes=1)), **bound)
   except errors.ConfigError:
     raise
   except OverflowError as e:  # A date near 9999-12-31: start + 1 minute.
@@ -314,8 +323,59 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
       'path': str(path), 'station_lat': float(center_lat),
       'station_lon': float(tracks.wrap_longitude(center_lon)),
       'winds_vary_in_time': not data.time_invariant,
-      'date': (data.start.replace(tzinfo=None) if data.time_invariant
-               else start).isoformat()})
+      'date': _world_date(data, start, bound.get('snapshot_time'))})
+
+
+def _world_date(data: era5.Era5Data, start: dt.datetime,
+                snapshot_time: Any) -> str:
+  """The world's start as ISO text: a snapshot's bound time (the sun's under
+  realistic physics), else its file's, else the launch date."""
+  if not data.time_invariant:
+    return start.isoformat()
+  if snapshot_time is None:
+    return data.start.replace(tzinfo=None).isoformat()
+  when = (dt.datetime.fromisoformat(snapshot_time)
+          if isinstance(snapshot_time, str) else snapshot_time)
+  return when.replace(tzinfo=None).isoformat()
+
+
+# `Era5WindField.*` bindings a launch applies; the others it sets itself.
+LAUNCH_WIND_BINDINGS = ('path', 'center_lat', 'center_lon', 'add_noise',
+                        'end_outside_domain', 'snapshot_time', 'noise_scale',
+                        'truth_path')
+_SET_BY_LAUNCH = {'start_dates': '--date', 'episode_hours': '--hours and '
+                  '--max_steps', 'stations': 'one station (--station_lat/'
+                  '--station_lon)', 'station_margin_km': 'one station '
+                  '(--station_lat/--station_lon)'}
+
+
+def bound_wind_settings(path: Any) -> Dict[str, Any]:
+  """The `Era5WindField.*` gin bindings a launch world applies.
+
+  A launch flies its wind file with the bound snapshot time, noise, truth
+  file and station (the flags' station wins); a binding it sets itself is
+  refused rather than ignored, and so is a bound path other than `path`.
+
+  Returns:
+    {name: value} of the bound `LAUNCH_WIND_BINDINGS` but `path`.
+
+  Raises:
+    errors.ConfigError: One line naming the binding.
+  """
+  import gin  # pylint: disable=g-import-not-at-top
+  bound = dict(gin.get_bindings(era5.settings))
+  for name, flag in _SET_BY_LAUNCH.items():
+    if name in bound:
+      raise errors.ConfigError(
+          f'gin binding Era5WindField.{name} = {bound[name]!r} does not apply '
+          f'to a launch (it sets that from {flag}); remove it')
+  if 'path' in bound:
+    bound_paths = era5_checks.expand_paths(bound.pop('path'))
+    if bound_paths != era5_checks.expand_paths(path):
+      raise errors.ConfigError(
+          f'gin binding Era5WindField.path {list(bound_paths)} is not the '
+          f'launch\'s wind file {path!r}; bind one or give the same')
+  return {k: v for k, v in bound.items() if k in LAUNCH_WIND_BINDINGS}
 
 
 def domain_centre(data: era5.Era5Data) -> Tuple[float, float]:
