@@ -54,7 +54,7 @@ DEFAULT_HALF_WIDTH_DEG = 5.0  # [deg]
 DEFAULT_HOURS = '0-24/3'
 # Bounds: a command never asks NOMADS for more than this unless told.
 DEFAULT_MAX_FILES = 100
-DEFAULT_MAX_MB = 50.0  # One file's size: a 10 deg box is ~1 MB. # [MB]
+DEFAULT_MAX_MB = 50.0  # One file; a 20 deg box is < 1 MB (estimate). # [MB]
 DEFAULT_TIMEOUT_S = 60.0  # [s]
 DEFAULT_PAUSE_S = 1.0  # [s] Between requests (NOMADS' ~120 hits/min).
 _GRIB_START = b'GRIB'
