@@ -512,3 +512,43 @@ def test_launch_world_params_go_through_check_params(tmp_path):
   bad = env_params.params_from_gin().replace(radius_km=-1.0)
   with pytest.raises(errors.ConfigError, match='radius_km'):
     scoring.era5_world(path, max_hours=0.0, params=bad, steps=1)
+
+
+# -- Item 4: a launch applies the Era5WindField bindings, or refuses them. --
+@pytest.mark.parametrize('binding, needle', [
+    ("Era5WindField.snapshot_time = '9999-12-31T23:59'", 'snapshot'),
+    ("Era5WindField.start_dates = 'eval'", 'Era5WindField.start_dates'),
+    ("Era5WindField.stations = 'per_seed'", 'Era5WindField.stations'),
+    ("Era5WindField.path = '/elsewhere.nc'", 'Era5WindField.path'),
+])
+def test_launch_world_applies_or_refuses_wind_bindings(binding, needle,
+                                                       tmp_path):
+  import test_era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
+  path = test_era5.write_era5(tmp_path / 'era5.nc')
+  gin.clear_config()
+  try:
+    gin.parse_config(binding)
+    with pytest.raises(errors.ConfigError, match=needle):
+      scoring.era5_world(path, max_hours=0.0, steps=1)
+  finally:
+    gin.clear_config()
+
+
+def test_launch_world_flies_a_bound_snapshot_time():
+  from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
+  path = os.path.join(_DATA, 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
+  gin.clear_config()
+  try:
+    before = scoring.era5_world(path, max_hours=0.0, steps=1)
+    gin.parse_config("Era5WindField.snapshot_time = '2012-06-01T06:00'")
+    after = scoring.era5_world(path, max_hours=0.0, steps=1)
+  finally:
+    gin.clear_config()
+  assert before.describe['date'] == '2010-10-26T12:00:00'
+  assert after.describe['date'] == '2012-06-01T06:00:00'
+  moved = int(after.state.start_time_offset_s) - int(
+      before.state.start_time_offset_s)
+  import datetime as dt  # pylint: disable=g-import-not-at-top
+  assert moved == (dt.datetime(2012, 6, 1, 6) -
+                   dt.datetime(2010, 10, 26, 12)).total_seconds()
