@@ -552,3 +552,14 @@ def test_launch_world_flies_a_bound_snapshot_time():
   import datetime as dt  # pylint: disable=g-import-not-at-top
   assert moved == (dt.datetime(2012, 6, 1, 6) -
                    dt.datetime(2010, 10, 26, 12)).total_seconds()
+
+
+def test_launch_ascent_rates_are_positive_in_float32(tmp_path, capsys):
+  from ble_latex.cli import launch  # pylint: disable=g-import-not-at-top
+  from ble_latex.launch import ascent  # pylint: disable=g-import-not-at-top
+  with pytest.raises(ValueError, match='float32'):
+    ascent.Ascent(ascent_rate_mps=1e-40)
+  assert launch.main([f'--output_dir={tmp_path / "o"}', '--from_ground',
+                      '--descent_rate_mps=1e-45', '--grid=1,1,1']) == 2
+  assert '--from_ground: ascent descent_rate_mps' in _one_line(
+      capsys, 'ble-latex-launch')

@@ -35,6 +35,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import gin_values
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import dynamics
@@ -82,8 +83,9 @@ class Ascent:
     for name in ('ascent_rate_mps', 'descent_rate_mps', 'step_s',
                  'max_hours'):
       value = getattr(self, name)
-      if not (math.isfinite(value) and value > 0):
-        raise ValueError(f'ascent {name} must be > 0, got {value}')
+      if not gin_values.is_positive(value):  # > 0 in the float32 core too.
+        raise ValueError(f'ascent {name} must be a finite number > 0 in '
+                         f'float32 (>= 1.2e-38), got {value}')
     if not 0.0 < self.launch_altitude_m < 5000.0:
       raise ValueError('ascent launch_altitude_m must be in (0, 5000) m, '
                        f'got {self.launch_altitude_m}')
