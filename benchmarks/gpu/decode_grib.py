@@ -39,7 +39,7 @@ def main(argv) -> int:
   if analysis.kind_of(grib) != 'grib':
     print(f'decode_grib.py: {grib} is not a GRIB file', file=sys.stderr)
     return 2
-  label, original, _ = era5.read_source(grib)
+  label, original = era5.read_source(grib)[:2]
   dataset, _, names = analysis.open_dataset(grib, label)
   u, v = names['variables']
   keep = dataset[[u, v]]
@@ -50,7 +50,7 @@ def main(argv) -> int:
   keep.attrs = {'source': f'decoded from {grib} by benchmarks/gpu/'
                           'decode_grib.py (cfgrib + eccodes)'}
   keep.to_netcdf(out)
-  _, copy, _ = era5.read_source(out)
+  copy = era5.read_source(out)[1]
   same = all(a.dtype == b.dtype and a.shape == b.shape and
              np.array_equal(a, b) for a, b in zip(original, copy))
   if not same:

@@ -54,6 +54,7 @@ from ble_latex.wind import analysis
 from ble_latex.wind import era5_checks
 from ble_latex.wind import forecast_error
 from ble_latex.wind import globe
+from ble_latex.wind import members
 from ble_latex.wind import stations as stations_lib
 
 # Dimension names accepted in the files, new CDS layout first.
@@ -126,6 +127,7 @@ class Era5Data:
     global_longitude: The longitudes go round the globe (`globe`):
       `longitude` and `uv` end with the wrapped column (the first at +360).
     forecast: A forecast's run and lead times (`analysis.ForecastRun`).
+    member: An ensemble's member flown, e.g. 'member 2 of 31' (`members`).
   """
   paths: Tuple[str, ...]
   times: np.ndarray
@@ -139,6 +141,7 @@ class Era5Data:
   site: Any = None
   global_longitude: bool = False
   forecast: Any = None
+  member: Optional[str] = None
 
   @property
   def description(self) -> str:
@@ -148,8 +151,8 @@ class Era5Data:
     (`site`)."""
     about = self.site or self.forecast
     label = about.label if about is not None else ''
-    notes = ['time-invariant'] * self.time_invariant + (
-        about.notes if about is not None else [])
+    notes = ['time-invariant'] * self.time_invariant + [self.member] * bool(
+        self.member) + (about.notes if about is not None else [])
     return (self.source + (f' {label}' if label else '') +
             (f' ({"; ".join(notes)})' if notes else ''))
 
@@ -259,8 +262,8 @@ def find_time_dim(dataset: 'xr.Dataset', layout: Layout = ERA5
 
 
 def _read_variable(dataset: 'xr.Dataset', name: str, path: str,
-                   layout: Layout) -> 'xr.DataArray':
-  """Variable `name` as (time, pressure, latitude, longitude) array."""
+                   layout: Layout, member: int = 0) -> 'xr.DataArray':
+  """Variable `name` (of ensemble `member`) as (time, pressure, lat, lon)."""
   label = layout.label
   if name not in dataset.data_vars:
     raise errors.BadFileError(
@@ -286,8 +289,8 @@ def _read_variable(dataset: 'xr.Dataset', name: str, path: str,
       # (expver 5): each time is valid in exactly one of them.
       parts = [array.isel(expver=i) for i in range(array.sizes[dim])]
       array = functools.reduce(lambda a, b: a.combine_first(b), parts)
-    elif array.sizes[dim] == 1:
-      array = array.isel({dim: 0})
+    elif array.sizes[dim] == 1 or dim in members.MEMBER_DIMS:
+      array = array.isel({dim: member if array.sizes[dim] > 1 else 0})
     else:
       raise errors.BadFileError(
           f'{label} file {path}: variable {name!r} has an unexpected dimension '
@@ -312,8 +315,9 @@ def _open(path: str, label: str) -> 'xr.Dataset':
                               ) from error
 
 
-def read_source(path: str) -> Tuple[str, Tuple[np.ndarray, ...], Any]:
-  """Reads any wind file by its content (`analysis`): (source, arrays, site).
+def read_source(path: str, member: int = 0
+                ) -> Tuple[str, Tuple[np.ndarray, ...], Any, Optional[str]]:
+  """Reads a wind file by content (`analysis`): (source, arrays, site, member).
 
   ERA5 and other CF NetCDF files, GRIB2 and soundings; the arrays are
   `read_file`'s, the site a sounding's (`sounding.Site`; None otherwise).
@@ -321,17 +325,19 @@ def read_source(path: str) -> Tuple[str, Tuple[np.ndarray, ...], Any]:
   check_domain`; `load` checks their levels, `check_flight_band`).
   """
   if analysis.kind_of(path) == 'sounding':
-    return ('sounding',) + analysis.sounding_arrays(path)
+    members.about({}, member, path, 'sounding')  # Raises for member > 0.
+    return ('sounding',) + analysis.sounding_arrays(path) + (None,)
   dataset, label, names = analysis.open_dataset(path, ERA5.label)
   forecast = analysis.forecast_run(dataset)
-  arrays = read_file(path, Layout(label=label, **names), dataset=dataset)
+  about = members.about(dict(dataset.sizes), member, path, label)
+  arrays = read_file(path, Layout(label=label, **names), dataset, member)
   if label != ERA5.label:
     analysis.check_domain(path, arrays[2], arrays[3], label)
-  return label, arrays, forecast
+  return label, arrays, forecast, about
 
 
 def read_file(path: str, layout: Layout = ERA5,
-              dataset: Optional['xr.Dataset'] = None
+              dataset: Optional['xr.Dataset'] = None, member: int = 0
               ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                          np.ndarray]:
   """Reads and checks one file: its axes sorted ascending.
@@ -340,6 +346,7 @@ def read_file(path: str, layout: Layout = ERA5,
     path: A NetCDF file.
     layout: How the file names its winds and axes.
     dataset: The file already opened (`analysis.open_dataset`), or None.
+    member: The ensemble member read from a member dimension (`members`).
 
   Returns:
     (times (datetime64, naive UTC), pressure [Pa], latitude [deg N],
@@ -352,8 +359,8 @@ def read_file(path: str, layout: Layout = ERA5,
   opened = _open(path, label) if dataset is None else dataset
   with opened as dataset:
     u_name, v_name = layout.variables
-    u = _read_variable(dataset, u_name, path, layout)
-    v = _read_variable(dataset, v_name, path, layout)
+    u = _read_variable(dataset, u_name, path, layout, member)
+    v = _read_variable(dataset, v_name, path, layout, member)
     if u.dims != v.dims or u.shape != v.shape:
       raise errors.BadFileError(
           f'{label} file {path}: {u_name} has dims {u.dims} {u.shape} but '
@@ -394,7 +401,8 @@ def read_file(path: str, layout: Layout = ERA5,
           longitude[orders[3]], uv)
 
 
-def load(path: Union[str, Sequence[str]], layout: Layout = ERA5) -> Era5Data:
+def load(path: Union[str, Sequence[str]], layout: Layout = ERA5,
+         member: Optional[int] = None) -> Era5Data:
   """Loads ERA5 u, v from one or more files (joined along time).
 
   Results are cached per (files, modification times), so several
@@ -405,6 +413,7 @@ def load(path: Union[str, Sequence[str]], layout: Layout = ERA5) -> Era5Data:
   Args:
     path: A file, a glob pattern, or a list of them (see `era5_checks.expand_paths`).
     layout: How the files name their winds and axes.
+    member: The ensemble member flown (None: gin's, `members.bound`).
 
   Returns:
     The data on ascending axes, pressure in Pa.
@@ -425,7 +434,7 @@ def load(path: Union[str, Sequence[str]], layout: Layout = ERA5) -> Era5Data:
       era5_checks.check_file(p, label=layout.label)  # Raises.
   stamps = tuple((p, os.stat(p).st_mtime_ns, os.stat(p).st_size)
                  for p in paths)
-  data = _load_cached(stamps, layout)
+  data = _load_cached(stamps, layout, members.bound(member))
   if layout is ERA5 and data.source not in (ERA5.label, 'sounding'):
     analysis.check_flight_band(', '.join(data.paths), data.pressure, data.source)
   return data
@@ -433,22 +442,22 @@ def load(path: Union[str, Sequence[str]], layout: Layout = ERA5) -> Era5Data:
 
 @functools.lru_cache(maxsize=4)
 def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
-                 layout: Layout) -> Era5Data:
+                 layout: Layout, member: int = 0) -> Era5Data:
   label = layout.label
   paths = [p for p, _, _ in stamps]
   if layout is ERA5:
-    reads = [read_source(p) for p in paths]
-    parts = [(p,) + arrays for p, (_, arrays, _) in zip(paths, reads)]
+    reads = [read_source(p, member) for p in paths]
+    parts = [(p,) + r[1] for p, r in zip(paths, reads)]
     source, about = reads[0][0], [r[2] for r in reads]
     site = about[0] if source == 'sounding' else None
     forecast = None if site else analysis.ForecastRun.join(about)
-    if len({s for s, _, _ in reads}) > 1:
+    if len({r[0] for r in reads}) > 1:
       raise errors.BadFileError(
-          f'Wind files {paths} mix sources {[s for s, _, _ in reads]}')
+          f'Wind files {paths} mix sources {[r[0] for r in reads]}')
     label = source
   else:
-    source, site, forecast = label, None, None
-    parts = [(p,) + read_file(p, layout) for p in paths]
+    source, site, forecast, reads = label, None, None, [(None,) * 4]
+    parts = [(p,) + read_file(p, layout, member=member) for p in paths]
   first_path, _, pressure, latitude, longitude, _ = parts[0]
   for p, _, other_p, other_lat, other_lon, _ in parts[1:]:
     for name, a, b in (('pressure levels', pressure, other_p),
@@ -490,7 +499,8 @@ def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
     a.flags.writeable = False
   return Era5Data(tuple(s[0] for s in stamps), *arrays, source=source,
                   time_invariant=time_invariant, site=site,
-                  global_longitude=global_longitude, forecast=forecast)
+                  global_longitude=global_longitude, forecast=forecast,
+                  member=reads[0][3])
 
 
 def latlng_of_offset(center_lat: float, center_lon: float, x_m: float,
@@ -553,6 +563,7 @@ class Era5Settings:
       source decides (`forecast_error.noise_scale`: ERA5 1, others 2.39).
     truth_path: None, or a second file (glob, list) whose winds are the
       truth (`forecast_error.truth_on_forecast_grid`; noise 0 by default).
+    member: The ensemble member flown (`members`; 0, the first: GEFS's control).
   """
   path: Union[str, Tuple[str, ...]]
   center_lat: float = PAPER_CENTER_LAT  # [deg N]
@@ -566,6 +577,7 @@ class Era5Settings:
   snapshot_time: Any = None
   noise_scale: Optional[float] = None
   truth_path: Any = None
+  member: int = 0
 
   def __post_init__(self):
     for name in ('path', 'start_dates', 'truth_path'):
@@ -579,10 +591,11 @@ class Era5Settings:
     stations_lib.check_mode(self.stations)
     stations_lib.check_margin(self.station_margin_km)
     forecast_error.check_scale(self.noise_scale)
+    members.check(self.member)
 
   def load(self) -> Era5Data:
     """The data of `path` (`load`: checked, cached)."""
-    return load(self.path)
+    return load(self.path, member=self.member)
 
   def start_window(self, data: Era5Data) -> Tuple[int, int]:
     """`start_window` of these settings on `data` (their file's data)."""
@@ -605,7 +618,8 @@ def settings(*,
              end_outside_domain: Optional[bool] = None,
              snapshot_time: Any = None,
              noise_scale: Optional[float] = None,
-             truth_path: Any = None) -> Era5Settings:
+             truth_path: Any = None,
+             member: int = 0) -> Era5Settings:
   """ERA5's settings from gin: the configurable `Era5WindField`.
 
   `LatexBalloonEnv.wind_field_factory = @Era5WindField` and the
@@ -619,14 +633,11 @@ def settings(*,
     center_lat: As `Era5Settings`. # [deg N]
     center_lon: As `Era5Settings`. # [deg E]
     episode_hours: As `Era5Settings`. # [h]
-    add_noise: As `Era5Settings`.
-    start_dates: As `Era5Settings`.
+    add_noise, start_dates: As `Era5Settings`.
     stations: As `Era5Settings`.
     station_margin_km: As `Era5Settings`. # [km]
-    end_outside_domain: As `Era5Settings`.
-    snapshot_time: As `Era5Settings`.
-    noise_scale: As `Era5Settings`.
-    truth_path: As `Era5Settings`.
+    end_outside_domain, snapshot_time: As `Era5Settings`.
+    noise_scale, truth_path, member: As `Era5Settings`.
 
   Returns:
     The settings (unchecked: `load`, `start_window` and
