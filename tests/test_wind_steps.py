@@ -8,6 +8,7 @@ lead times +72, +75, +78 h (eccodes; winds + 0, 1, 2 m/s). No network.
 
 import pathlib
 
+import gin
 import numpy as np
 import pytest
 import xarray as xr
@@ -109,3 +110,27 @@ def test_a_snapshot_names_its_run_and_lead_time():
           (np.datetime64('2011-10-08T06:00', 'ns'),), (66.0,))])
   assert runs.label == 'runs 2011-10-08T00Z..2011-10-08T06Z +66..+72 h'
   assert analysis.ForecastRun.join([data.forecast, None]) is None
+
+
+def test_the_default_split_is_not_applied_to_a_series_other_than_era5(
+    tmp_path):
+  """eval's and train's default ERA5 splits refused a GFS series (the
+  'eval' dates are not in it); they apply to ERA5 files only, and a given
+  --era5_dates still does (refused in one line when the file lacks it)."""
+  from ble_latex.cli import common as cli  # pylint: disable=g-import-not-at-top
+  path = _write_steps(tmp_path / 'steps.grib2', HOURS)
+  gin.clear_config()
+  try:
+    for split in ('eval', 'train'):
+      bindings = cli.era5_bindings(path, None, split)
+      assert not any('start_dates' in b for b in bindings), bindings
+    assert cli.era5_bindings(path, 'all', 'eval')[-1] == (
+        'Era5WindField.start_dates = None')
+  finally:
+    gin.clear_config()
+  data = era5.load(path)
+  assert era5.start_window(data, center_lat=0.0, center_lon=0.0,
+                           episode_hours=3.0, start_dates=None) == (0, 180)
+  with pytest.raises(errors.ConfigError, match='--era5_dates=all'):
+    era5.start_window(data, center_lat=0.0, center_lon=0.0,
+                      episode_hours=3.0, start_dates='eval')

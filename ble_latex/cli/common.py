@@ -416,9 +416,24 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
       gin.query_parameter('Era5WindField.start_dates')
       return bindings  # The user's gin chose the range.
     except ValueError:
+      if not _is_era5_file(path):
+        return bindings  # Another source: flights start anywhere in it.
       dates = default_dates
   value = era5_dates_value(dates)
   return bindings + [f'Era5WindField.start_dates = {value!r}']
+
+
+def _is_era5_file(path: Optional[str]) -> bool:
+  """Whether the wind file (`path`, else gin's `Era5WindField.path`) is
+  ERA5, whose dates the commands' default splits (`era5.DATE_SPLITS`) are;
+  a GFS series, forecast or sounding is not split by them. Unreadable: True
+  (the reader reports it when the env starts)."""
+  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  try:
+    path = path or gin.query_parameter('Era5WindField.path')
+    return era5.load(path).source == era5.ERA5.label
+  except (OSError, ValueError):  # errors.BadFileError is a ValueError.
+    return True
 
 
 def wind_file_defaults(path: str) -> List[str]:
