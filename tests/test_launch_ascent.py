@@ -58,7 +58,8 @@ def test_fill_gives_the_asked_ascent_rate(calm):
         params, atm, jnp.float64(helium), params.payload_kg,
         params.initial_sand_kg, jnp.float64(config.launch_altitude_m))
   assert float(rate) == pytest.approx(5.0, abs=1e-6)
-  with pytest.raises(ValueError, match='ascent_rate_mps must be > 0'):
+  with pytest.raises(ValueError, match='ascent_rate_mps must be a finite '
+                     'number > 0'):
     ascent_lib.Ascent(ascent_rate_mps=0.0)
 
 
@@ -199,7 +200,8 @@ def test_plan_ascent_leg_is_the_realistic_ascent(tmp_path):
     (['--ascent_rate_mps=4'], '--ascent_rate_mps needs --from_ground'),
     (['--descent_rate_mps=4'], '--descent_rate_mps needs --from_ground'),
     (['--from_ground', '--ascent_rate_mps=-1'],
-     '--from_ground: ascent ascent_rate_mps must be > 0, got -1.0'),
+     '--from_ground: ascent ascent_rate_mps must be a finite number > 0 in '
+     'float32 (>= 1.2e-38), got -1.0'),
 ])
 def test_command_ascent_flags_are_one_line(tmp_path, capsys, args, match):
   from ble_latex.cli import launch as launch_command  # pylint: disable=g-import-not-at-top
