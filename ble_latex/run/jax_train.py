@@ -314,7 +314,7 @@ class _RunDir:
     self.start = done_iterations[-1] + 1 if done_iterations else 0
     run_info = {'trainer': 'jax', 'seed': seed,
                 'config': dataclasses.asdict(config), 'episode_steps': window,
-                **observation}
+                'wind_source': env_params_lib.wind_source(), **observation}
     # Rounds after the newest checkpoint (up to `checkpoint_period`) are
     # flown again: any number of them may be logged.
     run_dir.check_resume(

@@ -17,6 +17,7 @@ from ble_latex import errors
 from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
+from ble_latex.envs import env_params
 from ble_latex.run import collectors as collectors_lib
 from ble_latex.run import run_dir
 from ble_latex.run import runner
@@ -92,7 +93,9 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
     start_iteration = _reload_latest(agent, checkpoint_dir) + 1
     run_info = {'agent': agent_name, 'env_name': env_name, 'seed': seed,
                 'episodes_per_iteration': episodes_per_iteration,
-                'max_episode_length': max_episode_length}
+                'max_episode_length': max_episode_length,
+                # What the winds are (the file, its run and lead times).
+                'wind_source': env_params.wind_source()}
     run_dir.check_resume(base_dir, run_info, start_iteration=start_iteration,
                          episodes_per_iteration=episodes_per_iteration,
                          log_episodes='episodes' in collectors)

@@ -1,0 +1,78 @@
+# coding=utf-8
+"""Eval, train and launch records name a time series' source, run and lead
+times (`wind_source`; issue 64, item 3). The series is one GRIB2 file of
+the committed GFS slice at +72, +75, +78 h (`test_wind_steps._write_steps`);
+eval and train fly it with their default dates (the ERA5 split is for ERA5
+files only).
+"""
+
+import json
+
+import gin
+import pytest
+
+from test_wind_steps import _write_steps  # pylint: disable=g-bad-import-order
+
+HOURS = (72, 75, 78)
+RUN = 'GRIB2 run 2011-10-08T00Z +72..+78 h'
+
+
+@pytest.fixture(name='series')
+def _series(tmp_path):
+  gin.clear_config()
+  yield _write_steps(tmp_path / 'steps.grib2', HOURS)
+  gin.clear_config()
+
+
+def test_the_bound_series_names_its_run_and_lead_times(series):
+  """What eval's records and train's run.json write (`env_params.
+  wind_source`), as the commands bind --wind_file."""
+  from ble_latex.cli import common as cli  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
+  gin_binding.bind_gin(None, None, [], [])
+  bindings = cli.era5_bindings(series, None, 'eval')
+  gin_binding.bind_gin(None, None, [], bindings)
+  assert env_params.wind_source() == f"{RUN}: ['{series}']"
+
+
+@pytest.mark.slow
+def test_eval_records_name_the_run_and_lead_times(series, tmp_path, capsys):
+  from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'out'
+  code = eval_cli.main([
+      f'--output_dir={out}', '--agent=latex_station_seeker',
+      '--suite=latex_micro', '--max_episode_length=2',
+      '--gin_bindings=Era5WindField.episode_hours=1.0',
+      f'--wind_file={series}'])
+  assert code == 0, capsys.readouterr().err
+  records = json.loads((out / 'latex_micro' / 'latex_station_seeker.json'
+                        ).read_text())
+  assert records and all(r['wind_source'] == f"{RUN}: ['{series}']"
+                         for r in records)
+
+
+@pytest.mark.slow
+def test_train_run_json_names_the_run_and_lead_times(series, tmp_path,
+                                                      capsys):
+  from ble_latex.cli import train  # pylint: disable=g-import-not-at-top
+  run = tmp_path / 'run'
+  code = train.main([
+      f'--base_dir={run}', '--num_iterations=1', '--collectors=episodes',
+      '--gin_bindings=ble_latex.agents.sac.SACAgent.min_replay_history=30',
+      '--gin_bindings=ble_latex.agents.sac.SACAgent.batch_size=16',
+      '--gin_bindings=ble_latex.agents.sac.SACAgent.hidden_units=16',
+      '--max_episode_length=2', '--episodes_per_iteration=1',
+      '--gin_bindings=Era5WindField.episode_hours=1.0',
+      f'--wind_file={series}'])
+  assert code == 0, capsys.readouterr().err
+  info = json.loads((run / 'run.json').read_text())
+  assert info['wind_source'] == f"{RUN}: ['{series}']"
+
+
+@pytest.mark.slow
+def test_launch_world_names_the_run_and_lead_times(series):
+  from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
+  world = scoring.era5_world(series, max_hours=1.0, steps=2)
+  assert world.describe['wind_source'] == f"{RUN}: ['{series}']"
+  assert world.describe['winds_vary_in_time']
