@@ -64,7 +64,7 @@ def test_intermittent_setting_keeps_the_calibrated_long_run_rate():
   assert disturbance.mean_sigma(
       p.lift_walk_kg_per_sqrt_s, p.lift_walk_calm_kg_per_sqrt_s,
       p.lift_walk_calm_mean_s, p.lift_walk_gusty_mean_s) == pytest.approx(
-          params_lib.REALISTIC['lift_walk_kg_per_sqrt_s'], rel=0.01)
+          params_lib.LIFT_WALK_RANDOM['lift_walk_kg_per_sqrt_s'], rel=0.01)
   assert not params_lib.make_flight_params(
       **params_lib.REALISTIC).lift_walk_intermittent  # Off by default.
 
@@ -91,7 +91,8 @@ def test_spells_make_stride_increments_heavy_tailed():
       p.lift_walk_calm_mean_s + p.lift_walk_gusty_mean_s)
   assert changes.mean() == pytest.approx(expected, rel=0.1)
 
-  plain = params_lib.make_flight_params(**params_lib.REALISTIC)
+  plain = params_lib.make_flight_params(**params_lib.REALISTIC,
+                                       **params_lib.LIFT_WALK_RANDOM)
   walk, _ = _paths(plain, False, paths=1000, substeps=substeps)
   increments = np.diff(walk[:, skip::PER_STRIDE], axis=1).ravel()
   assert abs(_excess_kurtosis(increments)) < 0.3
