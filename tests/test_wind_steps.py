@@ -134,3 +134,15 @@ def test_the_default_split_is_not_applied_to_a_series_other_than_era5(
   with pytest.raises(errors.ConfigError, match='--era5_dates=all'):
     era5.start_window(data, center_lat=0.0, center_lon=0.0,
                       episode_hours=3.0, start_dates='eval')
+
+
+def test_a_series_shorter_than_the_flight_names_its_source_and_the_fix(
+    tmp_path):
+  data = era5.load(_write_steps(tmp_path / 'steps.grib2', HOURS))
+  with pytest.raises(errors.BadFileError) as raised:
+    era5.last_start_minute(data, center_lat=0.0, center_lon=0.0,
+                           episode_hours=72.0)
+  message = str(raised.value)
+  assert message.startswith('GRIB2 file(s)') and '\n' not in message
+  assert 'cover 6.0 h' in message
+  assert 'bind Era5WindField.episode_hours' in message

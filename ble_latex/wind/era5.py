@@ -786,15 +786,15 @@ def last_start_minute(data: Era5Data, *, center_lat: float, center_lon: float,
   if not data.covers(center_lat, center_lon):
     raise ValueError(
         f'Target (lat {center_lat}, lon {center_lon}) lies outside the area '
-        f'of ERA5 file(s) {list(data.paths)}: lat [{data.latitude[0]}, '
-        f'{data.latitude[-1]}], lon [{data.longitude[0]}, '
+        f'of {data.source} file(s) {list(data.paths)}: lat '
+        f'[{data.latitude[0]}, {data.latitude[-1]}], lon [{data.longitude[0]}, '
         f'{data.longitude[-1]}]')
   span_s = float(data.time_s[-1])
   episode_s = episode_hours * 3600.0
   if episode_s > span_s:
     raise errors.BadFileError(
-        f'ERA5 file(s) {list(data.paths)} cover {span_s / 3600:.1f} h '
-        f'({data.start} to {data.end}), shorter than episode_hours = '
-        f'{episode_hours}')
+        f'{data.source} file(s) {list(data.paths)} cover {span_s / 3600:.1f} '
+        f'h ({data.start} to {data.end}), shorter than episode_hours = '
+        f'{episode_hours} (bind Era5WindField.episode_hours to at most that)')
   return int((span_s - episode_s) // 60)
 
