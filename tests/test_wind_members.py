@@ -17,6 +17,7 @@ from ble_latex.wind import era5
 
 GFS_NC = (pathlib.Path(__file__).parent / 'data' / 'realwinds' /
           'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
+GFS_GRIB = GFS_NC.parent / 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2'
 NAMES = ('u-component_of_wind_isobaric', 'v-component_of_wind_isobaric')
 PLACE = (0.0, 5000.0, 40.0, -103.0)  # (time [s], pressure [Pa], lat, lon)
 
@@ -72,3 +73,43 @@ def test_a_member_out_of_range_is_one_line(ensemble):
     era5.load(ensemble, member=-1)
   with pytest.raises(errors.ConfigError, match='index >= 0'):
     era5.settings(path=ensemble, member='1')
+
+
+def test_a_grib2_ensemble_flies_one_member(tmp_path):
+  """GEFS style: the slice's fields as members 0..2 (product definition
+  template 4.1, perturbationNumber; winds + member), and a message that is
+  no wind. Its members are not duplicates of one field."""
+  eccodes = pytest.importorskip('eccodes')
+  pytest.importorskip('cfgrib')
+  path = tmp_path / 'ensemble.grib2'
+  eccodes.codes_grib_multi_support_on()
+  try:
+    with open(GFS_GRIB, 'rb') as f, open(path, 'wb') as out:
+      fields = []
+      while (field := eccodes.codes_grib_new_from_file(f)) is not None:
+        fields.append(field)
+      for k in range(3):
+        for field in fields:
+          clone = eccodes.codes_clone(field)
+          for key, value in (('productDefinitionTemplateNumber', 1),
+                             ('perturbationNumber', k),
+                             ('numberOfForecastsInEnsemble', 3)):
+            eccodes.codes_set(clone, key, value)
+          eccodes.codes_set_values(clone,
+                                   eccodes.codes_get_values(field) + k)
+          eccodes.codes_write(clone, out)
+          eccodes.codes_release(clone)
+      other = eccodes.codes_clone(fields[0])
+      eccodes.codes_set(other, 'parameterNumber', 0)  # Wind direction.
+      eccodes.codes_write(other, out)
+      for field in [other, *fields]:
+        eccodes.codes_release(field)
+  finally:
+    eccodes.codes_grib_multi_support_off()
+  first = era5.load(str(path), member=0)
+  last = era5.load(str(path), member=2)
+  assert last.description == ('GRIB2 run 2011-10-08T00Z +72 h '
+                              '(time-invariant; member 2 of 3)')
+  np.testing.assert_allclose(last.uv, first.uv + 2.0, atol=0.51)
+  with pytest.raises(errors.ConfigError, match=r'3 ensemble members'):
+    era5.load(str(path), member=3)

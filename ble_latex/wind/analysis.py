@@ -374,12 +374,17 @@ def _check_unique_messages(path: str, label: str,
              message['dataTime'], str(message['stepRange']))
     except KeyError:
       continue  # Not a field cfgrib reads as a wind; it reads the rest.
+    # An ensemble's members (GEFS: perturbationNumber, cfgrib's `number`)
+    # are one field each (`members`).
+    key += (message.get('number', None),)
     if key in seen:
-      short, level, date, hhmm, step = key
+      short, level, date, hhmm, step, number = key
+      member = '' if number is None else f', member {number}'
       raise errors.BadFileError(
           f'{label} file {path} holds two messages of {short} at {level} hPa'
-          f', run {date} {int(hhmm):04d}Z, step {step} (one per component, '
-          'level and time; cfgrib would keep the first and drop the other)')
+          f', run {date} {int(hhmm):04d}Z, step {step}{member} (one per '
+          'component, level, time and member; cfgrib would keep the first '
+          'and drop the other)')
     seen.add(key)
 
 
