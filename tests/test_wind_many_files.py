@@ -55,7 +55,7 @@ def test_joined_files_equal_the_files_read_one_by_one(tmp_path, monkeypatch):
   assert joined.description == 'GRIB2 run 2011-10-08T00Z +72..+78 h'
   assert joined.times.size == len(HOURS)
   # One by one, each file read whole by cfgrib (no messages skipped).
-  monkeypatch.setattr(grib_subset, 'wind_messages', lambda path: None)
+  monkeypatch.setattr(grib_subset, 'wind_messages', lambda path, out: False)
   for k, path in enumerate(paths):
     one = era5.load(path)
     assert one.time_invariant and one.times[0] == joined.times[k]
@@ -71,21 +71,25 @@ def test_joined_files_equal_the_files_read_one_by_one(tmp_path, monkeypatch):
 
 
 def test_only_messages_that_are_not_winds_are_skipped(tmp_path):
+  eccodes = pytest.importorskip('eccodes')
   path = _write(tmp_path / 'f072.grib2', 72, 0)
   whole = pathlib.Path(path).read_bytes()
-  kept = grib_subset.wind_messages(path)
-  assert kept is not None and 0 < len(kept) < len(whole)
-  eccodes = pytest.importorskip('eccodes')
   subset = tmp_path / 'kept.grib2'
-  subset.write_bytes(kept)
+  assert grib_subset.wind_messages(path, str(subset))
+  assert 0 < subset.stat().st_size < len(whole)
   counts = []
   for name in (path, subset):
     with open(name, 'rb') as f:
       counts.append(eccodes.codes_count_in_file(f))
   assert counts[0] == 3 * counts[1]  # Each wind with its two others.
-  # A file it cannot frame (truncated) is read whole, for cfgrib to judge.
+  # A file it cannot frame (truncated, or a length past its end) is read
+  # whole, for cfgrib to judge.
   cut = tmp_path / 'cut.grib2'
   cut.write_bytes(whole[:-10])
-  assert grib_subset.wind_messages(str(cut)) is None
+  assert not grib_subset.wind_messages(str(cut), str(subset))
+  huge = bytearray(whole)
+  huge[8:16] = (2**62).to_bytes(8, 'big')  # Section 0's total length.
+  cut.write_bytes(bytes(huge))
+  assert not grib_subset.wind_messages(str(cut), str(subset))
   # A file of winds only is read whole.
-  assert grib_subset.wind_messages(str(SLICE)) is None
+  assert not grib_subset.wind_messages(str(SLICE), str(subset))

@@ -321,12 +321,9 @@ def _open_grib(path: str, label: str, folder: str) -> 'xr.Dataset':
   """
   import cfgrib  # pylint: disable=g-import-not-at-top
   import xarray as xr  # pylint: disable=g-import-not-at-top,redefined-outer-name
-  subset = grib_subset.wind_messages(path)
-  read = path
-  if subset is not None:
-    read = os.path.join(folder, 'winds.grib2')
-    with open(read, 'wb') as stream:
-      stream.write(subset)
+  read = os.path.join(folder, 'winds.grib2')
+  if not grib_subset.wind_messages(path, read):
+    read = path
   # The messages' headers only (no values decoded): a constant field
   # can declare a huge grid in a few bytes.
   stream = cfgrib.FileStream(read, errors='raise')

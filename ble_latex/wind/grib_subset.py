@@ -16,12 +16,12 @@ message that may be a wind on an isobaric surface: discipline 0,
 category 2 (momentum), number 2 (u) or 3 (v), surface type 100 (isobaric).
 It only drops what is certainly something else: a message of another
 edition, another template, or odd framing is kept, and a file it cannot
-frame is read whole (None), so cfgrib still sees and reports it. The kept
+frame is read whole, so cfgrib still sees and reports it. The kept
 messages are decoded by cfgrib and checked as before.
 """
 
+import os
 import struct
-from typing import List, Optional
 
 _MAGIC = b'GRIB'
 _END = b'7777'
@@ -60,36 +60,42 @@ def _may_be_wind(message: bytes) -> bool:
   return fields == 0  # No product definition found: kept.
 
 
-def wind_messages(path: str) -> Optional[bytes]:
-  """The messages of a GRIB2 file that may hold u/v on pressure levels.
+def wind_messages(path: str, out: str) -> bool:
+  """Writes to `out` the messages of a GRIB file that may hold u/v on
+  pressure levels, one message in memory at a time.
 
   Args:
     path: A GRIB file (its magic checked by the caller).
+    out: The file to write the kept messages to, in file order.
 
   Returns:
-    The kept messages' bytes, in file order; None when the file cannot be
-    framed (truncated, junk between messages) or every message is kept, so
-    the caller reads the file itself.
+    Whether `out` holds the winds to read: False when the file cannot be
+    framed (truncated, junk between messages), no message is dropped or
+    none is kept, so the caller reads `path` itself.
   """
-  with open(path, 'rb') as stream:
-    data = stream.read()
-  kept: List[bytes] = []
-  position, dropped = 0, False
-  while position < len(data):
-    if data[position:position + 4] != _MAGIC or position + 16 > len(data):
-      return None
-    if data[position + 7] == 2:
-      total = struct.unpack('>Q', data[position + 8:position + 16])[0]
-    elif data[position + 7] == 1:
-      total = int.from_bytes(data[position + 4:position + 7], 'big')
-    else:
-      return None
-    message = data[position:position + total]
-    if total < 20 or len(message) < total or message[-4:] != _END:
-      return None
-    if _may_be_wind(message):
-      kept.append(message)
-    else:
-      dropped = True
-    position += total
-  return b''.join(kept) if dropped and kept else None
+  size = os.path.getsize(path)
+  kept = dropped = False
+  with open(path, 'rb') as stream, open(out, 'wb') as sink:
+    position = 0
+    while position < size:
+      head = stream.read(16)
+      if len(head) < 16 or head[:4] != _MAGIC:
+        return False
+      if head[7] == 2:
+        total = struct.unpack('>Q', head[8:16])[0]
+      elif head[7] == 1:
+        total = int.from_bytes(head[4:7], 'big')
+      else:
+        return False
+      if total < 20 or position + total > size:
+        return False
+      message = head + stream.read(total - 16)
+      if len(message) < total or message[-4:] != _END:
+        return False
+      if _may_be_wind(message):
+        sink.write(message)
+        kept = True
+      else:
+        dropped = True
+      position += total
+  return kept and dropped
