@@ -33,11 +33,17 @@ Modules (import them directly; this package imports nothing):
               helium's day/night temperature.
   thermal     The helium-air temperature difference: the sun's forcing at
               the balloon's position, a first-order thermal lag (issue 44).
+  gas         The helium's own temperature as a state (issue 68): adiabatic
+              compression, thermal relaxation, the bounded heating
+              disturbance.
   disturbance The free-lift disturbance: random walk or Ornstein-Uhlenbeck.
   launch      `neutral_launch`: the launch fill neutral in the bound gas.
   reference   The validation flight, a fine RK4 reference, and the
               reference checks of both modes (`reference_table`,
               `run_day_at_float`, `compare_modes`).
+  calibration The realistic float measured against its sources (plant
+              constant, calm probability, sunset loss, band cost, days aloft;
+              benchmarks/float_calibration.py prints the table).
   dynamics    `step`: one controller action and the physics of one stride
               (sub-steps, wind callback, releases, in-stride guard, envelope
               and resource statuses); `make_step` jits it.
