@@ -535,6 +535,7 @@ def test_launch_world_applies_or_refuses_wind_bindings(binding, needle,
     gin.clear_config()
 
 
+@pytest.mark.slow  # Two worlds drawn (jitted): ~10 s on 2 busy cores.
 def test_launch_world_flies_a_bound_snapshot_time():
   from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
   path = os.path.join(_DATA, 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
