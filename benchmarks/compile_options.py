@@ -28,6 +28,7 @@ import numpy as np
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 from ble_latex import jax_cache
+from ble_latex import safe_io
 from ble_latex.envs import gymnasium_compile
 from ble_latex.envs import jax_env
 
@@ -91,6 +92,8 @@ def main() -> None:
                       help='Stepping time per batch size, set and round.')
   parser.add_argument('--json', default='', help='Also write the report here.')
   args = parser.parse_args()
+  if args.json and safe_io.output_problem(args.json):
+    parser.error(f'--json: {safe_io.output_problem(args.json)}')
   env = gymnasium.make('ble_latex/LatexBalloon-v0').unwrapped
   params = env.params
   core = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
@@ -167,8 +170,7 @@ def main() -> None:
   print('episode: max |default - fast|', report['episode_max_abs_diff'],
         '; draw, 20 seeds:', differing, 'leaves differ, max relative', worst)
   if args.json:
-    with open(args.json, 'w', encoding='utf-8') as f:
-      json.dump(report, f, indent=1)
+    safe_io.atomic_write(args.json, json.dumps(report, indent=1))
 
 
 if __name__ == '__main__':

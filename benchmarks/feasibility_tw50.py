@@ -32,6 +32,8 @@ import sys
 import numpy as np
 import scipy.stats
 
+from ble_latex import safe_io
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 REAL = os.path.join(HERE, '..', '..', 'shared', 'realdata')
 
@@ -75,6 +77,8 @@ def main():
   parser.add_argument('--record', default=os.path.join(HERE,
                                                        'real_winds.json'))
   args = parser.parse_args()
+  if safe_io.output_problem(args.json):
+    parser.error(f'--json: {safe_io.output_problem(args.json)}')
   # pylint: disable=g-import-not-at-top
   from ble_latex.wind import era5
   from ble_latex.wind import feasibility
@@ -128,8 +132,7 @@ def main():
     out['pooled'][agent] = result
     print(f'{"both files":13s} {agent:30s} rho {result["spearman_rho"]:+.3f} '
           f'(p {result["p_value"]:.2g}, n {result["n"]})')
-  with open(args.json, 'w', encoding='utf-8') as f:
-    json.dump(out, f, indent=1)
+  safe_io.atomic_write(args.json, json.dumps(out, indent=1))
   print(f'wrote {args.json} ({out["date"]}, {out["machine"]}, load '
         f'{out["load"]}, commit {commit})')
 

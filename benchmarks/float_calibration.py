@@ -183,9 +183,8 @@ def main(argv=None) -> int:
   args = parser.parse_args(argv)
   if args.flights < 1 or not 0.5 <= args.days <= 30.0:
     parser.error('--flights must be >= 1 and --days in 0.5..30')
-  if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(
-      args.json))):
-    parser.error(f'--json: no folder {os.path.dirname(args.json)!r}')
+  if args.json and safe_io.output_problem(args.json):
+    parser.error(f'--json: {safe_io.output_problem(args.json)}')
   start = time.time()
   record = {
       'command': 'python benchmarks/float_calibration.py ' + ' '.join(

@@ -81,6 +81,8 @@ def main(argv=None) -> int:
     parser.error(f'--compare_tree: no ble_latex/ in {args.compare_tree!r}')
   if args.batch < 1 or args.repeats < 1:
     parser.error('--batch and --repeats must be >= 1')
+  if args.json and safe_io.output_problem(args.json):
+    parser.error(f'--json: {safe_io.output_problem(args.json)}')
   here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
   record = {
       'command': 'python benchmarks/gas_step_speed.py ' + ' '.join(

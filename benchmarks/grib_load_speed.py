@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from ble_latex import safe_io
 from ble_latex.wind import analysis
 from ble_latex.wind import era5
 from ble_latex.wind import era5_checks
@@ -91,6 +92,8 @@ def main():
   parser.add_argument('--files', type=int, default=13)
   parser.add_argument('--output', default='benchmarks/grib_load_speed.json')
   args = parser.parse_args()
+  if safe_io.output_problem(args.output):
+    parser.error(f'--output: {safe_io.output_problem(args.output)}')
   import cfgrib  # pylint: disable=g-import-not-at-top,unused-import
   import xarray  # pylint: disable=g-import-not-at-top,unused-import
   with tempfile.TemporaryDirectory() as folder:
@@ -119,9 +122,7 @@ def main():
       'speedup': round(before_s / after_s, 2),
   }
   print(json.dumps(result, indent=1))
-  with open(args.output, 'w') as f:
-    json.dump(result, f, indent=1)
-    f.write('\n')
+  safe_io.atomic_write(args.output, json.dumps(result, indent=1) + '\n')
 
 
 if __name__ == '__main__':

@@ -15,6 +15,7 @@ import time
 
 import jax
 
+from ble_latex import safe_io
 from ble_latex.envs import jax_env
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.wind import generative
@@ -25,6 +26,8 @@ def main() -> None:
   parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
   parser.add_argument('--json', default='', help='Also write the report here.')
   args = parser.parse_args()
+  if args.json and safe_io.output_problem(args.json):
+    parser.error(f'--json: {safe_io.output_problem(args.json)}')
   env = jax_env.LatexBalloonJaxEnv()
   params = env.default_params
   key = jax.random.PRNGKey(0)
@@ -55,8 +58,7 @@ def main() -> None:
   print('load average before/after:', report['loadavg_before'][0],
         report['loadavg_after'][0])
   if args.json:
-    with open(args.json, 'w') as f:
-      json.dump(report, f, indent=1)
+    safe_io.atomic_write(args.json, json.dumps(report, indent=1))
 
 
 if __name__ == '__main__':

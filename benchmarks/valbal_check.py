@@ -98,9 +98,8 @@ def main(argv=None) -> int:
   args = parser.parse_args(argv)
   if args.flights < 1 or not 0.5 <= args.days <= 30.0:
     parser.error('--flights must be >= 1 and --days in 0.5..30')
-  if args.output and not os.path.isdir(os.path.dirname(
-      os.path.abspath(args.output))):
-    parser.error(f'--output: no folder {os.path.dirname(args.output)!r}')
+  if args.output and safe_io.output_problem(args.output):
+    parser.error(f'--output: {safe_io.output_problem(args.output)}')
   start = time.time()
   record = {
       'command': 'python benchmarks/valbal_check.py ' + ' '.join(

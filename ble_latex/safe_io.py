@@ -150,6 +150,23 @@ def atomic_write(path: str, data: Union[bytes, str]) -> None:
     pass
 
 
+def output_problem(path: str) -> Optional[str]:
+  """Why a record cannot be written at `path`, or None (check before work).
+
+  The folder must exist and be writable, and `path` must not be a folder:
+  record writers check this before they fly or train, so a mistyped
+  `--json`/`--output` fails at once rather than after the work.
+  """
+  folder = os.path.dirname(os.path.abspath(path))
+  if not os.path.isdir(folder):
+    return f'no folder {folder!r} for {path!r}'
+  if os.path.isdir(path):
+    return f'{path!r} is a folder, not a file'
+  if not os.access(folder, os.W_OK):
+    return f'the folder {folder!r} is not writable'
+  return None
+
+
 def remove_stale_temporaries(folder: str, prefix: str) -> None:
   """Removes `atomic_write` leftovers of a killed write (`TMP_PREFIX` + prefix)."""
   if not os.path.isdir(folder):

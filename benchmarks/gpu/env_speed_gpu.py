@@ -15,6 +15,7 @@ import time
 import jax
 import jax.numpy as jnp
 
+from ble_latex import safe_io
 from ble_latex.envs import jax_env
 
 
@@ -37,8 +38,8 @@ def main() -> None:
     out[n] = {'first_s': first, 'best_s': best,
               'balloon_steps_per_s': n * 216 / best}
     print(n, out[n], flush=True)
-  with open(os.path.join(os.environ['OUT'], 'env_speed.json'), 'w') as f:
-    json.dump(out, f, indent=1)
+  safe_io.atomic_write(os.path.join(os.environ['OUT'], 'env_speed.json'),
+                       json.dumps(out, indent=1))
 
 
 if __name__ == '__main__':
