@@ -41,14 +41,10 @@ import platform
 import sys
 import time
 
-import gin
-
-from ble_latex import configs
 from ble_latex import safe_io
 from ble_latex.flight import calibration
 from ble_latex.flight import params as params_lib
 
-GIN = ('latex_physics.gin', 'latex_realistic.gin')
 # The plant before issue 68 (kept to compare): no gas state, the random walk.
 BEFORE = {'gas_state': False, 'heating_noise_k': None,
           'vertical_step': params_lib.DEFAULTS.vertical_step_s,
@@ -61,16 +57,7 @@ LOADS = {'no_payload': {'payload_kg': 1.8, 'sand_kg': 4.5},
          'payload_takes_ballast': {'payload_kg': 2.8, 'sand_kg': 3.5}}
 
 
-def flight_params(valbal: bool, **overrides):
-  """The realistic preset (with valbal.gin), gin cleared after."""
-  gin.clear_config()
-  try:
-    names = GIN + (('valbal.gin',) if valbal else ())
-    gin.parse_config_files_and_bindings(
-        [configs.gin_file(name) for name in names], [])
-    return params_lib.flight_params_from_gin(**overrides)
-  finally:
-    gin.clear_config()
+flight_params = calibration.preset_params
 
 
 def _row(name, value, target=None):

@@ -49,9 +49,6 @@ import platform
 import sys
 import time
 
-import gin
-
-from ble_latex import configs
 from ble_latex import safe_io
 from ble_latex.flight import calibration
 from ble_latex.flight import params as params_lib
@@ -64,7 +61,6 @@ VALBAL = {
     'ballast_kg_per_day_at_750m': 1.36,
     'days_aloft_1kg_payload': 3.0,  # datasheet
 }
-GIN_FILES = ('latex_physics.gin', 'latex_realistic.gin', 'valbal.gin')
 # ValBal's simulator's disturbance before its November 2018 "constants name
 # refactor" (hootl/lasagna/PastaSim.cpp: 0.67 g/sqrt(s); 1.4 after, the
 # stress setting), flown beside the default and the stress setting. # [kg/sqrt(s)]
@@ -81,13 +77,7 @@ CASES = {
 
 def valbal_params(**overrides) -> params_lib.FlightParams:
   """The ValBal preset under the realistic physics (gin, then overrides)."""
-  gin.clear_config()
-  try:
-    gin.parse_config_files_and_bindings(
-        [configs.gin_file(name) for name in GIN_FILES], [])
-    return params_lib.flight_params_from_gin(**overrides)
-  finally:
-    gin.clear_config()
+  return calibration.preset_params(valbal=True, **overrides)
 
 
 def main(argv=None) -> int:

@@ -584,14 +584,7 @@ def test_valbal_preset_loses_valbals_sunset():
   # ValBal's sunset table integrates to 0.43 kg, its measured sunsets
   # 0.2-0.7 kg; the old +5 / -2 K lost ~0.26 kg on this system.
   from ble_latex.flight import calibration  # pylint: disable=g-import-not-at-top
-  gin.clear_config()
-  try:
-    gin.parse_config_files_and_bindings(
-        [configs.gin_file(name) for name in
-         ('latex_physics.gin', 'latex_realistic.gin', 'valbal.gin')], [])
-    params = params_lib.flight_params_from_gin()
-  finally:
-    gin.clear_config()
+  params = calibration.preset_params(valbal=True)
   assert params.payload_kg == 2.8 and params.band_low_m == 12_250.0
   loss = calibration.sunset_loss_kg(params)['loss_kg']
   assert 0.2 <= loss <= 0.7 and loss == pytest.approx(0.43, rel=0.1)

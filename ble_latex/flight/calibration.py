@@ -30,10 +30,12 @@ parameters and the seed.
 import functools
 from typing import Any, Dict
 
+import gin
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import configs
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import dynamics
@@ -76,6 +78,29 @@ TARGETS = {
     'days_aloft_payload_takes_ballast': (2.0, 4.0),
     'days_aloft_no_payload': (4.0, 6.0),
 }
+
+
+# The gin files of the realistic preset (and, for ValBal, its system).
+REALISTIC_GIN = ('latex_physics.gin', 'latex_realistic.gin')
+VALBAL_GIN = REALISTIC_GIN + ('valbal.gin',)
+
+
+def preset_params(valbal: bool = False,
+                  **overrides: Any) -> params_lib.FlightParams:
+  """The realistic preset's flight system, or the ValBal preset's.
+
+  Parses `REALISTIC_GIN` (or `VALBAL_GIN`) into a clean gin configuration
+  and clears it after, so nothing the caller bound leaks in or out;
+  `overrides` are `make_flight_params` arguments on top.
+  """
+  gin.clear_config()
+  try:
+    gin.parse_config_files_and_bindings(
+        [configs.gin_file(name) for name in
+         (VALBAL_GIN if valbal else REALISTIC_GIN)], [])
+    return params_lib.flight_params_from_gin(**overrides)
+  finally:
+    gin.clear_config()
 
 
 def _calm(x_m, y_m, pressure_pa, t_s):
