@@ -131,14 +131,8 @@ def forcing_k(params: params_lib.FlightParams, time_s: Array,
     return shape
   lat, lon = thermal.position_lat_lon(params.latitude_deg,
                                       params.longitude_deg, x_m, y_m)
-  elevation = solar.sun_elevation_deg(params.start_day_j2000,
-                                      params.start_second_of_day, time_s,
-                                      lat, lon)
-  return shape + thermal.gas_temperature_offset(
-      elevation, day_k=params.superheat_day_k,
-      night_k=params.cooling_night_k,
-      night_deg=params.sun_elevation_night_deg,
-      day_deg=params.sun_elevation_day_deg).astype(shape.dtype)
+  return shape + thermal.forcing_at(params, time_s, lat, lon).astype(
+      shape.dtype)
 
 
 def settled(params: params_lib.FlightParams, g: Gas, forcing: Array,

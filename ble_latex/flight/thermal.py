@@ -114,6 +114,25 @@ def position_lat_lon(latitude_deg: Array, longitude_deg: Array, x_m: Array,
   return lat, longitude_deg + to_deg * x_m / (EARTH_RADIUS_M * cos_lat)
 
 
+def forcing_at(params, time_s: Array, latitude_deg: Array,
+               longitude_deg: Array) -> Array:
+  """f: `gas_temperature_offset` of the sun at a place and time, unlagged. # [K]
+
+  Args:
+    params: The flight system (sun clock, superheat and its window).
+    time_s: Flight time since the start. # [s]
+    latitude_deg: Where (`position_lat_lon`). # [deg]
+    longitude_deg: Where, east positive. # [deg]
+  """
+  return gas_temperature_offset(
+      solar.sun_elevation_deg(params.start_day_j2000,
+                              params.start_second_of_day, time_s,
+                              latitude_deg, longitude_deg),
+      day_k=params.superheat_day_k, night_k=params.cooling_night_k,
+      night_deg=params.sun_elevation_night_deg,
+      day_deg=params.sun_elevation_day_deg)
+
+
 def gas_excess_k(params, time_s: Array, x_m: Array = 0.0,
                  y_m: Array = 0.0) -> Array:
   """T_gas - T of a balloon at (x, y) at flight time `time_s`. # [K]
@@ -133,12 +152,7 @@ def gas_excess_k(params, time_s: Array, x_m: Array = 0.0,
   lat, lon = lat[..., None], lon[..., None]
 
   def forcing(t):
-    return gas_temperature_offset(
-        solar.sun_elevation_deg(params.start_day_j2000,
-                                params.start_second_of_day, t, lat, lon),
-        day_k=params.superheat_day_k, night_k=params.cooling_night_k,
-        night_deg=params.sun_elevation_night_deg,
-        day_deg=params.sun_elevation_day_deg)
+    return forcing_at(params, t, lat, lon)
 
   time_s = jnp.asarray(time_s) + jnp.zeros_like(jnp.asarray(x_m) + y_m)
   return lagged(forcing, time_s, params.gas_thermal_lag_s)
