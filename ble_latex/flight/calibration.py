@@ -83,21 +83,28 @@ TARGETS = {
 # The gin files of the realistic preset (and, for ValBal, its system).
 REALISTIC_GIN = ('latex_physics.gin', 'latex_realistic.gin')
 VALBAL_GIN = REALISTIC_GIN + ('valbal.gin',)
+# The realistic task (issue 63): the realistic physics with the resources
+# sized from ValBal's ballast fraction (latex_realistic_task.gin).
+TASK_GIN = REALISTIC_GIN + ('latex_realistic_task.gin',)
 
 
-def preset_params(valbal: bool = False,
+def preset_params(valbal: bool = False, task: bool = False,
                   **overrides: Any) -> params_lib.FlightParams:
-  """The realistic preset's flight system, or the ValBal preset's.
+  """The realistic preset's flight system, the task's or ValBal's.
 
-  Parses `REALISTIC_GIN` (or `VALBAL_GIN`) into a clean gin configuration
-  and clears it after, so nothing the caller bound leaks in or out;
-  `overrides` are `make_flight_params` arguments on top.
+  Parses `REALISTIC_GIN` (or `TASK_GIN` with `task`, `VALBAL_GIN` with
+  `valbal`) into a clean gin configuration and clears it after, so nothing
+  the caller bound leaks in or out; `overrides` are `make_flight_params`
+  arguments on top.
   """
+  if valbal and task:
+    raise ValueError('preset_params: valbal and task are two presets; '
+                     'pick one')
+  names = VALBAL_GIN if valbal else TASK_GIN if task else REALISTIC_GIN
   gin.clear_config()
   try:
     gin.parse_config_files_and_bindings(
-        [configs.gin_file(name) for name in
-         (VALBAL_GIN if valbal else REALISTIC_GIN)], [])
+        [configs.gin_file(name) for name in names], [])
     return params_lib.flight_params_from_gin(**overrides)
   finally:
     gin.clear_config()
