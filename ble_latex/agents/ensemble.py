@@ -75,6 +75,7 @@ from ble_latex.envs import jax_features
 from ble_latex.envs import observed_winds
 from ble_latex.envs import winds
 from ble_latex.flight import dynamics
+from ble_latex.flight import estimator
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import state as state_lib
 
@@ -253,8 +254,9 @@ def imagine(params: env_types.EnvParams, wind_fn: Callable[..., Any],
   """One imagined stride of `lookahead_choice`: (state after it, reward).
 
   The env's stride (`jax_env.LatexBalloonJaxEnv.step_env`) in the planning
-  wind: the flight in `wind_fn` without the lift walk (as the planners,
-  `plan_objective.fly`), its measured wind the planning wind where it ends,
+  wind: the flight as a controller may know it (`estimator.planning_view`:
+  the disturbances' estimates held, the burst volume's low quantile; as the
+  planners, `plan_objective.fly`), its measured wind the planning wind where it ends,
   its altitude history pushed (`jax_env.stride_state`), its memory of
   measured winds kept (an imagined wind is not a measurement); the reward
   is the env's (`jax_env.stride_reward`), 0 where the flight had already
@@ -270,9 +272,11 @@ def imagine(params: env_types.EnvParams, wind_fn: Callable[..., Any],
   before = state.flight
   box = jnp.clip(jax_env.to_box(action).astype(before.altitude_m.dtype),
                  jax_env.ACTION_LOW, jax_env.ACTION_HIGH)
-  flight = dynamics.step(
-      env_types.flight_params_of(params, state).noiseless(),
-      state.atmosphere, before, box, wind_fn, params.stride_s)
+  # What a controller may know (`estimator.planning_view`).
+  flight_params, seen = estimator.planning_view(
+      env_types.flight_params_of(params, state), before)
+  flight = dynamics.step(flight_params, state.atmosphere, seen, box, wind_fn,
+                         params.stride_s)
   u, v = wind_fn(flight.x_m, flight.y_m, flight.pressure_pa, flight.time_s)
   after = jax_env.stride_state(state, flight, box).replace(
       wind_u=u.astype(state.wind_u.dtype),

@@ -29,6 +29,7 @@ from ble_latex.envs import env_types
 from ble_latex.envs import observed_winds
 from ble_latex.envs import winds
 from ble_latex.flight import dynamics
+from ble_latex.flight import estimator
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
 from ble_latex.wind import noise_gp
@@ -247,15 +248,17 @@ def fly(params: env_types.EnvParams, state: env_types.EnvState,
         ) -> Tuple[Any, Tuple[Array, Array]]:
   """Flies `actions` ([T, 3], one per stride) from flight `f` on the core.
 
-  Plans fly the expected dynamics: realistic physics' free-lift random walk
-  is a disturbance no controller foresees, so the walk so far is held, with
-  no new steps; the sun, overpressure, drag and burst are flown as they are.
+  Plans fly the expected dynamics: realistic physics' disturbances are
+  what no controller foresees or sees, so the balloon's estimates of them
+  are held, with no new steps, and the burst volume is a low quantile of
+  its law (`estimator.planning_view`); the sun, overpressure and drag are
+  flown as they are.
 
   Returns:
     The flight after the last stride, and per stride its distance to the
     station [km] and its `FlightStatus`.
   """
-  flight = params.flight.noiseless()
+  flight, f = estimator.planning_view(params.flight, f)
 
   def stride(f, action):
     f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,

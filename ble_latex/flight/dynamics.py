@@ -51,6 +51,7 @@ from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import disturbance
 from ble_latex.flight import envelope
+from ble_latex.flight import estimator
 from ble_latex.flight import gas as gas_lib
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
@@ -296,8 +297,14 @@ def _integrate_gas(params: params_lib.FlightParams,
   g = gas_at(h)
   t1 = gas_lib.relax(g.temperature, g.air_temperature + forcing + f.heating_k,
                      half, tau)
-  return _keep(f.replace(altitude_m=h, ascent_rate_mps=v,
-                         gas_temperature_k=t1), f)
+  new = f.replace(altitude_m=h, ascent_rate_mps=v, gas_temperature_k=t1)
+  # The onboard estimate, from the chunk's measurements (`estimator`;
+  # skipped at trace time without a disturbance).
+  new = estimator.observe_chunk(params, f, new, duration,
+                                air_start_k=start.temperature,
+                                gas_pressure_start=p0, gas_end=g,
+                                forcing_k=forcing)
+  return _keep(new, f)
 
 
 def _integrate(params: params_lib.FlightParams,
@@ -321,7 +328,14 @@ def _integrate(params: params_lib.FlightParams,
                           time_s, f.x_m, f.y_m)
 
     h, v = _vertical_in_gas(params, f, duration, gas_at)
-    return _keep(f.replace(altitude_m=h, ascent_rate_mps=v), f)
+    new = f.replace(altitude_m=h, ascent_rate_mps=v)
+    if params.stochastic:  # The onboard estimate of W (`estimator`).
+      start = atmosphere_lib.at_height(atm, _clamp(f.altitude_m))
+      new = estimator.observe_chunk(
+          params, f, new, duration, air_start_k=start.temperature,
+          gas_pressure_start=_gas_pressure(params, start.pressure),
+          gas_end=gas_at(h))
+    return _keep(new, f)
 
   def drag_k_at(h):
     ambient = atmosphere_lib.at_height(atm, _clamp(h))

@@ -19,6 +19,7 @@ import jax
 import jax.numpy as jnp
 
 from ble_latex.flight import atmosphere as atmosphere_lib
+from ble_latex.flight import estimator
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import thermal
@@ -97,6 +98,15 @@ class FlightState:
       and not advanced. # [K]
     heating_k: The heating disturbance dT_h (0 unless
       `FlightParams.heating_noise`; `gas.heating_transition`). # [K]
+    estimated_heating_k: The balloon's estimate of dT_h from what it
+      measures (`estimator`; 0 unless heating_noise). # [K]
+    heating_variance_k2: Its variance (`estimator`). # [K^2]
+    estimated_lift_kg: The balloon's estimate of W (`estimator`; 0 unless
+      lift_walk). # [kg]
+    lift_variance_kg2: Its variance (`estimator`). # [kg^2]
+
+  Hidden from every controller (`estimator.planning_view`): heating_k,
+  lift_walk_kg, lift_walk_gusty and, under burst_spread, burst_volume_m3.
   """
   x_m: Array
   y_m: Array
@@ -122,6 +132,10 @@ class FlightState:
   burst_volume_m3: Array
   gas_temperature_k: Array
   heating_k: Array
+  estimated_heating_k: Array
+  heating_variance_k2: Array
+  estimated_lift_kg: Array
+  lift_variance_kg2: Array
 
   @property
   def free_lift_kg(self) -> Array:
@@ -207,6 +221,7 @@ def initial_state(params: params_lib.FlightParams,
         params.burst_weibull_shape)).astype(h.dtype)
   else:
     burst = _float(params.burst_volume_m3) + zero
+  heat, heat_var, walk, walk_var = estimator.initial(params, h)
   return FlightState(
       x_m=_float(x_m) + zero,
       y_m=_float(y_m) + zero,
@@ -232,7 +247,11 @@ def initial_state(params: params_lib.FlightParams,
       burst_volume_m3=burst,
       gas_temperature_k=ambient.temperature + _excess(params, time_s, x_m,
                                                       y_m, h),
-      heating_k=zero)
+      heating_k=zero,
+      estimated_heating_k=heat,
+      heating_variance_k2=heat_var,
+      estimated_lift_kg=walk,
+      lift_variance_kg2=walk_var)
 
 
 def _excess(params: params_lib.FlightParams, time_s, x_m, y_m,
