@@ -85,7 +85,8 @@ class GeometricStationSeeker(_BoxAgent):
 
     Args:
       num_actions: Action dimension (3).
-      observation_shape: (71,) latex features.
+      observation_shape: (71,) latex features (up to 74 with the
+        observation options, which it does not read).
       action_low: Box low (None: the latex core's, `jax_env.ACTION_LOW`).
       action_high: Box high (None: `jax_env.ACTION_HIGH`).
       seed: Unused (deterministic policy); kept for the common signature.
@@ -98,10 +99,13 @@ class GeometricStationSeeker(_BoxAgent):
     """
     super().__init__(num_actions, observation_shape, action_low=action_low,
                      action_high=action_high, seed=seed)
-    if tuple(observation_shape) != (jax_features.NUM_FEATURES,):
+    sizes = sorted({jax_features.num_features(sun=s, gas_temperature=g)
+                    for s in (False, True) for g in (False, True)})
+    if len(tuple(observation_shape)) != 1 or (
+        tuple(observation_shape)[0] not in sizes):
       raise ValueError('GeometricStationSeeker reads LatexBalloon-v0 features '
-                       f'({jax_features.NUM_FEATURES}), got '
-                       f'{observation_shape}')
+                       f'({sizes[0]}, or {sizes[1:]} with observation '
+                       f'options), got {observation_shape}')
     self._time_factor = float(np.clip(time_factor, self._low[1],
                                       self._high[1]))
     self._float_within_m = float_within_m

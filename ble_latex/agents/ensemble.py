@@ -166,8 +166,9 @@ def views_of(member_views: Sequence[View], env_view: View
   """The distinct views (the env's first) and each member's index in them.
 
   Raises:
-    errors.ConfigError: No member observes as the env, or a member
-      remembers another number of winds than the env's state holds.
+    errors.ConfigError: No member observes as the env, a member
+      remembers another number of winds than the env's state holds, or
+      observes other options (`env_params.OBSERVATION_SWITCHES`).
   """
   if env_view not in member_views:
     raise errors.ConfigError(
@@ -180,6 +181,13 @@ def views_of(member_views: Sequence[View], env_view: View
           f'a member observes {dict(view)} and the env remembers '
           f'{memory} winds (latex_observation.wind_memory): a member\'s '
           'memory must be 0 or the env\'s')
+    switched = [k for k in env_params.OBSERVATION_SWITCHES
+                if dict(view)[k] != dict(env_view)[k]]
+    if switched:  # The appended features are the env's for every view.
+      raise errors.ConfigError(
+          f'a member observes {dict(view)} and the env '
+          f'latex_observation.{switched[0]} = {dict(env_view)[switched[0]]}:'
+          ' every member must observe the env\'s observation options')
   views = (env_view,) + tuple(sorted(set(member_views) - {env_view}))
   return views, tuple(views.index(v) for v in member_views)
 

@@ -560,7 +560,7 @@ class SACAgent(sac_checkpoint.SACCheckpoints, agent.Agent,
         'critic': self._critic,
         'replay_capacity': self._replay_capacity,
         # What the env's features mean (gin `latex_observation.*`).
-        **env_params.observation_settings(),
+        **env_params.observation_of(env_params.observation_settings()),
     }
 
 

@@ -52,6 +52,7 @@ import optax
 from ble_latex import gin_values
 from ble_latex.agents import networks
 from ble_latex.agents import sac_core
+from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 
@@ -182,13 +183,16 @@ def learner_for(config: TrainerConfig) -> Learner:
   return Learner(network_def, optimizer, alpha_optimizer, config)
 
 
-def make_learner(config: TrainerConfig, key: Array
+def make_learner(config: TrainerConfig, key: Array, *,
+                 num_features: int = jax_env.LatexBalloonJaxEnv.num_features
                  ) -> Tuple[Learner, TrainState]:
-  """The learner of `config` and a fresh `TrainState` from `key`."""
+  """The learner of `config` and a fresh `TrainState` from `key`, for
+  observations of `num_features` (`env_params.num_features` of the env's
+  params; 71 without observation options)."""
   learner = learner_for(config)
   num_actions = len(jax_env.ACTION_LOW)
   key, init_key = jax.random.split(key)
-  obs = jnp.zeros((jax_env.LatexBalloonJaxEnv.num_features,), jnp.float32)
+  obs = jnp.zeros((num_features,), jnp.float32)
   params = learner.network_def.init(init_key, obs, init_key)
   log_alpha = jnp.zeros(1)  # Temperature 1, as `sac.SACAgent`.
   c, d = config.replay_capacity, obs.shape[0]
@@ -502,11 +506,11 @@ def acting_bundle(learner: Learner, state: TrainState, iteration: int, *,
   """What `sac.SACAgent.acting_bundle` holds, for `pretrained` policies.
 
   `observation` is `env_params.observation_of` the env the policy observed
-  (what its features mean).
+  (what its features mean, and how many: `env_params.num_features`).
   """
   c = learner.config
   config = {
-      'observation_shape': [jax_env.LatexBalloonJaxEnv.num_features],
+      'observation_shape': [env_params.num_features(dict(observation))],
       'num_actions': len(jax_env.ACTION_LOW),
       'action_low': np.asarray(jax_env.ACTION_LOW, np.float64).tolist(),
       'action_high': np.asarray(jax_env.ACTION_HIGH, np.float64).tolist(),

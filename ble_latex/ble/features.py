@@ -7,6 +7,12 @@ computation behind BLE's `features.FeatureConstructor` interface (`observe()`
 a measurement, `get_features()` the vector), for code that holds BLE objects;
 the latex arena computes them inside the core. Every feature is scaled
 to [-1, 1] (clipped); the index map is `ble_latex.envs.jax_features`'s.
+
+The observation options (gin `latex_observation.sun`, `.gas_temperature`)
+append features that the core computes from its own flight state (the
+flight's sun clock, the helium's temperature), which BLE's measurements do
+not carry: the constructor's `observation_space` follows them (the latex
+arena's observations are the core's), and `get_features` refuses them.
 """
 
 from typing import Optional
@@ -21,6 +27,7 @@ import gym
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex.envs import env_params
 from ble_latex.envs import jax_features
 
 NUM_FEATURES = jax_features.NUM_FEATURES
@@ -61,6 +68,8 @@ class LatexFeatureConstructor(features.FeatureConstructor):
     self._observation: Optional[simulator_data.SimulatorObservation] = None
     self._initial: Optional[jax_features.InitialResources] = None
     self._history: Optional[jax_features.History] = None
+    # gin's `latex_observation.*`, which the latex arena's core observes.
+    self._observation_settings = env_params.observation_settings()
 
   def observe(self, observation: simulator_data.SimulatorObservation) -> None:
     """Records BLE's observation (and, at the first, the reset's resources)."""
@@ -78,7 +87,19 @@ class LatexFeatureConstructor(features.FeatureConstructor):
     self._observation = observation
 
   def get_features(self) -> np.ndarray:
-    """The 71 features of the last observation (`jax_features.features`)."""
+    """The 71 features of the last observation (`jax_features.features`).
+
+    Raises:
+      ValueError: An observation option is on (the core computes those
+        features; the latex arena's observations are the core's).
+    """
+    on = [k for k in env_params.OBSERVATION_SWITCHES
+          if self._observation_settings[k]]
+    if on:
+      raise ValueError(
+          f'LatexFeatureConstructor.get_features: latex_observation.'
+          f'{on[0]} = True needs the flight core\'s state (the latex arena\'s '
+          'observations have it); BLE\'s measurements do not carry it')
     s = self._observation.balloon_observation
     wind = self._observation.wind_at_balloon
     column = self._forecast.get_forecast_column(
@@ -94,5 +115,8 @@ class LatexFeatureConstructor(features.FeatureConstructor):
 
   @property
   def observation_space(self) -> gym.spaces.Box:
-    return gym.spaces.Box(low=-1.0, high=1.0, shape=(NUM_FEATURES,),
-                          dtype=np.float32)
+    """The features in [-1, 1]: 71, plus gin's observation options'."""
+    return gym.spaces.Box(
+        low=-1.0, high=1.0,
+        shape=(env_params.num_features(self._observation_settings),),
+        dtype=np.float32)

@@ -15,6 +15,7 @@ The configurables keep the gin names (and the gin module string
 `jax_env`, so gin files and commands that spell them keep working.
 """
 
+from collections import abc
 import dataclasses
 import functools
 from typing import Any, Callable, Dict, Optional, Tuple
@@ -28,6 +29,7 @@ from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex import jax_cache
 from ble_latex.envs import env_types
+from ble_latex.envs import jax_features
 from ble_latex.envs import winds
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import params as flight_params_lib
@@ -53,20 +55,27 @@ _BINDINGS = {
     'episode_steps': 'LatexBalloonEnv.episode_steps',
     'wind_memory': 'latex_observation.wind_memory',
     'wind_lookahead': 'latex_observation.wind_lookahead',
+    'sun': 'latex_observation.sun',
+    'gas_temperature': 'latex_observation.gas_temperature',
 }
 # The most measurements the observation's Gaussian process keeps.
 MAX_WIND_MEMORY = noise_gp.MAX_MEASUREMENTS
 # The longest drift the observation's column averages over: one day of
 # 20-minute strides (72). # [strides]
 MAX_WIND_LOOKAHEAD = 72
-# The `EnvParams` fields that fix what the 71 features mean (gin
-# `latex_observation.*`): a policy records them and is flown only under
-# the same (`observation_of`).
-OBSERVATION_FIELDS = ('wind_memory', 'wind_lookahead')
+# The `EnvParams` fields that fix what the features mean and how many there
+# are (gin `latex_observation.*`): a policy records them and is flown only
+# under the same (`observation_of`).
+OBSERVATION_FIELDS = ('wind_memory', 'wind_lookahead', 'sun',
+                      'gas_temperature')
+# Those of them that switch features on (bools; a policy file records 0 or
+# 1).
+OBSERVATION_SWITCHES = ('sun', 'gas_temperature')
 # The largest value of each (what `check_params` and a policy file's
 # config accept).
 OBSERVATION_MAXIMA = {'wind_memory': MAX_WIND_MEMORY,
-                      'wind_lookahead': MAX_WIND_LOOKAHEAD}
+                      'wind_lookahead': MAX_WIND_LOOKAHEAD,
+                      'sun': 1, 'gas_temperature': 1}
 # Start altitudes must lie in (0, top of the atmosphere model): 0 m is the
 # ground (`GROUNDED`), and BLE's standard atmosphere is defined below 85 km
 # (its last layer boundary; BLE asserts above). The burst check
@@ -181,8 +190,11 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
                           p.max_start_distance_km, above=0.0)
   gin_values.check_int(name('episode_steps'), p.episode_steps, minimum=1)
   for field in OBSERVATION_FIELDS:
-    gin_values.check_int(name(field), getattr(p, field), minimum=0,
-                         maximum=OBSERVATION_MAXIMA[field])
+    if field in OBSERVATION_SWITCHES:
+      gin_values.check_bool(name(field), getattr(p, field))
+    else:
+      gin_values.check_int(name(field), getattr(p, field), minimum=0,
+                           maximum=OBSERVATION_MAXIMA[field])
   stride = flight_params_lib.seconds(p.stride_s, name('stride_s'))
   for field in ('max_substep_s', 'vertical_step_s', 'actuation_chunk_s'):
     gin_values.check_number(
@@ -213,6 +225,7 @@ def check_params(params: env_types.EnvParams) -> env_types.EnvParams:
   return p.replace(episode_steps=int(p.episode_steps), stride_s=stride,
                    wind_memory=int(p.wind_memory),
                    wind_lookahead=int(p.wind_lookahead),
+                   sun=bool(p.sun), gas_temperature=bool(p.gas_temperature),
                    **{f: float(getattr(p, f)) for f in floats})
 
 
@@ -360,18 +373,25 @@ def start(*, start_altitude_range_m: Tuple[float, float] = (
 @gin.configurable('latex_observation', module=_GIN_MODULE)
 def observation_settings(
     *, wind_memory: int = _DEFAULTS['wind_memory'],
-    wind_lookahead: int = _DEFAULTS['wind_lookahead']) -> Dict[str, Any]:
+    wind_lookahead: int = _DEFAULTS['wind_lookahead'],
+    sun: bool = _DEFAULTS['sun'],
+    gas_temperature: bool = _DEFAULTS['gas_temperature']) -> Dict[str, Any]:
   """The observation (gin `latex_observation.*`).
 
-  Both 0 (the defaults): the paper's 71 features, the wind column the
-  forecast at the balloon. Otherwise the same 71 features with another
-  wind column (`observed_winds.column`).
+  All off (the defaults): the paper's 71 features, the wind column the
+  forecast at the balloon. The wind settings give the same 71 features
+  with another wind column (`observed_winds.column`); the switches append
+  features the balloon measures (`jax_features.option_features`).
 
   Args:
     wind_memory: K > 0: the column corrected by the last K measured winds
       (`EnvParams.wind_memory`).
     wind_lookahead: N > 0: each level's mean wind over a drift of N strides
       at that level (`EnvParams.wind_lookahead`).
+    sun: True: append the sun's elevation at the balloon and its rate
+      (`EnvParams.sun`).
+    gas_temperature: True: append the helium's minus the air's temperature
+      (`EnvParams.gas_temperature`).
 
   Returns:
     The values by `EnvParams` field (unchecked).
@@ -379,9 +399,21 @@ def observation_settings(
   return dict(locals())  # The arguments above, by name.
 
 
-def observation_of(params: env_types.EnvParams) -> Dict[str, int]:
-  """What `params`' features mean: its `OBSERVATION_FIELDS`, by name."""
-  return {f: int(getattr(params, f)) for f in OBSERVATION_FIELDS}
+def observation_of(params: Any) -> Dict[str, int]:
+  """What `params`' features mean: its `OBSERVATION_FIELDS`, by name, as
+  ints (a switch 0 or 1: what a policy file records). `params`: the
+  `EnvParams`, or a mapping of the fields (`observation_settings()`)."""
+  get = params.get if isinstance(params, abc.Mapping) else functools.partial(
+      getattr, params)
+  return {f: int(get(f)) for f in OBSERVATION_FIELDS}
+
+
+def num_features(params: Any) -> int:
+  """The observation's size under `params` (`observation_of`'s argument):
+  the 71 features plus the switched-on options'."""
+  on = observation_of(params)
+  return jax_features.num_features(sun=bool(on['sun']),
+                                   gas_temperature=bool(on['gas_temperature']))
 
 
 @gin.configurable('LatexBalloonEnv', module=_GIN_MODULE)

@@ -82,6 +82,16 @@ class EnvParams:
       the same (forecast or corrected) winds (`observed_winds.column`).
       Static (it sizes the drift's loop); gin
       `latex_observation.wind_lookahead`.
+    sun: False (default): the paper's observation. True: two features
+      appended, the sun's elevation at the balloon and its rate of change
+      (`jax_features.option_features`, `observed_sun_gas`), on the flight's
+      own clock and place (`sun_params_of`). Static (it sizes the
+      observation); gin `latex_observation.sun`.
+    gas_temperature: False (default): the paper's observation. True: one
+      feature appended after the sun's, the helium's temperature minus the
+      air's at the balloon (`observed_sun_gas`; 0 under the paper's physics,
+      where the helium is at the air's temperature). Static; gin
+      `latex_observation.gas_temperature`.
   """
   flight: flight_params_lib.FlightParams
   decoder: Any
@@ -100,6 +110,8 @@ class EnvParams:
   reset_pool: Optional['ResetPool'] = None
   wind_memory: int = flax.struct.field(pytree_node=False, default=0)
   wind_lookahead: int = flax.struct.field(pytree_node=False, default=0)
+  sun: bool = flax.struct.field(pytree_node=False, default=False)
+  gas_temperature: bool = flax.struct.field(pytree_node=False, default=False)
 
   @property
   def max_steps_in_episode(self) -> int:
@@ -189,25 +201,27 @@ def walk_key(state: EnvState) -> Array:
   return jax.random.fold_in(jax.random.fold_in(key, alpha_bits), state.steps)
 
 
-def flight_params_of(params: EnvParams, state: EnvState
-                     ) -> flight_params_lib.FlightParams:
-  """The flight system of this flight: `params.flight`, with the sun's clock
-  set to the flight's start (`start_time_offset_s`), and its place to the
-  flight's station where it has its own (`EnvState.station`), when the
-  helium follows the sun (`FlightParams.gas_superheat`); else
-  `params.flight` itself.
+def sun_params_of(params: EnvParams, state: EnvState
+                  ) -> flight_params_lib.FlightParams:
+  """`params.flight` with the sun's clock and place of this flight.
+
+  The clock set to the flight's start (`start_time_offset_s` after
+  `START_EPOCH`: BLE's drawn date, or the flight's start in the ERA5 data),
+  the place to the flight's station where it has its own
+  (`EnvState.station`), else `FlightParams.latitude_deg` /
+  `longitude_deg`. What the helium's sun (`flight_params_of`) and the
+  observation's sun (`EnvParams.sun`) read, under any physics.
 
   Args:
     params: The env parameters (their `flight` system).
     state: The env state (its `start_time_offset_s`, int32 seconds after
-      `START_EPOCH`).
+      `START_EPOCH`, and `station`).
 
   Returns:
-    The flight parameters to fly this flight with.
+    The flight parameters with `start_day_j2000`, `start_second_of_day`
+    (and the station's latitude / longitude) of this flight.
   """
   flight = params.flight
-  if not flight.gas_superheat:
-    return flight
   offset = state.start_time_offset_s  # [s] int32
   days = offset // 86_400
   dtype = state.flight.time_s.dtype
@@ -218,3 +232,22 @@ def flight_params_of(params: EnvParams, state: EnvState
   return flight.replace(
       start_day_j2000=_EPOCH_DAY_J2000 + days.astype(dtype),
       start_second_of_day=(offset - days * 86_400).astype(dtype))
+
+
+def flight_params_of(params: EnvParams, state: EnvState
+                     ) -> flight_params_lib.FlightParams:
+  """The flight system of this flight: `sun_params_of` (the sun's clock and
+  place of the flight) when the helium follows the sun
+  (`FlightParams.gas_superheat`); else `params.flight` itself.
+
+  Args:
+    params: The env parameters (their `flight` system).
+    state: The env state (its `start_time_offset_s`, int32 seconds after
+      `START_EPOCH`).
+
+  Returns:
+    The flight parameters to fly this flight with.
+  """
+  if not params.flight.gas_superheat:
+    return params.flight
+  return sun_params_of(params, state)

@@ -73,6 +73,7 @@ from ble_latex import gin_values
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_features
+from ble_latex.envs import observed_sun_gas
 from ble_latex.envs import observed_winds
 from ble_latex.envs import reset_pool
 from ble_latex.envs import winds
@@ -117,17 +118,21 @@ def to_box(normalized: Array) -> Array:
 
 def observation(state: env_types.EnvState, params: env_types.EnvParams,
                 wind: winds.Wind = winds.GENERATIVE_WIND) -> Array:
-  """The 71 features of `state` (`jax_features` order), float32.
+  """The features of `state` (`jax_features` order), float32.
 
   Args:
     state: The env state (its flight, measured wind and history).
-    params: The env parameters (the payload mass).
+    params: The env parameters (the payload mass, the observation's
+      options).
     wind: Where the forecast columns come from.
 
   Returns:
-    The observation, shape (71,), float32; its wind column corrected by
-    the measured winds where `params.wind_memory` > 0 and averaged over
-    drifts where `params.wind_lookahead` > 0 (`observed_winds.column`).
+    The observation, shape (`env_params.num_features(params)`,) (71 by
+    default), float32; its wind column corrected by the measured winds
+    where `params.wind_memory` > 0 and averaged over drifts where
+    `params.wind_lookahead` > 0 (`observed_winds.column`); the sun's and
+    the gas's features appended where `params.sun` / `gas_temperature`
+    (`observed_sun_gas`).
   """
   levels = jnp.asarray(jax_features.PRESSURE_LEVELS, state.flight.x_m.dtype)
   column_u, column_v = observed_winds.column(state, params, wind, levels)
@@ -139,13 +144,18 @@ def observation_of_column(state: env_types.EnvState,
                           column_v: Array) -> Array:
   """`observation` of `state` given its wind column (u, v at each of
   `jax_features.PRESSURE_LEVELS` [m/s]): the column's features are read
-  against the balloon's position and measured wind in `state`."""
+  against the balloon's position and measured wind in `state`, the options'
+  features (`observed_sun_gas`) appended."""
   f = state.flight
-  return jax_features.features(
+  features = jax_features.features(
       column_u, column_v, f.x_m, f.y_m, f.altitude_m, f.ascent_rate_mps,
       state.wind_u, state.wind_v, f.helium_mols, f.sand_kg,
       params.flight.payload_kg, f.temperature_k, f.pressure_pa, state.initial,
       state.history)
+  if not (params.sun or params.gas_temperature):
+    return features
+  return jnp.concatenate([features,
+                          observed_sun_gas.features(state, params)])
 
 
 def measure(state: env_types.EnvState,
@@ -392,6 +402,7 @@ class LatexBalloonJaxEnv:
 
   action_low = ACTION_LOW  # The core's Box (the raw actions).
   action_high = ACTION_HIGH
+  # Without the observation options (`observation_space(params)` has them).
   num_features = jax_features.NUM_FEATURES
   num_actions = len(ACTION_LOW)  # gymnax: the action's size.
 
@@ -454,10 +465,12 @@ class LatexBalloonJaxEnv:
     return env_params.params_from_gin()
 
   def observation_space(self, params: env_types.EnvParams) -> Any:
-    """The 71 features in [-1, 1] (a `gymnasium.spaces.Box`)."""
-    del params
+    """The features in [-1, 1] (a `gymnasium.spaces.Box`): 71, plus the
+    options' of `params` (`env_params.num_features`)."""
     import gymnasium  # pylint: disable=g-import-not-at-top
-    return gymnasium.spaces.Box(-1.0, 1.0, (self.num_features,), np.float32)
+    return gymnasium.spaces.Box(-1.0, 1.0,
+                                (env_params.num_features(params),),
+                                np.float32)
 
   def action_space(self, params: env_types.EnvParams) -> Any:
     """[-1, 1]^3 (`normalize_actions`), else (a0 [m], a1, a2) the
@@ -689,7 +702,7 @@ def rollout(env: LatexBalloonJaxEnv, keys: Array, actions: Array,
     actions: [num_steps, N, 3] actions, or [N, 3] held for every step.
     params: The env parameters.
     num_steps: Strides to fly (static), an int >= 1 with (num_steps + 1) x
-      N x 71 <= `MAX_ROLLOUT_VALUES`.
+      N x features (71 without options) <= `MAX_ROLLOUT_VALUES`.
 
   Returns:
     (observations [num_steps + 1, N, 71], rewards [num_steps, N], done
@@ -703,7 +716,8 @@ def rollout(env: LatexBalloonJaxEnv, keys: Array, actions: Array,
   balloons = gin_values.check_int('rollout balloons (len(keys))',
                                   np.shape(keys)[0] if np.ndim(keys) else 0,
                                   minimum=1, maximum=MAX_ROLLOUT_BALLOONS)
-  most = MAX_ROLLOUT_VALUES // (balloons * jax_features.NUM_FEATURES) - 1
+  features = env_params.num_features(params)
+  most = MAX_ROLLOUT_VALUES // (balloons * features) - 1
   num_steps = gin_values.check_int(
       f'rollout num_steps (x {balloons} balloons)', num_steps, minimum=1,
       maximum=most)

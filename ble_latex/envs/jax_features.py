@@ -1,5 +1,6 @@
 # coding=utf-8
-"""The latex balloon's 71 observation features and its reward, in JAX.
+"""The latex balloon's 71 observation features (and the optional ones) and
+its reward, in JAX.
 
 Pure, jittable and vmappable: `features` (with the history bookkeeping as
 `init_history` / `push_history` and the reset-time references as
@@ -42,7 +43,9 @@ site's observation table is generated from this table):
 | 70      | helium n                                                           | n / initial n            |
 
 71 features: exactly the items the paper lists (its text says 74 and 77 in
-different places; the listed items add up to 71). The wind column is BLE's
+different places; the listed items add up to 71). Options (gin
+`latex_observation.sun`, `.gas_temperature`) append features after index 70
+(`option_features`, whose docstring holds their index map). The wind column is BLE's
 forecast (the agent's view); the balloon moves in forecast + simplex noise
 (BLE's ground truth), and features 52-53 use that measured wind. At reset the
 history slots hold the current values and float actions 0.
@@ -81,6 +84,19 @@ ALTITUDE_SCALE_M = 3_500.0  # [m]
 ASCENT_RATE_SCALE_MPS = 5.0  # [m/s]
 DRAG_AREA_SCALE_M2 = 25.0  # [m^2]
 VOLUME_SCALE_M3 = 100.0  # [m^3]
+# The optional features' scales (`option_features`).
+SUN_ELEVATION_SCALE_DEG = 90.0  # [deg]
+# The sun's elevation changes by at most 15.04 deg/h (the sidereal rate, at
+# the equator at the equinoxes near the horizon). # [deg/h]
+SUN_RATE_SCALE_DEG_PER_H = 15.0
+# The gas-air difference: +8.1 K by day, -3.3 K at night (the realistic
+# physics), and a climb at w cools the gas by ~8 K per m/s below its target
+# (`flight.gas.steady_lag_k` at tau = 600 s): +-20 K holds climbs and
+# descents up to ~1.5 m/s unclipped. # [K]
+GAS_EXCESS_SCALE_K = 20.0
+# Sizes of the options (features each appends).
+SUN_FEATURES = 2
+GAS_TEMPERATURE_FEATURES = 1
 # BLE's perciatelli_reward_function writes ln(2) as this literal.
 _LN2_BLE = 0.69314718056
 
@@ -298,6 +314,55 @@ def features(column_u: Any, column_v: Any, x_m: Any, y_m: Any,
   return jnp.clip(f, -1.0, 1.0).astype(jnp.float32)
 
 
+def num_features(*, sun: bool = False, gas_temperature: bool = False) -> int:
+  """The observation's size: `NUM_FEATURES` plus the options switched on."""
+  return (NUM_FEATURES + SUN_FEATURES * bool(sun) +
+          GAS_TEMPERATURE_FEATURES * bool(gas_temperature))
+
+
+def option_features(*, sun_elevation_deg: Any = None,
+                    sun_rate_deg_per_h: Any = None,
+                    gas_excess_k: Any = None) -> jnp.ndarray:
+  """The optional features, appended after index 70, in [-1, 1].
+
+  The sun's two when its elevation and rate are given (gin
+  `latex_observation.sun`), then the gas's when its excess temperature is
+  given (`latex_observation.gas_temperature`); the values are
+  `envs.observed_sun_gas`'s. Index map (the docs site's table of the
+  options is generated from this table):
+
+  | index               | feature                           | scaling          |
+  |---------------------|-----------------------------------|------------------|
+  | 71 (sun)            | sun elevation el at the balloon   | el / 90 deg      |
+  | 72 (sun)            | its rate of change d(el)/dt       | d(el)/dt / 15 deg/h |
+  | 73, or 71 if no sun | helium minus air temperature dT   | dT / 20 K        |
+
+  Elevation and rate together tell morning from evening (the same
+  elevation rises before noon and sinks after it) and how soon the sun
+  crosses the horizon (about el / |d(el)/dt| hours); clipped to [-1, 1]
+  like the rest (the rate's bound is the sidereal 15.04 deg/h; the gas's
+  scale: `GAS_EXCESS_SCALE_K`).
+
+  Args:
+    sun_elevation_deg: The sun's elevation above the horizon; None: no sun
+      features. # [deg]
+    sun_rate_deg_per_h: Its rate of change (with the elevation). # [deg/h]
+    gas_excess_k: T_gas - T at the balloon; None: no gas feature. # [K]
+
+  Returns:
+    float32 [0..3] features, clipped to [-1, 1].
+  """
+  parts = []
+  if sun_elevation_deg is not None:
+    parts += [jnp.asarray(sun_elevation_deg) / SUN_ELEVATION_SCALE_DEG,
+              jnp.asarray(sun_rate_deg_per_h) / SUN_RATE_SCALE_DEG_PER_H]
+  if gas_excess_k is not None:
+    parts.append(jnp.asarray(gas_excess_k) / GAS_EXCESS_SCALE_K)
+  if not parts:
+    return jnp.zeros((0,), jnp.float32)
+  return jnp.clip(jnp.stack(parts), -1.0, 1.0).astype(jnp.float32)
+
+
 def distance_km(x_m: Any, y_m: Any) -> jnp.ndarray:
   """BLE's `units.relative_distance(x, y)` in km (the 2-norm). # [km]"""
   dtype = simplex.float_dtype(x_m, y_m)
@@ -393,7 +458,7 @@ def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
 
 
 class NamedLatexFeatures:
-  """The 71 features decoded back into named quantities (the decoder).
+  """The features decoded back into named quantities (the decoder).
 
   The inverse of the scalings in the module's index map, as BLE's
   `features.NamedPerciatelliFeatures` is of its Perciatelli features. Values
@@ -419,21 +484,42 @@ class NamedLatexFeatures:
     float_action_history: [3] float actions a2 at t-1, t-2, t-3. # [.]
     sand_fraction: Sand / sand at reset. # [.]
     helium_fraction: Helium / helium at reset. # [.]
+    sun_elevation_deg: The sun's elevation at the balloon (option `sun`;
+      None without it). # [deg]
+    sun_rate_deg_per_h: Its rate of change (option `sun`). # [deg/h]
+    gas_excess_k: Helium minus air temperature (option `gas_temperature`;
+      None without it). # [K]
   """
 
   def __init__(self, observation: np.ndarray):
     """Decodes one observation.
 
+    The options it holds follow from its size (`num_features`: 71 none, 72
+    the gas's, 73 the sun's, 74 both).
+
     Args:
-      observation: [71] features of `LatexBalloon-v0`.
+      observation: [71..74] features of `LatexBalloon-v0`.
 
     Raises:
-      ValueError: If the observation is not 71 features.
+      ValueError: If the observation is not one of those sizes.
     """
     f = np.asarray(observation)
-    if f.shape != (NUM_FEATURES,):
+    sizes = {num_features(sun=sun, gas_temperature=gas): (sun, gas)
+             for sun in (False, True) for gas in (False, True)}
+    if f.ndim != 1 or f.shape[0] not in sizes:
       raise ValueError(f'NamedLatexFeatures needs {NUM_FEATURES} features '
-                       f'(LatexBalloon-v0), got shape {f.shape}')
+                       f'(LatexBalloon-v0), or {sorted(sizes)[1:]} with its '
+                       f'observation options, got shape {f.shape}')
+    sun, gas = sizes[f.shape[0]]
+    extra = f[NUM_FEATURES:].astype(np.float64)
+    self.sun_elevation_deg = self.sun_rate_deg_per_h = None
+    self.gas_excess_k = None
+    if sun:
+      self.sun_elevation_deg = float(extra[0]) * SUN_ELEVATION_SCALE_DEG
+      self.sun_rate_deg_per_h = float(extra[1]) * SUN_RATE_SCALE_DEG_PER_H
+    if gas:
+      self.gas_excess_k = float(extra[-1]) * GAS_EXCESS_SCALE_K
+    f = f[:NUM_FEATURES]
     n = N_LEVELS
     # Features 0-24 are 1 - exp(-|v| / c).
     squashed = np.clip(f[:n], 0.0, 1.0 - 1e-6)

@@ -308,7 +308,9 @@ class _RunDir:
                validation_seeds: Sequence[int]):
     config = learner.config
     self.base_dir, self.seed, self.learner = base_dir, seed, learner
-    _, self.state = sac_trainer.make_learner(config, jax.random.PRNGKey(seed))
+    _, self.state = sac_trainer.make_learner(
+        config, jax.random.PRNGKey(seed),
+        num_features=env_params_lib.num_features(dict(observation)))
     done_iterations = sac_core.checkpoint_iterations(
         run_dir.checkpoint_dir(base_dir))
     self.start = done_iterations[-1] + 1 if done_iterations else 0

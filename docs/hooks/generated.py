@@ -7,6 +7,8 @@ generated Markdown there:
   * `<!-- generated: observation-table -->`: the observation index map, parsed
     from the module docstring of `ble_latex/envs/jax_features.py` (the one
     home of the feature list; `NamedLatexFeatures` decodes the same indices).
+  * `<!-- generated: observation-options-table -->`: the optional features'
+    index map, parsed from the docstring of `jax_features.option_features`.
   * `<!-- generated: console-scripts -->`: the commands of setup.py's
     `console_scripts`, each with the module it runs and that module's first
     docstring line.
@@ -37,12 +39,23 @@ def _module_docstring(path: pathlib.Path) -> str:
   return doc
 
 
-def observation_rows(path: pathlib.Path = FEATURES_MODULE
-                     ) -> List[Tuple[str, str, str]]:
+def _function_docstring(path: pathlib.Path, name: str) -> str:
+  for node in ast.parse(path.read_text(encoding='utf-8')).body:
+    if isinstance(node, ast.FunctionDef) and node.name == name:
+      doc = ast.get_docstring(node)
+      if doc:
+        return doc
+  raise ValueError(f'{path}: no function {name} with a docstring')
+
+
+def observation_rows(path: pathlib.Path = FEATURES_MODULE,
+                     function: str = '') -> List[Tuple[str, str, str]]:
   """The rows (indices, feature, scaling) of the features' index map.
 
   Args:
     path: The features module (its docstring holds the table).
+    function: '' (the module's docstring), or the function of `path` whose
+      docstring holds the table (`option_features`: the options').
 
   Returns:
     The table's rows in order, each cell stripped.
@@ -53,7 +66,9 @@ def observation_rows(path: pathlib.Path = FEATURES_MODULE
   # Cells hold pipes (|v|), so cells are split only at pipes with white space
   # on both sides, as the table's column borders are written.
   rows = []
-  for line in _module_docstring(path).splitlines():
+  doc = (_function_docstring(path, function) if function else
+         _module_docstring(path))
+  for line in doc.splitlines():
     line = line.strip()
     if not line.startswith('|') or set(line) <= set('|- '):
       continue
@@ -87,10 +102,10 @@ def _escape(cell: str) -> str:
   return cell.replace('|', r'\|')
 
 
-def observation_table() -> str:
-  """The index map as a Markdown table."""
+def observation_table(function: str = '') -> str:
+  """The index map (`observation_rows(function=...)`) as a Markdown table."""
   lines = ['| index | feature | scaling |', '|---|---|---|']
-  for index, feature, scaling in observation_rows():
+  for index, feature, scaling in observation_rows(function=function):
     index = index.replace('-', '–')
     lines.append(f'| {index} | {_escape(feature)} | {_escape(scaling)} |')
   return '\n'.join(lines)
@@ -125,6 +140,7 @@ def commands_table() -> str:
 
 _GENERATORS = {
     'observation-table': observation_table,
+    'observation-options-table': lambda: observation_table('option_features'),
     'console-scripts': commands_table,
 }
 
