@@ -66,6 +66,7 @@ from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.run import jax_train
 from ble_latex.run import metrics
+from ble_latex.run import selection
 from ble_latex.run import suites
 
 FLAGS = flags.FlagValues()
@@ -288,8 +289,8 @@ def _best_snapshots(run: str, seed: int, count: int) -> List[str]:
   path = f'benchmarks/sac_jax/{run}/seed_{seed}/validation.jsonl'
   with open(path, encoding='utf-8') as f:
     rows = [json.loads(line) for line in f if line.strip()]
-  rows = sorted((r for r in rows if r['out_of_resources_pct'] <= 5.0),
-                key=lambda r: (-r['tw50_window_mean'], r['iteration']))
+  rows = selection.ranked(rows, max_oor_pct=5.0,
+                          tie=lambda r: -r['iteration'])
   return [f'benchmarks/sac_jax/{run}/seed_{seed}/policies/'
           f'policy_{r["iteration"]:05d}.msgpack' for r in rows[:count]]
 

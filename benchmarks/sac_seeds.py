@@ -142,12 +142,12 @@ def choose(validation: List[Dict[str, Any]], max_oor_pct: float,
     max_minutes: Only snapshots taken within this much training time.
     max_iteration: Only snapshots of rounds up to this one (0-based).
   """
-  ok = [r for r in validation if r['out_of_resources_pct'] <= max_oor_pct and
-        (max_minutes is None or r['elapsed_s'] <= 60.0 * max_minutes) and
-        (max_iteration is None or r['iteration'] <= max_iteration)]
-  if not ok:
-    return None
-  return max(ok, key=lambda r: (r['tw50_window_mean'], -r['iteration']))
+  from ble_latex.run import selection  # pylint: disable=g-import-not-at-top
+  capped = [r for r in validation if
+            (max_minutes is None or r['elapsed_s'] <= 60.0 * max_minutes) and
+            (max_iteration is None or r['iteration'] <= max_iteration)]
+  return selection.best(capped, max_oor_pct=max_oor_pct,
+                        tie=lambda r: -r['iteration'])
 
 
 def compare(run_dirs: Sequence[str], max_oor_pct: float,

@@ -99,12 +99,11 @@ def candidates(base_dir: str, every: int, include_newest: bool) -> List[str]:
 def best(results: Dict[str, Dict[str, Any]],
          max_oor_pct: float) -> Optional[str]:
   """Name with the highest validation TW50 (window) within the OOR cap."""
-  ok = {k: v for k, v in results.items()
-        if v['out_of_resources_pct'] <= max_oor_pct}
-  if not ok:
-    return None
-  return max(ok, key=lambda k: (ok[k]['tw50_window_mean'],
-                                ok[k]['reward_mean']))
+  from ble_latex.run import selection  # pylint: disable=g-import-not-at-top
+  chosen = selection.best(results.items(), max_oor_pct=max_oor_pct,
+                          result=lambda item: item[1],
+                          tie=lambda item: item[1]['reward_mean'])
+  return chosen[0] if chosen else None
 
 
 def select(base_dir: str, every: int, include_newest: bool,

@@ -67,6 +67,7 @@ from ble_latex.envs import jax_env
 from ble_latex.envs import task
 from ble_latex.run import jax_train
 from ble_latex.run import run_dir
+from ble_latex.run import selection
 from ble_latex.run import suites
 
 Array = jax.Array
@@ -448,10 +449,9 @@ def _load(path: str, template: _Progress) -> Tuple[int, _Progress]:
 def best_round(records: List[Dict[str, Any]], max_out_of_resources_pct: float
                ) -> Optional[Dict[str, Any]]:
   """The record of highest validation TW50 (window) within the bound."""
-  fit = [r for r in records if r['validation']['out_of_resources_pct']
-         <= max_out_of_resources_pct]
-  return max(fit, key=lambda r: (r['validation']['tw50_window_mean'],
-                                 -r['round'])) if fit else None
+  return selection.best(records, max_oor_pct=max_out_of_resources_pct,
+                        result=lambda r: r['validation'],
+                        tie=lambda r: -r['round'])
 
 
 def round_line(record: Dict[str, Any]) -> str:

@@ -57,6 +57,7 @@ from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex.run import distributed
 from ble_latex.run import episode_log
+from ble_latex.run import selection
 from ble_latex import safe_io
 
 Literal = Union[bool, int, float, str]
@@ -541,8 +542,7 @@ def table_rows(settings: SweepSettings,
     for seed in settings.seeds:
       run_dir = settings.run_dir(index, seed)
       records = validation_records(run_dir)
-      best = max(records, key=lambda r: (r['tw50_window_mean'],
-                                         -r['iteration']), default=None)
+      best = selection.best(records, tie=lambda r: -r['iteration'])
       rounds = records[-1]['iteration'] + 1 if records else 0
       if (index, seed) in errors:
         status = 'error: ' + errors[(index, seed)]
