@@ -4,7 +4,8 @@
 
 One functional-env reset is compiled for the module (`flight`); every option
 is observed on its state. The Gymnasium and BLE gym flights (their own
-compiles) run in CI (`make test-ci`)."""
+compiles) run in CI (`make test-ci`). Bad bindings of the options are
+refused in tests/test_observed_winds.py with the wind settings'."""
 
 import datetime as dt
 
@@ -196,19 +197,6 @@ def test_decoder_reads_every_size():
   with pytest.raises(ValueError,
                      match=r'needs 71 features .*, or \[72, 73, 74\] with'):
     jax_features.NamedLatexFeatures(np.zeros(75))
-
-
-@pytest.mark.parametrize('name,value', [('sun', 1), ('sun', 'yes'),
-                                        ('gas_temperature', None)])
-def test_bad_option_binding_is_refused(name, value):
-  with gin.unlock_config():
-    gin.bind_parameter(f'latex_observation.{name}', value)
-  try:
-    with pytest.raises(errors.ConfigError,
-                       match=f'latex_observation.{name} must be True or False'):
-      env_params.params_from_gin()
-  finally:
-    gin.clear_config()
 
 
 def test_policy_records_its_options_and_is_refused_under_others(tmp_path):

@@ -275,7 +275,9 @@ def test_one_stride_drift_is_the_corrected_column_at_the_balloon():
     ('wind_memory', -1), ('wind_memory', 2.5), ('wind_memory', True),
     ('wind_memory', env_params.MAX_WIND_MEMORY + 1), ('wind_lookahead', -1),
     ('wind_lookahead', 1.5), ('wind_lookahead', 'long'),
-    ('wind_lookahead', env_params.MAX_WIND_LOOKAHEAD + 1)])
+    ('wind_lookahead', env_params.MAX_WIND_LOOKAHEAD + 1),
+    # The switches (tests/test_observation_options.py) are bools.
+    ('sun', 1), ('sun', 'yes'), ('gas_temperature', None)])
 def test_bad_observation_binding_is_refused(name, value):
   with gin.unlock_config():
     gin.bind_parameter(f'latex_observation.{name}', value)
