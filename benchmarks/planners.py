@@ -395,7 +395,9 @@ def _main(argv: Sequence[str]) -> int:
             else None),
     }
     safe_io.atomic_write(timing_path, json.dumps(timing, indent=1))
-    safe_io.atomic_write(path, json.dumps(records))
+    # Each record names its winds, as `ble-latex-eval`'s do.
+    safe_io.atomic_write(path, json.dumps([
+        {**r, 'wind_source': timing['wind_source']} for r in records]))
     if os.path.exists(partial) and complete:
       os.remove(partial)
   print(json.dumps({'output': path, **metrics.summarize(records),

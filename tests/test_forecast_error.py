@@ -46,7 +46,7 @@ def _truth_minus_forecast(grid):
   """Truth - forecast [2, 64] of `grid` along a line (x, p, t). # [m/s]"""
   wind = winds.era5_wind(grid)
   state = types.SimpleNamespace(
-      noise_u=None, noise_v=None, station=None,
+      noise_u=None, noise_v=None, station=None, truth_member=None,
       start_time_offset_s=(grid.first_time_min - winds._EPOCH_MIN) * 60)
   x = jnp.linspace(-2e5, 2e5, 64)
   p = jnp.linspace(5000.0, 15000.0, 64)
@@ -140,7 +140,7 @@ def test_two_sources_truth_from_the_second_file(tmp_path):
                       grid.truth_uv.shape[:-1]), rtol=1e-5, atol=1e-4)
   np.testing.assert_allclose(np.asarray(grid.uv), data.uv, rtol=1e-6)
   state = types.SimpleNamespace(
-      noise_u=None, noise_v=None, station=None,
+      noise_u=None, noise_v=None, station=None, truth_member=None,
       start_time_offset_s=(grid.first_time_min - winds._EPOCH_MIN) * 60)
   wind = winds.era5_wind(grid)
   x = jnp.linspace(-5e4, 5e4, 8)

@@ -113,3 +113,123 @@ def test_a_grib2_ensemble_flies_one_member(tmp_path):
   np.testing.assert_allclose(last.uv, first.uv + 2.0, atol=0.51)
   with pytest.raises(errors.ConfigError, match=r'3 ensemble members'):
     era5.load(str(path), member=3)
+
+
+def test_the_ensemble_mean_flies(ensemble):
+  mean = era5.load(ensemble, member='mean')
+  first = era5.load(ensemble, member=0)
+  assert mean.description == 'analysis (ensemble mean of 3)'
+  np.testing.assert_allclose(mean.interpolate(*PLACE),
+                             first.interpolate(*PLACE) + 1.0, atol=1e-4)
+  with pytest.raises(errors.ConfigError, match="'mean'"):
+    era5.settings(path=ensemble, member='median')
+
+
+def _truth_and_forecast(grid, truth_members):
+  """(truth, forecast) [2, members, 8] of `grid` at 8 places, one row per
+  truth member given."""
+  import types  # pylint: disable=g-import-not-at-top
+  import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import winds  # pylint: disable=g-import-not-at-top
+  rows = len(truth_members)
+  state = types.SimpleNamespace(
+      noise_u=None, noise_v=None, station=None,
+      truth_member=jnp.asarray(truth_members, jnp.int32)[:, None],
+      start_time_offset_s=(grid.first_time_min - winds._EPOCH_MIN) * 60)
+  wind = winds.era5_wind(grid)
+  x = jnp.tile(jnp.linspace(-5e4, 5e4, 8), (rows, 1))
+  args = (x, -x, jnp.full((rows, 8), 5000.0),
+          jnp.tile(jnp.linspace(0.0, 3e4, 8), (rows, 1)))
+  return (np.stack(wind.ground_truth(state, *args)),
+          np.stack(wind.forecast_column(state, *args)))
+
+
+def test_members_drawn_as_truths(ensemble):
+  """Issue 64 item 3: the forecast one member (or the mean), each flight's
+  truth another member drawn from its reset key; the noise 0 by default."""
+  from ble_latex.envs import winds  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
+  settings = era5.Era5Settings(path=ensemble, member=0, truth_members=True,
+                               center_lat=40.0, center_lon=-103.0,
+                               episode_hours=3.0)
+  grid = era5_jax.grid_from_settings(settings)
+  assert era5_jax.has_truth_members(grid)
+  assert grid.truth_uv.shape[0] == 2  # Members 1 and 2: not the forecast's.
+  assert grid.noise_scale == 0.0  # The members' spread is the error.
+  truth, forecast = _truth_and_forecast(grid, [0, 1])
+  np.testing.assert_allclose(truth[:, 0], forecast[:, 0] + 1.0, atol=1e-3)
+  np.testing.assert_allclose(truth[:, 1], forecast[:, 1] + 2.0, atol=1e-3)
+  assert winds.wind_source_from_gin(settings).endswith(
+      '; truth the 2 members but 0 of 3, drawn per flight')
+  mean = era5_jax.grid_from_settings(era5.Era5Settings(
+      path=ensemble, member='mean', truth_members=True, center_lat=40.0,
+      center_lon=-103.0, episode_hours=3.0))
+  assert mean.truth_uv.shape[0] == 3
+  truth, forecast = _truth_and_forecast(mean, [2])
+  np.testing.assert_allclose(truth, forecast + 1.0, atol=1e-3)
+  # Seeds draw members: every member, the same one for the same key.
+  import jax  # pylint: disable=g-import-not-at-top
+  keys = jax.vmap(jax.random.PRNGKey)(np.arange(32))
+  draws = np.asarray(jax.vmap(era5_jax.draw_truth_member, (None, 0))(grid,
+                                                                     keys))
+  assert set(draws.tolist()) == {0, 1}
+  assert draws[5] == era5_jax.draw_truth_member(grid, jax.random.PRNGKey(5))
+
+
+def test_the_env_draws_a_truth_member_per_seed(ensemble):
+  """The functional env's reset draws each flight's member (seeded)."""
+  import jax  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
+  grid = era5_jax.grid_from_settings(era5.Era5Settings(
+      path=ensemble, truth_members=True, center_lat=40.0, center_lon=-103.0,
+      episode_hours=3.0))
+  env = jax_env.LatexBalloonJaxEnv()
+  params = env.default_params.replace(wind_grid=grid)
+  draw = jax.jit(jax.vmap(lambda k, p: env.draw(k, p)[0].truth_member,
+                          (0, None)))
+  keys = jax.vmap(jax.random.PRNGKey)(np.arange(12))
+  members = np.asarray(draw(keys, params))
+  assert set(members.tolist()) == {0, 1}
+  np.testing.assert_array_equal(members, draw(keys, params))  # Seeded.
+  plain = era5_jax.grid_from_settings(era5.Era5Settings(
+      path=ensemble, center_lat=40.0, center_lon=-103.0, episode_hours=3.0))
+  assert jax.eval_shape(env.draw, keys[0], params.replace(
+      wind_grid=plain))[0].truth_member is None
+
+
+def test_member_truths_refused_in_one_line(ensemble):
+  from ble_latex.ble import era5_field  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
+  with pytest.raises(errors.ConfigError, match='no ensemble member') as raised:
+    era5_jax.grid_from_settings(era5.Era5Settings(
+        path=str(GFS_NC), truth_members=True, center_lat=40.0,
+        center_lon=-103.0))
+  assert '\n' not in str(raised.value)
+  with pytest.raises(errors.ConfigError, match='truth_members'):
+    era5.Era5Settings(path=ensemble, truth_members='yes')
+  with pytest.raises(errors.ConfigError, match='bind one'):
+    era5_jax.grid_from_data(era5.load(ensemble, member=0),
+                            truth=era5.load(ensemble, member=1),
+                            truth_members=era5_jax.member_truths(ensemble, 0),
+                            center_lat=40.0, center_lon=-103.0,
+                            episode_hours=3.0)
+  with pytest.raises(errors.ConfigError, match='truth_members'):
+    era5_field.Era5WindField.from_settings(era5.Era5Settings(
+        path=ensemble, truth_members=True))
+
+
+@pytest.mark.slow
+def test_a_launch_draws_member_truths_and_names_them(ensemble):
+  from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
+  gin.clear_config()
+  with gin.unlock_config():
+    gin.bind_parameter('Era5WindField.truth_members', True)
+  try:
+    world = scoring.era5_world(ensemble, max_hours=1.0, steps=2)
+  finally:
+    gin.clear_config()
+  assert world.params.wind_grid.truth_uv.shape[0] == 2
+  assert world.describe['wind_source'] == (
+      f"analysis (member 0 of 3): ['{ensemble}']; truth the 2 members but 0 "
+      'of 3, drawn per flight')

@@ -76,3 +76,51 @@ def test_launch_world_names_the_run_and_lead_times(series):
   world = scoring.era5_world(series, max_hours=1.0, steps=2)
   assert world.describe['wind_source'] == f"{RUN}: ['{series}']"
   assert world.describe['winds_vary_in_time']
+
+
+# A planner small enough to compile in seconds (tests/test_planners.py's).
+_SMALL_MPC = [f'--gin_bindings=LatexMpcAgent.{b}' for b in (
+    'num_samples=8', 'iterations=1', 'horizon=4', 'num_segments=2',
+    'replan_every=2', 'grid_levels=2')]
+
+
+@pytest.mark.slow
+def test_the_planner_flies_the_series_through_eval(series, tmp_path, capsys):
+  """`ble-latex-eval --agent=latex_mpc` on the series (issue 64: the
+  planners on a time series)."""
+  from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'out'
+  code = eval_cli.main([
+      f'--output_dir={out}', '--agent=latex_mpc', '--suite=latex_micro',
+      '--max_episode_length=3', '--gin_bindings=Era5WindField.episode_hours=1.0',
+      *_SMALL_MPC, f'--wind_file={series}'])
+  assert code == 0, capsys.readouterr().err
+  records = json.loads((out / 'latex_micro' / 'latex_mpc.json').read_text())
+  assert records and all(r['wind_source'] == f"{RUN}: ['{series}']"
+                         and r['steps'] == 3 for r in records)
+
+
+@pytest.mark.slow
+def test_the_planner_benchmark_flies_the_series(series, tmp_path):
+  """benchmarks/planners.py --wind_file on the series: its records and
+  timing name the run and lead times."""
+  import importlib.util  # pylint: disable=g-import-not-at-top
+  import pathlib  # pylint: disable=g-import-not-at-top
+  script = pathlib.Path(__file__).resolve().parents[1] / 'benchmarks' / (
+      'planners.py')
+  spec = importlib.util.spec_from_file_location('bench_planners_series',
+                                                script)
+  planners = importlib.util.module_from_spec(spec)
+  spec.loader.exec_module(planners)
+  rc = planners.main([
+      '--agent=latex_mpc', '--suite=latex_small', '--num_seeds=2',
+      '--max_episode_length=3', f'--output_dir={tmp_path}',
+      '--gin_bindings=Era5WindField.episode_hours=1.0', *_SMALL_MPC,
+      f'--wind_file={series}'])
+  assert rc == 0
+  folder = tmp_path / 'latex_small'
+  records = json.loads((folder / 'latex_mpc.json').read_text())
+  timing = json.loads((folder / 'timing' / 'latex_mpc.json').read_text())
+  assert len(records) == 2
+  assert {r['wind_source'] for r in records} == {f"{RUN}: ['{series}']"}
+  assert timing['wind_source'] == f"{RUN}: ['{series}']"

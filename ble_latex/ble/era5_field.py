@@ -109,10 +109,11 @@ class Era5WindField(wind_field.WindField):
       errors.ConfigError: per-seed stations (this BLE object keeps one
         fixed station; the envs fly them in the core's grid).
     """
-    if settings.truth_path is not None:
+    if settings.truth_path is not None or settings.truth_members:
+      name = 'truth_members' if settings.truth_members else 'truth_path'
       raise errors.ConfigError(
-          "Era5WindField.truth_path: BLE's Era5WindField object flies one "
-          'file; the two-source mode flies in the envs '
+          f"Era5WindField.{name}: BLE's Era5WindField object flies one "
+          'truth, the file; a truth of its own flies in the envs '
           '(LatexBalloonEnv.wind_field_factory = @Era5WindField)')
     if settings.stations != 'fixed':
       raise errors.ConfigError(

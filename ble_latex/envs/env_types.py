@@ -142,6 +142,9 @@ class EnvState:
     station: None (BLE's winds, or a wind grid's fixed target); per-seed
       stations (`Era5Grid.station_box`): [2] this flight's station
       (latitude [deg N], longitude [deg E]), drawn at reset. # [deg]
+    truth_member: None; on an ensemble's member truths
+      (`Era5WindField.truth_members`): this flight's truth member, an index
+      into `Era5Grid.truth_uv`'s members, drawn at reset (int32).
     wind_memory: None (`EnvParams.wind_memory` 0); else the last K
       measured-minus-forecast winds at the balloon, one per measurement
       (reset and every stride), that the observation's column is corrected
@@ -160,6 +163,7 @@ class EnvState:
   steps: Array
   pending_world: Array
   station: Optional[Array] = None
+  truth_member: Optional[Array] = None
   wind_memory: Optional[noise_gp.Measurements] = None
 
 

@@ -100,6 +100,9 @@ _BURST_KEY_DATA = 28_001
 # Per-seed stations (issue 45): the station's key is folded out of the
 # arena key with this, so every other draw stays as it was.
 _STATION_KEY_DATA = 45_001
+# Folded into the arena key for a flight's truth member (`era5_jax.
+# draw_truth_member`): eval seed s flies the same member on any file.
+_TRUTH_MEMBER_KEY_DATA = 64_001
 
 
 def to_box(normalized: Array) -> Array:
@@ -541,7 +544,7 @@ class LatexBalloonJaxEnv:
     _, wind_key = jax.random.split(rng, 2)
     noise_key, forecast_key = generative.split_wind_key(wind_key)
     noise_u, noise_v = simplex.reset_uv_noise_params(noise_key)
-    station = None
+    station = truth_member = None
     if params.wind_grid is None:
       forecast = generative.reset_forecast(forecast_key, params.decoder)
     else:  # ERA5: `Era5WindField.reset_forecast`'s start, no VAE forecast.
@@ -549,6 +552,9 @@ class LatexBalloonJaxEnv:
       start_time = winds.era5_start_offset_s(params.wind_grid, forecast_key)
       if params.wind_grid.station_box is not None:  # Per-seed stations.
         station = station_of(key, params.wind_grid)
+      if era5_jax.has_truth_members(params.wind_grid):
+        truth_member = era5_jax.draw_truth_member(
+            params.wind_grid, jax.random.fold_in(key, _TRUTH_MEMBER_KEY_DATA))
 
     # The world; its balloon is `place`d in it. Realistic physics' burst
     # draw: a key of its own (folded in, so the paper's draws above are
@@ -558,7 +564,7 @@ class LatexBalloonJaxEnv:
         noise_u=noise_u, noise_v=noise_v, initial=None, history=None,
         wind_u=None, wind_v=None,
         start_time_offset_s=start_time.astype(jnp.int32), steps=None,
-        pending_world=None, station=station)
+        pending_world=None, station=station, truth_member=truth_member)
     state = place(world, params, x_m=jnp.cos(theta) * radius_km * 1000.0,
                   y_m=jnp.sin(theta) * radius_km * 1000.0,
                   altitude_m=altitude,

@@ -27,6 +27,7 @@ from ble_latex.envs import env_types
 from ble_latex.wind import era5
 from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
+from ble_latex.wind import members
 from ble_latex.wind import simplex
 from ble_latex.wind import stations
 
@@ -152,12 +153,13 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
                                            _EPOCH_MIN) * 60
     return start_s.astype(t_s.dtype) + t_s
 
-  # The two-source mode: the truth is a second file on the same nodes.
+  # The two-source mode: the truth is a second file on the same nodes, or
+  # one of an ensemble's members (the flight's `truth_member`).
   truth = grid if grid.truth_uv is None else grid.replace(uv=grid.truth_uv)
 
   def ground_truth(state, x_m, y_m, pressure_pa, t_s):
     u, v = era5_jax.forecast(truth, data_time_s(state, t_s), x_m, y_m,
-                             pressure_pa, state.station)
+                             pressure_pa, state.station, state.truth_member)
     if not grid.add_noise or grid.noise_scale == 0.0:
       return u, v
     return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s,
@@ -258,6 +260,10 @@ def wind_source_from_gin(factory: Any) -> str:
   settings = factory() if factory is era5.settings else factory
   if isinstance(settings, era5.Era5Settings):
     data = settings.load()
+    if settings.truth_members:
+      truth = members.truth_label(members.size_of(data.member),
+                                  settings.member)
+      return f'{data.description}: {list(data.paths)}; truth {truth}'
     if settings.truth_path is None:
       return f'{data.description}: {list(data.paths)}'
     truth = era5.load(settings.truth_path)

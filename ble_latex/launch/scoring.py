@@ -37,6 +37,7 @@ from ble_latex import jax_cache
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
+from ble_latex.envs import winds
 from ble_latex.flight import state as state_lib
 from ble_latex.launch import ascent as ascent_lib
 from ble_latex.launch import controllers as controllers_lib
@@ -45,6 +46,7 @@ from ble_latex.wind import era5
 from ble_latex.wind import era5_checks
 from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
+from ble_latex.wind import members
 from ble_latex.wind import simplex
 
 Array = jax.Array
@@ -288,9 +290,12 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
                              'longitude, or neither (the domain centre)')
   if center_lat is None:
     center_lat, center_lon = domain_centre(data)
-  if bound.get('truth_path') is not None:
-    bound['truth'] = era5.load(bound['truth_path'])
-  bound.pop('truth_path', None)
+  truth = {'truth_path': bound.pop('truth_path', None),
+           'truth_members': bool(bound.pop('truth_members', False))}
+  if truth['truth_path'] is not None:
+    bound['truth'] = era5.load(truth['truth_path'])
+  if truth['truth_members']:
+    bound['truth_members'] = era5_jax.member_truths(path)
   if date is None:
     date = data.start.replace(tzinfo=None)
   try:
@@ -319,7 +324,8 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
   params = env_params.check_params(params.replace(wind_grid=wind_grid))
   return _world(params, seed, {
       'source': 'era5' if data.source == 'ERA5' else data.source,
-      'wind_source': f'{data.description}: {list(data.paths)}',
+      'wind_source': winds.wind_source_from_gin(era5.Era5Settings(
+          path=data.paths, member=members.bound(), **truth)),
       'path': str(path), 'station_lat': float(center_lat),
       'station_lon': float(tracks.wrap_longitude(center_lon)),
       'winds_vary_in_time': not data.time_invariant,
@@ -342,7 +348,7 @@ def _world_date(data: era5.Era5Data, start: dt.datetime,
 # `Era5WindField.*` bindings a launch applies; the others it sets itself.
 LAUNCH_WIND_BINDINGS = ('path', 'center_lat', 'center_lon', 'add_noise',
                         'end_outside_domain', 'snapshot_time', 'noise_scale',
-                        'truth_path')
+                        'truth_path', 'truth_members')
 _SET_BY_LAUNCH = {'start_dates': '--date', 'episode_hours': '--hours and '
                   '--max_steps', 'stations': 'one station (--station_lat/'
                   '--station_lon)', 'station_margin_km': 'one station '

@@ -262,7 +262,7 @@ def find_time_dim(dataset: 'xr.Dataset', layout: Layout = ERA5
 
 
 def _read_variable(dataset: 'xr.Dataset', name: str, path: str,
-                   layout: Layout, member: int = 0) -> 'xr.DataArray':
+                   layout: Layout, member: Any = 0) -> 'xr.DataArray':
   """Variable `name` (of ensemble `member`) as (time, pressure, lat, lon)."""
   label = layout.label
   if name not in dataset.data_vars:
@@ -290,7 +290,7 @@ def _read_variable(dataset: 'xr.Dataset', name: str, path: str,
       parts = [array.isel(expver=i) for i in range(array.sizes[dim])]
       array = functools.reduce(lambda a, b: a.combine_first(b), parts)
     elif array.sizes[dim] == 1 or dim in members.MEMBER_DIMS:
-      array = array.isel({dim: member if array.sizes[dim] > 1 else 0})
+      array = members.select(array, dim, member)
     else:
       raise errors.BadFileError(
           f'{label} file {path}: variable {name!r} has an unexpected dimension '
@@ -315,7 +315,7 @@ def _open(path: str, label: str) -> 'xr.Dataset':
                               ) from error
 
 
-def read_source(path: str, member: int = 0
+def read_source(path: str, member: Any = 0
                 ) -> Tuple[str, Tuple[np.ndarray, ...], Any, Optional[str]]:
   """Reads a wind file by content (`analysis`): (source, arrays, site, member).
 
@@ -337,7 +337,7 @@ def read_source(path: str, member: int = 0
 
 
 def read_file(path: str, layout: Layout = ERA5,
-              dataset: Optional['xr.Dataset'] = None, member: int = 0
+              dataset: Optional['xr.Dataset'] = None, member: Any = 0
               ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                          np.ndarray]:
   """Reads and checks one file: its axes sorted ascending.
@@ -402,7 +402,7 @@ def read_file(path: str, layout: Layout = ERA5,
 
 
 def load(path: Union[str, Sequence[str]], layout: Layout = ERA5,
-         member: Optional[int] = None) -> Era5Data:
+         member: Any = None) -> Era5Data:
   """Loads ERA5 u, v from one or more files (joined along time).
 
   Results are cached per (files, modification times), so several
@@ -442,7 +442,7 @@ def load(path: Union[str, Sequence[str]], layout: Layout = ERA5,
 
 @functools.lru_cache(maxsize=4)
 def _load_cached(stamps: Tuple[Tuple[str, int, int], ...],
-                 layout: Layout, member: int = 0) -> Era5Data:
+                 layout: Layout, member: Any = 0) -> Era5Data:
   label = layout.label
   paths = [p for p, _, _ in stamps]
   if layout is ERA5:
@@ -563,7 +563,9 @@ class Era5Settings:
       source decides (`forecast_error.noise_scale`: ERA5 1, others 2.39).
     truth_path: None, or a second file (glob, list) whose winds are the
       truth (`forecast_error.truth_on_forecast_grid`; noise 0 by default).
-    member: The ensemble member flown (`members`; 0, the first: GEFS's control).
+    member: The ensemble member the agents see (`members`; 0, the first:
+      GEFS's control; 'mean': the ensemble mean).
+    truth_members: The truth is another member, drawn per flight (`members`).
   """
   path: Union[str, Tuple[str, ...]]
   center_lat: float = PAPER_CENTER_LAT  # [deg N]
@@ -577,7 +579,8 @@ class Era5Settings:
   snapshot_time: Any = None
   noise_scale: Optional[float] = None
   truth_path: Any = None
-  member: int = 0
+  member: Any = 0
+  truth_members: bool = False
 
   def __post_init__(self):
     for name in ('path', 'start_dates', 'truth_path'):
@@ -592,6 +595,7 @@ class Era5Settings:
     stations_lib.check_margin(self.station_margin_km)
     forecast_error.check_scale(self.noise_scale)
     members.check(self.member)
+    members.check_truth(self.truth_members)
 
   def load(self) -> Era5Data:
     """The data of `path` (`load`: checked, cached)."""
@@ -619,7 +623,8 @@ def settings(*,
              snapshot_time: Any = None,
              noise_scale: Optional[float] = None,
              truth_path: Any = None,
-             member: int = 0) -> Era5Settings:
+             member: Any = 0,
+             truth_members: bool = False) -> Era5Settings:
   """ERA5's settings from gin: the configurable `Era5WindField`.
 
   `LatexBalloonEnv.wind_field_factory = @Era5WindField` and the
@@ -629,15 +634,10 @@ def settings(*,
   `WindField` of them. Arguments given override gin's bindings.
 
   Args:
-    path: As `Era5Settings`.
-    center_lat: As `Era5Settings`. # [deg N]
-    center_lon: As `Era5Settings`. # [deg E]
-    episode_hours: As `Era5Settings`. # [h]
-    add_noise, start_dates: As `Era5Settings`.
-    stations: As `Era5Settings`.
-    station_margin_km: As `Era5Settings`. # [km]
-    end_outside_domain, snapshot_time: As `Era5Settings`.
-    noise_scale, truth_path, member: As `Era5Settings`.
+    path, center_lat [deg N], center_lon [deg E], episode_hours [h],
+      add_noise, start_dates, stations, station_margin_km [km],
+      end_outside_domain, snapshot_time, noise_scale, truth_path, member,
+      truth_members: As `Era5Settings`.
 
   Returns:
     The settings (unchecked: `load`, `start_window` and

@@ -41,7 +41,7 @@ grid flies the BLE object's flight (host callbacks) to a few metres over
 import datetime as dt
 import logging
 import math
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, Optional, Sequence, Tuple
 
 import flax
 import jax
@@ -51,6 +51,7 @@ import numpy as np
 from ble_latex import errors
 from ble_latex.wind import era5
 from ble_latex.wind import forecast_error
+from ble_latex.wind import members as members_lib
 from ble_latex.wind import stations as stations_lib
 
 Array = jax.Array
@@ -88,7 +89,9 @@ class Era5Grid:
       noise_scale`: 1 on ERA5, 2.39 on other files, 0 with a truth file).
       Static.
     truth_uv: None: the truth is `uv` (+ noise); else a second file's winds
-      on the same nodes (`forecast_error.truth_on_forecast_grid`). # [m/s]
+      on the same nodes (`forecast_error.truth_on_forecast_grid`), or an
+      ensemble's members [M, T, P, La, Lo, 2] each flight draws its truth
+      from (`members`, `draw_truth_member`). # [m/s]
     station_box: None: every flight keeps station at the target above
       (fixed); else [4] (lowest, highest latitude [deg N], lowest, highest
       longitude [deg E], the file's convention): each flight's station is
@@ -213,7 +216,8 @@ def grid_from_data(data: era5.Era5Data, *,
                    end_outside_domain: Optional[bool] = None,
                    snapshot_time: Any = None,
                    noise_scale: Optional[float] = None,
-                   truth: Optional[era5.Era5Data] = None) -> Era5Grid:
+                   truth: Optional[era5.Era5Data] = None,
+                   truth_members: Sequence[era5.Era5Data] = ()) -> Era5Grid:
   """The device grid of loaded ERA5 data (`era5.load(path)`).
 
   The keyword arguments are `era5.Era5Settings`'s, with its defaults
@@ -229,6 +233,8 @@ def grid_from_data(data: era5.Era5Data, *,
     noise_scale: Its factor; None: the source decides
       (`forecast_error.noise_scale`).
     truth: None, or a second file's data: the truth (two-source mode).
+    truth_members: (), or an ensemble's members (`member_truths`): each
+      flight's truth is one of them, drawn at reset (`draw_truth_member`).
     start_dates: None, a split of `era5.DATE_SPLITS` or a (first, end)
       pair of dates: the range flights start in (`era5.start_window`).
 
@@ -240,6 +246,10 @@ def grid_from_data(data: era5.Era5Data, *,
       time that is not a whole minute; errors.ConfigError: a bad station
       mode, margin, `end_outside_domain` or `snapshot_time`.
   """
+  if truth is not None and truth_members:
+    raise errors.ConfigError(
+        'Era5WindField.truth_path and Era5WindField.truth_members = True '
+        'both name the truth: bind one')
   center_lat, center_lon, box = station_center(
       data, stations, station_margin_km, center_lat, center_lon)
   _warn_unnamed_sounding(data, center_lat, center_lon, snapshot_time)
@@ -274,14 +284,60 @@ def grid_from_data(data: era5.Era5Data, *,
       first_time_min=jnp.asarray(
           int(first_s // 60) if snapshot is None else snapshot, jnp.int32),
       add_noise=bool(add_noise),
-      noise_scale=forecast_error.noise_scale(noise_scale, data.source,
-                                             truth is not None),
-      truth_uv=(None if truth is None else
-                f32(forecast_error.truth_on_forecast_grid(data, truth))),
+      noise_scale=forecast_error.noise_scale(
+          noise_scale, data.source, truth is not None or bool(truth_members)),
+      truth_uv=_truth_uv(data, truth, truth_members),
       station_box=None if box is None else f32(box),
       end_outside_domain=ends,
       latitude_bounds=(f32(np.array(data.latitude_bounds) - lat0)
                        if data.global_longitude else None))
+
+
+def _truth_uv(data: era5.Era5Data, truth: Optional[era5.Era5Data],
+              truth_members: Sequence[era5.Era5Data]) -> Optional[Array]:
+  """`Era5Grid.truth_uv` of a truth file or of members (float32). # [m/s]"""
+  if truth is not None:
+    return jnp.asarray(forecast_error.truth_on_forecast_grid(data, truth),
+                       jnp.float32)
+  if not truth_members:
+    return None
+  for member in truth_members:
+    if member.uv.shape != data.uv.shape:
+      raise errors.ConfigError(
+          f'Era5WindField.truth_members: member {member.member} of '
+          f'{list(member.paths)} has winds of shape {member.uv.shape}, the '
+          f'forecast {data.uv.shape}')
+  return jnp.asarray(np.stack([m.uv for m in truth_members]), jnp.float32)
+
+
+def member_truths(path: Any, member: Any = None
+                  ) -> Tuple[era5.Era5Data, ...]:
+  """The members an ensemble file's flights draw their truth from.
+
+  Every member of `path`'s ensemble but the forecast's (`member`; None:
+  gin's `Era5WindField.member`), or every member under 'mean'
+  (`members.truth_indices`), each read by `era5.load`.
+
+  Raises:
+    errors.ConfigError: A file without a member dimension (one line).
+  """
+  member = members_lib.bound(member)
+  forecast = era5.load(path, member=member)
+  size = members_lib.size_of(forecast.member)
+  return tuple(era5.load(path, member=k) for k in
+               members_lib.truth_indices(size, member, list(forecast.paths)))
+
+
+def draw_truth_member(grid: Era5Grid, key: Array) -> Array:
+  """A flight's truth member: an index into `grid.truth_uv`'s members,
+  uniform, from `key` (the env folds it out of the reset key: eval seed s
+  always flies the same member) (int32)."""
+  return jax.random.randint(key, (), 0, grid.truth_uv.shape[0])
+
+
+def has_truth_members(grid: Era5Grid) -> bool:
+  """Whether each flight draws its truth among members (static)."""
+  return grid.truth_uv is not None and grid.truth_uv.ndim == 6
 
 
 # Grids built from settings, by (data, target, flight, noise, dates): every
@@ -314,7 +370,7 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
       settings.center_lat, settings.center_lon, settings.episode_hours,
       settings.add_noise, settings.stations, settings.station_margin_km,
       settings.end_outside_domain, settings.snapshot_time,
-      settings.noise_scale, settings.truth_path))
+      settings.noise_scale, settings.truth_path, settings.truth_members))
   key = base + (repr(settings.start_dates),)
   cached = _GRIDS.get(key)
   if cached is None or cached[0] is not data:
@@ -331,7 +387,9 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
           snapshot_time=settings.snapshot_time,
           noise_scale=settings.noise_scale,
           truth=(None if settings.truth_path is None else
-                 era5.load(settings.truth_path)))
+                 era5.load(settings.truth_path)),
+          truth_members=(member_truths(settings.path, settings.member)
+                         if settings.truth_members else ()))
     else:
       center_lat, center_lon, _ = station_center(
           data, settings.stations, settings.station_margin_km,
@@ -535,15 +593,19 @@ def interpolate(grid: Era5Grid, time_s: Array, pressure_pa: Array,
 
 
 def _interpolate(grid: Era5Grid, time_s: Array, pressure_pa: Array,
-                 lat: Array, lon: Array) -> Array:
-  """`interpolate` of (lat, lon) after the grid's origin. # [m/s]"""
+                 lat: Array, lon: Array, member: Optional[Array] = None
+                 ) -> Array:
+  """`interpolate` of (lat, lon) after the grid's origin, in ensemble
+  `member` of winds [M, T, P, La, Lo, 2] where given. # [m/s]"""
   coords = jnp.broadcast_arrays(
       *(jnp.asarray(c, jnp.float32) for c in (time_s, pressure_pa, lat, lon)))
   axes = (grid.time_s, grid.pressure_pa, grid.latitude, grid.longitude)
   cells = [_cell(axis, c) for axis, c in zip(axes, coords)]
   uv = jnp.zeros(coords[0].shape + (2,), jnp.float32)
   for corner in range(16):
-    index, weight = [], jnp.ones_like(coords[0])
+    index = [] if member is None else [jnp.broadcast_to(member,
+                                                        coords[0].shape)]
+    weight = jnp.ones_like(coords[0])
     for axis, (i, w) in enumerate(cells):
       upper = (corner >> (3 - axis)) & 1
       index.append(i + upper)
@@ -553,8 +615,8 @@ def _interpolate(grid: Era5Grid, time_s: Array, pressure_pa: Array,
 
 
 def forecast(grid: Era5Grid, time_s: Array, x_m: Array, y_m: Array,
-             pressure_pa: Array, station: Optional[Array] = None
-             ) -> Tuple[Array, Array]:
+             pressure_pa: Array, station: Optional[Array] = None,
+             member: Optional[Array] = None) -> Tuple[Array, Array]:
   """`Era5WindField.get_forecast` / `get_forecast_column`. # [m/s]
 
   Args:
@@ -565,10 +627,12 @@ def forecast(grid: Era5Grid, time_s: Array, x_m: Array, y_m: Array,
     pressure_pa: Pressure, or pressures of a column. # [Pa]
     station: A flight's (lat, lon) station (per-seed stations), or None:
       the grid's fixed target.
+    member: None, or the ensemble member read of winds [M, T, P, La, Lo,
+      2] (a flight's truth member, `draw_truth_member`).
 
   Returns:
     (u, v) of pressure_pa's shape (broadcast with the others).
   """
   lat, lon = _offsets(grid, x_m, y_m, station)
-  uv = _interpolate(grid, time_s, pressure_pa, lat, lon)
+  uv = _interpolate(grid, time_s, pressure_pa, lat, lon, member)
   return uv[..., 0], uv[..., 1]
