@@ -63,6 +63,26 @@ def transition(walk_kg: Array, duration_s: Array, *, sigma: Array,
   """
   walk_kg = jnp.asarray(walk_kg)
   dtype = walk_kg.dtype
+  decay, variance = decay_and_variance(duration_s, time_constant_s, dtype)
+  noise = jax.random.normal(key, jnp.shape(walk_kg), dtype)
+  return decay * walk_kg + sigma * jnp.sqrt(variance) * noise
+
+
+def decay_and_variance(duration_s: Array, time_constant_s: Array,
+                       dtype) -> tuple:
+  """(a, v) of the exact transition W' = a W + sigma sqrt(v) N(0, 1).
+
+  a = e^(-dt / tau), v = tau (1 - a^2) / 2; tau = 0 (the random walk):
+  a = 1, v = dt. Also the moments an estimator predicts with (`estimator`).
+
+  Args:
+    duration_s: dt >= 0. # [s]
+    time_constant_s: tau; 0 = no reversion. # [s]
+    dtype: Of the results.
+
+  Returns:
+    (a [.], v [s]).
+  """
   dt = jnp.asarray(duration_s, dtype)
   tau = jnp.asarray(time_constant_s, dtype)
   reverting = tau > 0.0
@@ -70,8 +90,7 @@ def transition(walk_kg: Array, duration_s: Array, *, sigma: Array,
   decay = jnp.where(reverting, jnp.exp(-dt / tau_safe), 1.0)
   variance = jnp.where(reverting,
                        -0.5 * tau_safe * jnp.expm1(-2.0 * dt / tau_safe), dt)
-  noise = jax.random.normal(key, jnp.shape(walk_kg), dtype)
-  return decay * walk_kg + sigma * jnp.sqrt(variance) * noise
+  return decay, variance
 
 
 def stationary_std_kg(sigma: Array, time_constant_s: Array) -> Array:

@@ -59,11 +59,13 @@ skipped at trace time).
 Pure, jittable, vmappable functions; units in the docstrings.
 """
 
+import functools
 from typing import Tuple
 
 import jax
 import jax.numpy as jnp
 
+from ble_latex.flight import disturbance
 from ble_latex.flight import envelope
 from ble_latex.flight import gas as gas_lib
 from ble_latex.flight import params as params_lib
@@ -115,13 +117,8 @@ def _ou_predict(mean: Array, variance: Array, duration: Array, *,
   a = e^(-dt / tau): (a x, a^2 P + sigma^2 tau (1 - a^2) / 2); tau = 0: the
   random walk, (x, P + sigma^2 dt).
   """
-  dtype = mean.dtype
-  dt = jnp.asarray(duration, dtype)
-  tau = jnp.asarray(time_constant_s, dtype)
-  reverting = tau > 0.0
-  safe = jnp.where(reverting, tau, 1.0)
-  decay = jnp.where(reverting, jnp.exp(-dt / safe), 1.0)
-  added = jnp.where(reverting, -0.5 * safe * jnp.expm1(-2.0 * dt / safe), dt)
+  decay, added = disturbance.decay_and_variance(duration, time_constant_s,
+                                                mean.dtype)
   return decay * mean, decay * decay * variance + sigma * sigma * added
 
 
@@ -249,18 +246,19 @@ def observe_chunk(params: params_lib.FlightParams, before, after,
     return after
   heat, heat_var = before.estimated_heating_k, before.heating_variance_k2
   walk, walk_var = before.estimated_lift_kg, before.lift_variance_kg2
+  thermometer = functools.partial(
+      heating_innovation, params, gas_start_k=before.gas_temperature_k,
+      gas_end_k=after.gas_temperature_k, air_start_k=air_start_k,
+      air_end_k=gas_end.air_temperature,
+      gas_pressure_start=gas_pressure_start,
+      gas_pressure_end=gas_end.pressure, forcing_k=forcing_k,
+      duration=duration)
   if params.heating_noise:
     heat, heat_var = _ou_predict(
         heat, heat_var, duration, sigma=params.heating_noise_k * jnp.sqrt(
             2.0 / params.heating_noise_time_s),
         time_constant_s=params.heating_noise_time_s)
-    innovation, sensitivity, _ = heating_innovation(
-        params, estimate=heat, gas_start_k=before.gas_temperature_k,
-        gas_end_k=after.gas_temperature_k, air_start_k=air_start_k,
-        air_end_k=gas_end.air_temperature,
-        gas_pressure_start=gas_pressure_start,
-        gas_pressure_end=gas_end.pressure, forcing_k=forcing_k,
-        duration=duration)
+    innovation, sensitivity, _ = thermometer(estimate=heat)
     heat, heat_var = kalman_update(heat, heat_var, innovation, sensitivity,
                                    _noise(THERMOMETER_NOISE_K, duration))
   if params.lift_walk:
@@ -269,14 +267,7 @@ def observe_chunk(params: params_lib.FlightParams, before, after,
         time_constant_s=params.lift_walk_time_constant_s)
     g = gas_end
     if params.gas_state:  # T_g on the path under the updated estimate.
-      _, _, path = heating_innovation(
-          params, estimate=heat, gas_start_k=before.gas_temperature_k,
-          gas_end_k=after.gas_temperature_k, air_start_k=air_start_k,
-          air_end_k=gas_end.air_temperature,
-          gas_pressure_start=gas_pressure_start,
-          gas_pressure_end=gas_end.pressure, forcing_k=forcing_k,
-          duration=duration)
-      g = gas_end._replace(temperature=path)
+      g = gas_end._replace(temperature=thermometer(estimate=heat)[2])
     mean_rate = 0.5 * (before.ascent_rate_mps + after.ascent_rate_mps)
     innovation, sensitivity = lift_innovation(
         estimate=walk, rate_start=before.ascent_rate_mps,
