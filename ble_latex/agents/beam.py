@@ -100,7 +100,8 @@ def beam_search(config: plan_config.PlannerConfig, params: env_types.EnvParams,
   def fly(f, target, flag):
     action = jnp.stack([target, jnp.asarray(config.time_factor, dtype), flag])
     return plan_objective.fly(params, state, wind_fn, f,
-                              jnp.broadcast_to(action, (length, 3)))
+                              jnp.broadcast_to(action, (length, 3)),
+                              exact=plan_objective.exact(config))
 
   def segment(beam, j):
     flights, value, d_last, ended, score, targets, floats = beam

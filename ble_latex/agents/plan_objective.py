@@ -9,8 +9,9 @@ sigmoid((R - d_t) / w) + shaping * 2^(-d_t / halflife), plus progress *
 (d_0 - d_end) / R (the approach over the plan), minus a resource cost (sand
 dropped and helium vented, as lift [kg], divided by the fraction of the
 launch sand margin left and scaled by the fraction of the episode left:
-spending is cheap at the end and dear when little is left), minus a
-terminal cost where the plan ends the flight.
+spending is cheap at the end and dear when little is left; under the sun,
+the sand the episode's later sunsets need is not in that margin,
+`sunset_sand_kg`), minus a terminal cost where the plan ends the flight.
 
 The winds (`planning_wind`): the oracle's is the ground truth; the forecast
 planners' is the forecast of the `blind` state (the flight's noise removed),
@@ -32,10 +33,15 @@ from ble_latex.flight import dynamics
 from ble_latex.flight import estimator
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
+from ble_latex.flight import thermal
 from ble_latex.wind import noise_gp
 from ble_latex.wind import simplex
 
 Array = jax.Array
+# Points of the day's grid of the sun's forcing (`sunset_sand_kg`): one per
+# 20-minute stride, finer than the ~2.7 h the forcing takes to fall.
+SUN_GRID = 72
+_DAY_S = 86_400.0  # [s]
 
 
 def blind(state: env_types.EnvState) -> env_types.EnvState:
@@ -196,7 +202,7 @@ def objective(config: plan_config.PlannerConfig, params: env_types.EnvParams,
   """
   actions = plan_actions(config, targets_m, floats)
   f_end, (distance_km, status) = fly(params, state, wind_fn, state.flight,
-                                     actions)
+                                     actions, exact=exact(config))
   t = jnp.arange(config.horizon)
   value = jnp.sum(stride_values(config, params, state, distance_km, status,
                                 t))
@@ -243,26 +249,80 @@ def total(value: Array, terms: Tuple[Array, Array, Array]) -> Array:
   return value + progress - cost - terminal
 
 
+def model_flight(params: env_types.EnvParams, state: env_types.EnvState,
+                 exact: bool = False) -> Any:
+  """The flight system a planner flies its plans with (`fly`).
+
+  The flight's own, as the env flies it (`env_types.flight_params_of`: the
+  sun's clock set to the flight's start, its station's place); with the
+  disturbances held (`FlightParams.noiseless`: the disturbance so far, in
+  the state, kept as it is, no new draws) unless `exact` (the oracle, which
+  draws the env's own: `fly`). Under the paper's physics `params.flight`
+  itself. The one place the planners' model of the flight system is
+  chosen (the state they start from is `estimator.planning_view`'s).
+
+  Args:
+    params: The env parameters (their `flight` system).
+    state: The env state the plan starts from (its start time, station).
+    exact: Keep the stochastic disturbances (the oracle).
+
+  Returns:
+    The `FlightParams` of the plan's flights.
+  """
+  flight = env_types.flight_params_of(params, state)
+  return flight if exact else flight.noiseless()
+
+
+def exact(config: plan_config.PlannerConfig) -> bool:
+  """Whether `config`'s plans fly the env's own disturbances (`fly`): the
+  oracle's (it knows the whole truth: the wind, the burst volume and the
+  disturbance path)."""
+  return config.mode == plan_config.ORACLE
+
+
 def fly(params: env_types.EnvParams, state: env_types.EnvState,
-        wind_fn: Callable[..., Any], f: Any, actions: Array
-        ) -> Tuple[Any, Tuple[Array, Array]]:
+        wind_fn: Callable[..., Any], f: Any, actions: Array,
+        exact: bool = False) -> Tuple[Any, Tuple[Array, Array]]:
   """Flies `actions` ([T, 3], one per stride) from flight `f` on the core.
 
-  Plans fly the expected dynamics: realistic physics' disturbances are
-  what no controller foresees or sees, so the balloon's estimates of them
-  are held, with no new steps, and the burst volume is a low quantile of
-  its law (`estimator.planning_view`); the sun, overpressure and drag are
-  flown as they are.
+  The flight system is `model_flight`'s (the flight's own sun clock and
+  station). Forecast plans fly the expected dynamics: realistic physics'
+  disturbances (lift walk, heating) are held at the balloon's estimates,
+  with no new steps, and the burst volume is a low quantile of its law
+  (`estimator.planning_view`: no hidden truth). `exact`
+  (the oracle) flies them as the env does: each stride with the env's key
+  of that stride (`env_types.walk_key` of `state` at stride `state.steps`
+  + n, n the strides from `state.flight` to `f` and on, counted on the
+  flight's clock), so that, on the true wind, the plan's flight is the
+  env's.
+
+  Args:
+    params: The env parameters (flight system, stride).
+    state: The env state the plan starts from.
+    wind_fn: The wind the plan is flown in (`planning_wind`).
+    f: The flight the actions start from (`state.flight`, or where a
+      partial plan ends).
+    actions: [T, 3] actions (a0, a1, a2), one per stride.
+    exact: Draw the env's disturbances (the oracle).
 
   Returns:
     The flight after the last stride, and per stride its distance to the
     station [km] and its `FlightStatus`.
   """
-  flight, f = estimator.planning_view(params.flight, f)
+  flight = model_flight(params, state, exact)
+  if not exact:  # No hidden truth: the estimates (`estimator.planning_view`).
+    _, f = estimator.planning_view(env_types.flight_params_of(params, state),
+                                   f)
+  keyed = exact and flight.stochastic
 
   def stride(f, action):
+    key = None
+    if keyed:  # The env's key of this stride (`jax_env.step_env`).
+      n = jnp.round((f.time_s - state.flight.time_s) / params.stride_s)
+      key = env_types.walk_key(state.replace(
+          steps=state.steps + n.astype(state.steps.dtype)))
     f = dynamics.step(flight, state.atmosphere, f, action, wind_fn,
-                      params.stride_s)
+                      params.stride_s, key=key)
     return f, (jnp.hypot(f.x_m, f.y_m) / 1000.0, f.status)
 
   return jax.lax.scan(stride, f, actions)
@@ -322,10 +382,75 @@ def end_terms(config: plan_config.PlannerConfig, params: env_types.EnvParams,
   dropped = f_end.sand_dropped_kg - f0.sand_dropped_kg
   vented = (f_end.helium_vented_mols - f0.helium_vented_mols) * (
       physics.LIFT_PER_MOL)
+  shortfall_cost = None
+  flight = model_flight(params, state)
+  if flight.gas_superheat:  # Static: the sun is flown, its sunsets cost sand.
+    # The sand the sunsets after the plan's end (to the episode's end) will
+    # need is not the plan's to spend; a plan that leaves less than that
+    # pays the terminal cost pro rata of a day's sunset (it cannot float
+    # through them).
+    end_s = f0.time_s + left * params.stride_s
+    need, per_day = sunset_sand_kg(flight, f_end, end_s)
+    sand_margin = sand_margin - need
+    short = jnp.maximum(need - resource_margins(params, f_end)[0], 0.0)
+    shortfall_cost = config.terminal_cost * jnp.minimum(
+        short / jnp.maximum(per_day, 1e-3), 1.0)
   cost = time_left * (
       config.sand_cost * dropped / jnp.maximum(sand_margin / initial, 0.05) +
       config.helium_cost * vented / jnp.maximum(helium_margin / initial, 0.05))
+  if shortfall_cost is not None:
+    cost = cost + shortfall_cost
   return progress, cost, config.terminal_cost * ended.astype(dtype)
+
+
+def sunset_sand_kg(flight: Any, f: Any, end_s: Array) -> Tuple[Array, Array]:
+  """The sand the sunsets from flight `f`'s time to `end_s` take. # [kg]
+
+  The helium's temperature follows the sun's forcing on it
+  (`thermal.forcing_at`, at the balloon's place `thermal.position_lat_lon`):
+  +superheat_day_k by day, -cooling_night_k by night. A gas at rest at air
+  temperature T and pressure P lifts M_air beta - M_He per mol, beta =
+  T_gas / T (`physics.buoyant_lift_per_mol`; Archimedes with the ideal
+  gas), so a fall dT of the forcing loses n M_air dT / T of lift, which a
+  balloon holding its altitude pays in sand. The falls are summed over the
+  span (whole days: a day's total fall, the forcing being daily periodic;
+  the rest of a day on a `SUN_GRID`-point grid, linear within a cell);
+  rises (sunrises: lift gained, vented or climbed) are not counted. Zero
+  without the sun (`gas_superheat` off: the paper's physics).
+
+  Args:
+    flight: The flight system (`model_flight`: the sun's clock, station,
+      superheat_day_k, cooling_night_k and their elevation window).
+    f: A `FlightState` (its time, place, helium, air T and P).
+    end_s: The end of the span on the flight's clock (the episode's
+      end). # [s]
+
+  Returns:
+    (sand the span's sunsets take, that of one whole day). # [kg]
+  """
+  dtype = f.altitude_m.dtype
+  if not flight.gas_superheat:
+    zero = jnp.zeros((), dtype)
+    return zero, zero
+  lat, lon = thermal.position_lat_lon(flight.latitude_deg,
+                                      flight.longitude_deg, f.x_m, f.y_m)
+  cell = _DAY_S / SUN_GRID  # [s]
+  k = jnp.arange(SUN_GRID, dtype=dtype)
+  forcing = thermal.forcing_at(flight, f.time_s + cell * jnp.concatenate(
+      [k, k[-1:] + 1.0]), lat, lon)  # [K]
+  falls = jnp.maximum(forcing[:-1] - forcing[1:], 0.0)  # [K] per cell
+  span = jnp.maximum(end_s - f.time_s, 0.0)
+  days = jnp.floor(span / _DAY_S)
+  rest = jnp.clip((span - days * _DAY_S) / cell - k, 0.0, 1.0)
+  day_fall = jnp.sum(falls)  # [K]
+  fall = days * day_fall + jnp.sum(rest * falls)  # [K]
+  t, p = f.temperature_k, f.pressure_pa
+
+  def lift(d_k):  # n (M_air beta - M_He) gained by a gas warmer by d_k.
+    return f.helium_mols * (physics.buoyant_lift_per_mol(t, p, t + d_k, p) -
+                            physics.buoyant_lift_per_mol(t, p, t, p))
+
+  return lift(fall).astype(dtype), lift(day_fall).astype(dtype)
 
 
 def resource_margins(params: env_types.EnvParams,

@@ -340,10 +340,11 @@ PHYSICS_ROWS = (
     ('BLE `station_seeker` (discrete)', 'ble_station_seeker_discrete',
      'ble_station_seeker_discrete'),
     ('`latex_station_seeker`', 'latex_station_seeker', 'latex_station_seeker'),
-    ('`latex_mpc` (forecast; plans without the lift walk; H200 GPU)', None,
-     'latex_mpc'),
-    ('`latex_mpc_oracle` (true wind, one whole-episode plan; no lift walk '
-     'foreseen; H200 GPU)', None, 'latex_mpc_oracle'),
+    ('`latex_mpc` (forecast; before issue 63 item 4: the launch day\'s sun '
+     'clock, no sunset reserve; H200 GPU)', None, 'latex_mpc'),
+    ('`latex_mpc_oracle` (true wind, one whole-episode plan; before issue 63 '
+     'item 4: blind to the disturbance, not a bound; H200 GPU)', None,
+     'latex_mpc_oracle'),
     ('`latex_random`', 'latex_random', 'latex_random'),
 )
 # Rows flown before the calibration (lift walk 1.4 g/sqrt(s), +5/-2 K,
