@@ -171,7 +171,10 @@ class LatexMpcAgent(PlannerAgent):
 
 class LatexMpcOracleAgent(PlannerAgent):
   """Beam search over the whole episode on the true wind (agent
-  latex_mpc_oracle): an upper bound.
+  latex_mpc_oracle): an upper bound. It also knows the flight's drawn burst
+  volume and, under stochastic physics, the disturbance's path (the env's
+  own draws, `plan_objective.fly(exact=True)`): the env flies its plan
+  exactly.
 
   Settings: gin `LatexMpcOracleAgent.*`
   (`plan_config.PLANNERS['latex_mpc_oracle']`).

@@ -21,8 +21,9 @@ same core the env flies, and act through the same altitude controller:
   env flies a plan exactly (the planner flies the same core in the same
   wind), so nothing is gained by replanning, and a plan that reaches the
   episode's end sees every later consequence of spending sand or helium.
-  Under realistic physics the free-lift random walk is not foreseen (set
-  `replan_every` lower there).
+  Under realistic physics it knows the disturbance's path too (it flies the
+  env's own draws, `plan_objective.fly(exact=True)`), so the env flies its
+  plan exactly there as well.
 - `latex_mpc_grad`: first-order MPC on the forecast: the best sampled plans
   (one CEM iteration) are refined by normalised gradient ascent
   (`jax.grad` through the core's `lax.scan`) on their altitude targets. The
