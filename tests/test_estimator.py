@@ -141,6 +141,31 @@ def test_the_estimates_track_the_hidden_disturbances():
 # -- No controller peeks -----------------------------------------------------
 
 
+@pytest.mark.slow
+def test_the_onboard_controller_reads_the_estimate_of_w():
+  """Eq. fullcontroller acts on the estimate of W: a ballast command drops
+  the same sand whatever the true W; on the truth it would not."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.flight import controller
+  # pylint: enable=g-import-not-at-top
+  atm = atmosphere_lib.params_from_alpha(jnp.float32(0.5))
+  state = launch.neutral_launch(STRESS, atm, state_lib.initial_state(
+      STRESS, 17_000.0, atm_params=atm, key=jax.random.PRNGKey(3)))
+  state = state.replace(lift_walk_kg=jnp.float32(-0.03),
+                        estimated_lift_kg=jnp.float32(-0.02))
+  other = state.replace(lift_walk_kg=jnp.float32(0.05))
+  climb = jnp.asarray([18_000.0, 1.0, -1.0])
+  actuated = jax.jit(lambda s: dynamics.step_with_trajectory(
+      STRESS, atm, s, climb, _calm, 1200.0, key=jax.random.PRNGKey(0))[1])
+  a, b = actuated(state), actuated(other)
+  assert float(a.sand_dropped_kg) > 0.0
+  for name in ('sand_kg', 'helium_mols', 'settled_lift_kg'):
+    np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+  decide = lambda s: controller.decide(STRESS, s, climb, s.temperature_k,
+                                       s.pressure_pa).drop_kg
+  assert float(decide(state)) != float(decide(other))  # The test can fail.
+
+
 def _hidden_swap(state):
   """`state` with other hidden truth: dT_h, W and its regime, the burst."""
   f = state.flight

@@ -5,9 +5,9 @@ The JAX twin of `ble_latex.ble.balloon.LatexBalloon.simulate_step` (paper
 sections "Equations of Motion" and "Altitude Controller"):
 
   1. The controller acts once (Eq. fullcontroller, `controller.decide`, at
-     the ambient T and P of the start altitude) and its amounts replace any
-     pending release; instantaneous releases (the paper's default) happen at
-     once.
+     the ambient T and P of the start altitude, on what the balloon knows:
+     `estimator.controller_view`) and its amounts replace any pending
+     release; instantaneous releases (the paper's default) happen at once.
   2. The stride is cut into n = ceil(time_delta / max_substep) equal
      sub-steps (<= 3 min, boundaries rounded to microseconds as
      `datetime.timedelta` does). At the start of each, `wind_fn(x, y, P, t)`
@@ -424,12 +424,13 @@ def _after_chunk(params: params_lib.FlightParams,
     ambient = atmosphere_lib.at_height(atm, _clamp(f.altitude_m))
     g = envelope.of_state(params, f, ambient.temperature, ambient.pressure,
                           time_s)
-    lift = envelope.free_lift_kg(params, f, g)
+    seen = estimator.controller_view(params, f)  # W: its estimate.
+    lift = envelope.free_lift_kg(params, seen, g)
     heading = (f.status == FlightStatus.OK) & (
         controller_lib.heading_out_of_band(params, f, lift))
     rest = envelope.settled(params, g, forcing, 0.0)
     guard = controller_lib.float_actuation(
-        f, guarded=True, lift_kg=envelope.free_lift_kg(params, f, rest),
+        f, guarded=True, lift_kg=envelope.free_lift_kg(params, seen, rest),
         lift_per_mol=envelope.lift_per_mol(params, rest))
   else:
     heading = (f.status == FlightStatus.OK) & (
@@ -612,7 +613,8 @@ def _step(params, atm_params, state, action, wind_fn, time_delta_s, *,
   action = _keep(controller_lib.clip_action(action), state.last_action)
   ambient = atmosphere_lib.at_height(atm_params, _clamp(state.altitude_m))
   actuation = (decide_fn or controller_lib.decide)(
-      params, state, action, ambient.temperature, ambient.pressure)
+      params, estimator.controller_view(params, state), action,
+      ambient.temperature, ambient.pressure)
   f = actuate(params, state.replace(guard_engaged=actuation.guarded),
               actuation)
   actuated = f

@@ -49,8 +49,10 @@ the chunk, so the filter does not depend on the chunk's length
 (`THERMOMETER_NOISE_K`, `RATE_NOISE_MPS`: assumptions, the simulator's
 measurements are exact).
 
-`planning_view` is the one function every controller's lookahead flies
-through: noiseless parameters (no new draws), the estimates in place of the
+`controller_view` is the state the onboard altitude controller (Eq.
+fullcontroller and the in-stride guard in `dynamics`) acts on: W's estimate
+for W. `planning_view` is the one function every controller's lookahead
+flies through: noiseless parameters (no new draws), the estimates in place of the
 hidden disturbances, and the burst volume at a low quantile of its Weibull
 law (`BURST_QUANTILE`). Under the paper's physics it changes nothing, and
 the flight core never runs the filters (`FlightParams.stochastic` False:
@@ -285,6 +287,22 @@ def observe_chunk(params: params_lib.FlightParams, before, after,
       heating_variance_k2=heat_var.astype(dtype),
       estimated_lift_kg=walk.astype(dtype),
       lift_variance_kg2=walk_var.astype(dtype))
+
+
+def controller_view(params: params_lib.FlightParams, state):
+  """The state as the onboard altitude controller reads it (Eq.
+  fullcontroller and the in-stride guard, `dynamics`): W is its estimate
+  (under `lift_walk`); the rest it reads is measured or known (its targets
+  take the gas settled from the air, the sun and the command, not dT_h;
+  the burst volume it never reads). `state` itself without a lift walk.
+
+  Args:
+    params: The flight system (lift_walk).
+    state: The `FlightState`.
+  """
+  if not params.lift_walk:
+    return state
+  return state.replace(lift_walk_kg=state.estimated_lift_kg)
 
 
 def conservative_burst_volume_m3(params: params_lib.FlightParams) -> Array:
