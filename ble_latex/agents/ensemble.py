@@ -151,8 +151,10 @@ View = Tuple[Tuple[str, int], ...]  # `env_params.OBSERVATION_FIELDS` values.
 
 
 def view_of(settings: Mapping[str, Any]) -> View:
-  """The observation settings of a policy config or env, as a view."""
-  return tuple((k, int(settings[k])) for k in env_params.OBSERVATION_FIELDS)
+  """The observation settings of a policy config or env, as a view (a
+  setting missing from `settings` is off, 0: settings from before it)."""
+  return tuple((k, int(settings.get(k, 0)))
+               for k in env_params.OBSERVATION_FIELDS)
 
 
 def env_view_for(member_views: Sequence[View]) -> View:

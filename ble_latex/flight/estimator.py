@@ -85,7 +85,7 @@ RATE_NOISE_MPS = 0.1
 SAMPLE_S = 1.0
 # The burst volume a controller plans with: the Weibull law's 1 % quantile
 # of the diameter (99 % of envelopes burst above it; 181 m^3 for ASTRA's
-# TA-1200, against a median of 439 m^3 and ~55-75 m^3 at 20-22 km float).
+# TA-1200, against a median of 439 m^3; ~20-100 m^3 in the 13-22 km band).
 # A burst ends the flight, so a planner keeps a margin on the envelope it
 # cannot see, rather than the median. # [.]
 BURST_QUANTILE = 0.01

@@ -45,6 +45,7 @@ from ble_latex.agents import plan_objective
 from ble_latex.agents import planners
 from ble_latex.agents import planning
 from ble_latex.agents import sac
+from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.envs import jax_features
@@ -292,7 +293,8 @@ def controller_named(name: str, seed: int = 0) -> Controller:
     raise errors.ConfigError(f'agent {name!r} does not act in the Box of '
                              'LatexBalloon-v0')
   agent = constructor(len(jax_env.ACTION_LOW),
-                      observation_shape=(jax_features.NUM_FEATURES,),
+                      observation_shape=(env_params.num_features(
+                          env_params.observation_settings()),),
                       action_low=np.asarray(jax_env.ACTION_LOW),
                       action_high=np.asarray(jax_env.ACTION_HIGH), seed=seed)
   controller = controller_for(agent)

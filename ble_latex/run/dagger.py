@@ -166,9 +166,12 @@ def student_for(num_layers: int, hidden_units: int,
   return Student(learner.network_def, optax.adam(learning_rate), learner)
 
 
-def init_params(student: Student, key: Array) -> Any:
-  """Fresh network parameters (SAC's actor and critics; critics unused)."""
-  obs = jnp.zeros((jax_env.LatexBalloonJaxEnv.num_features,), jnp.float32)
+def init_params(student: Student, key: Array, *,
+                num_features: int = jax_env.LatexBalloonJaxEnv.num_features
+                ) -> Any:
+  """Fresh network parameters (SAC's actor and critics; critics unused)
+  for observations of `num_features` (`env_params.num_features`)."""
+  obs = jnp.zeros((num_features,), jnp.float32)
   return student.network_def.init(key, obs, key)
 
 
@@ -242,11 +245,11 @@ class Aggregate(NamedTuple):
   cursor: int
 
 
-def empty_aggregate(capacity: int) -> Aggregate:
-  """An aggregate of `capacity` rows, none filled."""
+def empty_aggregate(capacity: int, num_features: int = (
+    jax_env.LatexBalloonJaxEnv.num_features)) -> Aggregate:
+  """An aggregate of `capacity` rows of `num_features`, none filled."""
   return Aggregate(
-      np.zeros((capacity, jax_env.LatexBalloonJaxEnv.num_features),
-               np.float32),
+      np.zeros((capacity, num_features), np.float32),
       np.zeros((capacity, len(jax_env.ACTION_LOW)), np.float32), 0, 0)
 
 
@@ -431,7 +434,7 @@ def _load(path: str, template: _Progress) -> Tuple[int, _Progress]:
         size < capacity and cursor != size):
       raise ValueError(f'{path}: aggregate of {size} rows, cursor {cursor} '
                        f'does not fit dataset_capacity {capacity}')
-    data = empty_aggregate(capacity)
+    data = empty_aggregate(capacity, template.data.obs.shape[1])
     data.obs[:size] = safe_io.checked_array(
         tree['obs'], f'{path}: obs', shape=(size, data.obs.shape[1]))
     data.labels[:size] = safe_io.checked_array(
@@ -509,9 +512,11 @@ def train(*, base_dir: str, num_rounds: int, config: Optional[DaggerConfig] = No
   student = student_for(config.num_layers, config.hidden_units,
                         config.learning_rate)
   init_key, run_key = jax.random.split(jax.random.PRNGKey(config.seed))
-  fresh = init_params(student, init_key)
+  features = env_params.num_features(params)  # With the options'.
+  fresh = init_params(student, init_key, num_features=features)
   progress = _Progress(fresh, student.optimizer.init(fresh),
-                       empty_aggregate(config.dataset_capacity), fresh, [], 0)
+                       empty_aggregate(config.dataset_capacity, features),
+                       fresh, [], 0)
   validation = jnp.asarray(list(suites.get_eval_suite(
       'latex_validation').seeds)[:config.validation_seeds], jnp.int32)
   settings = run_settings(config, teacher)
