@@ -124,3 +124,20 @@ def test_the_planner_benchmark_flies_the_series(series, tmp_path):
   assert len(records) == 2
   assert {r['wind_source'] for r in records} == {f"{RUN}: ['{series}']"}
   assert timing['wind_source'] == f"{RUN}: ['{series}']"
+
+
+@pytest.mark.slow
+def test_the_launch_command_flies_the_series(series, tmp_path):
+  """`ble-latex-launch --wind_file` on the series: a tiny grid flies, and
+  launches.json names the run and lead times."""
+  from ble_latex.cli import launch  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'out'
+  assert launch.main([
+      f'--output_dir={out}', f'--wind_file={series}', '--station_lat=10',
+      '--station_lon=10', '--east_km=-30,30', '--north_km=-30,30',
+      '--hours=0,1', '--grid=2,2,1', '--draws=1', '--max_steps=2',
+      '--top=2', '--paths=0']) == 0
+  record = json.loads((out / 'launches.json').read_text())
+  assert record['world']['wind_source'] == f"{RUN}: ['{series}']"
+  assert record['world']['winds_vary_in_time']
+  assert len(record['grid_tw50_mean']) == 4
