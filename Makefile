@@ -56,7 +56,7 @@ clean:
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.cli.eval --suite=latex_small --output_dir=$(RESULTS)
 
-.PHONY: baselines baselines-realistic long-flights physics-results realistic-sensitivity planners planners-wide results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac ensemble learned-controller
+.PHONY: baselines baselines-realistic realistic-task long-flights physics-results realistic-sensitivity planners planners-wide results env-speed batch-speed sac-step seed-parallel ray-eval train-sac select-sac ensemble learned-controller
 baselines: venv
 	$(EVAL) --agent=latex_random
 	$(EVAL) --agent=latex_station_seeker
@@ -86,6 +86,23 @@ baselines-realistic: venv
 	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=sac_pretrained $(PAPER_POLICY)
 	$(EVAL) --output_dir=$(RESULTS_STRESS) $(REALISTIC_GIN) $(STRESS) --agent=latex_station_seeker
 	$(EVAL) --output_dir=$(RESULTS_STRESS) $(REALISTIC_GIN) $(STRESS) --agent=sac_pretrained $(PAPER_POLICY)
+
+# Issue 63: the realistic task (3.14 kg of sand, gin_configs/latex_realistic_task.gin)
+# on the held-out seeds: the baselines in 3-day and 7-day flights. The SAC seeds
+# trained on it: benchmarks/sac_seeds.py with $(TASK_GIN) and
+# gin_configs/latex_sun_observation.gin (docs/physics.md, "The realistic task").
+TASK_GIN := $(REALISTIC_GIN) --gin_file=gin_configs/latex_realistic_task.gin
+RESULTS_TASK ?= benchmarks/results_realistic_task
+RESULTS_TASK_LONG ?= benchmarks/results_7day_realistic_task
+realistic-task: venv
+	$(EVAL) --output_dir=$(RESULTS_TASK) $(TASK_GIN) --agent=latex_station_seeker
+	$(EVAL) --output_dir=$(RESULTS_TASK) $(TASK_GIN) --agent=station_seeker \
+		--env_name=LatexBalloonDiscrete-v0 --name_override=ble_station_seeker_discrete
+	$(EVAL) --output_dir=$(RESULTS_TASK) $(TASK_GIN) --agent=sac_pretrained $(PAPER_POLICY)
+	$(EVAL) --output_dir=$(RESULTS_TASK) $(TASK_GIN) --agent=sac_pretrained \
+		--name_override=sac_pretrained_realistic_before_68
+	$(EVAL) --output_dir=$(RESULTS_TASK_LONG) $(LONG) $(TASK_GIN) --agent=latex_station_seeker
+	$(EVAL) --output_dir=$(RESULTS_TASK_LONG) $(LONG) $(TASK_GIN) --agent=sac_pretrained $(PAPER_POLICY)
 
 long-flights: venv
 	$(EVAL) --output_dir=benchmarks/results_7day $(LONG) --agent=latex_station_seeker

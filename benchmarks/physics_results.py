@@ -7,9 +7,14 @@
       --realistic_stress=benchmarks/results_realistic_stress/latex_small \
       --paper_long=benchmarks/results_7day/latex_small \
       --realistic_long=benchmarks/results_7day_realistic/latex_small
+  make realistic-task   # the realistic task's evals (issue 63), then
+  python benchmarks/physics_results.py --json=benchmarks/physics_results.json \
+      --realistic_task=benchmarks/results_realistic_task/latex_small \
+      --realistic_task_long=benchmarks/results_7day_realistic_task/latex_small
 
 The record (`--json`) keeps one section per folder flag (`paper`,
-`realistic`, `realistic_stress`, `paper_long`, `realistic_long`); a rerun
+`realistic`, `realistic_stress`, `paper_long`, `realistic_long`,
+`realistic_task`, `realistic_task_long`); a rerun
 replaces only the sections whose folders it is given and keeps the others
 (so the paper's rows need not be flown again to re-measure the realistic
 ones). `realistic_uncalibrated` and `realistic_long_uncalibrated` hold the
@@ -60,13 +65,18 @@ flags.DEFINE_string('realistic_stress', None,
                     '3-day evals, realistic physics at the 1.4 g/sqrt(s) '
                     'stress setting of the lift disturbance.',
                     flag_values=FLAGS)
+flags.DEFINE_string('realistic_task', None,
+                    '3-day evals, the realistic task (latex_realistic.gin + '
+                    'latex_realistic_task.gin, issue 63).', flag_values=FLAGS)
+flags.DEFINE_string('realistic_task_long', None,
+                    '7-day evals, the realistic task.', flag_values=FLAGS)
 flags.DEFINE_string('json', None, 'Also write the rows here.',
                     flag_values=FLAGS)
 
 SECONDS_PER_DAY = 86_400.0  # [s]
 # The record's sections a folder flag fills (the flag's name).
 SECTIONS = ('paper', 'realistic', 'realistic_stress', 'paper_long',
-            'realistic_long')
+            'realistic_long', 'realistic_task', 'realistic_task_long')
 _SEED_FILE = re.compile(r'^(?P<prefix>.+)_seed_(?P<seed>\d+)$')
 
 
@@ -98,6 +108,10 @@ def summary(records: List[Dict[str, Any]]) -> Dict[str, Any]:
       r['terminal_reason'] == 'time_limit' for r in records)
   s['seeds'] = [min(r['seed'] for r in records),
                 max(r['seed'] for r in records)]
+  # Per seed, for paired differences between agents flown on the same
+  # seeds (docs/hooks/tables.py).
+  s['per_seed'] = {'seeds': [r['seed'] for r in records],
+                   'tw50_window': [r['tw50_window'] for r in records]}
   return s
 
 
@@ -210,6 +224,12 @@ def _main(argv: Sequence[str]) -> int:
   if get('paper_long') or get('realistic_long'):
     print('\n7-day flights (504 strides, latex_small seeds):\n')
     print(long_flights(get('paper_long'), get('realistic_long')))
+  if get('realistic_task'):
+    print('\nThe realistic task (issue 63), 3-day suite:\n')
+    print(side_by_side(get('realistic'), get('realistic_task')))
+  if get('realistic_task_long'):
+    print('\nThe realistic task, 7-day flights:\n')
+    print(long_flights({}, get('realistic_task_long')))
   if args.json:
     safe_io.atomic_write(args.json, json.dumps(tables, indent=1) + '\n')
   return 0

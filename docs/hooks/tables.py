@@ -243,6 +243,18 @@ def _station(cell: dict) -> str:
   return f'{where} {lat:g}°, {lon:g}°'
 
 
+def _seeds(cell: dict, cells: List[dict]) -> str:
+  """'100 seeds', or 'first 10 seeds only' for a cell that flew fewer seeds
+  than its source's other cells (a planner's subset on a CPU)."""
+  n = cell['summary']['episodes']
+  most = max(c['summary']['episodes'] for c in cells
+             if c['settings']['source'] == cell['settings']['source'])
+  seeds = f'first {n} seeds only' if n < most else f'{n} seeds'
+  if 'noise_scale' not in cell['settings']:  # Flown before it was recorded.
+    seeds += ' †'  # Not re-flown: 1.05 m/s noise, before the seam closed.
+  return seeds
+
+
 def real_winds_short() -> str:
   """README's real-winds table: agents x sources, TW50 window (seeds)."""
   cells = _real_cells()
@@ -259,7 +271,7 @@ def real_winds_short() -> str:
       here = [c for c in mine if c['settings']['source'] == source]
       row.append('; '.join(
           f"{100 * c['summary']['tw50_window_mean']:.1f} % "
-          f"({c['summary']['episodes']} seeds"
+          f"({_seeds(c, cells)}"
           f"{', ' + _station(c) if c['settings']['station_mode'] != 'center' else ''})"
           for c in here) or '—')
     lines.append(f'| {label} | ' + ' | '.join(row) + ' |')
@@ -274,7 +286,8 @@ def real_winds_full() -> str:
            '(mean ± std) | TW50 flown | out of resources | left the wind '
            'domain | final distance [km] (mean) |',
            '|---|---|---|---|---|---|---|---|---|']
-  for c in _real_cells():
+  cells = _real_cells()
+  for c in cells:
     s = c['summary']
     distance = _mean_std([f['final_distance_km'] for f in c['flights']])[0]
     left = 100.0 * sum(f['terminal_reason'] == 'left_wind_domain'
@@ -282,7 +295,7 @@ def real_winds_full() -> str:
     lines.append(
         f"| {labels[c['settings']['agent']]} "
         f"| {sources[c['settings']['source']]} | {_station(c)} "
-        f"| {s['episodes']} "
+        f"| {_seeds(c, cells).replace(' seeds', '')} "
         f"| {_pct(s['tw50_window_mean'], s['tw50_window_std'])} "
         f"| {_pct(s['tw50_mean'], s['tw50_std'])} "
         f"| {s['out_of_resources_pct']:.0f} % | {left:.0f} % "
@@ -448,6 +461,67 @@ def realistic_long() -> str:
           f'{_tw(row, False, True)} | {row["out_of_resources_pct"]:.0f} % | '
           f'{row["episodes"]} |')
   return '\n'.join(lines)
+
+
+# The realistic task (issue 63; the record's `realistic_task` sections):
+# (label, record name). The paired column is each row minus `latex_mpc` on
+# the same held-out seeds.
+TASK_ROWS = (
+    ('SAC trained on the task (sun and gas observation), 3 seeds (mean ± '
+     'std over seeds)', 'sac_jax_realistic_task (3 seeds)'),
+    ('the best-validated of those seeds', 'sac_realistic_task_best'),
+    ('`latex_mpc` (forecast, estimated disturbance, sunset-aware)',
+     'latex_mpc'),
+    ('`latex_mpc_oracle`', 'latex_mpc_oracle'),
+    ('`sac_pretrained`, the realistic policy trained before issue 68',
+     'sac_pretrained_realistic_before_68'),
+    ('`sac_pretrained`, the paper-trained policy',
+     'sac_pretrained_paper_policy'),
+    ('BLE `station_seeker` (discrete)', 'ble_station_seeker_discrete'),
+    ('`latex_station_seeker`', 'latex_station_seeker'),
+)
+TASK_REFERENCE = 'latex_mpc'
+
+
+def realistic_task() -> str:
+  """README's realistic-task table: 3-day TW50, resources, 7-day days
+  aloft, and each row minus `latex_mpc` per seed (mean ± standard error,
+  seeds ahead / behind)."""
+  r = _physics()
+  task, long = r.get('realistic_task', {}), r.get('realistic_task_long', {})
+  reference = task.get(TASK_REFERENCE)
+  lines = ['| controller | TW50 window (mean ± std) | out of resources | '
+           'sand dropped [kg] | days aloft in 7-day flights | − `latex_mpc` '
+           'per seed [points] |', '|---|---|---|---|---|---|']
+  for label, name in TASK_ROWS:
+    row = task.get(name)
+    if row is None:
+      continue
+    tw = _tw(row, oor=False, std=True)
+    if 'num_seeds' in row:
+      se = row['tw50_window_mean_over_seeds_std'] / math.sqrt(
+          row['num_seeds'])
+      tw += f', standard error {100 * se:.1f}'
+    paired = '—'
+    if (reference is not None and name != TASK_REFERENCE and
+        'per_seed' in row and 'per_seed' in reference):
+      paired = _paired(_flights_of(reference, reference['per_seed']['seeds']),
+                       _flights_of(row, reference['per_seed']['seeds']),
+                       PHYSICS)
+    lines.append(
+        f'| {label} | {tw} | {row["out_of_resources_pct"]:.0f} % | '
+        f'{row["sand_dropped_kg_mean"]:.2f} | {_days(long.get(name))} | '
+        f'{paired} |')
+  return '\n'.join(lines)
+
+
+def _flights_of(row: dict, seeds: Sequence[int]) -> dict:
+  """`row`'s per-seed TW50 on `seeds` (a subset flown by both)."""
+  by_seed = dict(zip(row['per_seed']['seeds'], row['per_seed']['tw50_window']))
+  missing = [s for s in seeds if s not in by_seed]
+  if missing:
+    return {'seeds': list(row['per_seed']['seeds']), 'tw50_window': []}
+  return {'seeds': list(seeds), 'tw50_window': [by_seed[s] for s in seeds]}
 
 
 def realistic_uncalibrated() -> str:
@@ -641,6 +715,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     'realistic-full': realistic_full,
     'realistic-long': realistic_long,
     'realistic-uncalibrated': realistic_uncalibrated,
+    'realistic-task': realistic_task,
     'agents-short': agents_short,
     'agents-full': agents_full,
     'planners-short': planners_short,
