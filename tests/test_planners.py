@@ -353,10 +353,11 @@ def test_plans_under_realistic_physics(world):
   walk steps, so no key is needed), the same plan as with the walk off."""
   from ble_latex.flight import params as params_lib  # pylint: disable=g-import-not-at-top
   _, params, (state, _) = world
-  realistic = params.replace(flight=params_lib.realistic_flight_params())
+  # The walk is a stress setting on top of the preset since issue 68.
+  realistic = params.replace(flight=params_lib.realistic_flight_params(
+      **params_lib.LIFT_WALK_RANDOM))
   assert realistic.flight.lift_walk
-  no_walk = params.replace(flight=params_lib.realistic_flight_params(
-      lift_walk_kg_per_sqrt_s=None))
+  no_walk = params.replace(flight=params_lib.realistic_flight_params())
   config = _config()
   a = _plan(config, realistic, state)
   b = _plan(config, no_walk, state)
