@@ -29,6 +29,7 @@ from ble_latex.flight import atmosphere
 from ble_latex.flight import solar
 from ble_latex.flight import thermal
 from ble_latex.run import jax_train
+import test_observed_winds
 
 _OPTIONS = {'none': {}, 'sun': {'sun': True},
             'gas': {'gas_temperature': True},
@@ -255,31 +256,16 @@ def test_ensemble_refuses_members_of_other_options():
 
 @pytest.mark.slow
 @pytest.mark.ci  # Two env compiles (~40 s); out of the default suite.
-def test_every_entry_point_observes_the_options(flight, observe):
+def test_every_entry_point_observes_the_options(flight):
   """Gymnasium's id and BLE's gym id, under the gin bindings, observe the
   functional env's 74 features at reset and after a stride."""
-  import gym  # pylint: disable=g-import-not-at-top
-  import gymnasium  # pylint: disable=g-import-not-at-top
   params, _, _ = flight
   both = _with(params, 'both')
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   action = np.array([17_000.0, 1.0, -1.0], np.float32)
   obs0, state = jax.jit(env.reset)(jax.random.PRNGKey(7), both)
   obs1 = jax.jit(env.step_env)(None, state, jnp.asarray(action), both)[0]
-  with gin.unlock_config():
-    for key, value in _OPTIONS['both'].items():
-      gin.bind_parameter(f'latex_observation.{key}', value)
-  try:
-    gymnasium_env = gymnasium.make('ble_latex/LatexBalloon-v0',
-                                   normalize_actions=False)
-    gym_env = gym.make('LatexBalloon-v0').unwrapped
-    assert gym_env.observation_space.shape == (74,)
-    np.testing.assert_allclose(gymnasium_env.reset(seed=7)[0], obs0,
-                               atol=1e-6)
-    np.testing.assert_allclose(gym_env.reset(seed=7), obs0, atol=1e-6)
-    np.testing.assert_allclose(gymnasium_env.step(action)[0], obs1,
-                               atol=1e-5)
-    np.testing.assert_allclose(gym_env.step(action)[0], obs1, atol=1e-5)
-    gymnasium_env.close()
-  finally:
-    gin.clear_config()
+  assert obs0.shape == (74,)
+  test_observed_winds.assert_entry_points_observe(
+      {f'latex_observation.{k}': v for k, v in _OPTIONS['both'].items()}, 7,
+      [action], [np.asarray(obs0), np.asarray(obs1)])

@@ -368,20 +368,31 @@ def test_every_entry_point_observes_the_observed_column(flights, drifted,
   """Gymnasium's id and BLE's gym id, under the gin binding, fly the
   functional env's observations (the step returns the memory to the host
   with the flight)."""
+  want = [np.asarray(obs) for obs, _ in (
+      flights[3] if name == 'wind_memory' else drifted)]
+  assert_entry_points_observe({f'latex_observation.{name}': 3}, 3, _ACTIONS,
+                              want)
+
+
+def assert_entry_points_observe(bindings, seed, actions, want):
+  """Gymnasium's id and BLE's gym id, under the gin `bindings`, observe
+  `want`: the functional env's observations at reset (seed `seed`) and
+  after each of `actions` (also tests/test_observation_options.py)."""
   import gym  # pylint: disable=g-import-not-at-top
   import gymnasium  # pylint: disable=g-import-not-at-top
   with gin.unlock_config():
-    gin.bind_parameter(f'latex_observation.{name}', 3)
+    for binding, value in bindings.items():
+      gin.bind_parameter(binding, value)
   try:
     gymnasium_env = gymnasium.make('ble_latex/LatexBalloon-v0',
                                    normalize_actions=False)
     gym_env = gym.make('LatexBalloon-v0').unwrapped
-    want = [np.asarray(obs) for obs, _ in (
-        flights[3] if name == 'wind_memory' else drifted)]
-    np.testing.assert_allclose(gymnasium_env.reset(seed=3)[0], want[0],
+    assert gymnasium_env.observation_space.shape == want[0].shape
+    assert gym_env.observation_space.shape == want[0].shape
+    np.testing.assert_allclose(gymnasium_env.reset(seed=seed)[0], want[0],
                                atol=1e-6)
-    np.testing.assert_allclose(gym_env.reset(seed=3), want[0], atol=1e-6)
-    for action, obs in zip(_ACTIONS, want[1:]):
+    np.testing.assert_allclose(gym_env.reset(seed=seed), want[0], atol=1e-6)
+    for action, obs in zip(actions, want[1:]):
       np.testing.assert_allclose(gymnasium_env.step(action)[0], obs,
                                  atol=1e-5)
       np.testing.assert_allclose(gym_env.step(action)[0], obs, atol=1e-5)
