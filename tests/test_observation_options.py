@@ -8,6 +8,7 @@ compiles) run in CI (`make test-ci`). Bad bindings of the options are
 refused in tests/test_observed_winds.py with the wind settings'."""
 
 import datetime as dt
+import types
 
 import gin
 import jax
@@ -200,23 +201,21 @@ def test_decoder_reads_every_size():
     jax_features.NamedLatexFeatures(np.zeros(75))
 
 
-def test_policy_records_its_options_and_is_refused_under_others(tmp_path):
+def test_policy_records_its_options_and_a_warm_start_refuses_others(
+    tmp_path):
   """A policy records the options it observed with (and their size); one
-  trained without them (every shipped policy) is refused with them, in one
-  line, by the pretrained agent and by a warm start."""
-  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+  trained without them (every shipped policy) reads as 0 and is refused as
+  the start of a run that observes them, in one line."""
   shipped = pretrained.load_policy(pretrained.shipped_policy(False))
   assert shipped['config']['sun'] == 0
   assert shipped['config']['gas_temperature'] == 0
   with pytest.raises(ValueError, match='x: config.sun'):
     sac_core.file_config(dict(shipped['config'], sun=2), 'x')
-  config = sac_trainer.TrainerConfig(num_envs=2, hidden_units=8,
-                                     replay_capacity=8)
   observation = env_params.observation_of(_OPTIONS['both'] | {
       'wind_memory': 0, 'wind_lookahead': 0})
-  learner, state = sac_trainer.make_learner(
-      config, jax.random.PRNGKey(0),
-      num_features=env_params.num_features(observation))
+  learner = types.SimpleNamespace(config=sac_trainer.TrainerConfig())
+  state = types.SimpleNamespace(updates=0, network_params={},
+                                log_alpha=np.zeros(1))
   bundle = sac_trainer.acting_bundle(learner, state, 0,
                                      observation=observation)
   assert bundle['config']['observation_shape'] == [74]
@@ -227,7 +226,24 @@ def test_policy_records_its_options_and_is_refused_under_others(tmp_path):
   with pytest.raises(errors.ConfigError,
                      match='latex_observation.sun = 0, this run observes '
                      'with 1'):
-    jax_train.warm_start(learner, state, path, observation)
+    jax_train.warm_start(None, None, path, observation)
+
+
+@pytest.mark.slow
+@pytest.mark.ci  # Network builds (~30 s on 2 busy cores); out of the default.
+def test_a_policy_without_the_options_is_refused_in_flight(tmp_path):
+  """The jitted trainer's networks take the options' features; the shipped
+  policy (trained without them) is refused by `sac_pretrained` under them,
+  in one line naming both settings."""
+  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+  config = sac_trainer.TrainerConfig(num_envs=2, hidden_units=8,
+                                     replay_capacity=8)
+  _, state = sac_trainer.make_learner(config, jax.random.PRNGKey(0),
+                                      num_features=74)
+  assert state.replay.obs.shape == (8, 74)
+  assert 74 in {np.shape(leaf)[0] for leaf in jax.tree.leaves(
+      state.network_params) if np.ndim(leaf) == 2}
+  path = pretrained.shipped_policy(False)
   with gin.unlock_config():
     gin.bind_parameter('latex_observation.sun', True)
   try:
