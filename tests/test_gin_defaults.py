@@ -48,6 +48,12 @@ DIFFERS = {
     ('latex_wind_memory_lookahead.gin', 'latex_observation.wind_lookahead'):
         'both corrections of the observed column (issue 47): the file\'s '
         'purpose',
+    ('latex_sun_observation.gin', 'latex_observation.sun'):
+        'the sun at the balloon observed (issue 63), off by default (the '
+        'paper\'s observation): the file\'s purpose',
+    ('latex_sun_observation.gin', 'latex_observation.gas_temperature'):
+        'the helium-air temperature difference observed (issue 63), off by '
+        'default (the paper\'s observation): the file\'s purpose',
 }
 _MISSING = object()
 
