@@ -16,46 +16,48 @@ alike; the record keeps the best and the median of each. (Across commits,
 """
 
 import argparse
-import datetime as dt
 import json
 import os
-import platform
 import statistics
 import sys
 import time
 
 import jax
-import jax.numpy as jnp
 
 from ble_latex import safe_io
-from ble_latex.flight import atmosphere
 from ble_latex.flight import dynamics
 from ble_latex.flight import estimator
-from ble_latex.flight import launch
 from ble_latex.flight import params as params_lib
-from ble_latex.flight import state as state_lib
 
 CASES = {'realistic': {},
          'stress': params_lib.LIFT_WALK_STRESS}
 
 
-def _calm(x, y, p, t):
-  del y, p, t
-  return jnp.zeros_like(x), jnp.zeros_like(x)
+_HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def _gas_step_speed():
+  """The sibling benchmark (its record header and timed stride)."""
+  sys.path.insert(0, _HERE)
+  import gas_step_speed  # pylint: disable=g-import-not-at-top
+  return gas_step_speed
+
+
+def _setup():
+  """`gas_step_speed.SETUP`'s (calm, flights): the same timed stride."""
+  namespace = {}
+  exec(_gas_step_speed().SETUP, namespace)  # pylint: disable=exec-used
+  return namespace['calm'], namespace['flights']
 
 
 def _programs(params, batch):
   """(call with the filters, call without), each warmed up."""
-  atm = atmosphere.reset(jax.random.PRNGKey(0))
-  new = lambda h: launch.neutral_launch(params, atm, state_lib.initial_state(
-      params, h, atm_params=atm, key=jax.random.PRNGKey(1)))
-  states = jax.vmap(new)(jnp.linspace(16000.0, 18000.0, batch))
-  actions = jnp.tile(jnp.asarray([17500.0, 1.0, -1.0]), (batch, 1))
-  keys = jax.random.split(jax.random.PRNGKey(2), batch)
+  calm, flights = _setup()
+  atm, states, actions, keys = flights(params, batch)
 
   def program():
     fly = jax.jit(jax.vmap(lambda s, a, k: dynamics.step(
-        params, atm, s, a, _calm, 1200.0, key=k)))
+        params, atm, s, a, calm, 1200.0, key=k)))
     return lambda: jax.block_until_ready(fly(states, actions, keys))
 
   with_filters = program()
@@ -81,12 +83,7 @@ def main(argv=None) -> int:
     parser.error('--batch and --repeats must be >= 1')
   if args.json and safe_io.output_problem(args.json):
     parser.error(f'--json: {safe_io.output_problem(args.json)}')
-  record = {
-      'command': 'python benchmarks/estimator_cost.py ' + ' '.join(
-          sys.argv[1:] if argv is None else argv),
-      'date': dt.datetime.now(dt.timezone.utc).isoformat(timespec='seconds'),
-      'machine': f'{platform.machine()}, {os.cpu_count()} CPUs',
-      'batch': args.batch, 'load_before': round(os.getloadavg()[0], 1)}
+  record = _gas_step_speed().header('estimator_cost.py', argv, args.batch)
   for name, overrides in CASES.items():
     calls = _programs(params_lib.realistic_flight_params(**overrides),
                       args.batch)
