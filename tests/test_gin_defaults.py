@@ -36,6 +36,10 @@ DIFFERS = {
         'purpose',
     ('paper_era5.gin', 'Era5WindField.path'):
         'a required argument (no default): the file the README downloads',
+    ('latex_realistic_task.gin', 'create_state.sand_kg'):
+        'the realistic task\'s resources (issue 63): ValBal\'s ballast '
+        'fraction on this system, the paper\'s 2.0 kg the harder variant: '
+        'the file\'s purpose',
     ('latex_wind_memory.gin', 'latex_observation.wind_memory'):
         'the observation corrected by measured winds (issue 47), off by '
         'default (the paper\'s observation): the file\'s purpose',
