@@ -45,9 +45,7 @@ from typing import Any, Dict, Optional, Sequence
 from absl import flags
 
 from ble_latex.cli import common as cli
-
-_HERE = os.path.dirname(os.path.abspath(__file__))
-
+from ble_latex.run import speed
 
 def worker(batch: int, strides: int, repeats: int, pool_size: int,
            short_episode: int) -> Dict[str, Any]:
@@ -184,9 +182,7 @@ def _main(argv: Sequence[str]) -> None:
     for name, v in r['variants'].items():
       print(f'{r["batch"]:5d} | {name:44s} | {v["balloon_steps_per_s"]:15.0f}'
             f' | {v["time_over_step_env"]:15.2f}')
-  sys.path.insert(0, _HERE)
-  import batch_speed  # pylint: disable=g-import-not-at-top
-  batch_speed.write_results(results, load_before, args.json)
+  speed.write_results(results, load_before, args.json)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -6,10 +6,11 @@ In one run, each measurement in its own fresh subprocess (own peak RSS):
   observation), to show where the time goes;
 - `ble_latex.envs.jax_env.LatexBalloonJaxEnv`, N balloons (N = --batch_sizes): one
   jitted call resets N balloons and flies them through --steps 20-minute
-  strides (`jax_env.rollout`: ground-truth wind with noise re-queried every
-  <= 3 min, the 71 features and the reward at every stride). Reported: the
-  first call (compile + run), then the best of --repeats timed calls; for
-  each wind of --winds: BLE's VAE field ('vae') and ERA5 in JAX ('era5',
+  strides (`jax_env.rollout`, timed by `run.speed.rollout_speed`:
+  ground-truth wind with noise re-queried every <= 3 min, the 71 features
+  and the reward at every stride). Reported: the first call (compile +
+  run), then the best of --repeats timed calls; for each wind of --winds:
+  BLE's VAE field ('vae') and ERA5 in JAX ('era5',
   `EnvParams.wind_grid`: a synthetic grid of the paper's size, 368 times
   (1 Nov 2022 - 31 Jan 2023, 6-hourly) x 8 levels (20-175 hPa) x 26 x 26
   (+-5 deg at 0.4 deg) of random winds, or --era5_path's file), side by
@@ -28,8 +29,6 @@ Throughput is compared in simulated balloon-hours per wall second.
 
 import json
 import os
-import platform
-import resource
 import subprocess
 import sys
 import tempfile
@@ -38,85 +37,10 @@ from typing import Optional, Sequence
 
 from absl import flags
 
-from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import speed
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
-STRIDE_H = 20.0 / 60.0  # [h] simulated per latex step
-
-
-def paper_size_grid(era5_path: Optional[str] = None):
-  """An ERA5 grid of the paper's size (random winds), or a file's."""
-  import numpy as np  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5_requests  # pylint: disable=g-import-not-at-top
-  if era5_path:
-    return era5_jax.grid_from_data(era5.load(era5_path))
-  hours = np.arange(368) * 6.0  # [h] 1 Nov 2022 - 31 Jan 2023 18:00.
-  times = np.datetime64('2022-11-01T00:00', 'ns') + (
-      hours * 3600).astype('timedelta64[s]')
-  pressure = np.array(era5_requests.pressure_levels_hpa(),
-                      np.float64) * 100.0  # [Pa]
-  grid_deg = era5_requests.PAPER_GRID_DEG  # [deg]
-  lats = np.round(np.arange(-4.0, 6.0 + 1e-9, grid_deg), 6)
-  lons = np.round(np.arange(-118.0, -108.0 + 1e-9, grid_deg), 6)
-  uv = np.random.default_rng(0).normal(
-      0.0, 10.0, (len(hours), len(pressure), len(lats), len(lons), 2))
-  data = era5.Era5Data(('synthetic',), times, hours * 3600.0, pressure,
-                       lats, lons, uv)
-  return era5_jax.grid_from_data(data)
-
-
-def jax_worker(batch: int, steps: int, repeats: int, wind: str = 'vae',
-               era5_path: Optional[str] = None) -> dict:
-  """Times `rollout` of `batch` balloons for `steps` strides on `wind`."""
-  import jax  # pylint: disable=g-import-not-at-top
-  import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-  import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
-  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
-
-  gin_binding.bind_gin(None, None, [], [])
-  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
-  params = env.default_params
-  grid_shape = None
-  if wind == 'era5':
-    params = env_params.check_params(params.replace(
-        wind_grid=paper_size_grid(era5_path)))
-    grid_shape = list(params.wind_grid.uv.shape)
-  low = jnp.asarray(jax_env.ACTION_LOW)
-  high = jnp.asarray(jax_env.ACTION_HIGH)
-
-  def run(seed):
-    key = jax.random.PRNGKey(seed)
-    keys = jax.random.split(key, batch)
-    actions = jax.random.uniform(jax.random.fold_in(key, 1), (steps, batch, 3),
-                                 minval=low, maxval=high)
-    out = jax_env.rollout(env, keys, actions, params, steps)
-    jax.block_until_ready(out)
-    return out
-
-  t = time.perf_counter()
-  obs, _, _ = run(0)
-  first = time.perf_counter() - t
-  times = []
-  for r in range(repeats):
-    t = time.perf_counter()
-    run(r + 1)
-    times.append(time.perf_counter() - t)
-  wall = min(times)
-  return {
-      'env': 'LatexBalloonJaxEnv', 'wind': wind, 'grid_shape': grid_shape,
-      'era5_path': era5_path, 'batch': batch, 'steps': steps,
-      'first_call_s': first, 'wall_s': wall, 'all_wall_s': times,
-      'balloon_steps_per_s': batch * steps / wall,
-      'sim_hours_per_wall_s': batch * steps * STRIDE_H / wall,
-      'finite_obs': bool(jnp.all(jnp.isfinite(obs))),
-      'peak_rss_mb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-      'device': str(jax.devices()[0]),
-  }
 
 
 def profile_worker(batch: int, repeats: int) -> dict:
@@ -251,8 +175,8 @@ flags.DEFINE_integer('profile_worker', None, 'Internal: profile this batch '
 def _main(argv: Sequence[str]) -> None:
   args = FLAGS
   if args.worker is not None:
-    print(json.dumps(jax_worker(args.worker, args.steps, args.repeats,
-                                args.worker_wind, args.era5_path)))
+    print(json.dumps(speed.rollout_speed(args.worker, args.steps, args.repeats,
+                                         args.worker_wind, args.era5_path)))
     return
   if args.profile_worker is not None:
     print(json.dumps(profile_worker(args.profile_worker, max(args.repeats,
@@ -326,24 +250,7 @@ def _main(argv: Sequence[str]) -> None:
     print(f'one stride of {args.profile_batch} balloons, parts jitted alone: '
           + ', '.join(f'{k[:-3]} {v:.1f} ms' for k, v in r.items()
                       if k.endswith('_ms')), flush=True)
-  write_results(results, load_before, args.json)
-
-
-def write_results(results: dict, load_before: Sequence[float],
-                  path: Optional[str], note: str = '') -> None:
-  """Adds the machine and its load to `results`, prints it, writes JSON.
-
-  The one ending of the speed benchmarks (batch_speed, noise_speed,
-  core_profile): their numbers are only read with the load they ran under.
-  """
-  results['machine'] = {
-      'cpus': os.cpu_count(), 'platform': platform.platform(),
-      'loadavg_before': tuple(load_before), 'loadavg_after': os.getloadavg(),
-      'command': ' '.join(sys.argv)}
-  print(f'{note}load average before/after: {tuple(load_before)} / '
-        f'{os.getloadavg()}')
-  if path:
-    safe_io.atomic_write(path, json.dumps(results, indent=1))
+  speed.write_results(results, load_before, args.json)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -2,7 +2,7 @@
 
 For N = 1 (one balloon, unbatched) and N = --batch (vmapped over balloons
 after `reset`), each part below is jitted alone and measured by
-`benchmarks/noise_speed.py`'s timing helper: compile time (wall time of
+`ble_latex.run.speed.time_compiled`: compile time (wall time of
 `jax.jit(f).lower(...).compile()`), program size (lines of the optimised HLO,
 `compiled.as_text()`), and the best of --repeats calls after a warm-up call:
 
@@ -37,6 +37,7 @@ from typing import Any, Dict, Optional, Sequence
 from absl import flags
 
 from ble_latex.cli import common as cli
+from ble_latex.run import speed
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 _REPO = os.path.dirname(_HERE)
@@ -113,16 +114,13 @@ def worker(batches: Sequence[int], repeats: int) -> dict:
   """Measures every part at every batch size, in this process."""
   import jax  # pylint: disable=g-import-not-at-top
   import ble_latex  # pylint: disable=g-import-not-at-top
-  sys.path.insert(0, _HERE)
-  import noise_speed  # pylint: disable=g-import-not-at-top
 
   result = {'ble_latex': os.path.dirname(ble_latex.__file__),
             'device': str(jax.devices()[0]), 'jax': jax.__version__,
             'loadavg_before': os.getloadavg(), 'parts': {}}
   for batch in batches:
     for name, (fn, args) in _parts(batch).items():
-      # pylint: disable-next=protected-access
-      r = noise_speed._time(fn, args, repeats)
+      r = speed.time_compiled(fn, args, repeats)
       del r['all_s']
       if name == 'step_env scan/stride':
         r['best_s'] /= SCAN_STRIDES
@@ -233,8 +231,7 @@ def _main(argv: Sequence[str]) -> None:
     print('compare / this:  ' + ', '.join(
         f'{k}: compile {v["compile"]:.2f}x call {v["call"]:.2f}x'
         for k, v in results['ratio_compare_over_this'].items()))
-  import batch_speed  # pylint: disable=g-import-not-at-top
-  batch_speed.write_results(results, load_before, args.json)
+  speed.write_results(results, load_before, args.json)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

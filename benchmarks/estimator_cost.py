@@ -4,15 +4,16 @@
   python benchmarks/estimator_cost.py --json=benchmarks/estimator_cost.json
 
 Times `dynamics.step` (one 20-minute stride in calm air, jitted, vmapped
-over --batch balloons at 16-18 km under a ballast command) under the
-realistic preset (`flight.params.REALISTIC`: the dT_h filter) and with
-ValBal's stress walk on top (`flight.params.LIFT_WALK_STRESS`: both
-filters), once as it is and once compiled with the filters taken out
-(`estimator.observe_chunk` and `estimator.controller_view` replaced by the
-identity while it is traced). The two programs are called in turn,
---repeats times each, so a changing load on a shared machine weighs on both
-alike; the record keeps the best and the median of each. (Across commits,
-`gas_step_speed.py --rounds` compares two trees.)
+over --batch balloons at 16-18 km under a ballast command:
+`run.speed.STRIDE_SETUP`) under the realistic preset
+(`flight.params.REALISTIC`: the dT_h filter) and with ValBal's stress walk
+on top (`flight.params.LIFT_WALK_STRESS`: both filters), once as it is and
+once compiled with the filters taken out (`estimator.observe_chunk` and
+`estimator.controller_view` replaced by the identity while it is traced).
+The two programs are called in turn, --repeats times each, so a changing
+load on a shared machine weighs on both alike; the record keeps the best
+and the median of each. (Across commits, `gas_step_speed.py --rounds`
+compares two trees.)
 """
 
 import argparse
@@ -28,31 +29,15 @@ from ble_latex import safe_io
 from ble_latex.flight import dynamics
 from ble_latex.flight import estimator
 from ble_latex.flight import params as params_lib
+from ble_latex.run import speed
 
 CASES = {'realistic': {},
          'stress': params_lib.LIFT_WALK_STRESS}
 
 
-_HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def _gas_step_speed():
-  """The sibling benchmark (its record header and timed stride)."""
-  sys.path.insert(0, _HERE)
-  import gas_step_speed  # pylint: disable=g-import-not-at-top
-  return gas_step_speed
-
-
-def _setup():
-  """`gas_step_speed.SETUP`'s (calm, flights): the same timed stride."""
-  namespace = {}
-  exec(_gas_step_speed().SETUP, namespace)  # pylint: disable=exec-used
-  return namespace['calm'], namespace['flights']
-
-
 def _programs(params, batch):
   """(call with the filters, call without), each warmed up."""
-  calm, flights = _setup()
+  calm, flights = speed.stride_setup()
   atm, states, actions, keys = flights(params, batch)
 
   def program():
@@ -83,7 +68,7 @@ def main(argv=None) -> int:
     parser.error('--batch and --repeats must be >= 1')
   if args.json and safe_io.output_problem(args.json):
     parser.error(f'--json: {safe_io.output_problem(args.json)}')
-  record = _gas_step_speed().header('estimator_cost.py', argv, args.batch)
+  record = speed.record_header('estimator_cost.py', argv, args.batch)
   for name, overrides in CASES.items():
     calls = _programs(params_lib.realistic_flight_params(**overrides),
                       args.batch)

@@ -24,34 +24,17 @@ estimator's cost (issue 63 item 3) against a tree without it:
 """
 
 import argparse
-import datetime as dt
 import json
 import os
-import platform
 import subprocess
 import sys
 import time
 
 from ble_latex import safe_io
+from ble_latex.run import speed
 
-# The timed stride's flights (also `estimator_cost.py`'s).
-SETUP = r'''
-import jax, jax.numpy as jnp
-from ble_latex.flight import atmosphere, dynamics, launch, params, state
-
-def calm(x, y, p, t):
-  return jnp.zeros_like(x), jnp.zeros_like(x)
-
-def flights(p, batch):
-  atm = atmosphere.reset(jax.random.PRNGKey(0))
-  new = lambda h: launch.neutral_launch(p, atm, state.initial_state(
-      p, h, atm_params=atm, key=jax.random.PRNGKey(1)))
-  states = jax.vmap(new)(jnp.linspace(16000.0, 18000.0, batch))
-  actions = jnp.tile(jnp.asarray([17500.0, 1.0, -1.0]), (batch, 1))
-  keys = jax.random.split(jax.random.PRNGKey(2), batch)
-  return atm, states, actions, keys
-'''
-PROGRAM = SETUP + r'''
+# The stride timed in the tree under test (`run.speed.STRIDE_SETUP`'s).
+PROGRAM = speed.STRIDE_SETUP + r'''
 import json, sys, time
 batch, repeats = int(sys.argv[1]), int(sys.argv[2])
 
@@ -75,16 +58,6 @@ if hasattr(params, 'LIFT_WALK_STRESS'):
       **{**params.REALISTIC, **params.LIFT_WALK_STRESS}))
 print(json.dumps(times))
 '''
-
-
-def header(script: str, argv, batch: int) -> dict:
-  """A record's command, date, machine, batch and load before the work."""
-  return {
-      'command': f'python benchmarks/{script} ' + ' '.join(
-          sys.argv[1:] if argv is None else argv),
-      'date': dt.datetime.now(dt.timezone.utc).isoformat(timespec='seconds'),
-      'machine': f'{platform.machine()}, {os.cpu_count()} CPUs',
-      'batch': batch, 'load_before': round(os.getloadavg()[0], 1)}
 
 
 def measure(tree: str, batch: int, repeats: int) -> dict:
@@ -113,7 +86,7 @@ def main(argv=None) -> int:
   if args.json and safe_io.output_problem(args.json):
     parser.error(f'--json: {safe_io.output_problem(args.json)}')
   here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-  record = header('gas_step_speed.py', argv, args.batch)
+  record = speed.record_header('gas_step_speed.py', argv, args.batch)
   start = time.time()
   runs = {'this_tree': [], 'other_tree': []}
   for _ in range(args.rounds):

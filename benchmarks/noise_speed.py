@@ -10,7 +10,7 @@ each best of --repeats timed calls after a warm-up call, with its compile
 time (wall time of `jax.jit(f).lower(...).compile()`) and the size of its
 program (lines of the lowered StableHLO text, and of the optimised HLO);
 then, unless --rollout_steps is 0, the batched env's balloon-steps/s at
---batch balloons through `benchmarks/batch_speed.py`'s `jax_worker` (reset
+--batch balloons through `ble_latex.run.speed.rollout_speed` (reset
 plus a `jax_env.rollout` of --rollout_steps strides; its first call is
 compile plus run).
 
@@ -23,37 +23,12 @@ with `PYTHONPATH` pointing at it) to compare kernels; the JSON records which
 
 import os
 import sys
-import time
-from typing import Any, Callable, Optional, Sequence
+from typing import Optional, Sequence
 
 from absl import flags
 
 from ble_latex.cli import common as cli
-
-_HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def _time(fn: Callable[..., Any], args: Sequence[Any], repeats: int) -> dict:
-  """Compile time, program size and best call time of jax.jit(fn)(*args)."""
-  import jax  # pylint: disable=g-import-not-at-top
-
-  t = time.perf_counter()
-  lowered = jax.jit(fn).lower(*args)
-  lower_s = time.perf_counter() - t
-  t = time.perf_counter()
-  compiled = lowered.compile()
-  compile_s = time.perf_counter() - t
-  jax.block_until_ready(compiled(*args))  # warm-up
-  times = []
-  for _ in range(repeats):
-    t = time.perf_counter()
-    jax.block_until_ready(compiled(*args))
-    times.append(time.perf_counter() - t)
-  return {'lower_s': lower_s, 'compile_s': compile_s,
-          'stablehlo_lines': len(lowered.as_text().splitlines()),
-          'hlo_lines': len(compiled.as_text().splitlines()),
-          'best_s': min(times), 'all_s': times}
-
+from ble_latex.run import speed
 
 def measure(batch: int, repeats: int) -> dict:
   """Times the kernel, the ground-truth wind and one stride at `batch`."""
@@ -79,7 +54,7 @@ def measure(batch: int, repeats: int) -> dict:
   coordinates = jax.random.uniform(jax.random.PRNGKey(1), (4, perm.shape[0],
                                                            batch),
                                    minval=-300.0, maxval=300.0)
-  r = _time(jax.vmap(simplex.noise4d), (perm, *coordinates), repeats)
+  r = speed.time_compiled(jax.vmap(simplex.noise4d), (perm, *coordinates), repeats)
   r['points_per_s'] = perm.shape[0] * batch / r['best_s']
   result['noise4d'] = r
 
@@ -87,7 +62,7 @@ def measure(batch: int, repeats: int) -> dict:
     f = s.flight
     return jax.vmap(winds.ground_truth_wind)(s, f.x_m, f.y_m, f.pressure_pa,
                                              f.time_s)
-  r = _time(wind, (state,), repeats)
+  r = speed.time_compiled(wind, (state,), repeats)
   r['queries_per_s'] = batch / r['best_s']
   result['ground_truth_wind'] = r
 
@@ -96,7 +71,7 @@ def measure(batch: int, repeats: int) -> dict:
   def stride(s):
     return jax.vmap(env.step_env, in_axes=(0, 0, 0, None))(keys, s, action,
                                                            params)[1]
-  r = _time(stride, (state,), repeats)
+  r = speed.time_compiled(stride, (state,), repeats)
   r['balloon_steps_per_s'] = batch / r['best_s']
   result['step_env'] = r
   return result
@@ -108,7 +83,7 @@ flags.DEFINE_integer('batch', 1024, 'Balloons (and points per harmonic).',
 flags.DEFINE_integer('repeats', 3, 'Timed calls per measurement (best '
                      'reported).', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('rollout_steps', 72, 'Strides of the batched env '
-                     'rollout (batch_speed.py jax_worker); 0: skip.',
+                     'rollout (run.speed.rollout_speed); 0: skip.',
                      lower_bound=0, flag_values=FLAGS)
 flags.DEFINE_string('json', None, 'Also write the results here.',
                     flag_values=FLAGS)
@@ -128,15 +103,12 @@ def _main(argv: Sequence[str]) -> None:
           f'  StableHLO {r["stablehlo_lines"]:6d} lines  HLO '
           f'{r["hlo_lines"]:6d} lines', flush=True)
   if args.rollout_steps:
-    sys.path.insert(0, _HERE)
-    import batch_speed  # pylint: disable=g-import-not-at-top
-    r = batch_speed.jax_worker(args.batch, args.rollout_steps, args.repeats)
+    r = speed.rollout_speed(args.batch, args.rollout_steps, args.repeats)
     results['rollout'] = r
     print(f'rollout N={args.batch}, {args.rollout_steps} strides: '
           f'{r["balloon_steps_per_s"]:.0f} balloon-steps/s  first call '
           f'{r["first_call_s"]:.1f} s  best {r["wall_s"]:.2f} s', flush=True)
-  import batch_speed  # pylint: disable=g-import-not-at-top
-  batch_speed.write_results(results, load_before, args.json,
+  speed.write_results(results, load_before, args.json,
                             note=f'ble_latex from {results["ble_latex"]}; ')
 
 
