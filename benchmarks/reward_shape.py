@@ -5,8 +5,8 @@ everywhere inside the 50 km circle learns to fly near its edge, which
 generalises badly to unseen winds, and that a tanh-shaped reward pulling
 towards the centre flies more time in the region on unseen winds. This
 study trains SAC with the jitted trainer (`ble-latex-train --trainer=jax`,
-`benchmarks/sac_seeds.py`'s machinery) once per reward and training seed,
-for --rounds rounds each:
+`ble_latex.run.seed_runs`, as `benchmarks/sac_seeds.py`) once per reward
+and training seed, for --rounds rounds each:
 
   perciatelli  the paper's (2023) reward, the default (flat 1 inside);
   tanh         `latex_reward.reward_tanh_scale_km = --tanh_scale_km` (the
@@ -15,8 +15,9 @@ for --rounds rounds each:
 
 Each seed's policy is chosen on `latex_validation` only (the snapshot with
 the best TW50 window among those with <= --max_oor_pct % out of resources,
-`sac_seeds.choose`), then flown once on the held-out --held_out_suite
-(`latex_small`) with the gym env (`sac_seeds`' held-out flight: batched).
+`selection.choose_snapshot`), then flown once on the held-out
+--held_out_suite (`latex_small`) with the gym env
+(`seed_runs.fly_held_out`).
 Per seed it reports the held-out TW50 window, the fraction of the window at
 40-50 km from the station (edge-skirting) and at <= 40 km, and the share
 of the in-circle time spent at the edge, into --output (JSON: per reward
@@ -65,10 +66,11 @@ from absl import flags
 from ble_latex import gin_values
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import seed_runs
+from ble_latex.run import selection
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import real_winds  # pylint: disable=g-import-not-at-top,wrong-import-position
-import sac_seeds  # pylint: disable=g-import-not-at-top,wrong-import-position
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('base_dir', None, 'Training runs (perciatelli/seed_S, '
@@ -189,8 +191,8 @@ def _held_out(suite_name: str, episodes: Optional[int], policy_path: str,
               output: str) -> Any:
   """Flies the chosen policy on the held-out seeds (a spawned process)."""
   from ble_latex.run import records  # pylint: disable=g-import-not-at-top
-  summary = sac_seeds._held_out(suite_name, policy_path, output,  # pylint: disable=protected-access
-                                num_seeds=episodes)
+  summary = seed_runs.fly_held_out(suite_name, policy_path, output,
+                                   num_seeds=episodes)
   return summary, records.load_eval(output)
 
 
@@ -297,22 +299,22 @@ def run_cell(args: Any, reward: str, seed: int) -> Dict[str, Any]:
   base = os.path.join(args.base_dir, run_folder(args, reward))
   bindings = [*args.gin_bindings,
               *reward_bindings(reward, args.tanh_scale_km)]
-  sac_seeds.train(base, [seed], args.rounds, args.snapshot_period,
-                  args.snapshot_period, bindings,
-                  extra_flags=[f'--validation_episodes='
-                               f'{args.validation_episodes}'])
+  seed_runs.train_seeds(base, [seed], args.rounds, args.snapshot_period,
+                        args.snapshot_period, bindings,
+                        extra_flags=[f'--validation_episodes='
+                                     f'{args.validation_episodes}'])
   run = os.path.join(base, f'seed_{seed}')
   validation = records.load_validation(
       os.path.join(run, episode_log.VALIDATION_LOG))
   row: Dict[str, Any] = {'seed': seed, 'gin_bindings': bindings,
                          'validated_rounds': len(validation)}
-  chosen = sac_seeds.choose(validation, args.max_oor_pct)
+  chosen = selection.choose_snapshot(validation, args.max_oor_pct)
   if chosen is None:
     row['note'] = (f'no validated snapshot with <= {args.max_oor_pct:g} % '
                    'out of resources')
     return row
-  policy = sac_seeds._chosen_policy(run, seed, chosen, validation,  # pylint: disable=protected-access
-                                    args.max_oor_pct)
+  policy = seed_runs.write_chosen_policy(run, seed, chosen, validation,
+                                        args.max_oor_pct)
   output = os.path.join(run, f'held_out_{args.held_out_suite}.json')
   with futures.ProcessPoolExecutor(
       max_workers=1, mp_context=multiprocessing.get_context('spawn')) as pool:

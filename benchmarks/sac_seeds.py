@@ -41,7 +41,6 @@ import multiprocessing
 import os
 import shutil
 import statistics
-import subprocess
 import sys
 from typing import Any, Dict, List, Optional, Sequence
 
@@ -49,6 +48,8 @@ from absl import flags
 
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import seed_runs
+from ble_latex.run import selection
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('base_dir', None, 'Folder of the seeds\' runs.',
@@ -96,60 +97,6 @@ flags.DEFINE_string('ship', None, 'report: also write the best-validated '
 
 
 
-def train(base_dir: str, seeds: List[int], num_iterations: int,
-          snapshot_period: int, checkpoint_period: int,
-          gin_bindings: List[str], parallel: int = 1,
-          vmap_seeds: bool = False, gin_files: Sequence[str] = (),
-          extra_flags: Sequence[str] = ()) -> None:
-  """Runs (or resumes) `ble-latex-train --trainer=jax --seeds=...`.
-
-  With `parallel` > 1 the seeds are dealt round-robin to that many
-  `ble-latex-train` processes running at once (each trains its share one
-  after another, or vmapped together with `vmap_seeds`). `extra_flags` go
-  to each command (e.g. `--validation_episodes=20`).
-  """
-  groups = [seeds[i::parallel] for i in range(parallel)]
-  commands = [
-      [sys.executable, '-m', 'ble_latex.cli.train', '--trainer=jax',
-       f'--base_dir={base_dir}',
-       f'--seeds={",".join(str(s) for s in group)}',
-       f'--num_iterations={num_iterations}',
-       f'--policy_snapshot_period={snapshot_period}',
-       f'--checkpoint_period={checkpoint_period}',
-       '--collectors=progress', '--collectors=episodes',
-       '--collectors=tensorboard',
-       *(['--vmap_seeds'] if vmap_seeds and len(group) > 1 else []),
-       *[f'--gin_file={f}' for f in gin_files],
-       *[f'--gin_bindings={b}' for b in gin_bindings], *extra_flags]
-      for group in groups if group]
-  processes = []
-  for command in commands:
-    print(' '.join(command), flush=True)
-    processes.append(subprocess.Popen(command))
-  failed = [p.args for p in processes if p.wait() != 0]
-  if failed:
-    raise RuntimeError(f'training failed: {failed}')
-
-
-def choose(validation: List[Dict[str, Any]], max_oor_pct: float,
-           max_minutes: Optional[float] = None,
-           max_iteration: Optional[int] = None) -> Optional[Dict[str, Any]]:
-  """The validated snapshot with the best TW50 (window) within the caps.
-
-  Args:
-    validation: validation.jsonl records.
-    max_oor_pct: Most % of validation episodes out of resources.
-    max_minutes: Only snapshots taken within this much training time.
-    max_iteration: Only snapshots of rounds up to this one (0-based).
-  """
-  from ble_latex.run import selection  # pylint: disable=g-import-not-at-top
-  capped = [r for r in validation if
-            (max_minutes is None or r['elapsed_s'] <= 60.0 * max_minutes) and
-            (max_iteration is None or r['iteration'] <= max_iteration)]
-  return selection.best(capped, max_oor_pct=max_oor_pct,
-                        tie=lambda r: -r['iteration'])
-
-
 def compare(run_dirs: Sequence[str], max_oor_pct: float,
             max_iteration: Optional[int], max_minutes: Optional[float]
             ) -> List[Dict[str, Any]]:
@@ -165,7 +112,8 @@ def compare(run_dirs: Sequence[str], max_oor_pct: float,
     validation = [r for r in records.load_validation(
         os.path.join(run, 'validation.jsonl'))
                   if max_iteration is None or r['iteration'] <= max_iteration]
-    chosen = choose(validation, max_oor_pct, max_minutes, max_iteration)
+    chosen = selection.choose_snapshot(validation, max_oor_pct, max_minutes,
+                                       max_iteration)
     last = validation[-5:]
     rows.append({
         'run': run, 'config': jax_train.recorded_config(info['config']),
@@ -195,67 +143,6 @@ def compare(run_dirs: Sequence[str], max_oor_pct: float,
   return rows
 
 
-def _held_out(suite_name: str, policy_path: str, output: str,
-              gin_files: Sequence[str] = (),
-              num_seeds: Optional[int] = None) -> Dict[str, float]:
-  """Flies a policy on the held-out suite (its first `num_seeds` seeds,
-  default all) in the gym env; its summary."""
-  # pylint: disable=g-import-not-at-top
-  import gym
-  from ble_latex.agents import sac
-  from ble_latex.run import gin_binding
-  from ble_latex.run import eval_lib
-  from ble_latex.run import metrics
-  from ble_latex.run import suites
-  # pylint: enable=g-import-not-at-top
-  gin_binding.bind_gin('sac_pretrained', None, list(gin_files), [])
-  suite = suites.get_eval_suite(suite_name)
-  env = gym.make('LatexBalloon-v0').unwrapped
-  space = env.action_space
-  agent = sac.SACPretrainedAgent(
-      space.shape[0], env.observation_space.shape, action_low=space.low,
-      action_high=space.high, policy_path=policy_path)
-  records = eval_lib.evaluate(agent, env, list(suite.seeds)[:num_seeds],
-                              suite.max_episode_length,
-                              description=f'held-out {policy_path}')
-  eval_lib.write_results(output, records)
-  return metrics.summarize(records)
-
-
-def _chosen_policy(run: str, seed: int, chosen: Dict[str, Any],
-                   validation: List[Dict[str, Any]],
-                   max_oor_pct: float) -> str:
-  """Writes run/chosen_policy.msgpack from the chosen snapshot; its path.
-
-  Snapshots are not committed (see .gitignore): in a fresh checkout an
-  earlier report's chosen policy is kept when it is that same round.
-  """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import pretrained
-  from ble_latex.run import run_dir
-  # pylint: enable=g-import-not-at-top
-  source = run_dir.policy_snapshot_path(run, chosen['iteration'])
-  policy_path = os.path.join(run, 'chosen_policy.msgpack')
-  if not os.path.exists(source):
-    if os.path.exists(policy_path):
-      kept = pretrained.load_policy(policy_path)
-      if kept.get('iteration') == chosen['iteration']:
-        print(f'seed {seed}: snapshot {source} absent; keeping '
-              f'{policy_path} (same round {chosen["iteration"]})')
-        return policy_path
-    raise FileNotFoundError(
-        f'seed {seed}: the chosen snapshot {source} is missing (and no '
-        f'chosen policy of round {chosen["iteration"]} in {run})')
-  policy = pretrained.load_policy(source)
-  policy['note'] += (
-      f'; chosen among {len(validation)} snapshots by TW50 (window) on '
-      f'latex_validation seeds {chosen["seeds"][0]}..{chosen["seeds"][1]} '
-      f'({100 * chosen["tw50_window_mean"]:.1f} %, <= {max_oor_pct:g} % '
-      'out of resources)')
-  pretrained.write_policy(policy, policy_path)
-  return policy_path
-
-
 def report(base_dir: str, seeds: List[int], max_oor_pct: float,
            max_minutes: Optional[float], max_iteration: Optional[int],
            results_dir: str, ship: Optional[str], parallel: int = 1,
@@ -271,13 +158,15 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
     run = os.path.join(base_dir, f'seed_{seed}')
     validation = records.load_validation(
         os.path.join(run, episode_log.VALIDATION_LOG))
-    chosen = choose(validation, max_oor_pct, max_minutes, max_iteration)
+    chosen = selection.choose_snapshot(validation, max_oor_pct, max_minutes,
+                                       max_iteration)
     if chosen is None:
       print(f'seed {seed}: no validated snapshot with <= {max_oor_pct} % out '
             f'of resources within {max_minutes} training minutes and round '
             f'{max_iteration}', file=sys.stderr)
       return 1
-    policy_path = _chosen_policy(run, seed, chosen, validation, max_oor_pct)
+    policy_path = seed_runs.write_chosen_policy(run, seed, chosen, validation,
+                                                max_oor_pct)
     output = os.path.join(results_dir, held_out_suite,
                           f'sac_jax_{os.path.basename(base_dir)}_seed_{seed}'
                           '.json')
@@ -287,7 +176,7 @@ def report(base_dir: str, seeds: List[int], max_oor_pct: float,
   with futures.ProcessPoolExecutor(
       max_workers=parallel,
       mp_context=multiprocessing.get_context('spawn')) as pool:
-    held_outs = list(pool.map(_held_out,
+    held_outs = list(pool.map(seed_runs.fly_held_out,
                               [held_out_suite] * len(chosen_rows),
                               [c[2] for c in chosen_rows],
                               [c[3] for c in chosen_rows],
@@ -377,9 +266,10 @@ def _main(argv: Sequence[str]) -> int:
   if not args.base_dir:
     raise cli.CommandUsageError(f'{argv[1]} needs --base_dir')
   if argv[1] == 'train':
-    train(args.base_dir, seeds, args.num_iterations, args.snapshot_period,
-          args.checkpoint_period, args.gin_bindings, args.parallel,
-          args.vmap_seeds, args.gin_file)
+    seed_runs.train_seeds(args.base_dir, seeds, args.num_iterations,
+                          args.snapshot_period, args.checkpoint_period,
+                          args.gin_bindings, args.parallel, args.vmap_seeds,
+                          args.gin_file)
     return 0
   return report(args.base_dir, seeds, args.max_oor_pct, args.max_minutes,
                 args.max_iteration, args.results_dir, args.ship,

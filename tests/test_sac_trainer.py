@@ -26,6 +26,8 @@ from ble_latex.run import episode_log
 from ble_latex.run import jax_train
 from ble_latex.run import records as records_lib
 from ble_latex.run import run_dir
+from ble_latex.run import seed_runs
+from ble_latex.run import selection
 from ble_latex.run import suites
 from ble_latex import errors
 from ble_latex import safe_io
@@ -371,9 +373,8 @@ def test_replay_ring_keeps_the_valid_rows_in_order(masks):
   assert stored == kept
 
 
-def test_sac_seeds_trains_seeds_in_parallel_processes(benchmark_script,
-                                                      monkeypatch):
-  module = benchmark_script('sac_seeds.py')
+def test_train_seeds_trains_seeds_in_parallel_processes(monkeypatch):
+  module = seed_runs
   started = []
 
   class FakeProcess:
@@ -386,41 +387,43 @@ def test_sac_seeds_trains_seeds_in_parallel_processes(benchmark_script,
       return 1 if '--seeds=1,4' in self.args else 0
 
   monkeypatch.setattr(module.subprocess, 'Popen', FakeProcess)
-  module.train('runs/x', [0, 1, 2, 3, 4], 7, 5, 10, ['a = 1'], parallel=1)
+  module.train_seeds('runs/x', [0, 1, 2, 3, 4], 7, 5, 10, ['a = 1'],
+                     parallel=1)
   assert [a for a in started[0] if a.startswith('--seeds')] == [
       '--seeds=0,1,2,3,4']
   started.clear()
   with pytest.raises(RuntimeError, match='seeds=1,4'):
-    module.train('runs/x', [0, 1, 2, 3, 4], 7, 5, 10, ['a = 1'], parallel=3)
+    module.train_seeds('runs/x', [0, 1, 2, 3, 4], 7, 5, 10, ['a = 1'],
+                       parallel=3)
   assert [[a for a in c if a.startswith('--seeds')] for c in started] == [
       ['--seeds=0,3'], ['--seeds=1,4'], ['--seeds=2']]
   assert all('--gin_bindings=a = 1' in c and '--num_iterations=7' in c
              for c in started)
   started.clear()
-  module.train('runs/x', [0], 7, 5, 10, [], parallel=2)  # No empty process.
+  module.train_seeds('runs/x', [0], 7, 5, 10, [], parallel=2)  # No empty.
   assert len(started) == 1
   assert '--vmap_seeds' not in started[0]
   started.clear()
-  module.train('runs/x', [0, 1, 2], 7, 5, 10, [], parallel=2,
-               vmap_seeds=True)  # Only where a process has several seeds.
+  module.train_seeds('runs/x', [0, 1, 2], 7, 5, 10, [], parallel=2,
+                     vmap_seeds=True)  # Only where a process has several seeds.
   assert ['--vmap_seeds' in c for c in started] == [True, False]
 
 
-def test_sac_seeds_chooses_on_validation_within_caps(benchmark_script):
-  module = benchmark_script('sac_seeds.py')
+def test_choose_snapshot_chooses_on_validation_within_caps():
+  choose = selection.choose_snapshot
 
   def r(iteration, tw50, oor, minutes):
     return {'iteration': iteration, 'tw50_window_mean': tw50,
             'out_of_resources_pct': oor, 'elapsed_s': 60.0 * minutes}
   log = [r(4, 0.3, 0.0, 10), r(9, 0.5, 8.0, 20), r(14, 0.45, 2.0, 30),
          r(19, 0.6, 0.0, 50)]
-  assert module.choose(log, 5.0)['iteration'] == 19
-  assert module.choose(log, 5.0, max_minutes=45)['iteration'] == 14
-  assert module.choose(log, 10.0, max_minutes=45)['iteration'] == 9
-  assert module.choose(log, 5.0, max_minutes=5) is None
-  assert module.choose(log, 5.0, max_iteration=18)['iteration'] == 14
-  assert module.choose(log, 5.0, max_iteration=14)['iteration'] == 14
-  assert module.choose(log, 5.0, max_iteration=3) is None
+  assert choose(log, 5.0)['iteration'] == 19
+  assert choose(log, 5.0, max_minutes=45)['iteration'] == 14
+  assert choose(log, 10.0, max_minutes=45)['iteration'] == 9
+  assert choose(log, 5.0, max_minutes=5) is None
+  assert choose(log, 5.0, max_iteration=18)['iteration'] == 14
+  assert choose(log, 5.0, max_iteration=14)['iteration'] == 14
+  assert choose(log, 5.0, max_iteration=3) is None
 
 
 def test_sac_seeds_compares_runs_on_validation(benchmark_script, tmp_path,
@@ -635,3 +638,24 @@ def test_checkpoint_replay_cursor_must_fit_its_size(runs, tmp_path):
   message = str(refused.value)
   assert bad in message and 'replay cursor is 39 but size 6' in message
   assert '\n' not in message
+
+
+def test_write_chosen_policy_copies_the_snapshot_with_why(tmp_path):
+  """seed_runs.write_chosen_policy (was sac_seeds._chosen_policy)."""
+  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  run = str(tmp_path / 'seed_0')
+  chosen = {'iteration': 3, 'seeds': [0, 99], 'tw50_window_mean': 0.5}
+  with pytest.raises(FileNotFoundError, match='chosen snapshot .* missing'):
+    seed_runs.write_chosen_policy(run, 0, chosen, [chosen], 5.0)
+  policy = pretrained.load_policy(pretrained.shipped_policy(False))
+  policy['iteration'] = 3
+  source = run_dir.policy_snapshot_path(run, 3)
+  os.makedirs(os.path.dirname(source))
+  pretrained.write_policy(policy, source)
+  path = seed_runs.write_chosen_policy(run, 0, chosen, [chosen, chosen], 5.0)
+  assert path == os.path.join(run, 'chosen_policy.msgpack')
+  assert pretrained.load_policy(path)['note'] == policy['note'] + (
+      '; chosen among 2 snapshots by TW50 (window) on latex_validation seeds'
+      ' 0..99 (50.0 %, <= 5 % out of resources)')
+  os.remove(source)  # A fresh checkout: the chosen policy of that round kept.
+  assert seed_runs.write_chosen_policy(run, 0, chosen, [chosen], 5.0) == path

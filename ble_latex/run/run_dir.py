@@ -3,7 +3,8 @@
 
 `ble-latex-train --base_dir` holds `run.json` (the settings a resumed run
 must agree with), `checkpoints/`, `policies/policy_NNNNN.msgpack` snapshots,
-`episodes.jsonl` and `metrics/`. One process writes it at a time (`locked`).
+`episodes.jsonl` and `metrics/`; after a choice on validation,
+`chosen_policy.msgpack`. One process writes it at a time (`locked`).
 Used by the agent loop (`train_lib`) and the jitted trainer (`jax_train`).
 """
 
@@ -22,6 +23,7 @@ from ble_latex import safe_io
 
 RUN_INFO = 'run.json'  # What a resumed run must agree with.
 POLICY_SNAPSHOT_PATTERN = re.compile(r'^policy_(\d{5,})\.msgpack$')
+CHOSEN_POLICY = 'chosen_policy.msgpack'  # The snapshot chosen on validation.
 
 
 def check_training_seed(seed: Any, name: str = 'training seed') -> int:
@@ -52,6 +54,12 @@ def checkpoint_path(base_dir: str, iteration: int) -> str:
 def policy_snapshot_path(base_dir: str, iteration: int) -> str:
   """Where a trainer exports the policy of `iteration` (0-based)."""
   return os.path.join(base_dir, 'policies', f'policy_{iteration:05d}.msgpack')
+
+
+def chosen_policy_path(base_dir: str) -> str:
+  """Where the snapshot chosen on validation is copied
+  (`seed_runs.write_chosen_policy`)."""
+  return os.path.join(base_dir, CHOSEN_POLICY)
 
 
 @contextlib.contextmanager

@@ -6,7 +6,8 @@ results, keep those with at most `max_oor_pct` % of flights out of
 resources, and take the highest TW50 over the window
 (`tw50_window_mean`), ties broken by `tie` (larger wins; e.g. the earlier
 round with `tie=lambda r: -r['iteration']`). Every chooser uses it: a
-training seed's snapshot (`benchmarks/sac_seeds.py`, `sweep_lib`), a
+training seed's snapshot (`choose_snapshot`: `benchmarks/sac_seeds.py`,
+`benchmarks/reward_shape.py`; `sweep_lib`), a
 candidate policy (`benchmarks/train_sac.py`, `benchmarks/policy_select.py`),
 a DAgger round (`run.dagger.best_round`) and the docs' best-validated seed
 (`docs/hooks/learned.py`).
@@ -14,7 +15,7 @@ a DAgger round (`run.dagger.best_round`) and the docs' best-validated seed
 Only validation results go in: nothing here looks at a held-out suite.
 """
 
-from typing import Any, Callable, Iterable, List, Optional, TypeVar
+from typing import Any, Callable, Dict, Iterable, List, Optional, TypeVar
 
 T = TypeVar('T')
 
@@ -60,3 +61,23 @@ def best(rows: Iterable[T], *, max_oor_pct: Optional[float] = None,
   """The best row of `ranked` (the first of equal keys), or None."""
   order = ranked(rows, max_oor_pct=max_oor_pct, result=result, tie=tie)
   return order[0] if order else None
+
+
+def choose_snapshot(validation: List[Dict[str, Any]], max_oor_pct: float,
+                    max_minutes: Optional[float] = None,
+                    max_iteration: Optional[int] = None
+                    ) -> Optional[Dict[str, Any]]:
+  """The validated snapshot with the best TW50 (window) within the caps.
+
+  Ties go to the earlier round.
+
+  Args:
+    validation: validation.jsonl records.
+    max_oor_pct: Most % of validation episodes out of resources.
+    max_minutes: Only snapshots taken within this much training time [min].
+    max_iteration: Only snapshots of rounds up to this one (0-based).
+  """
+  capped = [r for r in validation if
+            (max_minutes is None or r['elapsed_s'] <= 60.0 * max_minutes) and
+            (max_iteration is None or r['iteration'] <= max_iteration)]
+  return best(capped, max_oor_pct=max_oor_pct, tie=lambda r: -r['iteration'])

@@ -1,0 +1,122 @@
+# coding=utf-8
+"""Several training seeds of one setting: train, keep the chosen, fly it.
+
+The machinery of `benchmarks/sac_seeds.py` and `benchmarks/reward_shape.py`
+(issue 66: scripts parse flags and call the package):
+- `train_seeds`: runs (or resumes) `ble-latex-train --trainer=jax` for
+  several seeds, in one or several processes at once;
+- `write_chosen_policy`: copies the snapshot chosen on validation
+  (`selection.choose_snapshot`) to the seed's `chosen_policy.msgpack`, with
+  why it was chosen in its note;
+- `fly_held_out`: flies a pretrained policy on a held-out suite in the gym
+  env (`ble-latex-eval`'s code) and writes its records.
+"""
+
+import os
+import subprocess
+import sys
+from typing import Any, Dict, List, Optional, Sequence
+
+
+def train_seeds(base_dir: str, seeds: List[int], num_iterations: int,
+                snapshot_period: int, checkpoint_period: int,
+                gin_bindings: List[str], parallel: int = 1,
+                vmap_seeds: bool = False, gin_files: Sequence[str] = (),
+                extra_flags: Sequence[str] = ()) -> None:
+  """Runs (or resumes) `ble-latex-train --trainer=jax --seeds=...`.
+
+  With `parallel` > 1 the seeds are dealt round-robin to that many
+  `ble-latex-train` processes running at once (each trains its share one
+  after another, or vmapped together with `vmap_seeds`). `extra_flags` go
+  to each command (e.g. `--validation_episodes=20`).
+
+  Raises:
+    RuntimeError: A training process failed (its command named).
+  """
+  groups = [seeds[i::parallel] for i in range(parallel)]
+  commands = [
+      [sys.executable, '-m', 'ble_latex.cli.train', '--trainer=jax',
+       f'--base_dir={base_dir}',
+       f'--seeds={",".join(str(s) for s in group)}',
+       f'--num_iterations={num_iterations}',
+       f'--policy_snapshot_period={snapshot_period}',
+       f'--checkpoint_period={checkpoint_period}',
+       '--collectors=progress', '--collectors=episodes',
+       '--collectors=tensorboard',
+       *(['--vmap_seeds'] if vmap_seeds and len(group) > 1 else []),
+       *[f'--gin_file={f}' for f in gin_files],
+       *[f'--gin_bindings={b}' for b in gin_bindings], *extra_flags]
+      for group in groups if group]
+  processes = []
+  for command in commands:
+    print(' '.join(command), flush=True)
+    processes.append(subprocess.Popen(command))
+  failed = [p.args for p in processes if p.wait() != 0]
+  if failed:
+    raise RuntimeError(f'training failed: {failed}')
+
+
+def fly_held_out(suite_name: str, policy_path: str, output: str,
+                 gin_files: Sequence[str] = (),
+                 num_seeds: Optional[int] = None) -> Dict[str, float]:
+  """Flies a policy on the held-out suite (its first `num_seeds` seeds,
+  default all) in the gym env, writes the records to `output`; their
+  summary (`metrics.summarize`)."""
+  # pylint: disable=g-import-not-at-top
+  import gym
+  from ble_latex.agents import sac
+  from ble_latex.run import gin_binding
+  from ble_latex.run import eval_lib
+  from ble_latex.run import metrics
+  from ble_latex.run import suites
+  # pylint: enable=g-import-not-at-top
+  gin_binding.bind_gin('sac_pretrained', None, list(gin_files), [])
+  suite = suites.get_eval_suite(suite_name)
+  env = gym.make('LatexBalloon-v0').unwrapped
+  space = env.action_space
+  agent = sac.SACPretrainedAgent(
+      space.shape[0], env.observation_space.shape, action_low=space.low,
+      action_high=space.high, policy_path=policy_path)
+  records = eval_lib.evaluate(agent, env, list(suite.seeds)[:num_seeds],
+                              suite.max_episode_length,
+                              description=f'held-out {policy_path}')
+  eval_lib.write_results(output, records)
+  return metrics.summarize(records)
+
+
+def write_chosen_policy(run: str, seed: int, chosen: Dict[str, Any],
+                        validation: List[Dict[str, Any]],
+                        max_oor_pct: float) -> str:
+  """Writes run/chosen_policy.msgpack from the chosen snapshot; its path.
+
+  Snapshots are not committed (see .gitignore): in a fresh checkout an
+  earlier report's chosen policy is kept when it is that same round.
+
+  Raises:
+    FileNotFoundError: The snapshot is missing and no chosen policy of that
+      round is kept.
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents import pretrained
+  from ble_latex.run import run_dir
+  # pylint: enable=g-import-not-at-top
+  source = run_dir.policy_snapshot_path(run, chosen['iteration'])
+  policy_path = run_dir.chosen_policy_path(run)
+  if not os.path.exists(source):
+    if os.path.exists(policy_path):
+      kept = pretrained.load_policy(policy_path)
+      if kept.get('iteration') == chosen['iteration']:
+        print(f'seed {seed}: snapshot {source} absent; keeping '
+              f'{policy_path} (same round {chosen["iteration"]})')
+        return policy_path
+    raise FileNotFoundError(
+        f'seed {seed}: the chosen snapshot {source} is missing (and no '
+        f'chosen policy of round {chosen["iteration"]} in {run})')
+  policy = pretrained.load_policy(source)
+  policy['note'] += (
+      f'; chosen among {len(validation)} snapshots by TW50 (window) on '
+      f'latex_validation seeds {chosen["seeds"][0]}..{chosen["seeds"][1]} '
+      f'({100 * chosen["tw50_window_mean"]:.1f} %, <= {max_oor_pct:g} % '
+      'out of resources)')
+  pretrained.write_policy(policy, policy_path)
+  return policy_path
