@@ -66,7 +66,8 @@ from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.run import jax_train
 from ble_latex.run import metrics
-from ble_latex.run import selection
+from ble_latex.run import run_dir
+from ble_latex.run import seed_runs
 from ble_latex.run import suites
 
 FLAGS = flags.FlagValues()
@@ -280,19 +281,17 @@ MIXED_CANDIDATE = 'mixed_drifts_all_memory_'
 LOOKAHEADS = ((1, False), (2, True), (3, False), (3, True), (4, True))
 
 
+def _seed_run(run: str, seed: int) -> str:
+  return os.path.join('benchmarks', 'sac_jax', run, f'seed_{seed}')
+
+
 def _chosen(run: str, seed: int) -> str:
-  return f'benchmarks/sac_jax/{run}/seed_{seed}/chosen_policy.msgpack'
+  return run_dir.chosen_policy_path(_seed_run(run, seed))
 
 
 def _best_snapshots(run: str, seed: int, count: int) -> List[str]:
   """The `count` snapshots of a seed that validated best (<= 5 % out)."""
-  path = f'benchmarks/sac_jax/{run}/seed_{seed}/validation.jsonl'
-  with open(path, encoding='utf-8') as f:
-    rows = [json.loads(line) for line in f if line.strip()]
-  rows = selection.ranked(rows, max_oor_pct=5.0,
-                          tie=lambda r: -r['iteration'])
-  return [f'benchmarks/sac_jax/{run}/seed_{seed}/policies/'
-          f'policy_{r["iteration"]:05d}.msgpack' for r in rows[:count]]
+  return seed_runs.best_snapshots(_seed_run(run, seed), count, 5.0)
 
 
 def lookahead_name(strides: int, follow: bool) -> str:

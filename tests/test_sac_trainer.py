@@ -659,3 +659,21 @@ def test_write_chosen_policy_copies_the_snapshot_with_why(tmp_path):
       ' 0..99 (50.0 %, <= 5 % out of resources)')
   os.remove(source)  # A fresh checkout: the chosen policy of that round kept.
   assert seed_runs.write_chosen_policy(run, 0, chosen, [chosen], 5.0) == path
+
+
+def test_best_snapshots_ranks_a_runs_validation_within_the_cap(tmp_path):
+  """seed_runs.best_snapshots (was policy_select._best_snapshots)."""
+  run = tmp_path / 'seed_0'
+  run.mkdir()
+  scores = [(0.3, 0.0), (0.6, 8.0), (0.5, 0.0), (0.5, 2.0), (0.4, 0.0)]
+  with open(run / episode_log.VALIDATION_LOG, 'w', encoding='utf-8') as f:
+    for i, (score, oor) in enumerate(scores):
+      f.write(json.dumps({
+          'iteration': i, 'training_episodes': 32 * (i + 1), 'updates': i,
+          'elapsed_s': 1.0 + i, 'seeds': [0, 99], 'episodes': 100,
+          'tw50_window_mean': score, 'tw50_mean': score,
+          'out_of_resources_pct': oor}) + '\n')
+  got = seed_runs.best_snapshots(str(run), 3, 5.0)
+  # Round 1 is out (8 %); rounds 2 and 3 tie, the earlier first.
+  assert got == [run_dir.policy_snapshot_path(str(run), i) for i in (2, 3, 4)]
+  assert got[0] == str(run / 'policies' / 'policy_00002.msgpack')

@@ -8,6 +8,8 @@ The machinery of `benchmarks/sac_seeds.py` and `benchmarks/reward_shape.py`
 - `write_chosen_policy`: copies the snapshot chosen on validation
   (`selection.choose_snapshot`) to the seed's `chosen_policy.msgpack`, with
   why it was chosen in its note;
+- `best_snapshots`: a run's best-validated snapshots (an ensemble's
+  members beside the chosen one);
 - `fly_held_out`: flies a pretrained policy on a held-out suite in the gym
   env (`ble-latex-eval`'s code) and writes its records.
 """
@@ -120,3 +122,23 @@ def write_chosen_policy(run: str, seed: int, chosen: Dict[str, Any],
       'out of resources)')
   pretrained.write_policy(policy, policy_path)
   return policy_path
+
+
+def best_snapshots(run: str, count: int, max_oor_pct: float) -> List[str]:
+  """The snapshot paths of a run's `count` best-validated rounds.
+
+  Ranked by `selection.ranked` on the run's validation.jsonl (within
+  `max_oor_pct` % out of resources, the earlier round first among equal
+  scores), best first.
+  """
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import episode_log
+  from ble_latex.run import records
+  from ble_latex.run import run_dir
+  from ble_latex.run import selection
+  # pylint: enable=g-import-not-at-top
+  rows = records.load_validation(os.path.join(run, episode_log.VALIDATION_LOG))
+  rows = selection.ranked(rows, max_oor_pct=max_oor_pct,
+                          tie=lambda r: -r['iteration'])
+  return [run_dir.policy_snapshot_path(run, r['iteration'])
+          for r in rows[:count]]
