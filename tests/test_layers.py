@@ -10,7 +10,9 @@ the layer rules:
   Dopamine or BLE's env/agent modules (`HEAVY`);
 - `agents/` never imports `run/`; nothing imports `cli/`;
 - no module is over 800 lines;
-- the modules import each other in no circle.
+- the modules import each other in no circle;
+- the scripts of benchmarks/ import only the package: no `sys.path` edit,
+  no import of another script (issue 66; `SCRIPT_ARROWS` lists those left).
 
 Nothing is imported or run: the test reads source text only.
 """
@@ -22,6 +24,7 @@ from typing import Dict, List, Set, Tuple
 import pytest
 
 PACKAGE = pathlib.Path(__file__).resolve().parent.parent / 'ble_latex'
+BENCHMARKS = PACKAGE.parent / 'benchmarks'
 
 # Floors, ground first: a module may import its own floor or lower ones.
 # A top-level module (`ble_latex/x.py`) or a folder (`ble_latex/x/`) is named
@@ -227,3 +230,87 @@ def test_the_import_reader_sees_lazy_and_relative_imports(tmp_path):
 def test_no_module_is_over_800_lines(path):
   lines = len(path.read_text(encoding='utf-8').splitlines())
   assert lines <= MAX_LINES, f'{path.name}: {lines} lines'
+
+
+# -- benchmarks/ holds scripts: they import the package, not each other. ------
+
+# Script -> the scripts it still imports (through `sys.path`), to be emptied:
+# each arrow involves benchmarks/real_winds.py or benchmarks/planners.py,
+# whose logic (the real wind sources' registry and station settings,
+# `planners.fly_batch`'s batched planner flights) moves into the package
+# with their own work on them (issue 66). `decode_grib` is kept by
+# real_winds.py for `digest`, now `ble_latex.wind.grib_copy.digest`.
+SCRIPT_ARROWS = {
+    'eval_speed.py': {'planners'},
+    'real_winds.py': {'decode_grib', 'planners'},
+    'real_winds_paths.py': {'real_winds'},
+    'reward_shape.py': {'real_winds'},
+    'wind_compare.py': {'real_winds'},
+}
+
+
+def _scripts() -> Dict[str, pathlib.Path]:
+  """benchmarks/ scripts by path under it (committed runs' folders left)."""
+  return {str(p.relative_to(BENCHMARKS)): p
+          for p in sorted(BENCHMARKS.rglob('*.py'))
+          if not p.relative_to(BENCHMARKS).parts[0] == 'sac_jax'}
+
+
+def _edits_sys_path(path: pathlib.Path) -> List[int]:
+  """Lines that change `sys.path` (a call on it, or an assignment to it)."""
+  tree = ast.parse(path.read_text(encoding='utf-8'), str(path))
+
+  def is_sys_path(node: ast.AST) -> bool:
+    while isinstance(node, ast.Subscript):
+      node = node.value
+    return (isinstance(node, ast.Attribute) and node.attr == 'path' and
+            isinstance(node.value, ast.Name) and node.value.id == 'sys')
+
+  lines = []
+  for node in ast.walk(tree):
+    if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+        and is_sys_path(node.func.value)):
+      lines.append(node.lineno)
+    elif isinstance(node, (ast.Assign, ast.AugAssign, ast.AnnAssign)):
+      targets = node.targets if isinstance(node, ast.Assign) else [
+          node.target]
+      if any(is_sys_path(t) for t in targets):
+        lines.append(node.lineno)
+  return lines
+
+
+def _script_imports() -> Dict[str, Set[str]]:
+  """Script -> the other scripts it imports (by module name)."""
+  scripts = _scripts()
+  stems = {pathlib.Path(name).stem for name in scripts}
+  found = {}
+  for name, path in scripts.items():
+    imported = {i.split('.')[0] for i in _imports(path, package='benchmarks')}
+    others = (imported & stems) - {pathlib.Path(name).stem}
+    if others:
+      found[name] = others
+  return found
+
+
+def test_benchmark_scripts_import_only_the_package():
+  assert _script_imports() == SCRIPT_ARROWS, (
+      'benchmarks/ scripts import each other beyond SCRIPT_ARROWS (move the '
+      'shared logic into ble_latex/), or an arrow is gone: drop it there')
+
+
+def test_benchmark_scripts_leave_sys_path_alone():
+  edits = {name: _edits_sys_path(path) for name, path in _scripts().items()}
+  edits = {name: lines for name, lines in edits.items() if lines}
+  assert set(edits) == set(SCRIPT_ARROWS), edits
+
+
+def test_the_script_checks_see_sys_path_edits_and_script_imports(tmp_path):
+  # The checks above cannot pass vacuously.
+  probe = tmp_path / 'probe.py'
+  probe.write_text('import sys\n'
+                   'sys.path.insert(0, "x")\n'
+                   'def f():\n  sys.path[:] = []\n  import real_winds\n'
+                   'text = "sys.path.insert(0, tree)"\n', encoding='utf-8')
+  assert _edits_sys_path(probe) == [2, 4]
+  assert 'real_winds' in _imports(probe, package='benchmarks')
+  assert {'batch_speed.py', 'gpu/decode_grib.py'} <= set(_scripts())
