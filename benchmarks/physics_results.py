@@ -36,11 +36,8 @@ agent's) and prints two Markdown tables:
    its 7 days), % of flights aloft for all 7 days, TW50 over the 7 days.
 """
 
-import collections
 import json
 import os
-import re
-import statistics
 import sys
 from typing import Any, Dict, List, Optional, Sequence
 
@@ -48,7 +45,6 @@ from absl import flags
 
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
-from ble_latex.flight import params as params_lib
 from ble_latex.run import metrics
 from ble_latex.run import records
 
@@ -73,11 +69,9 @@ flags.DEFINE_string('realistic_task_long', None,
 flags.DEFINE_string('json', None, 'Also write the rows here.',
                     flag_values=FLAGS)
 
-SECONDS_PER_DAY = 86_400.0  # [s]
 # The record's sections a folder flag fills (the flag's name).
 SECTIONS = ('paper', 'realistic', 'realistic_stress', 'paper_long',
             'realistic_long', 'realistic_task', 'realistic_task_long')
-_SEED_FILE = re.compile(r'^(?P<prefix>.+)_seed_(?P<seed>\d+)$')
 
 
 def _load(folder: Optional[str]) -> Dict[str, List[Dict[str, Any]]]:
@@ -92,58 +86,10 @@ def _load(folder: Optional[str]) -> Dict[str, List[Dict[str, Any]]]:
   return out
 
 
-def days_aloft(record: Dict[str, Any],
-               stride_s: float = params_lib.DEFAULTS.stride_s) -> float:
-  """Days the episode flew: its strides times the stride. # [day]"""
-  return record['steps'] * stride_s / SECONDS_PER_DAY
-
-
-def summary(records: List[Dict[str, Any]]) -> Dict[str, Any]:
-  """`metrics.summarize` plus days aloft and the share flying the window."""
-  s = metrics.summarize(records)
-  days = [days_aloft(r) for r in records]
-  s['days_aloft_mean'] = statistics.mean(days)
-  s['days_aloft_std'] = statistics.pstdev(days)
-  s['full_window_pct'] = 100.0 * statistics.mean(
-      r['terminal_reason'] == 'time_limit' for r in records)
-  s['seeds'] = [min(r['seed'] for r in records),
-                max(r['seed'] for r in records)]
-  # Per seed, for paired differences between agents flown on the same
-  # seeds (docs/hooks/tables.py).
-  s['per_seed'] = {'seeds': [r['seed'] for r in records],
-                   'tw50_window': [r['tw50_window'] for r in records]}
-  return s
-
-
-def over_seeds(rows: Dict[str, Dict[str, Any]]) -> Dict[str, Dict[str, Any]]:
-  """Rows `<prefix> (N seeds)`: mean ± std over seeds of per-seed means."""
-  groups = collections.defaultdict(list)
-  for agent, s in rows.items():
-    match = _SEED_FILE.match(agent)
-    if match:
-      groups[match['prefix']].append(s)
-  out = {}
-  for prefix, seeds in groups.items():
-    if len(seeds) < 2:
-      continue
-    agg = {}
-    for key in ('tw50_window_mean', 'out_of_resources_pct',
-                'helium_vented_mols_mean', 'sand_dropped_kg_mean',
-                'days_aloft_mean', 'full_window_pct'):
-      values = [s[key] for s in seeds]
-      agg[key] = statistics.mean(values)
-      agg[key + '_over_seeds_std'] = statistics.stdev(values)
-    agg['tw50_window_std'] = agg['tw50_window_mean_over_seeds_std']
-    agg['days_aloft_std'] = agg['days_aloft_mean_over_seeds_std']
-    agg['episodes'] = sum(s['episodes'] for s in seeds)
-    agg['num_seeds'] = len(seeds)
-    out[f'{prefix} ({len(seeds)} seeds)'] = agg
-  return out
-
-
 def _rows(folder: Optional[str]) -> Dict[str, Dict[str, Any]]:
-  rows = {agent: summary(r) for agent, r in _load(folder).items()}
-  rows.update(over_seeds(rows))
+  rows = {agent: metrics.summarize_aloft(r)
+          for agent, r in _load(folder).items()}
+  rows.update(metrics.over_seeds(rows))
   return rows
 
 

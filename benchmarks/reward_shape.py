@@ -53,7 +53,6 @@ A smoke run (tiny budget; its numbers mean nothing):
 from concurrent import futures
 import datetime as dt
 import json
-import math
 import multiprocessing
 import os
 import platform
@@ -66,6 +65,7 @@ from absl import flags
 from ble_latex import gin_values
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import metrics
 from ble_latex.run import seed_runs
 from ble_latex.run import selection
 
@@ -120,11 +120,6 @@ flags.DEFINE_integer('parallel', 1, 'Cells (reward, seed) trained and flown '
                      'written by this process alone, as cells finish.',
                      lower_bound=1, flag_values=FLAGS)
 
-# The station circle and the edge band of the study. # [km]
-RADIUS_KM = 50.0
-EDGE_KM = 40.0
-
-
 def reward_bindings(reward: str, tanh_scale_km: float) -> List[str]:
   """The gin bindings that select `reward` for training."""
   if reward == 'perciatelli':
@@ -135,56 +130,17 @@ def reward_bindings(reward: str, tanh_scale_km: float) -> List[str]:
       f'--rewards: {reward!r} is not one of perciatelli, tanh')
 
 
-def edge_fractions(record: Dict[str, Any]) -> Dict[str, float]:
-  """Fractions of an eval record's window by distance from the station.
-
-  Each stride's end point (the flight path after the start) counts for one
-  stride of the window (`window_steps`, as TW50 window counts them; strides
-  after a flight ended count as outside).
-
-  Returns:
-    `edge` (40 < d <= 50 km), `core` (d <= 40 km), and `edge_share` (edge
-    / (edge + core), NaN when never inside).
-  """
-  points = record['flight_path'][1:]
-  window = record.get('window_steps') or len(points)
-  distances = [math.hypot(p['x_km'], p['y_km']) for p in points[:window]]
-  edge = sum(EDGE_KM < d <= RADIUS_KM for d in distances) / window
-  core = sum(d <= EDGE_KM for d in distances) / window
-  share = edge / (edge + core) if edge + core > 0 else float('nan')
-  return {'edge': edge, 'core': core, 'edge_share': share}
-
-
-def edge_summary(held: List[Dict[str, Any]]) -> Dict[str, Any]:
-  """Means over flights of `edge_fractions` (the share over flights that
-  were ever inside)."""
-  fractions = [edge_fractions(r) for r in held]
-  shares = [f['edge_share'] for f in fractions
-            if not math.isnan(f['edge_share'])]
-  return {'edge_fraction': statistics.mean(f['edge'] for f in fractions),
-          'core_fraction': statistics.mean(f['core'] for f in fractions),
-          'edge_share_of_inside': statistics.mean(shares) if shares else None}
-
-
 def edges_of(path: str) -> Dict[str, Any]:
-  """An eval file's flights: mean TW50 window and `edge_summary`."""
+  """An eval file's flights: mean TW50 window and `metrics.edge_summary`."""
   from ble_latex.run import records  # pylint: disable=g-import-not-at-top
   try:
     held = records.load_eval(path)
     return {'file': path, 'episodes': len(held),
             'tw50_window': statistics.mean(r['tw50_window'] for r in held),
-            **edge_summary(held)}
+            **metrics.edge_summary(held)}
   except (ValueError, KeyError, TypeError, statistics.StatisticsError) as e:
     raise cli.CommandFailure(f'--edges_of: {path} is not a usable eval file '
                              f'({cli.one_line(e)})') from e
-
-
-def per_seed(held: List[Dict[str, Any]]) -> Dict[str, List[Any]]:
-  """Each flight's seed, TW50 window and edge fraction (for paired
-  differences between rewards on the same seeds)."""
-  return {'seeds': [r['seed'] for r in held],
-          'tw50_window': [round(r['tw50_window'], 5) for r in held],
-          'edge': [round(edge_fractions(r)['edge'], 5) for r in held]}
 
 
 def _held_out(suite_name: str, episodes: Optional[int], policy_path: str,
@@ -213,7 +169,6 @@ def _fly_real(policy_path: str, cell: Dict[str, Any], path: str,
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params
   from ble_latex.run import eval_lib
-  from ble_latex.run import metrics
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
   bindings = [*real_winds.source_bindings(cell, path),
@@ -229,7 +184,8 @@ def _fly_real(policy_path: str, cell: Dict[str, Any], path: str,
           'episodes': len(held),
           'tw50_window': summary['tw50_window_mean'],
           'out_of_resources_pct': summary['out_of_resources_pct'],
-          **edge_summary(held), 'per_seed': per_seed(held)}
+          **metrics.edge_summary(held),
+          'per_seed': metrics.per_seed_edges(held)}
 
 
 def real_missing(args: Any, row: Dict[str, Any]) -> List[str]:
@@ -327,9 +283,10 @@ def run_cell(args: Any, reward: str, seed: int) -> Dict[str, Any]:
       'validation_out_of_resources_pct': chosen['out_of_resources_pct'],
       'held_out_episodes': len(held),
       'held_out_tw50_window': summary['tw50_window_mean'],
-      **edge_summary(held),
+      **metrics.edge_summary(held),
       'held_out_out_of_resources_pct': summary['out_of_resources_pct'],
-      'held_out_file': output, 'held_out_per_seed': per_seed(held)})
+      'held_out_file': output,
+      'held_out_per_seed': metrics.per_seed_edges(held)})
   return row
 
 
@@ -419,7 +376,7 @@ def _main(argv: Sequence[str]) -> int:
       if ('held_out_tw50_window' in row and 'held_out_per_seed' not in row
           and os.path.exists(row['held_out_file'])):  # Flown before it was kept.
         from ble_latex.run import records  # pylint: disable=g-import-not-at-top
-        row['held_out_per_seed'] = per_seed(records.load_eval(
+        row['held_out_per_seed'] = metrics.per_seed_edges(records.load_eval(
             row['held_out_file']))
       if 'held_out_tw50_window' in row and args.real_sources:
         fly_real(args, row, os.path.join(

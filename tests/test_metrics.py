@@ -84,26 +84,22 @@ def test_upgrade_script_derives_what_the_tracker_writes(tmp_path):
   assert list(upgraded[0]) == list(new)  # Same key order as the writer.
 
 
-def test_physics_results_days_aloft_and_seed_rows():
-  """benchmarks/physics_results.py: days aloft from strides (20 min), the
-  share flying the whole window, and one mean ± std row over seed files."""
-  import importlib.util  # pylint: disable=g-import-not-at-top
-  spec = importlib.util.spec_from_file_location(
-      'physics_results', ROOT / 'benchmarks' / 'physics_results.py')
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
+def test_days_aloft_and_seed_rows():
+  """`summarize_aloft` and `over_seeds` (benchmarks/physics_results.py's
+  rows): days aloft from strides (20 min), the share flying the whole
+  window, and one mean ± std row over seed files."""
 
   def record(seed, steps, reason, window):
     return {'seed': seed, 'reward': 1.0, 'tw50': window, 'tw50_window': window,
             'helium_vented_mols': 1.0, 'sand_dropped_kg': 0.5, 'steps': steps,
             'terminal_reason': reason}
 
-  a = module.summary([record(1, 504, 'time_limit', 0.5),
+  a = metrics.summarize_aloft([record(1, 504, 'time_limit', 0.5),
                       record(2, 72, 'out_of_sand', 0.1)])
   assert a['days_aloft_mean'] == pytest.approx(4.0)  # (7 + 1) / 2 days.
   assert a['full_window_pct'] == 50.0
-  b = module.summary([record(1, 144, 'out_of_helium', 0.3)])
-  rows = module.over_seeds({'sac_seed_0': a, 'sac_seed_1': b, 'other': a})
+  b = metrics.summarize_aloft([record(1, 144, 'out_of_helium', 0.3)])
+  rows = metrics.over_seeds({'sac_seed_0': a, 'sac_seed_1': b, 'other': a})
   assert list(rows) == ['sac (2 seeds)']
   row = rows['sac (2 seeds)']
   assert row['tw50_window_mean'] == pytest.approx(0.3)  # a: (0.5 + 0.1) / 2.

@@ -1,10 +1,13 @@
-"""benchmarks/reward_shape.py's own pieces (the study itself is not run here)."""
+"""benchmarks/reward_shape.py (the study itself is not run here) and the edge
+fractions it reads (`ble_latex.run.metrics`)."""
 
 import importlib.util
 import json
 import pathlib
 
 import pytest
+
+from ble_latex.run import metrics
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -24,13 +27,13 @@ def _record(distances_km, window):
   return {'flight_path': path, 'window_steps': window}
 
 
-def test_edge_fractions_count_strides_of_the_window(script):
+def test_edge_fractions_count_strides_of_the_window():
   record = _record([10.0, 39.9, 40.0, 40.1, 45.0, 50.0, 50.1, 80.0], 10)
-  fractions = script.edge_fractions(record)
+  fractions = metrics.edge_fractions(record)
   assert fractions['core'] == pytest.approx(3 / 10)  # 10, 39.9, 40.
   assert fractions['edge'] == pytest.approx(3 / 10)  # 40.1, 45, 50.
   assert fractions['edge_share'] == pytest.approx(0.5)
-  never = script.edge_fractions(_record([60.0, 70.0], 216))
+  never = metrics.edge_fractions(_record([60.0, 70.0], 216))
   assert never['edge'] == never['core'] == 0.0
 
 
@@ -149,9 +152,9 @@ def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
   assert 'time-invariant' in flown['wind_source']
 
 
-def test_edge_summary_averages_flights_and_skips_never_inside(script):
-  summary = script.edge_summary([_record([45.0, 10.0], 2),
-                                 _record([60.0, 70.0], 2)])
+def test_edge_summary_averages_flights_and_skips_never_inside():
+  summary = metrics.edge_summary([_record([45.0, 10.0], 2),
+                                  _record([60.0, 70.0], 2)])
   assert summary['edge_fraction'] == pytest.approx(0.25)
   assert summary['core_fraction'] == pytest.approx(0.25)
   assert summary['edge_share_of_inside'] == pytest.approx(0.5)  # First only.

@@ -6,16 +6,22 @@
 - `LatexStatistics`: BLE's `StatisticsInstance` (a dataclass) plus the env's
   `info` and, at episode end, the `EpisodeSummary`, what the collectors of
   `ble_latex.run.collectors` receive;
-- `summarize`: mean / std over episodes.
+- `summarize`: mean / std over episodes;
+- what the studies read beyond it: `edge_fractions` (time near the circle's
+  edge, `benchmarks/reward_shape.py`), `summarize_aloft` and `over_seeds`
+  (days aloft, rows over training seeds, `benchmarks/physics_results.py`).
 
 No TensorFlow: BLE's collectors (which import it) are in `collectors`.
 """
 
+import collections
 import dataclasses
 import json
 import math
+import re
+import statistics
 import time
-from typing import Any, Dict, Mapping, Optional, Sequence
+from typing import Any, Dict, List, Mapping, Optional, Sequence
 
 from balloon_learning_environment.metrics import statistics_instance
 import numpy as np
@@ -208,3 +214,107 @@ def per_seed_summary(path: str) -> Dict[str, Any]:
           'out_of_resources_pct': summary['out_of_resources_pct'],
           'helium_vented_mols_mean': summary['helium_vented_mols_mean'],
           'sand_dropped_kg_mean': summary['sand_dropped_kg_mean']}
+
+
+# -- What the studies read from eval records beyond `summarize`. -------------
+
+EDGE_KM = 40.0  # [km] The edge band is (EDGE_KM, radius] (reward_shape.py).
+SECONDS_PER_DAY = 86_400.0  # [s]
+_SEED_FILE = re.compile(r'^(?P<prefix>.+)_seed_(?P<seed>\d+)$')
+
+
+def edge_fractions(record: Dict[str, Any],
+                   radius_km: float = task.STATION_RADIUS_KM
+                   ) -> Dict[str, float]:
+  """Fractions of an eval record's window by distance from the station.
+
+  Each stride's end point (the flight path after the start) counts for one
+  stride of the window (`window_steps`, as TW50 window counts them; strides
+  after a flight ended count as outside).
+
+  Returns:
+    `edge` (EDGE_KM < d <= radius_km), `core` (d <= EDGE_KM), and
+    `edge_share` (edge / (edge + core), NaN when never inside).
+  """
+  points = record['flight_path'][1:]
+  window = record.get('window_steps') or len(points)
+  distances = [math.hypot(p['x_km'], p['y_km']) for p in points[:window]]
+  edge = sum(EDGE_KM < d <= radius_km for d in distances) / window
+  core = sum(d <= EDGE_KM for d in distances) / window
+  share = edge / (edge + core) if edge + core > 0 else float('nan')
+  return {'edge': edge, 'core': core, 'edge_share': share}
+
+
+def edge_summary(held: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
+  """Means over flights of `edge_fractions` (the share over flights that
+  were ever inside)."""
+  fractions = [edge_fractions(r) for r in held]
+  shares = [f['edge_share'] for f in fractions
+            if not math.isnan(f['edge_share'])]
+  return {'edge_fraction': statistics.mean(f['edge'] for f in fractions),
+          'core_fraction': statistics.mean(f['core'] for f in fractions),
+          'edge_share_of_inside': statistics.mean(shares) if shares else None}
+
+
+def per_seed_edges(held: Sequence[Dict[str, Any]]) -> Dict[str, List[Any]]:
+  """Each flight's seed, TW50 window and edge fraction (for paired
+  differences between rewards on the same seeds)."""
+  return {'seeds': [r['seed'] for r in held],
+          'tw50_window': [round(r['tw50_window'], 5) for r in held],
+          'edge': [round(edge_fractions(r)['edge'], 5) for r in held]}
+
+
+def days_aloft(record: Dict[str, Any], stride_s: Optional[float] = None
+               ) -> float:
+  """Days the episode flew: its strides times the stride [s]
+  (default the flight core's). # [day]"""
+  if stride_s is None:
+    # pylint: disable-next=g-import-not-at-top
+    from ble_latex.flight import params as params_lib
+    stride_s = params_lib.DEFAULTS.stride_s
+  return record['steps'] * stride_s / SECONDS_PER_DAY
+
+
+def summarize_aloft(records: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
+  """`summarize` plus days aloft, the share flying the window and per seed."""
+  s = summarize(records)
+  days = [days_aloft(r) for r in records]
+  s['days_aloft_mean'] = statistics.mean(days)
+  s['days_aloft_std'] = statistics.pstdev(days)
+  s['full_window_pct'] = 100.0 * statistics.mean(
+      r['terminal_reason'] == 'time_limit' for r in records)
+  s['seeds'] = [min(r['seed'] for r in records),
+                max(r['seed'] for r in records)]
+  # Per seed, for paired differences between agents flown on the same
+  # seeds (docs/hooks/tables.py).
+  s['per_seed'] = {'seeds': [r['seed'] for r in records],
+                   'tw50_window': [r['tw50_window'] for r in records]}
+  return s
+
+
+def over_seeds(rows: Mapping[str, Dict[str, Any]]
+               ) -> Dict[str, Dict[str, Any]]:
+  """Rows `<prefix> (N seeds)`: mean ± std over `<prefix>_seed_<s>` rows of
+  `summarize_aloft` (two seeds or more)."""
+  groups = collections.defaultdict(list)
+  for agent, s in rows.items():
+    match = _SEED_FILE.match(agent)
+    if match:
+      groups[match['prefix']].append(s)
+  out = {}
+  for prefix, seeds in groups.items():
+    if len(seeds) < 2:
+      continue
+    agg = {}
+    for key in ('tw50_window_mean', 'out_of_resources_pct',
+                'helium_vented_mols_mean', 'sand_dropped_kg_mean',
+                'days_aloft_mean', 'full_window_pct'):
+      values = [s[key] for s in seeds]
+      agg[key] = statistics.mean(values)
+      agg[key + '_over_seeds_std'] = statistics.stdev(values)
+    agg['tw50_window_std'] = agg['tw50_window_mean_over_seeds_std']
+    agg['days_aloft_std'] = agg['days_aloft_mean_over_seeds_std']
+    agg['episodes'] = sum(s['episodes'] for s in seeds)
+    agg['num_seeds'] = len(seeds)
+    out[f'{prefix} ({len(seeds)} seeds)'] = agg
+  return out
