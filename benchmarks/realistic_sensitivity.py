@@ -14,7 +14,8 @@ that sigma and swing, everything else as calibrated:
 Agents: `latex_station_seeker` (the geometric seeker) and, with
 `--agents=latex_station_seeker,sac_pretrained`, the shipped paper-trained
 SAC policy (`ble_latex/agents/policies/sac_latex.msgpack`, trained on the
-paper's physics, not on these). Both fly as pure JAX controllers
+paper's physics, not on these). The cells, flights and summaries are
+`ble_latex.run.sensitivity`'s. Both fly as pure JAX controllers
 (`launch.controllers`, the same actions as the agents), all seeds of a cell
 in one jitted, vmapped scan; each seed's world is the gym env's
 (`jax_env.LatexBalloonJaxEnv.reset(PRNGKey(seed))`), so a cell's flights
@@ -40,22 +41,15 @@ import sys
 import time
 from typing import Any, Dict, List, Sequence
 
-import gin
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ble_latex import configs
 from ble_latex import safe_io
-from ble_latex.envs import env_params as env_params_lib
-from ble_latex.envs import jax_env
 from ble_latex.flight import params as params_lib
-from ble_latex.flight import state as state_lib
+from ble_latex.run import sensitivity
 from ble_latex.run import suites
 
-SECONDS_PER_DAY = 86_400.0  # [s]
-PAPER_POLICY = 'ble_latex/agents/policies/sac_latex.msgpack'
-GIN_FILES = ('latex_physics.gin', 'latex_realistic.gin')
 # The suites whose seeds a cell flies (their first --seeds).
 SEED_SUITES = {'latex_small': suites.EVAL_SEED_OFFSET,
                'latex_validation': suites.VALIDATION_SEED_OFFSET}
@@ -70,98 +64,6 @@ def _floats(text: str, name: str) -> List[float]:
     raise argparse.ArgumentTypeError(
         f'{name} must be comma-separated numbers >= 0, got {text!r}')
   return values
-
-
-def env_params(steps: int):
-  """EnvParams of the realistic physics for `steps`-stride flights."""
-  gin.clear_config()
-  try:
-    gin.parse_config_files_and_bindings(
-        [configs.gin_file(name) for name in GIN_FILES],
-        [f'LatexBalloonEnv.episode_steps = {steps}'])
-    return env_params_lib.params_from_gin()
-  finally:
-    gin.clear_config()
-
-
-def cell_params(params, sigma_g: float, swing_k: float):
-  """`params` with disturbance sigma [g/sqrt(s)] and day-night swing [K].
-
-  Since issue 68 the preset's disturbance is the bounded heating; the walk
-  at sigma (switched on here: a static field) flies on top of it.
-  """
-  day = params_lib.REALISTIC['superheat_day_k']
-  night = params_lib.REALISTIC['cooling_night_k']
-  share = day / (day + night)
-  return params.replace(flight=params.flight.replace(
-      lift_walk=float(sigma_g) > 0.0,
-      lift_walk_kg_per_sqrt_s=float(sigma_g) * 1e-3,
-      superheat_day_k=float(swing_k) * share,
-      cooling_night_k=float(swing_k) * (1.0 - share)))
-
-
-def controller_of(agent: str):
-  """The JAX controller of `agent` (sac_pretrained: the paper's policy).
-
-  `launch.controllers` imports BLE's agents (TensorFlow): imported here.
-  """
-  from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
-  gin.clear_config()
-  try:
-    if agent == 'sac_pretrained':
-      gin.parse_config(
-          f'SACPretrainedAgent.policy_path = "{PAPER_POLICY}"')
-    controller = controllers.controller_named(agent)
-  finally:
-    gin.clear_config()
-  if controller.period != 1:
-    raise SystemExit(f'{agent}: only controllers acting every stride fly '
-                     'here')
-  return controller
-
-
-def flier(controller, steps: int):
-  """Jitted (params, keys [N]) -> per-seed strides aloft, within, sand."""
-  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
-  ok = int(state_lib.FlightStatus.OK)
-
-  def one(params, key):
-    obs, state = env.reset(key, params)
-
-    def stride(carry, _):
-      state, obs, control, aloft, within = carry
-      alive = state.flight.status == ok
-      action, control = controller.act(control, obs, state,
-                                        jnp.zeros((), jnp.int32))
-      obs, state, _, _, info = env.step_env(None, state, action, params)
-      aloft = aloft + alive
-      within = within + (alive & (info['distance_km'] <= params.radius_km))
-      return (state, obs, control, aloft, within), None
-
-    zero = jnp.zeros((), jnp.int32)
-    carry = (state, obs, controller.init(obs, state), zero, zero)
-    (state, _, _, aloft, within), _ = jax.lax.scan(stride, carry, None,
-                                                    length=steps)
-    return aloft, within, state.flight.sand_dropped_kg, state.flight.status
-
-  return jax.jit(jax.vmap(one, in_axes=(None, 0)))
-
-
-def summarize(aloft, within, sand, status, steps: int,
-              stride_s: float) -> Dict[str, Any]:
-  days = np.asarray(aloft, np.float64) * stride_s / SECONDS_PER_DAY
-  tw50 = np.asarray(within, np.float64) / steps
-  status = np.asarray(status)
-  return {
-      'days_aloft_mean': float(days.mean()),
-      'days_aloft_std': float(days.std()),
-      'aloft_at_end_pct': float(
-          100.0 * (status == int(state_lib.FlightStatus.OK)).mean()),
-      'tw50_mean': float(tw50.mean()),
-      'tw50_std': float(tw50.std()),
-      'sand_dropped_kg_mean': float(np.asarray(sand).mean()),
-      'days_aloft': [round(float(d), 3) for d in days],
-  }
 
 
 def plot(record: Dict[str, Any], path: str) -> None:
@@ -238,9 +140,10 @@ def main(argv: Sequence[str]) -> int:
     parser.error(f'--seeds must be in [1, 1000], got {args.seeds}')
   if not 0.0 < args.days <= 30.0:
     parser.error(f'--days must be in (0, 30], got {args.days}')
-  params = env_params(1)
-  steps = int(round(args.days * SECONDS_PER_DAY / params.stride_s))
-  params = env_params(steps)
+  params = sensitivity.env_params(1)
+  steps = int(round(args.days * sensitivity.SECONDS_PER_DAY /
+                    params.stride_s))
+  params = sensitivity.env_params(steps)
   grid = {'agents': agents, 'sigma_g': args.sigma_g,
           'swing_k': args.swing_k, 'seeds': args.seeds, 'suite': args.suite,
           'days': args.days, 'steps': steps}
@@ -266,15 +169,17 @@ def main(argv: Sequence[str]) -> int:
   keys = jnp.stack([jax.random.PRNGKey(s)
                     for s in range(first, first + args.seeds)])
   for agent in agents:
-    fly = flier(controller_of(agent), steps)
+    fly = sensitivity.flier(sensitivity.controller_of(agent), steps)
     for swing in args.swing_k:
       for sigma in args.sigma_g:
         name = _cell_name(agent, sigma, swing)
         if name in record['cells']:
           continue
         t0 = time.time()
-        out = jax.device_get(fly(cell_params(params, sigma, swing), keys))
-        cell = summarize(*out, steps=steps, stride_s=params.stride_s)
+        out = jax.device_get(fly(sensitivity.cell_params(params, sigma, swing),
+                                 keys))
+        cell = sensitivity.summarize(*out, steps=steps,
+                                     stride_s=params.stride_s)
         cell['seconds'] = round(time.time() - t0, 1)
         record['cells'][name] = cell
         print(f'{name}: {cell["days_aloft_mean"]:.2f} days, TW50 '

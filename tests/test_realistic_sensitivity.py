@@ -1,5 +1,6 @@
 # coding=utf-8
-"""benchmarks/realistic_sensitivity.py (issue 44): its cells and its record.
+"""benchmarks/realistic_sensitivity.py (issue 44): its cells (`run.sensitivity`)
+and its record.
 
 The flights themselves are the env's (tests/test_jax_env.py); here: a cell
 binds the sigma and swing asked for and nothing else, days aloft and TW50
@@ -14,6 +15,7 @@ import pytest
 
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import state as state_lib
+from ble_latex.run import sensitivity
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -27,11 +29,11 @@ def module():
   return mod
 
 
-def test_a_cell_sets_sigma_and_the_swing_in_the_calibrated_split(module):
-  params = module.env_params(504)
+def test_a_cell_sets_sigma_and_the_swing_in_the_calibrated_split():
+  params = sensitivity.env_params(504)
   assert params.episode_steps == 504
   assert params.flight == params_lib.make_flight_params(**params_lib.REALISTIC)
-  cell = module.cell_params(params, 1.4, 17.0).flight
+  cell = sensitivity.cell_params(params, 1.4, 17.0).flight
   assert cell.lift_walk_kg_per_sqrt_s == pytest.approx(1.4e-3)
   assert cell.superheat_day_k + cell.cooling_night_k == pytest.approx(17.0)
   day, night = (params_lib.REALISTIC['superheat_day_k'],
@@ -46,19 +48,19 @@ def test_a_cell_sets_sigma_and_the_swing_in_the_calibrated_split(module):
       lift_walk_kg_per_sqrt_s=params.flight.lift_walk_kg_per_sqrt_s,
       superheat_day_k=day, cooling_night_k=night) == params.flight
   # The walk that was the default before issue 68, at the calibrated swing.
-  same = module.cell_params(params, 0.35, day + night).flight
+  same = sensitivity.cell_params(params, 0.35, day + night).flight
   np.testing.assert_allclose(
       [same.lift_walk_kg_per_sqrt_s, same.superheat_day_k,
        same.cooling_night_k],
       [params_lib.LIFT_WALK_RANDOM['lift_walk_kg_per_sqrt_s'], day, night])
 
 
-def test_summary_counts_days_and_tw50(module):
+def test_summary_counts_days_and_tw50():
   ok, sand = int(state_lib.FlightStatus.OK), int(
       state_lib.FlightStatus.OUT_OF_SAND)
-  s = module.summarize(np.array([504, 72]), np.array([252, 0]),
-                       np.array([1.0, 2.0]), np.array([ok, sand]),
-                       steps=504, stride_s=1200.0)
+  s = sensitivity.summarize(np.array([504, 72]), np.array([252, 0]),
+                            np.array([1.0, 2.0]), np.array([ok, sand]),
+                            steps=504, stride_s=1200.0)
   assert s['days_aloft_mean'] == pytest.approx(4.0)  # (7 + 1) / 2 days.
   assert s['aloft_at_end_pct'] == 50.0
   assert s['tw50_mean'] == pytest.approx(0.25)
