@@ -127,21 +127,26 @@ def test_the_ensemble_mean_flies(ensemble):
 
 def _truth_and_forecast(grid, truth_members):
   """(truth, forecast) [2, members, 8] of `grid` at 8 places, one row per
-  truth member given."""
+  truth member given (one jitted call: faster to compile than eager ops)."""
   import types  # pylint: disable=g-import-not-at-top
+  import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import winds  # pylint: disable=g-import-not-at-top
   rows = len(truth_members)
-  state = types.SimpleNamespace(
-      noise_u=None, noise_v=None, station=None,
-      truth_member=jnp.asarray(truth_members, jnp.int32)[:, None],
-      start_time_offset_s=(grid.first_time_min - winds._EPOCH_MIN) * 60)
   wind = winds.era5_wind(grid)
   x = jnp.tile(jnp.linspace(-5e4, 5e4, 8), (rows, 1))
   args = (x, -x, jnp.full((rows, 8), 5000.0),
           jnp.tile(jnp.linspace(0.0, 3e4, 8), (rows, 1)))
-  return (np.stack(wind.ground_truth(state, *args)),
-          np.stack(wind.forecast_column(state, *args)))
+
+  @jax.jit
+  def both(members):
+    state = types.SimpleNamespace(
+        noise_u=None, noise_v=None, station=None, truth_member=members,
+        start_time_offset_s=(grid.first_time_min - winds._EPOCH_MIN) * 60)
+    return (jnp.stack(wind.ground_truth(state, *args)),
+            jnp.stack(wind.forecast_column(state, *args)))
+  truth, forecast = both(jnp.asarray(truth_members, jnp.int32)[:, None])
+  return np.asarray(truth), np.asarray(forecast)
 
 
 def test_members_drawn_as_truths(ensemble):
@@ -156,24 +161,30 @@ def test_members_drawn_as_truths(ensemble):
   assert era5_jax.has_truth_members(grid)
   assert grid.truth_uv.shape[0] == 2  # Members 1 and 2: not the forecast's.
   assert grid.noise_scale == 0.0  # The members' spread is the error.
-  truth, forecast = _truth_and_forecast(grid, [0, 1])
-  np.testing.assert_allclose(truth[:, 0], forecast[:, 0] + 1.0, atol=1e-3)
-  np.testing.assert_allclose(truth[:, 1], forecast[:, 1] + 2.0, atol=1e-3)
   assert winds.wind_source_from_gin(settings).endswith(
       '; truth the 2 members but 0 of 3, drawn per flight')
+  np.testing.assert_allclose(
+      grid.truth_uv, np.stack([era5.load(ensemble, member=k).uv
+                               for k in (1, 2)]), atol=1e-5)
   mean = era5_jax.grid_from_settings(era5.Era5Settings(
       path=ensemble, member='mean', truth_members=True, center_lat=40.0,
       center_lon=-103.0, episode_hours=3.0))
-  assert mean.truth_uv.shape[0] == 3
-  truth, forecast = _truth_and_forecast(mean, [2])
-  np.testing.assert_allclose(truth, forecast + 1.0, atol=1e-3)
-  # Seeds draw members: every member, the same one for the same key.
-  import jax  # pylint: disable=g-import-not-at-top
-  keys = jax.vmap(jax.random.PRNGKey)(np.arange(32))
-  draws = np.asarray(jax.vmap(era5_jax.draw_truth_member, (None, 0))(grid,
-                                                                     keys))
-  assert set(draws.tolist()) == {0, 1}
-  assert draws[5] == era5_jax.draw_truth_member(grid, jax.random.PRNGKey(5))
+  assert mean.truth_uv.shape[0] == 3  # Every member, under the mean.
+  np.testing.assert_allclose(mean.uv, np.asarray(grid.uv) + 1.0, atol=1e-4)
+  np.testing.assert_allclose(mean.truth_uv[2], grid.truth_uv[1], atol=1e-5)
+
+
+@pytest.mark.slow  # ~14 s at load 10 on 2 cores: the winds' compile.
+def test_each_flight_flies_its_truth_member(ensemble):
+  """The env's truth reads the flight's member (`EnvState.truth_member`);
+  its forecast stays the forecast member."""
+  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
+  grid = era5_jax.grid_from_settings(era5.Era5Settings(
+      path=ensemble, truth_members=True, center_lat=40.0, center_lon=-103.0,
+      episode_hours=3.0))
+  truth, forecast = _truth_and_forecast(grid, [0, 1])
+  np.testing.assert_allclose(truth[:, 0], forecast[:, 0] + 1.0, atol=1e-3)
+  np.testing.assert_allclose(truth[:, 1], forecast[:, 1] + 2.0, atol=1e-3)
 
 
 def test_the_env_draws_a_truth_member_per_seed(ensemble):
