@@ -52,50 +52,10 @@ flags.DEFINE_string('note', '', 'What differs in this group.',
 flags.DEFINE_string('json', 'benchmarks/dagger/results.json', 'The record.',
                     flag_values=FLAGS)
 
-# A round's line in train_dagger.py's log (`dagger.train`'s `log`).
-_ROUND = re.compile(
-    r'^round (\d+): beta ([0-9.]+), (\d+) labels \((\d+) in all\), fit loss '
-    r'([0-9.]+), validation TW50 window ([0-9.]+) \((\d+) % out of '
-    r'resources\); fly (\d+) s, fit (\d+) s$')
-
-
 def _records_from_summary(path: str) -> list:
   """The trainer's per-round records (`dagger.train`'s summary.json)."""
   with open(path, encoding='utf-8') as f:
     return json.load(f)['rounds']
-
-
-def _records_from_log(path: str) -> list:
-  """What a log's round lines (`dagger.round_line`) keep of those records."""
-  records = []
-  with open(path, encoding='utf-8') as f:
-    for line in f:
-      m = _ROUND.match(line.strip())
-      if m:
-        records.append({
-            'round': int(m[1]), 'beta': float(m[2]), 'labelled': int(m[3]),
-            'fit_loss': float(m[5]),
-            'validation': {'tw50_window_mean': float(m[6]),
-                           'out_of_resources_pct': float(m[7])},
-            'fly_s': int(m[8]), 'fit_s': int(m[9])})
-  if not records:
-    raise ValueError(f'{path}: no round lines')
-  return records
-
-
-def _flat(record: dict) -> dict:
-  """A round as results.json keeps it (wall times as far as known)."""
-  validation = record['validation']
-  out = {'round': record['round'], 'beta': record['beta'],
-         'labelled': record['labelled'], 'fit_loss': record['fit_loss'],
-         'validation_tw50_window': validation['tw50_window_mean'],
-         'validation_out_of_resources_pct': validation['out_of_resources_pct']}
-  if 'validate_s' in record:
-    out['validation_episodes'] = validation['episodes']
-    out['wall_s'] = record['fly_s'] + record['fit_s'] + record['validate_s']
-  else:  # A log line gives no validation time.
-    out['wall_s_fly_fit'] = record['fly_s'] + record['fit_s']
-  return out
 
 
 def _bound(seed_dir: str) -> float:
@@ -125,13 +85,13 @@ def _write() -> int:
   seeds = {}
   for path in found:
     seed = int(re.search(r'seed_(\d+)', path)[1])
-    records = (_records_from_log(path) if FLAGS.from_logs else
+    records = (dagger.records_from_log(path) if FLAGS.from_logs else
                _records_from_summary(path))
     best = dagger.best_round(records, _bound(
         os.path.join(FLAGS.runs, f'seed_{seed}')))
     if best is None:
       raise ValueError(f'{path}: no round within the out-of-resources bound')
-    entry = {'rounds': [_flat(r) for r in records],
+    entry = {'rounds': [dagger.flat_round(r) for r in records],
              'best_round': best['round'],
              'best_validation_tw50_window':
                  best['validation']['tw50_window_mean'],

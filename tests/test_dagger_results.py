@@ -31,13 +31,14 @@ def _eval(seeds, tw50):
 
 
 def test_the_log_lines_dagger_train_writes_are_read_back(tmp_path):
-  """`--from_logs` reads the lines `dagger.round_line` writes."""
+  """`dagger.records_from_log` (`--from_logs`) reads the lines
+  `dagger.round_line` writes."""
   from ble_latex.run import dagger  # pylint: disable=g-import-not-at-top
   rounds = [_summary_round(0, 0.125), _summary_round(1, 0.353, oor=2.0)]
   log = tmp_path / 'seed_0.log'
   log.write_text('compiling...\n' + ''.join(
       dagger.round_line(r) + '\n' for r in rounds) + 'validation TW50 ...\n')
-  read = [_script()._flat(r) for r in _script()._records_from_log(str(log))]
+  read = [dagger.flat_round(r) for r in dagger.records_from_log(str(log))]
   assert [(r['round'], r['validation_tw50_window'],
            r['validation_out_of_resources_pct'], r['labelled'])
           for r in read] == [(0, 0.125, 0.0, 100), (1, 0.353, 2.0, 100)]

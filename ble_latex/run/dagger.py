@@ -458,7 +458,7 @@ def best_round(records: List[Dict[str, Any]], max_out_of_resources_pct: float
 
 
 def round_line(record: Dict[str, Any]) -> str:
-  """A round's log line (benchmarks/dagger_results.py reads it back)."""
+  """A round's log line (`records_from_log` reads it back)."""
   result = record['validation']
   return (f'round {record["round"]}: beta {record["beta"]:.2f}, '
           f'{record["labelled"]} labels ({record["dataset_size"]} in all), '
@@ -466,6 +466,51 @@ def round_line(record: Dict[str, Any]) -> str:
           f'{result["tw50_window_mean"]:.3f} '
           f'({result["out_of_resources_pct"]:.0f} % out of resources); '
           f'fly {record["fly_s"]:.0f} s, fit {record["fit_s"]:.0f} s')
+
+
+# `round_line`'s line, read back.
+_ROUND_LINE = re.compile(
+    r'^round (\d+): beta ([0-9.]+), (\d+) labels \((\d+) in all\), fit loss '
+    r'([0-9.]+), validation TW50 window ([0-9.]+) \((\d+) % out of '
+    r'resources\); fly (\d+) s, fit (\d+) s$')
+
+
+def records_from_log(path: str) -> List[Dict[str, Any]]:
+  """What a log's round lines (`round_line`) keep of the round records.
+
+  Raises:
+    ValueError: The log has no round line.
+  """
+  records = []
+  with open(path, encoding='utf-8') as f:
+    for line in f:
+      m = _ROUND_LINE.match(line.strip())
+      if m:
+        records.append({
+            'round': int(m[1]), 'beta': float(m[2]), 'labelled': int(m[3]),
+            'fit_loss': float(m[5]),
+            'validation': {'tw50_window_mean': float(m[6]),
+                           'out_of_resources_pct': float(m[7])},
+            'fly_s': int(m[8]), 'fit_s': int(m[9])})
+  if not records:
+    raise ValueError(f'{path}: no round lines')
+  return records
+
+
+def flat_round(record: Dict[str, Any]) -> Dict[str, Any]:
+  """A round as benchmarks/dagger/results.json keeps it (wall times [s] as
+  far as known: a log line gives no validation time)."""
+  validation = record['validation']
+  out = {'round': record['round'], 'beta': record['beta'],
+         'labelled': record['labelled'], 'fit_loss': record['fit_loss'],
+         'validation_tw50_window': validation['tw50_window_mean'],
+         'validation_out_of_resources_pct': validation['out_of_resources_pct']}
+  if 'validate_s' in record:
+    out['validation_episodes'] = validation['episodes']
+    out['wall_s'] = record['fly_s'] + record['fit_s'] + record['validate_s']
+  else:  # A log line gives no validation time.
+    out['wall_s_fly_fit'] = record['fly_s'] + record['fit_s']
+  return out
 
 
 def run_settings(config: DaggerConfig, teacher: plan_config.PlannerConfig
