@@ -30,6 +30,8 @@ from typing import Any, Dict, List, Optional, Sequence
 from absl import flags
 
 from ble_latex.cli import common as cli
+from ble_latex.run import run_dir
+from ble_latex.run import selection
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('base_dir', None, 'The training run.', flag_values=FLAGS)
@@ -76,36 +78,6 @@ def train(base_dir: str, episodes: int, episodes_per_iteration: int,
       policy_snapshot_period=1)
 
 
-def candidates(base_dir: str, every: int, include_newest: bool) -> List[str]:
-  """Exported policies of iterations (i + 1) % every == 0 (and the newest)."""
-  from ble_latex.run import run_dir  # pylint: disable=g-import-not-at-top
-  pattern = run_dir.POLICY_SNAPSHOT_PATTERN
-  folder = os.path.join(base_dir, 'policies')
-  paths = sorted(os.path.join(folder, name)
-                 for name in (os.listdir(folder) if os.path.isdir(folder)
-                              else []) if pattern.match(name))
-  if not paths:
-    raise FileNotFoundError(
-        f'no exported policies in {base_dir}/policies (train with '
-        '--policy_snapshot_period, or `train_sac.py train`)')
-  chosen = [p for p in paths
-            if (int(pattern.match(os.path.basename(p)).group(1)) + 1) %
-            every == 0]
-  if include_newest and paths[-1] not in chosen:
-    chosen.append(paths[-1])
-  return chosen
-
-
-def best(results: Dict[str, Dict[str, Any]],
-         max_oor_pct: float) -> Optional[str]:
-  """Name with the highest validation TW50 (window) within the OOR cap."""
-  from ble_latex.run import selection  # pylint: disable=g-import-not-at-top
-  chosen = selection.best(results.items(), max_oor_pct=max_oor_pct,
-                          result=lambda item: item[1],
-                          tie=lambda item: item[1]['reward_mean'])
-  return chosen[0] if chosen else None
-
-
 def select(base_dir: str, every: int, include_newest: bool,
            validation_episodes: int, max_oor_pct: float,
            output: Optional[str], era5_path: Optional[str] = None) -> int:
@@ -148,7 +120,7 @@ def select(base_dir: str, every: int, include_newest: bool,
                    if v.get('seeds') == [seeds[0], seeds[-1]]}
   env = gym.make('LatexBalloon-v0').unwrapped
   space = env.action_space
-  for path in candidates(base_dir, every, include_newest):
+  for path in run_dir.snapshot_candidates(base_dir, every, include_newest):
     name = os.path.basename(path)
     if name in results:
       continue
@@ -173,7 +145,7 @@ def select(base_dir: str, every: int, include_newest: bool,
     print(f'| {name} | {r["note"]} | {100 * r["tw50_window_mean"]:.1f} % | '
           f'{100 * r["tw50_mean"]:.1f} % | '
           f'{r["reward_mean"]:.1f} | {r["out_of_resources_pct"]:.0f} % |')
-  chosen = best(results, max_oor_pct)
+  chosen = selection.best_named(results, max_oor_pct)
   if chosen is None:
     print(f'no policy has <= {max_oor_pct} % out of resources',
           file=sys.stderr)

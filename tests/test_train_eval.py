@@ -312,19 +312,22 @@ def test_policy_snapshots_need_a_sac_agent(tmp_path, capsys):
                  "'latex_random'\n"), err
 
 
-def test_train_sac_candidates_and_best(tmp_path, benchmark_script):
-  train_sac = benchmark_script('train_sac.py')
+def test_snapshot_candidates_and_the_best_named(tmp_path):
+  """run_dir.snapshot_candidates and selection.best_named (train_sac.py
+  select's)."""
+  from ble_latex.run import run_dir  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import selection  # pylint: disable=g-import-not-at-top
   with pytest.raises(FileNotFoundError, match='no exported policies'):
-    train_sac.candidates(str(tmp_path), 2, False)
+    run_dir.snapshot_candidates(str(tmp_path), 2, False)
   (tmp_path / 'policies').mkdir()
   for i in range(5):
     (tmp_path / 'policies' / f'policy_{i:05d}.msgpack').write_bytes(b'')
   (tmp_path / 'policies' / 'policy_00005.msgpack.tmp').write_bytes(b'')
   (tmp_path / 'policies' / 'policy_00006.pkl').write_bytes(b'')
   names = lambda paths: [os.path.basename(p) for p in paths]
-  assert names(train_sac.candidates(str(tmp_path), 2, False)) == [
+  assert names(run_dir.snapshot_candidates(str(tmp_path), 2, False)) == [
       'policy_00001.msgpack', 'policy_00003.msgpack']
-  assert names(train_sac.candidates(str(tmp_path), 2, True)) == [
+  assert names(run_dir.snapshot_candidates(str(tmp_path), 2, True)) == [
       'policy_00001.msgpack', 'policy_00003.msgpack', 'policy_00004.msgpack']
 
   def r(tw50, oor, reward=0.0):
@@ -332,6 +335,6 @@ def test_train_sac_candidates_and_best(tmp_path, benchmark_script):
             'reward_mean': reward}
   results = {'a': r(0.5, 20.0), 'b': r(0.3, 10.0), 'c': r(0.3, 0.0, 5.0),
              'd': r(0.1, 0.0)}
-  assert train_sac.best(results, 10.0) == 'c'  # 'a' is over the cap.
-  assert train_sac.best(results, 100.0) == 'a'
-  assert train_sac.best({'a': r(0.5, 20.0)}, 10.0) is None
+  assert selection.best_named(results, 10.0) == 'c'  # 'a' is over the cap.
+  assert selection.best_named(results, 100.0) == 'a'
+  assert selection.best_named({'a': r(0.5, 20.0)}, 10.0) is None

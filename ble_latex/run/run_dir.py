@@ -12,7 +12,7 @@ import contextlib
 import json
 import os
 import re
-from typing import Any, Iterator, Mapping, Optional
+from typing import Any, Iterator, List, Mapping, Optional
 
 from ble_latex.agents import sac_core
 from ble_latex.envs import seeds as seeds_lib
@@ -60,6 +60,29 @@ def chosen_policy_path(base_dir: str) -> str:
   """Where the snapshot chosen on validation is copied
   (`seed_runs.write_chosen_policy`)."""
   return os.path.join(base_dir, CHOSEN_POLICY)
+
+
+def snapshot_candidates(base_dir: str, every: int,
+                        include_newest: bool) -> List[str]:
+  """Snapshots of rounds i with (i + 1) % every == 0 (and the newest).
+
+  Raises:
+    FileNotFoundError: The run has no snapshot.
+  """
+  folder = os.path.join(base_dir, 'policies')
+  paths = sorted(os.path.join(folder, name)
+                 for name in (os.listdir(folder) if os.path.isdir(folder)
+                              else []) if POLICY_SNAPSHOT_PATTERN.match(name))
+  if not paths:
+    raise FileNotFoundError(
+        f'no exported policies in {base_dir}/policies (train with '
+        '--policy_snapshot_period, or `train_sac.py train`)')
+  chosen = [p for p in paths
+            if (int(POLICY_SNAPSHOT_PATTERN.match(os.path.basename(p)).group(1))
+                + 1) % every == 0]
+  if include_newest and paths[-1] not in chosen:
+    chosen.append(paths[-1])
+  return chosen
 
 
 @contextlib.contextmanager

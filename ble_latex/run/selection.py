@@ -7,15 +7,16 @@ resources, and take the highest TW50 over the window
 (`tw50_window_mean`), ties broken by `tie` (larger wins; e.g. the earlier
 round with `tie=lambda r: -r['iteration']`). Every chooser uses it: a
 training seed's snapshot (`choose_snapshot`: `benchmarks/sac_seeds.py`,
-`benchmarks/reward_shape.py`; `sweep_lib`), a
-candidate policy (`benchmarks/train_sac.py`, `benchmarks/policy_select.py`),
-a DAgger round (`run.dagger.best_round`) and the docs' best-validated seed
+`benchmarks/reward_shape.py`; `sweep_lib`), a candidate policy
+(`best_named`: `benchmarks/train_sac.py`; `run.seed_runs.best_snapshots`:
+`benchmarks/policy_select.py`), a DAgger round (`run.dagger.best_round`) and the docs' best-validated seed
 (`docs/hooks/learned.py`).
 
 Only validation results go in: nothing here looks at a held-out suite.
 """
 
-from typing import Any, Callable, Dict, Iterable, List, Optional, TypeVar
+from typing import (Any, Callable, Dict, Iterable, List, Mapping, Optional,
+                    TypeVar)
 
 T = TypeVar('T')
 
@@ -81,3 +82,13 @@ def choose_snapshot(validation: List[Dict[str, Any]], max_oor_pct: float,
             (max_minutes is None or r['elapsed_s'] <= 60.0 * max_minutes) and
             (max_iteration is None or r['iteration'] <= max_iteration)]
   return best(capped, max_oor_pct=max_oor_pct, tie=lambda r: -r['iteration'])
+
+
+def best_named(results: Mapping[str, Dict[str, Any]],
+               max_oor_pct: float) -> Optional[str]:
+  """The name of the best result within the cap (ties: higher
+  `reward_mean`), or None: a candidate policy among named validations."""
+  chosen = best(results.items(), max_oor_pct=max_oor_pct,
+                result=lambda item: item[1],
+                tie=lambda item: item[1]['reward_mean'])
+  return chosen[0] if chosen else None
