@@ -9,8 +9,8 @@ round with `tie=lambda r: -r['iteration']`). Every chooser uses it: a
 training seed's snapshot (`choose_snapshot`: `benchmarks/sac_seeds.py`,
 `benchmarks/reward_shape.py`; `sweep_lib`), a candidate policy
 (`best_named`: `benchmarks/train_sac.py`; `run.seed_runs.best_snapshots`:
-`benchmarks/policy_select.py`), a DAgger round (`run.dagger.best_round`) and the docs' best-validated seed
-(`docs/hooks/learned.py`).
+`benchmarks/policy_select.py`), a DAgger round (`run.dagger.best_round`)
+and the docs' best-validated seed (`docs/hooks/learned.py`).
 
 Only validation results go in: nothing here looks at a held-out suite.
 """
