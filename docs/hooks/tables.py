@@ -505,9 +505,13 @@ def realistic_task() -> str:
     paired = '—'
     if (reference is not None and name != TASK_REFERENCE and
         'per_seed' in row and 'per_seed' in reference):
-      paired = _paired(_flights_of(reference, reference['per_seed']['seeds']),
-                       _flights_of(row, reference['per_seed']['seeds']),
-                       PHYSICS)
+      seeds = reference['per_seed']['seeds']
+      paired = _paired(_flights_of(reference, seeds),
+                       _flights_of(row, seeds), PHYSICS)
+      if len(seeds) < len(row['per_seed']['seeds']):
+        paired += f' on its {len(seeds)} seeds'
+    if 'per_seed' in row and len(row['per_seed']['seeds']) < 100:
+      label += f' (first {len(row["per_seed"]["seeds"])} seeds)'
     lines.append(
         f'| {label} | {tw} | {row["out_of_resources_pct"]:.0f} % | '
         f'{row["sand_dropped_kg_mean"]:.2f} | {_days(long.get(name))} | '
