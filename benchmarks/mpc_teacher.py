@@ -52,8 +52,8 @@ flags.DEFINE_integer('validation_seeds', 100, 'First seeds of '
                      lower_bound=1, upper_bound=100, flag_values=FLAGS)
 flags.DEFINE_integer('seed', 0, 'Training seed of both arms.',
                      flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings (the planner, '
-                          'the trainer, the env).', flag_values=FLAGS)
+cli.define_gin_flags(FLAGS, files_help=None, bindings_help='Gin bindings '
+                     '(the planner, the trainer, the env).')
 
 ARMS = ('none', 'demos')
 DEMO_EPISODE_OFFSET = 100_000  # Training seeds of the demonstrations.

@@ -56,6 +56,7 @@ import numpy as np
 
 from ble_latex import quiet
 from ble_latex import safe_io
+from ble_latex.cli import common as cli
 
 with quiet.third_party_noise():  # Dopamine's import-time notices.
   from ble_latex.agents import ensemble  # pylint: disable=g-import-not-at-top
@@ -73,8 +74,8 @@ from ble_latex.run import suites
 FLAGS = flags.FlagValues()
 flags.DEFINE_multi_string('policy', [], 'SAC policy files (or "shipped").',
                           flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [], 'gin files of the env.',
-                          flag_values=FLAGS)
+cli.define_gin_flags(FLAGS, files_help='gin files of the env.',
+                     bindings_help=None)
 flags.DEFINE_enum('mode', 'mean', ['mean', 'average', 'critic', 'mixed',
                                    'lookahead'],
                   'decider.',

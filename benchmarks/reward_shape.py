@@ -97,9 +97,9 @@ flags.DEFINE_integer('held_out_episodes', None, 'Fly only the first seeds '
                      flag_values=FLAGS)
 flags.DEFINE_float('max_oor_pct', 5.0, 'Most % of validation episodes out '
                    'of resources of a chosen snapshot.', flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [], 'Bindings for every reward\'s '
-                          'training (e.g. sac_trainer_config.num_envs=8).',
-                          flag_values=FLAGS)
+cli.define_gin_flags(FLAGS, files_help=None, bindings_help='Bindings for '
+                     'every reward\'s training (e.g. '
+                     'sac_trainer_config.num_envs=8).')
 flags.DEFINE_string('output', 'benchmarks/reward_shape.json', 'The record.',
                     flag_values=FLAGS)
 flags.DEFINE_list('real_sources', [], 'Real wind sources each chosen policy '

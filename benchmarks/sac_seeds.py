@@ -62,12 +62,11 @@ flags.DEFINE_integer('snapshot_period', 5, 'train: rounds between policy '
                      'snapshots.', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('checkpoint_period', 10, 'train: rounds between '
                      'checkpoints.', lower_bound=1, flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [], 'train: gin bindings.',
-                          flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [], 'train and report: extra gin files '
-                          '(e.g. gin_configs/latex_realistic.gin: trained, '
-                          'validated and flown held out under them).',
-                          flag_values=FLAGS)
+cli.define_gin_flags(
+    FLAGS, bindings_help='train: gin bindings.',
+    files_help='train and report: extra gin files (e.g. '
+    'gin_configs/latex_realistic.gin: trained, validated and flown held out '
+    'under them).')
 flags.DEFINE_float('max_oor_pct', 5.0, 'report: most % of validation '
                    'episodes out of resources of a chosen snapshot.',
                    flag_values=FLAGS)

@@ -31,9 +31,9 @@ flags.DEFINE_integer('rounds', 4, 'DAgger rounds in all.', lower_bound=1,
                      flag_values=FLAGS)
 flags.DEFINE_integer('seed', 0, 'Training seed (dagger_config.seed).',
                      flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [], 'Gin files.', flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings (dagger_config, '
-                          'the teacher, the env).', flag_values=FLAGS)
+cli.define_gin_flags(FLAGS, files_help='Gin files.',
+                     bindings_help='Gin bindings (dagger_config, the '
+                     'teacher, the env).')
 flags.mark_flag_as_required('base_dir', flag_values=FLAGS)
 
 

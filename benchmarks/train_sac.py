@@ -42,8 +42,8 @@ flags.DEFINE_integer('episodes_per_iteration', 10, 'train: episodes per '
                      'iteration (a checkpoint and a policy each).',
                      lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('seed', 0, 'train: agent seed.', flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [], 'train: gin bindings.',
-                          flag_values=FLAGS)
+cli.define_gin_flags(FLAGS, files_help=None,
+                     bindings_help='train: gin bindings.')
 flags.DEFINE_integer('every', 10, 'select: evaluate the policy of every this '
                      'many iterations.', lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_boolean('include_newest', False, 'select: also evaluate the '

@@ -509,3 +509,31 @@ def test_a_normal_short_run_prints_no_warnings(tmp_path):
   lines = [line for line in result.stderr.splitlines()  # tqdm's \r too.
            if line.strip() and not line.startswith('eval latex_random')]
   assert lines == [], result.stderr[-3000:]
+
+
+def test_gin_flags_have_one_home():
+  """--gin_file/--gin_bindings: `cli.define_gin_flags` defines them for every
+  command and script (issue 66); benchmarks/planners.py, being reworked
+  beside this change, still defines its own."""
+  from absl import flags  # pylint: disable=g-import-not-at-top
+  values = flags.FlagValues()
+  cli.define_gin_flags(values, files_help='f.', files_alias=True)
+  values(['prog', '--gin_files=a.gin', '--gin_file=b.gin',
+          '--gin_bindings=x.y = 1'])
+  assert values.gin_file == ['a.gin', 'b.gin']
+  assert values.gin_bindings == ['x.y = 1']
+  assert values['gin_bindings'].help.startswith(cli.GIN_BINDINGS_HELP)
+  only = flags.FlagValues()
+  cli.define_gin_flags(only, files_help=None)
+  assert 'gin_file' not in only and 'gin_bindings' in only
+  import pathlib  # pylint: disable=g-import-not-at-top
+  root = pathlib.Path(REPO)
+  sources = [*(root / 'ble_latex').rglob('*.py'),
+             *(root / 'benchmarks').glob('*.py'),
+             *(root / 'benchmarks').glob('*/*.py')]
+  own = sorted(str(p.relative_to(root)) for p in sources
+               if p.name != 'common.py' and any(
+                   f"DEFINE_multi_string('{name}'" in p.read_text(
+                       encoding='utf-8')
+                   for name in ('gin_file', 'gin_bindings')))
+  assert own == ['benchmarks/planners.py'], own

@@ -327,6 +327,30 @@ ERA5_DATES_HELP = ("Date range ERA5 flights start in: a split (train, "
                    "(--era5_path or a gin file binding @Era5WindField).")
 
 
+GIN_FILE_HELP = 'Extra gin files.'
+GIN_BINDINGS_HELP = 'Gin bindings to override default values.'
+
+
+def define_gin_flags(flag_values: Any, *,
+                     files_help: Optional[str] = GIN_FILE_HELP,
+                     bindings_help: Optional[str] = GIN_BINDINGS_HELP,
+                     files_alias: bool = False) -> None:
+  """--gin_file and --gin_bindings (repeatable), the one home of both.
+
+  Every command and script that takes gin files or bindings defines them
+  here, with its own help; a help of None leaves that flag out.
+  `files_alias` also accepts --gin_files, ble_latex 0.1's name.
+  """
+  if files_help is not None:
+    flags.DEFINE_multi_string('gin_file', [], files_help,
+                              flag_values=flag_values)
+    if files_alias:
+      flags.DEFINE_alias('gin_files', 'gin_file', flag_values=flag_values)
+  if bindings_help is not None:
+    flags.DEFINE_multi_string('gin_bindings', [], bindings_help,
+                              flag_values=flag_values)
+
+
 STATION_HELP = ('Wind file: the station-keeping target {what} (with '
                 '--station_{other}; every flight keeps station there; '
                 'default: per-seed stations on a gridded snapshot, a '

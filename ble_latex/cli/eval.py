@@ -71,10 +71,7 @@ flags.DEFINE_string('suite', 'latex_tiny',
                     'any BLE suite.', flag_values=FLAGS)
 flags.DEFINE_string('agent_gin_file', None, 'Gin file for agent configuration.',
                     flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [], 'Extra gin files.', flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [],
-                          'Gin bindings to override default values.',
-                          flag_values=FLAGS)
+cli.define_gin_flags(FLAGS)
 flags.DEFINE_string('output_dir', '/tmp/ble_latex/eval',
                     'The directory to output the json summary.',
                     flag_values=FLAGS)

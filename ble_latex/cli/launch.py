@@ -57,10 +57,8 @@ flags.DEFINE_string('agent', 'latex_station_seeker', 'The agent that flies '
                     'or a latex_mpc planner.', flag_values=FLAGS)
 flags.DEFINE_string('agent_gin_file', None, "Replaces the agent's gin file.",
                     flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [], 'Gin files (after the env '
-                          'defaults).', flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings, last.',
-                          flag_values=FLAGS)
+cli.define_gin_flags(FLAGS, files_help='Gin files (after the env defaults).',
+                     bindings_help='Gin bindings, last.')
 flags.DEFINE_integer('seed', 0, 'The world: env seed of the generative '
                      'forecast (with --wind_file: the noise seed).',
                      flag_values=FLAGS)

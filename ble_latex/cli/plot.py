@@ -165,13 +165,10 @@ flags.DEFINE_integer('wind_grid', 21, 'Arrows per grid side.', lower_bound=2,
                      flag_values=FLAGS)
 flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Env whose wind is drawn.',
                     flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [], 'Extra gin files (after '
-                          'latex_env.gin).', flag_values=FLAGS)
-flags.DEFINE_alias('gin_files', 'gin_file', flag_values=FLAGS)  # ble_latex 0.1.
-flags.DEFINE_multi_string('gin_bindings', [],
-                          'Gin bindings, e.g. "LatexBalloonEnv.'
-                          'wind_field_factory = @Era5WindField".',
-                          flag_values=FLAGS)
+cli.define_gin_flags(
+    FLAGS, files_help='Extra gin files (after latex_env.gin).',
+    bindings_help='Gin bindings, e.g. "LatexBalloonEnv.wind_field_factory = '
+    '@Era5WindField".', files_alias=True)
 flags.DEFINE_boolean('wind_stats', False, f'Compare two wind sources: '
                      f'{WIND_STATS} and {WIND_STATS_JSON}.', flag_values=FLAGS)
 flags.DEFINE_string('wind_file', None, 'Wind file or glob compared by '

@@ -71,10 +71,8 @@ flags.DEFINE_string('ray_address', 'local', 'local (an embedded Ray on this '
                     'HOST:PORT / ray://HOST:PORT.', flag_values=FLAGS)
 flags.DEFINE_integer('ray_num_cpus', None, 'CPUs of a --ray_address=local '
                      'Ray (default: all).', lower_bound=1, flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [], 'Gin files for every trial.',
-                          flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings for every trial.',
-                          flag_values=FLAGS)
+cli.define_gin_flags(FLAGS, files_help='Gin files for every trial.',
+                     bindings_help='Gin bindings for every trial.')
 flags.mark_flag_as_required('sweep_dir', flag_values=FLAGS)
 
 

@@ -77,12 +77,8 @@ flags.DEFINE_string('base_dir', None,
 flags.DEFINE_string('agent_gin_file', None,
                     'Gin file for agent configuration (default: the agent\'s).',
                     flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [],
-                          'Extra gin files (e.g. gin_configs/paper_era5.gin).',
-                          flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [],
-                          'Gin bindings to override default values.',
-                          flag_values=FLAGS)
+cli.define_gin_flags(
+    FLAGS, files_help='Extra gin files (e.g. gin_configs/paper_era5.gin).')
 flags.DEFINE_multi_string('collectors', ['progress', 'episodes', 'tensorboard'],
                           'Collectors: console, episodes, pickle, progress, tensorboard '
                           '(ble_latex.run.collectors.AVAILABLE_COLLECTORS).',

@@ -112,13 +112,10 @@ flags.DEFINE_integer('seed', 0, "Seed of BLE's atmosphere.", flag_values=FLAGS)
 flags.DEFINE_float('max_error_percent', 5.0,
                    'Exit status 1 above this ascent-rate error.',
                    flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [],
-                          'Gin files (e.g. gin_configs/latex_physics.gin).',
-                          flag_values=FLAGS)
-flags.DEFINE_alias('gin_files', 'gin_file', flag_values=FLAGS)  # ble_latex 0.1.
-flags.DEFINE_multi_string('gin_bindings', [],
-                          "Gin bindings, e.g. 'create_state.sand_kg = 3.0'.",
-                          flag_values=FLAGS)
+cli.define_gin_flags(
+    FLAGS, files_help='Gin files (e.g. gin_configs/latex_physics.gin).',
+    bindings_help="Gin bindings, e.g. 'create_state.sand_kg = 3.0'.",
+    files_alias=True)
 flags.DEFINE_boolean('no_reference', False,
                      'Skip the RK4 reference comparison.', flag_values=FLAGS)
 flags.DEFINE_list('modes', [],
