@@ -100,28 +100,8 @@ def compare(run_dirs: Sequence[str], max_oor_pct: float,
             max_iteration: Optional[int], max_minutes: Optional[float]
             ) -> List[Dict[str, Any]]:
   """Validation-only summary of each run (settings that differ shown)."""
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.run import jax_train
-  from ble_latex.run import records
-  # pylint: enable=g-import-not-at-top
-  rows = []
-  for run in run_dirs:
-    with open(os.path.join(run, 'run.json'), encoding='utf-8') as f:
-      info = json.load(f)
-    validation = [r for r in records.load_validation(
-        os.path.join(run, 'validation.jsonl'))
-                  if max_iteration is None or r['iteration'] <= max_iteration]
-    chosen = selection.choose_snapshot(validation, max_oor_pct, max_minutes,
-                                       max_iteration)
-    last = validation[-5:]
-    rows.append({
-        'run': run, 'config': jax_train.recorded_config(info['config']),
-        'validated_rounds': [r['iteration'] for r in validation][-1:],
-        'chosen': chosen,
-        'last5_tw50_window_mean': (statistics.mean(
-            r['tw50_window_mean'] for r in last) if last else None),
-        'last5_oor_pct': (statistics.mean(
-            r['out_of_resources_pct'] for r in last) if last else None)})
+  rows = seed_runs.validation_rows(run_dirs, max_oor_pct, max_iteration,
+                                   max_minutes)
   configs = [r['config'] for r in rows]
   differ = sorted({k for c in configs for k in c
                    if any(d.get(k) != c.get(k) for d in configs)})

@@ -452,6 +452,9 @@ def test_sac_seeds_compares_runs_on_validation(benchmark_script, tmp_path,
   assert [r['chosen']['iteration'] for r in rows] == [2, 0]
   assert rows[0]['config']['critic'] == 'mlp'  # Run from before critics.
   assert rows[1]['last5_tw50_window_mean'] == pytest.approx(0.25)
+  # The rows are the package's (`seed_runs.validation_rows`), the table the
+  # script's.
+  assert rows == seed_runs.validation_rows(runs, 5.0, 2, None)
   table = capsys.readouterr().out
   assert '| run | critic |' in table and '| layernorm |' in table
 

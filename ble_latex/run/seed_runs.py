@@ -8,13 +8,17 @@ The machinery of `benchmarks/sac_seeds.py` and `benchmarks/reward_shape.py`
 - `write_chosen_policy`: copies the snapshot chosen on validation
   (`selection.choose_snapshot`) to the seed's `chosen_policy.msgpack`, with
   why it was chosen in its note;
+- `validation_rows`: runs of different settings side by side on
+  validation only (the chosen snapshot, the mean of the last five);
 - `best_snapshots`: a run's best-validated snapshots (an ensemble's
   members beside the chosen one);
 - `fly_held_out`: flies a pretrained policy on a held-out suite in the gym
   env (`ble-latex-eval`'s code) and writes its records.
 """
 
+import json
 import os
+import statistics
 import subprocess
 import sys
 from typing import Any, Dict, List, Optional, Sequence
@@ -142,3 +146,38 @@ def best_snapshots(run: str, count: int, max_oor_pct: float) -> List[str]:
                           tie=lambda r: -r['iteration'])
   return [run_dir.policy_snapshot_path(run, r['iteration'])
           for r in rows[:count]]
+
+
+def validation_rows(run_dirs: Sequence[str], max_oor_pct: float,
+                    max_iteration: Optional[int], max_minutes: Optional[float]
+                    ) -> List[Dict[str, Any]]:
+  """Per run directory: its recorded config, last validated round, the
+  snapshot `selection.choose_snapshot` picks within the caps, and the mean
+  TW50 (window) and out-of-resources % [%] of its last five validations
+  (rounds up to `max_iteration`)."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import episode_log
+  from ble_latex.run import jax_train
+  from ble_latex.run import records
+  from ble_latex.run import run_dir
+  from ble_latex.run import selection
+  # pylint: enable=g-import-not-at-top
+  rows = []
+  for run in run_dirs:
+    with open(os.path.join(run, run_dir.RUN_INFO), encoding='utf-8') as f:
+      info = json.load(f)
+    validation = [r for r in records.load_validation(
+        os.path.join(run, episode_log.VALIDATION_LOG))
+                  if max_iteration is None or r['iteration'] <= max_iteration]
+    chosen = selection.choose_snapshot(validation, max_oor_pct, max_minutes,
+                                       max_iteration)
+    last = validation[-5:]
+    rows.append({
+        'run': run, 'config': jax_train.recorded_config(info['config']),
+        'validated_rounds': [r['iteration'] for r in validation][-1:],
+        'chosen': chosen,
+        'last5_tw50_window_mean': (statistics.mean(
+            r['tw50_window_mean'] for r in last) if last else None),
+        'last5_oor_pct': (statistics.mean(
+            r['out_of_resources_pct'] for r in last) if last else None)})
+  return rows
