@@ -634,10 +634,10 @@ def settings(*,
   `WindField` of them. Arguments given override gin's bindings.
 
   Args:
-    path, center_lat [deg N], center_lon [deg E], episode_hours [h],
-      add_noise, start_dates, stations, station_margin_km [km],
-      end_outside_domain, snapshot_time, noise_scale, truth_path, member,
-      truth_members: As `Era5Settings`.
+    path, add_noise, start_dates, stations: As `Era5Settings`.
+    center_lat, center_lon, episode_hours: As `Era5Settings`. # [deg, deg, h]
+    station_margin_km, end_outside_domain: As `Era5Settings`. # [km]
+    snapshot_time, noise_scale, truth_path, member, truth_members: As above.
 
   Returns:
     The settings (unchecked: `load`, `start_window` and
