@@ -76,16 +76,14 @@ for s in "${list[@]}"; do
   d="$runs/seed_$s"
   $py - "$d/sac/seed_$s" >>"$log" 2>&1 <<'EOF'
 import os, shutil, sys
-sys.path.insert(0, 'benchmarks')
-import sac_seeds
-from ble_latex.run import records, run_dir
+from ble_latex.run import records, run_dir, selection
 run = sys.argv[1]
 validation = records.load_validation(os.path.join(run, 'validation.jsonl'))
-chosen = sac_seeds.choose(validation, 5.0, None, None)
+chosen = selection.choose_snapshot(validation, 5.0, None, None)
 print(run, 'chosen', chosen)
 if chosen:
   shutil.copy(run_dir.policy_snapshot_path(run, chosen['iteration']),
-              os.path.join(run, 'chosen_policy.msgpack'))
+              run_dir.chosen_policy_path(run))
 EOF
   mkdir -p "$runs/pack/seed_$s/dagger" "$runs/pack/seed_$s/sac"
   cp "$d/dagger"/{run.json,summary.json,best_policy.msgpack} "$runs/pack/seed_$s/dagger/" 2>>"$log"
