@@ -41,6 +41,7 @@ import sys
 import time
 from typing import Any, Dict, List, Sequence
 
+import gin
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -50,6 +51,7 @@ from ble_latex.flight import params as params_lib
 from ble_latex.run import sensitivity
 from ble_latex.run import suites
 
+PAPER_POLICY = 'ble_latex/agents/policies/sac_latex.msgpack'
 # The suites whose seeds a cell flies (their first --seeds).
 SEED_SUITES = {'latex_small': suites.EVAL_SEED_OFFSET,
                'latex_validation': suites.VALIDATION_SEED_OFFSET}
@@ -64,6 +66,26 @@ def _floats(text: str, name: str) -> List[float]:
     raise argparse.ArgumentTypeError(
         f'{name} must be comma-separated numbers >= 0, got {text!r}')
   return values
+
+
+def controller_of(agent: str):
+  """The JAX controller of `agent` (sac_pretrained: the paper's policy).
+
+  `launch.controllers` imports BLE's agents (TensorFlow): imported here.
+  """
+  from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
+  gin.clear_config()
+  try:
+    if agent == 'sac_pretrained':
+      gin.parse_config(
+          f'SACPretrainedAgent.policy_path = "{PAPER_POLICY}"')
+    controller = controllers.controller_named(agent)
+  finally:
+    gin.clear_config()
+  if controller.period != 1:
+    raise SystemExit(f'{agent}: only controllers acting every stride fly '
+                     'here')
+  return controller
 
 
 def plot(record: Dict[str, Any], path: str) -> None:
@@ -169,7 +191,7 @@ def main(argv: Sequence[str]) -> int:
   keys = jnp.stack([jax.random.PRNGKey(s)
                     for s in range(first, first + args.seeds)])
   for agent in agents:
-    fly = sensitivity.flier(sensitivity.controller_of(agent), steps)
+    fly = sensitivity.flier(controller_of(agent), steps)
     for swing in args.swing_k:
       for sigma in args.sigma_g:
         name = _cell_name(agent, sigma, swing)

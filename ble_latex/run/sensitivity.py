@@ -9,8 +9,9 @@ as calibrated.
 - `env_params`: the realistic preset's EnvParams for `steps`-stride flights;
 - `cell_params`: a cell's sigma and swing (S split in the calibrated
   proportion);
-- `controller_of` and `flier`: an agent as a pure JAX controller, all seeds
-  of a cell in one jitted, vmapped scan (each seed's world is the gym env's);
+- `flier`: a pure JAX controller (`launch.controllers`, built by the
+  script) flying all seeds of a cell in one jitted, vmapped scan (each
+  seed's world is the gym env's);
 - `summarize`: days aloft, the share aloft at the end, TW50 over the whole
   flight, sand dropped.
 """
@@ -29,7 +30,6 @@ from ble_latex.flight import params as params_lib
 from ble_latex.flight import state as state_lib
 
 SECONDS_PER_DAY = 86_400.0  # [s]
-PAPER_POLICY = 'ble_latex/agents/policies/sac_latex.msgpack'
 GIN_FILES = ('latex_physics.gin', 'latex_realistic.gin')
 
 
@@ -59,26 +59,6 @@ def cell_params(params, sigma_g: float, swing_k: float):
       lift_walk_kg_per_sqrt_s=float(sigma_g) * 1e-3,
       superheat_day_k=float(swing_k) * share,
       cooling_night_k=float(swing_k) * (1.0 - share)))
-
-
-def controller_of(agent: str):
-  """The JAX controller of `agent` (sac_pretrained: the paper's policy).
-
-  `launch.controllers` imports BLE's agents (TensorFlow): imported here.
-  """
-  from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
-  gin.clear_config()
-  try:
-    if agent == 'sac_pretrained':
-      gin.parse_config(
-          f'SACPretrainedAgent.policy_path = "{PAPER_POLICY}"')
-    controller = controllers.controller_named(agent)
-  finally:
-    gin.clear_config()
-  if controller.period != 1:
-    raise SystemExit(f'{agent}: only controllers acting every stride fly '
-                     'here')
-  return controller
 
 
 def flier(controller, steps: int):
