@@ -6,7 +6,9 @@
 #      records OUT/p/latex_small/*_realistic.json);
 #   2. both on the two GFS analyses (per-seed stations) and the two
 #      soundings (at their sites), 100 seeds each (benchmarks/real_winds.py,
-#      merged into a copy of the committed record: OUT/real_winds.json).
+#      merged into a copy of the committed record: OUT/real_winds.json;
+#      --overwrite re-flies the cells flown at BLE's noise scale 1 before
+#      issue 64's default, and resumes those flown at it).
 # Steps run in order while BUDGET_S lasts (each one's limit is what is left);
 # a cut step keeps what it finished (planners.py's partial file, real_winds'
 # finished cells). Timing files end up in OUT/timing.tar; the log in
@@ -34,11 +36,11 @@ for agent in latex_mpc latex_mpc_oracle; do
 done
 sha=$(cat gpu_data/gfs_global.sha256)
 [[ $parts == *,real,* ]] && step "real winds, GFS" $py benchmarks/real_winds.py --agents=latex_mpc,latex_mpc_oracle \
-  --sources=gfs_namerica,gfs_global --station_mode=per_seed --seeds=100 \
+  --sources=gfs_namerica,gfs_global --station_mode=per_seed --seeds=100 --overwrite \
   --realdata_dir=gpu_data/realdata --json="$out/real_winds.json" \
   --source_copy="gfs_global=gpu_data/gfs_global.nc@$sha"
 [[ $parts == *,real,* ]] && step "real winds, soundings" $py benchmarks/real_winds.py --agents=latex_mpc,latex_mpc_oracle \
-  --sources=hilo,boise --station_mode=center --seeds=100 \
+  --sources=hilo,boise --station_mode=center --seeds=100 --overwrite \
   --realdata_dir=gpu_data/realdata --json="$out/real_winds.json"
 (cd "$out/p/latex_small" 2>/dev/null && tar cf "$out/timing.tar" timing *.partial.json 2>/dev/null)
 echo "== done in $(( $(date +%s) - start )) s" >>"$log"
