@@ -22,8 +22,8 @@ import pytest
 MODE_FILES = {
     'latex_realistic.gin':
         'the realistic physics mode (issues 28, 44), off by default; '
-        'flight.params.REALISTIC is the code\'s home of its values '
-        '(tests/test_physics_realistic.py keeps the file equal to it)',
+        'the file is the one home of its values (flight.params.REALISTIC '
+        'is read from it)',
     'valbal.gin':
         'a ValBal-sized system (issue 44) to check the realistic physics '
         'against ValBal\'s record: its payload, sand, band, actuator rates, '

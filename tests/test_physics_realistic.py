@@ -57,19 +57,6 @@ def test_defaults_are_the_papers_model():
           not REALISTIC.lift_walk and REALISTIC.burst_spread)
 
 
-def test_realistic_gin_file_binds_the_realistic_values():
-  gin.clear_config()
-  try:
-    gin.parse_config_files_and_bindings(
-        [configs.gin_file('latex_physics.gin'),
-         configs.gin_file('latex_realistic.gin')], [])
-    from_gin = params_lib.flight_params_from_gin()
-    gin.clear_config()
-    assert from_gin == params_lib.realistic_flight_params() == REALISTIC
-  finally:
-    gin.clear_config()
-
-
 @pytest.mark.parametrize('binding, match', [
     ('create_state.drag_model = "cubic"', 'drag_model'),
     ('create_state.overpressure_pa = -1.0', 'overpressure_pa'),

@@ -1,11 +1,18 @@
 # coding=utf-8
 """`FlightParams`: every constant of the latex flight system, in one pytree.
 
-`FlightParams`' field defaults are the one home of the flight system's
-defaults (`gin_configs/latex_physics.gin` spells them out). The gin names of
-existing gin files and commands (`create_state.*`, `AltitudeController.*`,
-`LatexBalloon.*`) are this module's configurables (`launch`, `controller`,
-`simulation`); `flight_params_from_gin()` builds the parameters from them.
+Each flight value is declared once, as a `FlightParams` field (`_param`): its
+default, the gin configurable and keyword that bind it, what kind of value
+it is (a number, a duration, a value whose None switches an effect off, a
+date, ...) and its physical range. From these declarations come the gin
+configurables' keywords (`launch`, `controller`, `simulation`, gin names
+`create_state.*`, `AltitudeController.*`, `LatexBalloon.*`: those of the
+classes that once held the values, so existing gin files and commands keep
+working), `make_flight_params`' keywords, `gin_name` and the single-value
+checks of `check_flight_params` (its cross-field checks are written out).
+Adding a flight value is adding a field; `flight_params_from_gin()` builds
+the parameters from gin. `gin_configs/latex_physics.gin` spells the defaults
+out; `gin_configs/latex_realistic.gin` is the one home of `REALISTIC`.
 
 Numeric constants are pytree leaves (so a batch of flight systems can be
 vmapped); what decides the structure of the computation (finite-rate
@@ -17,18 +24,81 @@ the jit cache key.
 import dataclasses
 import datetime as dt
 import inspect
-from typing import Any, Dict, Optional
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple
 
 from flax import struct
 import gin
+from gin import config_parser
 
+from ble_latex import configs
+from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex.flight import solar
+
+# The gin configurables of the flight system, by the parts they set.
+_LAUNCH = 'create_state'
+_CONTROLLER = 'AltitudeController'
+_SIMULATION = 'LatexBalloon'
+
+# What a declared value is (`_param`'s kind): how its keyword becomes the
+# field and which check the field gets.
+NUMBER = 'number'  # A number as bound (checked against `limits`, if given).
+DURATION = 'duration'  # Keyword: a timedelta or seconds >= MIN_DURATION_S.
+SWITCHED = 'switched'  # Keyword None = off: the field keeps its default and
+#                        the SWITCH field set by it is False.
+SWITCH = 'switch'  # A static flag: whether `set_by`'s keyword is not None.
+FLAG = 'flag'  # A bool keyword.
+CHOICE = 'choice'  # One of `choices`.
+CLOCK = 'clock'  # Keyword: a UTC date, setting this field (the day) and the
+#                  field set by it (the second of the day).
+KINDS = (NUMBER, DURATION, SWITCHED, SWITCH, FLAG, CHOICE, CLOCK)
+
+# `FlightParams.drag_model` values.
+DRAG_MODELS = ('constant', 'two_regime', 'smooth')
+_DAYS_10 = 864_000.0  # [s]
+
+
+def _param(default: Any, *, gin: Optional[str] = None,
+           keyword: Optional[str] = None, kind: str = NUMBER,
+           limits: Optional[Tuple[float, float, str]] = None,
+           choices: Optional[Sequence[str]] = None,
+           set_by: Optional[str] = None, static: bool = False) -> Any:
+  """One flight value's declaration: a `FlightParams` field with metadata.
+
+  Args:
+    default: The field's default (the one home of the value's default).
+    gin: The gin configurable that binds it ('create_state',
+      'AltitudeController', 'LatexBalloon'); None: not bound itself (set by
+      `set_by`'s keyword).
+    keyword: Its gin and `make_flight_params` keyword, where it differs from
+      the field's name ('sand_kg' for initial_sand_kg).
+    kind: One of `KINDS`.
+    limits: (minimum, maximum, why): the physical range (issue 67: finite in
+      float32 is not enough), inclusive, in the field's unit; a value
+      outside it is refused naming its binding (`PHYSICAL_RANGES`).
+    choices: The allowed values of a CHOICE.
+    set_by: The field whose keyword sets this one (a SWITCH, or the second
+      of the day of a CLOCK).
+    static: Not a pytree leaf (part of the jit cache key).
+
+  Returns:
+    The `struct.field`.
+  """
+  assert kind in KINDS, kind
+  metadata = {'gin': gin, 'keyword': keyword, 'limits': limits,
+              'choices': choices, 'set_by': set_by}
+  return struct.field(
+      pytree_node=not static, default=default,
+      metadata={'kind': kind, **{k: v for k, v in metadata.items()
+                                 if v is not None}})
 
 
 @struct.dataclass
 class FlightParams:
   """The latex balloon's flight system (paper "Method", docs/physics-model.md).
+
+  Each field is one declaration (`_param`): its default, the gin keyword
+  that binds it, its kind and its physical range; the unit is its comment's.
 
   Attributes:
     payload_kg: m_p, including the 1.2 kg latex envelope. # [kg]
@@ -125,62 +195,120 @@ class FlightParams:
     burst_spread: Burst diameter drawn per flight from the Weibull law
       (needs a PRNG key at launch; else burst_volume_m3). Static.
   """
-  payload_kg: float = 2.2  # [kg]
-  initial_sand_kg: float = 2.0  # [kg]
-  drag_coefficient: float = 0.25  # [.]
-  burst_volume_m3: float = 336.5  # [m^3]
-  min_vent_mols: float = 0.2  # [mol]
-  min_drop_kg: float = 0.005  # [kg]
-  band_low_m: float = 13_000.0  # [m]
-  band_high_m: float = 22_000.0  # [m]
-  stride_s: float = 1200.0  # [s]
-  valve_flow_mols_per_s: float = 0.0  # [mol/s]
-  ballast_rate_kg_per_s: float = 0.0  # [kg/s]
-  actuation_chunk_s: float = 10.0  # [s]
-  initial_helium_mols: Optional[float] = struct.field(
-      pytree_node=False, default=None)  # [mol]
-  finite_valve: bool = struct.field(pytree_node=False, default=False)
-  finite_ballast: bool = struct.field(pytree_node=False, default=False)
-  guard_within_stride: bool = struct.field(pytree_node=False, default=True)
-  max_substep_s: float = struct.field(pytree_node=False, default=180.0)  # [s]
-  vertical_step_s: float = struct.field(pytree_node=False,
-                                        default=60.0)  # [s]
+  payload_kg: float = _param(
+      2.2, gin=_LAUNCH,
+      limits=(0.05, 100.0, 'kg: a latex envelope alone weighs > 50 g'))  # [kg]
+  initial_sand_kg: float = _param(2.0, gin=_LAUNCH, keyword='sand_kg',
+                                  limits=(0.0, 100.0, 'kg'))  # [kg]
+  drag_coefficient: float = _param(
+      0.25, gin=_LAUNCH, limits=(0.01, 2.0, 'a sphere: 0.07-0.5'))  # [.]
+  burst_volume_m3: float = _param(
+      336.5, gin=_LAUNCH,
+      limits=(0.01, 1.0e5, 'm^3: TA-1200 bursts at ~340'))  # [m^3]
+  min_vent_mols: float = _param(0.2, gin=_CONTROLLER,
+                                limits=(0.0, 1.0e3, 'mol'))  # [mol]
+  min_drop_kg: float = _param(0.005, gin=_CONTROLLER,
+                              limits=(0.0, 10.0, 'kg'))  # [kg]
+  band_low_m: float = _param(13_000.0, gin=_CONTROLLER)  # [m]
+  band_high_m: float = _param(22_000.0, gin=_CONTROLLER)  # [m]
+  stride_s: float = _param(1200.0, gin=_CONTROLLER, keyword='stride',
+                           kind=DURATION)  # [s]
+  valve_flow_mols_per_s: float = _param(0.0, gin=_SIMULATION,
+                                        kind=SWITCHED)  # [mol/s]
+  ballast_rate_kg_per_s: float = _param(0.0, gin=_SIMULATION,
+                                        kind=SWITCHED)  # [kg/s]
+  actuation_chunk_s: float = _param(10.0, gin=_SIMULATION,
+                                    keyword='actuation_chunk',
+                                    kind=DURATION)  # [s]
+  initial_helium_mols: Optional[float] = _param(
+      None, gin=_LAUNCH, keyword='helium_mols', static=True)  # [mol]
+  finite_valve: bool = _param(False, kind=SWITCH, static=True,
+                              set_by='valve_flow_mols_per_s')
+  finite_ballast: bool = _param(False, kind=SWITCH, static=True,
+                                set_by='ballast_rate_kg_per_s')
+  guard_within_stride: bool = _param(True, gin=_SIMULATION, kind=FLAG,
+                                     static=True)
+  max_substep_s: float = _param(180.0, gin=_SIMULATION, keyword='max_substep',
+                                kind=DURATION, static=True)  # [s]
+  vertical_step_s: float = _param(60.0, gin=_SIMULATION,
+                                  keyword='vertical_step', kind=DURATION,
+                                  static=True)  # [s]
   # Realistic latex physics (issue 28); the defaults are the paper's model.
-  drag_coefficient_subcritical: float = 0.425  # [.]
-  drag_coefficient_supercritical: float = 0.225  # [.]
-  reynolds_transition: float = 3.296e5  # [.]
-  reynolds_band: float = 0.363e5  # [.]
-  overpressure_pa: float = 0.0  # [Pa]
-  superheat_day_k: float = 0.0  # [K]
-  cooling_night_k: float = 0.0  # [K]
-  sun_elevation_night_deg: float = -16.0  # [deg]
-  sun_elevation_day_deg: float = 24.0  # [deg]
-  latitude_deg: float = 1.0  # [deg]
-  longitude_deg: float = -113.0  # [deg]
-  start_day_j2000: float = 8339.5  # [day] 2022-11-01 0h UTC
-  start_second_of_day: float = 0.0  # [s]
-  lift_walk_kg_per_sqrt_s: float = 0.0  # [kg/sqrt(s)]
-  lift_walk_time_constant_s: float = 0.0  # [s]
+  drag_coefficient_subcritical: float = _param(
+      0.425, gin=_LAUNCH, limits=(0.01, 2.0, 'ASTRA: 0.425'))  # [.]
+  drag_coefficient_supercritical: float = _param(
+      0.225, gin=_LAUNCH, limits=(0.01, 2.0, 'ASTRA: 0.225'))  # [.]
+  reynolds_transition: float = _param(
+      3.296e5, gin=_LAUNCH, limits=(1.0e3, 1.0e8, 'ASTRA: 3.3e5'))  # [.]
+  reynolds_band: float = _param(
+      0.363e5, gin=_LAUNCH, limits=(0.0, 1.0e8, 'ASTRA: 3.6e4'))  # [.]
+  overpressure_pa: float = _param(
+      0.0, gin=_LAUNCH, kind=SWITCHED,
+      limits=(0.0, 4999.0, 'latex holds ~150 Pa; more would burst it')
+  )  # [Pa]
+  superheat_day_k: float = _param(
+      0.0, gin=_SIMULATION, kind=SWITCHED,
+      limits=(0.0, 60.0, 'kelvin: the calibrated 8.1'))  # [K]
+  cooling_night_k: float = _param(
+      0.0, gin=_SIMULATION,
+      limits=(0.0, 60.0, 'kelvin: the calibrated 3.3; more would take the '
+              'gas toward 0 K'))  # [K]
+  sun_elevation_night_deg: float = _param(-16.0, gin=_SIMULATION)  # [deg]
+  sun_elevation_day_deg: float = _param(24.0, gin=_SIMULATION)  # [deg]
+  latitude_deg: float = _param(1.0, gin=_SIMULATION)  # [deg]
+  longitude_deg: float = _param(-113.0, gin=_SIMULATION)  # [deg]
+  # 2022-11-01 0h UTC; bound as a date, `LatexBalloon.start_time`.
+  start_day_j2000: float = _param(8339.5, gin=_SIMULATION,
+                                  keyword='start_time', kind=CLOCK)  # [day]
+  start_second_of_day: float = _param(0.0, set_by='start_day_j2000')  # [s]
+  lift_walk_kg_per_sqrt_s: float = _param(
+      0.0, gin=_SIMULATION, kind=SWITCHED,
+      limits=(0.0, 0.05, 'kg/sqrt(s): 35x ValBal\'s 1.4e-3 stress value')
+  )  # [kg/sqrt(s)]
+  lift_walk_time_constant_s: float = _param(
+      0.0, gin=_SIMULATION,
+      limits=(0.0, _DAYS_10, 'seconds, <= 10 days'))  # [s]
   # The intermittent option (off): SSI-71's calm float, 0.05-0.1 g/sqrt(s)
   # (issue 44), and its ~2 h length; the gusty dwell time makes the long-run
   # rate of LIFT_WALK_INTERMITTENT the calibrated 0.35 g/sqrt(s) (see there).
-  lift_walk_calm_kg_per_sqrt_s: float = 0.07e-3  # [kg/sqrt(s)]
-  lift_walk_calm_mean_s: float = 7200.0  # [s]
-  lift_walk_gusty_mean_s: float = 2600.0  # [s]
-  gas_thermal_lag_s: float = 0.0  # [s]
-  heating_noise_k: float = 0.0  # [K]
-  heating_noise_time_s: float = 1800.0  # [s]
-  burst_weibull_scale_m: float = 9.6758  # [m]
-  burst_weibull_shape: float = 14.3577  # [.]
-  drag_model: str = struct.field(pytree_node=False, default='constant')
-  gas_superheat: bool = struct.field(pytree_node=False, default=False)
-  latex_overpressure: bool = struct.field(pytree_node=False, default=False)
-  lift_walk: bool = struct.field(pytree_node=False, default=False)
-  lift_walk_intermittent: bool = struct.field(pytree_node=False,
-                                              default=False)
-  burst_spread: bool = struct.field(pytree_node=False, default=False)
-  gas_state: bool = struct.field(pytree_node=False, default=False)
-  heating_noise: bool = struct.field(pytree_node=False, default=False)
+  lift_walk_calm_kg_per_sqrt_s: float = _param(
+      0.07e-3, gin=_SIMULATION, kind=SWITCHED,
+      limits=(0.0, 0.05, 'kg/sqrt(s)'))  # [kg/sqrt(s)]
+  lift_walk_calm_mean_s: float = _param(
+      7200.0, gin=_SIMULATION,
+      limits=(1.0, _DAYS_10, 'seconds, 1 s to 10 days'))  # [s]
+  lift_walk_gusty_mean_s: float = _param(
+      2600.0, gin=_SIMULATION,
+      limits=(1.0, _DAYS_10, 'seconds, 1 s to 10 days'))  # [s]
+  gas_thermal_lag_s: float = _param(
+      0.0, gin=_SIMULATION,
+      limits=(0.0, _DAYS_10, 'seconds, <= 10 days'))  # [s]
+  # More than ~30 K would be a day-night swing of its own (11.4 K).
+  heating_noise_k: float = _param(0.0, gin=_SIMULATION, kind=SWITCHED,
+                                  limits=(0.0, 30.0, 'kelvin, <= 30'))  # [K]
+  heating_noise_time_s: float = _param(
+      1800.0, gin=_SIMULATION,
+      limits=(1.0, _DAYS_10, 'seconds, 1 s to 10 days'))  # [s]
+  burst_weibull_scale_m: float = _param(
+      9.6758, gin=_LAUNCH, kind=SWITCHED,
+      limits=(0.1, 100.0, 'm: TA-1200 9.7'))  # [m]
+  burst_weibull_shape: float = _param(
+      14.3577, gin=_LAUNCH, limits=(0.5, 1000.0, 'TA-1200 14.4'))  # [.]
+  drag_model: str = _param('constant', gin=_LAUNCH, kind=CHOICE,
+                           choices=DRAG_MODELS, static=True)
+  gas_superheat: bool = _param(False, kind=SWITCH, static=True,
+                               set_by='superheat_day_k')
+  latex_overpressure: bool = _param(False, kind=SWITCH, static=True,
+                                    set_by='overpressure_pa')
+  lift_walk: bool = _param(False, kind=SWITCH, static=True,
+                           set_by='lift_walk_kg_per_sqrt_s')
+  lift_walk_intermittent: bool = _param(
+      False, kind=SWITCH, static=True, set_by='lift_walk_calm_kg_per_sqrt_s')
+  burst_spread: bool = _param(False, kind=SWITCH, static=True,
+                              set_by='burst_weibull_scale_m')
+  gas_state: bool = _param(False, gin=_SIMULATION, kind=FLAG, static=True)
+  heating_noise: bool = _param(False, kind=SWITCH, static=True,
+                               set_by='heating_noise_k')
 
   @property
   def realistic_lift(self) -> bool:
@@ -212,44 +340,26 @@ class FlightParams:
 # The defaults (the one home of each: the field defaults above).
 DEFAULTS = FlightParams()
 
-# `FlightParams.drag_model` values.
-DRAG_MODELS = ('constant', 'two_regime', 'smooth')
-# The default start of the sun's clock (`start_day_j2000` = 8339.5).
-DEFAULT_START_TIME = '2022-11-01T00:00:00'
-
-# The physical range of each numeric flight parameter (issue 67: finite in
-# float32 is not enough; a value outside these is refused where it is bound,
-# naming its binding): (minimum, maximum, why), inclusive. # [field's unit]
-_DAYS_10 = 864_000.0  # [s]
-PHYSICAL_RANGES = {
-    'payload_kg': (0.05, 100.0, 'kg: a latex envelope alone weighs > 50 g'),
-    'initial_sand_kg': (0.0, 100.0, 'kg'),
-    'drag_coefficient': (0.01, 2.0, 'a sphere: 0.07-0.5'),
-    'burst_volume_m3': (0.01, 1.0e5, 'm^3: TA-1200 bursts at ~340'),
-    'min_vent_mols': (0.0, 1.0e3, 'mol'),
-    'min_drop_kg': (0.0, 10.0, 'kg'),
-    'drag_coefficient_subcritical': (0.01, 2.0, 'ASTRA: 0.425'),
-    'drag_coefficient_supercritical': (0.01, 2.0, 'ASTRA: 0.225'),
-    'reynolds_transition': (1.0e3, 1.0e8, 'ASTRA: 3.3e5'),
-    'reynolds_band': (0.0, 1.0e8, 'ASTRA: 3.6e4'),
-    'burst_weibull_scale_m': (0.1, 100.0, 'm: TA-1200 9.7'),
-    'burst_weibull_shape': (0.5, 1000.0, 'TA-1200 14.4'),
-    'superheat_day_k': (0.0, 60.0, 'kelvin: the calibrated 8.1'),
-    'cooling_night_k': (0.0, 60.0, 'kelvin: the calibrated 3.3; more would '
-                        'take the gas toward 0 K'),
-    'lift_walk_kg_per_sqrt_s': (0.0, 0.05, 'kg/sqrt(s): 35x ValBal\'s '
-                                '1.4e-3 stress value'),
-    'lift_walk_calm_kg_per_sqrt_s': (0.0, 0.05, 'kg/sqrt(s)'),
-    'lift_walk_time_constant_s': (0.0, _DAYS_10, 'seconds, <= 10 days'),
-    'gas_thermal_lag_s': (0.0, _DAYS_10, 'seconds, <= 10 days'),
-    'lift_walk_calm_mean_s': (1.0, _DAYS_10, 'seconds, 1 s to 10 days'),
-    'lift_walk_gusty_mean_s': (1.0, _DAYS_10, 'seconds, 1 s to 10 days'),
-    'overpressure_pa': (0.0, 4999.0, 'latex holds ~150 Pa; more would burst '
-                        'it'),
-    # More than ~30 K would be a day-night swing of its own (11.4 K).
-    'heating_noise_k': (0.0, 30.0, 'kelvin, <= 30'),
-    'heating_noise_time_s': (1.0, _DAYS_10, 'seconds, 1 s to 10 days'),
-}
+# The declarations, by field name, in field order.
+_FIELDS = {f.name: f for f in dataclasses.fields(FlightParams)}
+# Field -> its gin and `make_flight_params` keyword, for each field bound
+# by gin ('initial_sand_kg' -> 'sand_kg').
+_KEYWORDS = {name: f.metadata.get('keyword', name)
+             for name, f in _FIELDS.items() if 'gin' in f.metadata}
+# Field -> the field its keyword also sets ('heating_noise_k' ->
+# 'heating_noise', 'start_day_j2000' -> 'start_second_of_day').
+_SETS = {f.metadata['set_by']: name for name, f in _FIELDS.items()
+         if 'set_by' in f.metadata}
+# The physical range of each numeric flight parameter that has one (issue
+# 67), from the declarations: field -> (minimum, maximum, why), inclusive.
+# # [field's unit]
+PHYSICAL_RANGES = {name: f.metadata['limits'] for name, f in _FIELDS.items()
+                   if 'limits' in f.metadata}
+# The default start of the sun's clock, as `LatexBalloon.start_time` binds
+# it ('2022-11-01T00:00:00': the default start_day_j2000 and second).
+DEFAULT_START_TIME = (solar.J2000 + dt.timedelta(
+    days=DEFAULTS.start_day_j2000,
+    seconds=DEFAULTS.start_second_of_day)).strftime('%Y-%m-%dT%H:%M:%S')
 
 # Shortest duration of a stride, sub-step, vertical step or release chunk:
 # shorter ones only multiply the work (a 20-minute stride in 1 s sub-steps is
@@ -279,6 +389,7 @@ def seconds(value: Any, name: str) -> float:
   return float(value)
 
 
+
 def gin_name(field: str) -> str:
   """The gin name that sets a `FlightParams` field ('create_state.sand_kg')."""
   return _FIELD_BINDINGS[field]
@@ -293,7 +404,9 @@ def check_flight_params(params: FlightParams) -> None:
   """Checks every value of a `FlightParams` (types and ranges).
 
   The one check of the flight system's values, whoever built them
-  (`make_flight_params`, `env_params.check_params` for params given as is).
+  (`make_flight_params`, `env_params.check_params` for params given as is):
+  each field's declared check (its `limits`, or its kind's), then the
+  checks of values against each other.
 
   Raises:
     ValueError: Naming the gin binding of the first bad value (a bool,
@@ -301,9 +414,23 @@ def check_flight_params(params: FlightParams) -> None:
       inconsistent value).
   """
   p = params
-  for field, (low, high, why) in PHYSICAL_RANGES.items():
-    gin_values.check_number(binding(field), getattr(p, field), minimum=low,
-                            maximum=high, why=f' ({why})')
+  for name, field in _FIELDS.items():  # The declared checks.
+    value, kind = getattr(p, name), field.metadata['kind']
+    if 'limits' in field.metadata:
+      low, high, why = field.metadata['limits']
+      gin_values.check_number(binding(name), value, minimum=low, maximum=high,
+                              why=f' ({why})')
+    elif kind == FLAG:
+      gin_values.check_bool(binding(name), value)
+    elif kind == SWITCH:
+      gin_values.check_bool(f'FlightParams.{name}', value)
+    elif kind == CHOICE:
+      choices = field.metadata['choices']
+      gin_values.require(value in choices, binding(name),
+                         f'one of {", ".join(map(repr, choices))}', value)
+    elif kind == DURATION:
+      seconds(value, binding(name))
+  # The special checks: a value's range that depends on another's.
   if p.initial_helium_mols is not None:
     gin_values.check_number(binding('initial_helium_mols'),
                             p.initial_helium_mols, above=0.0,
@@ -314,16 +441,10 @@ def check_flight_params(params: FlightParams) -> None:
       why=f': the band must end above {gin_name("band_low_m")}')
   for field, flag in (('valve_flow_mols_per_s', 'finite_valve'),
                       ('ballast_rate_kg_per_s', 'finite_ballast')):
-    gin_values.check_bool(f'FlightParams.{flag}', getattr(p, flag))
     if getattr(p, flag):
       gin_values.check_number(binding(field), getattr(p, field),
-                            minimum=1e-7, maximum=1e3,
-                            why=' (or None: instantaneous)')
-  gin_values.check_bool(binding('guard_within_stride'),
-                        p.guard_within_stride)
-  gin_values.require(p.drag_model in DRAG_MODELS, binding('drag_model'),
-                     f'one of {", ".join(map(repr, DRAG_MODELS))}',
-                     p.drag_model)
+                              minimum=1e-7, maximum=1e3,
+                              why=' (or None: instantaneous)')
   night = gin_values.check_number(binding('sun_elevation_night_deg'),
                                   p.sun_elevation_night_deg, minimum=-90.0)
   gin_values.check_number(
@@ -337,10 +458,6 @@ def check_flight_params(params: FlightParams) -> None:
   gin_values.check_number(binding('start_day_j2000'), p.start_day_j2000)
   gin_values.check_number(binding('start_second_of_day'),
                           p.start_second_of_day, minimum=0.0, below=86400.0)
-  for flag in ('gas_superheat', 'latex_overpressure', 'lift_walk',
-               'lift_walk_intermittent', 'burst_spread', 'heating_noise'):
-    gin_values.check_bool(f'FlightParams.{flag}', getattr(p, flag))
-  gin_values.check_bool(binding('gas_state'), p.gas_state)
   gin_values.require(
       p.gas_state or not p.heating_noise, binding('heating_noise_k'),
       f'None unless {gin_name("gas_state")} is True (the disturbance heats '
@@ -350,66 +467,60 @@ def check_flight_params(params: FlightParams) -> None:
       binding('lift_walk_calm_kg_per_sqrt_s'),
       f'None unless {gin_name("lift_walk_kg_per_sqrt_s")} is set (the gusty '
       'regime\'s intensity)', p.lift_walk_calm_kg_per_sqrt_s)
-  for field in ('stride_s', 'actuation_chunk_s', 'max_substep_s',
-                'vertical_step_s'):
-    seconds(getattr(p, field), binding(field))
 
 
-def make_flight_params(
-    *,
-    payload_kg: float = DEFAULTS.payload_kg,
-    sand_kg: float = DEFAULTS.initial_sand_kg,
-    helium_mols: Optional[float] = DEFAULTS.initial_helium_mols,
-    drag_coefficient: float = DEFAULTS.drag_coefficient,
-    burst_volume_m3: float = DEFAULTS.burst_volume_m3,
-    min_vent_mols: float = DEFAULTS.min_vent_mols,
-    min_drop_kg: float = DEFAULTS.min_drop_kg,
-    band_low_m: float = DEFAULTS.band_low_m,
-    band_high_m: float = DEFAULTS.band_high_m,
-    stride: Any = DEFAULTS.stride_s,
-    valve_flow_mols_per_s: Optional[float] = None,
-    ballast_rate_kg_per_s: Optional[float] = None,
-    actuation_chunk: Any = DEFAULTS.actuation_chunk_s,
-    guard_within_stride: bool = DEFAULTS.guard_within_stride,
-    max_substep: Any = DEFAULTS.max_substep_s,
-    vertical_step: Any = DEFAULTS.vertical_step_s,
-    drag_model: str = DEFAULTS.drag_model,
-    drag_coefficient_subcritical: float = (
-        DEFAULTS.drag_coefficient_subcritical),
-    drag_coefficient_supercritical: float = (
-        DEFAULTS.drag_coefficient_supercritical),
-    reynolds_transition: float = DEFAULTS.reynolds_transition,
-    reynolds_band: float = DEFAULTS.reynolds_band,
-    overpressure_pa: Optional[float] = None,
-    burst_weibull_scale_m: Optional[float] = None,
-    burst_weibull_shape: float = DEFAULTS.burst_weibull_shape,
-    superheat_day_k: Optional[float] = None,
-    cooling_night_k: float = DEFAULTS.cooling_night_k,
-    sun_elevation_night_deg: float = DEFAULTS.sun_elevation_night_deg,
-    sun_elevation_day_deg: float = DEFAULTS.sun_elevation_day_deg,
-    latitude_deg: float = DEFAULTS.latitude_deg,
-    longitude_deg: float = DEFAULTS.longitude_deg,
-    start_time: Any = DEFAULT_START_TIME,
-    lift_walk_kg_per_sqrt_s: Optional[float] = None,
-    lift_walk_time_constant_s: float = DEFAULTS.lift_walk_time_constant_s,
-    lift_walk_calm_kg_per_sqrt_s: Optional[float] = None,
-    lift_walk_calm_mean_s: float = DEFAULTS.lift_walk_calm_mean_s,
-    lift_walk_gusty_mean_s: float = DEFAULTS.lift_walk_gusty_mean_s,
-    gas_thermal_lag_s: float = DEFAULTS.gas_thermal_lag_s,
-    gas_state: bool = DEFAULTS.gas_state,
-    heating_noise_k: Optional[float] = None,
-    heating_noise_time_s: float = DEFAULTS.heating_noise_time_s
-) -> FlightParams:
-  """Validated `FlightParams` from the NumPy code's argument names.
+def _keyword_default(name: str) -> Any:
+  """The default of field `name`'s keyword (None: a SWITCHED effect off)."""
+  field = _FIELDS[name]
+  kind = field.metadata['kind']
+  return (None if kind == SWITCHED else
+          DEFAULT_START_TIME if kind == CLOCK else field.default)
 
-  Durations may be numbers of seconds or `datetime.timedelta`s (at least
-  `MIN_DURATION_S`); a rate of None means instantaneous (static flag off).
-  Likewise None switches a realistic-physics effect off (the paper's model):
-  overpressure_pa (latex_overpressure), burst_weibull_scale_m
-  (burst_spread), superheat_day_k (gas_superheat), lift_walk_kg_per_sqrt_s
-  (lift_walk), lift_walk_calm_kg_per_sqrt_s (lift_walk_intermittent),
-  heating_noise_k (heating_noise).
-  start_time (a UTC datetime or ISO string) sets the sun's
+
+def _annotation(name: str) -> Any:
+  """The type of field `name`'s keyword."""
+  field = _FIELDS[name]
+  kind = field.metadata['kind']
+  return (Optional[float] if kind == SWITCHED else
+          Any if kind in (DURATION, CLOCK) else field.type)
+
+
+def _signature(fields: Sequence[str]) -> inspect.Signature:
+  """The keyword-only signature taking the keywords of `fields`."""
+  return inspect.Signature([
+      inspect.Parameter(_KEYWORDS[name], inspect.Parameter.KEYWORD_ONLY,
+                        default=_keyword_default(name),
+                        annotation=_annotation(name)) for name in fields])
+
+
+def _with_defaults(function: str, signature: inspect.Signature,
+                   values: Dict[str, Any]) -> Dict[str, Any]:
+  """`values` over `signature`'s defaults; Python's TypeError if unknown."""
+  for name in values:
+    if name not in signature.parameters:
+      raise TypeError(
+          f'{function}() got an unexpected keyword argument {name!r}')
+  return {**{name: p.default for name, p in signature.parameters.items()},
+          **values}
+
+
+_MAKER_SIGNATURE = _signature(list(_KEYWORDS))
+
+
+def make_flight_params(**arguments: Any) -> FlightParams:
+  """Validated `FlightParams` from the keywords of the declared values.
+
+  Its keywords (keyword-only; `inspect.signature` shows them) are the gin
+  keywords of `FlightParams`' fields (`_param`: 'sand_kg' for
+  initial_sand_kg, ...), defaulting to the fields' defaults. Durations
+  (stride, actuation_chunk, max_substep, vertical_step) may be numbers of
+  seconds or `datetime.timedelta`s (at least `MIN_DURATION_S`); a rate of
+  None means instantaneous (static flag off). Likewise None switches a
+  realistic-physics effect off (the paper's model): overpressure_pa
+  (latex_overpressure), burst_weibull_scale_m (burst_spread),
+  superheat_day_k (gas_superheat), lift_walk_kg_per_sqrt_s (lift_walk),
+  lift_walk_calm_kg_per_sqrt_s (lift_walk_intermittent), heating_noise_k
+  (heating_noise). start_time (a UTC datetime or ISO string) sets the sun's
   clock (start_day_j2000, start_second_of_day).
 
   Returns:
@@ -419,240 +530,117 @@ def make_flight_params(
     ValueError: for a value that is not a number (bool, string, None),
       non-finite, non-positive or inconsistent, naming its gin binding
       (`check_flight_params`).
+    TypeError: for a keyword that is not one.
   """
-  def duration(value: Any, field: str) -> Any:
-    return seconds(value, binding(field))
-
-  start_day, start_second = solar.solar_clock(
-      start_time, binding('start_day_j2000'))
-  raw = FlightParams(
-      payload_kg=payload_kg,
-      initial_sand_kg=sand_kg,
-      drag_coefficient=drag_coefficient,
-      burst_volume_m3=burst_volume_m3,
-      min_vent_mols=min_vent_mols,
-      min_drop_kg=min_drop_kg,
-      band_low_m=band_low_m,
-      band_high_m=band_high_m,
-      stride_s=duration(stride, 'stride_s'),
-      valve_flow_mols_per_s=(0.0 if valve_flow_mols_per_s is None else
-                             valve_flow_mols_per_s),
-      ballast_rate_kg_per_s=(0.0 if ballast_rate_kg_per_s is None else
-                             ballast_rate_kg_per_s),
-      actuation_chunk_s=duration(actuation_chunk, 'actuation_chunk_s'),
-      initial_helium_mols=helium_mols,
-      finite_valve=valve_flow_mols_per_s is not None,
-      finite_ballast=ballast_rate_kg_per_s is not None,
-      guard_within_stride=guard_within_stride,
-      max_substep_s=duration(max_substep, 'max_substep_s'),
-      vertical_step_s=duration(vertical_step, 'vertical_step_s'),
-      drag_model=drag_model,
-      drag_coefficient_subcritical=drag_coefficient_subcritical,
-      drag_coefficient_supercritical=drag_coefficient_supercritical,
-      reynolds_transition=reynolds_transition,
-      reynolds_band=reynolds_band,
-      overpressure_pa=0.0 if overpressure_pa is None else overpressure_pa,
-      burst_weibull_scale_m=(DEFAULTS.burst_weibull_scale_m
-                             if burst_weibull_scale_m is None else
-                             burst_weibull_scale_m),
-      burst_weibull_shape=burst_weibull_shape,
-      superheat_day_k=0.0 if superheat_day_k is None else superheat_day_k,
-      cooling_night_k=cooling_night_k,
-      sun_elevation_night_deg=sun_elevation_night_deg,
-      sun_elevation_day_deg=sun_elevation_day_deg,
-      latitude_deg=latitude_deg,
-      longitude_deg=longitude_deg,
-      start_day_j2000=start_day,
-      start_second_of_day=start_second,
-      lift_walk_kg_per_sqrt_s=(0.0 if lift_walk_kg_per_sqrt_s is None else
-                               lift_walk_kg_per_sqrt_s),
-      lift_walk_time_constant_s=lift_walk_time_constant_s,
-      lift_walk_calm_kg_per_sqrt_s=(
-          DEFAULTS.lift_walk_calm_kg_per_sqrt_s
-          if lift_walk_calm_kg_per_sqrt_s is None else
-          lift_walk_calm_kg_per_sqrt_s),
-      lift_walk_calm_mean_s=lift_walk_calm_mean_s,
-      lift_walk_gusty_mean_s=lift_walk_gusty_mean_s,
-      gas_thermal_lag_s=gas_thermal_lag_s,
-      heating_noise_k=0.0 if heating_noise_k is None else heating_noise_k,
-      heating_noise_time_s=heating_noise_time_s,
-      gas_state=gas_state,
-      heating_noise=heating_noise_k is not None,
-      gas_superheat=superheat_day_k is not None,
-      latex_overpressure=overpressure_pa is not None,
-      lift_walk=lift_walk_kg_per_sqrt_s is not None,
-      lift_walk_intermittent=lift_walk_calm_kg_per_sqrt_s is not None,
-      burst_spread=burst_weibull_scale_m is not None)
+  given = _with_defaults('make_flight_params', _MAKER_SIGNATURE, arguments)
+  values = {}
+  # The clock first (then the fields in order), as the errors always came.
+  for name in sorted(_KEYWORDS, key=lambda n: _FIELDS[n].metadata['kind']
+                     != CLOCK):
+    value, kind = given[_KEYWORDS[name]], _FIELDS[name].metadata['kind']
+    if kind == CLOCK:
+      values[name], values[_SETS[name]] = solar.solar_clock(value,
+                                                            binding(name))
+    elif kind == DURATION:
+      values[name] = seconds(value, binding(name))
+    elif kind == SWITCHED:
+      values[name] = _FIELDS[name].default if value is None else value
+      values[_SETS[name]] = value is not None
+    else:
+      values[name] = value
+  raw = FlightParams(**values)
   check_flight_params(raw)
   return raw.replace(
-      initial_helium_mols=(None if helium_mols is None else
-                           float(helium_mols)),
-      guard_within_stride=bool(guard_within_stride),
-      gas_state=bool(gas_state),
-      **{f.name: float(getattr(raw, f.name))
-         for f in dataclasses.fields(FlightParams)
+      initial_helium_mols=(None if raw.initial_helium_mols is None else
+                           float(raw.initial_helium_mols)),
+      **{name: bool(getattr(raw, name)) for name, f in _FIELDS.items()
+         if f.metadata['kind'] == FLAG},
+      **{name: float(getattr(raw, name)) for name, f in _FIELDS.items()
          if f.type in (float, 'float')})
 
 
-# The gin names of the flight system. Each configurable takes the gin names
-# of one part (those of the classes that once held them, so existing gin
-# files and commands keep working) and returns them as `make_flight_params`
-# arguments; its defaults are `FlightParams`'.
+make_flight_params.__signature__ = _MAKER_SIGNATURE
+
+
+# The gin configurables of the flight system: each takes the keywords of
+# the fields declared with its gin name (`_param`) and returns them as
+# `make_flight_params` arguments; its defaults are `FlightParams`'.
 _GIN_MODULE = 'ble_latex.flight.params'
 
 
-@gin.configurable('create_state', module=_GIN_MODULE)
-def launch(*, payload_kg: float = DEFAULTS.payload_kg,
-           sand_kg: float = DEFAULTS.initial_sand_kg,
-           helium_mols: Optional[float] = DEFAULTS.initial_helium_mols,
-           drag_coefficient: float = DEFAULTS.drag_coefficient,
-           burst_volume_m3: float = DEFAULTS.burst_volume_m3,
-           drag_model: str = DEFAULTS.drag_model,
-           drag_coefficient_subcritical: float = (
-               DEFAULTS.drag_coefficient_subcritical),
-           drag_coefficient_supercritical: float = (
-               DEFAULTS.drag_coefficient_supercritical),
-           reynolds_transition: float = DEFAULTS.reynolds_transition,
-           reynolds_band: float = DEFAULTS.reynolds_band,
-           overpressure_pa: Optional[float] = None,
-           burst_weibull_scale_m: Optional[float] = None,
-           burst_weibull_shape: float = DEFAULTS.burst_weibull_shape
-           ) -> Dict[str, Any]:
+def _gin_configurable(name: str) -> Callable[[Callable[..., Any]], Any]:
+  """Makes a function the gin configurable `name` of its declared fields.
+
+  The function's own body is not used: the configurable returns its
+  keywords (those of the fields declared with `gin=name`, as a real
+  keyword-only signature that gin and `inspect.signature` see) over their
+  defaults. Unchecked: `make_flight_params` checks them.
+  """
+  signature = _signature([f for f in _KEYWORDS
+                          if _FIELDS[f].metadata['gin'] == name])
+
+  def decorate(function: Callable[..., Any]) -> Any:
+    def configurable(**values: Any) -> Dict[str, Any]:
+      return _with_defaults(function.__name__, signature, values)
+    for attribute in ('__module__', '__name__', '__qualname__', '__doc__'):
+      setattr(configurable, attribute, getattr(function, attribute))
+    configurable.__signature__ = signature
+    return gin.configurable(name, module=_GIN_MODULE)(configurable)
+  return decorate
+
+
+@_gin_configurable(_LAUNCH)
+def launch(**values: Any) -> Dict[str, Any]:
   """The balloon at launch (gin `create_state.*`).
 
-  Args:
-    payload_kg: m_p, including the latex envelope. # [kg]
-    sand_kg: Sand at launch m_s. # [kg]
-    helium_mols: Helium at launch; None = neutrally buoyant. # [mol]
-    drag_coefficient: c_d of drag_model 'constant'. # [.]
-    burst_volume_m3: Envelope volume at which the latex bursts (without
-      burst_weibull_scale_m). # [m^3]
-    drag_model: 'constant' (paper), 'two_regime' or 'smooth' (ASTRA's
-      Reynolds-number drag, `physics.drag_coefficient_of_reynolds`).
-    drag_coefficient_subcritical: c_d below the drag crisis. # [.]
-    drag_coefficient_supercritical: c_d above the drag crisis. # [.]
-    reynolds_transition: Re where the drag crisis starts. # [.]
-    reynolds_band: Width of the 'smooth' ramp. # [.]
-    overpressure_pa: Latex overpressure; None = none (paper). # [Pa]
-    burst_weibull_scale_m: Weibull scale of the burst diameter drawn per
-      flight; None = burst at burst_volume_m3 (paper). # [m]
-    burst_weibull_shape: Weibull shape of the burst diameter. # [.]
+  Its keywords: those of the `FlightParams` fields declared with
+  gin='create_state' (payload_kg, sand_kg, helium_mols, drag_coefficient,
+  burst_volume_m3, drag_model and the realistic drag, overpressure and
+  burst values), described there.
 
   Returns:
     These values as `make_flight_params` arguments (unchecked).
   """
-  return dict(locals())  # The arguments above, by name.
+  return values
 
 
-@gin.configurable('AltitudeController', module=_GIN_MODULE)
-def controller(*, stride: Any = DEFAULTS.stride_s,
-               min_vent_mols: float = DEFAULTS.min_vent_mols,
-               min_drop_kg: float = DEFAULTS.min_drop_kg,
-               band_low_m: float = DEFAULTS.band_low_m,
-               band_high_m: float = DEFAULTS.band_high_m) -> Dict[str, Any]:
+@_gin_configurable(_CONTROLLER)
+def controller(**values: Any) -> Dict[str, Any]:
   """The altitude controller (gin `AltitudeController.*`).
 
-  Args:
-    stride: Delta t of Eq. hdot_des (timedelta or seconds). # [s]
-    min_vent_mols: n_min, smallest ventable helium. # [mol]
-    min_drop_kg: m_s_min, smallest droppable sand (the out-of-sand level).
-      # [kg]
-    band_low_m: Lower edge of the altitude band. # [m]
-    band_high_m: Upper edge of the altitude band. # [m]
+  Its keywords: those of the `FlightParams` fields declared with
+  gin='AltitudeController' (stride, min_vent_mols, min_drop_kg, band_low_m,
+  band_high_m), described there.
 
   Returns:
     These values as `make_flight_params` arguments (unchecked).
   """
-  return dict(locals())  # The arguments above, by name.
+  return values
 
 
-@gin.configurable('LatexBalloon', module=_GIN_MODULE)
-def simulation(*, max_substep: Any = DEFAULTS.max_substep_s,
-               vertical_step: Any = DEFAULTS.vertical_step_s,
-               valve_flow_mols_per_s: Optional[float] = None,
-               ballast_rate_kg_per_s: Optional[float] = None,
-               actuation_chunk: Any = DEFAULTS.actuation_chunk_s,
-               guard_within_stride: bool = DEFAULTS.guard_within_stride,
-               superheat_day_k: Optional[float] = None,
-               cooling_night_k: float = DEFAULTS.cooling_night_k,
-               sun_elevation_night_deg: float = (
-                   DEFAULTS.sun_elevation_night_deg),
-               sun_elevation_day_deg: float = DEFAULTS.sun_elevation_day_deg,
-               latitude_deg: float = DEFAULTS.latitude_deg,
-               longitude_deg: float = DEFAULTS.longitude_deg,
-               start_time: Any = DEFAULT_START_TIME,
-               lift_walk_kg_per_sqrt_s: Optional[float] = None,
-               lift_walk_time_constant_s: float = (
-                   DEFAULTS.lift_walk_time_constant_s),
-               lift_walk_calm_kg_per_sqrt_s: Optional[float] = None,
-               lift_walk_calm_mean_s: float = DEFAULTS.lift_walk_calm_mean_s,
-               lift_walk_gusty_mean_s: float = (
-                   DEFAULTS.lift_walk_gusty_mean_s),
-               gas_thermal_lag_s: float = DEFAULTS.gas_thermal_lag_s,
-               gas_state: bool = DEFAULTS.gas_state,
-               heating_noise_k: Optional[float] = None,
-               heating_noise_time_s: float = DEFAULTS.heating_noise_time_s
-               ) -> Dict[str, Any]:
-  """Actuators and the step structure (gin `LatexBalloon.*`).
+@_gin_configurable(_SIMULATION)
+def simulation(**values: Any) -> Dict[str, Any]:
+  """Actuators, the step structure and the gas (gin `LatexBalloon.*`).
 
-  Args:
-    max_substep: Longest physics sub-step (timedelta or seconds). # [s]
-    vertical_step: Longest step with the drag factor frozen. # [s]
-    valve_flow_mols_per_s: Finite valve flow; None = instantaneous (the
-      paper). # [mol/s]
-    ballast_rate_kg_per_s: Finite ballast rate; None = instantaneous. # [kg/s]
-    actuation_chunk: Longest piece of a finite-rate release. # [s]
-    guard_within_stride: Apply the altitude-band guard between actions too.
-    superheat_day_k: Helium above the air temperature by day; None = helium
-      at ambient temperature (paper). # [K]
-    cooling_night_k: Helium below the air temperature at night. # [K]
-    sun_elevation_night_deg: Sun elevation of the full night temperature.
-      # [deg]
-    sun_elevation_day_deg: Sun elevation of the full day temperature. # [deg]
-    latitude_deg: Latitude of the flight (for the sun). # [deg]
-    longitude_deg: Longitude of the flight, east positive. # [deg]
-    start_time: UTC date at time 0 (datetime or ISO string; for the sun).
-    lift_walk_kg_per_sqrt_s: Free-lift disturbance intensity; None = none
-      (paper). # [kg/sqrt(s)]
-    lift_walk_time_constant_s: Its reversion time (Ornstein-Uhlenbeck);
-      0 = a random walk. # [s]
-    lift_walk_calm_kg_per_sqrt_s: The disturbance's calm-regime intensity;
-      None = one regime (lift_walk_kg_per_sqrt_s throughout); set, the
-      disturbance is intermittent and lift_walk_kg_per_sqrt_s is the gusty
-      regime's (`disturbance`). # [kg/sqrt(s)]
-    lift_walk_calm_mean_s: Mean dwell time of the calm regime. # [s]
-    lift_walk_gusty_mean_s: Mean dwell time of the gusty regime. # [s]
-    gas_thermal_lag_s: Thermal lag of the helium behind the sun (and,
-      with gas_state, the air); 0 = none. # [s]
-    gas_state: The helium's temperature as a state: adiabatic compression
-      and thermal relaxation (`flight.gas`); False = the air's plus the
-      lagged solar forcing.
-    heating_noise_k: Stationary rms of the bounded heating disturbance
-      (needs gas_state); None = none. # [K]
-    heating_noise_time_s: Its correlation time. # [s]
+  Its keywords: those of the `FlightParams` fields declared with
+  gin='LatexBalloon' (max_substep, vertical_step, the actuator rates, the
+  sun's clock and place, the gas and the disturbances), described there.
 
   Returns:
     These values as `make_flight_params` arguments (unchecked).
   """
-  return dict(locals())  # The arguments above, by name.
+  return values
 
 
-# make_flight_params argument -> FlightParams field (where they differ).
-_ARG_FIELDS = {'sand_kg': 'initial_sand_kg',
-               'helium_mols': 'initial_helium_mols', 'stride': 'stride_s',
-               'actuation_chunk': 'actuation_chunk_s',
-               'max_substep': 'max_substep_s',
-               'vertical_step': 'vertical_step_s',
-               'start_time': 'start_day_j2000'}
 # FlightParams field -> the gin binding that sets it, e.g.
-# 'initial_sand_kg' -> 'create_state.sand_kg'.
-_FIELD_BINDINGS = {
-    _ARG_FIELDS.get(arg, arg): f'{name}.{arg}'
-    for name, fn in (('create_state', launch),
-                     ('AltitudeController', controller),
-                     ('LatexBalloon', simulation))
-    for arg in inspect.signature(fn).parameters}
-_FIELD_BINDINGS['start_second_of_day'] = 'LatexBalloon.start_time'
+# 'initial_sand_kg' -> 'create_state.sand_kg' (a field set by another's
+# keyword, start_second_of_day, -> that keyword's; a SWITCH has none).
+_FIELD_BINDINGS = {name: f'{_FIELDS[name].metadata["gin"]}.{keyword}'
+                   for name, keyword in _KEYWORDS.items()}
+_FIELD_BINDINGS.update({
+    name: _FIELD_BINDINGS[f.metadata['set_by']]
+    for name, f in _FIELDS.items()
+    if 'set_by' in f.metadata and f.metadata['kind'] != SWITCH})
 
 
 def flight_params_from_gin(**overrides: Any) -> FlightParams:
@@ -675,61 +663,48 @@ def flight_params_from_gin(**overrides: Any) -> FlightParams:
                                **overrides})
 
 
-# The realistic latex physics (issue 28), as `make_flight_params` arguments:
-# the one home of these values; gin_configs/latex_realistic.gin spells them
-# out (a test checks they agree). Sources: docs/physics.md.
-REALISTIC = {
-    # ASTRA's c_d(Re) (astra/simulator.py:811-814, flight_tools.py:209-218).
-    'drag_model': 'smooth',
-    'drag_coefficient_subcritical': 0.425,  # [.]
-    'drag_coefficient_supercritical': 0.225,  # [.]
-    'reynolds_transition': 3.296e5,  # [.]
-    'reynolds_band': 0.363e5,  # [.]
-    # No latex overpressure (None): ASTRA's burst law is calibrated on the
-    # ambient-pressure volume (its excess-pressure coefficient is 1), so a
-    # constant ~150 Pa on top double-counts (burst +1.8 km, ascent -19 % at
-    # 30 km; issue 44). `create_state.overpressure_pa` switches it on.
-    'overpressure_pa': None,
-    # ASTRA's TA-1200 burst diameter, Weibull (available_balloons_
-    # parachutes.py:32; mean 1.081 x the nominal 8.63 m). # [m], [.]
-    'burst_weibull_scale_m': 9.6758,
-    'burst_weibull_shape': 14.3577,
-    # The helium's day-night swing, calibrated to ValBal's sunsets: ValBal's
-    # sunset table (src/Utils.h, fit to 10 real sunsets) integrates to
-    # 0.43 kg of lift, the ballast measured around its sunsets 0.2-0.7 kg.
-    # The lift lost over a swing S is the displaced air n M_air times S / T;
-    # for the ValBal preset (gin_configs/valbal.gin, 6.8 kg gross, 7.89 kg
-    # of air displaced at 13.5 km, T = 209.7 K in BLE's atmosphere) 0.43 kg
-    # is S = 11.4 K (5.5 % of the displaced air). This project's balloon at
-    # 17 km (4.87 kg displaced, 187.3 K) then loses 0.30 kg per sunset. The
-    # split of S (5:2, superheat by day : cooling at night) only moves
-    # where neutral lies. # [K]
-    'superheat_day_k': 8.1,
-    'cooling_night_k': 3.3,
-    'sun_elevation_night_deg': -16.0,  # [deg] ValBal src/Utils.h:147-150
-    'sun_elevation_day_deg': 24.0,  # [deg]
-    # A latex film and its helium exchange heat in minutes (field notes,
-    # issue 44); a sunset's elevation window spans ~2.7 h at low latitude,
-    # so the lag delays the loss a little and does not change its size. The
-    # one home of tau: the gas state relaxes with it too. # [s]
-    'gas_thermal_lag_s': 600.0,
-    # The helium's temperature as a state (issue 68, `gas`): adiabatic
-    # compression and relaxation, the altitude stiffness of a gas balloon.
-    'gas_state': True,
-    # The buoyancy oscillation of the gas state (period ~4 min at 17 km)
-    # needs vertical steps of <= 20 s for the split integrator to agree
-    # with the float64 RK4 reference (omega dt <= 0.5; 60 s is 1.5). # [s]
-    'vertical_step': 20.0,
-    # The bounded heating disturbance dT_h (albedo / infrared heating
-    # changes, ValBal las-guide.tex): an Ornstein-Uhlenbeck process on the
-    # gas's relaxation target, so its lift n M_air dT_h / T scales with the
-    # displaced air. rms: set so that the ValBal preset's P(2 h with no
-    # action, |dh| <= 100 m) is inside 0.1-0.5 (the SSI-71 calm segment,
-    # issue 68; benchmarks/float_calibration.py). Correlation time: an
-    # assumption, cloud systems of ~20 km passing at ~10 m/s. # [K], [s]
-    'heating_noise_k': 0.25,
-    'heating_noise_time_s': 1800.0,
-}
+def gin_file_arguments(path: str) -> Dict[str, Any]:
+  """The `make_flight_params` arguments a gin file binds.
+
+  The file is parsed, not bound: gin's global configuration is untouched.
+
+  Args:
+    path: A gin file binding only flight values (and importing modules).
+
+  Returns:
+    Keyword -> the bound value, in file order.
+
+  Raises:
+    errors.ConfigError: A statement that is not an import or a binding of
+      a flight value, naming it.
+  """
+  keywords = {gin_name(field): keyword for field, keyword in _KEYWORDS.items()}
+  arguments = {}
+  with open(path) as f:
+    for statement in config_parser.ConfigParser(f,
+                                                gin.config.ParserDelegate()):
+      if isinstance(statement, config_parser.ImportStatement):
+        continue
+      bound = (isinstance(statement, config_parser.BindingStatement) and
+               not statement.scope and
+               keywords.get(f'{statement.selector}.{statement.arg_name}'))
+      if not bound:
+        where = getattr(statement, 'location', None)
+        line = f':{where.line_num}' if where else ''
+        raise errors.ConfigError(
+            f'{path}{line}: only bindings of flight values (create_state.*, '
+            'AltitudeController.*, LatexBalloon.* keywords) belong here, got '
+            f'{type(statement).__name__} '
+            f'{getattr(statement, "selector", "")}.'
+            f'{getattr(statement, "arg_name", "")}')
+      arguments[bound] = statement.value
+  return arguments
+
+
+# The realistic latex physics (issues 28, 44, 68), as `make_flight_params`
+# arguments: read from their one home, gin_configs/latex_realistic.gin
+# (with each value's source; docs/physics.md).
+REALISTIC = gin_file_arguments(configs.gin_file('latex_realistic.gin'))
 
 # The stress setting of the disturbance: ValBal's simulator's 1.4 g/sqrt(s)
 # (hootl/lasagna/PastaSim.cpp since a November 2018 refactor; 0.67 before),

@@ -1,0 +1,164 @@
+# coding=utf-8
+"""A flight value is one declaration (issue 66): its gin keyword, its
+`make_flight_params` argument, its gin name and its check come from its
+`FlightParams` field (`flight.params._param`); `REALISTIC` is read from
+gin_configs/latex_realistic.gin, its one home.
+"""
+
+import functools
+import importlib.util
+import inspect
+import pathlib
+import sys
+
+import gin
+import pytest
+
+from ble_latex import configs
+from ble_latex import errors
+from ble_latex.flight import params as params_lib
+
+_FIELDS = params_lib._FIELDS  # pylint: disable=protected-access
+_BINDINGS = params_lib._FIELD_BINDINGS  # pylint: disable=protected-access
+_SHIMS = {'create_state': params_lib.launch,
+          'AltitudeController': params_lib.controller,
+          'LatexBalloon': params_lib.simulation}
+
+
+def _parameters(function):
+  return inspect.signature(function).parameters
+
+
+@pytest.mark.parametrize('name', list(_FIELDS))
+def test_each_field_is_declared_with_its_keyword_and_check(name):
+  meta = _FIELDS[name].metadata
+  assert meta['kind'] in params_lib.KINDS, name
+  if 'gin' not in meta:  # Set by another field's keyword.
+    assert 'gin' in _FIELDS[meta['set_by']].metadata, name
+    return
+  keyword = meta.get('keyword', name)
+  assert params_lib.gin_name(name) == f'{meta["gin"]}.{keyword}'
+  for function in (_SHIMS[meta['gin']], params_lib.make_flight_params):
+    parameter = _parameters(function)[keyword]
+    assert parameter.kind is inspect.Parameter.KEYWORD_ONLY
+  default = _parameters(params_lib.make_flight_params)[keyword].default
+  if meta['kind'] not in (params_lib.SWITCHED, params_lib.CLOCK):
+    assert default == _FIELDS[name].default, name
+  if 'limits' in meta:
+    assert params_lib.PHYSICAL_RANGES[name] == meta['limits']
+
+
+@pytest.mark.parametrize('name', list(_FIELDS))
+def test_each_field_is_checked_naming_its_binding(name):
+  # A SWITCHED value is checked where its switch is on.
+  switch = params_lib._SETS.get(name)  # pylint: disable=protected-access
+  on = ({switch: True} if switch and
+        _FIELDS[switch].metadata['kind'] == params_lib.SWITCH else {})
+  bad = params_lib.DEFAULTS.replace(**{name: 'x', **on})
+  with pytest.raises(errors.ConfigError) as raised:
+    params_lib.check_flight_params(bad)
+  message = str(raised.value)
+  named = (params_lib.binding(name) if name in _BINDINGS else
+           f'FlightParams.{name}')
+  assert message.startswith(named) and '\n' not in message, message
+
+
+def test_the_keywords_are_the_declared_fields_and_nothing_else():
+  declared = {meta.get('keyword', name) for name, meta in
+              ((n, f.metadata) for n, f in _FIELDS.items()) if 'gin' in meta}
+  shims = [set(_parameters(f)) for f in _SHIMS.values()]
+  assert set().union(*shims) == declared == set(
+      _parameters(params_lib.make_flight_params))
+  assert sum(map(len, shims)) == len(declared)  # Each in one configurable.
+  assert set(params_lib.PHYSICAL_RANGES) == {
+      n for n, f in _FIELDS.items() if 'limits' in f.metadata}
+  with pytest.raises(TypeError, match="unexpected keyword argument 'nope'"):
+    params_lib.make_flight_params(nope=1.0)
+  with pytest.raises(TypeError, match="launch.*unexpected keyword"):
+    params_lib.launch(stride=1.0)  # AltitudeController's.
+
+
+@functools.lru_cache(maxsize=None)
+def _copy_with_a_new_field():
+  """flight/params.py with one field added (its gin names renamed)."""
+  source = pathlib.Path(params_lib.__file__).read_text()
+  edits = [
+      ('  @property\n  def realistic_lift',
+       "  test_ballast_kg: float = _param(\n"
+       "      0.5, gin=_LAUNCH, keyword='test_ballast',\n"
+       "      limits=(0.0, 2.0, 'kg: the test\\'s'))  # [kg]\n\n"
+       '  @property\n  def realistic_lift'),
+      ("_LAUNCH = 'create_state'", "_LAUNCH = 'copy_create_state'"),
+      ("_CONTROLLER = 'AltitudeController'",
+       "_CONTROLLER = 'copy_AltitudeController'"),
+      ("_SIMULATION = 'LatexBalloon'", "_SIMULATION = 'copy_LatexBalloon'"),
+      ("_GIN_MODULE = 'ble_latex.flight.params'",
+       "_GIN_MODULE = 'tests.flight_params_copy'"),
+      ("REALISTIC = gin_file_arguments(configs.gin_file("
+       "'latex_realistic.gin'))", 'REALISTIC = {}'),
+  ]
+  for old, new in edits:
+    assert source.count(old) == 1, old
+    source = source.replace(old, new)
+  spec = importlib.util.spec_from_loader('tests_flight_params_copy',
+                                         loader=None)
+  module = importlib.util.module_from_spec(spec)
+  sys.modules[spec.name] = module  # For the dataclass machinery.
+  exec(compile(source, 'params_copy.py', 'exec'), module.__dict__)  # pylint: disable=exec-used
+  return module
+
+
+def test_a_new_field_is_one_declaration():
+  # One field added to a copy of the module: its gin keyword, maker
+  # argument, gin name, range check and gin binding all follow.
+  copy = _copy_with_a_new_field()
+  assert copy.gin_name('test_ballast_kg') == 'copy_create_state.test_ballast'
+  assert copy.launch()['test_ballast'] == 0.5
+  assert 'test_ballast' in inspect.signature(copy.make_flight_params).parameters
+  assert copy.make_flight_params(test_ballast=1.5).test_ballast_kg == 1.5
+  assert copy.PHYSICAL_RANGES['test_ballast_kg'][:2] == (0.0, 2.0)
+  with pytest.raises(errors.ConfigError,
+                     match=r'^gin binding copy_create_state.test_ballast must '
+                     r'.*3\.0.*the test\'s'):
+    copy.make_flight_params(test_ballast=3.0)
+  gin.clear_config()
+  try:
+    gin.parse_config('copy_create_state.test_ballast = 0.25')
+    assert copy.flight_params_from_gin().test_ballast_kg == 0.25
+    with pytest.raises(ValueError, match='no_such'):
+      gin.parse_config('copy_create_state.no_such = 0.25')
+  finally:
+    gin.clear_config()
+
+
+def test_gin_sees_the_declared_keywords():
+  gin.clear_config()
+  try:
+    gin.parse_config(['create_state.sand_kg = 1.5',
+                      'LatexBalloon.start_time = "2022-11-02T06:00:00"'])
+    params = params_lib.flight_params_from_gin()
+    assert params.initial_sand_kg == 1.5
+    assert params.start_second_of_day == 6 * 3600.0
+    with pytest.raises(ValueError, match='sand'):
+      gin.parse_config('AltitudeController.sand_kg = 1.5')
+  finally:
+    gin.clear_config()
+
+
+def test_realistic_is_read_from_its_gin_file():
+  assert params_lib.REALISTIC == params_lib.gin_file_arguments(
+      configs.gin_file('latex_realistic.gin'))
+  assert params_lib.REALISTIC['gas_state'] is True
+  assert params_lib.REALISTIC['overpressure_pa'] is None  # Off, explicitly.
+  assert params_lib.make_flight_params(**params_lib.REALISTIC).realistic
+
+
+def test_a_realistic_file_with_other_bindings_is_refused(tmp_path):
+  path = tmp_path / 'other.gin'
+  path.write_text('import ble_latex.flight.params\n'
+                  'LatexBalloon.superheat_day_k = 8.1\n'
+                  'sac_trainer_config.gamma = 0.9\n')
+  with pytest.raises(errors.ConfigError,
+                     match=r'other.gin:3: .*sac_trainer_config.gamma') as e:
+    params_lib.gin_file_arguments(str(path))
+  assert '\n' not in str(e.value)
