@@ -162,3 +162,25 @@ def test_a_realistic_file_with_other_bindings_is_refused(tmp_path):
                      match=r'other.gin:3: .*sac_trainer_config.gamma') as e:
     params_lib.gin_file_arguments(str(path))
   assert '\n' not in str(e.value)
+
+
+def test_paper_mode_switches_off_what_the_realistic_file_binds():
+  # Under latex_realistic.gin (and a walk on top) the paper's model is the
+  # gin-bound system with every realistic value at its default: the gas
+  # state and the heating noise (issue 68) too, which a hand-written list
+  # of switches had missed (ble-latex-validate --modes=paper flew them).
+  gin.clear_config()
+  try:
+    plain = params_lib.paper_flight_params()
+    gin.parse_config_files_and_bindings(
+        [configs.gin_file('latex_physics.gin'),
+         configs.gin_file('latex_realistic.gin')],
+        ['LatexBalloon.lift_walk_kg_per_sqrt_s = 0.67e-3',
+         'LatexBalloon.lift_walk_calm_kg_per_sqrt_s = 0.07e-3',
+         'create_state.sand_kg = 1.5'])
+    paper = params_lib.paper_flight_params()
+  finally:
+    gin.clear_config()
+  assert not paper.realistic and not paper.stochastic
+  assert plain == params_lib.DEFAULTS
+  assert paper == plain.replace(initial_sand_kg=1.5)

@@ -752,10 +752,10 @@ def paper_flight_params(**overrides: Any) -> FlightParams:
   """`flight_params_from_gin` with every realistic switch off (the paper).
 
   The gin-bound flight system (payload, sand, band, ...) in the paper's
-  model, whatever realistic bindings gin holds.
+  model, whatever realistic bindings gin holds: each value `REALISTIC`
+  binds (latex_realistic.gin) and the free-lift disturbance bound on top of
+  it (`LIFT_WALK_INTERMITTENT`'s two keywords) at its default.
   """
-  return flight_params_from_gin(**{
-      'drag_model': 'constant', 'overpressure_pa': None,
-      'burst_weibull_scale_m': None, 'superheat_day_k': None,
-      'lift_walk_kg_per_sqrt_s': None, 'lift_walk_calm_kg_per_sqrt_s': None,
-      **overrides})
+  paper = {keyword: _MAKER_SIGNATURE.parameters[keyword].default
+           for keyword in (*REALISTIC, *LIFT_WALK_INTERMITTENT)}
+  return flight_params_from_gin(**{**paper, **overrides})
