@@ -307,13 +307,17 @@ def test_one_stride_conserves_and_closes_its_ledgers(
 def decider():
   """The realistic controller's actuation and its force balance, jitted."""
   atm = atmosphere_lib.params_from_alpha(0.5)
-  params = REALISTIC
+  # With a free-lift walk W (the preset has none since issue 68, and a W
+  # the plant does not fly is no force to balance); the controller acts on
+  # its estimate of W (`estimator.controller_view`), here the truth.
+  params = params_lib.make_flight_params(**{**params_lib.REALISTIC,
+                                            **params_lib.LIFT_WALK_RANDOM})
 
   def act(h, v, n, s, walk, action, time_s):
     start = state_lib.initial_state(
         params, h, atm_params=atm, ascent_rate_mps=v, sand_kg=s,
         helium_mols=n, time_s=time_s, key=jax.random.PRNGKey(0)).replace(
-            lift_walk_kg=walk)
+            lift_walk_kg=walk, estimated_lift_kg=walk)
     amb = atmosphere_lib.at_height(atm, h)
     actuation = controller.decide(params, start, action, amb.temperature,
                                   amb.pressure)
