@@ -192,7 +192,8 @@ def test_tables_render_the_real_winds_record(tmp_path, monkeypatch):
   record = {'cells': {'hilo/sac_pretrained/center': {
       'settings': {'source': 'hilo', 'agent': 'sac_pretrained',
                    'station_mode': 'center', 'station_lat_lon': [19.72,
-                                                                 -155.07]},
+                                                                 -155.07],
+                   'noise_scale': 2.3923},
       'summary': {'episodes': 2, 'tw50_window_mean': 0.5,
                   'tw50_window_std': 0.25, 'tw50_mean': 0.5, 'tw50_std': 0.0,
                   'out_of_resources_pct': 50.0},
@@ -207,6 +208,11 @@ def test_tables_render_the_real_winds_record(tmp_path, monkeypatch):
   assert full[2] == ('| `sac_pretrained` | sounding Hilo | site 19.72°, '
                      '-155.07° | 2 | 50.0 % ± 25.0 | 50.0 % ± 0.0 | 50 % '
                      '| 0 % | 15 |')
+  # A cell flown before the noise scale was recorded is marked † (issue 64).
+  del record['cells']['hilo/sac_pretrained/center']['settings']['noise_scale']
+  path.write_text(json.dumps(record), encoding='utf-8')
+  assert tables.real_winds_short().splitlines()[2] == (
+      '| `sac_pretrained` | 50.0 % (2 seeds †) |')
 
 
 def test_tables_render_the_committed_records():
