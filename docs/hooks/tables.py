@@ -395,26 +395,6 @@ def _days(row) -> str:
   return '—' if row is None else f'{row["days_aloft_mean"]:.2f}'
 
 
-def realistic_short() -> str:
-  """README's realistic table: both physics, 3-day TW50 and 7-day days."""
-  r = _physics()
-  stress = r.get('realistic_stress', {})
-  lines = ['| agent | TW50 window, paper | TW50 window, realistic | '
-           'realistic at the 1.4 g/√s stress setting | days aloft in 7-day '
-           'flights, paper / realistic |', '|---|---|---|---|---|']
-  for label, paper, realistic in PHYSICS_ROWS:
-    row = r['realistic'].get(realistic)
-    if row is None:
-      continue
-    p = r['paper'].get(paper) if paper else None
-    lines.append(
-        f'| {label} | {_tw(p)} | {_tw(row, std="num_seeds" in row)} | '
-        f'{_tw(stress.get(realistic), oor=False)} | '
-        f'{_days(r["paper_long"].get(paper) if paper else None)} / '
-        f'{_days(r["realistic_long"].get(realistic))} |')
-  return '\n'.join(lines)
-
-
 def _cost(row) -> str:
   if row is None:
     return '—'
@@ -715,7 +695,6 @@ TABLES: Dict[str, Callable[[], str]] = {
     'float-calibration-before': lambda: _float_calibration(
         FLOAT_CALIBRATION_BEFORE),
     'float-calibration-sweep': float_calibration_sweep,
-    'realistic-short': realistic_short,
     'realistic-full': realistic_full,
     'realistic-long': realistic_long,
     'realistic-uncalibrated': realistic_uncalibrated,
