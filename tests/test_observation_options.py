@@ -285,3 +285,22 @@ def test_every_entry_point_observes_the_options(flight):
   test_observed_winds.assert_entry_points_observe(
       {f'latex_observation.{k}': v for k, v in _OPTIONS['both'].items()}, 7,
       [action], [np.asarray(obs0), np.asarray(obs1)])
+
+
+@pytest.mark.slow
+def test_envs_of_two_observation_sizes_share_a_process():
+  """BLE's gym env with the paper's observation, then one with the sun's: the
+  process-wide compiled set keeps a layout per output width (it kept the
+  first trace's only, and the second env failed to unpack at reset)."""
+  import gym  # pylint: disable=g-import-not-at-top
+  gin.clear_config()
+  try:
+    paper = gym.make('LatexBalloon-v0').unwrapped
+    assert np.shape(paper.reset(seed=1)) == (jax_features.NUM_FEATURES,)
+    with gin.unlock_config():
+      gin.bind_parameter('latex_observation.sun', True)
+    sun = gym.make('LatexBalloon-v0').unwrapped
+    assert np.shape(sun.reset(seed=1)) == (jax_features.NUM_FEATURES + 2,)
+    assert np.shape(paper.reset(seed=2)) == (jax_features.NUM_FEATURES,)
+  finally:
+    gin.clear_config()

@@ -380,12 +380,6 @@ def assert_entry_points_observe(bindings, seed, actions, want):
   after each of `actions` (also tests/test_observation_options.py)."""
   import gym  # pylint: disable=g-import-not-at-top
   import gymnasium  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import gymnasium_compile  # pylint: disable=g-import-not-at-top
-  # KNOWN BUG (to fix in the package): the process-wide compiled set
-  # (`gymnasium_compile.generative`) records one output layout per name at
-  # its first trace, so an env of another observation size built later in
-  # the same process unpacks with the old layout. A fresh set here.
-  gymnasium_compile.generative.cache_clear()
   with gin.unlock_config():
     for binding, value in bindings.items():
       gin.bind_parameter(binding, value)

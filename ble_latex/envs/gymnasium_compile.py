@@ -140,7 +140,9 @@ class Compiled:
         for one balloon only (a batch's step runs ~10 % faster with XLA's
         defaults at N = 64 and 1024, which a long run pays back).
     """
-    self._layouts: Dict[str, _Layout] = {}
+    # (name, packed width) -> layout: one per trace, since the same set
+    # serves envs whose outputs differ (an observation option's features).
+    self._layouts: Dict[Tuple[str, int], _Layout] = {}
     # Batch shape -> ((id of the params, step), futures); the id, not
     # the params: the process-wide compiled sets must not keep an env's ERA5
     # grid.
@@ -151,9 +153,14 @@ class Compiled:
       return jax.vmap(fn, in_axes=in_axes) if batched else fn
 
     def pack(name, tree, lead):
-      if name not in self._layouts:  # Recorded while tracing.
-        self._layouts[name] = _Layout(tree, lead)
-      return self._layouts[name].pack(tree, lead)
+      layout = _Layout(tree, lead)  # Recorded while tracing.
+      key = (name, int(layout.ends[-1]))
+      known = self._layouts.setdefault(key, layout)
+      if (known.treedef, known.shapes, known.dtypes) != (
+          layout.treedef, layout.shapes, layout.dtypes):
+        raise ValueError(f'{name}: two output layouts of width {key[1]} '
+                         'in one compiled set; build a separate Compiled')
+      return layout.pack(tree, lead)
 
     def start(state, params):
       wind = env.wind_for(params)  # ERA5 if the params hold a grid.
@@ -182,7 +189,7 @@ class Compiled:
     self.step = jit(step)  # Call it with `normalized` a np.bool_.
 
   def unpack(self, name: str, packed: Any) -> Any:
-    return self._layouts[name].unpack(packed)
+    return self._layouts[(name, int(np.shape(packed)[-1]))].unpack(packed)
 
   def ahead(self, keys: Any, params: env_types.EnvParams,
             normalized: bool, step: bool = True) -> None:
