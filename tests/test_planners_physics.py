@@ -23,6 +23,7 @@ from ble_latex.envs import jax_env
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import calibration
 from ble_latex.flight import dynamics
+from ble_latex.flight import envelope
 from ble_latex.flight import launch
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
@@ -185,6 +186,65 @@ def test_the_sunsets_reserve_prices_the_sand():
                                            f_end.sand_kg.dtype))
   assert float(cost(REALISTIC, poor)) > sun + 1.0
   assert float(cost(unlit, poor)) < sun
+
+
+def test_night_margin_is_the_out_of_helium_condition():
+  """`night_margin_kg` is L + m_s of the gas as it is, the margin the env
+  ends a flight on (`envelope.free_lift_kg`): a gas warmer than the air by
+  dT adds n M_air dT / T to it, a cooler one takes it away; the paper's
+  ledger (`resource_margins`) counts neither."""
+  margin = jax.jit(plan_objective.night_margin_kg)
+  f = _at_float(17_000.0, _sunset_s(REALISTIC) + 4 * HOUR_S)
+  t = f.temperature_k
+  lift = lambda f: float(envelope.free_lift_kg(REALISTIC, f, envelope.of_state(
+      REALISTIC, f, f.temperature_k, f.pressure_pa, f.time_s)))
+  paper = float(plan_objective.resource_margins(
+      env_types.EnvParams(flight=REALISTIC, decoder=None), f)[1])
+  for d_k in (-3.0, 0.0, 4.0):
+    g = f.replace(gas_temperature_k=t + d_k)
+    assert float(margin(REALISTIC, g)) == pytest.approx(
+        max(lift(g) + float(g.sand_kg), 0.0), abs=1e-6)
+    expected = paper + float(f.helium_mols * physics.AIR_MOLAR_MASS * d_k / t)
+    assert float(margin(REALISTIC, g)) == pytest.approx(expected, rel=0.02)
+  # Out of helium by night: no margin, never a negative one.
+  cold = f.replace(gas_temperature_k=t - 20.0, sand_kg=f.sand_kg * 0.0 + 0.1)
+  assert float(margin(REALISTIC, cold)) == 0.0
+
+
+def test_the_sunsets_reserve_keeps_helium():
+  """With `helium_reserve` a plan that ends with less ventable lift than
+  the later sunsets take pays for it (pro rata of a day's sunset); with
+  enough, or with the reserve off, it pays nothing more."""
+  f0 = _at_float(17_000.0, _sunset_s(REALISTIC) - 3 * HOUR_S)
+  state = env_types.EnvState(
+      flight=f0, atmosphere=None, forecast=None, noise_u=None, noise_v=None,
+      initial=None, history=None, wind_u=0.0, wind_v=0.0,
+      start_time_offset_s=jnp.int32(0), steps=jnp.int32(100),
+      pending_world=jnp.int32(-1))
+  d, ok = jnp.float32(100.0), jnp.bool_(False)
+  params = env_types.EnvParams(flight=REALISTIC, decoder=None)
+
+  def cost(reserve, f_end):
+    config = plan_config.PlannerConfig(
+        horizon=4, num_segments=2, grid_levels=2, num_samples=8,
+        helium_reserve=reserve).checked()
+    return float(jax.jit(lambda f: plan_objective.end_terms(
+        config, params, state, f, d, ok)[1])(f_end))
+
+  f_end = f0.replace(time_s=f0.time_s + 4 * 1200.0)
+  need = float(plan_objective.sunset_sand_kg(REALISTIC.noiseless(), f_end,
+                                             f0.time_s + 116 * 1200.0)[0])
+  assert need > 0.1
+  # Vented down to half the sunsets' need: heavy by night, out of helium.
+  margin = float(plan_objective.night_margin_kg(REALISTIC, f_end))
+  vent_mols = (margin - 0.5 * need) / physics.LIFT_PER_MOL
+  vented = f_end.replace(
+      helium_mols=f_end.helium_mols - vent_mols,
+      settled_lift_kg=f_end.settled_lift_kg - vent_mols * physics.LIFT_PER_MOL,
+      helium_vented_mols=f_end.helium_vented_mols + vent_mols)
+  assert cost(1.0, vented) > cost(0.0, vented) + 1.0
+  # Kept: the reserve costs little more than its pricing.
+  assert cost(1.0, f_end) < cost(0.0, f_end) + 0.1
 
 
 @pytest.mark.slow

@@ -85,6 +85,12 @@ class PlannerConfig:
     sand_cost: Cost per kg of sand dropped (at a full margin). # [1/kg]
     helium_cost: Cost per kg of lift vented (at a full margin). # [1/kg]
     terminal_cost: Cost of a plan that ends the flight. # [.]
+    helium_reserve: Under the sun, the multiple of the later sunsets' lift
+      kept out of the helium margin (`plan_objective.end_terms`): each
+      night the cooled gas lifts less, and the free lift the balloon can
+      still vent (free lift + sand, at the gas's temperature) must cover
+      the nights to come or the flight ends out of helium; 0: not kept
+      (helium priced by its daytime margin). # [.]
     wind_correction_hours: e-folding time of the measured-wind correction
       of the forecast (0: none; FORECAST and GRADIENT only). # [h]
     wind_correction_pa: e-folding pressure distance of that correction. # [Pa]
@@ -157,6 +163,7 @@ class PlannerConfig:
   sand_cost: float = 0.1
   helium_cost: float = 0.1
   terminal_cost: float = 20.0
+  helium_reserve: float = 1.0
   wind_correction_hours: float = 3.0
   wind_correction_pa: float = 1_000.0
   grad_starts: int = 4
@@ -230,7 +237,7 @@ class PlannerConfig:
                   'halflife_km', 'wind_correction_pa', 'grad_step_m'):
       gin_values.check_number(name(field), getattr(self, field), above=0.0)
     for field in ('shaping', 'progress', 'sand_cost', 'helium_cost',
-                  'terminal_cost', 'wind_correction_hours'):
+                  'terminal_cost', 'helium_reserve', 'wind_correction_hours'):
       gin_values.check_number(name(field), getattr(self, field), minimum=0.0)
     gin_values.check_bool(name('plan_float'), self.plan_float)
     gin_values.require(self.search in SEARCHES, name('search'),

@@ -11,7 +11,8 @@ dropped and helium vented, as lift [kg], divided by the fraction of the
 launch sand margin left and scaled by the fraction of the episode left:
 spending is cheap at the end and dear when little is left; under the sun,
 the sand the episode's later sunsets need is not in that margin,
-`sunset_sand_kg`), minus a terminal cost where the plan ends the flight.
+`sunset_sand_kg`, and their lift is not in the helium margin,
+`night_margin_kg`), minus a terminal cost where the plan ends the flight.
 
 The winds (`planning_wind`): the oracle's is the ground truth; the forecast
 planners' is the forecast of the `blind` state (the flight's noise removed),
@@ -30,6 +31,7 @@ from ble_latex.envs import env_types
 from ble_latex.envs import observed_winds
 from ble_latex.envs import winds
 from ble_latex.flight import dynamics
+from ble_latex.flight import envelope
 from ble_latex.flight import estimator
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
@@ -388,11 +390,18 @@ def end_terms(config: plan_config.PlannerConfig, params: env_types.EnvParams,
     # The sand the sunsets after the plan's end (to the episode's end) will
     # need is not the plan's to spend; a plan that leaves less than that
     # pays the terminal cost pro rata of a day's sunset (it cannot float
-    # through them).
+    # through them). The same lift is kept out of the helium margin
+    # (`helium_reserve` x it): a balloon that holds its altitude vents at
+    # each sunrise what it dropped at the sunset before, and each night its
+    # cooled gas lifts that much less (`night_margin_kg`).
     end_s = f0.time_s + left * params.stride_s
     need, per_day = sunset_sand_kg(flight, f_end, end_s)
     sand_margin = sand_margin - need
     short = jnp.maximum(need - resource_margins(params, f_end)[0], 0.0)
+    if config.helium_reserve > 0.0:  # Static.
+      keep = config.helium_reserve * need
+      helium_margin = night_margin_kg(flight, f0) - keep
+      short = short + jnp.maximum(keep - night_margin_kg(flight, f_end), 0.0)
     shortfall_cost = config.terminal_cost * jnp.minimum(
         short / jnp.maximum(per_day, 1e-3), 1.0)
   cost = time_left * (
@@ -451,6 +460,27 @@ def sunset_sand_kg(flight: Any, f: Any, end_s: Array) -> Tuple[Array, Array]:
                             physics.buoyant_lift_per_mol(t, p, t, p))
 
   return lift(fall).astype(dtype), lift(day_fall).astype(dtype)
+
+
+def night_margin_kg(flight: Any, f: Any) -> Array:
+  """The lift flight `f` can still vent at its gas's temperature. # [kg]
+
+  L + m_s with L the free lift of the gas as it is (`envelope.free_lift_kg`:
+  n (M_air beta - M_He) - m_p - m_s plus the disturbance the state holds,
+  the estimator's under `planning_view`), the condition `dynamics.
+  resource_status` ends a flight on (out of helium below 0). Unlike
+  `resource_margins`' (the paper's ledger, at beta = 1) it counts the sun's
+  heating by day and the night's cooling.
+
+  Args:
+    flight: The flight system (`model_flight`).
+    f: A `FlightState`.
+
+  Returns:
+    The margin, at least 0. # [kg]
+  """
+  g = envelope.of_state(flight, f, f.temperature_k, f.pressure_pa, f.time_s)
+  return jnp.maximum(envelope.free_lift_kg(flight, f, g) + f.sand_kg, 0.0)
 
 
 def resource_margins(params: env_types.EnvParams,
