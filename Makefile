@@ -52,7 +52,7 @@ clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache site
 
 # Issue 6 results: baselines and the shipped policy on the 100 held-out seeds
-# of latex_small, then the table README shows (benchmarks/results.md).
+# of latex_small, then the table README shows (benchmarks/records/results_table.md).
 RESULTS ?= benchmarks/results
 EVAL := $(PY) -m ble_latex.cli.eval --suite=latex_small --output_dir=$(RESULTS)
 
@@ -65,7 +65,7 @@ baselines: venv
 
 # Issue 28: the same evals under realistic latex physics, and 7-day flights
 # (504 strides) in both modes; `physics-results` tabulates them side by side
-# (benchmarks/physics_results.md). The realistic SAC seeds: benchmarks/sac_seeds.py
+# (benchmarks/records/physics_results.md). The realistic SAC seeds: benchmarks/sac_seeds.py
 # with --gin_file=gin_configs/latex_realistic.gin (docs/physics.md).
 REALISTIC_GIN := --gin_file=gin_configs/latex_realistic.gin
 RESULTS_REALISTIC ?= benchmarks/results_realistic
@@ -112,23 +112,23 @@ long-flights: venv
 	$(EVAL) --output_dir=benchmarks/results_7day_realistic $(LONG) $(REALISTIC_GIN) --agent=sac_pretrained $(PAPER_POLICY)
 
 physics-results: venv
-	$(PY) benchmarks/physics_results.py --json=benchmarks/physics_results.json \
+	$(PY) benchmarks/physics_results.py --json=benchmarks/records/physics_results.json \
 		--paper=$(RESULTS)/latex_small --realistic=$(RESULTS_REALISTIC)/latex_small \
 		--realistic_stress=$(RESULTS_STRESS)/latex_small \
 		--paper_long=benchmarks/results_7day/latex_small \
-		--realistic_long=benchmarks/results_7day_realistic/latex_small | tee benchmarks/physics_results.md
+		--realistic_long=benchmarks/results_7day_realistic/latex_small | tee benchmarks/records/physics_results.md
 
 # Issue 44: days aloft and TW50 against the lift disturbance and the diurnal
 # swing (docs/physics.md), 7-day flights of 64 latex_small seeds per cell.
 realistic-sensitivity: venv
 	$(PY) benchmarks/realistic_sensitivity.py \
 		--agents=latex_station_seeker,sac_pretrained \
-		--json=benchmarks/realistic_sensitivity.json \
+		--json=benchmarks/records/realistic_sensitivity.json \
 		--png=docs/assets/realistic_sensitivity.png
 
 # Issue 29: the planners on the same 100 seeds, balloons batched (resumable;
 # docs/planners.md). Their records join the table.
-PLANNERS ?= benchmarks/planners/results
+PLANNERS ?= benchmarks/records/planners/results
 planners: venv
 	$(PY) benchmarks/planners.py --agent=latex_mpc --suite=latex_small --output_dir=$(PLANNERS)
 	$(PY) benchmarks/planners.py --agent=latex_mpc_oracle --suite=latex_small --output_dir=$(PLANNERS)
@@ -145,23 +145,23 @@ planners-wide: venv
 results: baselines planners
 	$(EVAL) --agent=sac_pretrained
 	$(EVAL) --agent=sac_ensemble --gin_file=gin_configs/latex_wind_memory.gin
-	$(PY) benchmarks/results_table.py --json=benchmarks/results.json $(RESULTS)/latex_small/*.json \
-		$(PLANNERS)/latex_small/*.json | tee benchmarks/results.md
+	$(PY) benchmarks/results_table.py --json=benchmarks/records/results_table.json $(RESULTS)/latex_small/*.json \
+		$(PLANNERS)/latex_small/*.json | tee benchmarks/records/results_table.md
 
 env-speed: venv
-	$(PY) benchmarks/env_speed.py --episodes 3 --repeats 3 --profile --json benchmarks/env_speed.json
+	$(PY) benchmarks/env_speed.py --episodes 3 --repeats 3 --profile --json benchmarks/records/env_speed.json
 
 batch-speed: venv
-	$(PY) benchmarks/batch_speed.py --json benchmarks/batch_speed.json
+	$(PY) benchmarks/batch_speed.py --json benchmarks/records/batch_speed.json
 
 sac-step: venv
-	$(PY) benchmarks/sac_step.py --steps 200 --rounds 3 --json benchmarks/sac_step.json
+	$(PY) benchmarks/sac_step.py --steps 200 --rounds 3 --json benchmarks/records/sac_step.json
 
 seed-parallel: venv
-	$(PY) benchmarks/seed_parallel.py --num_seeds 2 --rounds 5 --json benchmarks/seed_parallel.json
+	$(PY) benchmarks/seed_parallel.py --num_seeds 2 --rounds 5 --json benchmarks/records/seed_parallel.json
 
 ray-eval: venv
-	$(PY) benchmarks/ray_eval.py --json benchmarks/ray_eval.json
+	$(PY) benchmarks/ray_eval.py --json benchmarks/records/ray_eval.json
 
 # Issue 6 training: the paper's SAC run (resumable), then the policy chosen on
 # latex_validation is written into the package (see README "Results").
@@ -169,25 +169,25 @@ RUN ?= runs/sac_paper
 train-sac: venv
 	$(PY) benchmarks/train_sac.py train --base_dir=$(RUN) --episodes=2500
 
-# Issue 47: SAC policies alone and as critic-chosen ensembles (benchmarks/ensemble/, docs/ensemble.md); the
+# Issue 47: SAC policies alone and as critic-chosen ensembles (benchmarks/records/ensemble/, docs/ensemble.md); the
 # seeds' chosen policies come from `benchmarks/sac_seeds.py report` (git-ignored).
-ENSEMBLE ?= benchmarks/ensemble
+ENSEMBLE ?= benchmarks/records/ensemble
 # The whole recipe in one command, resumable (each step resumes or skips what is done), seeded: the members'
 # SAC seeds on each wind column, each seed's snapshot chosen on validation, then `ensemble` (about 7 hours of
 # the 2-core machine, docs/ensemble.md). Copy the chosen members into ble_latex/agents/policies/ to ship them.
 LEARNED_ROUNDS ?= 230
 learned-controller: venv
-	$(PY) benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/wind_lookahead12 --seeds=0,1,2,3,4,5 \
+	$(PY) benchmarks/sac_seeds.py train --base_dir=benchmarks/records/sac_jax/wind_lookahead12 --seeds=0,1,2,3,4,5 \
 		--num_iterations=$(LEARNED_ROUNDS) --parallel=3 --gin_file=gin_configs/latex_wind_lookahead.gin
-	$(PY) benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/wind_memory16 --seeds=0,1,2,3,4 \
+	$(PY) benchmarks/sac_seeds.py train --base_dir=benchmarks/records/sac_jax/wind_memory16 --seeds=0,1,2,3,4 \
 		--num_iterations=$(LEARNED_ROUNDS) --parallel=3 --gin_file=gin_configs/latex_wind_memory.gin
-	$(PY) benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/memory_lookahead --seeds=0 \
+	$(PY) benchmarks/sac_seeds.py train --base_dir=benchmarks/records/sac_jax/memory_lookahead --seeds=0 \
 		--num_iterations=$(LEARNED_ROUNDS) --parallel=1 --gin_file=gin_configs/latex_wind_memory_lookahead.gin
-	$(PY) benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/wind_lookahead12 --seeds=0,1,2,3,4,5 \
+	$(PY) benchmarks/sac_seeds.py report --base_dir=benchmarks/records/sac_jax/wind_lookahead12 --seeds=0,1,2,3,4,5 \
 		--max_iteration=$$(($(LEARNED_ROUNDS) - 1)) --parallel=2 --gin_file=gin_configs/latex_wind_lookahead.gin
-	$(PY) benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/wind_memory16 --seeds=0,1,2,3,4 \
+	$(PY) benchmarks/sac_seeds.py report --base_dir=benchmarks/records/sac_jax/wind_memory16 --seeds=0,1,2,3,4 \
 		--max_iteration=$$(($(LEARNED_ROUNDS) - 1)) --parallel=2 --gin_file=gin_configs/latex_wind_memory.gin
-	$(PY) benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/memory_lookahead --seeds=0 \
+	$(PY) benchmarks/sac_seeds.py report --base_dir=benchmarks/records/sac_jax/memory_lookahead --seeds=0 \
 		--max_iteration=$$(($(LEARNED_ROUNDS) - 1)) --parallel=1 --gin_file=gin_configs/latex_wind_memory_lookahead.gin
 	$(MAKE) ensemble
 

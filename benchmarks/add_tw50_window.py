@@ -1,6 +1,6 @@
 """Adds `tw50_window` to episode / eval records written before it existed.
 
-  python benchmarks/add_tw50_window.py benchmarks/sac_paper_run/episodes.jsonl \
+  python benchmarks/add_tw50_window.py benchmarks/records/sac_paper_run/episodes.jsonl \
       benchmarks/results/latex_small/*.json
 
 Older `episodes.jsonl` lines and `ble-latex-eval` records carry BLE's `tw50`

@@ -32,7 +32,7 @@ round (so a load change hits them alike); reported: the best call of each,
 as balloon-steps/s and its time over `step_env`'s (a `state dropped`
 variant's over `step_env, state dropped`'s).
 
-  python benchmarks/autoreset_speed.py --json=benchmarks/autoreset_speed.json
+  python benchmarks/autoreset_speed.py --json=benchmarks/records/autoreset_speed.json
 """
 
 import json

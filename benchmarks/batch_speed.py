@@ -24,7 +24,7 @@ In one run, each measurement in its own fresh subprocess (own peak RSS):
   single-env speed-up is measured side by side too.
 Throughput is compared in simulated balloon-hours per wall second.
 
-  python benchmarks/batch_speed.py --json=benchmarks/batch_speed.json
+  python benchmarks/batch_speed.py --json=benchmarks/records/batch_speed.json
 """
 
 import json

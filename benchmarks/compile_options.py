@@ -12,7 +12,7 @@ fast programs are from the default ones, and (`--batch_sizes`) the vector
 env's batched step flown both ways, alternated, in balloon-steps/s (why the
 vector env keeps XLA's defaults):
 
-  python benchmarks/compile_options.py --repeats 3 --json benchmarks/compile_options.json
+  python benchmarks/compile_options.py --repeats 3 --json benchmarks/records/compile_options.json
 """
 
 import argparse

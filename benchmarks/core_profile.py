@@ -25,7 +25,7 @@ earlier commit) the same measurements of that tree's `ble_latex` run in a
 subprocess right after this tree's, so two commits are compared side by side
 under the same load; the load average is recorded before and after each.
 
-  python benchmarks/core_profile.py --json=benchmarks/core_profile.json
+  python benchmarks/core_profile.py --json=benchmarks/records/core_profile.json
 """
 
 import json

@@ -1,7 +1,7 @@
 """DAgger runs and their held-out flights, into one record (issue 47).
 
   python benchmarks/dagger_results.py --name=gpu_h200 \\
-      --runs=benchmarks/dagger/gpu_h200 \\
+      --runs=benchmarks/records/dagger/gpu_h200 \\
       --heldout=benchmarks/results_dagger/latex_small/dagger_gpu_seed_{seed}.json \\
       --machine='one NVIDIA H200 (lent), 3 seeds side by side'
 
@@ -30,6 +30,7 @@ from absl import flags
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.run import dagger
+from ble_latex.run import episode_log
 from ble_latex.run import metrics
 
 FLAGS = flags.FlagValues()
@@ -49,7 +50,7 @@ flags.DEFINE_string('machine', '', 'Where the runs trained.',
                     flag_values=FLAGS)
 flags.DEFINE_string('note', '', 'What differs in this group.',
                     flag_values=FLAGS)
-flags.DEFINE_string('json', 'benchmarks/dagger/results.json', 'The record.',
+flags.DEFINE_string('json', str(episode_log.RECORDS_DIR / 'dagger' / 'results.json'), 'The record.',
                     flag_values=FLAGS)
 
 def _records_from_summary(path: str) -> list:

@@ -1,7 +1,7 @@
 # coding=utf-8
 """The onboard estimator's share of a stride, measured in one process.
 
-  python benchmarks/estimator_cost.py --json=benchmarks/estimator_cost.json
+  python benchmarks/estimator_cost.py --json=benchmarks/records/estimator_cost.json
 
 Times `dynamics.step` (one 20-minute stride in calm air, jitted, vmapped
 over --batch balloons at 16-18 km under a ballast command:

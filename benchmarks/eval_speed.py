@@ -1,6 +1,6 @@
 """`ble-latex-eval` one balloon at a time vs batched (`run/batch_eval.py`).
 
-  python benchmarks/eval_speed.py --json=benchmarks/eval_speed.json
+  python benchmarks/eval_speed.py --json=benchmarks/records/eval_speed.json
 
 Each measurement runs in a fresh interpreter with no persistent compilation
 cache (compiles included, as a user's first eval pays them); the agent and

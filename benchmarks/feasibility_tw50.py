@@ -1,9 +1,9 @@
 r"""Does the feasibility map predict flown TW50? (issue 64 item 5)
 
-  nice -n 10 python benchmarks/feasibility_tw50.py [--json=benchmarks/feasibility_tw50.json]
+  nice -n 10 python benchmarks/feasibility_tw50.py [--json=benchmarks/records/feasibility_tw50.json]
 
 For every per-seed cell of the committed record
-`benchmarks/real_winds_noise1.json` (`real_winds.py`'s record as flown
+`benchmarks/records/real_winds_noise1.json` (`real_winds.py`'s record as flown
 before issue 64's seam and noise default, at BLE's noise scale 1 and kept
 as it was; the two shared GFS files, 100 `latex_small` seeds per agent;
 --record another), the station
@@ -36,6 +36,7 @@ import numpy as np
 import scipy.stats
 
 from ble_latex import safe_io
+from ble_latex.run import episode_log
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REAL = os.path.join(HERE, '..', '..', 'shared', 'realdata')
@@ -75,10 +76,8 @@ def correlate(margin, tw50):
 
 def main():
   parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-  parser.add_argument('--json', default=os.path.join(HERE,
-                                                     'feasibility_tw50.json'))
-  parser.add_argument('--record', default=os.path.join(
-      HERE, 'real_winds_noise1.json'))
+  parser.add_argument('--json', default=str(episode_log.RECORDS_DIR / 'feasibility_tw50.json'))
+  parser.add_argument('--record', default=str(episode_log.RECORDS_DIR / 'real_winds_noise1.json'))
   args = parser.parse_args()
   if safe_io.output_problem(args.json):
     parser.error(f'--json: {safe_io.output_problem(args.json)}')

@@ -1,7 +1,7 @@
 # coding=utf-8
 """The realistic float's calibration table (issue 68), each row against its range.
 
-  python benchmarks/float_calibration.py --json=benchmarks/float_calibration.json
+  python benchmarks/float_calibration.py --json=benchmarks/records/float_calibration.json
 
 Rows (`ble_latex.flight.calibration` measures each; docs/physics.md gives the
 sources of the ranges in `calibration.TARGETS`):
@@ -30,7 +30,7 @@ rows (docs/physics.md):
 
   python benchmarks/float_calibration.py \
       --sweep=0.25:1800,0.25:600,1:1800,2:1800,3:1800,2:600 \
-      --json=benchmarks/float_calibration_sweep.json
+      --json=benchmarks/records/float_calibration_sweep.json
 """
 
 import argparse

@@ -3,7 +3,7 @@
 
   git worktree add /tmp/ble_before 1e397a1
   python benchmarks/gas_step_speed.py --compare_tree=/tmp/ble_before \
-      --json=benchmarks/gas_step_speed.json
+      --json=benchmarks/records/gas_step_speed.json
 
 Times `dynamics.step` (one 20-minute stride in calm air, jitted, vmapped
 over --batch balloons at 16-18 km under a ballast command; the best of
@@ -20,7 +20,7 @@ the other tree's realistic; the paper's model unchanged. The onboard
 estimator's cost (issue 63 item 3) against a tree without it:
 
   python benchmarks/gas_step_speed.py --compare_tree=/tmp/ble_before \
-      --batch=256 --rounds=3 --json=benchmarks/estimator_step_speed.json
+      --batch=256 --rounds=3 --json=benchmarks/records/estimator_step_speed.json
 """
 
 import argparse

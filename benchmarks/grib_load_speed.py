@@ -11,7 +11,7 @@ winds and writes the seconds and their ratio as JSON.
 
   .venv/bin/python benchmarks/grib_load_speed.py \
       [--grib=/work/shared/realdata/winds/gfs_2011-10-08T00Z_f072_global_2p5deg.grib2]
-      [--files=13] [--output=benchmarks/grib_load_speed.json]
+      [--files=13] [--output=benchmarks/records/grib_load_speed.json]
 """
 
 import argparse
@@ -28,6 +28,7 @@ from ble_latex import safe_io
 from ble_latex.wind import analysis
 from ble_latex.wind import era5
 from ble_latex.wind import era5_checks
+from ble_latex.run import episode_log
 
 DEFAULT_GRIB = ('/work/shared/realdata/winds/'
                 'gfs_2011-10-08T00Z_f072_global_2p5deg.grib2')
@@ -90,7 +91,7 @@ def main():
   parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
   parser.add_argument('--grib', default=DEFAULT_GRIB)
   parser.add_argument('--files', type=int, default=13)
-  parser.add_argument('--output', default='benchmarks/grib_load_speed.json')
+  parser.add_argument('--output', default=str(episode_log.RECORDS_DIR / 'grib_load_speed.json'))
   args = parser.parse_args()
   if safe_io.output_problem(args.output):
     parser.error(f'--output: {safe_io.output_problem(args.output)}')

@@ -1,6 +1,6 @@
 """Launch search methods side by side at equal rollout budgets (issue 46).
 
-  python benchmarks/launch_search.py [--output=benchmarks/launch_search.json] \
+  python benchmarks/launch_search.py [--output=benchmarks/records/launch_search.json] \
       [--seeds=0,1,2,3,4,5] [--grid=21,21,4] [--draws=4] \
       [--budgets=4,8,16,32,64] [--repeats=3]
   python benchmarks/launch_search.py --report_only   # figure + table again
@@ -32,9 +32,10 @@ import numpy as np
 
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import episode_log
 
 FLAGS = flags.FlagValues()
-flags.DEFINE_string('output', 'benchmarks/launch_search.json', 'The record.',
+flags.DEFINE_string('output', str(episode_log.RECORDS_DIR / 'launch_search.json'), 'The record.',
                     flag_values=FLAGS)
 flags.DEFINE_list('seeds', ['0', '1', '2', '3', '4', '5'], 'World seeds '
                   '(cases).', flag_values=FLAGS)

@@ -1,6 +1,6 @@
 """MPC as a teacher for SAC (issue 29, stretch): a short study.
 
-  python benchmarks/mpc_teacher.py --output=benchmarks/mpc_teacher.json \
+  python benchmarks/mpc_teacher.py --output=benchmarks/records/mpc_teacher.json \
       [--rounds=10] [--demo_episodes=64] [--seed=0]
 
 Does filling SAC's replay with the forecast planner's flights first help the
@@ -37,9 +37,10 @@ import numpy as np
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import episode_log
 
 FLAGS = flags.FlagValues()
-flags.DEFINE_string('output', 'benchmarks/mpc_teacher.json', 'Results JSON.',
+flags.DEFINE_string('output', str(episode_log.RECORDS_DIR / 'mpc_teacher.json'), 'Results JSON.',
                     flag_values=FLAGS)
 flags.DEFINE_integer('rounds', 10, 'Training rounds per arm.', lower_bound=1,
                      flag_values=FLAGS)

@@ -18,7 +18,7 @@ Run it on two commits side by side (e.g. a `git worktree` of the earlier one
 with `PYTHONPATH` pointing at it) to compare kernels; the JSON records which
 `ble_latex` was imported and the load average.
 
-  python benchmarks/noise_speed.py --json=benchmarks/noise_speed.json
+  python benchmarks/noise_speed.py --json=benchmarks/records/noise_speed.json
 """
 
 import os

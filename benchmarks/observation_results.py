@@ -1,12 +1,12 @@
 """SAC runs of different observations side by side, into one record (issue 47).
 
   python benchmarks/observation_results.py \\
-      --run=paper=benchmarks/sac_jax/n32 \\
-      --run=wind_memory16=benchmarks/sac_jax/wind_memory16 \\
-      --run=wind_lookahead12=benchmarks/sac_jax/wind_lookahead12 \\
+      --run=paper=benchmarks/records/sac_jax/n32 \\
+      --run=wind_memory16=benchmarks/records/sac_jax/wind_memory16 \\
+      --run=wind_lookahead12=benchmarks/records/sac_jax/wind_lookahead12 \\
       --reference=sac_pretrained=benchmarks/results/latex_small/sac_pretrained.json \\
-      --reference=latex_mpc=benchmarks/planners/latex_small/latex_mpc.json \\
-      --reference=latex_mpc_oracle=benchmarks/planners/latex_small/latex_mpc_oracle.json
+      --reference=latex_mpc=benchmarks/records/planners/latex_small/latex_mpc.json \\
+      --reference=latex_mpc_oracle=benchmarks/records/planners/latex_small/latex_mpc_oracle.json
 
 Each `--run NAME=BASE_DIR` is a `benchmarks/sac_seeds.py` run: its seeds'
 validation curves (`seed_S/validation.jsonl`), the observation they trained
@@ -31,6 +31,7 @@ from absl import flags
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.envs import env_params
+from ble_latex.run import episode_log
 from ble_latex.run import metrics
 from ble_latex.run import records
 
@@ -40,7 +41,7 @@ flags.DEFINE_multi_string('run', [], 'NAME=BASE_DIR of a sac_seeds.py run '
 flags.DEFINE_multi_string('reference', [], 'NAME=PATH: another agent\'s '
                           'eval record on the held-out suite.',
                           flag_values=FLAGS)
-flags.DEFINE_string('json', 'benchmarks/sac_jax/observation_results.json',
+flags.DEFINE_string('json', str(episode_log.RECORDS_DIR / 'sac_jax' / 'observation_results.json'),
                     'The record.', flag_values=FLAGS)
 
 

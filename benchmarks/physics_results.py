@@ -1,14 +1,14 @@
 """Paper physics vs realistic latex physics, side by side (issues 28, 44).
 
   make baselines baselines-realistic long-flights   # the evals (Makefile)
-  python benchmarks/physics_results.py --json=benchmarks/physics_results.json \
+  python benchmarks/physics_results.py --json=benchmarks/records/physics_results.json \
       --paper=benchmarks/results/latex_small \
       --realistic=benchmarks/results_realistic/latex_small \
       --realistic_stress=benchmarks/results_realistic_stress/latex_small \
       --paper_long=benchmarks/results_7day/latex_small \
       --realistic_long=benchmarks/results_7day_realistic/latex_small
   make realistic-task   # the realistic task's evals (issue 63), then
-  python benchmarks/physics_results.py --json=benchmarks/physics_results.json \
+  python benchmarks/physics_results.py --json=benchmarks/records/physics_results.json \
       --realistic_task=benchmarks/results_realistic_task/latex_small \
       --realistic_task_long=benchmarks/results_7day_realistic_task/latex_small
 

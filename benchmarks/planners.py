@@ -1,7 +1,7 @@
 """The planners (`ble_latex.agents.planning`) on a suite, balloons batched.
 
   python benchmarks/planners.py --agent=latex_mpc --suite=latex_small \
-      --output_dir=benchmarks/planners/results [--num_seeds=100] [--batch=25] \
+      --output_dir=benchmarks/records/planners/results [--num_seeds=100] [--batch=25] \
       [--gin_bindings='LatexMpcAgent.num_samples=64']
 
 Flies the suite's first --num_seeds seeds --batch at a time with the JAX env
@@ -34,13 +34,14 @@ from ble_latex import errors
 from ble_latex import quiet
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import episode_log
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('agent', 'latex_mpc', 'latex_mpc, latex_mpc_oracle or '
                     'latex_mpc_grad.', flag_values=FLAGS)
 flags.DEFINE_string('suite', 'latex_small', 'Evaluation suite.',
                     flag_values=FLAGS)
-flags.DEFINE_string('output_dir', 'benchmarks/planners/results',
+flags.DEFINE_string('output_dir', str(episode_log.RECORDS_DIR / 'planners' / 'results'),
                     'Output folder (SUITE/NAME.json inside).',
                     flag_values=FLAGS)
 flags.DEFINE_string('name_override', None, 'Name of the output files.',

@@ -1,9 +1,9 @@
 """The clairvoyant planner's gap to another agent, per seed, as a figure.
 
   python benchmarks/planners_gap.py \
-      --upper=benchmarks/planners/latex_small/latex_mpc_oracle.json \
+      --upper=benchmarks/records/planners/latex_small/latex_mpc_oracle.json \
       --agent=benchmarks/results/latex_small/sac_pretrained.json \
-      --output=benchmarks/planners/oracle_gap_sac.png
+      --output=benchmarks/records/planners/oracle_gap_sac.png
 
 Both files are `ble-latex-eval` records (benchmarks/planners.py writes the
 same). Left: TW50 over the window per seed, the upper bound against the

@@ -25,7 +25,7 @@ policy files given (all of the same `latex_observation.*` settings but for
 Writes a JSON record: per seed, the TW50 over the window and the flight's
 status; the mean TW50 over the window and % out of resources.
 
-`--sweep=benchmarks/ensemble/results.json` flies the committed set
+`--sweep=benchmarks/records/ensemble/results.json` flies the committed set
 (`sweep_runs`: each drift seed alone, every 3 of them as a critic-chosen
 ensemble, all together, the rejected variants on validation only, the
 corrected-column seeds, the mixed ensembles of `--memory_seeds` and
@@ -35,7 +35,7 @@ it; the docs' `ensemble` table is generated from
 it (`docs/hooks/learned.py`).
 
   python benchmarks/policy_select.py --mode=critic --samples=8 \
-      --policy=benchmarks/sac_jax/wind_lookahead12/seed_0/chosen_policy.msgpack \
+      --policy=benchmarks/records/sac_jax/wind_lookahead12/seed_0/chosen_policy.msgpack \
       --gin_file=gin_configs/latex_wind_lookahead.gin --suite=latex_validation \
       --output=/tmp/select.json
 """
@@ -65,6 +65,7 @@ with quiet.third_party_noise():  # Dopamine's import-time notices.
   from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
+from ble_latex.run import episode_log
 from ble_latex.run import jax_train
 from ble_latex.run import metrics
 from ble_latex.run import run_dir
@@ -98,13 +99,13 @@ flags.DEFINE_string('output', '', 'JSON record.', flag_values=FLAGS)
 flags.DEFINE_string('sweep', '', 'Fly the committed sweep (`sweep_runs`) into '
                     'this record (resumes it).', flag_values=FLAGS)
 flags.DEFINE_list('drift_seeds', ['0', '1', '2'], '--sweep: training seeds of '
-                  'benchmarks/sac_jax/wind_lookahead12 with a chosen policy.',
+                  'benchmarks/records/sac_jax/wind_lookahead12 with a chosen policy.',
                   flag_values=FLAGS)
 flags.DEFINE_list('memory_seeds', ['0', '1', '2'], '--sweep: those of '
-                  'benchmarks/sac_jax/wind_memory16 (the first three are '
+                  'benchmarks/records/sac_jax/wind_memory16 (the first three are '
                   'always flown alone).', flag_values=FLAGS)
 flags.DEFINE_list('both_seeds', [], '--sweep: those of '
-                  'benchmarks/sac_jax/memory_lookahead (both corrections).',
+                  'benchmarks/records/sac_jax/memory_lookahead (both corrections).',
                   flag_values=FLAGS)
 
 
@@ -283,7 +284,8 @@ LOOKAHEADS = ((1, False), (2, True), (3, False), (3, True), (4, True))
 
 
 def _seed_run(run: str, seed: int) -> str:
-  return os.path.join('benchmarks', 'sac_jax', run, f'seed_{seed}')
+  return os.path.relpath(episode_log.RECORDS_DIR / 'sac_jax' / run /
+                         f'seed_{seed}')
 
 
 def _chosen(run: str, seed: int) -> str:

@@ -1,7 +1,7 @@
 """Seconds per decision of a SAC policy file, one balloon at a time (issue 47).
 
-  python benchmarks/policy_speed.py --json=benchmarks/policy_speed.json \\
-      --policy=shipped --policy=dagger_seed_1=benchmarks/dagger/gpu_h200/seed_1/best_policy.msgpack
+  python benchmarks/policy_speed.py --json=benchmarks/records/policy_speed.json \\
+      --policy=shipped --policy=dagger_seed_1=benchmarks/records/dagger/gpu_h200/seed_1/best_policy.msgpack
 
 Issue 47 asks for a controller that decides in <= 10 ms per balloon on 2 CPU
 cores. Each `--policy NAME=PATH` (or `shipped`: the shipped policy) is

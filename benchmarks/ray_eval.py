@@ -9,7 +9,7 @@ before and after each command.
 
   python benchmarks/ray_eval.py --agent=station_seeker \\
       --env_name=LatexBalloonDiscrete-v0 --suite=latex_small --num_cpus=2 \\
-      --json=benchmarks/ray_eval.json
+      --json=benchmarks/records/ray_eval.json
 """
 
 import json

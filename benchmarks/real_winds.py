@@ -4,7 +4,7 @@ r"""Agents flown on the real wind sources (issue 45 item 6): the record.
       [--sources=gfs_namerica,gfs_global,boise,hilo] \
       [--agents=sac_pretrained,latex_station_seeker,latex_random] \
       [--seeds=100 | --seeds=gfs_namerica:100,boise:20] \
-      [--station_mode=center] [--json=benchmarks/real_winds.json]
+      [--station_mode=center] [--json=benchmarks/records/real_winds.json]
 
 Each (source, agent, station mode) is one cell: the suite's (--suite,
 default latex_small) first N seeds flown by `eval_lib.evaluate` (the
@@ -59,6 +59,7 @@ from absl import flags
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import episode_log
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # The real files beside the checkout (../shared/realdata/PROVENANCE.md).
@@ -115,8 +116,7 @@ flags.DEFINE_multi_string('station_bindings', [], 'More gin bindings of '
 flags.DEFINE_string('realdata_dir', REALDATA_DIR,
                     'Folder of the real files (PROVENANCE.md).',
                     flag_values=FLAGS)
-flags.DEFINE_string('json', os.path.join(_ROOT, 'benchmarks',
-                                         'real_winds.json'),
+flags.DEFINE_string('json', str(episode_log.RECORDS_DIR / 'real_winds.json'),
                     'The record (merged).', flag_values=FLAGS)
 flags.DEFINE_integer('max_episode_length', None, 'Cap on the strides (a '
                      'smoke test; default the suite\'s).', lower_bound=1,

@@ -3,7 +3,7 @@ r"""Flight paths of agents over a real GFS domain (issue 45 item 6): a figure.
   nice -n 10 python benchmarks/real_winds_paths.py \
       [--source=gfs_namerica] [--agents=sac_pretrained,latex_station_seeker] \
       [--seeds=8] [--png=docs/assets/real_winds_paths.png] \
-      [--json=benchmarks/real_winds_paths.json]
+      [--json=benchmarks/records/real_winds_paths.json]
 
 Flies the suite's (--suite, default latex_small) first --seeds seeds of
 each agent on `benchmarks/real_winds.py`'s source (`SOURCES`, a GFS grid)
@@ -23,7 +23,7 @@ launch, a cross where it ended), its station with the station-keeping
 radius (50 km) circle; the title names the file and "time-invariant".
 The JSON (--json): the command, date, machine, load average before/after,
 the commit, settings and, per flight, its station, TW50 (window and flown),
-terminal reason and final distance -- and, where `benchmarks/real_winds.json`
+terminal reason and final distance -- and, where `benchmarks/records/real_winds.json`
 holds the same cell (same settings), the TW50 it recorded for that seed.
 """
 
@@ -40,6 +40,7 @@ from absl import flags
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import episode_log
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 _ROOT = os.path.dirname(_HERE)
@@ -67,7 +68,7 @@ flags.DEFINE_string('realdata_dir', real_winds.REALDATA_DIR,
 flags.DEFINE_string('png', os.path.join(_ROOT, 'docs', 'assets',
                                         'real_winds_paths.png'),
                     'The figure.', flag_values=FLAGS)
-flags.DEFINE_string('json', os.path.join(_HERE, 'real_winds_paths.json'),
+flags.DEFINE_string('json', str(episode_log.RECORDS_DIR / 'real_winds_paths.json'),
                     'The record (rewritten).', flag_values=FLAGS)
 flags.DEFINE_integer('max_episode_length', None, 'Cap on the strides (a '
                      'smoke test; default the suite\'s).', lower_bound=1,
@@ -193,7 +194,7 @@ def draw(path: str, title: str, panels: Dict[str, List[Dict[str, Any]]],
 
 def recorded_tw50(source: str, agent: str, cell: Dict[str, Any],
                   record_path: str) -> Dict[int, float]:
-  """seed -> tw50_window of benchmarks/real_winds.json's same cell, if any."""
+  """seed -> tw50_window of benchmarks/records/real_winds.json's same cell, if any."""
   if not os.path.exists(record_path):
     return {}
   old = real_winds.load_record(record_path)['cells'].get(
@@ -283,7 +284,7 @@ def _main(argv: Sequence[str]) -> None:
                station_bindings=FLAGS.station_bindings, png=FLAGS.png,
                json_path=FLAGS.json, max_steps=FLAGS.max_episode_length,
                command=command,
-               real_winds_json=os.path.join(_HERE, 'real_winds.json'))
+               real_winds_json=str(episode_log.RECORDS_DIR / 'real_winds.json'))
   for agent, about in record['runs'].items():
     tw = [f['tw50_window'] for f in record['flights'] if f['agent'] == agent]
     print(json.dumps({'agent': agent, 'tw50_window': [round(t, 4) for t in tw],

@@ -8,7 +8,7 @@ the helium's day-night swing S [K]) flies the same seeds for a long flight
 that sigma and swing, everything else as calibrated:
 
   python benchmarks/realistic_sensitivity.py \
-      --json=benchmarks/realistic_sensitivity.json \
+      --json=benchmarks/records/realistic_sensitivity.json \
       --png=docs/assets/realistic_sensitivity.png
 
 Agents: `latex_station_seeker` (the geometric seeker) and, with

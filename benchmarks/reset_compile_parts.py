@@ -5,7 +5,7 @@ random draw of a new world separately and then the whole `draw`, in one
 process, and prints compile seconds and HLO lines per part with the
 machine's load average:
 
-  python benchmarks/reset_compile_parts.py --json benchmarks/reset_compile_parts.json
+  python benchmarks/reset_compile_parts.py --json benchmarks/records/reset_compile_parts.json
 """
 
 import argparse

@@ -39,8 +39,8 @@ a second study on the same --output is refused). The full study (3 seeds x
 2026-11-28, real sources included):
 
   nice -n 5 python benchmarks/reward_shape.py \
-      --base_dir=benchmarks/sac_jax/reward_shape --seeds=0,1,2 --rounds=60 \
-      --parallel=2 --output=benchmarks/reward_shape.json \
+      --base_dir=benchmarks/records/sac_jax/reward_shape --seeds=0,1,2 --rounds=60 \
+      --parallel=2 --output=benchmarks/records/reward_shape.json \
       --real_sources=gfs_namerica,gfs_global,boise,hilo
 
 A smoke run (tiny budget; its numbers mean nothing):
@@ -65,6 +65,7 @@ from absl import flags
 from ble_latex import gin_values
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import episode_log
 from ble_latex.run import metrics
 from ble_latex.run import seed_runs
 from ble_latex.run import selection
@@ -100,7 +101,7 @@ flags.DEFINE_float('max_oor_pct', 5.0, 'Most % of validation episodes out '
 cli.define_gin_flags(FLAGS, files_help=None, bindings_help='Bindings for '
                      'every reward\'s training (e.g. '
                      'sac_trainer_config.num_envs=8).')
-flags.DEFINE_string('output', 'benchmarks/reward_shape.json', 'The record.',
+flags.DEFINE_string('output', str(episode_log.RECORDS_DIR / 'reward_shape.json'), 'The record.',
                     flag_values=FLAGS)
 flags.DEFINE_list('real_sources', [], 'Real wind sources each chosen policy '
                   f'also flies, of {list(real_winds.SOURCES)} '

@@ -6,7 +6,7 @@ Two steps, both resumable (re-run the same command after a kill):
   #    in BASE_DIR/seed_<s>, one after another; every --snapshot_period rounds
   #    the policy is exported and flown on the 100 latex_validation seeds
   #    (batched, into seed_<s>/validation.jsonl with the training time so far).
-  python benchmarks/sac_seeds.py train --base_dir=benchmarks/sac_jax/n32 \
+  python benchmarks/sac_seeds.py train --base_dir=benchmarks/records/sac_jax/n32 \
       --seeds=0,1,2,3,4 --num_iterations=230 [--parallel=2]
 
   #    --parallel=2 runs two ble-latex-train processes at once (seeds dealt
@@ -24,7 +24,7 @@ Two steps, both resumable (re-run the same command after a kill):
   #    policy. --max_minutes / --max_iteration cap the snapshots looked at
   #    (a time budget, or the same number of rounds for every seed);
   #    --parallel=2 flies two seeds' held-out evals at once.
-  python benchmarks/sac_seeds.py report --base_dir=benchmarks/sac_jax/n32 \
+  python benchmarks/sac_seeds.py report --base_dir=benchmarks/records/sac_jax/n32 \
       --seeds=0,1,2,3,4 [--max_iteration=229] [--parallel=2] \
       [--ship=ble_latex/agents/policies/sac_latex.msgpack]
 
@@ -32,7 +32,7 @@ Two steps, both resumable (re-run the same command after a kill):
   #    per run directory, the chosen snapshot as in `report` and the mean of
   #    the last five validations, within the same caps.
   python benchmarks/sac_seeds.py compare --max_iteration=99 \
-      --run_dirs=benchmarks/sac_jax/n32/seed_0,benchmarks/sac_jax/critic_crossq/seed_0
+      --run_dirs=benchmarks/records/sac_jax/n32/seed_0,benchmarks/records/sac_jax/critic_crossq/seed_0
 """
 
 from concurrent import futures

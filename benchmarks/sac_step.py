@@ -29,7 +29,7 @@ Part 3 (`per_env_step`): what one environment step of training costs.
   and per update costs are separated.
 
   python benchmarks/sac_step.py --steps=200 --rounds=3 \
-      --json=benchmarks/sac_step.json
+      --json=benchmarks/records/sac_step.json
 """
 
 import functools

@@ -20,7 +20,7 @@ capacity is cut to what the rounds fill (the update cost does not depend on
 it). The load average before and after is recorded: this machine is shared.
 
   python benchmarks/seed_parallel.py --num_seeds=2 --rounds=3 \
-      --json=benchmarks/seed_parallel.json
+      --json=benchmarks/records/seed_parallel.json
 """
 
 import json

@@ -21,7 +21,7 @@ each run: on a shared machine it explains most of the spread. So is each
 child's CPU time (user + system, `cpu_s`): on 2 cores a start cannot take
 less wall time than about half of it, which bounds the cold ratio.
 
-  python benchmarks/start_time.py --repeats 5 --json benchmarks/start_time.json
+  python benchmarks/start_time.py --repeats 5 --json benchmarks/records/start_time.json
 """
 
 import json

@@ -1,6 +1,6 @@
 """DAgger: distil the forecast planner into a policy (issue 47), one seed.
 
-  python benchmarks/train_dagger.py --base_dir=benchmarks/dagger/seed_0 \
+  python benchmarks/train_dagger.py --base_dir=benchmarks/records/dagger/seed_0 \
       --seed=0 --rounds=4 [--gin_bindings='dagger_config.num_balloons = 8']
 
 `ble_latex.run.dagger.train` in a run directory: resumable (run it again

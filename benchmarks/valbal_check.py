@@ -38,7 +38,7 @@ Days aloft are also flown for two other loads of the same system (`CASES`):
     ballast (a latex balloon at 13.5 km is far below its burst volume, so
     physics does not force it; a fixed launch budget would).
 
-  python benchmarks/valbal_check.py --output=benchmarks/valbal_check.json
+  python benchmarks/valbal_check.py --output=benchmarks/records/valbal_check.json
 """
 
 import argparse

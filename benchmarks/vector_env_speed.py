@@ -12,7 +12,7 @@ persistent cache), then seeded uniform random actions for at least
 Reported: balloon-steps/s (N x steps / wall s), wall s per vector step,
 first reset and first step times, peak RSS, load average.
 
-  python benchmarks/vector_env_speed.py --json benchmarks/vector_env_speed.json
+  python benchmarks/vector_env_speed.py --json benchmarks/records/vector_env_speed.json
 """
 
 import json

@@ -1,7 +1,7 @@
 r"""BLE's VAE winds against each real wind source (issue 45 item 7).
 
   nice -n 10 python benchmarks/wind_compare.py \
-      [--json=benchmarks/wind_compare.json] \
+      [--json=benchmarks/records/wind_compare.json] \
       [--figure=docs/assets/wind_compare.png]
 
 One run samples BLE's generative (VAE) forecast (`stats.sample_vae`:
@@ -43,6 +43,7 @@ import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import quiet
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import episode_log
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 _ROOT = os.path.dirname(_HERE)
@@ -67,8 +68,7 @@ flags.DEFINE_list('common_pressures_pa', ['5000', '7000', '10000'],
 flags.DEFINE_string('realdata_dir', real_winds.REALDATA_DIR,
                     'Folder of the real files (PROVENANCE.md).',
                     flag_values=FLAGS)
-flags.DEFINE_string('json', os.path.join(_ROOT, 'benchmarks',
-                                         'wind_compare.json'),
+flags.DEFINE_string('json', str(episode_log.RECORDS_DIR / 'wind_compare.json'),
                     'The record.', flag_values=FLAGS)
 flags.DEFINE_string('figure', os.path.join(_ROOT, 'docs', 'assets',
                                            'wind_compare.png'),

@@ -28,6 +28,7 @@ from ble_latex.agents import sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
+from ble_latex.run import episode_log
 
 _LOW = np.asarray(jax_env.ACTION_LOW, np.float32)
 _HIGH = np.asarray(jax_env.ACTION_HIGH, np.float32)
@@ -431,17 +432,15 @@ def test_shipped_ensemble_flies_the_latex_env_under_its_gin_file():
 @pytest.mark.slow
 def test_shipped_ensemble_reproduces_its_record():
   """README's `sac_ensemble` row: its committed eval record
-  (benchmarks/ensemble/latex_small/sac_ensemble.json), all 100 seeds, within
+  (benchmarks/records/ensemble/latex_small/sac_ensemble.json), all 100 seeds, within
   the shipped policy's row tolerance (`test_pretrained.ROW_TOLERANCE`)."""
   import json  # pylint: disable=g-import-not-at-top
-  import pathlib  # pylint: disable=g-import-not-at-top
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
   from test_pretrained import ROW_TOLERANCE  # pylint: disable=g-import-not-at-top
-  root = pathlib.Path(__file__).resolve().parent.parent
   recorded = metrics.summarize(json.loads(
-      (root / 'benchmarks' / 'ensemble' / 'latex_small' /
+      (episode_log.RECORDS_DIR / 'ensemble' / 'latex_small' /
        'sac_ensemble.json').read_text()))
   with _shipped_on_gym() as (env, agent):
     suite = suites.get_eval_suite('latex_small')

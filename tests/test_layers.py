@@ -253,7 +253,7 @@ def _scripts() -> Dict[str, pathlib.Path]:
   """benchmarks/ scripts by path under it (committed runs' folders left)."""
   return {str(p.relative_to(BENCHMARKS)): p
           for p in sorted(BENCHMARKS.rglob('*.py'))
-          if not p.relative_to(BENCHMARKS).parts[0] == 'sac_jax'}
+          if p.relative_to(BENCHMARKS).parts[0] not in ('sac_jax', 'records')}
 
 
 def _edits_sys_path(path: pathlib.Path) -> List[int]:

@@ -14,6 +14,7 @@ import pytest
 
 from ble_latex.cli import plot
 from ble_latex.plots import figures as plots
+from ble_latex.run import episode_log
 from ble_latex.run import records as records_lib
 import test_era5  # pylint: disable=g-bad-import-order
 
@@ -363,8 +364,8 @@ def test_schemas_match_what_is_written():
   assert set(records_lib.EVAL_SCHEMA) == (
       fields - {'episode', 'wall_time_s'}) | {'flight_path'}
   # The run shipped in benchmarks/ passes.
-  shipped = (pathlib.Path(__file__).parent.parent / 'benchmarks' /
-             'sac_paper_run' / 'episodes.jsonl')
+  shipped = (episode_log.RECORDS_DIR / 'sac_paper_run' /
+             episode_log.EPISODE_LOG)
   assert len(records_lib.load_episodes(str(shipped))) == 2260
   # What the gym env's flight points and station hold is what is read back.
   import gym  # pylint: disable=g-import-not-at-top

@@ -11,6 +11,7 @@ from ble_latex.agents import pretrained
 from ble_latex.agents import sac
 from ble_latex.agents import sac_core
 from ble_latex import safe_io
+from ble_latex.run import episode_log
 import numpy as np
 import pytest
 
@@ -100,7 +101,7 @@ def test_shipped_policy_flies_the_latex_env():
   env = gym.make('LatexBalloon-v0').unwrapped
   agent = runner.create_agent('sac_pretrained', env)
   # The jitted trainer's run it came from (README "Results").
-  assert agent.policy_info['source'].startswith('benchmarks/sac_jax/n32/seed_')
+  assert agent.policy_info['source'].startswith('benchmarks/records/sac_jax/n32/seed_')
   agent.set_mode('eval')
   obs = env.reset(seed=1_000_000)
   first = agent.begin_episode(obs)
@@ -115,8 +116,8 @@ def test_shipped_policy_flies_the_latex_env():
 
 
 @pytest.mark.parametrize('gin_files, source', [
-    ((), 'benchmarks/sac_jax/n32/seed_'),
-    (('latex_realistic.gin',), 'benchmarks/sac_jax/realistic_calibrated/seed_')])
+    ((), 'benchmarks/records/sac_jax/n32/seed_'),
+    (('latex_realistic.gin',), 'benchmarks/records/sac_jax/realistic_calibrated/seed_')])
 def test_sac_pretrained_loads_the_policy_of_the_bound_physics(gin_files,
                                                               source):
   """The paper's policy by default; the realistic one under its gin file."""
@@ -146,21 +147,20 @@ ROW_TOLERANCE = {'tw50_window': 0.015, 'tw50': 0.015, 'reward_rel': 0.03,
 
 @pytest.mark.slow
 def test_shipped_policy_reproduces_its_results_row():
-  """README's sac_pretrained row (benchmarks/results.json), all 100 seeds.
+  """README's sac_pretrained row (benchmarks/records/results_table.json), all 100 seeds.
 
   Equal within `ROW_TOLERANCE` (the row is re-made on the machine that
   ships a policy), and the issue's targets hold here too: TW50 over the
   window >= 60 % with <= 5 % of the flights out of resources.
   """
   import json
-  import pathlib
   import gym
   from ble_latex.run import eval_lib
   from ble_latex.run import metrics
   from ble_latex.run import runner
   from ble_latex.run import suites
-  root = pathlib.Path(__file__).resolve().parent.parent
-  rows = json.loads((root / 'benchmarks' / 'results.json').read_text())
+  rows = json.loads(
+      (episode_log.RECORDS_DIR / 'results_table.json').read_text())
   (row,) = [r for r in rows if r['agent'] == 'sac_pretrained']
   env = gym.make('LatexBalloon-v0').unwrapped
   agent = runner.create_agent('sac_pretrained', env)

@@ -7,6 +7,7 @@ import pathlib
 
 import pytest
 
+from ble_latex.run import episode_log
 from ble_latex.run import metrics
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -70,7 +71,8 @@ def test_real_sources_fly_where_the_real_winds_table_flies(script):
   """Each source's station settings are its cells' in the committed
   real-winds record (a sounding at its site, a grid's per-seed stations)."""
   import json  # pylint: disable=g-import-not-at-top
-  record = json.loads((ROOT / 'benchmarks' / 'real_winds.json').read_text())
+  record = json.loads(
+      (episode_log.RECORDS_DIR / 'real_winds.json').read_text())
   keys = ('station_mode', 'station_lat_lon', 'station_bindings')
   for name in ('hilo', 'boise', 'gfs_namerica', 'gfs_global'):
     cell = script.real_cell(name, 'latex_small', '/not/read')

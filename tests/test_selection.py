@@ -2,17 +2,16 @@
 """run.selection: the one rule that chooses on validation (issue 66)."""
 
 import json
-import pathlib
 
 from hypothesis import given
 from hypothesis import strategies as st
 import pytest
 
+from ble_latex.run import episode_log
 from ble_latex.run import records
 from ble_latex.run import selection
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-SAC_RUNS = ROOT / 'benchmarks' / 'sac_jax'
+SAC_RUNS = episode_log.RECORDS_DIR / 'sac_jax'
 
 _ROWS = st.lists(st.fixed_dictionaries({
     'iteration': st.integers(0, 50),

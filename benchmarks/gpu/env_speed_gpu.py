@@ -3,7 +3,7 @@
 `jax_env.rollout` of N balloons through 216 strides (3 days, a constant
 action): the first call (compile and run), then the best of two timed calls.
 Writes $OUT/env_speed.json. Run on a lent NVIDIA H100 on 2026-11-26 by
-`planners_sweep.py` (`benchmarks/planners/gpu_h100/env_speed.json`); on this
+`planners_sweep.py` (`benchmarks/records/planners/gpu_h100/env_speed.json`); on this
 project's 2-core CPU, `benchmarks/batch_speed.py` measures the same rollout.
 
   OUT=/tmp/speed SIZES=1024,8192,32768 python benchmarks/gpu/env_speed_gpu.py

@@ -2,7 +2,7 @@
 
 The runs behind the "On a GPU" figures of `docs/planners.md` (an NVIDIA
 H100, 2026-11-26; records and both runs' logs in
-`benchmarks/planners/gpu_h100/`). This is a tidied copy of the driver that
+`benchmarks/records/planners/gpu_h100/`). This is a tidied copy of the driver that
 ran there: the same runs, order, time limits and selection rule, with flags
 where that one read environment variables (BUDGET, NVAL) and had the worst
 seeds written in. Each run is

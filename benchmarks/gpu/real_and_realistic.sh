@@ -27,7 +27,7 @@ log=$out/log.txt
 mkdir -p "$out"
 . "$(dirname "$0")/budget.sh"
 { date -u; nvidia-smi -L; $py -c 'import jax; print("jax", jax.__version__, jax.devices())'; uptime; } >>"$log" 2>&1
-cp benchmarks/real_winds.json "$out/real_winds.json"
+cp benchmarks/records/real_winds.json "$out/real_winds.json"
 for agent in latex_mpc latex_mpc_oracle; do
   [[ $parts == *,realistic,* ]] || continue
   step "$agent realistic" $py benchmarks/planners.py --agent=$agent --suite=latex_small \

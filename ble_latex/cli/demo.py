@@ -14,7 +14,8 @@
    steps, helium, sand, % out of resources).
 
 --run_dir defaults to the training run of the shipped policy
-(`benchmarks/sac_jax/n32/seed_2`, in a checkout of the repository). With
+(`benchmarks/records/sac_jax/n32/seed_2`, in a checkout of the repository,
+when its episodes.jsonl is there: run logs stay out of git). With
 --train_episodes=N the demo first trains SAC (paper settings, learning after
 2 episodes) for N episodes into OUTPUT_DIR/sac_run and draws that run's curves
 instead: the pipeline end to end (a few episodes are far too few to learn
@@ -23,7 +24,6 @@ station-keeping; the shipped policy trained on 2260).
 
 import json
 import os
-import pathlib
 import sys
 from typing import Dict, List, Optional, Sequence
 
@@ -32,6 +32,7 @@ from absl import flags
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import agents
 from ble_latex.cli import common as cli
+from ble_latex.run import episode_log
 from ble_latex.run import gin_binding
 
 # Imported on first use, after the flags are parsed (`--help` stays fast).
@@ -48,8 +49,7 @@ _SAC = 'ble_latex.agents.sac.SACAgent'
 TRAINED = 'sac_pretrained'
 LEARNED = 'sac_ensemble'  # Issue 47's controller, under its gin file.
 # The shipped policy's training run, in a checkout of the repository.
-SHIPPED_RUN = (pathlib.Path(__file__).resolve().parents[2] / 'benchmarks' /
-               'sac_jax' / 'n32' / 'seed_2')
+SHIPPED_RUN = episode_log.RECORDS_DIR / 'sac_jax' / 'n32' / 'seed_2'
 
 # The command's own flags (`cli.run_absl`).
 FLAGS = flags.FlagValues()
@@ -106,7 +106,7 @@ def run(output_dir: str, suite: str, baseline: str, run_dir: Optional[str],
     print(f'[1/{steps}] Training SAC for {train_episodes} episodes into '
           f'{run_dir}', flush=True)
     _train(run_dir, train_episodes)
-  elif run_dir is None and SHIPPED_RUN.is_dir():
+  elif run_dir is None and (SHIPPED_RUN / episode_log.EPISODE_LOG).is_file():
     run_dir = str(SHIPPED_RUN)
   seeds = suites.get_eval_suite(suite).seeds
   eval_dir = os.path.join(output_dir, 'eval')
@@ -127,7 +127,7 @@ def run(output_dir: str, suite: str, baseline: str, run_dir: Optional[str],
   if run_dir is not None:
     argv.append(f'--run_dir={run_dir}')
   else:
-    print(f'(no training run at {SHIPPED_RUN}: training figures skipped; '
+    print(f'(no training log at {SHIPPED_RUN}: training figures skipped; '
           'give --run_dir or --train_episodes)', flush=True)
   if plot.main(argv):
     raise RuntimeError('ble-latex-plot failed')

@@ -498,7 +498,7 @@ def records_from_log(path: str) -> List[Dict[str, Any]]:
 
 
 def flat_round(record: Dict[str, Any]) -> Dict[str, Any]:
-  """A round as benchmarks/dagger/results.json keeps it (wall times [s] as
+  """A round as benchmarks/records/dagger/results.json keeps it (wall times [s] as
   far as known: a log line gives no validation time)."""
   validation = record['validation']
   out = {'round': record['round'], 'beta': record['beta'],

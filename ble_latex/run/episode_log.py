@@ -3,18 +3,25 @@
 
 Written by `collectors.EpisodeLogCollector`, read by the plots. A resumed run
 truncates it back to its checkpoint (`truncate`), so each episode appears
-exactly once.
+exactly once. A log is a run's, not a record: what is committed of it is its
+`summarize`d blocks, in the records folder (`RECORDS_DIR`).
 """
 
 import json
 import os
-from typing import Any, Dict, List
+import pathlib
+from typing import Any, Dict, List, Sequence
 import warnings
 
 from ble_latex import errors
 from ble_latex import safe_io
 
 EPISODE_LOG = 'episodes.jsonl'
+# A run's committed summary of EPISODE_LOG (`summarize`).
+EPISODE_SUMMARY = 'episodes_summary.json'
+# The committed records of a checkout (benchmarks/records/, by topic): what
+# the docs' tables and figures read and the benchmark scripts write by default.
+RECORDS_DIR = pathlib.Path(__file__).resolve().parents[2] / 'benchmarks' / 'records'
 # The jitted trainer's validated policy snapshots (records.VALIDATION_SCHEMA).
 VALIDATION_LOG = 'validation.jsonl'
 # Deepest nesting of JSON arrays/objects read (ours nest at most 4 levels).
@@ -93,3 +100,41 @@ def truncate(path: str, num_episodes: int) -> None:
   """Keeps the first `num_episodes` records (atomically, `safe_io`)."""
   records = read(path)[:num_episodes]
   safe_io.atomic_write(path, ''.join(json.dumps(r) + '\n' for r in records))
+
+
+def summarize(records: Sequence[Dict[str, Any]], every: int = 100
+              ) -> List[Dict[str, Any]]:
+  """Means over consecutive blocks of `every` episodes of an episode log.
+
+  Args:
+    records: episodes.jsonl records (`read`), in episode order.
+    every: Episodes per block (>= 1); the last block may hold fewer.
+
+  Returns:
+    One dict per block: `first_episode`, `last_episode`, `episodes`, the mean
+    of each numeric field (`reward`, `tw50`, `tw50_window`, ... ; fields
+    absent from some records are averaged over those holding them) and
+    `terminal_reasons` (reason -> count).
+  """
+  if every < 1:
+    raise ValueError(f'summarize: every must be >= 1, got {every}')
+  blocks = []
+  for start in range(0, len(records), every):
+    block = records[start:start + every]
+    row: Dict[str, Any] = {'first_episode': block[0].get('episode', start),
+                           'last_episode': block[-1].get(
+                               'episode', start + len(block) - 1),
+                           'episodes': len(block)}
+    keys = [k for k in block[0] if k not in ('episode', 'seed')]
+    for key in keys:
+      values = [r[key] for r in block if isinstance(r.get(key), (int, float))
+                and not isinstance(r.get(key), bool)]
+      if values:
+        row[key] = sum(values) / len(values)
+    reasons: Dict[str, int] = {}
+    for r in block:
+      if 'terminal_reason' in r:
+        reasons[r['terminal_reason']] = reasons.get(r['terminal_reason'], 0) + 1
+    row['terminal_reasons'] = dict(sorted(reasons.items()))
+    blocks.append(row)
+  return blocks

@@ -389,7 +389,7 @@ def compare(a: WindSamples, b: WindSamples) -> Dict[str, Any]:
 
 # --- One source's profile in the flight band. -------------------------------
 
-# The band the profiles compare, 15-25 km (benchmarks/wind_compare.json was
+# The band the profiles compare, 15-25 km (benchmarks/records/wind_compare.json was
 # measured on it; the readers accept files by `reach.flight_band_m`) as
 # pressures, US Standard Atmosphere 1976: (25 km, 15 km). # [Pa]
 PROFILE_BAND_M = (15_000.0, 25_000.0)  # [m]

@@ -1,8 +1,8 @@
 """Issue 47's tables (learned controllers), for `tables.py` beside this file.
 
-DAgger students (`benchmarks/dagger/results.json`), SAC on different
-observations (`benchmarks/sac_jax/observation_results.json`) and README's
-learned controllers, with seconds per decision (`benchmarks/policy_speed*.json`).
+DAgger students (`benchmarks/records/dagger/results.json`), SAC on different
+observations (`benchmarks/records/sac_jax/observation_results.json`) and README's
+learned controllers, with seconds per decision (`benchmarks/records/policy_speed*.json`).
 The shared helpers are `tables.py`'s (loaded by path, as MkDocs loads hooks).
 """
 
@@ -16,10 +16,11 @@ _SPEC = importlib.util.spec_from_file_location(
 tables = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(tables)
 ROOT = tables.ROOT
+RECORDS = tables.RECORDS
 _load, _mean_std, _paired, _pct = (tables._load, tables._mean_std,  # pylint: disable=protected-access
                                    tables._paired, tables._pct)  # pylint: disable=protected-access
-DAGGER = ROOT / 'benchmarks' / 'dagger' / 'results.json'
-OBSERVATION = ROOT / 'benchmarks' / 'sac_jax' / 'observation_results.json'
+DAGGER = RECORDS / 'dagger' / 'results.json'
+OBSERVATION = RECORDS / 'sac_jax' / 'observation_results.json'
 
 
 DAGGER_REFERENCES = (('sac_pretrained', '`sac_pretrained`'),
@@ -106,8 +107,8 @@ def _label(observation: Dict[str, int]) -> str:
           'SAC, wind column ' + ' and '.join(parts))
 
 
-POLICY_SPEED = ROOT / 'benchmarks' / 'policy_speed.json'
-POLICY_SPEED_OBSERVATION = ROOT / 'benchmarks' / 'policy_speed_observation.json'
+POLICY_SPEED = RECORDS / 'policy_speed.json'
+POLICY_SPEED_OBSERVATION = RECORDS / 'policy_speed_observation.json'
 
 
 def _key(observation: Dict[str, int]) -> Tuple[Tuple[str, int], ...]:
@@ -216,7 +217,7 @@ def observation_curve() -> str:
 
 
 # The learned value beyond the planner's horizon (issue 47 item 2), flown on
-# the first 40 `latex_validation` seeds: (record under benchmarks/planners/,
+# the first 40 `latex_validation` seeds: (record under benchmarks/records/planners/,
 # label). The first row is the reference of the paired column.
 PLANNER_VALUE_ROWS = (
     ('latex_validation/latex_mpc', '`latex_mpc` (its defaults)'),
@@ -248,9 +249,9 @@ def planner_value() -> str:
   return '\n'.join(lines)
 
 
-ENSEMBLE = ROOT / 'benchmarks' / 'ensemble' / 'results.json'
+ENSEMBLE = RECORDS / 'ensemble' / 'results.json'
 # `ble-latex-eval --agent=sac_ensemble` on latex_small (flight paths removed).
-ENSEMBLE_EVAL = (ROOT / 'benchmarks' / 'ensemble' / 'latex_small' /
+ENSEMBLE_EVAL = (RECORDS / 'ensemble' / 'latex_small' /
                  'sac_ensemble.json')
 # (sweep run name prefix or name, label) of the `ensemble` table's rows, in
 # order; `drifts_critic_` + three seeds is summarised over every triple.
@@ -263,7 +264,7 @@ ENSEMBLE_VARIANTS = (
 )
 
 
-# The sweep's training runs (benchmarks/sac_jax/RUN) by what they observe.
+# The sweep's training runs (benchmarks/records/sac_jax/RUN) by what they observe.
 _RUN_LABELS = {'wind_lookahead12': 'drift', 'wind_memory16': 'corrected-column',
                'memory_lookahead': 'both-corrections'}
 
@@ -473,7 +474,7 @@ def ensemble_replicates() -> str:
 
 # `sac_ensemble` under gin_configs/latex_realistic.gin (ble-latex-eval
 # records, flight paths removed; docs/ensemble.md says how they were flown).
-ENSEMBLE_REALISTIC = ROOT / 'benchmarks' / 'ensemble' / 'realistic'
+ENSEMBLE_REALISTIC = RECORDS / 'ensemble' / 'realistic'
 
 
 def ensemble_realistic() -> str:

@@ -14,24 +14,24 @@ the MkDocs hook `generated.py` regenerates the blocks of the site's pages at
 build time). Standard library only: the records are JSON.
 
 Records read (all committed):
-  * `benchmarks/results.json`: the eval rows `benchmarks/results_table.py`
+  * `benchmarks/records/results_table.json`: the eval rows `benchmarks/results_table.py`
     writes (`make results`), one per agent, mean and std over the suite.
-  * `benchmarks/physics_results.json`: paper vs realistic physics
+  * `benchmarks/records/physics_results.json`: paper vs realistic physics
     (`benchmarks/physics_results.py`, issue 44), summaries per agent.
-  * `benchmarks/valbal_check.json`: the ValBal preset's flights
+  * `benchmarks/records/valbal_check.json`: the ValBal preset's flights
     (`benchmarks/valbal_check.py`, issue 44).
-  * `benchmarks/float_calibration.json`, `float_calibration_before.json`:
+  * `benchmarks/records/float_calibration.json`, `float_calibration_before.json`:
     the realistic float's calibration table on the plant of issue 68 and
     before it (`benchmarks/float_calibration.py`).
-  * `benchmarks/planners/**/SUITE/NAME.json`: the per-seed records of
+  * `benchmarks/records/planners/**/SUITE/NAME.json`: the per-seed records of
     `benchmarks/planners.py`, and `.../timing/NAME.json` its timing summary.
-  * `benchmarks/real_winds.json`: agents on the real wind sources
+  * `benchmarks/records/real_winds.json`: agents on the real wind sources
     (`benchmarks/real_winds.py`), one cell per (source, agent, station mode).
-  * `benchmarks/wind_compare.json`: BLE's VAE winds against each real source
+  * `benchmarks/records/wind_compare.json`: BLE's VAE winds against each real source
     (`benchmarks/wind_compare.py`).
-  * `benchmarks/reward_shape.json`: SAC trained with the flat and the tanh
+  * `benchmarks/records/reward_shape.json`: SAC trained with the flat and the tanh
     reward (`benchmarks/reward_shape.py`, issue 46), per training seed.
-  * `benchmarks/dagger/results.json`: DAgger runs and their best students'
+  * `benchmarks/records/dagger/results.json`: DAgger runs and their best students'
     held-out flights (`benchmarks/dagger_results.py`, issue 47).
 
 Means and standard deviations are over episodes (population std, as
@@ -46,22 +46,25 @@ import re
 import sys
 from typing import Callable, Dict, List, Sequence, Tuple
 
+from ble_latex.run import episode_log
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-RESULTS = ROOT / 'benchmarks' / 'results.json'
-PLANNERS = ROOT / 'benchmarks' / 'planners'
-REAL_WINDS = ROOT / 'benchmarks' / 'real_winds.json'
-PHYSICS = ROOT / 'benchmarks' / 'physics_results.json'
-VALBAL = ROOT / 'benchmarks' / 'valbal_check.json'
-FLOAT_CALIBRATION = ROOT / 'benchmarks' / 'float_calibration.json'
-FLOAT_CALIBRATION_BEFORE = ROOT / 'benchmarks' / 'float_calibration_before.json'
-FLOAT_CALIBRATION_SWEEP = ROOT / 'benchmarks' / 'float_calibration_sweep.json'
-WIND_COMPARE = ROOT / 'benchmarks' / 'wind_compare.json'
-REWARD_SHAPE = ROOT / 'benchmarks' / 'reward_shape.json'
+RECORDS = episode_log.RECORDS_DIR
+RESULTS = RECORDS / 'results_table.json'
+PLANNERS = RECORDS / 'planners'
+REAL_WINDS = RECORDS / 'real_winds.json'
+PHYSICS = RECORDS / 'physics_results.json'
+VALBAL = RECORDS / 'valbal_check.json'
+FLOAT_CALIBRATION = RECORDS / 'float_calibration.json'
+FLOAT_CALIBRATION_BEFORE = RECORDS / 'float_calibration_before.json'
+FLOAT_CALIBRATION_SWEEP = RECORDS / 'float_calibration_sweep.json'
+WIND_COMPARE = RECORDS / 'wind_compare.json'
+REWARD_SHAPE = RECORDS / 'reward_shape.json'
 OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
                    re.DOTALL)
 
-# (record name in benchmarks/results.json, label).
+# (record name in benchmarks/records/results_table.json, label).
 AGENTS = (
     ('sac_ensemble', '`sac_ensemble` (12 SAC policies, each proposal flown 3 '
      'strides ahead; issue 47)'),
@@ -73,7 +76,7 @@ AGENTS = (
     ('sac_untrained', '`sac` untrained'),
     ('latex_random', '`latex_random`'),
 )
-# (record path under benchmarks/planners/, label, what s / decision means).
+# (record path under benchmarks/records/planners/, label, what s / decision means).
 PLANNER_ROWS = (
     ('latex_small/latex_mpc', '`latex_mpc` (beam search on the forecast, '
      'corrected by a Gaussian process of its last 16 measured winds)', ''),
@@ -219,7 +222,7 @@ REAL_WINDS_SOURCES = (
 
 
 def _real_cells() -> List[dict]:
-  """The cells of benchmarks/real_winds.json in table order."""
+  """The cells of benchmarks/records/real_winds.json in table order."""
   cells = list(_load(REAL_WINDS)['cells'].values())
   agents = [a for a, _ in REAL_WINDS_AGENTS]
   sources = [s for s, _ in REAL_WINDS_SOURCES]
@@ -688,7 +691,7 @@ def reward_shape_paired() -> str:
   return '\n'.join(lines)
 
 
-# (reference name in benchmarks/dagger/results.json, column label).
+# (reference name in benchmarks/records/dagger/results.json, column label).
 TABLES: Dict[str, Callable[[], str]] = {
     'valbal-check': valbal_check,
     'float-calibration': lambda: _float_calibration(FLOAT_CALIBRATION),
