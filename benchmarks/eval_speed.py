@@ -12,8 +12,9 @@ flying is timed:
   `eval_lib.evaluate` on all of the suite's seeds (`batch_eval.BATCH_SIZE`
   at once) and on the same first seeds; seconds per episode each way;
 - a planner (--planner) on the suite's first --planner_seeds seeds, one batch
-  each way: the batched `eval_lib.evaluate` and `benchmarks/planners.py`'s
-  `fly_batch` (the batched call the issue measures against), same config.
+  each way: the batched `eval_lib.evaluate` and `planner_batch.fly_batch`
+  (`benchmarks/planners.py`'s batched call, the one the issue measures
+  against), same config.
 
 The machine's load average is recorded before and after each measurement.
 """
@@ -32,7 +33,6 @@ from absl import flags
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 
-_HERE = os.path.dirname(os.path.abspath(__file__))
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('suite', 'latex_small', 'Suite evaluated.',
                     flag_values=FLAGS)
@@ -71,9 +71,9 @@ def _measure(what: str, num_seeds: int, suite_name: str,
   build_s = time.perf_counter() - began
   began = time.perf_counter()
   if what == 'planner_bench':
-    sys.path.insert(0, _HERE)
-    import planners as bench  # pylint: disable=g-import-not-at-top
-    records = bench.fly_batch(built[0].config, seeds, max_steps, 0, {}, set())
+    from ble_latex.run import planner_batch  # pylint: disable=g-import-not-at-top
+    records = planner_batch.fly_batch(built[0].config, seeds, max_steps, 0,
+                                      {}, set())
   else:
     records = eval_lib.evaluate(*built, seeds, max_steps,
                                 batched=what != 'serial')

@@ -5,9 +5,10 @@
       [--gin_bindings='LatexMpcAgent.num_samples=64']
 
 Flies the suite's first --num_seeds seeds --batch at a time with the JAX env
-(`jax_env.LatexBalloonJaxEnv`, the same worlds as `ble-latex-eval`'s gym env
-for the same seeds): one vmapped `planning.plan_batch` call per decision
-plans for the whole batch, then the batch flies `replan_every` strides.
+(`run/planner_batch.py`: the same worlds as `ble-latex-eval`'s gym env for
+the same seeds, no TensorFlow): one vmapped `planning.plan_batch` call per
+decision plans for the whole batch, then the batch flies `replan_every`
+strides.
 Writes OUTPUT_DIR/SUITE/NAME.json in `ble-latex-eval`'s record format
 (`benchmarks/results_table.py` reads it) and OUTPUT_DIR/SUITE/timing/NAME.json
 (seconds per decision and per episode, compile time, load). Resumable: the
@@ -23,7 +24,6 @@ seeds. --short flies 2 seeds for 12 strides (a smoke test).
 import json
 import os
 import sys
-import time
 from typing import Any, Dict, List, Optional, Sequence
 
 from absl import flags
@@ -35,6 +35,7 @@ from ble_latex import quiet
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.run import episode_log
+from ble_latex.run import planner_batch
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('agent', 'latex_mpc', 'latex_mpc, latex_mpc_oracle or '
@@ -51,134 +52,18 @@ flags.DEFINE_integer('num_seeds', None, 'First seeds of the suite (default: '
 flags.DEFINE_list('seeds', None, 'These seeds of the suite only (after '
                   '--num_seeds), e.g. a diagnostic re-flight of chosen '
                   'flights.', flag_values=FLAGS)
-flags.DEFINE_integer('batch', 25, 'Balloons planned in one call.',
-                     lower_bound=1, flag_values=FLAGS)
+flags.DEFINE_integer('batch', planner_batch.BATCH_SIZE,
+                     'Balloons planned in one call.', lower_bound=1,
+                     flag_values=FLAGS)
 flags.DEFINE_integer('max_episode_length', None, 'Cap on the strides.',
                      lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_integer('seed', 0, 'Agent seed.', flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_file', [], 'Extra gin files.',
-                          flag_values=FLAGS)
-flags.DEFINE_multi_string('gin_bindings', [], 'Gin bindings.',
-                          flag_values=FLAGS)
+cli.define_gin_flags(FLAGS, files_help='Extra gin files.',
+                     bindings_help='Gin bindings.')
 flags.DEFINE_string('wind_file', None, cli.WIND_FILE_HELP, flag_values=FLAGS)
 flags.DEFINE_alias('era5_path', 'wind_file', flag_values=FLAGS)
 flags.DEFINE_boolean('short', False, '2 seeds, 12 strides (smoke test).',
                      flag_values=FLAGS)
-
-
-def _fly_functions(config, env):
-  """Jitted: [N] new flights; [N] plans flown `replan_every` strides."""
-  import jax  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import planning  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
-
-  def fly(states, plans, params):
-    def stride(states, actions):
-      _, states, reward, _, info = jax.vmap(
-          env.step_env, in_axes=(None, 0, 0, None))(None, states, actions,
-                                                    params)
-      return states, (reward, info, states.flight)
-
-    return jax.lax.scan(stride, states, planning.flown_actions(config, plans))
-
-  def start(keys, params):
-    _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
-    info = jax.vmap(jax_env.step_info, in_axes=(0, None))(states, params)
-    return states, info, states.flight
-
-  return jax.jit(start), jax.jit(fly)
-
-
-def _flight_arrays(flight) -> Dict[str, np.ndarray]:
-  import jax  # pylint: disable=g-import-not-at-top
-  keys = ('time_s', 'x_m', 'y_m', 'altitude_m', 'ascent_rate_mps',
-          'last_decision', 'helium_mols', 'sand_kg')
-  return {k: np.asarray(jax.device_get(getattr(flight, k))) for k in keys}
-
-
-def fly_batch(config, seeds: Sequence[int], max_steps: int,
-              agent_seed: int, timing: Dict[str, Any],
-              compiled: set) -> List[Dict[str, Any]]:
-  """Flies `seeds` together; returns their eval records (in seed order).
-
-  `compiled`: the batch sizes whose planning call this process has already
-  compiled (updated); a batch's first call counts as a warm decision when
-  its size is among them (a planner that plans once per episode has no
-  other).
-  """
-  from ble_latex.run import records as records_lib  # pylint: disable=g-import-not-at-top
-  import jax  # pylint: disable=g-import-not-at-top
-  import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import planning  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
-  from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
-
-  env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
-  params = env_params.params_from_gin()
-  wind = env.wind_for(params)
-  start, fly = _fly_functions(config, env)
-  n = len(seeds)
-  keys = jnp.stack([jax.random.PRNGKey(s) for s in seeds])
-  states, info0, flight0 = start(keys, params)
-  window = min(int(params.episode_steps), max_steps)
-  trackers = [metrics.EpisodeTracker(i, s, params.radius_km,
-                                     window_steps=window)
-              for i, s in enumerate(seeds)]
-  f0 = _flight_arrays(flight0)
-  paths = [[records_lib.batch_flight_point(f0, i)] for i in range(n)]
-  done = np.zeros(n, bool)
-  ended = np.zeros(n, bool)  # By the env (not by the --max_episode_length cap).
-  previous = planning.initial_plans(config, states)
-  seed = jnp.int32(agent_seed)
-  steps = 0
-  warm_first = n in compiled
-  plan_s, first, episode_start = [], None, time.perf_counter()
-  while steps < max_steps and not done.all():
-    t0 = time.perf_counter()
-    plans = jax.block_until_ready(
-        planning.plan_batch(config, params, states, seed, previous, wind))
-    elapsed = time.perf_counter() - t0
-    if first is None:
-      first = elapsed  # The batch's first call (compilation in the first).
-    else:
-      plan_s.append(elapsed)
-    states, (reward, info, flight) = fly(states, plans, params)
-    previous = plans
-    reward, info = jax.device_get((reward, info))
-    flight = _flight_arrays(flight)
-    for k in range(config.replan_every):
-      if steps >= max_steps:
-        break
-      steps += 1
-      for i in range(n):
-        if done[i]:
-          continue
-        one = {key: np.asarray(v)[k, i] for key, v in info.items()}
-        info_i = jax_env.info_dict(one)
-        trackers[i].step(float(reward[k, i]), info_i)
-        paths[i].append(records_lib.batch_flight_point(
-            {key: v[k] for key, v in flight.items()}, i))
-        ended[i] = (info_i['out_of_resources'] or info_i['envelope_burst'] or
-                    info_i['terminal_reason'] != 'ok' or info_i['time_limit'])
-        if ended[i] or steps >= max_steps:
-          done[i] = True
-  wall = time.perf_counter() - episode_start
-  timing.setdefault('batches', []).append({
-      'seeds': [int(s) for s in seeds], 'wall_s': wall, 'first_plan_s': first,
-      'plan_calls': len(plan_s) + 1, 'plan_s_sum_after_first': sum(plan_s),
-      'plan_s_mean_after_first': float(np.mean(plan_s)) if plan_s else None,
-      # The calls without compilation (the first one too when warm).
-      'plan_s_warm': ([first] if warm_first else []) + plan_s})
-  compiled.add(n)
-  records = []
-  for i, tracker in enumerate(trackers):
-    summary = tracker.summary(bool(ended[i]))
-    record = summary.to_json()
-    del record['episode'], record['wall_time_s']
-    record['flight_path'] = paths[i]
-    records.append(record)
-  return records
 
 
 def run_config(agent: str, suite: str, config: Any, max_steps: int,
@@ -363,8 +248,8 @@ def _main(argv: Sequence[str]) -> int:
     compiled = set()
     for b in range(0, len(todo), FLAGS.batch):
       chunk = todo[b:b + FLAGS.batch]
-      records += fly_batch(config, chunk, max_steps, FLAGS.seed,
-                           timing, compiled)
+      records += planner_batch.fly_batch(config, chunk, max_steps,
+                                         FLAGS.seed, timing, compiled)
       timing['loadavg'].append(os.getloadavg())
       safe_io.atomic_write(partial, json.dumps(
           {'run_config': current, 'records': records}))

@@ -29,7 +29,8 @@ status; the mean TW50 over the window and % out of resources.
 (`sweep_runs`: each drift seed alone, every 3 of them as a critic-chosen
 ensemble, all together, the rejected variants on validation only, the
 corrected-column seeds, the mixed ensembles of `--memory_seeds` and
-`--both_seeds`, the shipped members with a lookahead, `LOOKAHEADS`) on 100
+`--both_seeds`, the shipped members with a lookahead,
+`ensemble.DECLARED_LOOKAHEADS`) on 100
 seeds of `latex_validation` and `latex_small` into one record, resuming
 it; the docs' `ensemble` table is generated from
 it (`docs/hooks/learned.py`).
@@ -276,11 +277,8 @@ SHIP_CANDIDATES = ('drifts_critic_012', 'drifts_critic_345',
                   )
 MIXED_CANDIDATE = 'mixed_drifts_all_memory_'
 # The shipped members with their proposals flown ahead (`--mode=lookahead`):
-# (strides, follow), declared 2026-11-29 10:12 UTC, after validation
-# flights of a slower version (imagined states observed with their own
-# columns) and before any held-out flight. Flown on validation; the best
-# validated (<= 5 % out of resources) alone is then flown held out.
-LOOKAHEADS = ((1, False), (2, True), (3, False), (3, True), (4, True))
+# (strides, follow), declared in the package where the ensemble reads them.
+LOOKAHEADS = ensemble.DECLARED_LOOKAHEADS
 
 
 def _seed_run(run: str, seed: int) -> str:

@@ -12,8 +12,9 @@ batched path, `run/batch_eval.py`, for the JAX-core agents; the one-at-a-
 time path for `latex_random`, whose one random stream runs through the
 seeds in order, and for `ble_station_seeker_discrete`, BLE's
 `station_seeker` on `LatexBalloonDiscrete-v0`; the planners by
-`benchmarks/planners.py`'s batched path, `fly_planner`), on `--wind_file SOURCE`'s gin bindings
-(`cli.era5_bindings`) and the station's. Every real source here is one
+`run/planner_batch.py`'s `fly_planner`, batched without BLE's gym env), on
+the source's and the station's gin bindings (`run/wind_file.py`,
+`cell_bindings`). The sources: `ble_latex.wind.sources.SOURCES`. Every real source here is one
 time step: it flies time-invariant, the analysis (or the sounding's
 column) being the forecast the agents see, the truth the same plus BLE's
 simplex noise; the seeds draw the noise (and on a sounding nothing else).
@@ -22,7 +23,7 @@ Stations (--station_mode, recorded in each cell):
   * `center`: a GFS grid's station is the file's fixed centre (the middle of
     its latitudes and longitudes: every seed flies the same station); a
     sounding's is its launch site (`SOURCES`; a sounding is the same column
-    everywhere, the site only places the sun);
+    everywhere, the site only places the sun; `wind.sources.center`);
   * `per_seed` (GFS grids only): seed s at station s of the domain (issue 45
     item 4): binds `Era5WindField.stations = 'per_seed'`, plus any
     --station_bindings (e.g. `Era5WindField.station_margin_km = 400`); the
@@ -49,7 +50,6 @@ import json
 import math
 import os
 import platform
-import subprocess
 import sys
 import time
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
@@ -57,27 +57,17 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex import errors
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.run import episode_log
+from ble_latex.run import planner_batch
+from ble_latex.run import provenance
+from ble_latex.run import wind_file
+from ble_latex.wind import sources
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-# The real files beside the checkout (../shared/realdata/PROVENANCE.md).
-REALDATA_DIR = os.path.join(_ROOT, '..', 'shared', 'realdata')
-# name -> (file under --realdata_dir, label, launch site (lat, lon) of a
-# sounding (University of Wyoming's station list) or None for a grid).
-SOURCES: Dict[str, Tuple[str, str, Optional[Tuple[float, float]]]] = {
-    'gfs_namerica': ('winds/gfs_2010-10-26T12Z_namerica_1deg.nc',
-                     'GFS analysis 2010-10-26 12Z, N. America 1° (NetCDF)',
-                     None),
-    'gfs_global': ('winds/gfs_2011-10-08T00Z_f072_global_2p5deg.grib2',
-                   'GFS +72 h, valid 2011-10-11 00Z, global 2.5° (GRIB2)',
-                   None),
-    'boise': ('soundings/BOI-Boise_2010-12-09T12Z_uwyo.txt',
-              'sounding Boise 2010-12-09 12Z', (43.56, -116.21)),
-    'hilo': ('soundings/PHTO-Hilo_2023-11-01T00Z_uwyo.csv',
-             'sounding Hilo 2023-11-01 00Z', (19.72, -155.07)),
-}
+SOURCES = sources.SOURCES
 # How long a chunk's write waits for another run's write of the record. # [s]
 RECORD_WAIT_S = 60.0
 AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
@@ -86,11 +76,8 @@ AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
 BLE_AGENTS = {'ble_station_seeker_discrete': ('station_seeker',
                                               'LatexBalloonDiscrete-v0')}
 CHEAP_AGENTS = AGENTS[:3]
-# Flown by `fly_planner` (no TensorFlow), planners.py's --batch default per
-# call.
+# Flown by `planner_batch.fly_planner` (no TensorFlow).
 PLANNERS = ('latex_mpc', 'latex_mpc_oracle')
-STATION_MODES = ('center', 'per_seed')
-PER_SEED_BINDING = "Era5WindField.stations = 'per_seed'"
 # What a seed's compact record keeps of `eval_lib.fly`'s.
 KEPT = ('seed', 'tw50', 'tw50_window', 'window_steps', 'reward', 'steps',
         'helium_vented_mols', 'sand_dropped_kg', 'terminal_reason',
@@ -109,11 +96,11 @@ flags.DEFINE_list('seeds', ['100'], 'Seeds per source: N for every source, or '
                   flag_values=FLAGS)
 flags.DEFINE_string('suite', 'latex_small', 'Suite whose first seeds fly.',
                     flag_values=FLAGS)
-flags.DEFINE_enum('station_mode', 'center', STATION_MODES, 'Where the station '
+flags.DEFINE_enum('station_mode', 'center', sources.STATION_MODES, 'Where the station '
                   'is (see the module).', flag_values=FLAGS)
 flags.DEFINE_multi_string('station_bindings', [], 'More gin bindings of '
                           '--station_mode=per_seed.', flag_values=FLAGS)
-flags.DEFINE_string('realdata_dir', REALDATA_DIR,
+flags.DEFINE_string('realdata_dir', sources.REALDATA_DIR,
                     'Folder of the real files (PROVENANCE.md).',
                     flag_values=FLAGS)
 flags.DEFINE_string('json', str(episode_log.RECORDS_DIR / 'real_winds.json'),
@@ -157,35 +144,6 @@ def seeds_per_source(entries: Sequence[str], sources: Sequence[str]
   return counts
 
 
-def station(name: str, path: str) -> Tuple[float, float]:
-  """(lat, lon) [deg] of `center` mode: a grid's centre, a sounding's site."""
-  site = SOURCES[name][2]
-  if site is not None:
-    return site
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
-  data = era5.load(path)
-  lat = 0.5 * (data.latitude[0] + data.latitude[-1])
-  lon = 0.5 * (data.longitude[0] + data.longitude[-1])
-  return float(lat), float((lon + 180.0) % 360.0 - 180.0)
-
-
-def table_station_mode(name: str) -> str:
-  """The real-winds table's stations: a sounding at its site ('center'),
-  a grid's seed s at station s ('per_seed')."""
-  return 'center' if SOURCES[name][2] is not None else 'per_seed'
-
-
-def station_settings(name: str, path: str, mode: str,
-                     extra_bindings: Sequence[str] = ()) -> Dict[str, Any]:
-  """A cell's station part: its mode and its (lat, lon) or bindings."""
-  if mode == 'center':
-    lat, lon = station(name, path)
-    return {'station_mode': mode,
-            'station_lat_lon': [round(lat, 4), round(lon, 4)]}
-  return {'station_mode': mode,
-          'station_bindings': [PER_SEED_BINDING, *extra_bindings]}
-
-
 def settings(name: str, agent: str, path: str) -> Dict[str, Any]:
   """What a cell's records depend on (a resume must match all of it).
 
@@ -201,35 +159,8 @@ def settings(name: str, agent: str, path: str) -> Dict[str, Any]:
           'agent': agent, 'suite': FLAGS.suite,
           'max_steps': FLAGS.max_episode_length,
           'noise_scale': round(scale, 4),
-          **station_settings(name, path, FLAGS.station_mode,
-                             FLAGS.station_bindings)}
-
-
-def station_bindings(cell: Dict[str, Any]) -> List[str]:
-  if cell['station_mode'] == 'center':
-    lat, lon = cell['station_lat_lon']
-    return [f'Era5WindField.center_lat = {lat}',
-            f'Era5WindField.center_lon = {lon}']
-  return list(cell['station_bindings'])
-
-
-def source_bindings(cell: Dict[str, Any], path: str) -> List[str]:
-  """The gin bindings that fly `cell`'s suite on the wind file `path`."""
-  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
-  return ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
-          f'Era5WindField.path = {os.path.abspath(path)!r}',
-          f"Era5WindField.start_dates = '{suites.era5_dates(cell['suite'])}'",
-          *station_bindings(cell)]
-
-
-def code_version() -> Dict[str, Any]:
-  """The commit flown and whether the package differed from it."""
-  def git(*args):
-    return subprocess.run(['git', *args], cwd=_ROOT, capture_output=True,
-                          text=True, check=False).stdout.strip()
-  return {'git_head': git('rev-parse', 'HEAD') or None,
-          'package_changed_since_head': bool(git(
-              'status', '--porcelain', '--', 'ble_latex', 'gin_configs'))}
+          **wind_file.station_settings(name, path, FLAGS.station_mode,
+                                       FLAGS.station_bindings)}
 
 
 def load_record(path: str) -> Dict[str, Any]:
@@ -311,11 +242,8 @@ def checked_cell(record: Dict[str, Any], key: str, path: str,
 
 
 def source_copies(entries: Sequence[str]) -> Dict[str, Tuple[str, str]]:
-  """--source_copy: {name: (copy path, arrays' SHA-256)}, each checked."""
-  sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(
-      __file__)), 'gpu'))
-  import decode_grib  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  """--source_copy: {name: (copy path, arrays' SHA-256)}, each checked
+  (`sources.checked_copy`)."""
   copies = {}
   for entry in entries:
     name, _, rest = entry.partition('=')
@@ -324,45 +252,14 @@ def source_copies(entries: Sequence[str]) -> Dict[str, Tuple[str, str]]:
       raise cli.CommandUsageError(f'--source_copy: {entry!r} is not '
                                   'NAME=PATH@SHA256 with NAME among '
                                   f'{list(SOURCES)}')
-    if not os.path.isfile(path):
-      raise cli.CommandUsageError(f'--source_copy: {path}: no such file')
-    got = decode_grib.digest(era5.read_source(path)[1])
-    if got != sha:
-      raise cli.CommandFailure(f'--source_copy: {path} reads to arrays of '
-                               f'SHA-256 {got}, not {sha}')
+    try:
+      sources.checked_copy(path, sha)
+    except FileNotFoundError as e:
+      raise cli.CommandUsageError(f'--source_copy: {e}') from e
+    except errors.BadFileError as e:
+      raise cli.CommandFailure(f'--source_copy: {e}') from e
     copies[name] = (path, sha)
   return copies
-
-
-def fly_planner(agent: str, bindings: Sequence[str], seeds: Sequence[int],
-                max_steps: int) -> Tuple[List[Dict[str, Any]], str, float]:
-  """A planner's flights by `benchmarks/planners.py`'s batched path.
-
-  The same worlds and records as `eval_lib.evaluate` (batched: the gym env's
-  reset, then the core), without BLE's gym env, whose modules import
-  TensorFlow: so the planners fly here where TensorFlow is absent (a lent
-  GPU's image, `benchmarks/gpu/`). Returns (records, wind source, seconds).
-  """
-  # pylint: disable=g-import-not-at-top
-  sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-  import gin
-  import planners as planners_bench
-  from ble_latex.agents import plan_config
-  from ble_latex.envs import env_params
-  from ble_latex.run import gin_binding
-  # pylint: enable=g-import-not-at-top
-  gin.clear_config()  # As `eval_lib.build`: only these bindings count.
-  gin_binding.bind_gin(None, None, [], list(bindings))
-  config = plan_config.from_gin(agent)
-  began = time.perf_counter()
-  batch = planners_bench.FLAGS['batch'].default
-  records, timing, compiled = [], {}, set()
-  for b in range(0, len(seeds), batch):
-    records += planners_bench.fly_batch(config, seeds[b:b + batch],
-                                        max_steps, 0, timing, compiled)
-    print(f'{agent}: {len(records)}/{len(seeds)} seeds', file=sys.stderr,
-          flush=True)
-  return records, env_params.wind_source(), time.perf_counter() - began
 
 
 def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
@@ -370,18 +267,18 @@ def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
   """Flies `seeds`: (compact records, wind source, batched, fly seconds).
 
   `batched`: whether `eval_lib.evaluate` flew them batched, or
-  'planners.py' for a planner (`fly_planner`, batched too).
+  'planners.py' for a planner (`planner_batch.fly_planner`, batched too).
   """
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
-  bindings = source_bindings(cell, path)
+  bindings = wind_file.cell_bindings(cell, path)
   max_steps = cell['max_steps'] or suites.get_eval_suite(
       cell['suite']).max_episode_length
   if cell['agent'] in PLANNERS:
-    records, source, wall = fly_planner(cell['agent'], bindings, seeds,
-                                        max_steps)
+    records, source, wall = planner_batch.fly_planner(
+        cell['agent'], bindings, seeds, max_steps)
     batched = 'planners.py'
   else:
     # pylint: disable=g-import-not-at-top
@@ -406,7 +303,7 @@ def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
 
 def _main(argv: Sequence[str]) -> None:
   del argv
-  version = code_version()  # Before the first import of the flight code.
+  version = provenance.code_version()  # Before the first import of the flight code.
   # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics
   from ble_latex.run import suites
@@ -419,7 +316,7 @@ def _main(argv: Sequence[str]) -> None:
   if unknown:
     raise cli.CommandUsageError(f'--agents: unknown {unknown} (known: '
                                 f'{list(AGENTS)})')
-  soundings = [s for s in FLAGS.sources if SOURCES[s][2] is not None]
+  soundings = [s for s in FLAGS.sources if sources.is_sounding(s)]
   if FLAGS.station_mode == 'per_seed' and soundings:
     raise cli.CommandUsageError(
         f'--station_mode=per_seed is for GFS grids: {soundings} are soundings '
@@ -437,7 +334,7 @@ def _main(argv: Sequence[str]) -> None:
   record = load_record(FLAGS.json)
   copies = source_copies(FLAGS.source_copy)
   for name in FLAGS.sources:
-    path = os.path.join(FLAGS.realdata_dir, SOURCES[name][0])
+    path = sources.path(name, FLAGS.realdata_dir)
     if not os.path.isfile(path):
       raise cli.CommandUsageError(f'{path}: no such file (--realdata_dir)')
     wanted = suite_seeds[:counts[name]]
@@ -496,7 +393,7 @@ def _main(argv: Sequence[str]) -> None:
             runs = [*old.get('runs', []), run]
           merged = [flown[s] for s in sorted(flown)]
           old = record['cells'][key] = {
-              'settings': cell, 'label': SOURCES[name][1],
+              'settings': cell, 'label': SOURCES[name].label,
               'wind_source': source, 'summary': metrics.summarize(merged),
               'runs': runs, 'flights': merged}
           record['about'] = (

@@ -6,10 +6,10 @@ r"""Flight paths of agents over a real GFS domain (issue 45 item 6): a figure.
       [--json=benchmarks/records/real_winds_paths.json]
 
 Flies the suite's (--suite, default latex_small) first --seeds seeds of
-each agent on `benchmarks/real_winds.py`'s source (`SOURCES`, a GFS grid)
+each agent on a real source (`ble_latex.wind.sources.SOURCES`, a GFS grid)
 as that script's `--station_mode=per_seed` does: `eval_lib.evaluate` (the
 batched path for the JAX-core agents) on the `--wind_file` bindings
-(`cli.era5_bindings`) plus `real_winds.station_bindings` of a per-seed cell
+(`cli.era5_bindings`) plus `wind_file.cell_station_bindings` of a per-seed cell
 (seed s at station s; --station_bindings adds bindings, recorded), every
 flight time-invariant (the snapshot is the forecast, the truth the snapshot
 plus BLE's simplex noise). The eval records hold each flight's path in its
@@ -40,21 +40,24 @@ from absl import flags
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import provenance
+from ble_latex.run import wind_file
+from ble_latex.wind import sources
 from ble_latex.run import episode_log
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 _ROOT = os.path.dirname(_HERE)
-sys.path.insert(0, _HERE)
-import real_winds  # pylint: disable=g-import-not-at-top,wrong-import-position
-
-GRIDS = tuple(s for s, v in real_winds.SOURCES.items() if v[2] is None)
 DEFAULT_AGENTS = ('sac_pretrained', 'latex_station_seeker')
+# The agents flown: `benchmarks/real_winds.py`'s of the same names.
+AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
+          'latex_mpc', 'latex_mpc_oracle', 'ble_station_seeker_discrete')
 
 FLAGS = flags.FlagValues()
-flags.DEFINE_enum('source', 'gfs_namerica', GRIDS, 'The GFS grid flown '
-                  '(benchmarks/real_winds.py SOURCES).', flag_values=FLAGS)
+flags.DEFINE_enum('source', 'gfs_namerica', sources.GRIDS, 'The GFS grid '
+                  'flown (ble_latex.wind.sources.SOURCES).',
+                  flag_values=FLAGS)
 flags.DEFINE_list('agents', list(DEFAULT_AGENTS), 'Agents flown (one panel '
-                  f'each), of {list(real_winds.AGENTS)}.', flag_values=FLAGS)
+                  f'each), of {list(AGENTS)}.', flag_values=FLAGS)
 flags.DEFINE_integer('seeds', 8, "The suite's first N seeds.", lower_bound=1,
                      flag_values=FLAGS)
 flags.DEFINE_string('suite', 'latex_small', 'Suite whose first seeds fly.',
@@ -62,7 +65,7 @@ flags.DEFINE_string('suite', 'latex_small', 'Suite whose first seeds fly.',
 flags.DEFINE_multi_string('station_bindings', [], 'More gin bindings of the '
                           'per-seed stations (as real_winds.py\'s).',
                           flag_values=FLAGS)
-flags.DEFINE_string('realdata_dir', real_winds.REALDATA_DIR,
+flags.DEFINE_string('realdata_dir', sources.REALDATA_DIR,
                     'Folder of the real files (PROVENANCE.md).',
                     flag_values=FLAGS)
 flags.DEFINE_string('png', os.path.join(_ROOT, 'docs', 'assets',
@@ -93,7 +96,7 @@ def fly(path: str, agent: str, seeds: Sequence[int], suite: str,
   # pylint: enable=g-import-not-at-top
   gin.clear_config()  # `era5_bindings` reads what gin binds.
   bindings = (cli.era5_bindings(path, suites.era5_dates(suite), 'eval') +
-              real_winds.station_bindings(cell))
+              wind_file.cell_station_bindings(cell))
   agent_obj, env = eval_lib.build(eval_lib.EvalSpec(
       agent=agent, gin_bindings=tuple(bindings)))
   began = time.perf_counter()
@@ -197,9 +200,14 @@ def recorded_tw50(source: str, agent: str, cell: Dict[str, Any],
   """seed -> tw50_window of benchmarks/records/real_winds.json's same cell, if any."""
   if not os.path.exists(record_path):
     return {}
-  old = real_winds.load_record(record_path)['cells'].get(
-      f'{source}/{agent}/per_seed')
-  if old is None or old['settings'] != cell:
+  try:
+    with open(record_path, encoding='utf-8') as f:
+      cells = json.load(f)['cells']
+  except (ValueError, KeyError, TypeError) as e:
+    raise cli.CommandFailure(f'{record_path}: not a real_winds record '
+                             f'({type(e).__name__}: {e})') from e
+  old = cells.get(f'{source}/{agent}/per_seed')
+  if not isinstance(old, dict) or old.get('settings') != cell:
     return {}
   return {r['seed']: r['tw50_window'] for r in old['flights']}
 
@@ -217,7 +225,7 @@ def run(*, source: str, path: str, agents: Sequence[str], seeds: int,
         real_winds_json: Optional[str] = None) -> Dict[str, Any]:
   """Flies the agents, draws `png`, writes `json_path`; returns the record."""
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
-  version = real_winds.code_version()
+  version = provenance.code_version()
   suite_seeds = list(suites.get_eval_suite(suite).seeds)[:seeds]
   steps = max_steps or suites.get_eval_suite(suite).max_episode_length
   load_before = [round(x, 2) for x in os.getloadavg()]
@@ -229,8 +237,8 @@ def run(*, source: str, path: str, agents: Sequence[str], seeds: int,
         path, os.path.dirname(os.path.dirname(path))), 'agent': agent,
             'suite': suite, 'max_steps': max_steps,
             'station_mode': 'per_seed',
-            'station_bindings': [real_winds.PER_SEED_BINDING,
-                                 *station_bindings]}
+            **wind_file.station_settings(source, path, 'per_seed',
+                                         station_bindings)}
     records, about = fly(path, agent, suite_seeds, suite, cell, steps)
     radius_km, wind_source = about.pop('radius_km'), about.pop('wind_source')
     runs[agent] = about
@@ -259,7 +267,8 @@ def run(*, source: str, path: str, agents: Sequence[str], seeds: int,
       'source': source, 'file': os.path.basename(path),
       'wind_source': wind_source, 'suite': suite, 'seeds': len(suite_seeds),
       'max_steps': max_steps, 'station_mode': 'per_seed',
-      'station_bindings': [real_winds.PER_SEED_BINDING, *station_bindings],
+      **wind_file.station_settings(source, path, 'per_seed',
+                                   station_bindings),
       'track_coordinates': 'lat/lon (era5.latlng_of_offset of the station '
                            'frame)',
       'radius_km': radius_km, 'png': _shown(png),
@@ -270,11 +279,11 @@ def run(*, source: str, path: str, agents: Sequence[str], seeds: int,
 
 def _main(argv: Sequence[str]) -> None:
   del argv
-  unknown = [a for a in FLAGS.agents if a not in real_winds.AGENTS]
+  unknown = [a for a in FLAGS.agents if a not in AGENTS]
   if unknown:
     raise cli.CommandUsageError(f'--agents: unknown {unknown} (known: '
-                                f'{list(real_winds.AGENTS)})')
-  path = os.path.join(FLAGS.realdata_dir, real_winds.SOURCES[FLAGS.source][0])
+                                f'{list(AGENTS)})')
+  path = sources.path(FLAGS.source, FLAGS.realdata_dir)
   if not os.path.isfile(path):
     raise cli.CommandUsageError(f'{path}: no such file (--realdata_dir)')
   command = ' '.join(['python', 'benchmarks/real_winds_paths.py',

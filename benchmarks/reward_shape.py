@@ -24,7 +24,8 @@ of the in-circle time spent at the edge, into --output (JSON: per reward
 and seed, mean +- std, the command, date, machine and load).
 
 With --real_sources, each chosen policy also flies those real wind sources
-(`benchmarks/real_winds.py`'s files and stations: a GFS grid at per-seed
+(`benchmarks/real_winds.py`'s files and stations, `ble_latex.wind.sources`
+and `run/wind_file.py`: a GFS grid at per-seed
 stations, a sounding at its launch site), --real_seeds seeds each, with the
 same TW50 window and edge fractions per source.
 
@@ -69,9 +70,8 @@ from ble_latex.run import episode_log
 from ble_latex.run import metrics
 from ble_latex.run import seed_runs
 from ble_latex.run import selection
-
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import real_winds  # pylint: disable=g-import-not-at-top,wrong-import-position
+from ble_latex.run import wind_file
+from ble_latex.wind import sources
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('base_dir', None, 'Training runs (perciatelli/seed_S, '
@@ -104,14 +104,14 @@ cli.define_gin_flags(FLAGS, files_help=None, bindings_help='Bindings for '
 flags.DEFINE_string('output', str(episode_log.RECORDS_DIR / 'reward_shape.json'), 'The record.',
                     flag_values=FLAGS)
 flags.DEFINE_list('real_sources', [], 'Real wind sources each chosen policy '
-                  f'also flies, of {list(real_winds.SOURCES)} '
-                  '(benchmarks/real_winds.py): a GFS grid at per-seed '
+                  f'also flies, of {list(sources.SOURCES)} '
+                  '(ble_latex.wind.sources): a GFS grid at per-seed '
                   'stations, a sounding at its site, as README\'s real-winds '
                   'table. Done cells fly the sources they lack.',
                   flag_values=FLAGS)
 flags.DEFINE_integer('real_seeds', 100, 'Seeds per real source (the held-'
                      'out suite\'s first).', lower_bound=1, flag_values=FLAGS)
-flags.DEFINE_string('realdata_dir', real_winds.REALDATA_DIR, 'Folder of the '
+flags.DEFINE_string('realdata_dir', sources.REALDATA_DIR, 'Folder of the '
                     'real files (PROVENANCE.md).', flag_values=FLAGS)
 flags.DEFINE_string('edges_of', None, 'Only print an eval JSON\'s TW50 window '
                     'and edge fractions (e.g. the shipped policy\'s '
@@ -154,10 +154,10 @@ def _held_out(suite_name: str, episodes: Optional[int], policy_path: str,
 
 
 def real_cell(name: str, suite: str, path: str) -> Dict[str, Any]:
-  """Where a real source flies (`real_winds`' cell: station and suite)."""
+  """Where a real source flies (real_winds.py's cell: station and suite)."""
   return {'source': name, 'suite': suite,
-          **real_winds.station_settings(
-              name, path, real_winds.table_station_mode(name))}
+          **wind_file.station_settings(
+              name, path, sources.table_station_mode(name))}
 
 
 def _fly_real(policy_path: str, cell: Dict[str, Any], path: str,
@@ -172,7 +172,7 @@ def _fly_real(policy_path: str, cell: Dict[str, Any], path: str,
   from ble_latex.run import eval_lib
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
-  bindings = [*real_winds.source_bindings(cell, path),
+  bindings = [*wind_file.cell_bindings(cell, path),
               f'SACPretrainedAgent.policy_path = {policy_path!r}']
   agent, env = eval_lib.build(eval_lib.EvalSpec(
       agent='sac_pretrained', gin_bindings=tuple(bindings)))
@@ -200,7 +200,7 @@ def real_missing(args: Any, row: Dict[str, Any]) -> List[str]:
 def fly_real(args: Any, row: Dict[str, Any], policy: str) -> None:
   """Flies `policy` on the real sources `row` lacks, into row['real_winds']."""
   for name in real_missing(args, row):
-    path = os.path.join(args.realdata_dir, real_winds.SOURCES[name][0])
+    path = sources.path(name, args.realdata_dir)
     with futures.ProcessPoolExecutor(
         max_workers=1,
         mp_context=multiprocessing.get_context('spawn')) as pool:
@@ -340,12 +340,12 @@ def _main(argv: Sequence[str]) -> int:
     raise cli.CommandUsageError(
         f'--snapshot_period={args.snapshot_period} > --rounds={args.rounds}: '
         'no snapshot would be validated')
-  unknown = [n for n in args.real_sources if n not in real_winds.SOURCES]
+  unknown = sources.unknown(args.real_sources)
   if unknown:
     raise cli.CommandUsageError(f'--real_sources: unknown {unknown} (known: '
-                                f'{list(real_winds.SOURCES)})')
+                                f'{list(sources.SOURCES)})')
   for name in args.real_sources:
-    path = os.path.join(args.realdata_dir, real_winds.SOURCES[name][0])
+    path = sources.path(name, args.realdata_dir)
     if not os.path.isfile(path):
       raise cli.CommandUsageError(f'{path}: no such file (--realdata_dir)')
   current = settings(args)

@@ -6,7 +6,7 @@ r"""BLE's VAE winds against each real wind source (issue 45 item 7).
 
 One run samples BLE's generative (VAE) forecast (`stats.sample_vae`:
 --fields keys x --points places and times, 50-200 km from the station, 48 h)
-and each real source of `benchmarks/real_winds.py`'s `SOURCES` (a GFS grid:
+and each real source of `ble_latex.wind.sources.SOURCES` (a GFS grid:
 --samples columns uniform over its whole area, `region='domain'`; a
 sounding: its one column, a single sample, said so in the record), and
 records per source (`ble_latex.wind.stats`):
@@ -43,16 +43,15 @@ import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import quiet
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import provenance
+from ble_latex.wind import sources
 from ble_latex.run import episode_log
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 _ROOT = os.path.dirname(_HERE)
-sys.path.insert(0, _HERE)
-import real_winds  # pylint: disable=g-import-not-at-top,wrong-import-position
-
 FLAGS = flags.FlagValues()
-flags.DEFINE_list('sources', list(real_winds.SOURCES), 'Real sources '
-                  f'compared, of {list(real_winds.SOURCES)}.',
+flags.DEFINE_list('sources', list(sources.SOURCES), 'Real sources '
+                  f'compared, of {list(sources.SOURCES)}.',
                   flag_values=FLAGS)
 flags.DEFINE_integer('samples', 2000, 'Columns sampled from each GFS grid.',
                      lower_bound=1, flag_values=FLAGS)
@@ -65,7 +64,7 @@ flags.DEFINE_integer('seed', 0, 'Seed of the samples (VAE: PRNGKey(seed)).',
 flags.DEFINE_list('common_pressures_pa', ['5000', '7000', '10000'],
                   'Levels every source is compared at [Pa].',
                   flag_values=FLAGS)
-flags.DEFINE_string('realdata_dir', real_winds.REALDATA_DIR,
+flags.DEFINE_string('realdata_dir', sources.REALDATA_DIR,
                     'Folder of the real files (PROVENANCE.md).',
                     flag_values=FLAGS)
 flags.DEFINE_string('json', str(episode_log.RECORDS_DIR / 'wind_compare.json'),
@@ -99,7 +98,7 @@ def _main(argv: Sequence[str]) -> None:
     with open(FLAGS.json, encoding='utf-8') as f:
       _draw(json.load(f)['sources'])
     return
-  unknown = [s for s in FLAGS.sources if s not in real_winds.SOURCES]
+  unknown = sources.unknown(FLAGS.sources)
   if unknown:
     raise cli.CommandUsageError(f'--sources: unknown {unknown}')
   try:
@@ -114,7 +113,7 @@ def _main(argv: Sequence[str]) -> None:
     import jax
     from ble_latex.wind import stats
     # pylint: enable=g-import-not-at-top
-  version = real_winds.code_version()
+  version = provenance.code_version()
   load_before = [round(x, 2) for x in os.getloadavg()]
   date = dt.datetime.now(dt.timezone.utc).isoformat(timespec='minutes')
   began = time.perf_counter()
@@ -133,8 +132,8 @@ def _main(argv: Sequence[str]) -> None:
            'own': stats.profile(vae_own), 'common': stats.profile(
                vae_common, band=(common[0], common[-1]))}]
   for name in FLAGS.sources:
-    relative, label, _ = real_winds.SOURCES[name]
-    path = os.path.join(FLAGS.realdata_dir, relative)
+    relative, label, _ = sources.SOURCES[name]
+    path = sources.path(name, FLAGS.realdata_dir)
     sample = lambda levels, band=stats.FLIGHT_BAND_PA: stats.sample_era5(
         path, levels, num_samples=FLAGS.samples, seed=FLAGS.seed,
         region='domain', label=label, band=band)  # pylint: disable=cell-var-from-loop

@@ -452,3 +452,18 @@ def test_shipped_ensemble_reproduces_its_record():
   assert s['out_of_resources_pct'] == pytest.approx(
       recorded['out_of_resources_pct'],
       abs=ROW_TOLERANCE['out_of_resources_pct'])
+
+
+def test_the_default_lookahead_is_a_declared_one():
+  """`SACEnsembleAgent`'s default (strides, follow) was chosen among the
+  lookaheads declared before any held-out flight, and is within bounds."""
+  import inspect  # pylint: disable=g-import-not-at-top
+  defaults = inspect.signature(ensemble.SACEnsembleAgent.__init__).parameters
+  chosen = (defaults['lookahead_strides'].default,
+            defaults['lookahead_follow'].default)
+  assert chosen == (3, True)
+  assert chosen in ensemble.DECLARED_LOOKAHEADS
+  assert len(set(ensemble.DECLARED_LOOKAHEADS)) == len(
+      ensemble.DECLARED_LOOKAHEADS)
+  assert all(1 <= h <= ensemble.MAX_LOOKAHEAD
+             for h, _ in ensemble.DECLARED_LOOKAHEADS)

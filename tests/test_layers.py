@@ -12,7 +12,7 @@ the layer rules:
 - no module is over 800 lines;
 - the modules import each other in no circle;
 - the scripts of benchmarks/ import only the package: no `sys.path` edit,
-  no import of another script (issue 66; `SCRIPT_ARROWS` lists those left).
+  no import of another script (issue 66).
 
 Nothing is imported or run: the test reads source text only.
 """
@@ -234,21 +234,6 @@ def test_no_module_is_over_800_lines(path):
 
 # -- benchmarks/ holds scripts: they import the package, not each other. ------
 
-# Script -> the scripts it still imports (through `sys.path`), to be emptied:
-# each arrow involves benchmarks/real_winds.py or benchmarks/planners.py,
-# whose logic (the real wind sources' registry and station settings,
-# `planners.fly_batch`'s batched planner flights) moves into the package
-# with their own work on them (issue 66). `decode_grib` is kept by
-# real_winds.py for `digest`, now `ble_latex.wind.grib_copy.digest`.
-SCRIPT_ARROWS = {
-    'eval_speed.py': {'planners'},
-    'real_winds.py': {'decode_grib', 'planners'},
-    'real_winds_paths.py': {'real_winds'},
-    'reward_shape.py': {'real_winds'},
-    'wind_compare.py': {'real_winds'},
-}
-
-
 def _scripts() -> Dict[str, pathlib.Path]:
   """benchmarks/ scripts by path under it (committed runs' folders left)."""
   return {str(p.relative_to(BENCHMARKS)): p
@@ -293,15 +278,15 @@ def _script_imports() -> Dict[str, Set[str]]:
 
 
 def test_benchmark_scripts_import_only_the_package():
-  assert _script_imports() == SCRIPT_ARROWS, (
-      'benchmarks/ scripts import each other beyond SCRIPT_ARROWS (move the '
-      'shared logic into ble_latex/), or an arrow is gone: drop it there')
+  assert not _script_imports(), (
+      'benchmarks/ scripts import each other: move the shared logic into '
+      'ble_latex/')
 
 
 def test_benchmark_scripts_leave_sys_path_alone():
   edits = {name: _edits_sys_path(path) for name, path in _scripts().items()}
   edits = {name: lines for name, lines in edits.items() if lines}
-  assert set(edits) == set(SCRIPT_ARROWS), edits
+  assert not edits, edits
 
 
 def test_the_script_checks_see_sys_path_edits_and_script_imports(tmp_path):

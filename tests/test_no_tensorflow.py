@@ -59,6 +59,9 @@ _ENV_AND_PLANNER = textwrap.dedent('''
     from ble_latex.envs import env_params
     from ble_latex.envs import jax_env
     from ble_latex.run import gin_binding
+    from ble_latex.run import planner_batch
+    from ble_latex.run import wind_file
+    from ble_latex.wind import sources
 
     # The commands' binder: the shipped env gin files, finalized (gin's
     # finalize hook runs), plus the realistic-physics mode file.
@@ -70,6 +73,8 @@ _ENV_AND_PLANNER = textwrap.dedent('''
     assert env.action_space(params).shape == (3,)
     config = plan_config.from_gin('latex_mpc')
     assert config.num_samples == 4 and callable(planning.plan_batch)
+    assert callable(planner_batch.fly_planner) and sources.SOURCES
+    assert wind_file.cell_bindings
     # BLE's light package modules (its gym id, its noise constants) may load;
     # its env, arena and agents (TensorFlow behind them) may not.
     heavy = sorted(m for m in sys.modules if m.startswith((

@@ -1,11 +1,11 @@
 # coding=utf-8
 """benchmarks/real_winds.py's planner path and GRIB2 copies (issue 45).
 
-The planners fly by `benchmarks/planners.py`'s batched core path, which
+The planners fly by `run/planner_batch.py`'s batched core path, which
 imports no BLE gym env (so no TensorFlow: a lent GPU's image has none), with
 the records `eval_lib.evaluate` gives; a GRIB2 source can fly from a NetCDF
 copy decoded here (`benchmarks/gpu/decode_grib.py`), refused unless the copy
-reads to the original's arrays.
+reads to the original's arrays (`wind.grib_copy.digest`).
 """
 
 import os
@@ -15,7 +15,11 @@ import gin
 import numpy as np
 import pytest
 
+from ble_latex.run import planner_batch
+from ble_latex.run import wind_file
 from ble_latex.wind import era5
+from ble_latex.wind import grib_copy
+from ble_latex.wind import sources
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
                     'realwinds')
@@ -37,11 +41,11 @@ def test_the_decoded_copy_reads_to_the_grib_arrays(decode_grib, tmp_path,
   copy = era5.read_source(out)[1]
   for a, b in zip(original, copy):
     np.testing.assert_array_equal(a, b)
-  assert printed == decode_grib.digest(original) == decode_grib.digest(copy)
+  assert printed == grib_copy.digest(original) == grib_copy.digest(copy)
   # The digest sees a change of one value.
   changed = [a.copy() for a in copy]
   changed[4].flat[7] += 1.0
-  assert decode_grib.digest(changed) != printed
+  assert grib_copy.digest(changed) != printed
 
 
 def test_decode_grib_refuses_a_file_that_is_not_grib(decode_grib, tmp_path,
@@ -80,22 +84,21 @@ def test_a_copy_that_is_not_the_source_is_refused(benchmark_script,
 
 
 @pytest.mark.slow
-def test_the_planner_path_flies_eval_libs_records(benchmark_script, tmp_path):
-  """`fly_planner` (planners.py's path) = `eval_lib.evaluate`, per seed."""
+def test_the_planner_path_flies_eval_libs_records(tmp_path):
+  """`planner_batch.fly_planner` = `eval_lib.evaluate`, per seed."""
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
-  real_winds = benchmark_script('real_winds.py')
   folder = tmp_path / 'soundings'
   folder.mkdir()
   path = str(folder / os.path.basename(HILO))
   shutil.copy(HILO, path)
-  bindings = real_winds.source_bindings(
+  bindings = wind_file.cell_bindings(
       {'suite': 'latex_small', 'station_mode': 'center',
-       'station_lat_lon': list(real_winds.SOURCES['hilo'][2])}, path)
+       'station_lat_lon': list(sources.SOURCES['hilo'].site)}, path)
   seeds = list(suites.get_eval_suite('latex_small').seeds)[:2]
   # A binding left by an earlier flight in the process does not count.
   gin.parse_config("Era5WindField.stations = 'per_seed'")
-  planner, _, _ = real_winds.fly_planner('latex_mpc', bindings, seeds, 3)
+  planner, _, _ = planner_batch.fly_planner('latex_mpc', bindings, seeds, 3)
   agent, env = eval_lib.build(eval_lib.EvalSpec(
       agent='latex_mpc', gin_bindings=tuple(bindings)))
   evaluated = eval_lib.evaluate(agent, env, seeds, 3)

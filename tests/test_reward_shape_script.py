@@ -132,7 +132,7 @@ def test_a_second_study_on_one_record_is_refused(script, tmp_path, capsys):
 
 @pytest.mark.slow
 def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
-    script, tmp_path):
+    script, tmp_path, benchmark_script):
   """`_fly_real` with the shipped policy = real_winds' `sac_pretrained`."""
   import shutil  # pylint: disable=g-import-not-at-top
   from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
@@ -146,7 +146,7 @@ def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
   flown = script._fly_real(  # pylint: disable=protected-access
       pretrained.shipped_policy(False), cell, path, 2, max_steps=12)
   seeds = list(suites.get_eval_suite('latex_small').seeds)[:2]
-  records, _, _, _ = script.real_winds.fly_cell(
+  records, _, _, _ = benchmark_script('real_winds.py').fly_cell(
       {**cell, 'agent': 'sac_pretrained', 'max_steps': 12}, path, seeds)
   assert flown['episodes'] == len(records) == 2
   assert flown['tw50_window'] == pytest.approx(

@@ -254,6 +254,13 @@ class Lookahead(NamedTuple):
 
 
 NO_LOOKAHEAD = Lookahead()
+# The lookaheads compared for the shipped members, (strides, follow),
+# declared 2026-11-29 10:12 UTC, after validation flights of a slower
+# version (imagined states observed with their own columns) and before any
+# held-out flight: each flown on validation, the best validated (<= 5 % out
+# of resources) alone then flown held out (`benchmarks/policy_select.py
+# --mode=lookahead`). (3, True) validated best: `SACEnsembleAgent`'s default.
+DECLARED_LOOKAHEADS = ((1, False), (2, True), (3, False), (3, True), (4, True))
 # Only the planner's mode and its one-point correction (unused with a memory).
 _FORECAST = plan_config.PlannerConfig()
 
@@ -445,7 +452,7 @@ class SACEnsembleAgent(sac.SACPretrainedAgent):
         flown ahead in the forecast before it is scored
         (`lookahead_choice`); 0: scored where the balloon is. The default
         (3, following the members) validated best of the lookaheads
-        declared in `benchmarks/policy_select.py` (`LOOKAHEADS`).
+        declared beforehand (`DECLARED_LOOKAHEADS`).
       lookahead_follow: The imagined strides after the first fly each
         member's own action (`Lookahead.follow`).
       **kwargs: Further `SACPretrainedAgent` arguments.

@@ -380,9 +380,8 @@ def station_bindings(lat: Optional[float], lon: Optional[float]
     raise CommandUsageError(
         f'--station_lat={lat:g} --station_lon={lon:g}: expected a latitude '
         'in [-90, 90] and a longitude in [-360, 360] [deg]')
-  return ["Era5WindField.stations = 'fixed'",
-          f'Era5WindField.center_lat = {float(lat)!r}',
-          f'Era5WindField.center_lon = {float(lon)!r}']
+  from ble_latex.run import wind_file  # pylint: disable=g-import-not-at-top
+  return wind_file.fixed_station(lat, lon)
 
 
 def era5_bindings(path: Optional[str], dates: Optional[str],
@@ -412,7 +411,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params
   from ble_latex.envs import winds
-  from ble_latex.wind import era5
+  from ble_latex.run import wind_file
   # pylint: enable=g-import-not-at-top
   bindings = []
   if path is not None:
@@ -422,9 +421,8 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
       era5_dates_value(dates)
     # Absolute (the Ray workers' working directory may differ).
     path = os.path.abspath(os.path.expandvars(os.path.expanduser(path)))
-    bindings += ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
-                 f'Era5WindField.path = {path!r}'] + (
-                     list(station) or wind_file_defaults(path))
+    bindings += wind_file.file_bindings(path) + (
+        list(station) or wind_file_defaults(path))
   elif not winds.is_era5(env_params.episode()['wind_field_factory']):
     for flag, given in (('--era5_dates', dates is not None),
                         ('--station_lat/--station_lon', bool(station))):
@@ -444,7 +442,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
         return bindings  # Another source: flights start anywhere in it.
       dates = default_dates
   value = era5_dates_value(dates)
-  return bindings + [f'Era5WindField.start_dates = {value!r}']
+  return bindings + [wind_file.start_dates(value)]
 
 
 def _is_era5_file(path: Optional[str]) -> bool:
@@ -471,6 +469,7 @@ def wind_file_defaults(path: str) -> List[str]:
     FileNotFoundError, errors.BadFileError: as `era5.load`.
   """
   # pylint: disable=g-import-not-at-top
+  from ble_latex.run import wind_file
   from ble_latex.wind import era5
   from ble_latex.wind import stations
   # pylint: enable=g-import-not-at-top
@@ -485,8 +484,7 @@ def wind_file_defaults(path: str) -> List[str]:
   if any(bound(n) for n in ('stations', 'center_lat', 'center_lon')):
     return []
   defaults = stations.file_defaults(era5.load(path))
-  return [f'Era5WindField.{name} = {value!r}'
-          for name, value in defaults.items()]
+  return wind_file.settings(defaults)
 
 
 def era5_dates_value(dates: str) -> Any:

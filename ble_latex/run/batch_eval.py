@@ -25,9 +25,10 @@ here for the JAX-core agents:
   choice (`ensemble.choices`), mapped the same way;
 - `planners.PlannerAgent` (`latex_mpc`, `latex_mpc_oracle`,
   `latex_mpc_grad`): one `planning.plan_batch` call for the batch every
-  `replan_every` strides (what `benchmarks/planners.py` calls), the actions
-  in between from `planning.next_action`; at most as many balloons as
-  `plan_config.MAX_PLAN_STRIDES` allows in one call;
+  `replan_every` strides (as `planner_batch.fly_batch`, the planners'
+  batched flights without BLE's gym env, which `benchmarks/planners.py`
+  flies), the actions in between from `planning.next_action`; at most as
+  many balloons as `plan_config.MAX_PLAN_STRIDES` allows in one call;
 - `baselines.GeometricStationSeeker` (`latex_station_seeker`): one copy of
   the agent per balloon (it reads only its observation; a copy per balloon
   runs the agent's own code on it).
@@ -65,15 +66,12 @@ from ble_latex.envs import jax_env
 from ble_latex.envs import winds
 from ble_latex import jax_cache
 from ble_latex.run import metrics
+from ble_latex.run import planner_batch
 from ble_latex.run import records as records_lib
 from ble_latex.run import runner
 
-# Seeds flown together. The planners' batched call grows with it (the
-# oracle's beam: ~0.4 GB per balloon); `benchmarks/planners.py` flies 25.
-BATCH_SIZE = 25
-# Flight-state fields of a flight point (`runner.flight_point`).
-_FLIGHT_FIELDS = ('time_s', 'x_m', 'y_m', 'altitude_m', 'ascent_rate_mps',
-                  'last_decision', 'helium_mols', 'sand_kg')
+# Seeds flown together (the planners' batched flights' too).
+BATCH_SIZE = planner_batch.BATCH_SIZE
 
 
 class CorePolicy:
@@ -345,7 +343,8 @@ def _stepper(env: jax_env.LatexBalloonJaxEnv):
     obs, states, reward, _, info = jax.vmap(
         env.step_env, in_axes=(None, 0, 0, None))(None, states, actions,
                                                   params)
-    flight = {k: getattr(states.flight, k) for k in _FLIGHT_FIELDS}
+    flight = {k: getattr(states.flight, k)
+              for k in planner_batch.FLIGHT_FIELDS}
     return states, (obs, reward, info, flight)
   return jax.jit(step, donate_argnums=0,
                  compiler_options=jax_cache.fast_compile_options())
@@ -401,13 +400,7 @@ def fly_batch(policy: CorePolicy, env: Any, seeds: Sequence[int],
     if done.all() or i == max_steps - 1:
       break
     actions = policy.step(states, observations, rewards)
-  records = []
-  for b, tracker in enumerate(trackers):
-    record = tracker.summary(bool(done[b])).to_json()
-    del record['episode'], record['wall_time_s']
-    record['flight_path'] = paths[b]
-    records.append(record)
-  return records
+  return planner_batch.eval_records(trackers, done, paths)
 
 
 def evaluate(agent: base_agent.Agent, env: Any, seeds: Sequence[int],
