@@ -5,7 +5,8 @@
 A lent GPU's image has no eccodes (`ble_latex.wind.grib_copy`, which does
 the work): this writes the winds and their axes to NetCDF and exits 1
 unless the copy reads back to the same arrays, bit for bit. Prints the
-arrays' SHA-256, which `benchmarks/real_winds.py --source_copy` records.
+arrays' SHA-256 (`grib_copy.digest`), which `benchmarks/real_winds.py
+--source_copy` checks (`ble_latex.wind.sources.checked_copy`) and records.
 """
 
 import sys
@@ -13,8 +14,6 @@ import sys
 import ble_latex  # pylint: disable=unused-import
 from ble_latex import errors
 from ble_latex.wind import grib_copy
-
-digest = grib_copy.digest  # `real_winds.py --source_copy`'s check.
 
 
 def main(argv) -> int:
