@@ -14,10 +14,11 @@ seeds in order, and for `ble_station_seeker_discrete`, BLE's
 `station_seeker` on `LatexBalloonDiscrete-v0`; the planners by
 `run/planner_batch.py`'s `fly_planner`, batched without BLE's gym env), on
 the source's and the station's gin bindings (`run/wind_file.py`,
-`cell_bindings`). The sources: `ble_latex.wind.sources.SOURCES`. Every real source here is one
-time step: it flies time-invariant, the analysis (or the sounding's
-column) being the forecast the agents see, the truth the same plus BLE's
-simplex noise; the seeds draw the noise (and on a sounding nothing else).
+`cell_bindings`). The sources: `ble_latex.wind.sources.SOURCES`. Every
+real source here is one time step: it flies time-invariant, the analysis
+(or the sounding's column) being the forecast the agents see, the truth the
+same plus BLE's simplex noise; the seeds draw the noise (and on a sounding
+nothing else).
 
 Stations (--station_mode, recorded in each cell):
   * `center`: a GFS grid's station is the file's fixed centre (the middle of
@@ -96,8 +97,9 @@ flags.DEFINE_list('seeds', ['100'], 'Seeds per source: N for every source, or '
                   flag_values=FLAGS)
 flags.DEFINE_string('suite', 'latex_small', 'Suite whose first seeds fly.',
                     flag_values=FLAGS)
-flags.DEFINE_enum('station_mode', 'center', sources.STATION_MODES, 'Where the station '
-                  'is (see the module).', flag_values=FLAGS)
+flags.DEFINE_enum('station_mode', 'center', sources.STATION_MODES,
+                  'Where the station is (see the module).',
+                  flag_values=FLAGS)
 flags.DEFINE_multi_string('station_bindings', [], 'More gin bindings of '
                           '--station_mode=per_seed.', flag_values=FLAGS)
 flags.DEFINE_string('realdata_dir', sources.REALDATA_DIR,
