@@ -75,8 +75,8 @@ RESULTS_STRESS ?= benchmarks/results_realistic_stress
 PAPER_POLICY := --gin_bindings='SACPretrainedAgent.policy_path="ble_latex/agents/policies/sac_latex.msgpack"' \
 	--name_override=sac_pretrained_paper_policy
 # Issue 44's stress setting of the lift disturbance (flight.params.LIFT_WALK_STRESS).
-STRESS := --gin_bindings='LatexBalloon.lift_walk_kg_per_sqrt_s = 1.4e-3'
-LONG := --max_episode_length=504 --gin_bindings=LatexBalloonEnv.episode_steps=504
+STRESS := --gin_bindings='latex_flight.lift_walk_kg_per_sqrt_s = 1.4e-3'
+LONG := --max_episode_length=504 --gin_bindings=latex_episode.episode_steps=504
 baselines-realistic: venv
 	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=latex_random
 	$(EVAL) --output_dir=$(RESULTS_REALISTIC) $(REALISTIC_GIN) --agent=latex_station_seeker

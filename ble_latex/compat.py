@@ -370,7 +370,7 @@ def _ble_commands(run_helpers: types.ModuleType) -> None:
 
   BLE's commands parse `--agent`'s gin file and `--gin_bindings` in
   `run_helpers.bind_gin_variables` before `gym.make` imports the latex env,
-  so a latex binding is "No configurable matching 'LatexBalloonEnv'" and
+  so a latex binding is "No configurable matching 'latex_episode'" and
   `--agent=sac` is "Agent sac not recognized". The wrapper registers
   ble_latex's agents and declares the latex configurables first
   (`ble_latex.run.ble_support.install`).

@@ -74,7 +74,7 @@ def require(ok: bool, name: str, requirement: str, value: Any,
 
   Args:
     ok: Whether the value meets the requirement.
-    name: What the value is, e.g. 'gin binding create_state.sand_kg'.
+    name: What the value is, e.g. 'gin binding latex_launch.sand_kg'.
     requirement: e.g. 'a finite number >= 0'.
     value: The value as given.
     why: Appended to the message (the consequence), e.g. ': ...'.
@@ -144,7 +144,7 @@ def check_number(name: str, value: Any, *, minimum: Optional[float] = None,
 
   Args:
     name: What the value is (in the message), e.g. 'gin binding
-      create_state.payload_kg'.
+      latex_launch.payload_kg'.
     value: The value.
     minimum: value >= minimum.
     above: value > above.

@@ -135,7 +135,7 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
       '--collectors=episodes']
   if args.short:
     train += [f'--gin_bindings={b}' for b in (
-        'LatexBalloonEnv.episode_steps = 3',
+        'latex_episode.episode_steps = 3',
         'sac_trainer_config.num_envs = 2',
         'sac_trainer_config.num_layers = 1',
         'sac_trainer_config.hidden_units = 16',

@@ -89,7 +89,7 @@ def test_an_ended_flight_stops_its_record_the_others_fly_on(monkeypatch):
   one-at-a-time loop writes: its steps, terminal reason and path end there."""
   agent, env = eval_lib.build(eval_lib.EvalSpec(
       agent='latex_station_seeker',
-      gin_bindings=('LatexBalloonEnv.episode_steps = 4',)))
+      gin_bindings=('latex_episode.episode_steps = 4',)))
   seeds = TINY[3:5]
   serial = eval_lib.evaluate(agent, env, seeds, STRIDES, batched=False)
   batched = batch_eval.evaluate(agent, env, seeds, STRIDES)
@@ -113,7 +113,7 @@ def test_batched_resets_compile_no_single_step_ahead(monkeypatch):
   monkeypatch.setattr(gymnasium_compile.Compiled, 'ahead', recording)
   agent, env = eval_lib.build(eval_lib.EvalSpec(
       agent='latex_station_seeker',
-      gin_bindings=('LatexBalloonEnv.episode_steps = 2',)))
+      gin_bindings=('latex_episode.episode_steps = 2',)))
   asked.clear()  # The build's own reset.
   batch_eval.evaluate(agent, env, TINY[5:6], 2)
   assert asked == [False]

@@ -50,7 +50,7 @@ def documented_commands(section: str = ''):
 def test_the_page_documents_the_issue_commands():
   commands = documented_commands()
   assert any('balloon_learning_environment.train' in c and '--agent=sac' in c
-             and 'LatexBalloonEnv.' in c for c in commands)
+             and 'latex_episode.' in c for c in commands)
   assert any('--agent=dqn' in c and 'LatexBalloonDiscrete-v0' in c and
              'balloon_learning_environment.train' in c for c in commands)
   assert sum(c.startswith('ble-latex-ble eval --env_name') for c in commands

@@ -73,7 +73,7 @@ def test_eval_help_and_usage_errors(capsys):
   assert 'latex_station_seeker' in errors[1] and 'sac' in errors[1]
   assert "did you mean 'latex_tiny'" in errors[2]
   assert 'sac.gin' in errors[3]
-  assert 'LatexBalloonEnv' in errors[4]
+  assert 'latex_episode' in errors[4] and 'LatexBalloonEnv' not in errors[4]
   assert 'LatexBalloonDiscrete-v0' in errors[5]
   assert "'nope'" in errors[6]
   assert '--checkpoint_dir and --checkpoint_idx' in errors[7]
@@ -257,7 +257,7 @@ def test_eval_refused_input_is_one_line(tmp_path, capsys):
       ['--agent=sac', f'--checkpoint_dir={tmp_path}/nope',
        '--checkpoint_idx=3', *short],
       ['--agent=latex_random', '--gin_bindings=abc', *short],
-      ['--agent=latex_random', '--gin_bindings=create_state.sand_kg = -1',
+      ['--agent=latex_random', '--gin_bindings=latex_launch.sand_kg = -1',
        *short],
       ['--agent=sac_pretrained', *short, '--gin_bindings='
        f"SACPretrainedAgent.policy_path = '{tmp_path}/none.msgpack'"],
@@ -310,7 +310,7 @@ def test_read_only_output_dir_is_one_line(tmp_path, capsys):
 def test_train_refused_bindings_are_usage_errors(tmp_path, capsys, clean_gin):
   from ble_latex.cli import train  # pylint: disable=g-import-not-at-top
   base = [f'--base_dir={tmp_path}/run', '--trainer=jax', '--num_iterations=1']
-  assert train.main([*base, '--gin_bindings=create_state.sand_kg = -1']) == 2
+  assert train.main([*base, '--gin_bindings=latex_launch.sand_kg = -1']) == 2
   err = capsys.readouterr().err
   assert err.startswith('ble-latex-train: ') and err.count('\n') == 1, err
   assert 'sand_kg must be' in err and '-1' in err
@@ -327,7 +327,7 @@ def test_sweep_value_the_trainer_refuses_is_a_usage_error(tmp_path, capsys,
   space = tmp_path / 'space.json'
   space.write_text('{"bindings": {"sac_trainer_config.num_envs": [0]}}')
   for flag in (f'--space={space}', '--grid=sac_trainer_config.num_envs=0',
-               '--grid=create_state.sand_kg=-1'):
+               '--grid=latex_launch.sand_kg=-1'):
     assert sweep.main([f'--sweep_dir={tmp_path}/sweep', flag]) == 2
     err = capsys.readouterr().err
     assert err.startswith('ble-latex-sweep: ') and err.count('\n') == 1, err
@@ -352,9 +352,9 @@ def _fake_command(raised: BaseException):
     (errors.BadFileError('f.nc is truncated'), 1, 'f.nc is truncated'),
     (errors.ConfigError('bad agent'), 2, 'bad agent'),
     (ValueError("sand_kg must be >= 0\n  In call to configurable "
-                "'LatexBalloonArena' (<class 'x'>)\n  In call to "
-                "configurable 'LatexBalloonEnv' (<class 'y'>)"), 2,
-     'sand_kg must be >= 0 (in gin configurable LatexBalloonArena)'),
+                "'latex_start' (<class 'x'>)\n  In call to "
+                "configurable 'latex_episode' (<class 'y'>)"), 2,
+     'sand_kg must be >= 0 (in gin configurable latex_start)'),
 ])
 def test_known_refusals_are_one_line(raised, code, line, capsys):
   assert _fake_command(raised)() == code

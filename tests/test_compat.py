@@ -118,7 +118,7 @@ _NEEDED_SLOW = {
         'from balloon_learning_environment.utils import run_helpers\n'
         'with gin.unlock_config():\n'
         "  run_helpers.bind_gin_variables('sac', None, [\n"
-        "      'LatexBalloonEnv.episode_steps = 30'])\n"
+        "      'latex_episode.episode_steps = 30'])\n"
         'from ble_latex.envs import env_params\n'
         "assert env_params.episode()['episode_steps'] == 30\n"
         'gin.clear_config()',

@@ -104,8 +104,8 @@ def test_gin_binds_the_intermittent_option():
     gin.parse_config_files_and_bindings(
         [configs.gin_file('latex_physics.gin'),
          configs.gin_file('latex_realistic.gin')],
-        ['LatexBalloon.lift_walk_kg_per_sqrt_s = 0.67e-3',
-         'LatexBalloon.lift_walk_calm_kg_per_sqrt_s = 0.07e-3'])
+        ['latex_flight.lift_walk_kg_per_sqrt_s = 0.67e-3',
+         'latex_flight.lift_walk_calm_kg_per_sqrt_s = 0.07e-3'])
     assert params_lib.flight_params_from_gin() == INTERMITTENT
     # The paper's model switches it off with the walk.
     assert not params_lib.paper_flight_params().lift_walk_intermittent
@@ -114,13 +114,13 @@ def test_gin_binds_the_intermittent_option():
 
 
 @pytest.mark.parametrize('bindings, match', [
-    (['LatexBalloon.lift_walk_kg_per_sqrt_s = None',
-      'LatexBalloon.lift_walk_calm_kg_per_sqrt_s = 0.07e-3'],
+    (['latex_flight.lift_walk_kg_per_sqrt_s = None',
+      'latex_flight.lift_walk_calm_kg_per_sqrt_s = 0.07e-3'],
      'lift_walk_calm_kg_per_sqrt_s.*lift_walk_kg_per_sqrt_s'),
-    (['LatexBalloon.lift_walk_calm_kg_per_sqrt_s = -1e-4'],
+    (['latex_flight.lift_walk_calm_kg_per_sqrt_s = -1e-4'],
      'lift_walk_calm_kg_per_sqrt_s'),
-    (['LatexBalloon.lift_walk_calm_kg_per_sqrt_s = 0.07e-3',
-      'LatexBalloon.lift_walk_gusty_mean_s = 0.0'], 'lift_walk_gusty_mean_s'),
+    (['latex_flight.lift_walk_calm_kg_per_sqrt_s = 0.07e-3',
+      'latex_flight.lift_walk_gusty_mean_s = 0.0'], 'lift_walk_gusty_mean_s'),
 ])
 def test_bad_intermittent_bindings_name_their_binding(bindings, match):
   gin.clear_config()

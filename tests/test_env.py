@@ -165,8 +165,8 @@ def test_shipped_env_gin_file_parses_and_binds():
   from ble_latex import configs
   try:
     gin.parse_config_files_and_bindings(configs.env_gin_files(), [])
-    assert gin.query_parameter('LatexBalloonEnv.episode_steps') == 216
-    assert gin.query_parameter('create_state.sand_kg') == 2.0
+    assert gin.query_parameter('latex_episode.episode_steps') == 216
+    assert gin.query_parameter('latex_launch.sand_kg') == 2.0
     env = gym.make('LatexBalloon-v0').unwrapped
     assert env.reset(seed=0).shape == (latex_features.NUM_FEATURES,)
   finally:
@@ -177,7 +177,7 @@ def test_bad_gin_binding_is_a_clear_error():
   import gin
   try:
     with pytest.raises(ValueError, match='no_such_param'):
-      gin.parse_config('LatexBalloonEnv.no_such_param = 3')
+      gin.parse_config('latex_episode.no_such_param = 3')
   finally:
     gin.clear_config()
 
@@ -235,7 +235,7 @@ def test_good_discrete_actions(discrete_env):
     ('latex_reward.sand_penalty_per_kg', float('inf')),
     ('perciatelli_reward_function.reward_halflife', 0.0),
     ('perciatelli_reward_function.reward_dropoff', 1.5),
-    ('LatexBalloonEnv.station_keeping_radius_km', -5.0),
+    ('latex_episode.station_keeping_radius_km', -5.0),
 ])
 def test_bad_reward_bindings_are_refused_at_construction(binding, value):
   try:

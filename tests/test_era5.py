@@ -777,7 +777,7 @@ def test_paper_gin_file_binds_the_field(era5_file):
     assert settings == era5.Era5Settings(path=era5_file, episode_hours=6.0)
     field = era5_field.Era5WindField.from_settings(settings)
     assert field.add_noise and field.settings == settings
-    factory = gin.query_parameter('LatexBalloonEnv.wind_field_factory')
+    factory = gin.query_parameter('latex_episode.wind_field_factory')
     assert factory.selector == 'Era5WindField'
     del env_lib
   finally:

@@ -1,7 +1,7 @@
 # coding=utf-8
 """ERA5 from one gin binding / flag in every env and command; the date split.
 
-Issue 27 items 2 and 5: `LatexBalloonEnv.wind_field_factory = @Era5WindField`
+Issue 27 items 2 and 5: `latex_episode.wind_field_factory = @Era5WindField`
 (gin_configs/paper_era5.gin, or `--era5_path`) makes `env_params.params_from_gin`
 hold the file's grid (`EnvParams.wind_grid`, read once by `era5.load`), and
 every env flies it in JAX; `env_params.check_params` refuses bad grids; flights
@@ -238,7 +238,7 @@ def test_era5_factory_without_a_path_is_one_line():
   try:
     gin_binding.bind_gin(None, None, [], [
         'import ble_latex.wind.era5',
-        'LatexBalloonEnv.wind_field_factory = @Era5WindField'])
+        'latex_episode.wind_field_factory = @Era5WindField'])
     with pytest.raises(errors.ConfigError, match='Era5WindField.path'):
       env_params.params_from_gin()
   finally:
@@ -254,7 +254,7 @@ def test_flags_bind_the_path_and_the_commands_dates(era5_path):
       cli.era5_bindings(None, 'eval', 'train')
     bindings = cli.era5_bindings(era5_path, None, 'train')
     assert bindings == [
-        'LatexBalloonEnv.wind_field_factory = @Era5WindField',
+        'latex_episode.wind_field_factory = @Era5WindField',
         f'Era5WindField.path = {era5_path!r}',
         "Era5WindField.start_dates = 'train'"]
     assert cli.era5_bindings(era5_path, '2022-11-03,2022-11-09', 'x')[-1] == (
@@ -369,7 +369,7 @@ def _tiny_jax_train(base_dir, *extra):
           f'--base_dir={base_dir}', '--num_iterations=1',
           '--policy_snapshot_period=1', '--validation_episodes=2',
           '--collectors=episodes',
-          '--gin_bindings=LatexBalloonEnv.episode_steps = 3',
+          '--gin_bindings=latex_episode.episode_steps = 3',
           '--gin_bindings=sac_trainer_config.num_envs = 2',
           '--gin_bindings=sac_trainer_config.num_layers = 1',
           '--gin_bindings=sac_trainer_config.hidden_units = 16',

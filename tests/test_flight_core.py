@@ -293,12 +293,12 @@ def test_flight_params_from_gin_reads_existing_bindings():
     assert params_lib.flight_params_from_gin() == params_lib.FlightParams()
     gin.parse_config_files_and_bindings(
         [configs.gin_file('latex_physics.gin')],
-        ['create_state.payload_kg = 2.5',
-         'create_state.helium_mols = 180.0',
-         'AltitudeController.band_low_m = 12000.0',
-         'AltitudeController.min_vent_mols = 0.3',
-         'LatexBalloon.valve_flow_mols_per_s = 0.1',
-         'LatexBalloon.guard_within_stride = False'])
+        ['latex_launch.payload_kg = 2.5',
+         'latex_launch.helium_mols = 180.0',
+         'latex_controller.band_low_m = 12000.0',
+         'latex_controller.min_vent_mols = 0.3',
+         'latex_flight.valve_flow_mols_per_s = 0.1',
+         'latex_flight.guard_within_stride = False'])
     p = params_lib.flight_params_from_gin(burst_volume_m3=300.0)
     assert p.payload_kg == 2.5 and p.initial_helium_mols == 180.0
     assert p.band_low_m == 12000.0 and p.min_vent_mols == 0.3
@@ -322,25 +322,25 @@ def test_make_flight_params_validates():
 
 
 _BAD_FLIGHT_VALUES = [
-    ('sand_kg', True, 'create_state.sand_kg'),
-    ('sand_kg', 'abc', 'create_state.sand_kg'),
-    ('payload_kg', None, 'create_state.payload_kg'),
-    ('payload_kg', 'abc', 'create_state.payload_kg'),
-    ('drag_coefficient', float('inf'), 'create_state.drag_coefficient'),
-    ('burst_volume_m3', -1.0, 'create_state.burst_volume_m3'),
-    ('helium_mols', 0.0, 'create_state.helium_mols'),
-    ('helium_mols', False, 'create_state.helium_mols'),
-    ('min_vent_mols', None, 'AltitudeController.min_vent_mols'),
-    ('min_drop_kg', float('nan'), 'AltitudeController.min_drop_kg'),
-    ('band_low_m', 'low', 'AltitudeController.band_low_m'),
-    ('stride', 0.5, 'AltitudeController.stride'),
-    ('max_substep', 1e-9, 'LatexBalloon.max_substep'),
-    ('max_substep', dt.timedelta(microseconds=1), 'LatexBalloon.max_substep'),
-    ('vertical_step', None, 'LatexBalloon.vertical_step'),
-    ('actuation_chunk', -10.0, 'LatexBalloon.actuation_chunk'),
-    ('valve_flow_mols_per_s', 'fast', 'LatexBalloon.valve_flow_mols_per_s'),
-    ('ballast_rate_kg_per_s', True, 'LatexBalloon.ballast_rate_kg_per_s'),
-    ('guard_within_stride', 'yes', 'LatexBalloon.guard_within_stride'),
+    ('sand_kg', True, 'latex_launch.sand_kg'),
+    ('sand_kg', 'abc', 'latex_launch.sand_kg'),
+    ('payload_kg', None, 'latex_launch.payload_kg'),
+    ('payload_kg', 'abc', 'latex_launch.payload_kg'),
+    ('drag_coefficient', float('inf'), 'latex_launch.drag_coefficient'),
+    ('burst_volume_m3', -1.0, 'latex_launch.burst_volume_m3'),
+    ('helium_mols', 0.0, 'latex_launch.helium_mols'),
+    ('helium_mols', False, 'latex_launch.helium_mols'),
+    ('min_vent_mols', None, 'latex_controller.min_vent_mols'),
+    ('min_drop_kg', float('nan'), 'latex_controller.min_drop_kg'),
+    ('band_low_m', 'low', 'latex_controller.band_low_m'),
+    ('stride', 0.5, 'latex_controller.stride'),
+    ('max_substep', 1e-9, 'latex_flight.max_substep'),
+    ('max_substep', dt.timedelta(microseconds=1), 'latex_flight.max_substep'),
+    ('vertical_step', None, 'latex_flight.vertical_step'),
+    ('actuation_chunk', -10.0, 'latex_flight.actuation_chunk'),
+    ('valve_flow_mols_per_s', 'fast', 'latex_flight.valve_flow_mols_per_s'),
+    ('ballast_rate_kg_per_s', True, 'latex_flight.ballast_rate_kg_per_s'),
+    ('guard_within_stride', 'yes', 'latex_flight.guard_within_stride'),
 ]
 
 
@@ -369,9 +369,9 @@ def test_flight_params_from_gin_names_the_binding():
   import ble_latex.ble.balloon  # pylint: disable=g-import-not-at-top,unused-import
   gin.clear_config()
   try:
-    for binding, value in (('create_state.sand_kg', 'True'),
-                           ('create_state.payload_kg', "'abc'"),
-                           ('create_state.drag_coefficient', 'None')):
+    for binding, value in (('latex_launch.sand_kg', 'True'),
+                           ('latex_launch.payload_kg', "'abc'"),
+                           ('latex_launch.drag_coefficient', 'None')):
       gin.clear_config()
       gin.parse_config(f'{binding} = {value}')
       with pytest.raises(ValueError, match=f'gin binding {binding} must be'):

@@ -10,6 +10,7 @@ import importlib.util
 import inspect
 import pathlib
 import sys
+import warnings
 
 import gin
 import pytest
@@ -20,9 +21,9 @@ from ble_latex.flight import params as params_lib
 
 _FIELDS = params_lib._FIELDS  # pylint: disable=protected-access
 _BINDINGS = params_lib._FIELD_BINDINGS  # pylint: disable=protected-access
-_SHIMS = {'create_state': params_lib.launch,
-          'AltitudeController': params_lib.controller,
-          'LatexBalloon': params_lib.simulation}
+_SHIMS = {'latex_launch': params_lib.launch,
+          'latex_controller': params_lib.controller,
+          'latex_flight': params_lib.simulation}
 
 
 def _parameters(function):
@@ -75,7 +76,7 @@ def test_the_keywords_are_the_declared_fields_and_nothing_else():
   with pytest.raises(TypeError, match="unexpected keyword argument 'nope'"):
     params_lib.make_flight_params(nope=1.0)
   with pytest.raises(TypeError, match="launch.*unexpected keyword"):
-    params_lib.launch(stride=1.0)  # AltitudeController's.
+    params_lib.launch(stride=1.0)  # latex_controller's.
 
 
 @functools.lru_cache(maxsize=None)
@@ -88,10 +89,15 @@ def _copy_with_a_new_field():
        "      0.5, gin=_LAUNCH, keyword='test_ballast',\n"
        "      limits=(0.0, 2.0, 'kg: the test\\'s'))  # [kg]\n\n"
        '  @property\n  def realistic_lift'),
-      ("_LAUNCH = 'create_state'", "_LAUNCH = 'copy_create_state'"),
-      ("_CONTROLLER = 'AltitudeController'",
-       "_CONTROLLER = 'copy_AltitudeController'"),
-      ("_SIMULATION = 'LatexBalloon'", "_SIMULATION = 'copy_LatexBalloon'"),
+      ("_LAUNCH = 'latex_launch'", "_LAUNCH = 'copy_latex_launch'"),
+      ("_CONTROLLER = 'latex_controller'",
+       "_CONTROLLER = 'copy_latex_controller'"),
+      ("_SIMULATION = 'latex_flight'", "_SIMULATION = 'copy_latex_flight'"),
+      ("_OLD_NAMES = {_LAUNCH: 'create_state', _CONTROLLER: 'AltitudeController',\n"
+       "              _SIMULATION: 'LatexBalloon'}",
+       "_OLD_NAMES = {_LAUNCH: 'copy_create_state',\n"
+       "              _CONTROLLER: 'copy_AltitudeController',\n"
+       "              _SIMULATION: 'copy_LatexBalloon'}"),
       ("_GIN_MODULE = 'ble_latex.flight.params'",
        "_GIN_MODULE = 'tests.flight_params_copy'"),
       ("REALISTIC = gin_file_arguments(configs.gin_file("
@@ -112,21 +118,26 @@ def test_a_new_field_is_one_declaration():
   # One field added to a copy of the module: its gin keyword, maker
   # argument, gin name, range check and gin binding all follow.
   copy = _copy_with_a_new_field()
-  assert copy.gin_name('test_ballast_kg') == 'copy_create_state.test_ballast'
+  assert copy.gin_name('test_ballast_kg') == 'copy_latex_launch.test_ballast'
   assert copy.launch()['test_ballast'] == 0.5
   assert 'test_ballast' in inspect.signature(copy.make_flight_params).parameters
   assert copy.make_flight_params(test_ballast=1.5).test_ballast_kg == 1.5
   assert copy.PHYSICAL_RANGES['test_ballast_kg'][:2] == (0.0, 2.0)
   with pytest.raises(errors.ConfigError,
-                     match=r'^gin binding copy_create_state.test_ballast must '
+                     match=r'^gin binding copy_latex_launch.test_ballast must '
                      r'.*3\.0.*the test\'s'):
     copy.make_flight_params(test_ballast=3.0)
   gin.clear_config()
   try:
-    gin.parse_config('copy_create_state.test_ballast = 0.25')
+    gin.parse_config('copy_latex_launch.test_ballast = 0.25')
     assert copy.flight_params_from_gin().test_ballast_kg == 0.25
+    gin.clear_config()  # The old name (an alias) takes the new field too.
+    gin.parse_config('copy_create_state.test_ballast = 0.75')
+    with warnings.catch_warnings():
+      warnings.simplefilter('ignore', FutureWarning)
+      assert copy.flight_params_from_gin().test_ballast_kg == 0.75
     with pytest.raises(ValueError, match='no_such'):
-      gin.parse_config('copy_create_state.no_such = 0.25')
+      gin.parse_config('copy_latex_launch.no_such = 0.25')
   finally:
     gin.clear_config()
 
@@ -134,13 +145,13 @@ def test_a_new_field_is_one_declaration():
 def test_gin_sees_the_declared_keywords():
   gin.clear_config()
   try:
-    gin.parse_config(['create_state.sand_kg = 1.5',
-                      'LatexBalloon.start_time = "2022-11-02T06:00:00"'])
+    gin.parse_config(['latex_launch.sand_kg = 1.5',
+                      'latex_flight.start_time = "2022-11-02T06:00:00"'])
     params = params_lib.flight_params_from_gin()
     assert params.initial_sand_kg == 1.5
     assert params.start_second_of_day == 6 * 3600.0
     with pytest.raises(ValueError, match='sand'):
-      gin.parse_config('AltitudeController.sand_kg = 1.5')
+      gin.parse_config('latex_controller.sand_kg = 1.5')
   finally:
     gin.clear_config()
 
@@ -156,7 +167,7 @@ def test_realistic_is_read_from_its_gin_file():
 def test_a_realistic_file_with_other_bindings_is_refused(tmp_path):
   path = tmp_path / 'other.gin'
   path.write_text('import ble_latex.flight.params\n'
-                  'LatexBalloon.superheat_day_k = 8.1\n'
+                  'latex_flight.superheat_day_k = 8.1\n'
                   'sac_trainer_config.gamma = 0.9\n')
   with pytest.raises(errors.ConfigError,
                      match=r'other.gin:3: .*sac_trainer_config.gamma') as e:
@@ -175,9 +186,9 @@ def test_paper_mode_switches_off_what_the_realistic_file_binds():
     gin.parse_config_files_and_bindings(
         [configs.gin_file('latex_physics.gin'),
          configs.gin_file('latex_realistic.gin')],
-        ['LatexBalloon.lift_walk_kg_per_sqrt_s = 0.67e-3',
-         'LatexBalloon.lift_walk_calm_kg_per_sqrt_s = 0.07e-3',
-         'create_state.sand_kg = 1.5'])
+        ['latex_flight.lift_walk_kg_per_sqrt_s = 0.67e-3',
+         'latex_flight.lift_walk_calm_kg_per_sqrt_s = 0.07e-3',
+         'latex_launch.sand_kg = 1.5'])
     paper = params_lib.paper_flight_params()
   finally:
     gin.clear_config()

@@ -188,11 +188,11 @@ def test_the_heating_disturbance_moves_the_flight():
 
 
 @pytest.mark.parametrize('bindings, match', [
-    (['LatexBalloon.gas_state = False'], 'heating_noise_k'),
-    (['LatexBalloon.heating_noise_k = -0.1'], 'heating_noise_k'),
-    (['LatexBalloon.heating_noise_k = 3e38'], 'heating_noise_k'),
-    (['LatexBalloon.heating_noise_time_s = 0.0'], 'heating_noise_time_s'),
-    (['LatexBalloon.gas_state = "yes"'], 'gas_state'),
+    (['latex_flight.gas_state = False'], 'heating_noise_k'),
+    (['latex_flight.heating_noise_k = -0.1'], 'heating_noise_k'),
+    (['latex_flight.heating_noise_k = 3e38'], 'heating_noise_k'),
+    (['latex_flight.heating_noise_time_s = 0.0'], 'heating_noise_time_s'),
+    (['latex_flight.gas_state = "yes"'], 'gas_state'),
 ])
 def test_bad_gas_bindings_name_their_binding(bindings, match):
   from ble_latex import configs  # pylint: disable=import-outside-toplevel
@@ -211,14 +211,14 @@ def test_bad_gas_bindings_name_their_binding(bindings, match):
 
 
 @pytest.mark.parametrize('binding, match', [
-    ('create_state.drag_coefficient_subcritical = 3e38',
+    ('latex_launch.drag_coefficient_subcritical = 3e38',
      'drag_coefficient_subcritical'),
-    ('LatexBalloon.lift_walk_kg_per_sqrt_s = 3e38', 'lift_walk_kg_per_sqrt_s'),
-    ('LatexBalloon.cooling_night_k = 250.0', 'cooling_night_k'),
-    ('create_state.payload_kg = 1e-46', 'payload_kg'),
-    ('create_state.burst_weibull_scale_m = 1e-40', 'burst_weibull_scale_m'),
-    ('LatexBalloon.valve_flow_mols_per_s = 1e-46', 'valve_flow_mols_per_s'),
-    ('create_state.drag_coefficient = 1e30', 'drag_coefficient'),
+    ('latex_flight.lift_walk_kg_per_sqrt_s = 3e38', 'lift_walk_kg_per_sqrt_s'),
+    ('latex_flight.cooling_night_k = 250.0', 'cooling_night_k'),
+    ('latex_launch.payload_kg = 1e-46', 'payload_kg'),
+    ('latex_launch.burst_weibull_scale_m = 1e-40', 'burst_weibull_scale_m'),
+    ('latex_flight.valve_flow_mols_per_s = 1e-46', 'valve_flow_mols_per_s'),
+    ('latex_launch.drag_coefficient = 1e30', 'drag_coefficient'),
 ])
 def test_physically_absurd_values_are_refused_where_bound(binding, match):
   from ble_latex import configs  # pylint: disable=import-outside-toplevel

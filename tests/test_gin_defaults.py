@@ -31,12 +31,12 @@ MODE_FILES = {
 }
 # (gin file, 'configurable.parameter') -> why its value differs.
 DIFFERS = {
-    ('paper_era5.gin', 'LatexBalloonEnv.wind_field_factory'):
+    ('paper_era5.gin', 'latex_episode.wind_field_factory'):
         "the paper's ERA5 winds instead of BLE's generative field: the file's "
         'purpose',
     ('paper_era5.gin', 'Era5WindField.path'):
         'a required argument (no default): the file the README downloads',
-    ('latex_realistic_task.gin', 'create_state.sand_kg'):
+    ('latex_realistic_task.gin', 'latex_launch.sand_kg'):
         'the realistic task\'s resources (issue 63): ValBal\'s ballast '
         'fraction on this system, the paper\'s 2.0 kg the harder variant: '
         'the file\'s purpose',

@@ -373,8 +373,8 @@ def test_gin_bound_station_radius_is_checked():
   from ble_latex.ble import gym_env  # pylint: disable=g-import-not-at-top,unused-import
   gin.clear_config()
   try:
-    gin.parse_config('LatexBalloonEnv.station_keeping_radius_km = -5.0')
-    with pytest.raises(ValueError, match='^gin binding LatexBalloonEnv.'
+    gin.parse_config('latex_episode.station_keeping_radius_km = -5.0')
+    with pytest.raises(ValueError, match='^gin binding latex_episode.'
                        'station_keeping_radius_km must be a finite number > 0'):
       gymnasium.make(ID, normalize_actions=False)
   finally:
@@ -391,11 +391,11 @@ def test_gin_bound_host_wind_field_is_refused_not_ignored():
   import gin  # pylint: disable=g-import-not-at-top
   gin.clear_config()
   try:
-    gin.bind_parameter('LatexBalloonEnv.wind_field_factory', _HostField)
+    gin.bind_parameter('latex_episode.wind_field_factory', _HostField)
     for make in (lambda: gymnasium.make(ID),
                  lambda: gymnasium.make_vec(ID, num_envs=2)):
       with pytest.raises(errors.ConfigError,
-                         match='^gin binding LatexBalloonEnv.wind_field_'
+                         match='^gin binding latex_episode.wind_field_'
                          'factory = .*_HostField.*host_wind='):
         make()
   finally:
@@ -452,11 +452,11 @@ def test_discrete_make_vec_takes_gymnasiums_seeds():
 
 @pytest.mark.parametrize('change, binding', [
     (dict(radius_km=float('nan')),
-     'LatexBalloonEnv.station_keeping_radius_km'),
+     'latex_episode.station_keeping_radius_km'),
     (dict(start_altitude_low_m=-10.0),
-     'LatexBalloonArena.start_altitude_range_m'),
+     'latex_start.start_altitude_range_m'),
     (dict(start_altitude_high_m=95_000.0),
-     'LatexBalloonArena.start_altitude_range_m'),
+     'latex_start.start_altitude_range_m'),
 ])
 def test_given_params_are_checked(env, change, binding):
   """params= goes through the one check (`env_params.check_params`)."""
@@ -564,8 +564,8 @@ def test_env_gin_files_then_gym_make_in_a_fresh_process():
   result = _python(_GIN_FILES_THEN_MAKE)
   assert result.returncode == 0, result.stderr[-3000:]
   assert result.stdout.strip().splitlines()[-3:] == [
-      'LatexBalloon-v0 LatexBalloonEnv.episode_steps',
-      'LatexBalloonDiscrete-v0 LatexBalloonEnv.episode_steps', 'ok']
+      'LatexBalloon-v0 latex_episode.episode_steps',
+      'LatexBalloonDiscrete-v0 latex_episode.episode_steps', 'ok']
 
 
 def test_first_make_is_quiet():
@@ -696,11 +696,11 @@ def same(a, b):
 
 light = env_params.params_from_gin()
 # Every gin name of the env is the core's own: bound without BLE or gym.
-gin.parse_config(['AltitudeController.min_vent_mols = 0.3',
-                  'create_state.sand_kg = 1.5', 'LatexBalloonEnv.episode_steps = 9',
-                  'LatexBalloonArena.max_start_distance_km = 150.0',
+gin.parse_config(['latex_controller.min_vent_mols = 0.3',
+                  'latex_launch.sand_kg = 1.5', 'latex_episode.episode_steps = 9',
+                  'latex_start.max_start_distance_km = 150.0',
                   'latex_reward.helium_penalty_per_mol = 0.1',
-                  'LatexBalloon.guard_within_stride = False'])
+                  'latex_flight.guard_within_stride = False'])
 p = env_params.params_from_gin()
 assert float(p.flight.min_vent_mols) == np.float32(0.3)
 assert (p.flight.initial_sand_kg, p.episode_steps, p.max_start_distance_km,
@@ -714,10 +714,10 @@ gin.clear_config()
 import ble_latex.ble.gym_env  # The gin-file import (BLE, TF) changes nothing.
 assert same(light, env_params.params_from_gin()), 'defaults differ'
 gin.parse_config([
-    'LatexBalloonEnv.episode_steps = 7',
-    'LatexBalloonArena.start_altitude_range_m = (16000.0, 17000.0)',
-    'LatexBalloonArena.max_start_distance_km = 100.0',
-    'create_state.payload_kg = 2.5',
+    'latex_episode.episode_steps = 7',
+    'latex_start.start_altitude_range_m = (16000.0, 17000.0)',
+    'latex_start.max_start_distance_km = 100.0',
+    'latex_launch.payload_kg = 2.5',
     'latex_reward.sand_penalty_per_kg = 0.5',
     'latex_reward.reward_dropoff = 0.3',
     'balloon_env.perciatelli_reward_function.reward_dropoff = 0.3',  # Repeats.

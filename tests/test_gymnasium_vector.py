@@ -328,12 +328,12 @@ def test_checked_sync_vector_env_steps_no_balloon_on_a_bad_action(bad, match):
 
 @pytest.mark.parametrize('change, binding', [
     (dict(radius_km=float('nan')),
-     'LatexBalloonEnv.station_keeping_radius_km'),
+     'latex_episode.station_keeping_radius_km'),
     (dict(radius_km=-1.0),
-     'LatexBalloonEnv.station_keeping_radius_km'),
+     'latex_episode.station_keeping_radius_km'),
     (dict(start_altitude_high_m=1e7),
-     'LatexBalloonArena.start_altitude_range_m'),
-    (dict(episode_steps=0), 'LatexBalloonEnv.episode_steps'),
+     'latex_start.start_altitude_range_m'),
+    (dict(episode_steps=0), 'latex_episode.episode_steps'),
 ])
 def test_given_params_are_checked(change, binding):
   """params= is checked like gin's (`env_params.check_params`), before jit."""

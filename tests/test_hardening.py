@@ -35,8 +35,8 @@ def test_float32_range_is_still_a_number():
 
 @pytest.mark.parametrize('binding', [
     'latex_reward.sand_penalty_per_kg = 1e39',
-    'LatexBalloon.superheat_day_k = 1e39',
-    'create_state.payload_kg = -1e39',
+    'latex_flight.superheat_day_k = 1e39',
+    'latex_launch.payload_kg = -1e39',
 ])
 def test_env_bindings_beyond_float32_are_refused(binding):
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
@@ -79,7 +79,7 @@ def _toy_command(argv, seen):
 
   def main(unused_argv):
     seen.append(gin.config_str())
-    gin.parse_config('create_state.payload_kg = 7.0')
+    gin.parse_config('latex_launch.payload_kg = 7.0')
     return 0
   return cli.run_absl(main, 'toy', values, argv)
 
@@ -103,7 +103,7 @@ def test_validate_max_error_percent_nan_is_a_usage_error(capsys):
 # -- Item 22: a command run twice binds afresh. ----------------------------
 def test_a_command_does_not_keep_the_previous_runs_gin():
   seen = []
-  gin.parse_config('create_state.payload_kg = 5.0')  # An earlier run's.
+  gin.parse_config('latex_launch.payload_kg = 5.0')  # An earlier run's.
   try:
     assert _toy_command([], seen) == 0
     assert _toy_command([], seen) == 0
@@ -272,9 +272,9 @@ def _settings_builders():
   from ble_latex.wind import era5
   # pylint: enable=g-import-not-at-top
   env = env_params.params_from_gin
-  return {'LatexBalloonArena': env, 'LatexBalloonEnv': env,
-          'latex_reward': env, 'AltitudeController': env, 'LatexBalloon': env,
-          'create_state': env,
+  return {'latex_start': env, 'latex_episode': env,
+          'latex_reward': env, 'latex_controller': env, 'latex_flight': env,
+          'latex_launch': env,
           'LatexMpcAgent': lambda: plan_config.from_gin('latex_mpc'),
           'sac_trainer_config': sac_trainer.TrainerConfig,
           'dagger_config': dagger.DaggerConfig, 'Era5WindField': era5.settings}

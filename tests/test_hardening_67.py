@@ -32,7 +32,7 @@ def test_a_positive_number_that_is_0_in_float32_is_refused(value):
 @pytest.mark.parametrize('binding', [
     'latex_reward.reward_tanh_scale_km = 1e-40',
     'latex_reward.reward_halflife_km = 1e-45',
-    'LatexBalloonEnv.station_keeping_radius_km = 1e-40',
+    'latex_episode.station_keeping_radius_km = 1e-40',
 ])
 def test_reward_bindings_that_are_0_in_float32_are_refused(binding):
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top

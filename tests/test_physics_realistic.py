@@ -58,12 +58,12 @@ def test_defaults_are_the_papers_model():
 
 
 @pytest.mark.parametrize('binding, match', [
-    ('create_state.drag_model = "cubic"', 'drag_model'),
-    ('create_state.overpressure_pa = -1.0', 'overpressure_pa'),
-    ('create_state.burst_weibull_scale_m = 0.0', 'burst_weibull_scale_m'),
-    ('LatexBalloon.lift_walk_kg_per_sqrt_s = "fast"', 'lift_walk'),
-    ('LatexBalloon.sun_elevation_day_deg = -20.0', 'sun_elevation_day_deg'),
-    ('LatexBalloon.start_time = "yesterday"', 'start_time'),
+    ('latex_launch.drag_model = "cubic"', 'drag_model'),
+    ('latex_launch.overpressure_pa = -1.0', 'overpressure_pa'),
+    ('latex_launch.burst_weibull_scale_m = 0.0', 'burst_weibull_scale_m'),
+    ('latex_flight.lift_walk_kg_per_sqrt_s = "fast"', 'lift_walk'),
+    ('latex_flight.sun_elevation_day_deg = -20.0', 'sun_elevation_day_deg'),
+    ('latex_flight.start_time = "yesterday"', 'start_time'),
 ])
 def test_bad_bindings_name_their_binding(binding, match):
   gin.clear_config()
@@ -436,7 +436,7 @@ def test_validate_draws_both_modes_side_by_side(capsys, tmp_path):
     code = validate.main([f'--output_dir={tmp_path}',
                           '--modes=paper,realistic',
                           '--gin_bindings',
-                          'LatexBalloon.heating_noise_k = None'])
+                          'latex_flight.heating_noise_k = None'])
   finally:
     gin.clear_config()
   out = capsys.readouterr().out

@@ -700,8 +700,8 @@ def test_main_wind_field_real_env(tmp_path, capsys):
     status = plot.main([f'--output_dir={out}', '--wind_seeds=0,1',
                         '--wind_pressures_pa=14000,7000', '--wind_grid=7',
                         '--wind_hours=1',
-                        '--gin_bindings=LatexBalloonEnv.episode_steps = 5'])
-    assert gin.query_parameter('LatexBalloonEnv.episode_steps') == 5
+                        '--gin_bindings=latex_episode.episode_steps = 5'])
+    assert gin.query_parameter('latex_episode.episode_steps') == 5
   finally:
     gin.clear_config()
   assert status == 0

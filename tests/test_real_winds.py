@@ -121,7 +121,7 @@ def _bind(path, lat, lon):
   gin.clear_config()
   gin.parse_config([
       'import ble_latex.envs.jax_env',
-      'LatexBalloonEnv.wind_field_factory = @Era5WindField',
+      'latex_episode.wind_field_factory = @Era5WindField',
       f'Era5WindField.path = {path!r}',
       f'Era5WindField.center_lat = {lat}',
       f'Era5WindField.center_lon = {lon}'])

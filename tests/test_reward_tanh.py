@@ -59,7 +59,7 @@ def test_off_has_finite_gradients():
 @pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_the_gin_option_reaches_the_env_reward():
   """The functional env's step rewards with the bound shape."""
-  gin.parse_config(['LatexBalloonArena.max_start_distance_km = 10.0'])
+  gin.parse_config(['latex_start.max_start_distance_km = 10.0'])
   flat = env_params.params_from_gin()
   gin.parse_config(['latex_reward.reward_tanh_scale_km = 25.0'])
   shaped = env_params.params_from_gin()

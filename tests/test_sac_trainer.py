@@ -212,7 +212,7 @@ _JAX_TRAIN = [
     '-m', 'ble_latex.cli.train', '--trainer=jax', '--num_iterations=2',
     '--policy_snapshot_period=1', '--validation_episodes=1',
     '--collectors=episodes',
-    '--gin_bindings=LatexBalloonEnv.episode_steps = 4',
+    '--gin_bindings=latex_episode.episode_steps = 4',
     '--gin_bindings=sac_trainer_config.num_envs = 2',
     '--gin_bindings=sac_trainer_config.num_layers = 1',
     '--gin_bindings=sac_trainer_config.hidden_units = 16',

@@ -1,6 +1,6 @@
 """The station radius has one home: one binding moves every reader of it.
 
-`LatexBalloonEnv.station_keeping_radius_km` -> `EnvParams.radius_km`, read by
+`latex_episode.station_keeping_radius_km` -> `EnvParams.radius_km`, read by
 the core's reward, the jitted trainer's score, the metrics of BLE's gym env
 and the Gymnasium env's drawn circle.
 """
@@ -25,7 +25,7 @@ RADIUS_KM = 20.0
 def fixture_bound():
   gin.clear_config()
   gin.parse_config(
-      f'LatexBalloonEnv.station_keeping_radius_km = {RADIUS_KM}')
+      f'latex_episode.station_keeping_radius_km = {RADIUS_KM}')
   yield
   gin.clear_config()
 
@@ -88,5 +88,5 @@ def test_the_keyword_moves_the_reward_too():
 def test_bles_reward_radius_may_only_repeat_it():
   env_params.check_one_radius(50.0, 50.0)
   with pytest.raises(errors.ConfigError, match='the station radius has one '
-                     'home, bind LatexBalloonEnv.station_keeping_radius_km'):
+                     'home, bind latex_episode.station_keeping_radius_km'):
     env_params.check_one_radius(50.0, 30.0)

@@ -4,7 +4,7 @@
 
 A sounding that tops out at 22.5 km (many radiosondes burst below 25 km) is
 flown, the wind above its top held and named in the record; the band is
-the flight's (`AltitudeController.band_low_m/band_high_m`, gin-bound); a
+the flight's (`latex_controller.band_low_m/band_high_m`, gin-bound); a
 sounding that names no site or time says so in one logged line; eval and
 train take --station_lat/--station_lon. No network.
 """
@@ -45,7 +45,7 @@ def test_the_band_is_the_flights():
   assert reach.flight_band_m() == (flight_params_lib.DEFAULTS.band_low_m,
                                    flight_params_lib.DEFAULTS.band_high_m)
   with gin.unlock_config():
-    gin.bind_parameter('AltitudeController.band_high_m', 24_000.0)
+    gin.bind_parameter('latex_controller.band_high_m', 24_000.0)
   try:
     assert reach.flight_band_m()[1] == 24_000.0
   finally:
@@ -69,7 +69,7 @@ def test_a_sounding_below_the_band_is_refused_naming_it(tmp_path):
   assert path in message and 'the flight band 13-22 km' in message
   assert '\n' not in message
   with gin.unlock_config():  # A balloon kept below 20 km: it flies.
-    gin.bind_parameter('AltitudeController.band_high_m', 20_000.0)
+    gin.bind_parameter('latex_controller.band_high_m', 20_000.0)
   try:
     assert sounding.read(path).height_m[-1] == pytest.approx(21_000.0)
   finally:

@@ -155,7 +155,7 @@ def test_fixed_stations_are_todays_default(gfs, tmp_path):
   gin.clear_config()
   gin.parse_config([
       'import ble_latex.envs.jax_env',
-      'LatexBalloonEnv.wind_field_factory = @Era5WindField',
+      'latex_episode.wind_field_factory = @Era5WindField',
       f'Era5WindField.path = {GFS_NC!r}',
       "Era5WindField.stations = 'per_seed'",
       'Era5WindField.station_margin_km = 300.0'])

@@ -79,13 +79,13 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
         `features.LatexFeatureConstructor` means the core's 71 features.
       wind_field_instance: The wind field to fly in; None or a
         `CoreGenerativeWindField`: BLE's generative field inside the core
-        (ERA5 if gin binds `LatexBalloonEnv.wind_field_factory =
+        (ERA5 if gin binds `latex_episode.wind_field_factory =
         @Era5WindField`); an `era5_field.Era5WindField` or
         `era5.Era5Settings`: its grid, in the core; any other BLE
         `WindField`: host callbacks.
       seed: Optional seed (BLE semantics).
       start_altitude_range_m: Start altitude is uniform in this range;
-        None: gin's `LatexBalloonArena.start_altitude_range_m`. # [m]
+        None: gin's `latex_start.start_altitude_range_m`. # [m]
       max_start_distance_km: Start distance is BLE's Beta(1.2, 2) times this;
         None: gin's. # [km]
       stride: Simulated time per action (paper: 20 minutes); None: gin's.

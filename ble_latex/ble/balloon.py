@@ -260,7 +260,7 @@ def create_state(
     y: Start offset north of the station (default 0).
     ascent_rate_mps: Start ascent rate. # [m/s]
     **launch: The balloon at launch, as the gin configurable
-      `flight.params.launch` (`create_state.*`) names it: `payload_kg`,
+      `flight.params.launch` (`latex_launch.*`) names it: `payload_kg`,
       `sand_kg`, `helium_mols` (None = neutrally buoyant),
       `drag_coefficient`, `burst_volume_m3`; the gin-bound values where not
       given.
@@ -362,9 +362,9 @@ class LatexBalloon(balloon.Balloon):
     Args:
       balloon_state: The state to step (updated in place by simulate_step).
       **settings: The controller's and actuators' settings, as the gin
-        configurables `flight.params.controller` (`AltitudeController.*`:
+        configurables `flight.params.controller` (`latex_controller.*`:
         `stride`, `min_vent_mols`, `min_drop_kg`, `band_low_m`,
-        `band_high_m`) and `flight.params.simulation` (`LatexBalloon.*`:
+        `band_high_m`) and `flight.params.simulation` (`latex_flight.*`:
         `max_substep`, `vertical_step`, `valve_flow_mols_per_s`,
         `ballast_rate_kg_per_s`, `actuation_chunk`, `guard_within_stride`)
         name them; the gin-bound values where not given.
@@ -399,7 +399,7 @@ class LatexBalloon(balloon.Balloon):
     if params.realistic:
       raise errors.ConfigError(
           'realistic latex physics (gin_configs/latex_realistic.gin: '
-          'LatexBalloon.superheat_day_k / lift_walk_kg_per_sqrt_s) flies in '
+          'latex_flight.superheat_day_k / lift_walk_kg_per_sqrt_s) flies in '
           'the functional env (envs/jax_env.py and its Gymnasium envs), not '
           "in BLE's LatexBalloon.simulate_step: unbind them for BLE's arena")
     return params

@@ -51,7 +51,7 @@ class LatexPerciatelliFeatureConstructor(
     constructor" whenever the balloon is outside [min_pressure,
     max_pressure] (5000-14000 Pa, the pressures of BLE's generative winds).
     The latex balloon's band reaches above 5000 Pa (about 20.5 km, up to
-    `AltitudeController.band_high_m`), where BLE's superpressure balloon
+    `latex_controller.band_high_m`), where BLE's superpressure balloon
     never flies, so BLE logged at every such step (hundreds of lines an
     episode, breaking `ble-latex-eval`'s progress bar). Nothing is wrong
     there: BLE's features saturate the balloon's pressure and level at the

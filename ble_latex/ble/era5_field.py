@@ -114,12 +114,12 @@ class Era5WindField(wind_field.WindField):
       raise errors.ConfigError(
           f"Era5WindField.{name}: BLE's Era5WindField object flies one "
           'truth, the file; a truth of its own flies in the envs '
-          '(LatexBalloonEnv.wind_field_factory = @Era5WindField)')
+          '(latex_episode.wind_field_factory = @Era5WindField)')
     if settings.stations != 'fixed':
       raise errors.ConfigError(
           f"Era5WindField.stations = {settings.stations!r}: BLE's "
           'Era5WindField object keeps one fixed station; per-seed stations '
-          'fly in the envs (LatexBalloonEnv.wind_field_factory = '
+          'fly in the envs (latex_episode.wind_field_factory = '
           '@Era5WindField)')
     return cls(path=settings.path, center_lat=settings.center_lat,
                center_lon=settings.center_lon,

@@ -97,7 +97,7 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
     Args:
       station_keeping_radius_km: The station radius (`EnvParams.radius_km`):
         the core's reward, TW50 and BLE's metrics; None: gin's
-        `LatexBalloonEnv.station_keeping_radius_km`. A given `arena` flies
+        `latex_episode.station_keeping_radius_km`. A given `arena` flies
         its own. # [km]
       arena: A latex balloon arena; built from the factories if None.
       reward_function: None: the core's reward (Eq. reward_function and
@@ -109,24 +109,24 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
         VAE field with BLE's noise, drawn and flown inside the flight core
         (`ble_latex.ble.wind.CoreGenerativeWindField`);
         `ble_latex.ble.era5_field.Era5WindField` for ERA5 data, or gin's
-        `LatexBalloonEnv.wind_field_factory = @Era5WindField` (plain
+        `latex_episode.wind_field_factory = @Era5WindField` (plain
         `wind.era5.Era5Settings`), flown in the core too (its grid in
         `EnvParams.wind_grid`); any other BLE
         `WindField` is flown through host callbacks.
-      episode_steps: Steps per episode (None: gin's `LatexBalloonEnv.*`, the
+      episode_steps: Steps per episode (None: gin's `latex_episode.*`, the
         core's `env_params.episode`); 216 x 20 min = 3 days. The episode is
         cut there (`info['time_limit']`, `info['TimeLimit.truncated']`).
       seed: PRNG seed in [0, 2**32); the same seed gives the identical
         trajectory. None: a random one.
       renderer: An optional BLE renderer.
     """
-    bound = env_params.episode()  # gin's `LatexBalloonEnv.*`.
+    bound = env_params.episode()  # gin's `latex_episode.*`.
     if episode_steps is None:
       episode_steps = bound['episode_steps']
     if wind_field_factory is None:
       wind_field_factory = (bound['wind_field_factory'] or
                             ble_wind.CoreGenerativeWindField)
-    gin_values.check_int('LatexBalloonEnv.episode_steps', episode_steps,
+    gin_values.check_int('latex_episode.episode_steps', episode_steps,
                          minimum=1)
     if station_keeping_radius_km is not None:
       gin_values.check_number('station_keeping_radius_km',

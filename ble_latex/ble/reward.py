@@ -7,7 +7,7 @@ The paper's reward is BLE's Perciatelli reward without its power term:
 power penalty only applies to BLE's air-pump DOWN command, which a latex
 balloon state never records (`last_command` stays STAY). Its constants are
 the env's, handed to BLE's function explicitly: the one station radius
-(`LatexBalloonEnv.station_keeping_radius_km`, 50 km), cliff and half-life
+(`latex_episode.station_keeping_radius_km`, 50 km), cliff and half-life
 (`latex_reward.reward_dropoff = 0.4`, `latex_reward.reward_halflife_km =
 100.0`); BLE's own `perciatelli_reward_function.*` names may only repeat them
 (`env_params.check_ble_repeat`).
@@ -47,7 +47,7 @@ def latex_reward(simulator_state: simulator_data.SimulatorState,
       `latex_reward.helium_penalty_per_mol`. # [1/mol]
     sand_penalty_per_kg: Penalty per kg of sand dropped; None: gin's. # [1/kg]
     station_keeping_radius_km: rho; None: the env's one radius (gin's
-      `LatexBalloonEnv.station_keeping_radius_km`), handed to BLE's reward
+      `latex_episode.station_keeping_radius_km`), handed to BLE's reward
       explicitly. # [km]
 
   Returns:

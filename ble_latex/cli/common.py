@@ -40,6 +40,7 @@ import gin
 
 from ble_latex import configs
 from ble_latex import errors
+from ble_latex import gin_aliases
 from ble_latex import gin_values
 from ble_latex import safe_io
 
@@ -317,7 +318,7 @@ WIND_FILE_HELP = ('Wind file (the reader chosen by content: ERA5 or another '
                   'CF NetCDF analysis, GRIB2, a University of Wyoming '
                   'sounding; one time step flies time-invariant) or glob '
                   'pattern: every env flies it (binds '
-                  'LatexBalloonEnv.wind_field_factory = @Era5WindField and '
+                  'latex_episode.wind_field_factory = @Era5WindField and '
                   'Era5WindField.path; the same as gin_configs/paper_era5.gin '
                   'with that path). --era5_path is an alias.')
 ERA5_DATES_HELP = ("Date range ERA5 flights start in: a split (train, "
@@ -390,7 +391,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
   """The gin bindings of --wind_file / --era5_dates (after `bind_gin`).
 
   Call after the user's gin is bound: ERA5 is on with `path`, or when gin
-  binds `LatexBalloonEnv.wind_field_factory = @Era5WindField`. The start
+  binds `latex_episode.wind_field_factory = @Era5WindField`. The start
   range is `dates`, else an `Era5WindField.start_dates` the user bound,
   else `default_dates` (the command's split).
 
@@ -429,7 +430,7 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
       if given:
         raise CommandUsageError(
             f'{flag} needs ERA5 winds: --wind_file, or a gin file binding '
-            'LatexBalloonEnv.wind_field_factory = @Era5WindField')
+            'latex_episode.wind_field_factory = @Era5WindField')
     return []
   else:
     bindings += list(station)
@@ -654,4 +655,5 @@ def _latex_configurables() -> list:
   from gin import config  # pylint: disable=g-import-not-at-top
   registry = config._REGISTRY  # pylint: disable=protected-access
   return sorted({c.name for _, c in registry.items()
-                 if c.module.startswith('ble_latex')})
+                 if c.module.startswith('ble_latex') and
+                 c.name not in gin_aliases.ALIASES})  # Not the old names.

@@ -28,7 +28,7 @@ wind file each record also has `wind_source` and its flight's station,
 `station_lat`/`station_lon` [deg] from the file: on a gridded snapshot (GFS,
 GRIB2) --wind_file draws station s for seed s (`Era5WindField.stations =
 'per_seed'`) unless a station is bound (docs/winds.md); on BLE's winds the
-station is the nominal position `LatexBalloon.latitude_deg/longitude_deg`.
+station is the nominal position `latex_flight.latitude_deg/longitude_deg`.
 
 If seeds fail on Ray, the others are written to NAME.partial.json and the
 command exits with status 1, listing each failed seed with its error.

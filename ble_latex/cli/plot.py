@@ -167,7 +167,7 @@ flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Env whose wind is drawn.',
                     flag_values=FLAGS)
 cli.define_gin_flags(
     FLAGS, files_help='Extra gin files (after latex_env.gin).',
-    bindings_help='Gin bindings, e.g. "LatexBalloonEnv.wind_field_factory = '
+    bindings_help='Gin bindings, e.g. "latex_episode.wind_field_factory = '
     '@Era5WindField".', files_alias=True)
 flags.DEFINE_boolean('wind_stats', False, f'Compare two wind sources: '
                      f'{WIND_STATS} and {WIND_STATS_JSON}.', flag_values=FLAGS)

@@ -210,7 +210,7 @@ def check() -> None:
         raise cli.CommandUsageError(
             f'--{name} is not used by --trainer=jax: an iteration is one '
             'episode per balloon (gin sac_trainer_config.num_envs), episodes '
-            'last LatexBalloonEnv.episode_steps')
+            'last latex_episode.episode_steps')
     if FLAGS.agent != 'sac' or FLAGS.env_name != 'LatexBalloon-v0':
       raise cli.CommandUsageError(
           '--trainer=jax trains SAC on LatexBalloon-v0 only (--agent=sac, '

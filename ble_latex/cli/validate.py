@@ -21,7 +21,7 @@ each mode (`flight.reference.reference_table`) and the resources.
 Usage:
   ble-latex-validate --output_dir /tmp/val
   python -m ble_latex.cli.validate --output_dir /tmp/val \
-      --gin_bindings 'LatexBalloon.valve_flow_mols_per_s = 0.1'
+      --gin_bindings 'latex_flight.valve_flow_mols_per_s = 0.1'
   ble-latex-validate --output_dir /tmp/val --modes=paper,realistic
 
 Exit status 0 when the max ascent-rate error is below --max_error_percent
@@ -114,7 +114,7 @@ flags.DEFINE_float('max_error_percent', 5.0,
                    flag_values=FLAGS)
 cli.define_gin_flags(
     FLAGS, files_help='Gin files (e.g. gin_configs/latex_physics.gin).',
-    bindings_help="Gin bindings, e.g. 'create_state.sand_kg = 3.0'.",
+    bindings_help="Gin bindings, e.g. 'latex_launch.sand_kg = 3.0'.",
     files_alias=True)
 flags.DEFINE_boolean('no_reference', False,
                      'Skip the RK4 reference comparison.', flag_values=FLAGS)

@@ -2,17 +2,19 @@
 """`EnvParams` from gin, and the one validator of every `EnvParams` value.
 
 - `params_from_gin`: `EnvParams` from the gin bindings (defaults where
-  unbound): this module's configurables `latex_reward`, `LatexBalloonArena`
-  and `LatexBalloonEnv` and the flight system's (`flight.params`); BLE's
+  unbound): this module's configurables `latex_reward`, `latex_start`,
+  `latex_episode` and `latex_observation` and the flight system's
+  (`flight.params`); BLE's
   `perciatelli_reward_function.*` may only repeat them (`check_ble_repeat`),
   read without importing BLE.
 - `check_params`: checks every value on the host before anything compiles
   (start band, start volume below burst, stride, episode, an ERA5
   `wind_grid` by `check_wind_grid`), naming the gin binding of a bad one.
 
-The configurables keep the gin names (and the gin module string
-`ble_latex.envs.jax_env`) they were registered under when they lived in
-`jax_env`, so gin files and commands that spell them keep working.
+The gin names say what they bind (module string `ble_latex.envs.env_params`);
+`latex_episode` and `latex_start` were `LatexBalloonEnv` and
+`LatexBalloonArena` (module string `ble_latex.envs.jax_env`), old names kept
+as aliases until the next release (`gin_aliases`; docs/commands.md).
 """
 
 from collections import abc
@@ -26,6 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import errors
+from ble_latex import gin_aliases
 from ble_latex import gin_values
 from ble_latex import jax_cache
 from ble_latex.envs import env_types
@@ -42,17 +45,17 @@ from ble_latex.wind import noise_gp
 # The gin binding of each `EnvParams` value (the flight system's are in
 # `flight.params`), for messages.
 _BINDINGS = {
-    'radius_km': 'LatexBalloonEnv.station_keeping_radius_km',
+    'radius_km': 'latex_episode.station_keeping_radius_km',
     'reward_dropoff': 'latex_reward.reward_dropoff',
     'reward_halflife_km': 'latex_reward.reward_halflife_km',
     'reward_tanh_scale_km': 'latex_reward.reward_tanh_scale_km',
     'helium_penalty_per_mol': 'latex_reward.helium_penalty_per_mol',
     'sand_penalty_per_kg': 'latex_reward.sand_penalty_per_kg',
-    'start_altitude_low_m': 'LatexBalloonArena.start_altitude_range_m',
-    'start_altitude_high_m': 'LatexBalloonArena.start_altitude_range_m',
-    'max_start_distance_km': 'LatexBalloonArena.max_start_distance_km',
-    'stride_s': 'LatexBalloonArena.stride',
-    'episode_steps': 'LatexBalloonEnv.episode_steps',
+    'start_altitude_low_m': 'latex_start.start_altitude_range_m',
+    'start_altitude_high_m': 'latex_start.start_altitude_range_m',
+    'max_start_distance_km': 'latex_start.max_start_distance_km',
+    'stride_s': 'latex_start.stride',
+    'episode_steps': 'latex_episode.episode_steps',
     'wind_memory': 'latex_observation.wind_memory',
     'wind_lookahead': 'latex_observation.wind_lookahead',
     'sun': 'latex_observation.sun',
@@ -131,7 +134,7 @@ def _start_volumes(helium: jax.Array, altitude_m: jax.Array) -> jax.Array:
 
 
 def start_band(value: Any) -> Tuple[Any, Any]:
-  """`LatexBalloonArena.start_altitude_range_m` as a (low, high) pair.
+  """`latex_start.start_altitude_range_m` as a (low, high) pair.
 
   Raises:
     ValueError: Not a pair (its values are checked by `check_params`).
@@ -310,13 +313,15 @@ def check_wind_grid(grid: Any) -> None:
 
 
 # The gin names of `EnvParams` (besides the flight system's, `flight.params`;
-# BLE's own `perciatelli_reward_function.*` may only repeat them): the
-# configurables below take the gin names of the classes that once
-# held them, so existing gin files and commands keep working. Their defaults
-# are `EnvParams`' field defaults, the one home of each.
-# The gin module string of the configurables' first home, kept so that a
-# binding that spells it (`ble_latex.envs.jax_env.LatexBalloonEnv.x`) works.
-_GIN_MODULE = 'ble_latex.envs.jax_env'
+# BLE's own `perciatelli_reward_function.*` may only repeat them), named
+# after what they bind. Their defaults are `EnvParams`' field defaults, the
+# one home of each.
+_GIN_MODULE = 'ble_latex.envs.env_params'
+# The module string of the old names (`LatexBalloonEnv`, `LatexBalloonArena`,
+# the classes that once held the values in `jax_env`), kept with them so a
+# binding that spells it (`ble_latex.envs.jax_env.latex_episode.x`) works
+# until the aliases go (`gin_aliases.REMOVAL`).
+_OLD_GIN_MODULE = 'ble_latex.envs.jax_env'
 _DEFAULTS = {f.name: f.default for f in dataclasses.fields(env_types.EnvParams)
              if f.default is not dataclasses.MISSING}
 
@@ -349,12 +354,13 @@ def reward_settings(
   return dict(locals())  # The arguments above, by name.
 
 
-@gin.configurable('LatexBalloonArena', module=_GIN_MODULE)
+@gin_aliases.renamed('latex_start', module=_GIN_MODULE,
+                     old_name='LatexBalloonArena', old_module=_OLD_GIN_MODULE)
 def start(*, start_altitude_range_m: Tuple[float, float] = (
     _DEFAULTS['start_altitude_low_m'], _DEFAULTS['start_altitude_high_m']),
           max_start_distance_km: float = _DEFAULTS['max_start_distance_km'],
           stride: Any = _DEFAULTS['stride_s']) -> Dict[str, Any]:
-  """Where flights start and the stride (gin `LatexBalloonArena.*`).
+  """Where flights start and the stride (gin `latex_start.*`).
 
   Args:
     start_altitude_range_m: (low, high) band of the start altitude. # [m]
@@ -416,12 +422,13 @@ def num_features(params: Any) -> int:
                                    gas_temperature=bool(on['gas_temperature']))
 
 
-@gin.configurable('LatexBalloonEnv', module=_GIN_MODULE)
+@gin_aliases.renamed('latex_episode', module=_GIN_MODULE,
+                     old_name='LatexBalloonEnv', old_module=_OLD_GIN_MODULE)
 def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
             station_keeping_radius_km: float = _DEFAULTS['radius_km'],
             wind_field_factory: Optional[Callable[[], Any]] = None
             ) -> Dict[str, Any]:
-  """The episode (gin `LatexBalloonEnv.*`).
+  """The episode (gin `latex_episode.*`).
 
   Args:
     episode_steps: Strides per episode (the time limit).
@@ -441,7 +448,7 @@ def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
 # BLE's `perciatelli_reward_function` parameters that may only repeat the
 # env's: BLE name -> (the env's gin binding, what it is).
 BLE_REPEATS = {
-    'station_keeping_radius_km': ('LatexBalloonEnv.station_keeping_radius_km',
+    'station_keeping_radius_km': ('latex_episode.station_keeping_radius_km',
                                   'the station radius'),
     'reward_dropoff': ('latex_reward.reward_dropoff', "the reward's dropoff"),
     'reward_halflife': ('latex_reward.reward_halflife_km',
@@ -529,6 +536,6 @@ def params_from_gin(*, wind_file: Any = None) -> env_types.EnvParams:
 
 
 def stride_seconds(value: Any) -> float:
-  """`LatexBalloonArena.stride` (timedelta or seconds) in seconds, checked."""
+  """`latex_start.stride` (timedelta or seconds) in seconds, checked."""
   return flight_params_lib.seconds(value,
                                    f'gin binding {_BINDINGS["stride_s"]}')

@@ -47,7 +47,7 @@ class EnvParams:
     decoder: BLE's VAE decoder variables (`generative.decoder_params()`).
     radius_km: The station-keeping radius rho, one home for the reward,
       TW50 (the trainers' scores, the metrics, BLE's view) and the drawn
-      circle; gin `LatexBalloonEnv.station_keeping_radius_km`. # [km]
+      circle; gin `latex_episode.station_keeping_radius_km`. # [km]
     reward_dropoff: Reward just outside the radius. # [.]
     reward_halflife_km: Half-life of the reward outside the radius. # [km]
     reward_tanh_scale_km: 0: the paper's flat reward inside the radius; w >

@@ -35,7 +35,7 @@ TensorFlow nor Dopamine; both read the env's gin names
   (`gymnasium_render.draw_flight`).
 - It flies BLE's generative field inside the core, or ERA5 when the params
   hold its grid (`EnvParams.wind_grid`, e.g. gin's
-  `LatexBalloonEnv.wind_field_factory = @Era5WindField`), or a `HostWind`
+  `latex_episode.wind_field_factory = @Era5WindField`), or a `HostWind`
   asked on the host at every sub-step (a BLE `WindField`:
   `host_wind=ble_latex.ble.wind.host_wind(field)`).
 
@@ -234,7 +234,7 @@ class Balloons(SeedRule):
 
     Raises:
       ValueError: A bad `episode_steps` or params (`errors.ConfigError`);
-        params read from gin whose `LatexBalloonEnv.wind_field_factory` is
+        params read from gin whose `latex_episode.wind_field_factory` is
         neither None nor ERA5 without `host_wind`; a bad wind file
         (`errors.BadFileError`) or one given with `host_wind`.
     """
@@ -252,7 +252,7 @@ class Balloons(SeedRule):
       if (factory is not None and params.wind_grid is None and not host_wind
           and wind_file is None):
         raise errors.ConfigError(
-            f'gin binding LatexBalloonEnv.wind_field_factory = {factory!r}: '
+            f'gin binding latex_episode.wind_field_factory = {factory!r}: '
             'the Gymnasium envs fly the core\'s generative field or ERA5 in '
             'JAX; fly a BLE WindField with host_wind='
             'ble_latex.ble.wind.host_wind(field) or gym\'s LatexBalloon-v0')
@@ -304,10 +304,10 @@ class LatexBalloonGymnasiumEnv(Balloons, gymnasium.Env):
     render_mode: None or 'rgb_array'.
     normalize_actions: Actions in [-1, 1]^3 mapped onto the Box.
     episode_steps: Strides per episode (the time limit); None: gin's
-      `LatexBalloonEnv.episode_steps` (216).
+      `latex_episode.episode_steps` (216).
     station_keeping_radius_km: The station radius (`EnvParams.radius_km`:
       the reward's, TW50's and the circle `render` draws); None: the
-      params' (gin's `LatexBalloonEnv.station_keeping_radius_km`, 50). # [km]
+      params' (gin's `latex_episode.station_keeping_radius_km`, 50). # [km]
     host_wind: None: the core's own winds (BLE's generative field, or ERA5
       when the params hold its grid); a `HostWind`: its wind, asked on the
       host at every sub-step (`ble_latex.ble.wind.host_wind(field)` for a

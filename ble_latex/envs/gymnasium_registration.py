@@ -57,7 +57,7 @@ def register_envs() -> None:
   for env_id, entry_point in ENV_IDS.items():
     if env_id not in registration.registry:
       # `spec.max_episode_steps` is the envs' own 216-stride episode
-      # (gin's `LatexBalloonEnv.episode_steps` default): make()'s TimeLimit
+      # (gin's `latex_episode.episode_steps` default): make()'s TimeLimit
       # truncates at the same step as the env, and make_vec's batched env
       # takes it as the core's limit (min with `episode_steps`), so one
       # episode end is counted once.

@@ -182,7 +182,7 @@ class LatexBalloonVectorEnv(gymnasium_env.Balloons,
     num_envs: Number of balloons N.
     normalize_actions: Actions in [-1, 1]^3, mapped affinely onto the Box.
     episode_steps: Strides per episode (the core's time limit, `truncated`);
-      None: gin's `LatexBalloonEnv.episode_steps` (216).
+      None: gin's `latex_episode.episode_steps` (216).
     max_episode_steps: As gymnasium's `TimeLimit` on the single env: the
       core's time limit becomes min(episode_steps, max_episode_steps).
     params: `env_types.EnvParams` to fly (checked, `env_params.check_params`);

@@ -12,7 +12,7 @@ balloon flies in and the forecast column the features read (BLE's
 - BLE's other wind fields fly through host callbacks (`ble_latex.ble.wind`).
 
 `is_era5` and `era5_grid_from_gin` turn gin's ERA5 settings
-(`LatexBalloonEnv.wind_field_factory = @Era5WindField`, plain values read
+(`latex_episode.wind_field_factory = @Era5WindField`, plain values read
 by `wind.era5`) into the grid the env flies; nothing here is a BLE object.
 """
 
@@ -177,7 +177,7 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
 
 
 def is_era5(factory: Any) -> bool:
-  """Whether a `LatexBalloonEnv.wind_field_factory` value is ERA5's settings.
+  """Whether a `latex_episode.wind_field_factory` value is ERA5's settings.
 
   True for gin's `@Era5WindField` (`era5.settings`, plain settings, no BLE
   object) and for `era5.Era5Settings`: the envs fly their grid
@@ -188,7 +188,7 @@ def is_era5(factory: Any) -> bool:
 
 
 def era5_grid_from_gin(factory: Any) -> Optional[era5_jax.Era5Grid]:
-  """The ERA5 grid of a `LatexBalloonEnv.wind_field_factory` value, or None.
+  """The ERA5 grid of a `latex_episode.wind_field_factory` value, or None.
 
   With `factory` gin's `@Era5WindField` (`era5.settings`) the
   `Era5WindField.*` bindings (path, target, episode_hours, add_noise,
@@ -207,7 +207,7 @@ def era5_grid_from_gin(factory: Any) -> Optional[era5_jax.Era5Grid]:
     gin.query_parameter('Era5WindField.path')
   except ValueError as e:
     raise errors.ConfigError(
-        'LatexBalloonEnv.wind_field_factory = @Era5WindField needs the ERA5 '
+        'latex_episode.wind_field_factory = @Era5WindField needs the ERA5 '
         "file: bind Era5WindField.path = 'era5_paper.nc' (or --era5_path)"
         ) from e
   try:
@@ -250,7 +250,7 @@ def grid_from_file(wind_file: Any, **settings: Any) -> era5_jax.Era5Grid:
 
 
 def wind_source_from_gin(factory: Any) -> str:
-  """What a `LatexBalloonEnv.wind_field_factory` value flies, for records.
+  """What a `latex_episode.wind_field_factory` value flies, for records.
 
   'BLE generative (VAE)' for BLE's winds; for a wind file (`@Era5WindField`)
   its source and files, e.g. "GRIB2 run 2011-10-08T00Z +72 h

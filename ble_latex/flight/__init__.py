@@ -12,8 +12,8 @@ Modules (import them directly; this package imports nothing):
   params      `FlightParams`: every flight-system constant (payload, sand,
               helium, c_d, burst volume, n_min, m_s_min, band, valve/ballast
               rates, step structure); `flight_params_from_gin` reads the
-              existing gin bindings (`create_state.*`, `AltitudeController.*`,
-              `LatexBalloon.*`) in one place.
+              existing gin bindings (`latex_launch.*`, `latex_controller.*`,
+              `latex_flight.*`) in one place.
   state       `FlightState` (position, altitude, ascent rate, helium, sand,
               settled free lift, pending and cumulative releases, time, status,
               last action/decision) and `initial_state` (neutral start as

@@ -2,7 +2,7 @@
 """Vent/ballast altitude controller (Eq. fullcontroller) in JAX.
 
 Paper section "Altitude Controller" (settings: `flight.params.controller`,
-gin `AltitudeController.*`). Once per action (a0 desired altitude [m], a1
+gin `latex_controller.*`). Once per action (a0 desired altitude [m], a1
 time factor [.], a2 float flag [.]):
 
   hdot_des = (a0 - h) / (a1 Delta t)                          (Eq. hdot_des)

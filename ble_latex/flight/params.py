@@ -6,9 +6,9 @@ default, the gin configurable and keyword that bind it, what kind of value
 it is (a number, a duration, a value whose None switches an effect off, a
 date, ...) and its physical range. From these declarations come the gin
 configurables' keywords (`launch`, `controller`, `simulation`, gin names
-`create_state.*`, `AltitudeController.*`, `LatexBalloon.*`: those of the
-classes that once held the values, so existing gin files and commands keep
-working), `make_flight_params`' keywords, `gin_name` and the single-value
+`latex_launch.*`, `latex_controller.*`, `latex_flight.*`; their old names
+`create_state`, `AltitudeController`, `LatexBalloon` are aliases until the
+next release, `gin_aliases`), `make_flight_params`' keywords, `gin_name` and the single-value
 checks of `check_flight_params` (its cross-field checks are written out).
 Adding a flight value is adding a field; `flight_params_from_gin()` builds
 the parameters from gin. `gin_configs/latex_physics.gin` spells the defaults
@@ -32,13 +32,18 @@ from gin import config_parser
 
 from ble_latex import configs
 from ble_latex import errors
+from ble_latex import gin_aliases
 from ble_latex import gin_values
 from ble_latex.flight import solar
 
 # The gin configurables of the flight system, by the parts they set.
-_LAUNCH = 'create_state'
-_CONTROLLER = 'AltitudeController'
-_SIMULATION = 'LatexBalloon'
+_LAUNCH = 'latex_launch'
+_CONTROLLER = 'latex_controller'
+_SIMULATION = 'latex_flight'
+# Their old names (of the classes that once held the values), aliases until
+# the next release (`gin_aliases.renamed`).
+_OLD_NAMES = {_LAUNCH: 'create_state', _CONTROLLER: 'AltitudeController',
+              _SIMULATION: 'LatexBalloon'}
 
 # What a declared value is (`_param`'s kind): how its keyword becomes the
 # field and which check the field gets.
@@ -67,8 +72,8 @@ def _param(default: Any, *, gin: Optional[str] = None,
 
   Args:
     default: The field's default (the one home of the value's default).
-    gin: The gin configurable that binds it ('create_state',
-      'AltitudeController', 'LatexBalloon'); None: not bound itself (set by
+    gin: The gin configurable that binds it ('latex_launch',
+      'latex_controller', 'latex_flight'); None: not bound itself (set by
       `set_by`'s keyword).
     keyword: Its gin and `make_flight_params` keyword, where it differs from
       the field's name ('sand_kg' for initial_sand_kg).
@@ -257,7 +262,7 @@ class FlightParams:
   sun_elevation_day_deg: float = _param(24.0, gin=_SIMULATION)  # [deg]
   latitude_deg: float = _param(1.0, gin=_SIMULATION)  # [deg]
   longitude_deg: float = _param(-113.0, gin=_SIMULATION)  # [deg]
-  # 2022-11-01 0h UTC; bound as a date, `LatexBalloon.start_time`.
+  # 2022-11-01 0h UTC; bound as a date, `latex_flight.start_time`.
   start_day_j2000: float = _param(8339.5, gin=_SIMULATION,
                                   keyword='start_time', kind=CLOCK)  # [day]
   start_second_of_day: float = _param(0.0, set_by='start_day_j2000')  # [s]
@@ -355,7 +360,7 @@ _SETS = {f.metadata['set_by']: name for name, f in _FIELDS.items()
 # # [field's unit]
 PHYSICAL_RANGES = {name: f.metadata['limits'] for name, f in _FIELDS.items()
                    if 'limits' in f.metadata}
-# The default start of the sun's clock, as `LatexBalloon.start_time` binds
+# The default start of the sun's clock, as `latex_flight.start_time` binds
 # it ('2022-11-01T00:00:00': the default start_day_j2000 and second).
 DEFAULT_START_TIME = (solar.J2000 + dt.timedelta(
     days=DEFAULTS.start_day_j2000,
@@ -373,7 +378,7 @@ def seconds(value: Any, name: str) -> float:
   Args:
     value: A `datetime.timedelta` or a number of seconds.
     name: What it is in the message, e.g. 'gin binding
-      LatexBalloon.max_substep'.
+      latex_flight.max_substep'.
 
   Returns:
     The duration in seconds.
@@ -391,7 +396,7 @@ def seconds(value: Any, name: str) -> float:
 
 
 def gin_name(field: str) -> str:
-  """The gin name that sets a `FlightParams` field ('create_state.sand_kg')."""
+  """The gin name that sets a `FlightParams` field ('latex_launch.sand_kg')."""
   return _FIELD_BINDINGS[field]
 
 
@@ -585,16 +590,18 @@ def _gin_configurable(name: str) -> Callable[[Callable[..., Any]], Any]:
     for attribute in ('__module__', '__name__', '__qualname__', '__doc__'):
       setattr(configurable, attribute, getattr(function, attribute))
     configurable.__signature__ = signature
-    return gin.configurable(name, module=_GIN_MODULE)(configurable)
+    return gin_aliases.renamed(name, module=_GIN_MODULE,
+                               old_name=_OLD_NAMES[name],
+                               old_module=_GIN_MODULE)(configurable)
   return decorate
 
 
 @_gin_configurable(_LAUNCH)
 def launch(**values: Any) -> Dict[str, Any]:
-  """The balloon at launch (gin `create_state.*`).
+  """The balloon at launch (gin `latex_launch.*`).
 
   Its keywords: those of the `FlightParams` fields declared with
-  gin='create_state' (payload_kg, sand_kg, helium_mols, drag_coefficient,
+  gin='latex_launch' (payload_kg, sand_kg, helium_mols, drag_coefficient,
   burst_volume_m3, drag_model and the realistic drag, overpressure and
   burst values), described there.
 
@@ -606,10 +613,10 @@ def launch(**values: Any) -> Dict[str, Any]:
 
 @_gin_configurable(_CONTROLLER)
 def controller(**values: Any) -> Dict[str, Any]:
-  """The altitude controller (gin `AltitudeController.*`).
+  """The altitude controller (gin `latex_controller.*`).
 
   Its keywords: those of the `FlightParams` fields declared with
-  gin='AltitudeController' (stride, min_vent_mols, min_drop_kg, band_low_m,
+  gin='latex_controller' (stride, min_vent_mols, min_drop_kg, band_low_m,
   band_high_m), described there.
 
   Returns:
@@ -620,10 +627,10 @@ def controller(**values: Any) -> Dict[str, Any]:
 
 @_gin_configurable(_SIMULATION)
 def simulation(**values: Any) -> Dict[str, Any]:
-  """Actuators, the step structure and the gas (gin `LatexBalloon.*`).
+  """Actuators, the step structure and the gas (gin `latex_flight.*`).
 
   Its keywords: those of the `FlightParams` fields declared with
-  gin='LatexBalloon' (max_substep, vertical_step, the actuator rates, the
+  gin='latex_flight' (max_substep, vertical_step, the actuator rates, the
   sun's clock and place, the gas and the disturbances), described there.
 
   Returns:
@@ -633,7 +640,7 @@ def simulation(**values: Any) -> Dict[str, Any]:
 
 
 # FlightParams field -> the gin binding that sets it, e.g.
-# 'initial_sand_kg' -> 'create_state.sand_kg' (a field set by another's
+# 'initial_sand_kg' -> 'latex_launch.sand_kg' (a field set by another's
 # keyword, start_second_of_day, -> that keyword's; a SWITCH has none).
 _FIELD_BINDINGS = {name: f'{_FIELDS[name].metadata["gin"]}.{keyword}'
                    for name, keyword in _KEYWORDS.items()}
@@ -646,8 +653,8 @@ _FIELD_BINDINGS.update({
 def flight_params_from_gin(**overrides: Any) -> FlightParams:
   """`FlightParams` from the current gin bindings (the one place gin is read).
 
-  Values bound for `create_state.*`, `AltitudeController.*` and
-  `LatexBalloon.*` (e.g. by gin_configs/latex_physics.gin) replace the
+  Values bound for `latex_launch.*`, `latex_controller.*` and
+  `latex_flight.*` (e.g. by gin_configs/latex_physics.gin) replace the
   defaults; keyword `overrides` replace both.
 
   Args:
@@ -692,8 +699,8 @@ def gin_file_arguments(path: str) -> Dict[str, Any]:
         where = getattr(statement, 'location', None)
         line = f':{where.line_num}' if where else ''
         raise errors.ConfigError(
-            f'{path}{line}: only bindings of flight values (create_state.*, '
-            'AltitudeController.*, LatexBalloon.* keywords) belong here, got '
+            f'{path}{line}: only bindings of flight values (latex_launch.*, '
+            'latex_controller.*, latex_flight.* keywords) belong here, got '
             f'{type(statement).__name__} '
             f'{getattr(statement, "selector", "")}.'
             f'{getattr(statement, "arg_name", "")}')
@@ -709,7 +716,7 @@ REALISTIC = gin_file_arguments(configs.gin_file('latex_realistic.gin'))
 # The stress setting of the disturbance: ValBal's simulator's 1.4 g/sqrt(s)
 # (hootl/lasagna/PastaSim.cpp since a November 2018 refactor; 0.67 before),
 # about 4x a physical value; bind it on top of latex_realistic.gin with
-#   --gin_bindings='LatexBalloon.lift_walk_kg_per_sqrt_s = 1.4e-3'
+#   --gin_bindings='latex_flight.lift_walk_kg_per_sqrt_s = 1.4e-3'
 # or `realistic_flight_params(**LIFT_WALK_STRESS)`. # [kg/sqrt(s)]
 LIFT_WALK_STRESS = {'lift_walk_kg_per_sqrt_s': 1.4e-3}
 
@@ -717,7 +724,7 @@ LIFT_WALK_STRESS = {'lift_walk_kg_per_sqrt_s': 1.4e-3}
 # random walk of the free lift at 0.35 g/sqrt(s) (the geometric middle of the
 # plausible 0.2-0.67 g/sqrt(s), `disturbance`), unbounded (rms 103 g after a
 # day, 272 g after 7 days, for any balloon size). Bind
-#   LatexBalloon.lift_walk_kg_per_sqrt_s = 0.35e-3
+#   latex_flight.lift_walk_kg_per_sqrt_s = 0.35e-3
 # on top of latex_realistic.gin, or `realistic_flight_params(
 # **LIFT_WALK_RANDOM)`. # [kg/sqrt(s)]
 LIFT_WALK_RANDOM = {'lift_walk_kg_per_sqrt_s': 0.35e-3}
@@ -731,8 +738,8 @@ LIFT_WALK_RANDOM = {'lift_walk_kg_per_sqrt_s': 0.35e-3}
 # 9800, equal the calibrated walk's 0.35 g/sqrt(s) (no flight data fixes it;
 # so switching intermittency on changes the disturbance's texture, not its
 # long-run strength). The dwell times are the field defaults. Bind
-#   LatexBalloon.lift_walk_kg_per_sqrt_s = 0.67e-3
-#   LatexBalloon.lift_walk_calm_kg_per_sqrt_s = 0.07e-3
+#   latex_flight.lift_walk_kg_per_sqrt_s = 0.67e-3
+#   latex_flight.lift_walk_calm_kg_per_sqrt_s = 0.07e-3
 # on top of latex_realistic.gin, or `realistic_flight_params(
 # **LIFT_WALK_INTERMITTENT)`. # [kg/sqrt(s)]
 LIFT_WALK_INTERMITTENT = {'lift_walk_kg_per_sqrt_s': 0.67e-3,

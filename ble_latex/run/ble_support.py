@@ -12,7 +12,7 @@ hook runs right after BLE's `run_helpers` module executes (`compat`, hook
 - ble_latex's agents join BLE's registry (`agents.register`) and the latex
   gin configurables are declared (`compat.GIN_CONFIGURABLE_MODULES`) before
   BLE parses the agent's gin file and the bindings, so `--agent=sac` and
-  `--gin_bindings='LatexBalloonEnv.episode_steps = 30'` work as BLE's own
+  `--gin_bindings='latex_episode.episode_steps = 30'` work as BLE's own
   names do; `create_agent` then builds a Box agent with BLE's arguments
   (`LatexBalloon-v0`'s Box has BLE's `n`: `ble.gym_env.LatexActionBox`);
 - where BLE's command is the program (`ble_command()`), a latex-side mistake

@@ -39,7 +39,7 @@ def env_params(steps: int):
   try:
     gin.parse_config_files_and_bindings(
         [configs.gin_file(name) for name in GIN_FILES],
-        [f'LatexBalloonEnv.episode_steps = {steps}'])
+        [f'latex_episode.episode_steps = {steps}'])
     return env_params_lib.params_from_gin()
   finally:
     gin.clear_config()

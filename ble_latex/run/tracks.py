@@ -9,7 +9,7 @@ the track on a map, on every wind source:
   (`jax_env.flight_stations`: per seed on a gridded snapshot, else the fixed
   target); on BLE's generative winds, which have no place, the flight
   system's nominal position (`FlightParams.latitude_deg/longitude_deg`, gin
-  `LatexBalloon.latitude_deg/longitude_deg`, 1 N 113 W by default: where the
+  `latex_flight.latitude_deg/longitude_deg`, 1 N 113 W by default: where the
   sun is computed, the paper's ERA5 region); and
   `station_source`: 'wind file' or 'nominal'.
 - `start_utc`: the flight's start (ISO 8601, UTC): the env's draw

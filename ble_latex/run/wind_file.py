@@ -2,7 +2,7 @@
 """A wind file's gin bindings, the one home of their text.
 
 A wind file (ERA5, a GFS grid or series, a sounding: `wind.era5.load`)
-flies through gin: `LatexBalloonEnv.wind_field_factory = @Era5WindField`
+flies through gin: `latex_episode.wind_field_factory = @Era5WindField`
 and `Era5WindField.*` (`wind.era5.Era5Settings`). The commands' --wind_file,
 --era5_dates and --station_lat/--station_lon (`cli/common.py`) and the
 real-winds scripts' cells (`wind.sources`, `benchmarks/real_winds.py`) build
@@ -22,7 +22,7 @@ PER_SEED = "Era5WindField.stations = 'per_seed'"
 
 def file_bindings(path: str) -> List[str]:
   """Flies the wind file `path` (as given: make it absolute first)."""
-  return ['LatexBalloonEnv.wind_field_factory = @Era5WindField',
+  return ['latex_episode.wind_field_factory = @Era5WindField',
           f'Era5WindField.path = {path!r}']
 
 

@@ -9,7 +9,7 @@ error. This module is the one reader of such files and holds no BLE object:
     (pressure in Pa), every file checked (`era5_checks`) and cached;
   - `Era5Settings`: the flight's plain settings on the data (file, target,
     flight length, noise switch, start dates), built by gin's configurable
-    `Era5WindField` (`settings`), which `LatexBalloonEnv.wind_field_factory
+    `Era5WindField` (`settings`), which `latex_episode.wind_field_factory
     = @Era5WindField` switches every env to; `start_window`: the start
     minutes they allow.
 The JAX env flies `era5_jax.grid_from_settings(settings)`; BLE's agents fly
@@ -627,7 +627,7 @@ def settings(*,
              truth_members: bool = False) -> Era5Settings:
   """ERA5's settings from gin: the configurable `Era5WindField`.
 
-  `LatexBalloonEnv.wind_field_factory = @Era5WindField` and the
+  `latex_episode.wind_field_factory = @Era5WindField` and the
   `Era5WindField.*` bindings switch every env to ERA5: the JAX env reads
   them here (`envs.winds.era5_grid_from_gin`), BLE's gym envs too, and
   `ble_latex.ble.era5_field.Era5WindField.from_settings` builds BLE's

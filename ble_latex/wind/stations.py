@@ -13,7 +13,7 @@ Two modes (gin `Era5WindField.stations`):
 The margin is measured along the meridian (latitude) and along the parallel
 at the box's most poleward latitude (longitude), so every station of the box
 has at least that much wind around it. The default, `DEFAULT_MARGIN_KM`, is
-the start distance's scale (`LatexBalloonArena.max_start_distance_km`,
+the start distance's scale (`latex_start.max_start_distance_km`,
 200 km: a flight starts within it) plus 200 km of room to fly before the
 flight leaves the data (`FlightStatus.LEFT_WIND_DOMAIN`).
 

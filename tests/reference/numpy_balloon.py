@@ -11,7 +11,7 @@ features, renderers and `SimulatorState` accept it) and adds the latex
 balloon's vertical state and resources. `LatexBalloon` keeps BLE's
 `simulate_step(wind_vector, atmosphere, action, time_delta, stride=...)`
 interface: the action is the paper's (a0, a1, a2); the altitude controller
-(gin `AltitudeController.*`) acts once at the start of the step
+(gin `latex_controller.*`) acts once at the start of the step
 (the 20-min action), then the physics runs in sub-steps of at most 3 simulated
 minutes, each re-querying the wind at the balloon's new altitude, with the
 vertical motion integrated from Eq. fullN2L by `physics.relax` (exact for a
