@@ -30,7 +30,7 @@ BENCHMARKS = PACKAGE.parent / 'benchmarks'
 # A top-level module (`ble_latex/x.py`) or a folder (`ble_latex/x/`) is named
 # by its first component.
 FLOORS = (
-    ('errors', 'quiet', 'jax_cache'),
+    ('errors', 'quiet', 'jax_cache', 'dtypes'),
     ('gin_values', 'gin_aliases', 'safe_io', 'configs'),
     ('wind', 'flight'),
     ('envs',),

@@ -64,9 +64,9 @@ from typing import Any, NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import dtypes
 from ble_latex.envs import task
 from ble_latex.flight import physics
-from ble_latex.wind import simplex
 
 N_LEVELS = 25
 NUM_FEATURES = 2 * N_LEVELS + 21
@@ -139,7 +139,7 @@ def initial_resources(payload_kg: Any, sand_kg: Any,
   Returns:
     InitialResources(total mass, max(sand, 1e-5), max(helium, 1e-5)).
   """
-  dtype = simplex.float_dtype(payload_kg, sand_kg, helium_mols)
+  dtype = dtypes.float_dtype(payload_kg, sand_kg, helium_mols)
   payload_kg, sand_kg, helium_mols = (jnp.asarray(v, dtype) for v in
                                       (payload_kg, sand_kg, helium_mols))
   return InitialResources(
@@ -160,7 +160,7 @@ def init_history(altitude_m: Any, ascent_rate_mps: Any) -> History:
   Returns:
     The History ([..., 3] each).
   """
-  dtype = simplex.float_dtype(altitude_m, ascent_rate_mps)
+  dtype = dtypes.float_dtype(altitude_m, ascent_rate_mps)
   altitude_m = jnp.asarray(altitude_m, dtype)
   ascent_rate_mps = jnp.asarray(ascent_rate_mps, dtype)
   slots = altitude_m.shape + (HISTORY,)
@@ -223,7 +223,7 @@ def bearing_errors(u: Any, v: Any, x_m: Any, y_m: Any) -> jnp.ndarray:
   Returns:
     Bearing errors in [0, pi]. # [rad]
   """
-  dtype = simplex.float_dtype(u, v, x_m, y_m)
+  dtype = dtypes.float_dtype(u, v, x_m, y_m)
   u, v, x_m, y_m = (jnp.asarray(a, dtype) for a in (u, v, x_m, y_m))
   dot = -x_m * u - y_m * v
   cross = -x_m * v + y_m * u
@@ -272,7 +272,7 @@ def features(column_u: Any, column_v: Any, x_m: Any, y_m: Any,
   Returns:
     float32 [71] features, clipped to [-1, 1].
   """
-  dtype = simplex.float_dtype(
+  dtype = dtypes.float_dtype(
       column_u, column_v, x_m, y_m, altitude_m, ascent_rate_mps, wind_u,
       wind_v, helium_mols, sand_kg, payload_kg, temperature_k, pressure_pa)
   (column_u, column_v, x_m, y_m, altitude_m, ascent_rate_mps, wind_u, wind_v,
@@ -365,7 +365,7 @@ def option_features(*, sun_elevation_deg: Any = None,
 
 def distance_km(x_m: Any, y_m: Any) -> jnp.ndarray:
   """BLE's `units.relative_distance(x, y)` in km (the 2-norm). # [km]"""
-  dtype = simplex.float_dtype(x_m, y_m)
+  dtype = dtypes.float_dtype(x_m, y_m)
   return jnp.hypot(jnp.asarray(x_m, dtype), jnp.asarray(y_m, dtype)) / 1000.0
 
 
@@ -395,7 +395,7 @@ def tanh_inside(distance_km: Any, radius_km: Any, dropoff: Any,
   Returns:
     The reward inside the circle (meaningful where d <= rho).
   """
-  dtype = simplex.float_dtype(distance_km, radius_km, dropoff, tanh_scale_km)
+  dtype = dtypes.float_dtype(distance_km, radius_km, dropoff, tanh_scale_km)
   distance_km, radius_km, dropoff, scale = (
       jnp.asarray(a, dtype) for a in (distance_km, radius_km, dropoff,
                                       tanh_scale_km))
@@ -442,7 +442,7 @@ def reward(distance_km: Any,  # pylint: disable=redefined-outer-name
   Returns:
     The step reward, in (-inf, 1].
   """
-  dtype = simplex.float_dtype(distance_km, radius_km, dropoff, halflife_km,
+  dtype = dtypes.float_dtype(distance_km, radius_km, dropoff, halflife_km,
                               vented, dropped, helium_penalty, sand_penalty,
                               tanh_scale_km)
   (distance_km, radius_km, dropoff, halflife_km, vented, dropped,

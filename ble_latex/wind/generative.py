@@ -59,7 +59,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ble_latex.wind import simplex
+from ble_latex import dtypes
 
 NUM_LATENTS = 64  # BLE's latent dimension (GenerativeWindField.reset_forecast).
 SECONDS_PER_HOUR = 3600.0  # [s/h]
@@ -284,7 +284,7 @@ def field_time_hours(t_s: Any, horizon_h: float) -> jnp.ndarray:
     The time position in [0, horizon_h], in the dtype of t_s. # [h]
   """
   t_s = jnp.asarray(t_s)
-  t_s = t_s.astype(simplex.float_dtype(t_s))
+  t_s = t_s.astype(dtypes.float_dtype(t_s))
   if t_s.dtype == jnp.float64:  # BLE's: int(t / T) % 2, t % T in hours.
     t, horizon = divide(t_s, SECONDS_PER_HOUR), horizon_h
     remainder = jnp.mod(t, horizon)
@@ -322,7 +322,7 @@ def forecast(field: ForecastField, x_m: Any, y_m: Any, pressure_pa: Any,
   Returns:
     (u, v) of the broadcast input shape, eastward and northward. # [m/s]
   """
-  dtype = simplex.float_dtype(x_m, y_m, pressure_pa, t_s)
+  dtype = dtypes.float_dtype(x_m, y_m, pressure_pa, t_s)
   x_m, y_m, pressure_pa, t_s = jnp.broadcast_arrays(
       *(jnp.asarray(v, dtype) for v in (x_m, y_m, pressure_pa, t_s)))
   located = _locate_point(field, x_m, y_m, pressure_pa, t_s)
@@ -420,7 +420,7 @@ def forecast_column(field: ForecastField, x_m: Any, y_m: Any, pressures: Any,
   Returns:
     (u [L], v [L]) at the pressure levels. # [m/s]
   """
-  dtype = simplex.float_dtype(x_m, y_m, pressures, t_s)
+  dtype = dtypes.float_dtype(x_m, y_m, pressures, t_s)
   x_m, y_m, pressures, t_s = (jnp.asarray(v, dtype)
                               for v in (x_m, y_m, pressures, t_s))
   if x_m.ndim or y_m.ndim or t_s.ndim or pressures.ndim != 1:

@@ -59,6 +59,8 @@ from jax import lax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import dtypes
+
 # opensimplex 0.3's 4-D constants.
 STRETCH_CONSTANT_4D = -0.138196601125011  # (1 / sqrt(4 + 1) - 1) / 4
 SQUISH_CONSTANT_4D = 0.309016994374947  # (sqrt(4 + 1) - 1) / 4
@@ -439,14 +441,6 @@ def _dispentachoron_code(xins: jnp.ndarray, yins: jnp.ndarray,
           _sel(b_big, 512, 0))
 
 
-def float_dtype(*values: Any) -> Any:
-  """The floating dtype of the inputs (the default float for integers)."""
-  dtype = jnp.result_type(*values)
-  if not jnp.issubdtype(dtype, jnp.floating):
-    dtype = jnp.result_type(float)
-  return dtype
-
-
 def _wrap256(integer_valued: jnp.ndarray) -> jnp.ndarray:
   """Python's `int(v) & 0xFF` of a float holding an integer (exact)."""
   return (integer_valued -
@@ -482,7 +476,7 @@ def noise4d(perm: jnp.ndarray, x: Any, y: Any, z: Any, w: Any) -> jnp.ndarray:
     Noise values (about -1 to 1), of the broadcast shape and floating dtype
     of the coordinates.
   """
-  dtype = float_dtype(x, y, z, w)
+  dtype = dtypes.float_dtype(x, y, z, w)
   x, y, z, w = jnp.broadcast_arrays(*(jnp.asarray(v, dtype)
                                       for v in (x, y, z, w)))
   perm = jnp.asarray(perm, jnp.int32)
@@ -715,7 +709,7 @@ def _weighted(noise: jnp.ndarray,
 
 def _noise_points(*coordinates: Any) -> Tuple[Tuple[jnp.ndarray, ...], Any]:
   """The coordinates, broadcast, in their floating dtype; and that dtype."""
-  dtype = float_dtype(*coordinates)
+  dtype = dtypes.float_dtype(*coordinates)
   return jnp.broadcast_arrays(*(jnp.asarray(v, dtype)
                                 for v in coordinates)), dtype
 
