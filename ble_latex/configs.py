@@ -3,11 +3,18 @@
 
 The top-level `gin_configs/` folder installs as `ble_latex/gin_configs` in a
 regular install; in an editable install from a checkout it stays beside the
-package. `gin_file('sac.gin')` finds it in either place. Commands bind them
-with `ble_latex.run.gin_binding.bind_gin`.
+package. `gin_file('latex_env.gin')` finds it in either place. Commands bind
+them with `ble_latex.run.gin_binding.bind_gin`.
+
+Importing this module appends that folder to gin's search path (after the
+working directory, which gin searches first), so a shipped gin file can
+`include` another by its name (`latex_wind_memory_lookahead.gin`) wherever
+the command runs; such a file imports `ble_latex.configs` first.
 """
 
 import pathlib
+
+import gin
 
 _PACKAGE = pathlib.Path(__file__).resolve().parent
 _CANDIDATES = (_PACKAGE / 'gin_configs', _PACKAGE.parent / 'gin_configs')
@@ -23,6 +30,17 @@ def gin_dir() -> pathlib.Path:
   raise FileNotFoundError(
       'ble_latex gin_configs folder not found; looked in '
       f'{[str(c) for c in _CANDIDATES]}')
+
+
+def _add_search_path() -> None:
+  """Appends the gin files' folder to gin's search path (for `include`)."""
+  for folder in _CANDIDATES:
+    if folder.is_dir():
+      gin.add_config_file_search_path(str(folder))
+      return
+
+
+_add_search_path()
 
 
 def env_gin_files() -> list:

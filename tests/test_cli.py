@@ -72,7 +72,7 @@ def test_eval_help_and_usage_errors(capsys):
         error)
   assert 'latex_station_seeker' in errors[1] and 'sac' in errors[1]
   assert "did you mean 'latex_tiny'" in errors[2]
-  assert 'sac.gin' in errors[3]
+  assert 'latex_env.gin' in errors[3]
   assert 'latex_episode' in errors[4] and 'LatexBalloonEnv' not in errors[4]
   assert 'LatexBalloonDiscrete-v0' in errors[5]
   assert "'nope'" in errors[6]

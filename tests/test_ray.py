@@ -297,7 +297,7 @@ def test_sweep_killed_resumes_and_writes_table_and_best_gin(tmp_path):
        'from ble_latex import configs\n'
        'from ble_latex.agents import sac_trainer\n'
        'from ble_latex.run import gin_binding\n'
-       f'gin_binding.bind_gin("sac", configs.gin_file("sac_jax.gin"), '
+       f'gin_binding.bind_gin("sac", None, '
        f'[{str(sweep_dir / sweep_lib.BEST_GIN)!r}], [])\n'
        'c = sac_trainer.TrainerConfig()\n'
        'print(c.gamma, c.num_envs, c.hidden_units)\n'],

@@ -2,7 +2,8 @@
 """ble_latex agents, added to BLE's agent registry by `register()`.
 
 - 'sac': `sac.SACAgent`, Soft Actor-Critic for the Box action of
-  LatexBalloon-v0; default gin file `gin_configs/sac.gin`.
+  LatexBalloon-v0; no default gin file (its hyperparameters' defaults are
+  `sac.core.SACHyperparameters`'; bind `SACAgent.*`).
 - 'sac_pretrained': `sac.SACPretrainedAgent`, SAC with the policy
   shipped in `agents/policies/sac_latex.msgpack`.
 - 'sac_ensemble': `ensemble.SACEnsembleAgent`, SAC policies whose critics
@@ -23,8 +24,6 @@ agents (TensorFlow, JAX, Dopamine).
 
 from typing import FrozenSet
 
-SAC_GIN_FILE = 'sac.gin'
-
 # Registered agents that take a Box action (constructor keywords action_low,
 # action_high, seed); the others are BLE's discrete-action agents.
 BOX_AGENTS: FrozenSet[str] = frozenset(
@@ -43,23 +42,21 @@ EVAL_ONLY_AGENTS: FrozenSet[str] = PLANNER_AGENTS | {'sac_ensemble'}
 def register() -> None:
   """Adds the ble_latex agents to BLE's `agent_registry.REGISTRY`.
 
-  Idempotent: calling it again rewrites the same entries. The gin path is
-  absolute, so BLE's `run_helpers.bind_gin_variables` (which only adds the
-  BLE package's parent folder to gin's search path) finds it as is.
+  Idempotent: calling it again rewrites the same entries. No agent of
+  ble_latex has a default gin file: their settings' defaults are the code's
+  (importing the agents here declares their gin names before BLE parses
+  `--gin_bindings`).
   """
   # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.agents import agent_registry
   from ble_latex.agents import baselines
-  from ble_latex.agents import ensemble
-  from ble_latex.agents import planners
-  from ble_latex.agents import pretrained
-  from ble_latex.agents import sac
-  from ble_latex import configs
+  from ble_latex.agents.planning import agents as planners
+  from ble_latex.agents.sac import agent as sac
+  from ble_latex.agents.sac import ensemble
+  from ble_latex.agents.sac import pretrained
   # pylint: enable=g-import-not-at-top
-  agent_registry.REGISTRY['sac'] = (sac.SACAgent,
-                                    configs.gin_file(SAC_GIN_FILE))
-  agent_registry.REGISTRY['sac_pretrained'] = (
-      sac.SACPretrainedAgent, configs.gin_file(SAC_GIN_FILE))
+  agent_registry.REGISTRY['sac'] = (sac.SACAgent, None)
+  agent_registry.REGISTRY['sac_pretrained'] = (sac.SACPretrainedAgent, None)
   agent_registry.REGISTRY['sac_ensemble'] = (ensemble.SACEnsembleAgent, None)
   agent_registry.REGISTRY['latex_random'] = (baselines.LatexRandomAgent, None)
   agent_registry.REGISTRY['latex_station_seeker'] = (

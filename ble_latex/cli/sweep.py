@@ -2,7 +2,7 @@
 r"""Sweeps gin bindings x training seeds on Ray Tune (`ble-latex-sweep`).
 
 Each trial trains SAC with the jitted trainer (`ble-latex-train
---trainer=jax`, gin sac_jax.gin plus the trial's bindings) in
+--trainer=jax`, its defaults plus the trial's bindings) in
 SWEEP_DIR/runs/p<point>_seed<s> and reports its latex_validation TW50 over
 the window at every policy snapshot (`ble_latex.run.sweep_lib`):
 

@@ -8,7 +8,7 @@ latex env and SAC as defaults:
       --episodes_per_iteration=10
 
 With `--trainer=jax` SAC trains in jitted rounds on the batched env
-(`ble_latex.run.jax_train`, gin `gin_configs/sac_jax.gin`): an iteration
+(`ble_latex.run.jax_train`, gin `sac_trainer_config.*`): an iteration
 is one episode on each of `sac_trainer_config.num_envs` balloons in parallel.
 `--seeds` runs several training seeds, each in BASE_DIR/seed_<s>: one after
 another, or with `--vmap_seeds` (jax trainer) all in one vmapped XLA call
@@ -44,7 +44,6 @@ from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex.cli import common as cli
-from ble_latex import configs
 from ble_latex.run import gin_binding
 
 # Imported on first use, after the flags are parsed (`--help` stays fast).
@@ -134,8 +133,8 @@ def _main(argv: Sequence[str]) -> None:
   del argv
   jax_trainer = FLAGS.trainer == 'jax'
   agent_gin_file = FLAGS.agent_gin_file
-  if jax_trainer and agent_gin_file is None:
-    agent_gin_file = configs.gin_file('sac_jax.gin')
+  if jax_trainer:  # Its gin name (`sac_trainer_config.*`), before parsing.
+    from ble_latex.agents.sac import trainer as sac_trainer  # pylint: disable=g-import-not-at-top,unused-import
   gin_binding.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                        FLAGS.gin_bindings)
   era5_bindings = cli.era5_bindings(

@@ -1,14 +1,14 @@
 # coding=utf-8
 """Training sweeps on Ray Tune: gin bindings x training seeds (`ble-latex-sweep`).
 
-Each trial is one run of the jitted SAC trainer (`jax_train.train`, gin
-`sac_jax.gin` plus the trial's bindings) in SWEEP_DIR/runs/p<point>_seed<s>,
-with the usual run-directory outputs. At every policy snapshot the trainer
-flies the policy on `latex_validation` and the trial reports to Tune:
-`tw50_window` (the metric, maximised), `tw50`, `out_of_resources_pct` and
-`rounds` (ASHA's time axis). Tune runs the trials (Ray's scheduling, its
-progress table, its experiment state in SWEEP_DIR/tune); optional ASHA stops
-weak trials early.
+Each trial is one run of the jitted SAC trainer (`jax_train.train`, its gin
+`sac_trainer_config` defaults plus the trial's bindings) in
+SWEEP_DIR/runs/p<point>_seed<s>, with the usual run-directory outputs. At
+every policy snapshot the trainer flies the policy on `latex_validation` and
+the trial reports to Tune: `tw50_window` (the metric, maximised), `tw50`,
+`out_of_resources_pct` and `rounds` (ASHA's time axis). Tune runs the trials
+(Ray's scheduling, its progress table, its experiment state in
+SWEEP_DIR/tune); optional ASHA stops weak trials early.
 
 The space (`load_space`, JSON or YAML) names gin bindings and how to vary
 them:
@@ -337,12 +337,11 @@ def bind_trial_gin(settings: SweepSettings, index: int) -> None:
   """Binds gin for trial point `index` (clears what was bound before)."""
   # pylint: disable=g-import-not-at-top
   import gin
-  from ble_latex import configs
+  from ble_latex.agents.sac import trainer as sac_trainer  # pylint: disable=unused-import
   from ble_latex.run import gin_binding
   # pylint: enable=g-import-not-at-top
   gin.clear_config()
-  gin_binding.bind_gin('sac', configs.gin_file('sac_jax.gin'),
-                       settings.gin_files,
+  gin_binding.bind_gin('sac', None, settings.gin_files,
                        [*settings.gin_bindings,
                         *binding_lines(settings.points[index])])
 

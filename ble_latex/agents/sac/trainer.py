@@ -66,7 +66,7 @@ class TrainerConfig(sac_core.SACHyperparameters):
 
   SAC's hyperparameters and their defaults are `sac_core.SACHyperparameters`'
   (the BLE agent's too); this adds the loop's settings. Built with no
-  arguments it takes gin's bindings (`gin_configs/sac_jax.gin`); arguments
+  arguments it takes gin's bindings (`sac_trainer_config.*`); arguments
   given override them. Checked when built (errors name
   `sac_trainer_config.<field>`).
 
