@@ -3,7 +3,8 @@
 
 - 'sac': `sac.SACAgent`, Soft Actor-Critic for the Box action of
   LatexBalloon-v0; no default gin file (its hyperparameters' defaults are
-  `sac.core.SACHyperparameters`'; bind `SACAgent.*`).
+  `sac.core.SACHyperparameters`';
+  bind `ble_latex.agents.sac.SACAgent.*`).
 - 'sac_pretrained': `sac.SACPretrainedAgent`, SAC with the policy
   shipped in `agents/policies/sac_latex.msgpack`.
 - 'sac_ensemble': `ensemble.SACEnsembleAgent`, SAC policies whose critics
