@@ -70,7 +70,7 @@ def collect_demos(config, env, params, num_episodes: int, batch: int
   """
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import planning  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.planning import planner as planning  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
 
@@ -140,7 +140,7 @@ def run_arm(arm: str, demos, learner, env, params, rounds: int, seed: int,
   """Trains one arm for `rounds` rounds, `record(row)` after each."""
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import trainer as sac_trainer  # pylint: disable=g-import-not-at-top
   from ble_latex.run import jax_train  # pylint: disable=g-import-not-at-top
 
   _, state = sac_trainer.make_learner(learner.config, jax.random.PRNGKey(seed))
@@ -175,12 +175,12 @@ def run_arm(arm: str, demos, learner, env, params, rounds: int, seed: int,
 
 def _main(argv: Sequence[str]) -> int:
   del argv
-  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
     import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
-    from ble_latex.agents import plan_config  # pylint: disable=g-import-not-at-top
-    from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
+    from ble_latex.agents.planning import config as plan_config  # pylint: disable=g-import-not-at-top
+    from ble_latex.agents.sac import trainer as sac_trainer  # pylint: disable=g-import-not-at-top
     from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
     from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
     from ble_latex.run import suites  # pylint: disable=g-import-not-at-top

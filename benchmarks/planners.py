@@ -1,4 +1,4 @@
-"""The planners (`ble_latex.agents.planning`) on a suite, balloons batched.
+"""The planners (`ble_latex.agents.planning.planner`) on a suite, balloons batched.
 
   python benchmarks/planners.py --agent=latex_mpc --suite=latex_small \
       --output_dir=benchmarks/records/planners/results [--num_seeds=100] [--batch=25] \
@@ -156,7 +156,7 @@ def _main(argv: Sequence[str]) -> int:
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   with quiet.third_party_noise():
-    from ble_latex.agents import plan_config  # pylint: disable=g-import-not-at-top
+    from ble_latex.agents.planning import config as plan_config  # pylint: disable=g-import-not-at-top
     from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
     from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
   if FLAGS.agent not in plan_config.PLANNERS:

@@ -60,10 +60,10 @@ from ble_latex import safe_io
 from ble_latex.cli import common as cli
 
 with quiet.third_party_noise():  # Dopamine's import-time notices.
-  from ble_latex.agents import ensemble  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import plan_value  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.planning import value as plan_value  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import ensemble  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import trainer as sac_trainer  # pylint: disable=g-import-not-at-top
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.run import episode_log

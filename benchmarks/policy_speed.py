@@ -120,7 +120,7 @@ def _observation_cost(observation: Dict[str, int], steps: int) -> dict:
 def _observation_of(path: Optional[str]) -> Dict[str, int]:
   """The `latex_observation.*` settings a policy file (None: the shipped
   one) records."""
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   config = (pretrained.load_policy(path)['config'] if path else {})
   return {k: int(config.get(k, 0)) for k in env_params.OBSERVATION_FIELDS}
@@ -133,7 +133,7 @@ def _time(name: str, path: Optional[str], steps: int,
   from ble_latex import quiet  # pylint: disable=g-import-not-at-top
   paths = path.split(',') if path else []
   with quiet.third_party_noise():
-    from ble_latex.agents import ensemble  # pylint: disable=g-import-not-at-top
+    from ble_latex.agents.sac import ensemble  # pylint: disable=g-import-not-at-top
   # The env observes as the member that remembers the most winds (an
   # ensemble's other members read their views of its state).
   observation = dict(ensemble.env_view_for(
@@ -143,7 +143,7 @@ def _time(name: str, path: Optional[str], steps: int,
     for key, value in observation.items():
       gin.bind_parameter(f'latex_observation.{key}', value)
   with quiet.third_party_noise():
-    from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+    from ble_latex.agents.sac import agent as sac  # pylint: disable=g-import-not-at-top
     if len(paths) > 1 or lookahead[0]:
       agent = ensemble.SACEnsembleAgent(
           3, (observations.shape[1],), policy_paths=paths,
@@ -185,7 +185,7 @@ def _main(argv: Sequence[str]) -> int:
       policies.append(('shipped', None))
       continue
     if item == 'shipped_ensemble':
-      from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+      from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
       policies.append((item, ','.join(pretrained.SHIPPED_ENSEMBLE)))
       continue
     name, sep, path = item.partition('=')

@@ -66,7 +66,7 @@ def _main(argv: Sequence[str]) -> int:
   args = FLAGS
 
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
-  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import agent as sac  # pylint: disable=g-import-not-at-top
   from dopamine.jax.agents.sac import sac_agent  # pylint: disable=g-import-not-at-top
   from dopamine.replay_memory import circular_replay_buffer  # pylint: disable=g-import-not-at-top
   import jax  # pylint: disable=g-import-not-at-top
@@ -143,8 +143,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 def _time_updates(agent, steps: int, rounds: int) -> dict:
   """ms per SAC update: Dopamine's `sac_agent.train` vs `sac_core.update`."""
   # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import networks
-  from ble_latex.agents import sac_core
+  from ble_latex.agents.sac import core as sac_core
+  from ble_latex.agents.sac import networks
   from dopamine.jax.agents.sac import sac_agent
   import jax
   # pylint: enable=g-import-not-at-top
@@ -199,9 +199,9 @@ def _time_env_steps(args) -> dict:
   """ms per env step of the agent's loop and of the jitted trainer."""
   # pylint: disable=g-import-not-at-top
   import gym
-  from ble_latex.agents import sac_trainer
-  from ble_latex.run import gin_binding
+  from ble_latex.agents.sac import trainer as sac_trainer
   from ble_latex.envs import jax_env
+  from ble_latex.run import gin_binding
   from ble_latex.run import runner
   import jax
   import jax.numpy as jnp

@@ -58,7 +58,7 @@ def _setup(num_envs: int, updates_per_step: int, rounds: int,
   # pylint: disable=g-import-not-at-top
   import jax
   import jax.numpy as jnp
-  from ble_latex.agents import sac_trainer
+  from ble_latex.agents.sac import trainer as sac_trainer
   from ble_latex.envs import jax_env
   # pylint: enable=g-import-not-at-top
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
@@ -81,7 +81,7 @@ def _one_seed_rounds(env, learner, params, steps, state, env_seeds,
                      rounds: range) -> Any:
   # pylint: disable=g-import-not-at-top
   import jax
-  from ble_latex.agents import sac_trainer
+  from ble_latex.agents.sac import trainer as sac_trainer
   # pylint: enable=g-import-not-at-top
   for r in rounds:
     state, _ = sac_trainer.train_round(learner, env, state, env_seeds[r],
@@ -105,7 +105,7 @@ def _sequential(num_envs, updates_per_step, rounds, num_seeds) -> float:
 def _vmap(num_envs, updates_per_step, rounds, num_seeds) -> float:
   # pylint: disable=g-import-not-at-top
   import jax
-  from ble_latex.agents import sac_trainer
+  from ble_latex.agents.sac import trainer as sac_trainer
   # pylint: enable=g-import-not-at-top
   env, learner, params, steps, states, env_seeds = _setup(
       num_envs, updates_per_step, rounds, range(num_seeds))

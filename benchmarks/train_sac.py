@@ -87,8 +87,8 @@ def select(base_dir: str, every: int, include_newest: bool,
   (`suites.era5_dates('latex_validation')`), never the training dates.
   """
   import gym  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import agent as sac  # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top

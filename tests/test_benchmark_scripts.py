@@ -147,7 +147,7 @@ def test_policy_speed_refuses_bad_policies_in_one_line(tmp_path, capsys):
   err = capsys.readouterr().err.strip().splitlines()
   assert rc == 1 and len(err) == 1 and 'absent.msgpack' in err[0], err
   # An ensemble's members are each checked (`sac_ensemble`).
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
   rc = speed.main([f'--policy=e={pretrained.SHIPPED_ENSEMBLE[0]},'
                    f'{tmp_path}/gone.msgpack', f'--json={out}'])
   err = capsys.readouterr().err.strip().splitlines()

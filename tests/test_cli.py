@@ -246,7 +246,7 @@ def test_eval_refused_input_is_one_line(tmp_path, capsys):
   a_file = tmp_path / 'a_file'
   a_file.write_text('')
   truncated = tmp_path / 'truncated.msgpack'
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
   with open(pretrained.DEFAULT_POLICY, 'rb') as f:
     truncated.write_bytes(f.read(3000))
   short = ['--max_episode_length=2', f'--output_dir={tmp_path}/out']

@@ -1,5 +1,6 @@
 # coding=utf-8
-"""DAgger distillation (run/dagger.py): tiny rounds on the batched core."""
+"""DAgger distillation (agents/dagger.py, its driver run/dagger.py): tiny
+rounds on the batched core."""
 
 import json
 import os
@@ -10,8 +11,9 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.agents import plan_config
-from ble_latex.agents import pretrained
+from ble_latex.agents import dagger as algorithm
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.sac import pretrained
 from ble_latex.run import dagger
 
 # DAgger rounds fly planners and fit networks (~150 s loaded): make test-slow.
@@ -90,31 +92,31 @@ def test_the_best_student_is_a_sac_policy(runs):
 
 
 def test_the_fit_lowers_the_imitation_loss_on_a_fixed_batch():
-  student = dagger.student_for(1, 16, 1e-2)
-  params = dagger.init_params(student, jax.random.PRNGKey(0))
+  student = algorithm.student_for(1, 16, 1e-2)
+  params = algorithm.init_params(student, jax.random.PRNGKey(0))
   keys = jax.random.split(jax.random.PRNGKey(1), 2)
   obs = jax.random.uniform(keys[0], (32, 71), minval=-1.0, maxval=1.0)
   labels = jax.random.uniform(keys[1], (32, 3), minval=-0.9, maxval=0.9)
-  before = dagger.imitation_loss(student, params, obs, labels)
-  fitted, _, _ = dagger.fit(student, params, student.optimizer.init(params),
-                            obs, labels, jnp.int32(32), 50, 32,
-                            jax.random.PRNGKey(2))
-  after = dagger.imitation_loss(student, fitted, obs, labels)
+  before = algorithm.imitation_loss(student, params, obs, labels)
+  fitted, _, _ = algorithm.fit(student, params, student.optimizer.init(params),
+                               obs, labels, jnp.int32(32), 50, 32,
+                               jax.random.PRNGKey(2))
+  after = algorithm.imitation_loss(student, fitted, obs, labels)
   assert float(after) < 0.5 * float(before)
 
 
 def test_the_aggregate_is_a_ring():
-  data = dagger.empty_aggregate(5)
+  data = algorithm.empty_aggregate(5)
   obs = np.arange(4 * 71, dtype=np.float32).reshape(4, 71)
   labels = np.arange(4 * 3, dtype=np.float32).reshape(4, 3)
-  data = dagger.aggregate(data, obs, labels)
+  data = algorithm.aggregate(data, obs, labels)
   assert (data.size, data.cursor) == (4, 4)
-  data = dagger.aggregate(data, obs[:3] + 1000, labels[:3])
+  data = algorithm.aggregate(data, obs[:3] + 1000, labels[:3])
   assert (data.size, data.cursor) == (5, 2)
   np.testing.assert_array_equal(data.obs[0], obs[1] + 1000)
   np.testing.assert_array_equal(data.obs[3], obs[3])
   # More rows than fit at once: the newest are kept, in ring order.
-  data = dagger.aggregate(data, np.tile(obs, (2, 1)) + 5000,
+  data = algorithm.aggregate(data, np.tile(obs, (2, 1)) + 5000,
                           np.tile(labels, (2, 1)))
   assert (data.size, data.cursor) == (5, 0)
   np.testing.assert_array_equal(data.obs[1:5], obs[[0, 1, 2, 3]] + 5000)
@@ -124,7 +126,7 @@ def test_the_aggregate_is_a_ring():
 def test_from_box_inverts_to_box():
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   u = jnp.array([[-1.0, -0.5, 1.0], [0.3, 0.0, -1.0]])
-  np.testing.assert_allclose(dagger.from_box(jax_env.to_box(u)), u,
+  np.testing.assert_allclose(algorithm.from_box(jax_env.to_box(u)), u,
                              atol=1e-6)
 
 

@@ -16,15 +16,15 @@ import pytest
 
 from ble_latex import configs
 from ble_latex import errors
-from ble_latex.agents import ensemble
-from ble_latex.agents import networks
-from ble_latex.agents import plan_config
-from ble_latex.agents import plan_objective
-from ble_latex.agents import plan_value
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac
-from ble_latex.agents import sac_core
-from ble_latex.agents import sac_trainer
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.planning import objective as plan_objective
+from ble_latex.agents.planning import value as plan_value
+from ble_latex.agents.sac import agent as sac
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import ensemble
+from ble_latex.agents.sac import networks
+from ble_latex.agents.sac import pretrained
+from ble_latex.agents.sac import trainer as sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
@@ -179,7 +179,7 @@ def test_a_view_reads_the_column_its_settings_observe():
 def _batched_and_launch_fly(agent, env, obs, action):
   """The batched eval and the launch controller choose `action`, the
   attached agent's choice from `env`'s core state and observation `obs`."""
-  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.planning import agents as planners  # pylint: disable=g-import-not-at-top
   from ble_latex.launch import controllers  # pylint: disable=g-import-not-at-top
   from ble_latex.run import batch_eval  # pylint: disable=g-import-not-at-top
   driver, wind = planners.core_of(env)
@@ -199,7 +199,7 @@ def test_members_of_other_views_fly_from_the_env_s_state(tmp_path):
   """One balloon (BLE's gym env, `attach_env`), the batched eval and the
   launch controller choose the same action from the members' own views."""
   import gym  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.planning import agents as planners  # pylint: disable=g-import-not-at-top
   paths = [_policy_file(tmp_path, 5, wind_lookahead=12),
            _policy_file(tmp_path, 6),
            _policy_file(tmp_path, 7, wind_lookahead=12)]
@@ -327,7 +327,7 @@ def test_an_ensemble_with_a_lookahead_flies_from_the_env_s_state(tmp_path):
   """BLE's gym env (`attach_env`), the batched eval and the launch
   controller fly the same lookahead choice."""
   import gym  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.planning import agents as planners  # pylint: disable=g-import-not-at-top
   paths = [_policy_file(tmp_path, k) for k in (8, 9)]
   env = gym.make('LatexBalloon-v0').unwrapped
   agent = ensemble.SACEnsembleAgent(

@@ -226,9 +226,9 @@ def test_planners_read_no_hidden_truth(mid_flight, monkeypatch, mode,
   with a view that peeks, the objective of a plan moves (the test can
   fail)."""
   # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import plan_config
-  from ble_latex.agents import plan_objective
-  from ble_latex.agents import planning
+  from ble_latex.agents.planning import config as plan_config
+  from ble_latex.agents.planning import objective as plan_objective
+  from ble_latex.agents.planning import planner as planning
   # pylint: enable=g-import-not-at-top
   env, params, state = mid_flight
   config = plan_config.PlannerConfig(
@@ -263,9 +263,9 @@ def test_the_ensemble_s_lookahead_reads_no_hidden_truth(mid_flight,
   """sac_ensemble's lookahead (two strides, following its members): the
   same proposals and scores; with a view that peeks, the scores move."""
   # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import ensemble
-  from ble_latex.agents import networks
-  from ble_latex.agents import sac_trainer
+  from ble_latex.agents.sac import ensemble
+  from ble_latex.agents.sac import networks
+  from ble_latex.agents.sac import trainer as sac_trainer
   from ble_latex.envs import env_params
   # pylint: enable=g-import-not-at-top
   env, params, state = mid_flight

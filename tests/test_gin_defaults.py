@@ -112,7 +112,7 @@ def test_every_listed_difference_is_still_bound():
 def test_a_binding_that_differs_is_caught(tmp_path):
   """The check can fail: a gin file binding another value is reported."""
   path = tmp_path / 'other.gin'
-  path.write_text('import ble_latex.agents.sac_trainer\n'
+  path.write_text('import ble_latex.agents.sac.trainer\n'
                   'sac_trainer_config.num_envs = 31\n'
                   'sac_trainer_config.gamma = 0.99\n')
   (num_envs, _, default), (gamma, value, gamma_default) = _bindings(path)

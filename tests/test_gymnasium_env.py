@@ -17,6 +17,7 @@ import pytest
 
 from ble_latex import errors
 from ble_latex import jax_cache
+from ble_latex import quiet
 from ble_latex.ble import gymnasium_discrete
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
@@ -26,7 +27,6 @@ from ble_latex.envs import gymnasium_registration
 from ble_latex.envs import gymnasium_render
 from ble_latex.envs import gymnasium_vector
 from ble_latex.envs import jax_env
-from ble_latex import quiet
 
 ID = 'ble_latex/LatexBalloon-v0'
 DISCRETE_ID = 'ble_latex/LatexBalloonDiscrete-v0'
@@ -594,7 +594,7 @@ def test_core_imports_no_tensorflow_dopamine_or_ble_agents():
   code = ('import sys, ble_latex, gymnasium\n'
           'import ble_latex.envs.jax_env, ble_latex.envs.gymnasium_env\n'
           'import ble_latex.envs.gymnasium_vector\n'
-          'import ble_latex.agents.sac_trainer, ble_latex.run.jax_train\n'
+          'import ble_latex.agents.sac.trainer, ble_latex.run.jax_train\n'
           f'gymnasium.make({ID!r}, normalize_actions=True)\n'
           f'gymnasium.make_vec({ID!r}, num_envs=2)\n'
           "ble = 'balloon_learning_environment.'\n"

@@ -50,7 +50,7 @@ def test_env_bindings_beyond_float32_are_refused(binding):
 
 
 def test_planner_cost_beyond_float32_is_refused():
-  from ble_latex.agents import planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.planning import agents as planners  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
   gin.clear_config()
   try:
@@ -212,7 +212,7 @@ def _crafted_policy(tmp_path, name, extra):
 def test_policy_with_ext_type_or_int_key_is_refused_naming_it(
     extra, tmp_path, capsys):
   import msgpack  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import export_policy  # pylint: disable=g-import-not-at-top
   if extra.get('note') == 'EXT':
     extra = {'note': msgpack.ExtType(42, b'x')}
@@ -265,8 +265,8 @@ _ODD_VALUES = ('[1.0]', "'x'", 'None', '1e400', '-1', '{"a": 1}', '(1, 2)')
 def _settings_builders():
   """{configurable: the function a command calls to build its settings}."""
   # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import plan_config
-  from ble_latex.agents import sac_trainer
+  from ble_latex.agents.planning import config as plan_config
+  from ble_latex.agents.sac import trainer as sac_trainer
   from ble_latex.envs import env_params
   from ble_latex.run import dagger
   from ble_latex.wind import era5

@@ -177,7 +177,7 @@ def test_launch_search_output_folder_checked_first(tmp_path, capsys,
 
 # -- Item 15: policy and checkpoint files are size-bounded before reading. ---
 def test_a_huge_policy_is_refused_before_it_is_read(tmp_path):
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
   path = tmp_path / 'huge.msgpack'
   with open(path, 'wb') as f:
     f.truncate(2**30)  # Sparse: 1 GiB on no disk.

@@ -584,7 +584,7 @@ def test_reset_pool_step_where_no_episode_ended_is_step_env():
 @pytest.mark.slow
 def test_normalized_actions_are_the_one_to_box_mapping():
   """The default env flies to_box(a) of a in [-1, 1]^3, bit for bit."""
-  from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import trainer as sac_trainer  # pylint: disable=g-import-not-at-top
   raw_env, params, batch_reset, batch_step = _setup()
   env = jax_env.LatexBalloonJaxEnv()
   assert sac_trainer.to_box is jax_env.to_box

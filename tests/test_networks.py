@@ -1,4 +1,4 @@
-"""SAC critics (ble_latex/agents/networks.py) in the update, agent and trainer."""
+"""SAC critics (ble_latex/agents/sac/networks.py) in the update, agent and trainer."""
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 from dopamine.jax import continuous_networks
@@ -7,11 +7,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from ble_latex.agents import networks
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac
-from ble_latex.agents import sac_core
-from ble_latex.agents import sac_trainer
+from ble_latex.agents.sac import agent as sac
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import networks
+from ble_latex.agents.sac import pretrained
+from ble_latex.agents.sac import trainer as sac_trainer
 from ble_latex.envs import jax_env
 from ble_latex.run import jax_train
 

@@ -54,8 +54,8 @@ def test_the_blocker_can_fail():
 _ENV_AND_PLANNER = textwrap.dedent('''
     import ble_latex
     from ble_latex import configs
-    from ble_latex.agents import plan_config
-    from ble_latex.agents import planning
+    from ble_latex.agents.planning import config as plan_config
+    from ble_latex.agents.planning import planner as planning
     from ble_latex.envs import env_params
     from ble_latex.envs import jax_env
     from ble_latex.run import gin_binding

@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.agents import ensemble
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac_core
-from ble_latex.agents import sac_trainer
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import ensemble
+from ble_latex.agents.sac import pretrained
+from ble_latex.agents.sac import trainer as sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
@@ -235,7 +235,7 @@ def test_a_policy_without_the_options_is_refused_in_flight(tmp_path):
   """The jitted trainer's networks take the options' features; the shipped
   policy (trained without them) is refused by `sac_pretrained` under them,
   in one line naming both settings."""
-  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import agent as sac  # pylint: disable=g-import-not-at-top
   config = sac_trainer.TrainerConfig(num_envs=2, hidden_units=8,
                                      replay_capacity=8)
   _, state = sac_trainer.make_learner(config, jax.random.PRNGKey(0),

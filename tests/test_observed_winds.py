@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac_core
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import pretrained
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.envs import jax_features
@@ -310,7 +310,7 @@ def test_policy_records_and_checks_its_wind_memory(tmp_path):
 def test_pretrained_agent_refuses_a_policy_of_another_observation(tmp_path):
   """A policy trained on the corrected column flown on the paper's (or the
   reverse) is refused before anything is built, naming the setting."""
-  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import agent as sac  # pylint: disable=g-import-not-at-top
   shipped = pretrained.load_policy(pretrained.shipped_policy(False))
   path = str(tmp_path / 'memory16.msgpack')
   pretrained.write_policy(

@@ -1,4 +1,4 @@
-"""`ble_latex.agents.plan_value`: the planners' learned value beyond the
+"""`ble_latex.agents.planning.value`: the planners' learned value beyond the
 horizon (`PlannerConfig.value_policy`, issue 47 item 2).
 
 Planning compiles (~20-60 s): those tests run in CI (`make test-ci`); the
@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.agents import plan_config
-from ble_latex.agents import plan_objective
-from ble_latex.agents import plan_value
-from ble_latex.agents import planning
-from ble_latex.agents import pretrained
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.planning import objective as plan_objective
+from ble_latex.agents.planning import planner as planning
+from ble_latex.agents.planning import value as plan_value
+from ble_latex.agents.sac import pretrained
 from ble_latex.envs import jax_env
 from ble_latex.envs import jax_features
 from ble_latex.envs import winds

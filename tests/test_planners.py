@@ -1,4 +1,4 @@
-"""The planners (`ble_latex.agents.planners` and the pure planning modules):
+"""The planners (`ble_latex.agents.planning.agents` and the pure planning modules):
 registry, flight, determinism, noise-blindness of the forecast MPC, gradients
 through the core, size limits, imports without TensorFlow.
 
@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.agents import beam
-from ble_latex.agents import plan_config
-from ble_latex.agents import plan_objective
-from ble_latex.agents import planners
-from ble_latex.agents import planning
+from ble_latex.agents.planning import agents as planners
+from ble_latex.agents.planning import beam
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.planning import objective as plan_objective
+from ble_latex.agents.planning import planner as planning
 from ble_latex.envs import jax_env
 from ble_latex.envs import winds
 
@@ -513,10 +513,10 @@ def test_gin_configures_the_agent():
 
 def test_pure_planning_imports_no_tensorflow():
   """The planning modules import neither TensorFlow, Dopamine nor BLE's
-  agents (only `agents/planners.py`, the BLE agents, does)."""
+  agents (only `agents/planning/agents.py`, the BLE agents, does)."""
   code = ('import sys\n'
-          'import ble_latex.agents.planning, ble_latex.agents.plan_config\n'
-          'import ble_latex.agents.plan_objective, ble_latex.agents.beam\n'
+          'import ble_latex.agents.planning.planner, ble_latex.agents.planning.config\n'
+          'import ble_latex.agents.planning.objective, ble_latex.agents.planning.beam\n'
           'heavy = ("tensorflow", "dopamine", '
           '"balloon_learning_environment.agents")\n'
           'print(sorted(h for h in heavy if h in sys.modules))\n')

@@ -15,9 +15,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from ble_latex.agents import plan_config
-from ble_latex.agents import plan_objective
-from ble_latex.agents import planning
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.planning import objective as plan_objective
+from ble_latex.agents.planning import planner as planning
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.flight import atmosphere as atmosphere_lib

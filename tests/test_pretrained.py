@@ -7,10 +7,10 @@ import ble_latex  # noqa: F401
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac
-from ble_latex.agents import sac_core
 from ble_latex import safe_io
+from ble_latex.agents.sac import agent as sac
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import pretrained
 from ble_latex.run import episode_log
 import numpy as np
 import pytest

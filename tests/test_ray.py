@@ -16,11 +16,11 @@ import pytest
 
 ray = pytest.importorskip('ray')
 
+from ble_latex import safe_io  # noqa: E402
 from ble_latex.cli import sweep as sweep_command  # noqa: E402
 from ble_latex.run import distributed  # noqa: E402
 from ble_latex.run import eval_lib  # noqa: E402
 from ble_latex.run import sweep_lib  # noqa: E402
-from ble_latex import safe_io  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = list(range(1_000_000, 1_000_010))  # latex_tiny's held-out seeds.
@@ -295,7 +295,7 @@ def test_sweep_killed_resumes_and_writes_table_and_best_gin(tmp_path):
   check = subprocess.run(
       [sys.executable, '-c',
        'from ble_latex import configs\n'
-       'from ble_latex.agents import sac_trainer\n'
+       'from ble_latex.agents.sac import trainer as sac_trainer\n'
        'from ble_latex.run import gin_binding\n'
        f'gin_binding.bind_gin("sac", None, '
        f'[{str(sweep_dir / sweep_lib.BEST_GIN)!r}], [])\n'

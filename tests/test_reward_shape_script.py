@@ -135,7 +135,7 @@ def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
     script, tmp_path, benchmark_script):
   """`_fly_real` with the shipped policy = real_winds' `sac_pretrained`."""
   import shutil  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
   folder = tmp_path / 'soundings'
   folder.mkdir()

@@ -1,5 +1,5 @@
 # coding=utf-8
-"""Tests of ble_latex's SAC agent (ble_latex/agents/sac.py)."""
+"""Tests of ble_latex's SAC agent (ble_latex/agents/sac/agent.py)."""
 
 import dataclasses
 import inspect
@@ -21,13 +21,13 @@ import numpy as np
 import pytest
 
 from ble_latex import agents as latex_agents
-from ble_latex.agents import networks
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac
-from ble_latex.agents import sac_core
-from ble_latex.agents import sac_trainer
 from ble_latex import errors
 from ble_latex import safe_io
+from ble_latex.agents.sac import agent as sac
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import networks
+from ble_latex.agents.sac import pretrained
+from ble_latex.agents.sac import trainer as sac_trainer
 from test_pretrained import _HIGH, _LOW, _sac  # pylint: disable=g-bad-import-order
 from test_pretrained import _crafted_pickle, _train_a_little  # pylint: disable=g-bad-import-order
 

@@ -1,4 +1,4 @@
-"""The jitted SAC trainer (ble_latex/agents/sac_trainer.py) and its driver
+"""The jitted SAC trainer (ble_latex/agents/sac/trainer.py) and its driver
 (ble_latex/run/jax_train.py)."""
 
 import json
@@ -19,8 +19,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from ble_latex.agents import sac_core
-from ble_latex.agents import sac_trainer
+from ble_latex import errors
+from ble_latex import safe_io
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import trainer as sac_trainer
 from ble_latex.envs import jax_env
 from ble_latex.run import episode_log
 from ble_latex.run import jax_train
@@ -29,8 +31,6 @@ from ble_latex.run import run_dir
 from ble_latex.run import seed_runs
 from ble_latex.run import selection
 from ble_latex.run import suites
-from ble_latex import errors
-from ble_latex import safe_io
 
 # Small enough to compile and run in seconds; the capacity makes the replay
 # ring wrap within three rounds (3 balloons x 8 steps per round).
@@ -271,7 +271,7 @@ def test_second_trainer_process_on_a_run_directory_is_refused(tmp_path):
 def test_snapshot_flies_in_the_gym_env_as_validated(runs):
   """The exported policy, loaded by `sac_pretrained`, flies the gym env."""
   import gym  # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import sac  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import agent as sac  # pylint: disable=g-import-not-at-top
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   straight, final, _, _ = runs
   path = straight / 'policies' / 'policy_00002.msgpack'
@@ -573,7 +573,7 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
   assert [r['iteration'] for r in episode_log.read(
       str(tmp_path / episode_log.VALIDATION_LOG))] == [0]
   # What was written is the last good round's, and finite.
-  from ble_latex.agents import pretrained
+  from ble_latex.agents.sac import pretrained
   pretrained.load_policy(str(tmp_path / 'policies' / 'policy_00000.msgpack'))
   _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
   jax_train.load_checkpoint(run_dir.checkpoint_path(str(tmp_path), 0),
@@ -645,7 +645,7 @@ def test_checkpoint_replay_cursor_must_fit_its_size(runs, tmp_path):
 
 def test_write_chosen_policy_copies_the_snapshot_with_why(tmp_path):
   """seed_runs.write_chosen_policy (was sac_seeds._chosen_policy)."""
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
   run = str(tmp_path / 'seed_0')
   chosen = {'iteration': 3, 'seeds': [0, 99], 'tw50_window_mean': 0.5}
   with pytest.raises(FileNotFoundError, match='chosen snapshot .* missing'):

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac_core
-from ble_latex.agents import sac_trainer
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import pretrained
+from ble_latex.agents.sac import trainer as sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.run import jax_train
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.agents import sac_trainer
+from ble_latex.agents.sac import trainer as sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import gymnasium_render
 from ble_latex.envs import jax_env

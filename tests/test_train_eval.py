@@ -9,12 +9,12 @@ import sys
 import time
 
 import ble_latex  # noqa: F401
+from ble_latex import safe_io
 from ble_latex.cli import eval as eval_command
 from ble_latex.cli import train
 from ble_latex.run import episode_log
 from ble_latex.run import eval_lib
 from ble_latex.run import suites
-from ble_latex import safe_io
 import jax
 import numpy as np
 import pytest
@@ -273,7 +273,7 @@ def test_suites_are_registered_explicitly_not_at_import():
 @pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
 def test_policy_snapshots_and_validation_selection(tmp_path, capsys,
                                                   benchmark_script):
-  from ble_latex.agents import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
   run = tmp_path / 'run'
   _ok(train.main, _train_args(run, 2) + ['--policy_snapshot_period=1'], capsys)
   for iteration in (0, 1):

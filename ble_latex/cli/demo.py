@@ -43,7 +43,7 @@ metrics = cli.lazy_module('ble_latex.run.metrics')
 suites = cli.lazy_module('ble_latex.run.suites')
 train_lib = cli.lazy_module('ble_latex.run.train_lib')
 configs = cli.lazy_module('ble_latex.configs')
-ensemble = cli.lazy_module('ble_latex.agents.ensemble')
+ensemble = cli.lazy_module('ble_latex.agents.sac.ensemble')
 
 _SAC = 'ble_latex.agents.sac.SACAgent'
 TRAINED = 'sac_pretrained'

@@ -20,7 +20,7 @@ from absl import flags
 from ble_latex.cli import common as cli
 
 # Imported on first use, after the flags are parsed (`--help` stays fast).
-pretrained = cli.lazy_module('ble_latex.agents.pretrained')
+pretrained = cli.lazy_module('ble_latex.agents.sac.pretrained')
 
 # The command's own flags (`cli.run_absl`).
 FLAGS = flags.FlagValues()

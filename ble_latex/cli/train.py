@@ -145,7 +145,7 @@ def _main(argv: Sequence[str]) -> None:
                          [*FLAGS.gin_bindings, *era5_bindings])
   cli.check_env_config()
   if jax_trainer:  # Its settings (sizes that drive memory too), first.
-    from ble_latex.agents import sac_trainer  # pylint: disable=g-import-not-at-top
+    from ble_latex.agents.sac import trainer as sac_trainer  # pylint: disable=g-import-not-at-top
     sac_trainer.TrainerConfig()
   cli.prepare_output_dir(FLAGS.base_dir, '--base_dir')
   if jax_trainer:

@@ -40,11 +40,11 @@ import numpy as np
 
 from ble_latex import errors
 from ble_latex.agents import baselines
-from ble_latex.agents import ensemble
-from ble_latex.agents import plan_objective
-from ble_latex.agents import planners
-from ble_latex.agents import planning
-from ble_latex.agents import sac
+from ble_latex.agents.planning import agents as planners
+from ble_latex.agents.planning import objective as plan_objective
+from ble_latex.agents.planning import planner as planning
+from ble_latex.agents.sac import agent as sac
+from ble_latex.agents.sac import ensemble
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env

@@ -52,19 +52,19 @@ import jax.numpy as jnp
 import numpy as np
 import tqdm
 
+from ble_latex import jax_cache
 from ble_latex.agents import baselines
-from ble_latex.agents import ensemble
-from ble_latex.agents import plan_config
-from ble_latex.agents import planners
-from ble_latex.agents import planning
-from ble_latex.agents import sac
-from ble_latex.agents import sac_core
+from ble_latex.agents.planning import agents as planners
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.planning import planner as planning
+from ble_latex.agents.sac import agent as sac
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import ensemble
 from ble_latex.ble import gym_env
 from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
 from ble_latex.envs import winds
-from ble_latex import jax_cache
 from ble_latex.run import metrics
 from ble_latex.run import planner_batch
 from ble_latex.run import records as records_lib

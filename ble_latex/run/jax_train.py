@@ -32,9 +32,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import errors
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac_core
-from ble_latex.agents import sac_trainer
+from ble_latex.agents.sac import pretrained
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import trainer as sac_trainer
 from ble_latex.envs import env_params as env_params_lib
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env

@@ -35,7 +35,7 @@ def _fly_functions(config: Any, env: Any):
   """Jitted: [N] new flights; [N] plans flown `replan_every` strides."""
   # pylint: disable=g-import-not-at-top
   import jax
-  from ble_latex.agents import planning
+  from ble_latex.agents.planning import planner as planning
   from ble_latex.envs import jax_env
   # pylint: enable=g-import-not-at-top
 
@@ -86,7 +86,7 @@ def fly_batch(config: Any, seeds: Sequence[int], max_steps: int,
   # pylint: disable=g-import-not-at-top
   import jax
   import jax.numpy as jnp
-  from ble_latex.agents import planning
+  from ble_latex.agents.planning import planner as planning
   from ble_latex.envs import env_params
   from ble_latex.envs import jax_env
   from ble_latex.run import metrics
@@ -199,7 +199,7 @@ def fly_planner(agent: str, bindings: Sequence[str], seeds: Sequence[int],
   """
   # pylint: disable=g-import-not-at-top
   import gin
-  from ble_latex.agents import plan_config
+  from ble_latex.agents.planning import config as plan_config
   from ble_latex.envs import env_params
   from ble_latex.run import gin_binding
   # pylint: enable=g-import-not-at-top

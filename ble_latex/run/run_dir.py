@@ -14,12 +14,12 @@ import os
 import re
 from typing import Any, Iterator, List, Mapping, Optional
 
-from ble_latex.agents import sac_core
-from ble_latex.envs import seeds as seeds_lib
-from ble_latex.run import episode_log
 from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex import safe_io
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.envs import seeds as seeds_lib
+from ble_latex.run import episode_log
 
 RUN_INFO = 'run.json'  # What a resumed run must agree with.
 POLICY_SNAPSHOT_PATTERN = re.compile(r'^policy_(\d{5,})\.msgpack$')

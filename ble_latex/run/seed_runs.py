@@ -70,9 +70,9 @@ def fly_held_out(suite_name: str, policy_path: str, output: str,
   summary (`metrics.summarize`)."""
   # pylint: disable=g-import-not-at-top
   import gym
-  from ble_latex.agents import sac
-  from ble_latex.run import gin_binding
+  from ble_latex.agents.sac import agent as sac
   from ble_latex.run import eval_lib
+  from ble_latex.run import gin_binding
   from ble_latex.run import metrics
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
@@ -103,7 +103,7 @@ def write_chosen_policy(run: str, seed: int, chosen: Dict[str, Any],
       round is kept.
   """
   # pylint: disable=g-import-not-at-top
-  from ble_latex.agents import pretrained
+  from ble_latex.agents.sac import pretrained
   from ble_latex.run import run_dir
   # pylint: enable=g-import-not-at-top
   source = run_dir.policy_snapshot_path(run, chosen['iteration'])

@@ -55,10 +55,10 @@ import numpy as np
 
 from ble_latex import errors
 from ble_latex import gin_values
+from ble_latex import safe_io
 from ble_latex.run import distributed
 from ble_latex.run import episode_log
 from ble_latex.run import selection
-from ble_latex import safe_io
 
 Literal = Union[bool, int, float, str]
 SAMPLED_KINDS = ('choice', 'uniform', 'loguniform', 'randint')
@@ -360,7 +360,7 @@ def check_points(settings: SweepSettings) -> None:
   for seed in settings.seeds:
     run_dir.check_training_seed(seed)
   with quiet.third_party_noise():  # Binding imports TF, dopamine, BLE.
-    from ble_latex.agents import sac_trainer
+    from ble_latex.agents.sac import trainer as sac_trainer
     # pylint: enable=g-import-not-at-top
     for index in range(len(settings.points)):
       try:
@@ -629,7 +629,7 @@ def write_outputs(settings: SweepSettings,
       f'# by mean validation TW50 over the window ({fmt(best["mean"])} ± '
       f'{fmt(best["std"])} % over {best["seeds"]} seed(s)).',
       '# ble-latex-train --trainer=jax --gin_file=THIS_FILE ...',
-      'import ble_latex.agents.sac_trainer',
+      'import ble_latex.agents.sac.trainer',
       *[f"include '{os.path.abspath(p)}'" for p in settings.gin_files],
       *settings.gin_bindings,
       *binding_lines(best['bindings'])]

@@ -14,15 +14,15 @@ import gin
 import gym
 
 from ble_latex import errors
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac
-from ble_latex.agents import sac_core
+from ble_latex import safe_io
+from ble_latex.agents.sac import agent as sac
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import pretrained
 from ble_latex.envs import env_params
 from ble_latex.run import collectors as collectors_lib
 from ble_latex.run import run_dir
 from ble_latex.run import runner
 from ble_latex.run import suites
-from ble_latex import safe_io
 
 
 def _reload_latest(agent: base_agent.Agent, checkpoint_dir: str) -> int:

@@ -20,8 +20,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import errors
-from ble_latex.agents import plan_config
-from ble_latex.agents import planning
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.planning import planner as planning
 from ble_latex.envs import jax_env
 from ble_latex.envs import winds
 

@@ -13,8 +13,8 @@ from typing import Any, Callable, Optional, Tuple
 import jax
 import jax.numpy as jnp
 
-from ble_latex.agents import plan_config
-from ble_latex.agents import plan_objective
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.planning import objective as plan_objective
 from ble_latex.envs import env_types
 from ble_latex.flight import state as state_lib
 

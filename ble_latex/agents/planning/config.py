@@ -4,7 +4,7 @@
 The settings of the three planners (`planning`'s module docstring) and their
 gin configurables `LatexMpcAgent`, `LatexMpcOracleAgent` and
 `LatexMpcGradAgent` (gin module `ble_latex.agents.planners`, where the BLE
-agents of those names live): each is a function of the config fields,
+agents of those names lived before `agents/planning/`): each is a function of the config fields,
 keyword-only, that returns the checked `PlannerConfig` of its planner
 (`PLANNERS`, `from_gin`). Pure Python and gin: no TensorFlow, Dopamine or
 BLE agent is imported here.
@@ -334,9 +334,10 @@ def check_batch(config: PlannerConfig, balloons: Any, owner: str = '',
 
 FIELDS = tuple(f.name for f in dataclasses.fields(PlannerConfig)
                if f.name != 'mode')
-# The gin module of the planners' configurables: that of the BLE agents of
-# the same names (`agents/planners.py`), so `ble_latex.agents.planners.
-# LatexMpcAgent.beam_width` keeps naming the binding it always named.
+# The gin module of the planners' configurables: where the BLE agents of the
+# same names lived (`agents/planners.py`, now `agents/planning/agents.py`), so
+# `ble_latex.agents.planners.LatexMpcAgent.beam_width` keeps naming the
+# binding it always named.
 GIN_MODULE = 'ble_latex.agents.planners'
 
 

@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ble_latex.agents import plan_config
+from ble_latex.agents.planning import config as plan_config
 from ble_latex.envs import env_types
 from ble_latex.envs import observed_winds
 from ble_latex.envs import winds

@@ -58,7 +58,7 @@ The pure functions here (`plan`, `plan_batch`, `initial_plans`,
 balloons: `plan_batch`); the config and its gin names are `plan_config`'s,
 the objective and winds `plan_objective`'s, the beam search `beam`'s. They
 import no TensorFlow, Dopamine or BLE agent: the BLE `Agent`s that fly them
-in `ble-latex-eval` are `agents/planners.py`'s.
+in `ble-latex-eval` are `agents/planning/agents.py`'s.
 """
 
 import functools
@@ -68,10 +68,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ble_latex.agents import beam
-from ble_latex.agents import plan_config
-from ble_latex.agents import plan_objective
-from ble_latex.agents import plan_value
+from ble_latex.agents.planning import beam
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.planning import objective as plan_objective
+from ble_latex.agents.planning import value as plan_value
 from ble_latex.envs import env_types
 from ble_latex.envs import winds
 from ble_latex.wind import noise_gp

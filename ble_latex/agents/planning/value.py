@@ -36,9 +36,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import errors
-from ble_latex.agents import networks
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac_core
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import networks
+from ble_latex.agents.sac import pretrained
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env

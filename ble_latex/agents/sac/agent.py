@@ -11,8 +11,8 @@ train-step schedule (`_train_step`), and the out-of-graph
 `OutOfGraphReplayBuffer` with its episode-end handling (transitions cut by a
 time limit are never bootstrapped across episodes). The SAC update, the
 optimizers, the soft target update and the checks of files are
-`ble_latex.agents.sac_core`'s (Dopamine's `sac_agent.train`, batched), the
-network `ble_latex.agents.networks`' (Dopamine's `SACNetwork` re-written):
+`ble_latex.agents.sac.core`'s (Dopamine's `sac_agent.train`, batched), the
+network `ble_latex.agents.sac.networks`' (Dopamine's `SACNetwork` re-written):
 both are shared with the jitted trainer, which imports no Dopamine.
 
 What this wrapper changes, and why:
@@ -32,13 +32,13 @@ What this wrapper changes, and why:
   PRNG key (Dopamine samples with NumPy's global RNG), so a seed fixes every
   action and every update.
 - Checkpoints are one msgpack file per iteration, data only, written
-  atomically and checked when read (`ble_latex.agents.sac_checkpoint`).
+  atomically and checked when read (`ble_latex.agents.sac.checkpoint`).
 - Observations and rewards are checked: NaN / inf / wrong shape raises a
   ValueError before any state changes.
 
 The hyperparameters' defaults are `sac_core.SACHyperparameters`' (shared
 with the jitted trainer). The critics can be changed (`critic`,
-`ble_latex.agents.networks`): Dopamine's MLPs (default), LayerNorm MLPs, or
+`ble_latex.agents.sac.networks`): Dopamine's MLPs (default), LayerNorm MLPs, or
 CrossQ's batch-norm critics without target networks; the actor is
 Dopamine's in every case.
 """
@@ -54,13 +54,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ble_latex.agents import networks
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac_checkpoint
-from ble_latex.agents import sac_core
+from ble_latex import errors
+from ble_latex.agents.sac import checkpoint as sac_checkpoint
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import networks
+from ble_latex.agents.sac import pretrained
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
-from ble_latex import errors
 from ble_latex.flight import params as params_lib
 
 _D = sac_core.SAC_DEFAULTS  # The keyword defaults below.
@@ -177,8 +177,9 @@ class _AgentHyperparameters(sac_core.SACHyperparameters):
   GIN_NAME = 'SACAgent'
 
 
-@gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
-                            'action_high'])
+@gin.configurable(module='ble_latex.agents.sac',
+                denylist=['num_actions', 'observation_shape', 'action_low',
+                          'action_high'])
 class SACAgent(sac_checkpoint.SACCheckpoints, agent.Agent,
                sac_agent.SACAgent):
   """Soft Actor-Critic with a Box action space, for BLE's train/eval loops."""
@@ -564,8 +565,9 @@ class SACAgent(sac_checkpoint.SACCheckpoints, agent.Agent,
     }
 
 
-@gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
-                            'action_high'])
+@gin.configurable(module='ble_latex.agents.sac',
+                denylist=['num_actions', 'observation_shape', 'action_low',
+                          'action_high'])
 class SACPretrainedAgent(SACAgent):
   """`SACAgent` with the shipped (or a given) policy loaded (`pretrained`)."""
 

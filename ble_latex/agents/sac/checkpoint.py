@@ -26,8 +26,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ble_latex.agents import sac_core
 from ble_latex import safe_io
+from ble_latex.agents.sac import core as sac_core
 
 _STORE_PREFIX = circular_replay_buffer.STORE_FILENAME_PREFIX
 

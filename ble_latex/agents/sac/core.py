@@ -21,11 +21,11 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from ble_latex.agents import networks
-from ble_latex.envs import env_params
 from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex import safe_io
+from ble_latex.agents.sac import networks
+from ble_latex.envs import env_params
 
 CHECKPOINT_FORMAT = 'ble_latex.sac/2'  # msgpack (`safe_io`).
 LEGACY_CHECKPOINT_FORMAT = 'ble_latex.sac/1'  # Pickles of ble_latex <= 0.1.

@@ -60,14 +60,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import errors
-from ble_latex.agents import plan_config
-from ble_latex.agents import plan_objective
-from ble_latex.agents import plan_value
-from ble_latex.agents import planners
-from ble_latex.agents import pretrained
-from ble_latex.agents import sac
-from ble_latex.agents import sac_core
-from ble_latex.agents import sac_trainer
+from ble_latex.agents.planning import agents as planners
+from ble_latex.agents.planning import config as plan_config
+from ble_latex.agents.planning import objective as plan_objective
+from ble_latex.agents.planning import value as plan_value
+from ble_latex.agents.sac import agent as sac
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import pretrained
+from ble_latex.agents.sac import trainer as sac_trainer
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
@@ -415,8 +415,9 @@ def choices(network_def: Any, members: Any, observations: Array) -> Array:
                      observations)
 
 
-@gin.configurable(denylist=['num_actions', 'observation_shape', 'action_low',
-                            'action_high'])
+@gin.configurable(module='ble_latex.agents.ensemble',
+                denylist=['num_actions', 'observation_shape', 'action_low',
+                          'action_high'])
 class SACEnsembleAgent(sac.SACPretrainedAgent):
   """K SAC policies; their critics choose among their actions (eval only).
 

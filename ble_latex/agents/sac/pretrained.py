@@ -29,16 +29,18 @@ one once gives a data-only file.
 import os
 from typing import Any, Dict, Mapping
 
-from ble_latex.agents import sac_core
 from ble_latex import errors
 from ble_latex import safe_io
+from ble_latex.agents.sac import core as sac_core
 
 POLICY_FORMAT = 'ble_latex-sac-policy-v2'  # msgpack (`safe_io`).
 LEGACY_POLICY_FORMAT = 'ble_latex-sac-policy-v1'  # Pickles of ble_latex <= 0.1.
 POLICY_SUFFIX = '.msgpack'
-DEFAULT_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
-                              'sac_latex' + POLICY_SUFFIX)
-REALISTIC_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
+# The shipped policies (package data of `ble_latex.agents`).
+POLICY_DIR = os.path.join(os.path.dirname(os.path.dirname(__file__)),
+                          'policies')
+DEFAULT_POLICY = os.path.join(POLICY_DIR, 'sac_latex' + POLICY_SUFFIX)
+REALISTIC_POLICY = os.path.join(POLICY_DIR,
                                 'sac_latex_realistic' + POLICY_SUFFIX)
 # `ensemble.SACEnsembleAgent`'s default members (agent `sac_ensemble`),
 # each seed's policy chosen on latex_validation: the SAC seeds trained on
@@ -50,8 +52,7 @@ REALISTIC_POLICY = os.path.join(os.path.dirname(__file__), 'policies',
 # best among the declared candidates (benchmarks/ensemble/results.json
 # `shipped`).
 SHIPPED_ENSEMBLE = tuple(
-    os.path.join(os.path.dirname(__file__), 'policies',
-                 f'sac_latex_{name}' + POLICY_SUFFIX)
+    os.path.join(POLICY_DIR, f'sac_latex_{name}' + POLICY_SUFFIX)
     for name in [f'drifts_{k}' for k in range(6)] +
     [f'memory_{k}' for k in range(5)] + ['both_0'])
 _KEPT = ('config', 'iteration', 'training_steps', 'network_params',

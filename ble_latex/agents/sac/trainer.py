@@ -50,8 +50,8 @@ import numpy as np
 import optax
 
 from ble_latex import gin_values
-from ble_latex.agents import networks
-from ble_latex.agents import sac_core
+from ble_latex.agents.sac import core as sac_core
+from ble_latex.agents.sac import networks
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
@@ -59,7 +59,9 @@ from ble_latex.envs import jax_env
 Array = jax.Array
 
 
-@gin.configurable('sac_trainer_config')
+# Its gin module string is the module's old name (records name it).
+@gin.configurable('sac_trainer_config',
+                  module='ble_latex.agents.sac_trainer')
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class TrainerConfig(sac_core.SACHyperparameters):
   """The jitted trainer's settings (gin: `sac_trainer_config.*`).
