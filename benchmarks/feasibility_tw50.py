@@ -48,12 +48,12 @@ def flown_stations(path: str, seeds, old_global_box: bool) -> np.ndarray:
   import jax.numpy as jnp
   from ble_latex.envs import env_params
   from ble_latex.envs import jax_env
-  from ble_latex.wind import era5
+  from ble_latex.wind import gridded
   from ble_latex.wind import stations
   # pylint: enable=g-import-not-at-top
   params = env_params.params_from_gin(wind_file=path)
   if old_global_box:
-    data = era5.load(path)
+    data = gridded.load(path)
     box = stations.station_box(data.latitude, data.longitude[:-1],
                                stations.DEFAULT_MARGIN_KM,
                                global_longitude=False)
@@ -82,8 +82,8 @@ def main():
   if safe_io.output_problem(args.json):
     parser.error(f'--json: {safe_io.output_problem(args.json)}')
   # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5
   from ble_latex.wind import feasibility
+  from ble_latex.wind import gridded
   # pylint: enable=g-import-not-at-top
   cells = json.load(open(args.record, encoding='utf-8'))['cells']
   now = dt.datetime.now(dt.timezone.utc)
@@ -104,7 +104,7 @@ def main():
     path = os.path.normpath(os.path.join(REAL, cell['settings']['file']))
     seeds = [f['seed'] for f in cell['flights']]
     if source not in by_source:
-      data = era5.load(path)
+      data = gridded.load(path)
       station = flown_stations(path, seeds, data.global_longitude)
       margin = np.array([feasibility.at(data, lat, lon)[0].margin_mps
                          for lat, lon in station])

@@ -1,5 +1,5 @@
 # coding=utf-8
-"""How long `era5.load` takes on many GRIB2 files of one run (issue 64).
+"""How long `gridded.load` takes on many GRIB2 files of one run (issue 64).
 
 Writes `--files` copies of a GFS GRIB2 file (default: the shared +72 h
 global file, ~350 messages of which 52 are u/v on pressure levels) with
@@ -25,10 +25,10 @@ import time
 import numpy as np
 
 from ble_latex import safe_io
-from ble_latex.wind import analysis
-from ble_latex.wind import era5
-from ble_latex.wind import era5_checks
 from ble_latex.run import episode_log
+from ble_latex.wind import analysis
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_checks
 
 DEFAULT_GRIB = ('/work/shared/realdata/winds/'
                 'gfs_2011-10-08T00Z_f072_global_2p5deg.grib2')
@@ -67,7 +67,7 @@ def open_grib_before(path, label, folder):
   stream = cfgrib.FileStream(path, errors='raise')
   messages = [m for _, m in stream.items()]
   points = sum(int(m['numberOfDataPoints']) for m in messages)
-  era5_checks.check_size(path, (points,), label=label)
+  gridded_checks.check_size(path, (points,), label=label)
   analysis._check_unique_messages(path, label, messages)  # pylint: disable=protected-access
   parts = []
   with analysis._quiet_cfgrib():  # pylint: disable=protected-access
@@ -81,9 +81,9 @@ def open_grib_before(path, label, folder):
 
 
 def timed_load(paths):
-  era5._load_cached.cache_clear()  # pylint: disable=protected-access
+  gridded._load_cached.cache_clear()  # pylint: disable=protected-access
   start = time.perf_counter()
-  data = era5.load(paths)
+  data = gridded.load(paths)
   return time.perf_counter() - start, data
 
 

@@ -26,10 +26,10 @@ Stations (--station_mode, recorded in each cell):
     sounding's is its launch site (`SOURCES`; a sounding is the same column
     everywhere, the site only places the sun; `wind.sources.center`);
   * `per_seed` (GFS grids only): seed s at station s of the domain (issue 45
-    item 4): binds `Era5WindField.stations = 'per_seed'`, plus any
-    --station_bindings (e.g. `Era5WindField.station_margin_km = 400`); the
+    item 4): binds `GriddedWindField.stations = 'per_seed'`, plus any
+    --station_bindings (e.g. `GriddedWindField.station_margin_km = 400`); the
     bindings are recorded. The per-seed stations were being added to envs/
-    and wind/era5* when this script was written: until they land this mode
+    and wind/gridded* when this script was written: until they land this mode
     fails on the unknown binding.
 
 The record (--json) holds one entry per cell under 'cells': its settings,
@@ -153,10 +153,10 @@ def settings(name: str, agent: str, path: str) -> Dict[str, Any]:
   cells flown before it was recorded (at scale 1) are refused on resume.
   """
   # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5
   from ble_latex.wind import forecast_error
+  from ble_latex.wind import gridded
   # pylint: enable=g-import-not-at-top
-  scale = forecast_error.noise_scale(None, era5.load(path).source)
+  scale = forecast_error.noise_scale(None, gridded.load(path).source)
   return {'source': name, 'file': os.path.relpath(path, FLAGS.realdata_dir),
           'agent': agent, 'suite': FLAGS.suite,
           'max_steps': FLAGS.max_episode_length,

@@ -14,7 +14,7 @@ batched path for the JAX-core agents) on the `--wind_file` bindings
 flight time-invariant (the snapshot is the forecast, the truth the snapshot
 plus BLE's simplex noise). The eval records hold each flight's path in its
 station's frame (x east, y north [km]); `jax_env.flight_stations` gives each
-seed's station and `era5.latlng_of_offset` (BLE's great-circle offset, the
+seed's station and `globe.latlng_of_offset` (BLE's great-circle offset, the
 one the wind field reads the file with) turns the path into lat/lon.
 
 The PNG (--png): one panel per agent, lat/lon axes over the file's domain
@@ -40,10 +40,10 @@ from absl import flags
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import episode_log
 from ble_latex.run import provenance
 from ble_latex.run import wind_file
 from ble_latex.wind import sources
-from ble_latex.run import episode_log
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 _ROOT = os.path.dirname(_HERE)
@@ -119,12 +119,12 @@ def fly(path: str, agent: str, seeds: Sequence[int], suite: str,
 
 def track_latlon(record: Dict[str, Any]) -> Tuple[List[float], List[float]]:
   """A record's flight path in (lat, lon) [deg], from its station's frame."""
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import globe  # pylint: disable=g-import-not-at-top
   lats, lons = [], []
   for p in record['flight_path']:
-    lat, lon = era5.latlng_of_offset(record['station_lat'],
-                                     record['station_lon'],
-                                     1e3 * p['x_km'], 1e3 * p['y_km'])
+    lat, lon = globe.latlng_of_offset(record['station_lat'],
+                                      record['station_lon'],
+                                      1e3 * p['x_km'], 1e3 * p['y_km'])
     lats.append(lat)
     lons.append(lon)
   return lats, lons
@@ -134,9 +134,9 @@ def circle_latlon(lat: float, lon: float, radius_km: float,
                   points: int = 73) -> Tuple[List[float], List[float]]:
   """The circle `radius_km` around (lat, lon), in (lat, lon) [deg]."""
   import numpy as np  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
-  out = [era5.latlng_of_offset(lat, lon, 1e3 * radius_km * np.sin(a),
-                               1e3 * radius_km * np.cos(a))
+  from ble_latex.wind import globe  # pylint: disable=g-import-not-at-top
+  out = [globe.latlng_of_offset(lat, lon, 1e3 * radius_km * np.sin(a),
+                                1e3 * radius_km * np.cos(a))
          for a in np.linspace(0.0, 2.0 * np.pi, points)]
   return [p[0] for p in out], [p[1] for p in out]
 
@@ -149,9 +149,9 @@ def draw(path: str, title: str, panels: Dict[str, List[Dict[str, Any]]],
   from matplotlib import patches as mpl_patches
   from matplotlib.backends import backend_agg
   import numpy as np
-  from ble_latex.wind import era5
+  from ble_latex.wind import gridded
   # pylint: enable=g-import-not-at-top
-  data = era5.load(path)
+  data = gridded.load(path)
   west, east = data.longitude[0], data.longitude[-1]
   west, east = (float((lon + 180.0) % 360.0 - 180.0) for lon in (west, east))
   south, north = sorted((float(data.latitude[0]), float(data.latitude[-1])))
@@ -269,7 +269,7 @@ def run(*, source: str, path: str, agents: Sequence[str], seeds: int,
       'max_steps': max_steps, 'station_mode': 'per_seed',
       **wind_file.station_settings(source, path, 'per_seed',
                                    station_bindings),
-      'track_coordinates': 'lat/lon (era5.latlng_of_offset of the station '
+      'track_coordinates': 'lat/lon (globe.latlng_of_offset of the station '
                            'frame)',
       'radius_km': radius_km, 'png': _shown(png),
       'runs': runs, 'flights': flights}

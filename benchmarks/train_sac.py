@@ -57,7 +57,7 @@ flags.DEFINE_string('output', None, 'select: write the chosen policy here.',
                     flag_values=FLAGS)
 flags.DEFINE_string('era5_path', None, 'select: fly the validation on this '
                     'ERA5 file, flights starting in the validation dates '
-                    '(ble_latex.wind.era5.DATE_SPLITS; docs/era5.md).',
+                    '(ble_latex.wind.gridded.DATE_SPLITS; docs/era5.md).',
                     flag_values=FLAGS)
 
 

@@ -20,7 +20,7 @@ import sys
 
 import numpy as np
 
-from ble_latex.wind import era5
+from ble_latex.wind import gridded
 
 DEFAULT = os.path.join(os.path.dirname(__file__), '..', '..', 'shared',
                        'realdata', 'winds',
@@ -29,7 +29,7 @@ DEFAULT = os.path.join(os.path.dirname(__file__), '..', '..', 'shared',
 
 def main(argv):
   path = os.path.abspath(argv[1] if len(argv) > 1 else DEFAULT)
-  data = era5.load(path)
+  data = gridded.load(path)
   if not data.global_longitude:
     sys.exit(f'wind_seam: {path} is not a global grid')
   now_utc = dt.datetime.now(dt.timezone.utc)

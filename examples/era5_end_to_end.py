@@ -11,7 +11,7 @@ docs/era5.md's pipeline through the real commands, each a subprocess:
    or else a small synthetic NetCDF of the paper's period written here
    (1 Nov 2022 - 31 Jan 2023, 6-hourly, 7 levels 20-175 hPa, +-4 deg around
    the station at 1 deg, random winds; CDS's current layout, which
-   `ble_latex.wind.era5.load` reads and checks);
+   `ble_latex.wind.gridded.load` reads and checks);
 2. `ble-latex-train --trainer=jax --era5_path=FILE` on the training dates,
    a policy snapshot every `--snapshot_period` rounds, each flown on
    `--validation_episodes` latex_validation seeds on the validation dates

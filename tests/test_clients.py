@@ -100,7 +100,7 @@ def test_era5_end_to_end(tmp_path):
   # Trained on the synthetic file's training dates, then the chosen snapshot
   # flew latex_micro's one held-out seed for 3 steps on the eval dates.
   config = (work / 'run' / 'operative_config.gin').read_text()
-  assert "Era5WindField.start_dates = 'train'" in config
+  assert "GriddedWindField.start_dates = 'train'" in config
   assert summary['era5_path'] in config
   assert summary['chosen_iteration'] == 0
   assert 0.0 <= summary['validation_tw50'] <= 1.0

@@ -4,7 +4,7 @@
 The tests write small local Zarr stores shaped like Google's public
 ARCO-ERA5 store (variables `u_component_of_wind`, `v_component_of_wind` on
 (time, level [millibars], latitude descending, longitude 0..360), hourly)
-whose winds are the multi-linear functions of tests/test_era5.py, so the
+whose winds are the multi-linear functions of tests/test_gridded.py, so the
 written files can be checked exactly. No network, no gcsfs.
 """
 
@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from ble_latex.ble import era5_field
+from ble_latex.ble import gridded_field
 from ble_latex.cli import download_era5
-from ble_latex.wind import era5
 from ble_latex.wind import era5_arco
 from ble_latex.wind import era5_requests
-import test_era5  # pylint: disable=g-bad-import-order
+from ble_latex.wind import gridded
+import test_gridded  # pylint: disable=g-bad-import-order
 
 pytest.importorskip('zarr')
 
@@ -47,11 +47,11 @@ def write_store(path, *, lat=np.arange(4.0, -2.01, -0.25),
   chunk never written).
   """
   times = T0 + np.arange(hours) * np.timedelta64(1, 'h')
-  t_h = (times - test_era5.T0) / np.timedelta64(1, 'h')
+  t_h = (times - test_gridded.T0) / np.timedelta64(1, 'h')
   tt, pp, la, lo = np.meshgrid(t_h, levels_hpa, lat, lon, indexing='ij')
   lon_true = (lo + 180.0) % 360.0 - 180.0
-  winds = {'u_component_of_wind': test_era5.wind_u(tt, pp, la, lon_true),
-           'v_component_of_wind': test_era5.wind_v(tt, pp, la, lon_true)}
+  winds = {'u_component_of_wind': test_gridded.wind_u(tt, pp, la, lon_true),
+           'v_component_of_wind': test_gridded.wind_v(tt, pp, la, lon_true)}
   if nan_at is not None:
     winds['u_component_of_wind'][nan_at] = np.nan
   dims = ('time', 'level', 'latitude', 'longitude')
@@ -103,7 +103,7 @@ def test_fetch_writes_the_cds_layout_era5_load_reads(store, tmp_path):
     assert dataset['u'].dims == ('valid_time', 'pressure_level', 'latitude',
                                  'longitude')
     assert dataset['pressure_level'].attrs['units'] == 'hPa'
-  data = era5.load(output)
+  data = gridded.load(output)
   np.testing.assert_array_equal(
       data.times, T0 + np.arange(4) * np.timedelta64(6, 'h'))
   np.testing.assert_array_equal(data.pressure, 100.0 * np.array(
@@ -113,9 +113,9 @@ def test_fetch_writes_the_cds_layout_era5_load_reads(store, tmp_path):
   np.testing.assert_allclose(data.longitude, np.arange(-115.0, -110.99, 0.25))
   t, p, la, lo = np.meshgrid(data.time_s / 3600.0, data.pressure / 100.0,
                              data.latitude, data.longitude, indexing='ij')
-  np.testing.assert_allclose(data.uv[..., 0], test_era5.wind_u(t, p, la, lo),
+  np.testing.assert_allclose(data.uv[..., 0], test_gridded.wind_u(t, p, la, lo),
                              rtol=1e-6, atol=1e-5)
-  np.testing.assert_allclose(data.uv[..., 1], test_era5.wind_v(t, p, la, lo),
+  np.testing.assert_allclose(data.uv[..., 1], test_gridded.wind_v(t, p, la, lo),
                              rtol=1e-6, atol=1e-5)
   assert sorted(os.listdir(tmp_path)) == ['era5.nc']
 
@@ -127,11 +127,11 @@ def test_area_across_the_stores_longitude_seam(tmp_path):
       requests(center_lat=1.0, center_lon=0.0, half_width_deg=1.0,
                times=('00:00', '06:00')),
       str(tmp_path / 'era5.nc'), store=store)
-  data = era5.load(output)
+  data = gridded.load(output)
   np.testing.assert_array_equal(data.longitude, [-1.0, 0.0, 1.0])
   np.testing.assert_allclose(
       data.interpolate(0.0, 5000.0, 1.0, -1.0)[0],
-      test_era5.wind_u(-0.0, 50.0, 1.0, -1.0), rtol=1e-6)
+      test_gridded.wind_u(-0.0, 50.0, 1.0, -1.0), rtol=1e-6)
 
 
 def test_command_writes_a_file_the_wind_field_flies(store, tmp_path, capsys):
@@ -140,7 +140,7 @@ def test_command_writes_a_file_the_wind_field_flies(store, tmp_path, capsys):
           *AREA]
   assert download_era5.main(argv) == 0
   assert f'wrote {output}: 4 times' in capsys.readouterr().out
-  field = era5_field.Era5WindField(path=output, episode_hours=12.0)
+  field = gridded_field.GriddedWindField(path=output, episode_hours=12.0)
   assert field.data.uv.shape == (4, 8, 17, 17, 2)
 
 

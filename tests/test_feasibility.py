@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.wind import era5
 from ble_latex.wind import feasibility
+from ble_latex.wind import gridded
 
 DATA = pathlib.Path(__file__).resolve().parent / 'data' / 'realwinds'
 HILO = DATA / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv'
@@ -87,7 +87,7 @@ def test_soundings_hilo_inside_boise_outside():
 
 
 def test_grid_map_and_point_agree_on_nodes():
-  data = era5.load(str(GRIB))
+  data = gridded.load(str(GRIB))
   fmap = feasibility.grid_map(data)
   assert fmap.margin_mps.shape == (data.latitude.size,
                                    data.longitude.size -
@@ -143,7 +143,7 @@ def test_plot_command_usage_errors(tmp_path, capsys):
 
 def test_launch_keeps_feasible_stations_only():
   from ble_latex.launch import sites  # pylint: disable=g-import-not-at-top
-  data = era5.load(str(GRIB))
+  data = gridded.load(str(GRIB))
   fmap = feasibility.grid_map(data)
   i_in, j_in = np.argwhere(fmap.margin_mps > 0.5)[0]
   i_out, j_out = np.argwhere(fmap.margin_mps < -5.0)[0]

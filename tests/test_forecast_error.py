@@ -10,9 +10,10 @@ import pytest
 
 from ble_latex import errors
 from ble_latex.envs import winds
-from ble_latex.wind import era5
-from ble_latex.wind import era5_jax
 from ble_latex.wind import forecast_error
+from ble_latex.wind import globe
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import simplex
 
 HILO = str(pathlib.Path(__file__).resolve().parent / 'data' / 'realwinds' /
@@ -32,8 +33,8 @@ def test_default_scale_by_source():
 
 @pytest.mark.parametrize('bad', [-1.0, float('nan'), True, '2', [1]])
 def test_bad_scale_is_one_line(bad):
-  with pytest.raises(errors.ConfigError, match='Era5WindField.noise_scale'):
-    era5.Era5Settings(path=HILO, noise_scale=bad)
+  with pytest.raises(errors.ConfigError, match='GriddedWindField.noise_scale'):
+    gridded.Era5Settings(path=HILO, noise_scale=bad)
 
 
 def _fake_noise(noise_u, noise_v, x_km, y_km, pressure, hours):
@@ -58,40 +59,40 @@ def _truth_minus_forecast(grid):
 
 def test_truth_noise_scales_on_the_device(monkeypatch):
   monkeypatch.setattr(simplex, 'wind_noise_uv', _fake_noise)
-  data = era5.load(HILO)
-  one = _truth_minus_forecast(era5_jax.grid_from_data(data, noise_scale=1.0))
+  data = gridded.load(HILO)
+  one = _truth_minus_forecast(gridded_jax.grid_from_data(data, noise_scale=1.0))
   x = np.linspace(-200.0, 200.0, 64)
   np.testing.assert_allclose(
       one[0], 0.3 + 1e-3 * x + 1e-5 * np.linspace(5000.0, 15000.0, 64),
       atol=1e-5)
-  default = era5_jax.grid_from_data(data)  # A sounding: the realistic size.
+  default = gridded_jax.grid_from_data(data)  # A sounding: the realistic size.
   assert default.noise_scale == pytest.approx(2.5 / 1.045)
   np.testing.assert_allclose(_truth_minus_forecast(default),
                              default.noise_scale * one, atol=1e-5)
-  zero = era5_jax.grid_from_data(data, noise_scale=0.0)
+  zero = gridded_jax.grid_from_data(data, noise_scale=0.0)
   assert not np.any(_truth_minus_forecast(zero))
 
 
 def test_gin_settings_reach_the_grid():
-  grid = era5_jax.grid_from_settings(era5.Era5Settings(path=HILO,
+  grid = gridded_jax.grid_from_settings(gridded.Era5Settings(path=HILO,
                                                        noise_scale=1.5))
   assert grid.noise_scale == 1.5
-  assert era5_jax.grid_from_settings(
-      era5.Era5Settings(path=HILO)).noise_scale == pytest.approx(2.5 / 1.045)
+  assert gridded_jax.grid_from_settings(
+      gridded.Era5Settings(path=HILO)).noise_scale == pytest.approx(2.5 / 1.045)
 
 
 def test_ble_field_object_scales_its_noise(tmp_path):
   import datetime as dt  # pylint: disable=g-import-not-at-top
   import jax  # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.utils import units  # pylint: disable=g-import-not-at-top
-  from ble_latex.ble import era5_field  # pylint: disable=g-import-not-at-top
-  import test_era5  # pylint: disable=g-import-not-at-top
-  path = test_era5.write_era5(tmp_path / 'era5.nc')
+  from ble_latex.ble import gridded_field  # pylint: disable=g-import-not-at-top
+  import test_gridded  # pylint: disable=g-import-not-at-top
+  path = test_gridded.write_era5(tmp_path / 'era5.nc')
   args = (units.Distance(km=20.0), units.Distance(km=-10.0), 8000.0,
           dt.timedelta(hours=1))
   differences = {}
   for scale in (None, 1.0, 2.5, 0.0):
-    field = era5_field.Era5WindField(path=path, episode_hours=6.0,
+    field = gridded_field.GriddedWindField(path=path, episode_hours=6.0,
                                      noise_scale=scale)
     field.reset(jax.random.PRNGKey(7), dt.datetime(2013, 1, 1))
     truth, forecast = field.get_ground_truth(*args), field.get_forecast(*args)
@@ -106,29 +107,29 @@ def test_ble_field_object_scales_its_noise(tmp_path):
 
 
 def _pair(tmp_path, **truth_kwargs):
-  import test_era5  # pylint: disable=g-import-not-at-top
-  forecast = test_era5.write_era5(tmp_path / 'forecast.nc')
-  truth_kwargs.setdefault('t0', test_era5.T0 - np.timedelta64(12, 'h'))
-  truth = test_era5.write_era5(tmp_path / 'truth.nc', **truth_kwargs)
+  import test_gridded  # pylint: disable=g-import-not-at-top
+  forecast = test_gridded.write_era5(tmp_path / 'forecast.nc')
+  truth_kwargs.setdefault('t0', test_gridded.T0 - np.timedelta64(12, 'h'))
+  truth = test_gridded.write_era5(tmp_path / 'truth.nc', **truth_kwargs)
   return forecast, truth
 
 
 def test_two_sources_truth_from_the_second_file(tmp_path):
-  import test_era5  # pylint: disable=g-import-not-at-top
+  import test_gridded  # pylint: disable=g-import-not-at-top
   # The truth: other winds (another time origin), on a wider grid and a
   # longer time range than the forecast's.
   forecast_path, truth_path = _pair(
       tmp_path, lat=np.arange(5.0, -3.5, -0.5), lon=np.arange(-117.0, -108.5,
                                                               0.5),
-      times=test_era5.T0 + np.arange(-1, 5) * np.timedelta64(6, 'h'))
-  settings = era5.Era5Settings(path=forecast_path, truth_path=truth_path,
-                               center_lat=1.0, center_lon=-113.0,
-                               episode_hours=6.0)
-  grid = era5_jax.grid_from_settings(settings)
+      times=test_gridded.T0 + np.arange(-1, 5) * np.timedelta64(6, 'h'))
+  settings = gridded.Era5Settings(path=forecast_path, truth_path=truth_path,
+                                  center_lat=1.0, center_lon=-113.0,
+                                  episode_hours=6.0)
+  grid = gridded_jax.grid_from_settings(settings)
   assert grid.noise_scale == 0.0  # The truth file is the error.
-  data = era5.load(forecast_path)
-  truth = era5.load(truth_path)
-  t_h = (data.times[:, None, None, None] - test_era5.T0) / np.timedelta64(
+  data = gridded.load(forecast_path)
+  truth = gridded.load(truth_path)
+  t_h = (data.times[:, None, None, None] - test_gridded.T0) / np.timedelta64(
       1, 'h')
   p = data.pressure[None, :, None, None] / 100.0
   lat = data.latitude[None, None, :, None]
@@ -136,7 +137,7 @@ def test_two_sources_truth_from_the_second_file(tmp_path):
   # The truth's own multi-linear field, 12 h later than its origin.
   np.testing.assert_allclose(
       np.asarray(grid.truth_uv[..., 0]),
-      np.broadcast_to(test_era5.wind_u(t_h + 12.0, p, lat, lon),
+      np.broadcast_to(test_gridded.wind_u(t_h + 12.0, p, lat, lon),
                       grid.truth_uv.shape[:-1]), rtol=1e-5, atol=1e-4)
   np.testing.assert_allclose(np.asarray(grid.uv), data.uv, rtol=1e-6)
   state = types.SimpleNamespace(
@@ -147,8 +148,8 @@ def test_two_sources_truth_from_the_second_file(tmp_path):
   args = (x, x, jnp.full(8, 7000.0), jnp.linspace(0.0, 3e4, 8))
   got_truth = np.stack(wind.ground_truth(state, *args))
   got_forecast = np.stack(wind.forecast_column(state, *args))
-  lats, lons = np.array([era5.latlng_of_offset(1.0, -113.0, float(d),
-                                                float(d)) for d in x]).T
+  lats, lons = np.array([globe.latlng_of_offset(1.0, -113.0, float(d),
+                                              float(d)) for d in x]).T
   # The truth file starts 6 h before the forecast.
   want_truth = truth.interpolate(np.asarray(args[3]) + 6 * 3600.0, 7000.0,
                                  lats, lons)
@@ -160,16 +161,16 @@ def test_two_sources_truth_from_the_second_file(tmp_path):
 
 
 def test_two_sources_refuse_a_truth_that_misses_the_forecast(tmp_path):
-  import test_era5  # pylint: disable=g-import-not-at-top
+  import test_gridded  # pylint: disable=g-import-not-at-top
   forecast_path, late = _pair(
-      tmp_path, times=test_era5.TIMES + np.timedelta64(6, 'h'))
+      tmp_path, times=test_gridded.TIMES + np.timedelta64(6, 'h'))
   with pytest.raises(errors.ConfigError, match="valid times"):
-    era5_jax.grid_from_settings(era5.Era5Settings(
+    gridded_jax.grid_from_settings(gridded.Era5Settings(
         path=forecast_path, truth_path=late, episode_hours=6.0))
-  small = test_era5.write_era5(tmp_path / 'small.nc',
-                               lat=np.array([2.0, 1.0, 0.0, -1.0, -2.0]))
+  small = test_gridded.write_era5(tmp_path / 'small.nc',
+                                  lat=np.array([2.0, 1.0, 0.0, -1.0, -2.0]))
   with pytest.raises(errors.ConfigError, match="does not cover"):
-    era5_jax.grid_from_settings(era5.Era5Settings(
+    gridded_jax.grid_from_settings(gridded.Era5Settings(
         path=forecast_path, truth_path=small, episode_hours=6.0))
 
 

@@ -5,7 +5,7 @@ No network: a `http.server` on 127.0.0.1 in a thread answers the filter's
 requests from the committed GRIB2 slice (a GFS run's +72 h u/v, 2.5 deg,
 tests/data/realwinds/PROVENANCE.md) as the filter would: only the asked
 variables and levels, cut to the asked box, stamped with the asked run and
-forecast hour (eccodes). The downloads must load with `era5.load`, the
+forecast hour (eccodes). The downloads must load with `gridded.load`, the
 loader `--wind_file` uses.
 """
 
@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 
 from ble_latex.cli import download_gfs
-from ble_latex.wind import era5
 from ble_latex.wind import gfs_requests as gfs
+from ble_latex.wind import gridded
 
 SLICE = os.path.join(os.path.dirname(__file__), 'data', 'realwinds',
                      'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
@@ -195,7 +195,7 @@ def test_download_loads_and_resumes(standin, tmp_path):
   # Every requested level from 10 to 1000 hPa; the slice holds 10-250.
   assert {k for k in standin.requests[0] if k.startswith('lev_')} == {
       f'lev_{p}_mb' for p in gfs.GFS_LEVELS_HPA if 10 <= p <= 1000}
-  data = era5.load(paths)  # What --wind_file loads.
+  data = gridded.load(paths)  # What --wind_file loads.
   assert data.source == 'GRIB2' and not data.time_invariant
   assert data.description == 'GRIB2 run 2026-12-05T00Z +0..+3 h'
   assert [str(t)[:16] for t in data.times] == ['2026-12-05T00:00',
@@ -256,7 +256,7 @@ def test_command(standin, tmp_path, capsys):
   assert code == 0, err
   assert 'wrote 2 file(s): GRIB2 run 2026-12-05T00Z +0..+3 h' in out
   assert f"--wind_file='{out_dir}/gfs_20261205T00Z_f*.grib2'" in out
-  assert era5.load(f'{out_dir}/gfs_20261205T00Z_f*.grib2').times.size == 2
+  assert gridded.load(f'{out_dir}/gfs_20261205T00Z_f*.grib2').times.size == 2
   # Usage errors (exit 2) and failures (exit 1): one line each.
   for args, status, message in (
       ([], 2, '--run is required'),

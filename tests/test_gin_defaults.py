@@ -34,7 +34,7 @@ DIFFERS = {
     ('paper_era5.gin', 'latex_episode.wind_field_factory'):
         "the paper's ERA5 winds instead of BLE's generative field: the file's "
         'purpose',
-    ('paper_era5.gin', 'Era5WindField.path'):
+    ('paper_era5.gin', 'GriddedWindField.path'):
         'a required argument (no default): the file the README downloads',
     ('latex_realistic_task.gin', 'latex_launch.sand_kg'):
         'the realistic task\'s resources (issue 63): ValBal\'s ballast '

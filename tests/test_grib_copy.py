@@ -11,8 +11,8 @@ import pytest
 import xarray as xr
 
 from ble_latex import errors
-from ble_latex.wind import era5
 from ble_latex.wind import grib_copy
+from ble_latex.wind import gridded
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
                     'realwinds')
@@ -23,8 +23,8 @@ HILO = os.path.join(DATA, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
 def test_the_copy_reads_to_the_grib_arrays_and_names_its_writer(tmp_path):
   out = str(tmp_path / 'copy.nc')
   sha = grib_copy.write_netcdf_copy(GFS_GRIB, out, by='a test')
-  original = era5.read_source(GFS_GRIB)[1]
-  copy = era5.read_source(out)[1]
+  original = gridded.read_source(GFS_GRIB)[1]
+  copy = gridded.read_source(out)[1]
   for a, b in zip(original, copy):
     np.testing.assert_array_equal(a, b)
   assert sha == grib_copy.digest(original) == grib_copy.digest(copy)

@@ -183,11 +183,11 @@ def test_eval_refusals_are_one_line(argv, needle, tmp_path, capsys):
 
 
 def test_era5_dates_that_overflow_are_a_config_error():
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
   for pair in (('0001-01-01T00:00+01:00', '2022-01-01'),
                ('2022-01-01', '9999-12-31T23:00-05:00')):
     with pytest.raises(errors.ConfigError, match='years 1..9999'):
-      era5.start_dates_range(pair)
+      gridded.start_dates_range(pair)
 
 
 # -- Items 18, 19: policy files hold only what write_tree stores. -----------
@@ -237,11 +237,11 @@ def test_export_policy_to_a_pickle_name_is_a_usage_error(tmp_path, capsys):
 
 # -- Item 7: levels outside a wind source are refused, not clamped. ---------
 def test_wind_stats_levels_outside_the_file_are_refused(tmp_path, capsys):
-  import test_era5  # pylint: disable=g-import-not-at-top
+  import test_gridded  # pylint: disable=g-import-not-at-top
   import jax  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import stats  # pylint: disable=g-import-not-at-top
-  era5_file = test_era5.write_era5(tmp_path / 'era5.nc')  # 5000..10000 Pa.
+  era5_file = test_gridded.write_era5(tmp_path / 'era5.nc')  # 5000..10000 Pa.
   for levels in ([1.0, 2.0], [5000.0, 20000.0], [float('nan'), 5000.0]):
     with pytest.raises(errors.ConfigError, match='outside ERA5 file'):
       stats.sample_era5(era5_file, levels, num_samples=5)
@@ -269,7 +269,7 @@ def _settings_builders():
   from ble_latex.agents.sac import trainer as sac_trainer
   from ble_latex.envs import env_params
   from ble_latex.run import dagger
-  from ble_latex.wind import era5
+  from ble_latex.wind import gridded
   # pylint: enable=g-import-not-at-top
   env = env_params.params_from_gin
   return {'latex_start': env, 'latex_episode': env,
@@ -277,12 +277,12 @@ def _settings_builders():
           'latex_launch': env,
           'LatexMpcAgent': lambda: plan_config.from_gin('latex_mpc'),
           'sac_trainer_config': sac_trainer.TrainerConfig,
-          'dagger_config': dagger.DaggerConfig, 'Era5WindField': era5.settings}
+          'dagger_config': dagger.DaggerConfig, 'GriddedWindField': gridded.settings}
 
 
 def test_every_settings_binding_is_accepted_or_one_line_naming_it():
   # A list, dict or string where a number or name goes was a TypeError
-  # traceback in two places (Era5WindField.stations, dagger_config.teacher).
+  # traceback in two places (GriddedWindField.stations, dagger_config.teacher).
   import inspect  # pylint: disable=g-import-not-at-top
   builders = _settings_builders()
   wind_file = str(pathlib.Path(__file__).parent / 'data' / 'realwinds' /
@@ -298,8 +298,8 @@ def test_every_settings_binding_is_accepted_or_one_line_naming_it():
         for value in _ODD_VALUES:
           gin.clear_config()
           gin.parse_config(f'{name}.{param} = {value}')
-          if name == 'Era5WindField':
-            gin.parse_config(f'Era5WindField.path = {wind_file!r}')
+          if name == 'GriddedWindField':
+            gin.parse_config(f'GriddedWindField.path = {wind_file!r}')
           tried += 1
           try:
             build()

@@ -115,9 +115,9 @@ def test_launch_library_grid_is_bounded_before_meshgrid():
 
 
 def test_launch_date_at_the_end_of_time_is_one_line(tmp_path, capsys):
-  import test_era5  # pylint: disable=g-import-not-at-top
+  import test_gridded  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import launch  # pylint: disable=g-import-not-at-top
-  path = test_era5.write_era5(tmp_path / 'era5.nc')
+  path = test_gridded.write_era5(tmp_path / 'era5.nc')
   assert launch.main([f'--output_dir={tmp_path / "o"}', f'--wind_file={path}',
                       '--date=9999-12-31T23:59', '--grid=1,1,1',
                       '--max_steps=1', '--draws=1']) == 2
@@ -207,11 +207,11 @@ def test_a_fifo_is_not_read_as_a_policy(tmp_path):
 
 def test_the_wind_memory_guard_uses_available_memory(monkeypatch):
   from ble_latex import safe_io  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5_checks  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded_checks  # pylint: disable=g-import-not-at-top
   monkeypatch.setattr(safe_io, 'available_memory_bytes', lambda: 10**6)
-  assert era5_checks.memory_bytes() == 10**6
+  assert gridded_checks.memory_bytes() == 10**6
   with pytest.raises(errors.BadFileError, match='available now'):
-    era5_checks.check_size('f.nc', (10, 10, 10, 1000))
+    gridded_checks.check_size('f.nc', (10, 10, 10, 1000))
 
 
 # -- Item 16: the Gymnasium vector env's num_envs is capped. ----------------
@@ -258,9 +258,9 @@ def test_policy_select_output_folder_checked_first(tmp_path, capsys,
                                   '--wind_stats_fields=100000',
                                   ])
 def test_wind_stats_sample_counts_are_bounded(flag, tmp_path, capsys):
-  import test_era5  # pylint: disable=g-import-not-at-top
+  import test_gridded  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
-  era5_file = test_era5.write_era5(tmp_path / 'era5.nc')
+  era5_file = test_gridded.write_era5(tmp_path / 'era5.nc')
   out = tmp_path / 'plots'
   assert plot.main([f'--output_dir={out}', '--wind_stats',
                     f'--era5_path={era5_file}', '--wind_stats_points=1000',
@@ -303,15 +303,15 @@ def test_a_sounding_csv_with_a_byte_order_mark_reads(tmp_path):
     ('station.txt', 'University of Wyoming sounding'),
 ])
 def test_a_missing_wind_file_hint_names_its_kind(name, needle, tmp_path):
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
   with pytest.raises(FileNotFoundError) as info:
-    era5.load(str(tmp_path / name))
+    gridded.load(str(tmp_path / name))
   assert needle in str(info.value)
   assert 'download-era5' not in str(info.value)
 
 
 def test_a_fifo_or_symlink_loop_is_not_called_missing(tmp_path):
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import sounding  # pylint: disable=g-import-not-at-top
   fifo = tmp_path / 'winds.nc'
   os.mkfifo(fifo)
@@ -319,7 +319,7 @@ def test_a_fifo_or_symlink_loop_is_not_called_missing(tmp_path):
   os.symlink(loop, loop)
   for path, needle in ((fifo, 'is a FIFO'), (loop, 'symbolic link')):
     with pytest.raises(errors.BadFileError, match=needle):
-      era5.load(str(path))
+      gridded.load(str(path))
   with pytest.raises(errors.BadFileError, match='is a FIFO'):
     sounding.read(str(fifo))
 
@@ -463,7 +463,7 @@ def test_real_winds_output_folder_checked_first(real_winds_run, tmp_path,
 
 # -- Item 7: a GRIB2 file with two messages of one field is refused. --------
 def test_grib2_with_a_duplicated_message_is_refused(tmp_path):
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
   grib = os.path.join(_DATA, 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
   with open(grib, 'rb') as f:
     raw = f.read()
@@ -471,7 +471,7 @@ def test_grib2_with_a_duplicated_message_is_refused(tmp_path):
   path = tmp_path / 'twice.grib2'
   path.write_bytes(raw + raw[:end])
   with pytest.raises(errors.BadFileError, match='holds two messages of'):
-    era5.read_source(str(path))
+    gridded.read_source(str(path))
 
 
 # -- Item 3: a sounding's pressures are checked against their heights. ------
@@ -505,27 +505,27 @@ def test_launch_refuses_a_sounding_in_pa_in_one_line(tmp_path, capsys):
 
 
 def test_launch_world_params_go_through_check_params(tmp_path):
-  import test_era5  # pylint: disable=g-import-not-at-top
+  import test_gridded  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
-  path = test_era5.write_era5(tmp_path / 'era5.nc')
+  path = test_gridded.write_era5(tmp_path / 'era5.nc')
   bad = env_params.params_from_gin().replace(radius_km=-1.0)
   with pytest.raises(errors.ConfigError, match='radius_km'):
     scoring.era5_world(path, max_hours=0.0, params=bad, steps=1)
 
 
-# -- Item 4: a launch applies the Era5WindField bindings, or refuses them. --
+# -- Item 4: a launch applies the GriddedWindField bindings, or refuses them. --
 @pytest.mark.parametrize('binding, needle', [
-    ("Era5WindField.snapshot_time = '9999-12-31T23:59'", 'snapshot'),
-    ("Era5WindField.start_dates = 'eval'", 'Era5WindField.start_dates'),
-    ("Era5WindField.stations = 'per_seed'", 'Era5WindField.stations'),
-    ("Era5WindField.path = '/elsewhere.nc'", 'Era5WindField.path'),
+    ("GriddedWindField.snapshot_time = '9999-12-31T23:59'", 'snapshot'),
+    ("GriddedWindField.start_dates = 'eval'", 'GriddedWindField.start_dates'),
+    ("GriddedWindField.stations = 'per_seed'", 'GriddedWindField.stations'),
+    ("GriddedWindField.path = '/elsewhere.nc'", 'GriddedWindField.path'),
 ])
 def test_launch_world_applies_or_refuses_wind_bindings(binding, needle,
                                                        tmp_path):
-  import test_era5  # pylint: disable=g-import-not-at-top
+  import test_gridded  # pylint: disable=g-import-not-at-top
   from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
-  path = test_era5.write_era5(tmp_path / 'era5.nc')
+  path = test_gridded.write_era5(tmp_path / 'era5.nc')
   gin.clear_config()
   try:
     gin.parse_config(binding)
@@ -542,7 +542,7 @@ def test_launch_world_flies_a_bound_snapshot_time():
   gin.clear_config()
   try:
     before = scoring.era5_world(path, max_hours=0.0, steps=1)
-    gin.parse_config("Era5WindField.snapshot_time = '2012-06-01T06:00'")
+    gin.parse_config("GriddedWindField.snapshot_time = '2012-06-01T06:00'")
     after = scoring.era5_world(path, max_hours=0.0, steps=1)
   finally:
     gin.clear_config()

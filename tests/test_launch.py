@@ -275,10 +275,10 @@ def test_command_output_dir_a_file_exits_1(tmp_path, capsys):
 
 
 def test_era5_world_places_the_station_and_launch_date(tmp_path, setup):
-  import test_era5  # pylint: disable=g-import-not-at-top
+  import test_gridded  # pylint: disable=g-import-not-at-top
   _, controller, _, _ = setup
-  times = test_era5.T0 + np.arange(9) * np.timedelta64(6, 'h')  # 2 days.
-  path = test_era5.write_era5(
+  times = test_gridded.T0 + np.arange(9) * np.timedelta64(6, 'h')  # 2 days.
+  path = test_gridded.write_era5(
       tmp_path / 'era5.nc', times=times, lat=np.arange(6.0, -4.01, -1.0),
       lon=np.arange(-118.0, -107.99, 1.0))
   world = scoring.era5_world(path, center_lat=1.0, center_lon=-113.0,

@@ -16,7 +16,7 @@ from ble_latex.cli import plot
 from ble_latex.plots import figures as plots
 from ble_latex.run import episode_log
 from ble_latex.run import records as records_lib
-import test_era5  # pylint: disable=g-bad-import-order
+import test_gridded  # pylint: disable=g-bad-import-order
 
 _PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
 _REASONS = ('out_of_sand', 'time_limit', 'time_limit', 'out_of_helium')
@@ -594,7 +594,7 @@ def test_main_bad_inputs(tmp_path, capsys):
 
 
 def test_main_wind_stats_writes_figure_and_json(tmp_path, capsys):
-  era5_file = test_era5.write_era5(tmp_path / 'era5.nc')
+  era5_file = test_gridded.write_era5(tmp_path / 'era5.nc')
   out = tmp_path / 'plots'
   argv = [f'--output_dir={out}', '--wind_stats', f'--era5_path={era5_file}',
           '--wind_stats_fields=2', '--wind_stats_points=4',
@@ -628,7 +628,7 @@ def test_main_wind_stats_writes_figure_and_json(tmp_path, capsys):
      'or more'),
 ])
 def test_main_wind_stats_bad_era5_files(tmp_path, capsys, change, message):
-  era5_file = test_era5.write_era5(tmp_path / 'era5.nc', **change)
+  era5_file = test_gridded.write_era5(tmp_path / 'era5.nc', **change)
   out = tmp_path / 'plots'
   assert plot.main([f'--output_dir={out}', '--wind_stats',
                     f'--era5_path={era5_file}']) == 1

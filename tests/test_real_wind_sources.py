@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.wind import era5
 from ble_latex.wind import grib_copy
+from ble_latex.wind import gridded
 from ble_latex.wind import sources
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
@@ -39,7 +39,7 @@ def test_the_registry_names_grids_and_soundings():
 def test_center_is_a_soundings_site_or_a_grids_middle():
   # A sounding's site: its file is not read.
   assert sources.center('hilo', '/not/read') == (19.72, -155.07)
-  data = era5.load(GFS_NC)
+  data = gridded.load(GFS_NC)
   lat, lon = sources.center('gfs_namerica', GFS_NC)
   assert lat == pytest.approx(0.5 * (data.latitude[0] + data.latitude[-1]))
   middle = 0.5 * (data.longitude[0] + data.longitude[-1])
@@ -50,11 +50,11 @@ def test_center_is_a_soundings_site_or_a_grids_middle():
 def test_a_copy_is_checked_by_its_arrays_digest(tmp_path):
   copy = str(tmp_path / 'copy.nc')
   shutil.copy(GFS_NC, copy)
-  sha = grib_copy.digest(era5.read_source(GFS_NC)[1])
+  sha = grib_copy.digest(gridded.read_source(GFS_NC)[1])
   sources.checked_copy(copy, sha)  # The same arrays: accepted.
   with pytest.raises(errors.BadFileError, match='reads to arrays of SHA-256'):
     sources.checked_copy(copy, '0' * 64)
   with pytest.raises(FileNotFoundError, match='no such file'):
     sources.checked_copy(str(tmp_path / 'missing.nc'), sha)
-  np.testing.assert_array_equal(era5.read_source(copy)[1][0],
-                                era5.read_source(GFS_NC)[1][0])
+  np.testing.assert_array_equal(gridded.read_source(copy)[1][0],
+                                gridded.read_source(GFS_NC)[1][0])

@@ -2,7 +2,7 @@
 """Real upper-air winds (issue 45): GFS NetCDF and GRIB2, UWyo soundings.
 
 On the real bytes of tests/data/realwinds/ (PROVENANCE.md beside them): each
-slice reads through `era5.load` (the reader chosen by content), says its
+slice reads through `gridded.load` (the reader chosen by content), says its
 source and "time-invariant", flies through the functional env and
 `gymnasium.make('ble_latex/LatexBalloon-v0')` from the gin binding; each
 bad-file case is one line, and exit 1 from `ble-latex-eval --wind_file`.
@@ -22,8 +22,8 @@ from ble_latex import errors
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.wind import analysis
-from ble_latex.wind import era5
-from ble_latex.wind import era5_jax
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import sounding
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
@@ -45,7 +45,7 @@ _ACTIONS = np.array([[18_000.0, 1.0, -1.0], [19_000.0, 1.0, 1.0],
 
 @pytest.mark.parametrize('path, source, lat, lon', SLICES, ids=_IDS)
 def test_each_slice_reads_as_a_time_invariant_field(path, source, lat, lon):
-  data = era5.load(path)
+  data = gridded.load(path)
   assert data.source == source
   assert data.time_invariant
   held = (f'; wind above its top, {data.site.top_m / 1000:.1f} km, held'
@@ -62,8 +62,8 @@ def test_each_slice_reads_as_a_time_invariant_field(path, source, lat, lon):
   assert data.pressure[0] <= analysis.pressure_of_height(25_000.0)
   assert data.pressure[-1] >= analysis.pressure_of_height(15_000.0)
   assert np.all(np.diff(data.pressure) > 0) and np.all(np.isfinite(data.uv))
-  assert era5.start_window(data, center_lat=lat, center_lon=lon,
-                           episode_hours=72.0, start_dates='eval') == (0, 0)
+  assert gridded.start_window(data, center_lat=lat, center_lon=lon,
+                              episode_hours=72.0, start_dates='eval') == (0, 0)
 
 
 def test_us_standard_atmosphere_pressures():
@@ -79,7 +79,7 @@ def test_us_standard_atmosphere_pressures():
 
 
 def test_gfs_netcdf_values_are_the_files_with_latitude_ascending():
-  data = era5.load(GFS_NC)
+  data = gridded.load(GFS_NC)
   with xr.open_dataset(GFS_NC) as raw:
     u = raw['u-component_of_wind_isobaric'].sel(
         isobaric3=5000.0, lat=44.0, lon=251.0).values.item()
@@ -94,7 +94,7 @@ def test_gfs_netcdf_values_are_the_files_with_latitude_ascending():
 
 def test_gfs_grib_values_are_the_messages():
   import cfgrib  # pylint: disable=g-import-not-at-top,unused-import
-  data = era5.load(GFS_GRIB)
+  data = gridded.load(GFS_GRIB)
   with xr.open_dataset(GFS_GRIB, engine='cfgrib', backend_kwargs={
       'indexpath': '', 'filter_by_keys': {'typeOfLevel': 'isobaricInhPa',
                                           'shortName': 'v'}}) as raw:
@@ -109,7 +109,7 @@ def test_gfs_grib_values_are_the_messages():
 @pytest.mark.parametrize('path', (BOISE, HILO), ids=os.path.basename)
 def test_a_sounding_is_its_column_everywhere(path):
   column = sounding.read(path)
-  data = era5.load(path)
+  data = gridded.load(path)
   k = int(np.argmin(np.abs(column.pressure_pa - 5000.0)))
   p = column.pressure_pa[k]
   for lat, lon in ((0.0, 0.0), (43.5, -116.2), (-60.0, 170.0)):
@@ -121,10 +121,10 @@ def _bind(path, lat, lon):
   gin.clear_config()
   gin.parse_config([
       'import ble_latex.envs.jax_env',
-      'latex_episode.wind_field_factory = @Era5WindField',
-      f'Era5WindField.path = {path!r}',
-      f'Era5WindField.center_lat = {lat}',
-      f'Era5WindField.center_lon = {lon}'])
+      'latex_episode.wind_field_factory = @GriddedWindField',
+      f'GriddedWindField.path = {path!r}',
+      f'GriddedWindField.center_lat = {lat}',
+      f'GriddedWindField.center_lon = {lon}'])
 
 
 @pytest.mark.slow
@@ -137,7 +137,7 @@ def test_each_slice_flies_the_functional_env_and_gymnasium(path, source, lat,
     params = env_params.params_from_gin()
     grid = params.wind_grid
     assert grid is not None
-    data = era5.load(path)
+    data = gridded.load(path)
     assert data.source == source
     np.testing.assert_array_equal(np.asarray(grid.uv),
                                   data.uv.astype(np.float32))
@@ -221,7 +221,7 @@ def _bad_files(folder):
 def test_each_bad_file_is_one_line_naming_it(tmp_path):
   for name, path, needle in _bad_files(tmp_path):
     with pytest.raises(errors.BadFileError) as raised:
-      era5.load(path)
+      gridded.load(path)
     message = str(raised.value)
     assert needle in message, (name, message)
     assert path in message and '\n' not in message, (name, message)
@@ -249,8 +249,8 @@ def test_eval_records_name_the_wind_source(tmp_path, capsys):
   code = eval_cli.main([
       f'--output_dir={out}', '--agent=latex_station_seeker',
       '--suite=latex_micro', '--max_episode_length=3',
-      f'--wind_file={GFS_GRIB}', '--gin_bindings=Era5WindField.center_lat=40.0',
-      '--gin_bindings=Era5WindField.center_lon=-103.0'])
+      f'--wind_file={GFS_GRIB}', '--gin_bindings=GriddedWindField.center_lat=40.0',
+      '--gin_bindings=GriddedWindField.center_lon=-103.0'])
   gin.clear_config()
   assert code == 0, capsys.readouterr().err
   records = json.loads((out / 'latex_micro' / 'latex_station_seeker.json'
@@ -266,15 +266,15 @@ def test_bles_wind_field_flies_each_slice(path, source, lat, lon):
   """BLE's `WindField` (gym's agents) over the same time-invariant data."""
   import datetime as dt  # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.utils import units  # pylint: disable=g-import-not-at-top
-  from ble_latex.ble import era5_field  # pylint: disable=g-import-not-at-top
-  field = era5_field.Era5WindField(path=path, center_lat=lat, center_lon=lon)
+  from ble_latex.ble import gridded_field  # pylint: disable=g-import-not-at-top
+  field = gridded_field.GriddedWindField(path=path, center_lat=lat, center_lon=lon)
   field.reset_forecast(jax.random.PRNGKey(3), dt.datetime(2000, 1, 1))
-  assert field.start_date_time == era5.load(path).start
+  assert field.start_date_time == gridded.load(path).start
   here = units.Distance(m=0.0)
   first = field.get_forecast(here, here, 5000.0, dt.timedelta(hours=0))
   later = field.get_forecast(here, here, 5000.0, dt.timedelta(hours=60))
-  want = era5.load(path).interpolate(0.0, 5000.0, lat, lon)
+  want = gridded.load(path).interpolate(0.0, 5000.0, lat, lon)
   for vector in (first, later):
     np.testing.assert_allclose([vector.u.meters_per_second,
                                 vector.v.meters_per_second], want, atol=1e-6)
-  assert source in era5.load(path).description
+  assert source in gridded.load(path).description

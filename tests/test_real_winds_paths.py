@@ -14,7 +14,7 @@ import os
 import numpy as np
 import pytest
 
-from ble_latex.wind import era5
+from ble_latex.wind import gridded
 
 GFS_NC = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
                       'realwinds',
@@ -41,14 +41,14 @@ def test_run_writes_the_figure_and_the_record(benchmark_script, tmp_path):
               'loadavg_after', 'git_head', 'runs', 'flights'):
     assert key in record, key
   assert record['wind_source'] == 'analysis (time-invariant)'
-  assert record['station_bindings'] == ["Era5WindField.stations = 'per_seed'"]
+  assert record['station_bindings'] == ["GriddedWindField.stations = 'per_seed'"]
   assert record['radius_km'] == 50.0
   [flight] = record['flights']
   assert flight['agent'] == 'latex_station_seeker'
   assert flight['steps'] == _STEPS
   assert 0.0 <= flight['tw50_window'] <= 1.0
   assert 0.0 <= flight['tw50'] <= 1.0
-  data = era5.load(GFS_NC)
+  data = gridded.load(GFS_NC)
   assert data.covers(flight['station_lat'], flight['station_lon'])
   assert np.isfinite(flight['final_distance_km'])
 

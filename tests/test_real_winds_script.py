@@ -17,8 +17,8 @@ import pytest
 
 from ble_latex.run import planner_batch
 from ble_latex.run import wind_file
-from ble_latex.wind import era5
 from ble_latex.wind import grib_copy
+from ble_latex.wind import gridded
 from ble_latex.wind import sources
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
@@ -37,8 +37,8 @@ def test_the_decoded_copy_reads_to_the_grib_arrays(decode_grib, tmp_path,
   out = str(tmp_path / 'copy.nc')
   assert decode_grib.main(['decode_grib.py', GFS_GRIB, out]) == 0
   printed = capsys.readouterr().out.strip()
-  original = era5.read_source(GFS_GRIB)[1]
-  copy = era5.read_source(out)[1]
+  original = gridded.read_source(GFS_GRIB)[1]
+  copy = gridded.read_source(out)[1]
   for a, b in zip(original, copy):
     np.testing.assert_array_equal(a, b)
   assert printed == grib_copy.digest(original) == grib_copy.digest(copy)
@@ -97,7 +97,7 @@ def test_the_planner_path_flies_eval_libs_records(tmp_path):
        'station_lat_lon': list(sources.SOURCES['hilo'].site)}, path)
   seeds = list(suites.get_eval_suite('latex_small').seeds)[:2]
   # A binding left by an earlier flight in the process does not count.
-  gin.parse_config("Era5WindField.stations = 'per_seed'")
+  gin.parse_config("GriddedWindField.stations = 'per_seed'")
   planner, _, _ = planner_batch.fly_planner('latex_mpc', bindings, seeds, 3)
   agent, env = eval_lib.build(eval_lib.EvalSpec(
       agent='latex_mpc', gin_bindings=tuple(bindings)))

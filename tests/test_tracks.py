@@ -239,7 +239,7 @@ def test_a_flight_on_a_real_file_exports_its_track_in_lat_lon(tmp_path,
                                                               capsys):
   import gin  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
   out = tmp_path / 'eval'
   code = eval_cli.main([
       f'--output_dir={out}', '--agent=latex_station_seeker',
@@ -251,7 +251,7 @@ def test_a_flight_on_a_real_file_exports_its_track_in_lat_lon(tmp_path,
   plots = tmp_path / 'plots'
   assert plot.main([f'--output_dir={plots}', f'--eval_json={result}',
                     '--export=kml,geojson,csv']) == 0, capsys.readouterr().err
-  data = era5.load(str(GFS_NC))
+  data = gridded.load(str(GFS_NC))
   rows = list(csv.DictReader(io.StringIO((plots / 'tracks.csv').read_text())))
   collection = json.loads((plots / 'tracks.geojson').read_text())
   paths = [f for f in collection['features']
@@ -318,13 +318,13 @@ def test_launch_plan_on_a_0_360_file_speaks_minus_180_180_and_utc(
 def test_an_undated_wind_file_writes_no_times():
   import gin  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded_jax  # pylint: disable=g-import-not-at-top
   gin.clear_config()
   # The committed Hilo CSV names neither its site nor its time.
-  data = era5.load(str(DATA / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv'))
+  data = gridded.load(str(DATA / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv'))
   params = env_params.params_from_gin().replace(
-      wind_grid=era5_jax.grid_from_data(data))
+      wind_grid=gridded_jax.grid_from_data(data))
   assert tracks.start_times(params, [0, 1]) == [None, None]
   located = tracks.locate([_record(located=False)], params)[0]
   assert 'start_utc' not in located

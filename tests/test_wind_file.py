@@ -17,15 +17,15 @@ HILO = os.path.join(DATA, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
 
 def test_the_bindings_text():
   assert wind_file.file_bindings('/w/x.nc') == [
-      'LatexBalloonEnv.wind_field_factory = @Era5WindField',
-      "Era5WindField.path = '/w/x.nc'"]
+      'latex_episode.wind_field_factory = @GriddedWindField',
+      "GriddedWindField.path = '/w/x.nc'"]
   assert wind_file.start_dates('eval') == (
-      "Era5WindField.start_dates = 'eval'")
-  assert wind_file.start_dates(None) == 'Era5WindField.start_dates = None'
+      "GriddedWindField.start_dates = 'eval'")
+  assert wind_file.start_dates(None) == 'GriddedWindField.start_dates = None'
   assert wind_file.fixed_station(19.72, -155) == [
-      "Era5WindField.stations = 'fixed'", 'Era5WindField.center_lat = 19.72',
-      'Era5WindField.center_lon = -155.0']
-  assert wind_file.PER_SEED == "Era5WindField.stations = 'per_seed'"
+      "GriddedWindField.stations = 'fixed'", 'GriddedWindField.center_lat = 19.72',
+      'GriddedWindField.center_lon = -155.0']
+  assert wind_file.PER_SEED == "GriddedWindField.stations = 'per_seed'"
 
 
 def test_a_cells_bindings():
@@ -33,13 +33,13 @@ def test_a_cells_bindings():
             'station_lat_lon': [19.72, -155.07]}
   assert wind_file.cell_bindings(center, 'rel/x.csv') == [
       *wind_file.file_bindings(os.path.abspath('rel/x.csv')),
-      "Era5WindField.start_dates = 'eval'",
-      'Era5WindField.center_lat = 19.72', 'Era5WindField.center_lon = -155.07']
+      "GriddedWindField.start_dates = 'eval'",
+      'GriddedWindField.center_lat = 19.72', 'GriddedWindField.center_lon = -155.07']
   per_seed = {'suite': 'latex_small', **wind_file.station_settings(
       'gfs_namerica', '/not/read', 'per_seed',
-      ['Era5WindField.station_margin_km = 400'])}
+      ['GriddedWindField.station_margin_km = 400'])}
   assert per_seed['station_bindings'] == [
-      wind_file.PER_SEED, 'Era5WindField.station_margin_km = 400']
+      wind_file.PER_SEED, 'GriddedWindField.station_margin_km = 400']
   assert wind_file.cell_bindings(per_seed, '/w/x.nc')[-2:] == (
       per_seed['station_bindings'])
   assert wind_file.station_settings('hilo', '/not/read', 'center') == {
@@ -55,7 +55,7 @@ def test_the_commands_bindings_come_from_here():
     bindings = cli.era5_bindings(HILO, None, 'eval')
     assert bindings[:2] == wind_file.file_bindings(os.path.abspath(HILO))
     # A sounding's named site (`stations.file_defaults`), no start range.
-    assert all(b.startswith('Era5WindField.') for b in bindings[2:])
+    assert all(b.startswith('GriddedWindField.') for b in bindings[2:])
     with pytest.raises(cli.CommandUsageError, match='needs ERA5 winds'):
       cli.era5_bindings(None, 'train', 'eval')
   finally:

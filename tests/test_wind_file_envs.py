@@ -13,8 +13,8 @@ import ble_latex  # noqa: F401  pylint: disable=unused-import
 from ble_latex import errors
 from ble_latex.envs import env_params
 from ble_latex.envs import winds
-from ble_latex.wind import era5
-from ble_latex.wind import era5_jax
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_jax
 
 REAL = pathlib.Path(__file__).parent / 'data' / 'realwinds'
 GFS = str(REAL / 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
@@ -24,7 +24,7 @@ HILO = str(REAL / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
 def test_the_functional_envs_params_take_a_wind_file():
   params = env_params.params_from_gin(wind_file=GFS)
   grid = params.wind_grid
-  assert isinstance(grid, era5_jax.Era5Grid)
+  assert isinstance(grid, gridded_jax.Era5Grid)
   assert grid.station_box is not None  # Per-seed stations, as --wind_file.
   fixed = winds.grid_from_file(GFS, center_lat=40.0, center_lon=-103.0)
   assert fixed.station_box is None
@@ -40,7 +40,7 @@ def test_gymnasium_make_takes_a_wind_file():
   grid = env.unwrapped.params.wind_grid
   assert grid is not None  # A TypeError before.
   assert float(grid.pressure_pa[0]) == pytest.approx(
-      era5.load(HILO).pressure[0], rel=1e-6)
+      gridded.load(HILO).pressure[0], rel=1e-6)
   env.close()
   with pytest.raises(errors.BadFileError):
     gymnasium.make('ble_latex/LatexBalloon-v0', wind_file=__file__)

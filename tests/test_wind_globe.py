@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from ble_latex.wind import era5
-from ble_latex.wind import era5_jax
 from ble_latex.wind import globe
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import stations
 
 LONS = np.arange(0.0, 360.0, 10.0)  # [deg E] 0..350: the seam at 350 -> 360.
@@ -61,7 +61,7 @@ def test_global_axes_are_recognised():
 
 
 def test_interpolation_is_bilinear_across_the_seam(globe_file):
-  data = era5.load(globe_file)
+  data = gridded.load(globe_file)
   assert data.global_longitude and data.longitude[-1] == 360.0
   west = data.interpolate(0.0, P_PA, 20.0, 350.0)
   east = data.interpolate(0.0, P_PA, 20.0, 0.0)
@@ -70,27 +70,27 @@ def test_interpolation_is_bilinear_across_the_seam(globe_file):
   for lon in (355.0, -5.0, 715.0):
     np.testing.assert_allclose(data.interpolate(0.0, P_PA, 20.0, lon), mid,
                                atol=1e-12)
-  grid = era5_jax.grid_from_data(data, center_lat=51.5, center_lon=-1.0)
+  grid = gridded_jax.grid_from_data(data, center_lat=51.5, center_lon=-1.0)
   lons = jnp.array([355.0, -5.0, 350.0, 0.0])
-  got = np.asarray(era5_jax.interpolate(grid, 0.0, P_PA, 20.0, lons))
+  got = np.asarray(gridded_jax.interpolate(grid, 0.0, P_PA, 20.0, lons))
   np.testing.assert_allclose(got, [mid, mid, west, east], atol=1e-4)
 
 
 def test_a_target_west_of_greenwich_is_inside_a_global_file(globe_file):
-  data = era5.load(globe_file)
+  data = gridded.load(globe_file)
   assert data.covers(51.5, -1.0) and data.covers(89.9, 355.0)
-  assert era5.last_start_minute(data, center_lat=51.5, center_lon=-1.0,
-                                episode_hours=72.0) == 0
+  assert gridded.last_start_minute(data, center_lat=51.5, center_lon=-1.0,
+                                   episode_hours=72.0) == 0
 
 
 def test_the_real_global_grib2_is_seamless():
   pytest.importorskip('cfgrib')
-  data = era5.load(str(GFS_GLOBAL))
+  data = gridded.load(str(GFS_GLOBAL))
   assert data.global_longitude and data.latitude_bounds == (-90.0, 90.0)
   assert data.covers(51.5, -1.0)  # Refused as outside before (exit 2).
-  grid = era5_jax.grid_from_data(data, center_lat=51.5, center_lon=-1.0)
-  assert not bool(era5_jax.outside(grid, jnp.float32(-150e3),
-                                   jnp.float32(0.0)))
+  grid = gridded_jax.grid_from_data(data, center_lat=51.5, center_lon=-1.0)
+  assert not bool(gridded_jax.outside(grid, jnp.float32(-150e3),
+                                      jnp.float32(0.0)))
   west = data.interpolate(0.0, P_PA, 50.0, 357.5)
   east = data.interpolate(0.0, P_PA, 50.0, 0.0)
   np.testing.assert_allclose(data.interpolate(0.0, P_PA, 50.0, -1.25),
@@ -99,31 +99,31 @@ def test_the_real_global_grib2_is_seamless():
 
 def test_no_flight_leaves_a_global_grid_at_the_seam_or_over_a_pole(
     globe_file):
-  data = era5.load(globe_file)
-  grid = era5_jax.grid_from_data(data, center_lat=51.5, center_lon=-1.0)
+  data = gridded.load(globe_file)
+  grid = gridded_jax.grid_from_data(data, center_lat=51.5, center_lon=-1.0)
   # Here; 500 km east and west (across 0 E); 5000 km north (over the pole);
   # 16 000 km south (past 80 S, the last row).
   x = jnp.array([0.0, 500e3, -500e3, 0.0, 0.0])
   y = jnp.array([0.0, 0.0, 0.0, 5000e3, -16_000e3])
-  assert not np.asarray(era5_jax.outside(grid, x, y)).any()
+  assert not np.asarray(gridded_jax.outside(grid, x, y)).any()
   station = jnp.array([10.0, 359.0], jnp.float32)
-  assert not np.asarray(era5_jax.outside(grid, x, y, station)).any()
-  lat, lon = era5_jax.latlng(grid, x, y)
+  assert not np.asarray(gridded_jax.outside(grid, x, y, station)).any()
+  lat, lon = gridded_jax.latlng(grid, x, y)
   assert float(lat[3]) > 80.0 and float(lat[4]) < -80.0
-  uv = np.asarray(era5_jax.forecast(grid, 0.0, x, y, P_PA))
+  uv = np.asarray(gridded_jax.forecast(grid, 0.0, x, y, P_PA))
   assert np.isfinite(uv).all()
 
 
 def test_per_seed_stations_span_every_longitude_of_a_global_grid(
     globe_file):
-  data = era5.load(globe_file)
+  data = gridded.load(globe_file)
   box = stations.station_box(data.latitude, data.longitude, 400.0,
                              global_longitude=True)
   assert box == (-stations.MAX_STATION_ABS_LAT, stations.MAX_STATION_ABS_LAT,
                  0.0, 360.0)
-  grid = era5_jax.grid_from_data(data, stations='per_seed')
+  grid = gridded_jax.grid_from_data(data, stations='per_seed')
   keys = jax.random.split(jax.random.PRNGKey(0), 2000)
-  drawn = np.asarray(jax.vmap(lambda k: era5_jax.draw_station(grid, k))(keys))
+  drawn = np.asarray(jax.vmap(lambda k: gridded_jax.draw_station(grid, k))(keys))
   lon = drawn[:, 1] % 360.0
   # The 23.5 deg a 400 km margin skipped at 70 deg around the seam.
   assert ((lon > 350.0) | (lon < 10.0)).sum() > 20
@@ -134,12 +134,12 @@ def test_per_seed_stations_span_every_longitude_of_a_global_grid(
                                       (90.0, -180.0), (0.0, 180.0),
                                       (19.72, -155.07)])
 def test_a_sounding_flies_anywhere_on_the_sphere(lat, lon):
-  data = era5.load(str(HILO))
+  data = gridded.load(str(HILO))
   assert data.covers(lat, lon)
-  grid = era5_jax.grid_from_data(data, center_lat=lat, center_lon=lon)
+  grid = gridded_jax.grid_from_data(data, center_lat=lat, center_lon=lon)
   column = data.interpolate(0.0, P_PA, 19.72, -155.07)
-  got = era5_jax.forecast(grid, 0.0, jnp.float32(0.0), jnp.float32(0.0),
-                          P_PA)
+  got = gridded_jax.forecast(grid, 0.0, jnp.float32(0.0), jnp.float32(0.0),
+                             P_PA)
   np.testing.assert_allclose(np.array(got), column, atol=1e-4)
 
 
@@ -152,8 +152,8 @@ def test_a_flight_across_the_seam_does_not_leave_the_wind_domain(globe_file):
   from ble_latex.flight import state as state_lib
   # pylint: enable=g-import-not-at-top
   gin.clear_config()
-  grid = era5_jax.grid_from_data(era5.load(globe_file), center_lat=51.5,
-                                 center_lon=-1.0, end_outside_domain=True)
+  grid = gridded_jax.grid_from_data(gridded.load(globe_file), center_lat=51.5,
+                                    center_lon=-1.0, end_outside_domain=True)
   params = env_params.params_from_gin().replace(wind_grid=grid)
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   keys = jnp.stack([jax.random.PRNGKey(0)] * 2)

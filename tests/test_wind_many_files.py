@@ -3,7 +3,7 @@
 (issue 64, item 3: "13 files take 58 s to load").
 
 The files are the committed GFS slice's u/v messages at three lead times,
-each with messages `era5.load` must skip (wind direction on the same levels,
+each with messages `gridded.load` must skip (wind direction on the same levels,
 u at a height above ground), as a GFS download holds; eccodes writes them.
 `benchmarks/grib_load_speed.py` measures the speed on 13 full GFS files.
 """
@@ -13,8 +13,8 @@ import pathlib
 import numpy as np
 import pytest
 
-from ble_latex.wind import era5
 from ble_latex.wind import grib_subset
+from ble_latex.wind import gridded
 
 SLICE = (pathlib.Path(__file__).parent / 'data' / 'realwinds' /
          'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
@@ -51,13 +51,13 @@ def _write(path, hour, index):
 def test_joined_files_equal_the_files_read_one_by_one(tmp_path, monkeypatch):
   paths = [_write(tmp_path / f'f{h:03d}.grib2', h, i)
            for i, h in enumerate(HOURS)]
-  joined = era5.load(paths)
+  joined = gridded.load(paths)
   assert joined.description == 'GRIB2 run 2011-10-08T00Z +72..+78 h'
   assert joined.times.size == len(HOURS)
   # One by one, each file read whole by cfgrib (no messages skipped).
   monkeypatch.setattr(grib_subset, 'wind_messages', lambda path, out: False)
   for k, path in enumerate(paths):
-    one = era5.load(path)
+    one = gridded.load(path)
     assert one.time_invariant and one.times[0] == joined.times[k]
     np.testing.assert_array_equal(one.uv[0], joined.uv[k])
     for name in ('pressure', 'latitude', 'longitude'):
@@ -65,7 +65,7 @@ def test_joined_files_equal_the_files_read_one_by_one(tmp_path, monkeypatch):
                                     getattr(joined, name))
   # Not the others' values (+1000 m/s): the slice's winds + k, to the
   # packing's precision (re-encoded by eccodes).
-  reference = era5.load(str(SLICE))
+  reference = gridded.load(str(SLICE))
   for k in range(len(HOURS)):
     np.testing.assert_allclose(joined.uv[k], reference.uv[0] + k, atol=0.51)
 

@@ -1,6 +1,6 @@
 # coding=utf-8
 """An ensemble file (GEFS / ERA5 EDA style `number` dimension) flies one
-member, `Era5WindField.member` (issue 64, item 3); one out of range, or
+member, `GriddedWindField.member` (issue 64, item 3); one out of range, or
 asked of a file without members, is one line. Synthetic file: the committed
 GFS NetCDF subset with three members (winds + member) at two times.
 """
@@ -13,7 +13,7 @@ import pytest
 import xarray as xr
 
 from ble_latex import errors
-from ble_latex.wind import era5
+from ble_latex.wind import gridded
 
 GFS_NC = (pathlib.Path(__file__).parent / 'data' / 'realwinds' /
           'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
@@ -41,38 +41,38 @@ def _ensemble(tmp_path):
 
 
 def test_one_member_flies(ensemble):
-  first = era5.load(ensemble, member=0)
-  second = era5.load(ensemble, member=2)
+  first = gridded.load(ensemble, member=0)
+  second = gridded.load(ensemble, member=2)
   assert first.uv.shape == second.uv.shape and first.times.size == 2
   np.testing.assert_allclose(second.interpolate(*PLACE),
                              first.interpolate(*PLACE) + 2.0, atol=1e-4)
   assert second.description == 'analysis (member 2 of 3)'
   # The gin binding, default 0.
   with gin.unlock_config():
-    gin.bind_parameter('Era5WindField.member', 1)
+    gin.bind_parameter('GriddedWindField.member', 1)
   try:
-    bound = era5.load(ensemble)
+    bound = gridded.load(ensemble)
     assert bound.description == 'analysis (member 1 of 3)'
-    assert era5.settings(path=ensemble).load() is bound
+    assert gridded.settings(path=ensemble).load() is bound
   finally:
     gin.clear_config()
-  assert era5.load(ensemble).description == 'analysis (member 0 of 3)'
+  assert gridded.load(ensemble).description == 'analysis (member 0 of 3)'
 
 
 def test_a_member_out_of_range_is_one_line(ensemble):
   with pytest.raises(errors.ConfigError) as raised:
-    era5.load(ensemble, member=3)
+    gridded.load(ensemble, member=3)
   message = str(raised.value)
   assert '\n' not in message
   assert '3 ensemble members' in message and '(0..2)' in message
-  assert 'Era5WindField.member = 3' in message
+  assert 'GriddedWindField.member = 3' in message
   with pytest.raises(errors.ConfigError) as raised:
-    era5.load(str(GFS_NC), member=1)
+    gridded.load(str(GFS_NC), member=1)
   assert 'no ensemble member dimension' in str(raised.value)
   with pytest.raises(errors.ConfigError, match='index >= 0'):
-    era5.load(ensemble, member=-1)
+    gridded.load(ensemble, member=-1)
   with pytest.raises(errors.ConfigError, match='index >= 0'):
-    era5.settings(path=ensemble, member='1')
+    gridded.settings(path=ensemble, member='1')
 
 
 def test_a_grib2_ensemble_flies_one_member(tmp_path):
@@ -106,23 +106,23 @@ def test_a_grib2_ensemble_flies_one_member(tmp_path):
         eccodes.codes_release(field)
   finally:
     eccodes.codes_grib_multi_support_off()
-  first = era5.load(str(path), member=0)
-  last = era5.load(str(path), member=2)
+  first = gridded.load(str(path), member=0)
+  last = gridded.load(str(path), member=2)
   assert last.description == ('GRIB2 run 2011-10-08T00Z +72 h '
                               '(time-invariant; member 2 of 3)')
   np.testing.assert_allclose(last.uv, first.uv + 2.0, atol=0.51)
   with pytest.raises(errors.ConfigError, match=r'3 ensemble members'):
-    era5.load(str(path), member=3)
+    gridded.load(str(path), member=3)
 
 
 def test_the_ensemble_mean_flies(ensemble):
-  mean = era5.load(ensemble, member='mean')
-  first = era5.load(ensemble, member=0)
+  mean = gridded.load(ensemble, member='mean')
+  first = gridded.load(ensemble, member=0)
   assert mean.description == 'analysis (ensemble mean of 3)'
   np.testing.assert_allclose(mean.interpolate(*PLACE),
                              first.interpolate(*PLACE) + 1.0, atol=1e-4)
   with pytest.raises(errors.ConfigError, match="'mean'"):
-    era5.settings(path=ensemble, member='median')
+    gridded.settings(path=ensemble, member='median')
 
 
 def _truth_and_forecast(grid, truth_members):
@@ -153,20 +153,20 @@ def test_members_drawn_as_truths(ensemble):
   """Issue 64 item 3: the forecast one member (or the mean), each flight's
   truth another member drawn from its reset key; the noise 0 by default."""
   from ble_latex.envs import winds  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
-  settings = era5.Era5Settings(path=ensemble, member=0, truth_members=True,
-                               center_lat=40.0, center_lon=-103.0,
-                               episode_hours=3.0)
-  grid = era5_jax.grid_from_settings(settings)
-  assert era5_jax.has_truth_members(grid)
+  from ble_latex.wind import gridded_jax  # pylint: disable=g-import-not-at-top
+  settings = gridded.Era5Settings(path=ensemble, member=0, truth_members=True,
+                                  center_lat=40.0, center_lon=-103.0,
+                                  episode_hours=3.0)
+  grid = gridded_jax.grid_from_settings(settings)
+  assert gridded_jax.has_truth_members(grid)
   assert grid.truth_uv.shape[0] == 2  # Members 1 and 2: not the forecast's.
   assert grid.noise_scale == 0.0  # The members' spread is the error.
   assert winds.wind_source_from_gin(settings).endswith(
       '; truth the 2 members but 0 of 3, drawn per flight')
   np.testing.assert_allclose(
-      grid.truth_uv, np.stack([era5.load(ensemble, member=k).uv
+      grid.truth_uv, np.stack([gridded.load(ensemble, member=k).uv
                                for k in (1, 2)]), atol=1e-5)
-  mean = era5_jax.grid_from_settings(era5.Era5Settings(
+  mean = gridded_jax.grid_from_settings(gridded.Era5Settings(
       path=ensemble, member='mean', truth_members=True, center_lat=40.0,
       center_lon=-103.0, episode_hours=3.0))
   assert mean.truth_uv.shape[0] == 3  # Every member, under the mean.
@@ -178,8 +178,8 @@ def test_members_drawn_as_truths(ensemble):
 def test_each_flight_flies_its_truth_member(ensemble):
   """The env's truth reads the flight's member (`EnvState.truth_member`);
   its forecast stays the forecast member."""
-  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
-  grid = era5_jax.grid_from_settings(era5.Era5Settings(
+  from ble_latex.wind import gridded_jax  # pylint: disable=g-import-not-at-top
+  grid = gridded_jax.grid_from_settings(gridded.Era5Settings(
       path=ensemble, truth_members=True, center_lat=40.0, center_lon=-103.0,
       episode_hours=3.0))
   truth, forecast = _truth_and_forecast(grid, [0, 1])
@@ -191,8 +191,8 @@ def test_the_env_draws_a_truth_member_per_seed(ensemble):
   """The functional env's reset draws each flight's member (seeded)."""
   import jax  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
-  grid = era5_jax.grid_from_settings(era5.Era5Settings(
+  from ble_latex.wind import gridded_jax  # pylint: disable=g-import-not-at-top
+  grid = gridded_jax.grid_from_settings(gridded.Era5Settings(
       path=ensemble, truth_members=True, center_lat=40.0, center_lon=-103.0,
       episode_hours=3.0))
   env = jax_env.LatexBalloonJaxEnv()
@@ -203,30 +203,30 @@ def test_the_env_draws_a_truth_member_per_seed(ensemble):
   members = np.asarray(draw(keys, params))
   assert set(members.tolist()) == {0, 1}
   np.testing.assert_array_equal(members, draw(keys, params))  # Seeded.
-  plain = era5_jax.grid_from_settings(era5.Era5Settings(
+  plain = gridded_jax.grid_from_settings(gridded.Era5Settings(
       path=ensemble, center_lat=40.0, center_lon=-103.0, episode_hours=3.0))
   assert jax.eval_shape(env.draw, keys[0], params.replace(
       wind_grid=plain))[0].truth_member is None
 
 
 def test_member_truths_refused_in_one_line(ensemble):
-  from ble_latex.ble import era5_field  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
+  from ble_latex.ble import gridded_field  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded_jax  # pylint: disable=g-import-not-at-top
   with pytest.raises(errors.ConfigError, match='no ensemble member') as raised:
-    era5_jax.grid_from_settings(era5.Era5Settings(
+    gridded_jax.grid_from_settings(gridded.Era5Settings(
         path=str(GFS_NC), truth_members=True, center_lat=40.0,
         center_lon=-103.0))
   assert '\n' not in str(raised.value)
   with pytest.raises(errors.ConfigError, match='truth_members'):
-    era5.Era5Settings(path=ensemble, truth_members='yes')
+    gridded.Era5Settings(path=ensemble, truth_members='yes')
   with pytest.raises(errors.ConfigError, match='bind one'):
-    era5_jax.grid_from_data(era5.load(ensemble, member=0),
-                            truth=era5.load(ensemble, member=1),
-                            truth_members=era5_jax.member_truths(ensemble, 0),
-                            center_lat=40.0, center_lon=-103.0,
-                            episode_hours=3.0)
+    gridded_jax.grid_from_data(gridded.load(ensemble, member=0),
+                               truth=gridded.load(ensemble, member=1),
+                               truth_members=gridded_jax.member_truths(ensemble, 0),
+                               center_lat=40.0, center_lon=-103.0,
+                               episode_hours=3.0)
   with pytest.raises(errors.ConfigError, match='truth_members'):
-    era5_field.Era5WindField.from_settings(era5.Era5Settings(
+    gridded_field.GriddedWindField.from_settings(gridded.Era5Settings(
         path=ensemble, truth_members=True))
 
 
@@ -235,7 +235,7 @@ def test_a_launch_draws_member_truths_and_names_them(ensemble):
   from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
   gin.clear_config()
   with gin.unlock_config():
-    gin.bind_parameter('Era5WindField.truth_members', True)
+    gin.bind_parameter('GriddedWindField.truth_members', True)
   try:
     world = scoring.era5_world(ensemble, max_hours=1.0, steps=2)
   finally:

@@ -19,8 +19,8 @@ import pytest
 from ble_latex import errors
 from ble_latex.cli import common as cli
 from ble_latex.flight import params as flight_params_lib
-from ble_latex.wind import era5
-from ble_latex.wind import era5_jax
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import reach
 from ble_latex.wind import sounding
 
@@ -54,7 +54,7 @@ def test_the_band_is_the_flights():
 
 def test_a_sounding_that_stops_at_22_5_km_flies_and_says_its_top_is_held(
     tmp_path):
-  data = era5.load(_sounding(tmp_path, 22_495.0))  # Refused before (25 km).
+  data = gridded.load(_sounding(tmp_path, 22_495.0))  # Refused before (25 km).
   assert data.description == (
       'sounding (time-invariant; wind above its top, 22.5 km, held)')
   top = data.interpolate(0.0, data.pressure[0], 0.0, 0.0)
@@ -77,34 +77,34 @@ def test_a_sounding_below_the_band_is_refused_naming_it(tmp_path):
 
 
 def test_a_sounding_without_site_or_time_warns_in_one_line(caplog):
-  data = era5.load(BOISE)
-  with caplog.at_level(logging.WARNING, logger='ble_latex.wind.era5_jax'):
-    era5_jax.grid_from_data(data)
+  data = gridded.load(BOISE)
+  with caplog.at_level(logging.WARNING, logger='ble_latex.wind.gridded_jax'):
+    gridded_jax.grid_from_data(data)
   lines = [r.getMessage() for r in caplog.records]
   assert len(lines) == 1 and '\n' not in lines[0]
   assert 'names no site or time' in lines[0] and '1970-01-01' in lines[0]
   assert '--station_lat' in lines[0]
   caplog.clear()
-  with caplog.at_level(logging.WARNING, logger='ble_latex.wind.era5_jax'):
-    era5_jax.grid_from_data(data, center_lat=43.56, center_lon=-116.21,
-                            snapshot_time='2010-12-09T12:00')
-    era5_jax.grid_from_data(era5.load(GFS), center_lat=40.0,
-                            center_lon=-103.0)
+  with caplog.at_level(logging.WARNING, logger='ble_latex.wind.gridded_jax'):
+    gridded_jax.grid_from_data(data, center_lat=43.56, center_lon=-116.21,
+                               snapshot_time='2010-12-09T12:00')
+    gridded_jax.grid_from_data(gridded.load(GFS), center_lat=40.0,
+                               center_lon=-103.0)
   assert not caplog.records
 
 
 def test_station_flags_bind_a_fixed_station():
   assert cli.station_bindings(None, None) == []
   assert cli.station_bindings(51.5, -1.0) == [
-      "Era5WindField.stations = 'fixed'", 'Era5WindField.center_lat = 51.5',
-      'Era5WindField.center_lon = -1.0']
+      "GriddedWindField.stations = 'fixed'", 'GriddedWindField.center_lat = 51.5',
+      'GriddedWindField.center_lon = -1.0']
   for lat, lon in ((51.5, None), (None, 1.0), (91.0, 0.0)):
     with pytest.raises(cli.CommandUsageError):
       cli.station_bindings(lat, lon)
   station = cli.station_bindings(40.0, -103.0)
   bindings = cli.era5_bindings(GFS, 'all', 'eval', station=station)
   assert bindings[2:5] == station  # Instead of per-seed stations.
-  assert "Era5WindField.stations = 'per_seed'" in cli.era5_bindings(
+  assert "GriddedWindField.stations = 'per_seed'" in cli.era5_bindings(
       GFS, 'all', 'eval')
   with pytest.raises(cli.CommandUsageError, match='needs ERA5 winds'):
     cli.era5_bindings(None, None, 'eval', station=station)

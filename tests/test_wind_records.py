@@ -43,7 +43,7 @@ def test_eval_records_name_the_run_and_lead_times(series, tmp_path, capsys):
   code = eval_cli.main([
       f'--output_dir={out}', '--agent=latex_station_seeker',
       '--suite=latex_micro', '--max_episode_length=2',
-      '--gin_bindings=Era5WindField.episode_hours=1.0',
+      '--gin_bindings=GriddedWindField.episode_hours=1.0',
       f'--wind_file={series}'])
   assert code == 0, capsys.readouterr().err
   records = json.loads((out / 'latex_micro' / 'latex_station_seeker.json'
@@ -63,7 +63,7 @@ def test_train_run_json_names_the_run_and_lead_times(series, tmp_path,
       '--gin_bindings=ble_latex.agents.sac.SACAgent.batch_size=16',
       '--gin_bindings=ble_latex.agents.sac.SACAgent.hidden_units=16',
       '--max_episode_length=2', '--episodes_per_iteration=1',
-      '--gin_bindings=Era5WindField.episode_hours=1.0',
+      '--gin_bindings=GriddedWindField.episode_hours=1.0',
       f'--wind_file={series}'])
   assert code == 0, capsys.readouterr().err
   info = json.loads((run / 'run.json').read_text())
@@ -92,7 +92,7 @@ def test_the_planner_flies_the_series_through_eval(series, tmp_path, capsys):
   out = tmp_path / 'out'
   code = eval_cli.main([
       f'--output_dir={out}', '--agent=latex_mpc', '--suite=latex_micro',
-      '--max_episode_length=3', '--gin_bindings=Era5WindField.episode_hours=1.0',
+      '--max_episode_length=3', '--gin_bindings=GriddedWindField.episode_hours=1.0',
       *_SMALL_MPC, f'--wind_file={series}'])
   assert code == 0, capsys.readouterr().err
   records = json.loads((out / 'latex_micro' / 'latex_mpc.json').read_text())
@@ -115,7 +115,7 @@ def test_the_planner_benchmark_flies_the_series(series, tmp_path):
   rc = planners.main([
       '--agent=latex_mpc', '--suite=latex_small', '--num_seeds=2',
       '--max_episode_length=3', f'--output_dir={tmp_path}',
-      '--gin_bindings=Era5WindField.episode_hours=1.0', *_SMALL_MPC,
+      '--gin_bindings=GriddedWindField.episode_hours=1.0', *_SMALL_MPC,
       f'--wind_file={series}'])
   assert rc == 0
   folder = tmp_path / 'latex_small'

@@ -21,8 +21,8 @@ from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.flight import state as state_lib
 from ble_latex.run import records
-from ble_latex.wind import era5
-from ble_latex.wind import era5_jax
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import sounding
 from ble_latex.wind import stations
 
@@ -49,7 +49,7 @@ _SEEDS = np.arange(6)
 
 @pytest.fixture(scope='module')
 def gfs():
-  return era5.load(GFS_NC)
+  return gridded.load(GFS_NC)
 
 
 def _params(grid):
@@ -80,7 +80,7 @@ def test_station_box_keeps_the_margin_from_every_edge(gfs):
 
 
 def test_per_seed_stations_are_reproducible_and_inside_the_box(gfs):
-  grid = era5_jax.grid_from_data(gfs, stations='per_seed')
+  grid = gridded_jax.grid_from_data(gfs, stations='per_seed')
   box = np.asarray(grid.station_box)
   params = _params(grid)
   many = jax_env.flight_stations(params, np.arange(2000))
@@ -103,8 +103,8 @@ def test_per_seed_stations_are_reproducible_and_inside_the_box(gfs):
   assert 0.45 < np.mean(many[:, 1] + 360.0 < 0.5 * (box[2] + box[3])) < 0.55
   # The forecast around a station is the file's winds there.
   station = jnp.asarray([float(one[0]), float(one[1])], jnp.float32)
-  column = jax.jit(era5_jax.forecast)(grid, 0.0, 0.0, 0.0,
-                                      jnp.float32(5000.0), station)
+  column = jax.jit(gridded_jax.forecast)(grid, 0.0, 0.0, 0.0,
+                                         jnp.float32(5000.0), station)
   np.testing.assert_allclose(
       np.asarray(column),
       gfs.interpolate(0.0, 5000.0, float(one[0]), float(one[1])), atol=2e-3)
@@ -112,7 +112,7 @@ def test_per_seed_stations_are_reproducible_and_inside_the_box(gfs):
 
 @pytest.mark.slow
 def test_per_seed_stations_are_flown(gfs):
-  grid = era5_jax.grid_from_data(gfs, stations='per_seed')
+  grid = gridded_jax.grid_from_data(gfs, stations='per_seed')
   params = _params(grid)
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
   keys = jnp.stack([jax.random.PRNGKey(int(s)) for s in _SEEDS])
@@ -125,7 +125,7 @@ def test_per_seed_stations_are_flown(gfs):
   assert np.all(np.isfinite(np.asarray(obs)))
   # The measured wind is the file's around each flight's own station.
   f = state.flight
-  lat, lon = jax.vmap(era5_jax.latlng, in_axes=(None, 0, 0, 0))(
+  lat, lon = jax.vmap(gridded_jax.latlng, in_axes=(None, 0, 0, 0))(
       grid, f.x_m, f.y_m, state.station)
   want = gfs.interpolate(0.0, np.asarray(f.pressure_pa), np.asarray(lat),
                          np.asarray(lon))
@@ -133,7 +133,7 @@ def test_per_seed_stations_are_flown(gfs):
                    np.asarray(state.wind_v) - want[:, 1])
   assert np.all(noise < 10.0)  # BLE's simplex noise only.
   # The other draws of the world are those of a fixed station.
-  fixed = era5_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0)
+  fixed = gridded_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0)
   fixed_state = reset(keys, params.replace(wind_grid=fixed))[1]
   assert fixed_state.station is None
   np.testing.assert_array_equal(np.asarray(fixed_state.flight.x_m),
@@ -143,22 +143,22 @@ def test_per_seed_stations_are_flown(gfs):
 
 
 def test_fixed_stations_are_todays_default(gfs, tmp_path):
-  grid = era5_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0)
+  grid = gridded_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0)
   assert grid.station_box is None
   assert jax_env.flight_stations(_params(grid), [0, 5]).tolist() == [
       pytest.approx([40.0, -103.0], abs=1e-4)] * 2
   assert jax_env.flight_stations(_params(None), [0]) is None
   # A sounding has no domain to draw stations in.
   with pytest.raises(errors.ConfigError, match='needs a gridded source'):
-    era5_jax.grid_from_data(era5.load(HILO), stations='per_seed')
+    gridded_jax.grid_from_data(gridded.load(HILO), stations='per_seed')
   # gin: the mode and the margin reach the grid.
   gin.clear_config()
   gin.parse_config([
       'import ble_latex.envs.jax_env',
-      'latex_episode.wind_field_factory = @Era5WindField',
-      f'Era5WindField.path = {GFS_NC!r}',
-      "Era5WindField.stations = 'per_seed'",
-      'Era5WindField.station_margin_km = 300.0'])
+      'latex_episode.wind_field_factory = @GriddedWindField',
+      f'GriddedWindField.path = {GFS_NC!r}',
+      "GriddedWindField.stations = 'per_seed'",
+      'GriddedWindField.station_margin_km = 300.0'])
   try:
     box = np.asarray(env_params.params_from_gin().wind_grid.station_box)
     assert box[0] == pytest.approx(35.0 + 300.0 / stations.KM_PER_DEG)
@@ -183,20 +183,20 @@ def test_outside_is_beyond_the_grids_nodes(gfs):
   from ble_latex.envs import winds  # pylint: disable=g-import-not-at-top
   assert 'left_wind_domain' in records.TERMINAL_REASONS
   assert 'left_wind_domain' not in records.OUT_OF_RESOURCES_REASONS
-  grid = era5_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0)
+  grid = gridded_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0)
   # 0 km; 700 km east (lon -94.8: the grid ends at -95); 600 km west (lon
   # -110.04) and south (lat 34.6); 400 km east (lon -98.3).
   x = jnp.array([0.0, 700e3, -600e3, 0.0, 400e3])
   y = jnp.array([0.0, 0.0, 0.0, -600e3, 0.0])
-  assert np.asarray(era5_jax.outside(grid, x, y)).tolist() == [
+  assert np.asarray(gridded_jax.outside(grid, x, y)).tolist() == [
       False, True, True, True, False]
   # Around a flight's own station, the same.
   station = jnp.array([40.0, 257.0], jnp.float32)
-  assert np.asarray(era5_jax.outside(grid, x, y, station)).tolist() == [
+  assert np.asarray(gridded_jax.outside(grid, x, y, station)).tolist() == [
       False, True, True, True, False]
   assert grid.end_outside_domain and winds.era5_wind(grid).outside
-  held = era5_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0,
-                                 end_outside_domain=False)
+  held = gridded_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0,
+                                    end_outside_domain=False)
   assert winds.era5_wind(held).outside is None  # Edge values held.
   assert winds.GENERATIVE_WIND.outside is None
 
@@ -204,7 +204,7 @@ def test_outside_is_beyond_the_grids_nodes(gfs):
 @pytest.mark.slow
 def test_a_flight_that_leaves_the_grid_ends_with_its_own_reason(gfs):
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)
-  grid = era5_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0)
+  grid = gridded_jax.grid_from_data(gfs, center_lat=40.0, center_lon=-103.0)
   params = _params(grid)
   keys = jnp.stack([jax.random.PRNGKey(0)] * 2)
   state = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(keys, params)[1]
@@ -276,25 +276,25 @@ def test_a_soundings_header_names_its_site_and_date(tmp_path):
 def test_a_soundings_date_is_its_flights_and_label(tmp_path):
   from ble_latex.envs import winds  # pylint: disable=g-import-not-at-top
   page = _page(tmp_path)
-  data = era5.load(page)
+  data = gridded.load(page)
   assert data.start == dt.datetime(2010, 12, 9, 12, tzinfo=dt.timezone.utc)
   assert data.description == ('sounding BOI 72681 43.56N -116.21E '
                               '2010-12-09T12:00Z (time-invariant; wind above '
                               'its top, 32.3 km, held)')
-  assert era5.load(BOISE).description == (
+  assert gridded.load(BOISE).description == (
       'sounding (time-invariant; wind above its top, 32.3 km, held)')
   epoch = env_types.START_EPOCH
   for when, want in ((None, dt.datetime(2010, 12, 9, 12)),
                      ('2023-06-21T06:00', dt.datetime(2023, 6, 21, 6))):
-    grid = era5_jax.grid_from_data(data, center_lat=43.56,
-                                   center_lon=-116.21, snapshot_time=when)
+    grid = gridded_jax.grid_from_data(data, center_lat=43.56,
+                                      center_lon=-116.21, snapshot_time=when)
     # The flight starts then (`draw`'s start), which sets its sun clock.
     start = winds.era5_start_offset_s(grid, jax.random.PRNGKey(0))
     offset = want.replace(tzinfo=dt.timezone.utc) - epoch
     assert int(start) == int(offset.total_seconds())
   with pytest.raises(errors.ConfigError, match='snapshot_time'):
-    era5_jax.grid_from_data(data, center_lat=43.56, center_lon=-116.21,
-                            snapshot_time='soon')
+    gridded_jax.grid_from_data(data, center_lat=43.56, center_lon=-116.21,
+                               snapshot_time='soon')
 
 
 def test_wind_file_defaults(tmp_path):
@@ -302,13 +302,13 @@ def test_wind_file_defaults(tmp_path):
   gin.clear_config()
   try:
     assert common.wind_file_defaults(GFS_NC) == [
-        "Era5WindField.stations = 'per_seed'"]
+        "GriddedWindField.stations = 'per_seed'"]
     assert common.wind_file_defaults(BOISE) == []  # No site in the file.
     assert common.wind_file_defaults(_page(tmp_path)) == [
-        'Era5WindField.center_lat = 43.56',
-        'Era5WindField.center_lon = -116.21']
-    gin.parse_config(['import ble_latex.wind.era5',
-                      'Era5WindField.center_lat = 40.0'])
+        'GriddedWindField.center_lat = 43.56',
+        'GriddedWindField.center_lon = -116.21']
+    gin.parse_config(['import ble_latex.wind.gridded',
+                      'GriddedWindField.center_lat = 40.0'])
     assert common.wind_file_defaults(GFS_NC) == []  # The user's station.
   finally:
     gin.clear_config()
@@ -324,8 +324,8 @@ def _bad_wind_file(tmp_path):
 @pytest.mark.slow  # Importing the launch planner imports TensorFlow (~30 s).
 def test_launch_wind_file_defaults_and_bad_files(tmp_path):
   from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
-  assert scoring.domain_centre(era5.load(GFS_NC)) == (40.0, -102.5)
-  assert scoring.domain_centre(era5.load(_page(tmp_path))) == (43.56, -116.21)
+  assert scoring.domain_centre(gridded.load(GFS_NC)) == (40.0, -102.5)
+  assert scoring.domain_centre(gridded.load(_page(tmp_path))) == (43.56, -116.21)
   gin.clear_config()
   params = env_params.params_from_gin()
   # A bad file is the reader's error (exit 1), not a usage error (exit 2).
@@ -351,10 +351,10 @@ _BAD_BINDINGS = (('stations', [(41.0, -103.0)]), ('center_lat', [40.0]),
 @pytest.mark.parametrize('field, value', _BAD_BINDINGS)
 def test_bad_era5_settings_are_one_line_naming_the_binding(field, value):
   with pytest.raises(errors.ConfigError) as info:
-    era5.settings(**{'path': GFS_NC, 'center_lat': 40.0,
-                     'center_lon': -103.0, field: value})
+    gridded.settings(**{'path': GFS_NC, 'center_lat': 40.0,
+                        'center_lon': -103.0, field: value})
   # Gin appends 'In call to configurable ...' lines; commands print the first.
-  assert f'Era5WindField.{field}' in str(info.value).splitlines()[0]
+  assert f'GriddedWindField.{field}' in str(info.value).splitlines()[0]
 
 
 @pytest.mark.slow
@@ -365,11 +365,11 @@ def test_a_list_of_stations_from_eval_is_a_usage_error(tmp_path, capsys):
   status = eval_cli.main([
       f'--output_dir={tmp_path}', '--agent=latex_random',
       '--suite=latex_micro', f'--wind_file={GFS_NC}',
-      '--gin_bindings=Era5WindField.stations = [(41.0, -103.0)]'])
+      '--gin_bindings=GriddedWindField.stations = [(41.0, -103.0)]'])
   err = capsys.readouterr().err.strip().splitlines()
   gin.clear_config()
   assert status == 2, err
-  assert len(err) == 1 and 'Era5WindField.stations' in err[0], err
+  assert len(err) == 1 and 'GriddedWindField.stations' in err[0], err
 
 
 @pytest.mark.slow
@@ -413,7 +413,7 @@ def test_eval_records_carry_each_flights_station(tmp_path, capsys):
   assert code == 0, capsys.readouterr().err
   got = json.loads((out / 'latex_micro' / 'latex_station_seeker.json'
                     ).read_text())
-  grid = era5_jax.grid_from_data(era5.load(GFS_NC), stations='per_seed')
+  grid = gridded_jax.grid_from_data(gridded.load(GFS_NC), stations='per_seed')
   want = jax_env.flight_stations(_params(grid), [r['seed'] for r in got])
   gin.clear_config()
   for record, (lat, lon) in zip(got, want):
@@ -423,7 +423,7 @@ def test_eval_records_carry_each_flights_station(tmp_path, capsys):
 
 
 def test_bles_era5_wind_field_refuses_per_seed_stations():
-  from ble_latex.ble import era5_field  # pylint: disable=g-import-not-at-top
+  from ble_latex.ble import gridded_field  # pylint: disable=g-import-not-at-top
   with pytest.raises(errors.ConfigError, match='fixed station'):
-    era5_field.Era5WindField.from_settings(era5.Era5Settings(
+    gridded_field.GriddedWindField.from_settings(gridded.Era5Settings(
         path=GFS_NC, stations='per_seed'))

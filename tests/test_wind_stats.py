@@ -1,7 +1,7 @@
 # coding=utf-8
 """Tests of the wind-source comparison (`ble_latex.wind.stats`).
 
-ERA5 sources are the synthetic files of tests/test_era5.py; the VAE source
+ERA5 sources are the synthetic files of tests/test_gridded.py; the VAE source
 decodes a few forecast keys only. No network.
 """
 
@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from ble_latex.wind import stats
-import test_era5  # pylint: disable=g-bad-import-order
+import test_gridded  # pylint: disable=g-bad-import-order
 
 
 @pytest.fixture(name='era5_file', scope='module')
 def fixture_era5_file(tmp_path_factory):
-  return test_era5.write_era5(tmp_path_factory.mktemp('stats') / 'era5.nc')
+  return test_gridded.write_era5(tmp_path_factory.mktemp('stats') / 'era5.nc')
 
 
 def samples(u, v, pressures=(5000.0, 7000.0, 10000.0), label='x'):
@@ -50,7 +50,7 @@ def test_shifted_copy_is_at_the_shift(era5_file, tmp_path, shift):
   def edit(dataset):
     dataset['u'].values[...] += shift
 
-  shifted = test_era5.rewrite(era5_file, tmp_path / 'shifted.nc', edit)
+  shifted = test_gridded.rewrite(era5_file, tmp_path / 'shifted.nc', edit)
   a = stats.sample_era5(era5_file, num_samples=300, seed=0)
   b = stats.sample_era5(shifted, num_samples=300, seed=0)
   result = stats.compare(a, b)
@@ -99,17 +99,17 @@ def test_vae_samples_are_deterministic_in_the_key():
 
 
 def test_bad_inputs_are_errors_naming_them(era5_file, tmp_path):
-  few = test_era5.write_era5(tmp_path / 'few.nc',
-                             levels_hpa=np.array([20.0, 50.0, 175.0]))
+  few = test_gridded.write_era5(tmp_path / 'few.nc',
+                                levels_hpa=np.array([20.0, 50.0, 175.0]))
   with pytest.raises(ValueError, match=r'hold 1 pressure level\(s\) in '
                      r'5000..14000 Pa .* the comparison needs 2 or more'):
     stats.sample_era5(few, num_samples=5)
-  small = test_era5.write_era5(tmp_path / 'small.nc',
-                               lat=np.array([2.0, 1.0, 0.0]))
+  small = test_gridded.write_era5(tmp_path / 'small.nc',
+                                  lat=np.array([2.0, 1.0, 0.0]))
   with pytest.raises(ValueError, match='too small for samples up to 200 km '
                      'from its centre'):
     stats.sample_era5(small, num_samples=5)
-  nan = test_era5.write_era5(tmp_path / 'nan.nc', nan=True)
+  nan = test_gridded.write_era5(tmp_path / 'nan.nc', nan=True)
   with pytest.raises(ValueError, match='has NaN/inf winds'):
     stats.sample_era5(nan, num_samples=5)
   with pytest.raises(FileNotFoundError, match='does not exist'):

@@ -15,7 +15,7 @@ import xarray as xr
 
 from ble_latex import errors
 from ble_latex.wind import analysis
-from ble_latex.wind import era5
+from ble_latex.wind import gridded
 from ble_latex.wind import stations
 
 REAL = pathlib.Path(__file__).parent / 'data' / 'realwinds'
@@ -51,7 +51,7 @@ def _write_steps(path, hours):
 
 
 def test_one_file_of_several_steps_is_a_time_series(tmp_path):
-  data = era5.load(_write_steps(tmp_path / 'steps.grib2', HOURS))
+  data = gridded.load(_write_steps(tmp_path / 'steps.grib2', HOURS))
   assert not data.time_invariant
   assert data.times.tolist() == [
       np.datetime64(f'2011-10-11T{h:02d}:00', 'ns').astype(int)
@@ -62,23 +62,23 @@ def test_one_file_of_several_steps_is_a_time_series(tmp_path):
                              first + 0.5, atol=1e-5)
   # The same steps as three files, joined along time.
   parts = [_write_steps(tmp_path / f'f{h:03d}.grib2', (h,)) for h in HOURS]
-  joined = era5.load(parts)
+  joined = gridded.load(parts)
   np.testing.assert_array_equal(joined.uv, data.uv)
   assert joined.description == data.description
 
 
 def test_a_series_off_the_era5_split_flies_per_seed_or_says_the_fix(
     tmp_path):
-  data = era5.load(_write_steps(tmp_path / 'steps.grib2', HOURS))
+  data = gridded.load(_write_steps(tmp_path / 'steps.grib2', HOURS))
   # Not the paper's ERA5 target: per-seed stations, as on a snapshot.
   assert stations.file_defaults(data) == {'stations': 'per_seed'}
   with pytest.raises(errors.ConfigError) as raised:
-    era5.start_window(data, center_lat=0.0, center_lon=0.0,
-                      episode_hours=3.0, start_dates='eval')
+    gridded.start_window(data, center_lat=0.0, center_lon=0.0,
+                         episode_hours=3.0, start_dates='eval')
   message = str(raised.value)
   assert '--era5_dates=all' in message and '\n' not in message
-  assert era5.start_window(data, center_lat=0.0, center_lon=0.0,
-                           episode_hours=3.0) == (0, 180)
+  assert gridded.start_window(data, center_lat=0.0, center_lon=0.0,
+                              episode_hours=3.0) == (0, 180)
 
 
 def test_a_netcdf_analysis_with_several_times_is_a_time_series(tmp_path):
@@ -91,7 +91,7 @@ def test_a_netcdf_analysis_with_several_times_is_a_time_series(tmp_path):
       step[name] = step[name] + i
   path = tmp_path / 'series.nc'
   xr.concat(steps, dim='time').to_netcdf(path)
-  data = era5.load(str(path))
+  data = gridded.load(str(path))
   assert not data.time_invariant and data.times.size == 3
   assert data.description == 'analysis'
   first = data.interpolate(0.0, 5000.0, 40.0, -103.0)
@@ -101,7 +101,7 @@ def test_a_netcdf_analysis_with_several_times_is_a_time_series(tmp_path):
 
 def test_a_snapshot_names_its_run_and_lead_time():
   pytest.importorskip('cfgrib')
-  data = era5.load(str(SLICE))
+  data = gridded.load(str(SLICE))
   assert data.forecast == analysis.ForecastRun(
       (np.datetime64('2011-10-08T00:00', 'ns'),), (72.0,))
   assert data.description == 'GRIB2 run 2011-10-08T00Z +72 h (time-invariant)'
@@ -125,24 +125,24 @@ def test_the_default_split_is_not_applied_to_a_series_other_than_era5(
       bindings = cli.era5_bindings(path, None, split)
       assert not any('start_dates' in b for b in bindings), bindings
     assert cli.era5_bindings(path, 'all', 'eval')[-1] == (
-        'Era5WindField.start_dates = None')
+        'GriddedWindField.start_dates = None')
   finally:
     gin.clear_config()
-  data = era5.load(path)
-  assert era5.start_window(data, center_lat=0.0, center_lon=0.0,
-                           episode_hours=3.0, start_dates=None) == (0, 180)
+  data = gridded.load(path)
+  assert gridded.start_window(data, center_lat=0.0, center_lon=0.0,
+                              episode_hours=3.0, start_dates=None) == (0, 180)
   with pytest.raises(errors.ConfigError, match='--era5_dates=all'):
-    era5.start_window(data, center_lat=0.0, center_lon=0.0,
-                      episode_hours=3.0, start_dates='eval')
+    gridded.start_window(data, center_lat=0.0, center_lon=0.0,
+                         episode_hours=3.0, start_dates='eval')
 
 
 def test_a_series_shorter_than_the_flight_names_its_source_and_the_fix(
     tmp_path):
-  data = era5.load(_write_steps(tmp_path / 'steps.grib2', HOURS))
+  data = gridded.load(_write_steps(tmp_path / 'steps.grib2', HOURS))
   with pytest.raises(errors.BadFileError) as raised:
-    era5.last_start_minute(data, center_lat=0.0, center_lon=0.0,
-                           episode_hours=72.0)
+    gridded.last_start_minute(data, center_lat=0.0, center_lon=0.0,
+                              episode_hours=72.0)
   message = str(raised.value)
   assert message.startswith('GRIB2 file(s)') and '\n' not in message
   assert 'cover 6.0 h' in message
-  assert 'bind Era5WindField.episode_hours' in message
+  assert 'bind GriddedWindField.episode_hours' in message

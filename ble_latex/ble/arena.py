@@ -46,15 +46,15 @@ import numpy as np
 import s2sphere as s2
 
 from ble_latex.ble import balloon as balloon_lib
-from ble_latex.ble import era5_field
 from ble_latex.ble import features as latex_features
+from ble_latex.ble import gridded_field
 from ble_latex.ble import wind as ble_wind
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import gymnasium_render
 from ble_latex.flight import physics as core_physics
-from ble_latex.wind import era5_jax
+from ble_latex.wind import gridded_jax
 
 
 class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
@@ -80,8 +80,8 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
       wind_field_instance: The wind field to fly in; None or a
         `CoreGenerativeWindField`: BLE's generative field inside the core
         (ERA5 if gin binds `latex_episode.wind_field_factory =
-        @Era5WindField`); an `era5_field.Era5WindField` or
-        `era5.Era5Settings`: its grid, in the core; any other BLE
+        @GriddedWindField`); a `gridded_field.GriddedWindField` or
+        `gridded.Era5Settings`: its grid, in the core; any other BLE
         `WindField`: host callbacks.
       seed: Optional seed (BLE semantics).
       start_altitude_range_m: Start altitude is uniform in this range;
@@ -104,12 +104,12 @@ class LatexBalloonArena(balloon_arena.BalloonArenaInterface):
       params = params.replace(episode_steps=episode_steps)
     if station_keeping_radius_km is not None:
       params = params.replace(radius_km=station_keeping_radius_km)
-    era5_settings = era5_field.grid_settings(wind_field_instance)
+    era5_settings = gridded_field.grid_settings(wind_field_instance)
     if era5_settings is not None:
       # ERA5 flies in JAX (its grid in the params); BLE's consumers read it
       # through the core's field, as the generative one.
       params = params.replace(
-          wind_grid=era5_jax.grid_from_settings(era5_settings))
+          wind_grid=gridded_jax.grid_from_settings(era5_settings))
       wind_field_instance = None
     if wind_field_instance is None:
       wind_field_instance = ble_wind.CoreGenerativeWindField()

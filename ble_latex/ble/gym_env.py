@@ -108,9 +108,9 @@ class LatexBalloonEnv(balloon_env.BalloonEnv):
       wind_field_factory: Builds the wind field: by default BLE's generative
         VAE field with BLE's noise, drawn and flown inside the flight core
         (`ble_latex.ble.wind.CoreGenerativeWindField`);
-        `ble_latex.ble.era5_field.Era5WindField` for ERA5 data, or gin's
-        `latex_episode.wind_field_factory = @Era5WindField` (plain
-        `wind.era5.Era5Settings`), flown in the core too (its grid in
+        `ble_latex.ble.gridded_field.GriddedWindField` for ERA5 data, or gin's
+        `latex_episode.wind_field_factory = @GriddedWindField` (plain
+        `wind.gridded.Era5Settings`), flown in the core too (its grid in
         `EnvParams.wind_grid`); any other BLE
         `WindField` is flown through host callbacks.
       episode_steps: Steps per episode (None: gin's `latex_episode.*`, the

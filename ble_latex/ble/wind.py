@@ -13,8 +13,8 @@
   nothing: the arena's driver draws the field from the same key BLE's arena
   would give `WindField.reset`.
 - `callback_wind`: the core's `winds.Wind` over any BLE `WindField` object
-  (e.g. `ble_latex.ble.era5_field.Era5WindField`), asked on the host through
-  `jax.pure_callback` at every physics sub-step; `host_wind`: the same, with
+  (e.g. `ble_latex.ble.gridded_field.GriddedWindField`), asked on the host
+  through `jax.pure_callback` at every physics sub-step; `host_wind`: the same, with
   its reset, as the Gymnasium env's `host_wind=`.
 """
 

@@ -318,14 +318,14 @@ WIND_FILE_HELP = ('Wind file (the reader chosen by content: ERA5 or another '
                   'CF NetCDF analysis, GRIB2, a University of Wyoming '
                   'sounding; one time step flies time-invariant) or glob '
                   'pattern: every env flies it (binds '
-                  'latex_episode.wind_field_factory = @Era5WindField and '
-                  'Era5WindField.path; the same as gin_configs/paper_era5.gin '
-                  'with that path). --era5_path is an alias.')
+                  'latex_episode.wind_field_factory = @GriddedWindField and '
+                  'GriddedWindField.path; the same as '
+                  'gin_configs/paper_era5.gin with that path). --era5_path is an alias.')
 ERA5_DATES_HELP = ("Date range ERA5 flights start in: a split (train, "
-                   "validation, eval; ble_latex.wind.era5.DATE_SPLITS), "
+                   "validation, eval; ble_latex.wind.gridded.DATE_SPLITS), "
                    "'all' (anywhere in the file) or FIRST,END (ISO dates, "
                    "END excluded). Default: {default}. Needs ERA5 winds "
-                   "(--era5_path or a gin file binding @Era5WindField).")
+                   "(--era5_path or a gin file binding @GriddedWindField).")
 
 
 GIN_FILE_HELP = 'Extra gin files.'
@@ -391,8 +391,8 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
   """The gin bindings of --wind_file / --era5_dates (after `bind_gin`).
 
   Call after the user's gin is bound: ERA5 is on with `path`, or when gin
-  binds `latex_episode.wind_field_factory = @Era5WindField`. The start
-  range is `dates`, else an `Era5WindField.start_dates` the user bound,
+  binds `latex_episode.wind_field_factory = @GriddedWindField`. The start
+  range is `dates`, else a `GriddedWindField.start_dates` the user bound,
   else `default_dates` (the command's split).
 
   Args:
@@ -430,32 +430,33 @@ def era5_bindings(path: Optional[str], dates: Optional[str],
       if given:
         raise CommandUsageError(
             f'{flag} needs ERA5 winds: --wind_file, or a gin file binding '
-            'latex_episode.wind_field_factory = @Era5WindField')
+            'latex_episode.wind_field_factory = @GriddedWindField')
     return []
   else:
     bindings += list(station)
   if dates is None:
-    try:
-      gin.query_parameter('Era5WindField.start_dates')
+    if 'start_dates' in winds.bound_settings():
       return bindings  # The user's gin chose the range.
-    except ValueError:
-      if not _is_era5_file(path):
-        return bindings  # Another source: flights start anywhere in it.
-      dates = default_dates
+    if not _is_era5_file(path):
+      return bindings  # Another source: flights start anywhere in it.
+    dates = default_dates
   value = era5_dates_value(dates)
   return bindings + [wind_file.start_dates(value)]
 
 
 def _is_era5_file(path: Optional[str]) -> bool:
-  """Whether the wind file (`path`, else gin's `Era5WindField.path`) is
-  ERA5, whose dates the commands' default splits (`era5.DATE_SPLITS`) are;
+  """Whether the wind file (`path`, else gin's `GriddedWindField.path`) is
+  ERA5, whose dates the commands' default splits (`gridded.DATE_SPLITS`) are;
   a GFS series, forecast or sounding is not split by them. Unreadable: True
   (the reader reports it when the env starts)."""
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import winds
+  from ble_latex.wind import gridded
+  # pylint: enable=g-import-not-at-top
   try:
-    path = path or gin.query_parameter('Era5WindField.path')
-    return era5.load(path).source == era5.ERA5.label
-  except (OSError, ValueError):  # errors.BadFileError is a ValueError.
+    path = path or winds.bound_settings()['path']
+    return gridded.load(path).source == gridded.ERA5.label
+  except (KeyError, OSError, ValueError):  # A BadFileError is a ValueError.
     return True
 
 
@@ -464,39 +465,32 @@ def wind_file_defaults(path: str) -> List[str]:
 
   `stations.file_defaults` (per-seed stations on a gridded snapshot other
   than ERA5: eval seed s flies station s; a sounding's named site), unless
-  `Era5WindField.stations`, `center_lat` or `center_lon` is bound.
+  `GriddedWindField.stations`, `center_lat` or `center_lon` is bound.
 
   Raises:
-    FileNotFoundError, errors.BadFileError: as `era5.load`.
+    FileNotFoundError, errors.BadFileError: as `gridded.load`.
   """
   # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import winds
   from ble_latex.run import wind_file
-  from ble_latex.wind import era5
+  from ble_latex.wind import gridded
   from ble_latex.wind import stations
   # pylint: enable=g-import-not-at-top
-
-  def bound(name: str) -> bool:
-    try:
-      gin.query_parameter(f'Era5WindField.{name}')
-    except ValueError:
-      return False
-    return True
-
-  if any(bound(n) for n in ('stations', 'center_lat', 'center_lon')):
+  if {'stations', 'center_lat', 'center_lon'} & set(winds.bound_settings()):
     return []
-  defaults = stations.file_defaults(era5.load(path))
+  defaults = stations.file_defaults(gridded.load(path))
   return wind_file.settings(defaults)
 
 
 def era5_dates_value(dates: str) -> Any:
-  """`Era5WindField.start_dates` of an --era5_dates value (checked)."""
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  """`GriddedWindField.start_dates` of an --era5_dates value (checked)."""
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
   if dates == 'all':
     return None
-  value = dates if dates in era5.DATE_SPLITS else tuple(
+  value = dates if dates in gridded.DATE_SPLITS else tuple(
       d.strip() for d in dates.split(','))
   try:
-    era5.start_dates_range(value, '--era5_dates')
+    gridded.start_dates_range(value, '--era5_dates')
   except errors.ConfigError as e:
     raise CommandUsageError(str(e)) from e
   return value

@@ -5,7 +5,7 @@ Downloads ERA5 u, v on pressure levels (CDS dataset
 `reanalysis-era5-pressure-levels`) around the station-keeping target, one
 request and file per calendar month (`<output stem>_YYYY-MM.nc`, skipped when
 already there), then joins the months into `--output` for
-`Era5WindField.path` (gin_configs/paper_era5.gin). Defaults are the paper's
+`GriddedWindField.path` (gin_configs/paper_era5.gin). Defaults are the paper's
 data: 1 Nov 2022 - 31 Jan 2023, lat 1, lon -113 +- 5 deg, 0.4 deg grid,
 levels 20-175 hPa, 00/06/12/18 UTC (~16 MB of float32 winds).
 
@@ -44,10 +44,10 @@ with quiet.third_party_noise():
   import numpy as np
   import xarray as xr
 
-  from ble_latex.wind import era5
   from ble_latex.wind import era5_arco
-  from ble_latex.wind import era5_checks
   from ble_latex.wind import era5_requests
+  from ble_latex.wind import gridded
+  from ble_latex.wind import gridded_checks
   # pylint: enable=g-import-not-at-top
 
 
@@ -81,18 +81,18 @@ def merge_files(paths: Sequence[str], output: str) -> str:
   try:
     time_dim = None
     for path in paths:
-      era5_checks.check_file(path)
+      gridded_checks.check_file(path)
       try:
         dataset = xr.open_dataset(path)
       except Exception as error:  # pylint: disable=broad-except
         raise ValueError(f'ERA5 file {path} is not a readable NetCDF file '
                          f'({type(error).__name__}: {error})') from error
       datasets.append(dataset)
-      dim = era5.find_time_dim(dataset)
+      dim = gridded.find_time_dim(dataset)
       if dim is None or (time_dim is not None and dim != time_dim):
         raise ValueError(
             f'ERA5 file {path} has no time dimension {time_dim or ""} '
-            f'(expected one of {list(era5.TIME_DIMS)}; found dims '
+            f'(expected one of {list(gridded.TIME_DIMS)}; found dims '
             f'{sorted(str(d) for d in dataset.dims)})')
       time_dim = dim
     merged = xr.concat(datasets, dim=time_dim, data_vars='minimal',
@@ -174,9 +174,9 @@ FLAGS = flags.FlagValues()
 flags.DEFINE_string('output', 'era5_paper.nc',
                     'Joined NetCDF file (monthly files go beside it).',
                     flag_values=FLAGS)
-flags.DEFINE_float('center_lat', era5.PAPER_CENTER_LAT,
+flags.DEFINE_float('center_lat', gridded.PAPER_CENTER_LAT,
                    'Target latitude [deg N].', flag_values=FLAGS)
-flags.DEFINE_float('center_lon', era5.PAPER_CENTER_LON,
+flags.DEFINE_float('center_lon', gridded.PAPER_CENTER_LON,
                    'Target longitude [deg E].', flag_values=FLAGS)
 flags.DEFINE_string('start_date', era5_requests.PAPER_START_DATE.isoformat(),
                     'First day, YYYY-MM-DD (inclusive).', flag_values=FLAGS)
@@ -206,7 +206,7 @@ flags.DEFINE_string('store', era5_arco.DEFAULT_STORE,
                     flag_values=FLAGS)
 flags.DEFINE_boolean('no_merge', False,
                      'Keep the monthly files only (use a glob such as '
-                     "'era5_paper_*.nc' as Era5WindField.path).",
+                     "'era5_paper_*.nc' as GriddedWindField.path).",
                      flag_values=FLAGS)
 
 
@@ -302,10 +302,10 @@ def _main(argv: Sequence[str]) -> int:
   targets: List[str] = [target for _, _, target in jobs]
   try:
     if args.no_merge:
-      data = era5.load(targets)
+      data = gridded.load(targets)
     else:
       merge_files(targets, args.output)
-      data = era5.load(args.output)
+      data = gridded.load(args.output)
   except (OSError, ValueError) as error:
     print(f'{_PROG}: error: {error}', file=sys.stderr)
     return 1
@@ -313,7 +313,7 @@ def _main(argv: Sequence[str]) -> int:
   return 0
 
 
-def _print_written(what: Any, data: era5.Era5Data) -> None:
+def _print_written(what: Any, data: gridded.Era5Data) -> None:
   """Prints what was written and the data's extent."""
   print(f'wrote {what}: '
         f'{data.times.size} times {data.start:%Y-%m-%d %H:%M} to '
@@ -348,7 +348,7 @@ def _arco_main(requests: Sequence[Tuple[str, Any]]) -> int:
   print(f'reading ARCO-ERA5 {args.store} -> {args.output}', flush=True)
   try:
     era5_arco.fetch(requests, args.output, store=args.store)
-    data = era5.load(args.output)
+    data = gridded.load(args.output)
   except (OSError, ValueError) as error:
     print(f'{_PROG}: error: {error}', file=sys.stderr)
     return 1

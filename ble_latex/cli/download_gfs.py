@@ -122,9 +122,9 @@ def _main(argv: Sequence[str]) -> int:
   except OSError as error:
     print(f'{_PROG}: {cli.one_line(error)}', file=sys.stderr)
     return 1
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
   try:  # The files must fly: load them as `--wind_file` would.
-    data = era5.load(paths)
+    data = gridded.load(paths)
   except (OSError, ValueError) as error:
     print(f'{_PROG}: the downloaded files do not load: {cli.one_line(error)}',
           file=sys.stderr)

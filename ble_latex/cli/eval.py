@@ -26,7 +26,7 @@ paper_era5.gin`) the flights start inside the suite's dates
 suite 'eval'; `--era5_dates` to choose), never the training dates. On any
 wind file each record also has `wind_source` and its flight's station,
 `station_lat`/`station_lon` [deg] from the file: on a gridded snapshot (GFS,
-GRIB2) --wind_file draws station s for seed s (`Era5WindField.stations =
+GRIB2) --wind_file draws station s for seed s (`GriddedWindField.stations =
 'per_seed'`) unless a station is bound (docs/winds.md); on BLE's winds the
 station is the nominal position `latex_flight.latitude_deg/longitude_deg`.
 

@@ -45,7 +45,7 @@ scoring = cli.lazy_module('ble_latex.launch.scoring')
 ascent_lib = cli.lazy_module('ble_latex.launch.ascent')
 gin_binding = cli.lazy_module('ble_latex.run.gin_binding')
 sites = cli.lazy_module('ble_latex.launch.sites')
-era5 = cli.lazy_module('ble_latex.wind.era5')
+gridded = cli.lazy_module('ble_latex.wind.gridded')
 tracks = cli.lazy_module('ble_latex.run.tracks')
 
 PROG = 'ble-latex-launch'
@@ -203,7 +203,7 @@ def _hopeless() -> bool:
     return False
   station = (FLAGS.station_lat, FLAGS.station_lon)
   if station[0] is None:  # The launch's default station (`era5_world`).
-    station = scoring.domain_centre(era5.load(FLAGS.wind_file))
+    station = scoring.domain_centre(gridded.load(FLAGS.wind_file))
   site, = sites.feasible_stations(FLAGS.wind_file, [station],
                                   FLAGS.min_hull_margin_mps)
   if site['keep']:

@@ -84,18 +84,18 @@ from absl import flags
 import numpy as np
 
 import ble_latex  # pylint: disable=unused-import  # Fixes before BLE imports.
-from ble_latex.cli import common as cli
 from ble_latex import quiet
 from ble_latex import safe_io
+from ble_latex.cli import common as cli
 
 with quiet.third_party_noise():
   # pylint: disable=g-import-not-at-top
-  from ble_latex.run import gin_binding
   from ble_latex.plots import exports
   from ble_latex.plots import feasibility as feasibility_plots
   from ble_latex.plots import figures as plots
   from ble_latex.plots import maps
   from ble_latex.run import episode_log
+  from ble_latex.run import gin_binding
   from ble_latex.run import records as records_lib
   from ble_latex.run import tracks as tracks_lib
   # pylint: enable=g-import-not-at-top
@@ -168,7 +168,7 @@ flags.DEFINE_string('env_name', 'LatexBalloon-v0', 'Env whose wind is drawn.',
 cli.define_gin_flags(
     FLAGS, files_help='Extra gin files (after latex_env.gin).',
     bindings_help='Gin bindings, e.g. "latex_episode.wind_field_factory = '
-    '@Era5WindField".', files_alias=True)
+    '@GriddedWindField".', files_alias=True)
 flags.DEFINE_boolean('wind_stats', False, f'Compare two wind sources: '
                      f'{WIND_STATS} and {WIND_STATS_JSON}.', flag_values=FLAGS)
 flags.DEFINE_string('wind_file', None, 'Wind file or glob compared by '

@@ -29,7 +29,7 @@ episode is lost or repeated. Episode i always flies env seed i (held-out eval
 seeds start at 1,000,000).
 
 On ERA5 (`--era5_path`, or `--gin_file=gin_configs/paper_era5.gin`) flights
-start inside the 'train' dates (`--era5_dates`, `era5.DATE_SPLITS`), and the
+start inside the 'train' dates (`--era5_dates`, `gridded.DATE_SPLITS`), and the
 jax trainer's validation flies the 'validation' dates (docs/era5.md):
 
   ble-latex-train --trainer=jax --base_dir=/tmp/latex/era5 \
@@ -176,21 +176,21 @@ def _era5_validation_params():
 
   When training flies the 'train' split (the default), the training params
   with flights starting in the 'validation' split (the same winds on the
-  device, `era5_jax.grid_from_settings`); None otherwise (no ERA5, or other
+  device, `gridded_jax.grid_from_settings`); None otherwise (no ERA5, or other
   training dates: validation flies the training env; choose with
   `ble-latex-eval --suite=latex_validation --era5_dates=...`).
   """
   # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params
-  from ble_latex.wind import era5
-  from ble_latex.wind import era5_jax
+  from ble_latex.wind import gridded
+  from ble_latex.wind import gridded_jax
   # pylint: enable=g-import-not-at-top
   params = env_params.params_from_gin()
   if (params.wind_grid is None or
-      era5.settings().start_dates != suites.TRAIN_DATES):
+      gridded.settings().start_dates != suites.TRAIN_DATES):
     return None
-  return params.replace(wind_grid=era5_jax.grid_from_settings(
-      era5.settings(start_dates=suites.era5_dates('latex_validation'))))
+  return params.replace(wind_grid=gridded_jax.grid_from_settings(
+      gridded.settings(start_dates=suites.era5_dates('latex_validation'))))
 
 
 def check() -> None:

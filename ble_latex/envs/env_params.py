@@ -37,9 +37,9 @@ from ble_latex.envs import winds
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import physics
-from ble_latex.wind import era5_checks
-from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
+from ble_latex.wind import gridded_checks
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import noise_gp
 
 # The gin binding of each `EnvParams` value (the flight system's are in
@@ -240,11 +240,11 @@ _CHECKED_GRIDS: Dict[Tuple[int, ...], Tuple[Any, ...]] = {}
 def check_wind_grid(grid: Any) -> None:
   """Checks `EnvParams.wind_grid` on the host (one line per fault).
 
-  An `era5_jax.Era5Grid` with 1-D axes of >= 2 finite, strictly ascending
+  A `gridded_jax.Era5Grid` with 1-D axes of >= 2 finite, strictly ascending
   values (time from 0), winds of shape (time, pressure, latitude,
-  longitude, 2), finite and below `era5_checks.MAX_WIND_MPS`, finite target and
-  origin values, and a start range 0 <= first <= last inside the time
-  axis. Grids from `era5_jax.grid_from_data` pass (the reader checked the
+  longitude, 2), finite and below `gridded_checks.MAX_WIND_MPS`, finite
+  target and origin values, and a start range 0 <= first <= last inside the time
+  axis. Grids from `gridded_jax.grid_from_data` pass (the reader checked the
   file); this catches grids built or edited by hand.
 
   Raises:
@@ -253,9 +253,9 @@ def check_wind_grid(grid: Any) -> None:
       longitude 6, 2)".
   """
   what = 'EnvParams.wind_grid'
-  if not isinstance(grid, era5_jax.Era5Grid):
-    raise errors.ConfigError(f'{what} must be an era5_jax.Era5Grid '
-                             f'(era5_jax.grid_from_data) or None, got '
+  if not isinstance(grid, gridded_jax.Era5Grid):
+    raise errors.ConfigError(f'{what} must be a gridded_jax.Era5Grid '
+                             f'(gridded_jax.grid_from_data) or None, got '
                              f'{type(grid).__name__}')
   leaves = tuple(jax.tree.leaves(grid)) + (grid.add_noise,)
   key = tuple(id(leaf) for leaf in leaves)
@@ -289,10 +289,10 @@ def check_wind_grid(grid: Any) -> None:
   uv = np.asarray(jax.device_get(grid.uv))
   if not np.all(np.isfinite(uv)):
     raise errors.ConfigError(f'{what}.uv holds non-finite winds')
-  if np.max(np.abs(uv)) > era5_checks.MAX_WIND_MPS:
+  if np.max(np.abs(uv)) > gridded_checks.MAX_WIND_MPS:
     raise errors.ConfigError(
         f'{what}.uv holds |wind| {np.max(np.abs(uv)):.4g} m/s, above '
-        f'{era5_checks.MAX_WIND_MPS:g} m/s')
+        f'{gridded_checks.MAX_WIND_MPS:g} m/s')
   for name in ('latitude_origin', 'longitude_origin', 'sin_center_lat',
                'cos_center_lat', 'center_lon'):
     value = np.asarray(jax.device_get(getattr(grid, name)))
@@ -436,12 +436,15 @@ def episode(*, episode_steps: int = _DEFAULTS['episode_steps'],
       TW50's and the drawn circle's (`EnvParams.radius_km`). # [km]
     wind_field_factory: None: BLE's generative field inside the core; else
       a factory of a BLE `WindField` (e.g. ERA5) that the single-balloon
-      envs fly through host callbacks. Not an `EnvParams` value.
+      envs fly through host callbacks, or a wind file's settings
+      (`@GriddedWindField`, its old name too: `winds.gin_factory`). Not an
+      `EnvParams` value.
 
   Returns:
     `episode_steps` and `station_keeping_radius_km` by `EnvParams` field
     (unchecked) and `wind_field_factory`.
   """
+  wind_field_factory = winds.gin_factory(wind_field_factory)
   return dict(locals())  # The arguments above, by name.
 
 

@@ -22,8 +22,8 @@ from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import solar
 from ble_latex.flight import state as state_lib
-from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import noise_gp
 from ble_latex.wind import simplex
 
@@ -62,7 +62,7 @@ class EnvParams:
       length does not recompile.
     stride_s: Simulated time per action (the arena's stride). Static. # [s]
     wind_grid: None: the winds are the env's `winds.Wind` (BLE's generative
-      field by default); an `era5_jax.Era5Grid`: ERA5 winds plus BLE's
+      field by default); a `gridded_jax.Era5Grid`: ERA5 winds plus BLE's
       simplex noise (`winds.era5_wind`), the grid shared by every balloon.
     reset_pool: None: `step` auto-resets a finished flight with the world
       of its reset key (`reset(key_reset)`, a full reset computed at every
@@ -106,7 +106,7 @@ class EnvParams:
   max_start_distance_km: float = 200.0
   episode_steps: int = task.EPISODE_STEPS
   stride_s: float = flax.struct.field(pytree_node=False, default=1200.0)
-  wind_grid: Optional[era5_jax.Era5Grid] = None
+  wind_grid: Optional[gridded_jax.Era5Grid] = None
   reset_pool: Optional['ResetPool'] = None
   wind_memory: int = flax.struct.field(pytree_node=False, default=0)
   wind_lookahead: int = flax.struct.field(pytree_node=False, default=0)
@@ -143,7 +143,7 @@ class EnvState:
       stations (`Era5Grid.station_box`): [2] this flight's station
       (latitude [deg N], longitude [deg E]), drawn at reset. # [deg]
     truth_member: None; on an ensemble's member truths
-      (`Era5WindField.truth_members`): this flight's truth member, an index
+      (`GriddedWindField.truth_members`): this flight's truth member, an index
       into `Era5Grid.truth_uv`'s members, drawn at reset (int32).
     wind_memory: None (`EnvParams.wind_memory` 0); else the last K
       measured-minus-forecast winds at the balloon, one per measurement

@@ -35,7 +35,7 @@ TensorFlow nor Dopamine; both read the env's gin names
   (`gymnasium_render.draw_flight`).
 - It flies BLE's generative field inside the core, or ERA5 when the params
   hold its grid (`EnvParams.wind_grid`, e.g. gin's
-  `latex_episode.wind_field_factory = @Era5WindField`), or a `HostWind`
+  `latex_episode.wind_field_factory = @GriddedWindField`), or a `HostWind`
   asked on the host at every sub-step (a BLE `WindField`:
   `host_wind=ble_latex.ble.wind.host_wind(field)`).
 

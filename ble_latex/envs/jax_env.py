@@ -82,8 +82,8 @@ from ble_latex.flight import controller as controller_lib
 from ble_latex.flight import dynamics
 from ble_latex.flight import launch as launch_lib
 from ble_latex.flight import state as state_lib
-from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import simplex
 
 Array = jax.Array
@@ -100,7 +100,7 @@ _BURST_KEY_DATA = 28_001
 # Per-seed stations (issue 45): the station's key is folded out of the
 # arena key with this, so every other draw stays as it was.
 _STATION_KEY_DATA = 45_001
-# Folded into the arena key for a flight's truth member (`era5_jax.
+# Folded into the arena key for a flight's truth member (`gridded_jax.
 # draw_truth_member`): eval seed s flies the same member on any file.
 _TRUTH_MEMBER_KEY_DATA = 64_001
 
@@ -346,17 +346,17 @@ def place(world: env_types.EnvState, params: env_types.EnvParams, *,
 
 
 def station_of(key: Array, grid: Any) -> Array:
-  """A flight's per-seed station from its arena key (`era5_jax.draw_station`).
+  """A flight's per-seed station from its arena key (`gridded_jax`'s draw).
 
   Args:
     key: The arena key (`arena_key(env_key)`).
-    grid: An `era5_jax.Era5Grid` with a `station_box`.
+    grid: A `gridded_jax.Era5Grid` with a `station_box`.
 
   Returns:
     [2] (latitude [deg N], longitude [deg E]). # [deg]
   """
-  return era5_jax.draw_station(grid, jax.random.fold_in(key,
-                                                        _STATION_KEY_DATA))
+  return gridded_jax.draw_station(grid, jax.random.fold_in(key,
+                                                           _STATION_KEY_DATA))
 
 
 def flight_stations(params: env_types.EnvParams,
@@ -380,7 +380,7 @@ def flight_stations(params: env_types.EnvParams,
     return None
   seeds = np.asarray(seeds, np.uint32).reshape(-1)
   if grid.station_box is None:
-    lat, lon = jax.device_get(era5_jax.latlng(grid, 0.0, 0.0))
+    lat, lon = jax.device_get(gridded_jax.latlng(grid, 0.0, 0.0))
     out = np.tile([float(lat), float(lon)], (seeds.size, 1))
   else:
     out = np.asarray(jax.device_get(jax.jit(jax.vmap(
@@ -547,13 +547,13 @@ class LatexBalloonJaxEnv:
     station = truth_member = None
     if params.wind_grid is None:
       forecast = generative.reset_forecast(forecast_key, params.decoder)
-    else:  # ERA5: `Era5WindField.reset_forecast`'s start, no VAE forecast.
+    else:  # ERA5: `GriddedWindField.reset_forecast`'s start, no VAE forecast.
       forecast = None
       start_time = winds.era5_start_offset_s(params.wind_grid, forecast_key)
       if params.wind_grid.station_box is not None:  # Per-seed stations.
         station = station_of(key, params.wind_grid)
-      if era5_jax.has_truth_members(params.wind_grid):
-        truth_member = era5_jax.draw_truth_member(
+      if gridded_jax.has_truth_members(params.wind_grid):
+        truth_member = gridded_jax.draw_truth_member(
             params.wind_grid, jax.random.fold_in(key, _TRUTH_MEMBER_KEY_DATA))
 
     # The world; its balloon is `place`d in it. Realistic physics' burst

@@ -7,26 +7,28 @@ balloon flies in and the forecast column the features read (BLE's
 
 - `GENERATIVE_WIND`: BLE's generative field, the VAE forecast drawn at
   reset (`wind.generative`) plus BLE's simplex noise (`wind.simplex`).
-- `era5_wind(grid)`: ERA5 winds (`wind.era5_jax`) plus the same noise, the
+- `era5_wind(grid)`: ERA5 winds (`wind.gridded_jax`) plus the same noise, the
   grid a traced argument shared by every balloon (`EnvParams.wind_grid`).
 - BLE's other wind fields fly through host callbacks (`ble_latex.ble.wind`).
 
-`is_era5` and `era5_grid_from_gin` turn gin's ERA5 settings
-(`latex_episode.wind_field_factory = @Era5WindField`, plain values read
-by `wind.era5`) into the grid the env flies; nothing here is a BLE object.
+`is_era5` and `era5_grid_from_gin` turn gin's wind-file settings
+(`latex_episode.wind_field_factory = @GriddedWindField`, plain values read
+by `wind.gridded`) into the grid the env flies; nothing here is a BLE object.
+`gin_factory` and `bound_settings` read them under the configurable's old
+name `Era5WindField` too (an alias until `gin_aliases.REMOVAL`).
 """
 
 import os
-from typing import Any, Callable, NamedTuple, Optional, Tuple
+from typing import Any, Callable, Dict, NamedTuple, Optional, Tuple
 
 import gin
 import jax
 
 from ble_latex import errors
 from ble_latex.envs import env_types
-from ble_latex.wind import era5
-from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import members
 from ble_latex.wind import simplex
 from ble_latex.wind import stations
@@ -111,10 +113,10 @@ GENERATIVE_WIND = Wind(ground_truth_wind, forecast_column)
 _EPOCH_MIN = int(env_types.START_EPOCH.timestamp()) // 60
 
 
-def era5_start_offset_s(grid: era5_jax.Era5Grid, key: Array) -> Array:
+def era5_start_offset_s(grid: gridded_jax.Era5Grid, key: Array) -> Array:
   """A flight's start in the ERA5 data, drawn from `key`. # [s]
 
-  `Era5WindField.reset_forecast`'s start (`era5_jax.draw_start_minute`),
+  `GriddedWindField.reset_forecast`'s start (`gridded_jax.draw_start_minute`),
   counted from `env_types.START_EPOCH` (the env's `start_time_offset_s`).
 
   Args:
@@ -124,12 +126,12 @@ def era5_start_offset_s(grid: era5_jax.Era5Grid, key: Array) -> Array:
   Returns:
     The start, seconds after `START_EPOCH` (int scalar).
   """
-  minute = era5_jax.draw_start_minute(grid, key)
+  minute = gridded_jax.draw_start_minute(grid, key)
   return (grid.first_time_min - _EPOCH_MIN + minute) * 60
 
 
-def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
-  """ERA5 winds plus BLE's simplex noise (BLE's `Era5WindField`).
+def era5_wind(grid: gridded_jax.Era5Grid) -> Wind:
+  """ERA5 winds plus BLE's simplex noise (BLE's `GriddedWindField`).
 
   The env flies it when `EnvParams.wind_grid` is set
   (`LatexBalloonJaxEnv.wind_for`): the grid is then a traced argument, read
@@ -138,7 +140,7 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
   seconds after `START_EPOCH`: data from 1943 to 2079).
 
   Args:
-    grid: The ERA5 grid (`era5_jax.grid_from_data`).
+    grid: The ERA5 grid (`gridded_jax.grid_from_data`).
 
   Returns:
     The wind: ground truth = ERA5 forecast + `grid.noise_scale` x BLE's
@@ -158,89 +160,110 @@ def era5_wind(grid: era5_jax.Era5Grid) -> Wind:
   truth = grid if grid.truth_uv is None else grid.replace(uv=grid.truth_uv)
 
   def ground_truth(state, x_m, y_m, pressure_pa, t_s):
-    u, v = era5_jax.forecast(truth, data_time_s(state, t_s), x_m, y_m,
-                             pressure_pa, state.station, state.truth_member)
+    u, v = gridded_jax.forecast(truth, data_time_s(state, t_s), x_m, y_m,
+                                pressure_pa, state.station, state.truth_member)
     if not grid.add_noise or grid.noise_scale == 0.0:
       return u, v
     return _add_noise(state, u, v, x_m, y_m, pressure_pa, t_s,
                       grid.noise_scale)
 
   def column(state, x_m, y_m, pressures_pa, t_s):
-    return era5_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
-                             pressures_pa, state.station)
+    return gridded_jax.forecast(grid, data_time_s(state, t_s), x_m, y_m,
+                                pressures_pa, state.station)
 
   def outside(state, x_m, y_m):
-    return era5_jax.outside(grid, x_m, y_m, state.station)
+    return gridded_jax.outside(grid, x_m, y_m, state.station)
 
   return Wind(ground_truth, column,
               outside if grid.end_outside_domain else None)
 
 
+def gin_factory(factory: Any) -> Any:
+  """A `latex_episode.wind_field_factory` value, gin's names made one.
+
+  gin's `@GriddedWindField` and `@Era5WindField` (its old name) are two
+  registered functions, each reading its own name's bindings: both are
+  `gridded.settings`, which reads the two. Any other factory is itself.
+  """
+  names = (gridded.settings.gin_name, gridded.settings.gin_alias)
+  if any(factory is gin.get_configurable(name) for name in names):
+    return gridded.settings
+  return factory
+
+
+def bound_settings() -> Dict[str, Any]:
+  """The values gin binds to `GriddedWindField.*` or `Era5WindField.*`.
+
+  By name, those of the new name winning (`gridded.settings` refuses the
+  two names bound to different values).
+  """
+  return {**gin.get_bindings(gridded.settings.gin_alias),
+          **gin.get_bindings(gridded.settings.gin_name)}
+
+
 def is_era5(factory: Any) -> bool:
   """Whether a `latex_episode.wind_field_factory` value is ERA5's settings.
 
-  True for gin's `@Era5WindField` (`era5.settings`, plain settings, no BLE
-  object) and for `era5.Era5Settings`: the envs fly their grid
-  (`EnvParams.wind_grid`). BLE `WindField`s are the gym envs' affair
+  True for gin's `@GriddedWindField` (`gridded.settings`, plain settings,
+  no BLE object; `gin_factory`) and for `gridded.Era5Settings`: the envs
+  fly their grid (`EnvParams.wind_grid`). BLE `WindField`s are the gym envs' affair
   (`ble_latex.ble.arena`).
   """
-  return factory is era5.settings or isinstance(factory, era5.Era5Settings)
+  return factory is gridded.settings or isinstance(factory,
+                                                  gridded.Era5Settings)
 
 
-def era5_grid_from_gin(factory: Any) -> Optional[era5_jax.Era5Grid]:
+def era5_grid_from_gin(factory: Any) -> Optional[gridded_jax.Era5Grid]:
   """The ERA5 grid of a `latex_episode.wind_field_factory` value, or None.
 
-  With `factory` gin's `@Era5WindField` (`era5.settings`) the
-  `Era5WindField.*` bindings (path, target, episode_hours, add_noise,
+  With `factory` gin's `@GriddedWindField` (`gridded.settings`) the
+  `GriddedWindField.*` bindings (path, target, episode_hours, add_noise,
   start_dates) are read as plain settings, the file(s) by the one reader
-  (`era5.load`), into the grid every env flies (`EnvParams.wind_grid`,
-  `era5_jax.grid_from_settings`: one device copy per file and settings).
+  (`gridded.load`), into the grid every env flies (`EnvParams.wind_grid`,
+  `gridded_jax.grid_from_settings`: one device copy per file and settings).
   Any other factory: None.
 
   Raises:
-    errors.ConfigError: `Era5WindField.path` unbound, or a bad binding.
-    FileNotFoundError, errors.BadFileError: As `era5.load`.
+    errors.ConfigError: `GriddedWindField.path` unbound, or a bad binding.
+    FileNotFoundError, errors.BadFileError: As `gridded.load`.
   """
-  if factory is not era5.settings:
+  if factory is not gridded.settings:
     return None
-  try:
-    gin.query_parameter('Era5WindField.path')
-  except ValueError as e:
+  if 'path' not in bound_settings():
     raise errors.ConfigError(
-        'latex_episode.wind_field_factory = @Era5WindField needs the ERA5 '
-        "file: bind Era5WindField.path = 'era5_paper.nc' (or --era5_path)"
-        ) from e
+        'latex_episode.wind_field_factory = @GriddedWindField needs the wind '
+        "file: bind GriddedWindField.path = 'era5_paper.nc' (or --wind_file)")
   try:
-    return era5_jax.grid_from_settings(factory())
+    return gridded_jax.grid_from_settings(factory())
   except errors.BadFileError:
     raise
   except ValueError as e:
     raise errors.ConfigError(str(e).split('\n', 1)[0]) from e
 
 
-def grid_from_file(wind_file: Any, **settings: Any) -> era5_jax.Era5Grid:
+def grid_from_file(wind_file: Any, **settings: Any) -> gridded_jax.Era5Grid:
   """The grid a wind file flies, as --wind_file flies it (issue 64).
 
-  The file(s) by the one reader (`era5.load`), with the station the file
+  The file(s) by the one reader (`gridded.load`), with the station the file
   implies (`stations.file_defaults`: per-seed stations on a gridded
   snapshot, a sounding's site) unless `settings` names one, and flights
   starting anywhere in the data.
 
   Args:
-    wind_file: A file, glob pattern or list of them (`era5.load`).
-    **settings: `era5.Era5Settings` values (center_lat, center_lon,
+    wind_file: A file, glob pattern or list of them (`gridded.load`).
+    **settings: `gridded.Era5Settings` values (center_lat, center_lon,
       stations, add_noise, start_dates, ...).
 
   Raises:
-    FileNotFoundError, errors.BadFileError: as `era5.load`;
+    FileNotFoundError, errors.BadFileError: as `gridded.load`;
     errors.ConfigError: a bad setting, or a target the file does not hold.
   """
   path = (os.path.abspath(os.path.expanduser(wind_file))
           if isinstance(wind_file, (str, os.PathLike)) else tuple(wind_file))
   if not {'stations', 'center_lat', 'center_lon'} & set(settings):
-    settings = {**stations.file_defaults(era5.load(path)), **settings}
+    settings = {**stations.file_defaults(gridded.load(path)), **settings}
   try:
-    return era5_jax.grid_from_settings(era5.Era5Settings(path=path,
+    return gridded_jax.grid_from_settings(gridded.Era5Settings(path=path,
                                                          **settings))
   except errors.BadFileError:
     raise
@@ -252,13 +275,13 @@ def grid_from_file(wind_file: Any, **settings: Any) -> era5_jax.Era5Grid:
 def wind_source_from_gin(factory: Any) -> str:
   """What a `latex_episode.wind_field_factory` value flies, for records.
 
-  'BLE generative (VAE)' for BLE's winds; for a wind file (`@Era5WindField`)
+  'BLE generative (VAE)' for BLE's winds; for a wind file (`@GriddedWindField`)
   its source and files, e.g. "GRIB2 run 2011-10-08T00Z +72 h
-  (time-invariant): ['/data/gfs.grib2']" (`era5.Era5Data.description`:
+  (time-invariant): ['/data/gfs.grib2']" (`gridded.Era5Data.description`:
   snapshots say "time-invariant", forecasts their run and lead times).
   """
-  settings = factory() if factory is era5.settings else factory
-  if isinstance(settings, era5.Era5Settings):
+  settings = factory() if factory is gridded.settings else factory
+  if isinstance(settings, gridded.Era5Settings):
     data = settings.load()
     if settings.truth_members:
       truth = members.truth_label(members.size_of(data.member),
@@ -266,7 +289,7 @@ def wind_source_from_gin(factory: Any) -> str:
       return f'{data.description}: {list(data.paths)}; truth {truth}'
     if settings.truth_path is None:
       return f'{data.description}: {list(data.paths)}'
-    truth = era5.load(settings.truth_path)
+    truth = gridded.load(settings.truth_path)
     return (f'{data.description}: {list(data.paths)}; truth '
             f'{truth.description}: {list(truth.paths)}')
   return 'BLE generative (VAE)'

@@ -42,10 +42,10 @@ from ble_latex.flight import state as state_lib
 from ble_latex.launch import ascent as ascent_lib
 from ble_latex.launch import controllers as controllers_lib
 from ble_latex.run import tracks
-from ble_latex.wind import era5
-from ble_latex.wind import era5_checks
-from ble_latex.wind import era5_jax
 from ble_latex.wind import generative
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_checks
+from ble_latex.wind import gridded_jax
 from ble_latex.wind import members
 from ble_latex.wind import simplex
 
@@ -255,11 +255,11 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
                steps: Optional[int] = None) -> World:
   """A wind file's world: the station at (lat, lon), launches from `date`.
 
-  Any wind file `era5.load` reads (ERA5, a GFS analysis, GRIB2, a
+  Any wind file `gridded.load` reads (ERA5, a GFS analysis, GRIB2, a
   sounding; the reader chosen by content).
 
   Args:
-    path: Wind file(s) (`era5.load`).
+    path: Wind file(s) (`gridded.load`).
     center_lat: The station's latitude (None: the centre of the file's
       domain; on a sounding, the site its file names). # [deg N]
     center_lon: The station's longitude (likewise). # [deg E]
@@ -275,12 +275,12 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
   Raises:
     errors.ConfigError: a bad date or station, or a window the file does
       not hold.
-    FileNotFoundError, errors.BadFileError: as `era5.load` (a bad file).
+    FileNotFoundError, errors.BadFileError: as `gridded.load` (a bad file).
   """
   params = _with_steps(
       env_params.params_from_gin() if params is None else params, steps)
   bound = bound_wind_settings(path)  # Before the file is read.
-  data = era5.load(path)  # FileNotFoundError, BadFileError: exit 1.
+  data = gridded.load(path)  # FileNotFoundError, BadFileError: exit 1.
   if center_lat is None and center_lon is None:
     center_lat = bound.pop('center_lat', None)
     center_lon = bound.pop('center_lon', None)
@@ -293,9 +293,9 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
   truth = {'truth_path': bound.pop('truth_path', None),
            'truth_members': bool(bound.pop('truth_members', False))}
   if truth['truth_path'] is not None:
-    bound['truth'] = era5.load(truth['truth_path'])
+    bound['truth'] = gridded.load(truth['truth_path'])
   if truth['truth_members']:
-    bound['truth_members'] = era5_jax.member_truths(path)
+    bound['truth_members'] = gridded_jax.member_truths(path)
   if date is None:
     date = data.start.replace(tzinfo=None)
   try:
@@ -307,7 +307,7 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
     start = dt.datetime(start.year, start.month, start.day)
   hours = params.episode_steps * params.stride_s / 3600.0 + max_hours
   try:
-    wind_grid = era5_jax.grid_from_data(
+    wind_grid = gridded_jax.grid_from_data(
         data, center_lat=center_lat, center_lon=center_lon,
         episode_hours=hours,
         start_dates=(start, start + dt.timedelta(minutes=1)), **bound)
@@ -324,7 +324,7 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
   params = env_params.check_params(params.replace(wind_grid=wind_grid))
   return _world(params, seed, {
       'source': 'era5' if data.source == 'ERA5' else data.source,
-      'wind_source': winds.wind_source_from_gin(era5.Era5Settings(
+      'wind_source': winds.wind_source_from_gin(gridded.Era5Settings(
           path=data.paths, member=members.bound(), **truth)),
       'path': str(path), 'station_lat': float(center_lat),
       'station_lon': float(tracks.wrap_longitude(center_lon)),
@@ -332,7 +332,7 @@ def era5_world(path: Any, *, center_lat: Optional[float] = None,
       'date': _world_date(data, start, bound.get('snapshot_time'))})
 
 
-def _world_date(data: era5.Era5Data, start: dt.datetime,
+def _world_date(data: gridded.Era5Data, start: dt.datetime,
                 snapshot_time: Any) -> str:
   """The world's start as ISO text: a snapshot's bound time (the sun's under
   realistic physics), else its file's, else the launch date."""
@@ -345,7 +345,7 @@ def _world_date(data: era5.Era5Data, start: dt.datetime,
   return when.replace(tzinfo=None).isoformat()
 
 
-# `Era5WindField.*` bindings a launch applies; the others it sets itself.
+# `GriddedWindField.*` bindings a launch applies; the others it sets itself.
 LAUNCH_WIND_BINDINGS = ('path', 'center_lat', 'center_lon', 'add_noise',
                         'end_outside_domain', 'snapshot_time', 'noise_scale',
                         'truth_path', 'truth_members')
@@ -356,7 +356,7 @@ _SET_BY_LAUNCH = {'start_dates': '--date', 'episode_hours': '--hours and '
 
 
 def bound_wind_settings(path: Any) -> Dict[str, Any]:
-  """The `Era5WindField.*` gin bindings a launch world applies.
+  """The `GriddedWindField.*` gin bindings a launch world applies.
 
   A launch flies its wind file with the bound snapshot time, noise, truth
   file and station (the flags' station wins); a binding it sets itself is
@@ -368,23 +368,22 @@ def bound_wind_settings(path: Any) -> Dict[str, Any]:
   Raises:
     errors.ConfigError: One line naming the binding.
   """
-  import gin  # pylint: disable=g-import-not-at-top
-  bound = dict(gin.get_bindings(era5.settings))
+  bound = winds.bound_settings()  # Its old name's too.
   for name, flag in _SET_BY_LAUNCH.items():
     if name in bound:
       raise errors.ConfigError(
-          f'gin binding Era5WindField.{name} = {bound[name]!r} does not apply '
-          f'to a launch (it sets that from {flag}); remove it')
+          f'gin binding GriddedWindField.{name} = {bound[name]!r} does not '
+          f'apply to a launch (it sets that from {flag}); remove it')
   if 'path' in bound:
-    bound_paths = era5_checks.expand_paths(bound.pop('path'))
-    if bound_paths != era5_checks.expand_paths(path):
+    bound_paths = gridded_checks.expand_paths(bound.pop('path'))
+    if bound_paths != gridded_checks.expand_paths(path):
       raise errors.ConfigError(
-          f'gin binding Era5WindField.path {list(bound_paths)} is not the '
+          f'gin binding GriddedWindField.path {list(bound_paths)} is not the '
           f'launch\'s wind file {path!r}; bind one or give the same')
   return {k: v for k, v in bound.items() if k in LAUNCH_WIND_BINDINGS}
 
 
-def domain_centre(data: era5.Era5Data) -> Tuple[float, float]:
+def domain_centre(data: gridded.Era5Data) -> Tuple[float, float]:
   """The default station of a wind file: its domain's centre, or a
   sounding's site where its file names one. # [deg]"""
   site = data.site

@@ -11,8 +11,8 @@ is flown.
 
 from typing import Any, Dict, List, Sequence, Tuple
 
-from ble_latex.wind import era5
 from ble_latex.wind import feasibility
+from ble_latex.wind import gridded
 
 
 def feasible_stations(path: Any, stations: Sequence[Tuple[float, float]],
@@ -20,7 +20,7 @@ def feasible_stations(path: Any, stations: Sequence[Tuple[float, float]],
   """Each candidate station's margin and whether it is kept.
 
   Args:
-    path: Wind file(s) (`era5.load`).
+    path: Wind file(s) (`gridded.load`).
     stations: (lat [deg N], lon [deg E]) candidates.
     min_margin_mps: The least margin of zero inside the hull kept (0: zero
       inside or on it). # [m/s]
@@ -29,10 +29,10 @@ def feasible_stations(path: Any, stations: Sequence[Tuple[float, float]],
     [{'lat', 'lon', 'margin_mps', 'keep'}] in the candidates' order.
 
   Raises:
-    FileNotFoundError, errors.BadFileError: as `era5.load`.
+    FileNotFoundError, errors.BadFileError: as `gridded.load`.
     errors.ConfigError: a margin that is no finite number.
   """
-  keep, margin = feasibility.sites_feasible(era5.load(path), stations,
+  keep, margin = feasibility.sites_feasible(gridded.load(path), stations,
                                             min_margin_mps)
   return [{'lat': float(lat), 'lon': float(lon),
            'margin_mps': round(float(m), 4), 'keep': bool(k)}

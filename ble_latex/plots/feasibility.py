@@ -22,8 +22,8 @@ import scipy.spatial
 
 from ble_latex import errors
 from ble_latex.plots import maps
-from ble_latex.wind import era5
 from ble_latex.wind import feasibility
+from ble_latex.wind import gridded
 from ble_latex.wind import reach
 
 # Colour range of the margin. # [m/s]
@@ -150,7 +150,7 @@ def write(path: str, output_dir: str,
   column (`hodograph.png`, the JSON); sites do not apply (one column).
 
   Args:
-    path: The wind file (any `era5.load` reads).
+    path: The wind file (any `gridded.load` reads).
     output_dir: An existing folder.
     sites: (lat [deg N], lon [deg E]) of the grid's hodographs.
     time_index: Which of the file's times a grid maps.
@@ -159,10 +159,10 @@ def write(path: str, output_dir: str,
     The JSON's content (also written).
 
   Raises:
-    FileNotFoundError, errors.BadFileError: a bad file (`era5.load`).
+    FileNotFoundError, errors.BadFileError: a bad file (`gridded.load`).
     errors.ConfigError: a time the file does not hold; sites on a sounding.
   """
-  data = era5.load(path)
+  data = gridded.load(path)
   record = {'file': str(path), 'source': data.description,
             'about': 'station-keeping feasibility: zero inside the convex '
                      'hull of the winds reachable in the flight band '

@@ -454,7 +454,7 @@ def train(*, base_dir: str, num_iterations: int, seed: int = 0,
     env_params: Env parameters (default: `env_params.params_from_gin()`).
     validation_params: The validation's env parameters (default: the
       training's), e.g. ERA5 flights starting in the validation dates
-      (`era5.DATE_SPLITS`); the same static structure as `env_params`.
+      (`gridded.DATE_SPLITS`); the same static structure as `env_params`.
     on_validation: Called with each `validation.jsonl` record once its round
       is done (policy snapshot written; the checkpoint too when the periods
       coincide), e.g. to report it to

@@ -128,11 +128,11 @@ def paper_size_grid(era5_path: Optional[str] = None):
   seed 0; with `era5_path`, that file's grid.
   """
   import numpy as np  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5_jax  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import era5_requests  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded_jax  # pylint: disable=g-import-not-at-top
   if era5_path:
-    return era5_jax.grid_from_data(era5.load(era5_path))
+    return gridded_jax.grid_from_data(gridded.load(era5_path))
   hours = np.arange(368) * 6.0  # [h] 1 Nov 2022 - 31 Jan 2023 18:00.
   times = np.datetime64('2022-11-01T00:00', 'ns') + (
       hours * 3600).astype('timedelta64[s]')
@@ -143,9 +143,9 @@ def paper_size_grid(era5_path: Optional[str] = None):
   lons = np.round(np.arange(-118.0, -108.0 + 1e-9, grid_deg), 6)
   uv = np.random.default_rng(0).normal(
       0.0, 10.0, (len(hours), len(pressure), len(lats), len(lons), 2))
-  data = era5.Era5Data(('synthetic',), times, hours * 3600.0, pressure,
-                       lats, lons, uv)
-  return era5_jax.grid_from_data(data)
+  data = gridded.Era5Data(('synthetic',), times, hours * 3600.0, pressure,
+                          lats, lons, uv)
+  return gridded_jax.grid_from_data(data)
 
 
 def rollout_speed(batch: int, steps: int, repeats: int, wind: str = 'vae',
@@ -160,9 +160,9 @@ def rollout_speed(batch: int, steps: int, repeats: int, wind: str = 'vae',
   import jax  # pylint: disable=g-import-not-at-top
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   import ble_latex  # noqa: F401  pylint: disable=g-import-not-at-top,unused-import
-  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
 
   gin_binding.bind_gin(None, None, [], [])
   env = jax_env.LatexBalloonJaxEnv(normalize_actions=False)

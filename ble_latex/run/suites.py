@@ -7,7 +7,7 @@ evaluation suites use seeds from EVAL_SEED_OFFSET up, so they never overlap.
 checkpoints (`benchmarks/train_sac.py select`); it overlaps neither training
 nor the held-out suites that results are reported on.
 On ERA5 winds the split is by dates too (`era5_dates`): training flights
-start inside `wind.era5.DATE_SPLITS['train']`, `latex_validation` inside
+start inside `wind.gridded.DATE_SPLITS['train']`, `latex_validation` inside
 'validation' and every other suite inside 'eval', three disjoint date
 ranges a 3-day episode apart, so a policy is never evaluated (or chosen) on
 winds it trained on.
@@ -36,7 +36,7 @@ SUITE_SIZES = {
 }
 
 
-# The ERA5 date split (`wind.era5.DATE_SPLITS`) each use flies.
+# The ERA5 date split (`wind.gridded.DATE_SPLITS`) each use flies.
 TRAIN_DATES = 'train'
 SUITE_DATES = {'latex_validation': 'validation'}
 EVAL_DATES = 'eval'  # Every other suite.

@@ -19,7 +19,7 @@ the track on a map, on every wind source:
   sun's clock, not the winds).
 - per flight point, `lat`, `lon` [deg, lon in -180..180] and `utc`: the
   point's offset from the station mapped as the winds read it (BLE's
-  great-circle destination, `era5.latlng_of_offset`), and the start plus
+  great-circle destination, `globe.latlng_of_offset`), and the start plus
   the point's `t_s`.
 
 `track` reads them back from any eval record (records written before these
@@ -37,12 +37,12 @@ import numpy as np
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.flight import params as flight_params_lib
-from ble_latex.wind import era5
+from ble_latex.wind import globe
 
 STATION_FROM_WIND_FILE = 'wind file'
 STATION_NOMINAL = 'nominal'
 # Where a wind file names no time (a sounding without one) its flights fly
-# at this time (`era5_jax`, issue 64): not a date, so no times are written.
+# at this time (`gridded_jax`, issue 64): not a date, so no times are written.
 UNDATED_START = dt.datetime(1970, 1, 1, tzinfo=dt.timezone.utc)
 
 
@@ -131,11 +131,11 @@ def point_lat_lon(station_lat: float, station_lon: float, x_km: float,
                   y_km: float) -> 'tuple[float, float]':
   """(lat, lon in -180..180) of an offset from the station. # [deg]
 
-  `era5.latlng_of_offset` (BLE's great-circle destination, as the winds are
+  `globe.latlng_of_offset` (BLE's great-circle destination, as the winds are
   read), with x east and y north in km.
   """
-  lat, lon = era5.latlng_of_offset(station_lat, station_lon, x_km * 1000.0,
-                                   y_km * 1000.0)
+  lat, lon = globe.latlng_of_offset(station_lat, station_lon, x_km * 1000.0,
+                                    y_km * 1000.0)
   return lat, float(wrap_longitude(lon))
 
 

@@ -1,10 +1,10 @@
 # coding=utf-8
 """A wind file's gin bindings, the one home of their text.
 
-A wind file (ERA5, a GFS grid or series, a sounding: `wind.era5.load`)
-flies through gin: `latex_episode.wind_field_factory = @Era5WindField`
-and `Era5WindField.*` (`wind.era5.Era5Settings`). The commands' --wind_file,
---era5_dates and --station_lat/--station_lon (`cli/common.py`) and the
+A wind file (ERA5, a GFS grid or series, a sounding: `wind.gridded.load`)
+flies through gin: `latex_episode.wind_field_factory = @GriddedWindField`
+and `GriddedWindField.*` (`wind.gridded.Era5Settings`). The commands'
+--wind_file, --era5_dates and --station_lat/--station_lon (`cli/common.py`) and the
 real-winds scripts' cells (`wind.sources`, `benchmarks/real_winds.py`) build
 their bindings here, so each binding is written once.
 
@@ -17,25 +17,25 @@ import os
 from typing import Any, Dict, List, Mapping, Sequence
 
 # Per-seed stations: seed s flies station s of the domain (`wind.stations`).
-PER_SEED = "Era5WindField.stations = 'per_seed'"
+PER_SEED = "GriddedWindField.stations = 'per_seed'"
 
 
 def file_bindings(path: str) -> List[str]:
   """Flies the wind file `path` (as given: make it absolute first)."""
-  return ['latex_episode.wind_field_factory = @Era5WindField',
-          f'Era5WindField.path = {path!r}']
+  return ['latex_episode.wind_field_factory = @GriddedWindField',
+          f'GriddedWindField.path = {path!r}']
 
 
 def start_dates(value: Any) -> str:
-  """Flights start in `value` (`Era5WindField.start_dates`: a split name,
+  """Flights start in `value` (`GriddedWindField.start_dates`: a split name,
   a (first, last) range, or None for the whole file)."""
-  return f'Era5WindField.start_dates = {value!r}'
+  return f'GriddedWindField.start_dates = {value!r}'
 
 
 def settings(values: Mapping[str, Any]) -> List[str]:
-  """`Era5WindField.NAME = value` of each of `values` (e.g.
+  """`GriddedWindField.NAME = value` of each of `values` (e.g.
   `stations.file_defaults`)."""
-  return [f'Era5WindField.{name} = {value!r}'
+  return [f'GriddedWindField.{name} = {value!r}'
           for name, value in values.items()]
 
 
@@ -46,7 +46,7 @@ def center(lat: float, lon: float) -> List[str]:
 
 def fixed_station(lat: float, lon: float) -> List[str]:
   """Every flight keeps station at (lat, lon) [deg]."""
-  return ["Era5WindField.stations = 'fixed'", *center(lat, lon)]
+  return ["GriddedWindField.stations = 'fixed'", *center(lat, lon)]
 
 
 def station_settings(name: str, file: str, mode: str,
@@ -58,7 +58,7 @@ def station_settings(name: str, file: str, mode: str,
     file: Its file (a grid's is read in 'center' mode).
     mode: 'center' or 'per_seed'.
     extra_bindings: More bindings of 'per_seed' (e.g.
-      `Era5WindField.station_margin_km = 400`).
+      `GriddedWindField.station_margin_km = 400`).
   """
   if mode == 'center':
     from ble_latex.wind import sources  # pylint: disable=g-import-not-at-top

@@ -1,14 +1,14 @@
 # coding=utf-8
 """Real upper-air wind sources: detection by content, and normalisation.
 
-`era5.load` reads every wind file through this module, which turns the
+`gridded.load` reads every wind file through this module, which turns the
 sources a user has into one CF-style dataset with ERA5's names (`u`, `v` on
 `time`, `level`, `latitude`, `longitude`):
   - NetCDF (by its magic: `CDF\\x01/2/5` or HDF5's signature): the wind
     variables are found by CF `standard_name` (`eastward_wind`,
     `northward_wind`) or a known alias (`WIND_ALIASES`: `u`/`v`, `U`/`V`,
     `uwnd`/`vwnd`, GFS's `u-component_of_wind_isobaric`/`v-...`); the
-    pressure dimension by name (`era5.PRESSURE_DIMS`, or any name starting
+    pressure dimension by name (`gridded.PRESSURE_DIMS`, or any name starting
     with `isobaric`, e.g. GFS's `isobaric3`, in Pa) or by a pressure `units`
     attribute;
   - GRIB2 (by its magic `GRIB`) through cfgrib + eccodes: the u and v
@@ -16,7 +16,7 @@ sources a user has into one CF-style dataset with ERA5's names (`u`, `v` on
   - anything else is read as a University of Wyoming sounding (text or CSV,
     `sounding.read`) and flown as a horizontally uniform column
     (`sounding_arrays`).
-A file with one time step is a snapshot: `era5.load` flies it as a
+A file with one time step is a snapshot: `gridded.load` flies it as a
 time-invariant field (`Era5Data.time_invariant`), and every record says so.
 
 `check_flight_band` and `check_domain` add the checks of real sources (one
@@ -41,8 +41,8 @@ if TYPE_CHECKING:  # xarray loads when a file is read (~2 s).
   import xarray as xr  # pylint: disable=g-bad-import-order
 
 from ble_latex import errors
-from ble_latex.wind import era5_checks
 from ble_latex.wind import grib_subset
+from ble_latex.wind import gridded_checks
 from ble_latex.wind import reach
 from ble_latex.wind import sounding
 
@@ -154,7 +154,7 @@ def _pressure_dim(array: 'xr.DataArray') -> Optional[str]:
       return dim
   for dim in array.dims:
     if dim in array.coords and str(array[dim].attrs.get(
-        'units', '')).strip().lower() in era5_checks.PRESSURE_UNITS:
+        'units', '')).strip().lower() in gridded_checks.PRESSURE_UNITS:
       return str(dim)
   return None
 
@@ -169,11 +169,11 @@ def normalise(dataset: 'xr.Dataset', path: str, label: str
 
   A wind without a time dimension takes its scalar time coordinate
   (`valid_time`, then `time`) as a time axis of one step. Names not found
-  keep ERA5's candidates, so `era5.read_file`'s errors name what is missing.
+  keep ERA5's candidates, so `gridded.read_file`'s errors name what is missing.
 
   Returns:
     (dataset, names): names maps 'variables', 'time', 'pressure',
-    'latitude', 'longitude' to the candidates `era5.Layout` takes.
+    'latitude', 'longitude' to the candidates `gridded.Layout` takes.
 
   Raises:
     errors.BadFileError: no wind variables (one line naming the file).
@@ -292,7 +292,7 @@ def open_dataset(path: str, label: str
       with tempfile.TemporaryDirectory(prefix='ble_latex_grib') as folder:
         dataset = _open_grib(path, label, folder)
     else:
-      era5_checks.check_file(path, label=label)
+      gridded_checks.check_file(path, label=label)
       dataset = xr.open_dataset(path)
   except errors.BadFileError:
     raise
@@ -329,7 +329,7 @@ def _open_grib(path: str, label: str, folder: str) -> 'xr.Dataset':
   stream = cfgrib.FileStream(read, errors='raise')
   messages = [m for _, m in stream.items()]
   points = sum(int(m['numberOfDataPoints']) for m in messages)
-  era5_checks.check_size(path, (points,), label=label)
+  gridded_checks.check_size(path, (points,), label=label)
   _check_unique_messages(path, label, messages)
 
   def opened(shorts):
@@ -395,7 +395,7 @@ def sounding_arrays(path: str) -> Tuple[Tuple[np.ndarray, ...],
   """A sounding as a uniform one-time field on `SOUNDING_BOX_*`, and its site.
 
   Returns:
-    (arrays, site): arrays as `era5.read_file`'s (times (one: the
+    (arrays, site): arrays as `gridded.read_file`'s (times (one: the
     observation time the file names, else the Unix epoch), pressure [Pa]
     ascending, latitude [deg N], longitude [deg E], uv [m/s] of shape (1,
     levels, 2, 2, 2)), the sounding's winds at every node; site: where and

@@ -1,7 +1,7 @@
 # coding=utf-8
 """ERA5 winds from Google's analysis-ready ARCO-ERA5 Zarr store.
 
-A second source of the files `era5.load` reads, beside the CDS requests of
+A second source of the files `gridded.load` reads, beside the CDS requests of
 `era5_requests.build_requests`: Google's public, cloud-optimised copy of ERA5
 (https://cloud.google.com/storage/docs/public-datasets/era5), read anonymously
 with xarray + zarr (+ gcsfs for `gs://` stores; `pip install
@@ -23,7 +23,7 @@ written the store is checked: a store that cannot be opened, a missing
 variable or dimension, wind or pressure units that are not m/s and hPa/Pa,
 an area, level or time outside the store (or after its `valid_time_stop`)
 are ValueErrors naming the store. The data are written to `<output>.part`,
-read back with `era5.load` (which refuses NaN, absurd winds, too few values
+read back with `gridded.load` (which refuses NaN, absurd winds, too few values
 ...), and only then renamed to `output`: a bad selection leaves no file.
 """
 
@@ -36,8 +36,8 @@ from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple
 import numpy as np
 import xarray as xr
 
-from ble_latex.wind import era5
-from ble_latex.wind import era5_checks
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_checks
 
 # Google's public ARCO-ERA5 store: 37 pressure levels, hourly, 0.25 deg.
 DEFAULT_STORE = ('gs://gcp-public-data-arco-era5/ar/'
@@ -45,8 +45,8 @@ DEFAULT_STORE = ('gs://gcp-public-data-arco-era5/ar/'
 # Store variable of each file variable.
 VARIABLES = {'u': 'u_component_of_wind', 'v': 'v_component_of_wind'}
 EXTRA = "pip install 'ble_latex[arco]'"
-# m/s units the reader accepts (`era5.load`'s list).
-_WIND_UNITS = era5_checks.WIND_UNITS
+# m/s units the reader accepts (`gridded.load`'s list).
+_WIND_UNITS = gridded_checks.WIND_UNITS
 # Coordinates within this of an area edge count as on it. # [deg]
 _EDGE_TOLERANCE_DEG = 1e-6
 
@@ -147,7 +147,7 @@ def _first_line(error: BaseException) -> str:
 
 @contextlib.contextmanager
 def _named_store(store: str) -> Iterator[None]:
-  """Re-raises the file checks of `era5` (shared) as errors of the store."""
+  """Re-raises the file checks of `gridded` (shared) as errors of the store."""
   try:
     yield
   except ValueError as error:
@@ -171,11 +171,11 @@ def _variable(dataset: xr.Dataset, name: str, store: str) -> xr.DataArray:
   dims = [str(d) for d in array.dims]
   with _named_store(store):
     wanted = [
-        era5.find_dim(dims, candidates, what, store, name)
-        for candidates, what in ((era5.TIME_DIMS, 'time'),
-                                 (era5.PRESSURE_DIMS, 'pressure-level'),
-                                 (era5.LATITUDE_DIMS, 'latitude'),
-                                 (era5.LONGITUDE_DIMS, 'longitude'))]
+        gridded.find_dim(dims, candidates, what, store, name)
+        for candidates, what in ((gridded.TIME_DIMS, 'time'),
+                                 (gridded.PRESSURE_DIMS, 'pressure-level'),
+                                 (gridded.LATITUDE_DIMS, 'latitude'),
+                                 (gridded.LONGITUDE_DIMS, 'longitude'))]
   if sorted(dims) != sorted(wanted):
     raise ValueError(
         f'ARCO-ERA5 store {store}: variable {name!r} has dims {dims}, '
@@ -305,7 +305,7 @@ def select(dataset: xr.Dataset, wanted: Dict[str, Any],
                        f'dims {array.dims}, {VARIABLES["u"]!r} has {u.dims}')
   time_dim, level_dim, lat_dim, lon_dim = u.dims
   with _named_store(store):
-    factor = era5_checks.pressure_factor(u[level_dim], store)
+    factor = gridded_checks.pressure_factor(u[level_dim], store)
   levels_pa = np.asarray(u[level_dim].values, dtype=np.float64) * factor
   level_indices = []
   for level in wanted['levels_hpa']:
@@ -379,7 +379,7 @@ def check_no_constant_slab(selected: xr.Dataset, store: str) -> None:
 
 
 def write(selected: xr.Dataset, output: str, store: str) -> str:
-  """Reads the selection, writes it atomically, checks it with `era5.load`.
+  """Reads the selection, writes it atomically, checks it with `gridded.load`.
 
   Args:
     selected: `select(...)`.
@@ -391,7 +391,7 @@ def write(selected: xr.Dataset, output: str, store: str) -> str:
 
   Raises:
     ValueError: reading the store failed, or the written data fail
-      `era5.load`'s checks (NaN, absurd winds, too few values); nothing is
+      `gridded.load`'s checks (NaN, absurd winds, too few values); nothing is
       left at `output` or `output + '.part'`.
     OSError: `output` cannot be written.
   """
@@ -415,7 +415,7 @@ def write(selected: xr.Dataset, output: str, store: str) -> str:
       raise OSError(f'could not write {output} ({type(error).__name__}: '
                     f'{_first_line(error)}; is the disk full?)') from error
     try:
-      era5.load(partial)
+      gridded.load(partial)
     except ValueError as error:
       raise ValueError(
           f'ARCO-ERA5 store {store}: the selected winds fail the ERA5 '
@@ -434,7 +434,7 @@ def fetch(requests: Sequence[Tuple[str, Dict[str, Any]]], output: str, *,
   Args:
     requests: `era5_requests.build_requests(...)` (its `grid` is not used:
       the store's grid is kept).
-    output: The NetCDF file (new CDS layout, for `era5.load`).
+    output: The NetCDF file (new CDS layout, for `gridded.load`).
     store: Local path or URL of the Zarr store.
 
   Returns:

@@ -3,7 +3,7 @@
 
 `build_requests` builds the exact `cdsapi` requests of the dataset
 `reanalysis-era5-pressure-levels` (u, v around a target, one request per
-calendar month) whose NetCDF files `era5.load` reads;
+calendar month) whose NetCDF files `gridded.load` reads;
 `ble_latex.cli.download_era5` fetches them (or, with `--source=arco`,
 `era5_arco` cuts the same selection from Google's ARCO-ERA5 store). The
 defaults are the paper's data (Saunders et al. 2023, "RL problem", Wind).
@@ -14,8 +14,8 @@ import datetime as dt
 import math
 from typing import Any, Dict, List, Sequence, Tuple
 
-from ble_latex.wind import era5
-from ble_latex.wind import era5_checks
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_checks
 
 DATASET = 'reanalysis-era5-pressure-levels'
 PAPER_START_DATE = dt.date(2022, 11, 1)
@@ -46,18 +46,19 @@ def pressure_levels_hpa(min_hpa: float = PAPER_MIN_PRESSURE_HPA,
   Raises:
     ValueError: If no ERA5 level lies in the range.
   """
-  levels = [p for p in era5_checks.ERA5_PRESSURE_LEVELS_HPA
+  levels = [p for p in gridded_checks.ERA5_PRESSURE_LEVELS_HPA
             if min_hpa <= p <= max_hpa]
   if not levels:
-    raise ValueError(f'No ERA5 pressure level in [{min_hpa}, {max_hpa}] hPa '
-                     f'(levels: {list(era5_checks.ERA5_PRESSURE_LEVELS_HPA)})')
+    raise ValueError(
+        f'No ERA5 pressure level in [{min_hpa}, {max_hpa}] hPa '
+        f'(levels: {list(gridded_checks.ERA5_PRESSURE_LEVELS_HPA)})')
   return levels
 
 
 def build_requests(
     *,
-    center_lat: float = era5.PAPER_CENTER_LAT,  # [deg N]
-    center_lon: float = era5.PAPER_CENTER_LON,  # [deg E]
+    center_lat: float = gridded.PAPER_CENTER_LAT,  # [deg N]
+    center_lon: float = gridded.PAPER_CENTER_LON,  # [deg E]
     start_date: dt.date = PAPER_START_DATE,
     end_date: dt.date = PAPER_END_DATE,
     half_width_deg: float = DEFAULT_HALF_WIDTH_DEG,  # [deg]

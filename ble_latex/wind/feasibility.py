@@ -249,7 +249,7 @@ def grid_map(data: Any, time_index: int = 0,
   """`column` of every column of a gridded file at one of its times.
 
   Args:
-    data: An `era5.Era5Data` of a grid (not a sounding: `sounding_column`).
+    data: A `gridded.Era5Data` of a grid (not a sounding: `sounding_column`).
     time_index: Which of its times.
     band_m: The altitude band; None: `reach.flight_band_m()`. # [m]
 
@@ -286,7 +286,7 @@ def at(data: Any, lat: float, lon: float, time_s: float = 0.0,
   """`column` of a grid's winds at a place (bilinear, `Era5Data.interpolate`).
 
   Args:
-    data: An `era5.Era5Data`.
+    data: A `gridded.Era5Data`.
     lat: Latitude. # [deg N]
     lon: Longitude, any convention. # [deg E]
     time_s: Time after the file's first. # [s]
@@ -344,7 +344,7 @@ def sites_feasible(data: Any, sites: Sequence[Tuple[float, float]],
   """Which sites' columns hold zero with at least `min_margin_mps`.
 
   Args:
-    data: An `era5.Era5Data` (a sounding: the same column everywhere).
+    data: A `gridded.Era5Data` (a sounding: the same column everywhere).
     sites: (lat [deg N], lon [deg E]) pairs.
     min_margin_mps: The least margin kept (0: zero inside or on the
       hull; < 0 keeps columns that far outside too). # [m/s]

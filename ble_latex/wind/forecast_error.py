@@ -3,7 +3,7 @@
 
 On a wind file the agents see the file (the forecast) and the balloon flies
 in the truth = file + `noise_scale` x BLE's simplex noise
-(`wind.simplex.wind_noise_uv`; `Era5WindField.noise_scale`).
+(`wind.simplex.wind_noise_uv`; `GriddedWindField.noise_scale`).
 
 BLE's noise as ported is 1.05 m/s rms per component (`BLE_NOISE_RMS_MPS`:
 1024 reset keys x 500 points, 40-165 hPa, +-300 km, 0-72 h;
@@ -22,7 +22,7 @@ lead.
 Friedrich et al.'s range and BLE's 3.5 m/s vector CRMSE, is the default on
 real files other than ERA5 (GFS analyses and forecasts, GRIB2, soundings):
 `noise_scale` = 2.5 / 1.05 = 2.39. ERA5 files keep BLE's noise (scale 1),
-the paper's setting. `Era5WindField.noise_scale = X` chooses any scale
+the paper's setting. `GriddedWindField.noise_scale = X` chooses any scale
 (0: the truth is the file).
 """
 
@@ -45,13 +45,13 @@ BLE_NOISE_SOURCES = ('ERA5',)
 
 
 def check_scale(scale: Any) -> Optional[float]:
-  """`Era5WindField.noise_scale`, checked: None or a finite number >= 0."""
+  """`GriddedWindField.noise_scale`, checked: None or a finite number >= 0."""
   if scale is None:
     return None
   if (isinstance(scale, bool) or not isinstance(scale, (int, float)) or
       not math.isfinite(scale) or scale < 0):
     raise errors.ConfigError(
-        f'Era5WindField.noise_scale = {scale!r}: expected None (the source '
+        f'GriddedWindField.noise_scale = {scale!r}: expected None (the source '
         'decides) or a finite number >= 0 (x BLE\'s simplex noise)')
   return float(scale)
 
@@ -60,8 +60,8 @@ def noise_scale(setting: Any, source: str, two_source: bool = False) -> float:
   """The factor on BLE's simplex noise in a file's truth.
 
   Args:
-    setting: `Era5WindField.noise_scale` (None: the source decides).
-    source: `era5.Era5Data.source` ('ERA5', 'analysis', 'GRIB2',
+    setting: `GriddedWindField.noise_scale` (None: the source decides).
+    source: `gridded.Era5Data.source` ('ERA5', 'analysis', 'GRIB2',
       'sounding').
     two_source: The truth is a second file (`truth_on_forecast_grid`).
 
@@ -89,16 +89,16 @@ def describe(scale: float) -> str:
 def truth_on_forecast_grid(forecast: Any, truth: Any) -> np.ndarray:
   """A second file's winds as the truth, on the forecast file's grid.
 
-  The two-source mode (`Era5WindField.truth_path`): the agents see the
+  The two-source mode (`GriddedWindField.truth_path`): the agents see the
   forecast (e.g. a forecast run's lead times), the balloon flies in the
-  truth (e.g. analyses at the same valid times), each read by `era5.load`.
+  truth (e.g. analyses at the same valid times), each read by `gridded.load`.
   The truth is interpolated multi-linearly (`Era5Data.interpolate`) at every
   node of the forecast's grid (its times, levels, latitudes, longitudes), so
   the device grid interpolates both alike.
 
   Args:
-    forecast: The forecast's `era5.Era5Data`.
-    truth: The truth's `era5.Era5Data`.
+    forecast: The forecast's `gridded.Era5Data`.
+    truth: The truth's `gridded.Era5Data`.
 
   Returns:
     [time, pressure, lat, lon, 2] the truth's (u, v), float32. # [m/s]
@@ -112,7 +112,7 @@ def truth_on_forecast_grid(forecast: Any, truth: Any) -> np.ndarray:
   first, last = forecast.times[0], forecast.times[-1]
   if not (truth.times[0] <= first and last <= truth.times[-1]):
     raise errors.ConfigError(
-        f'Era5WindField.truth_path: the truth ({label(truth)}, '
+        f'GriddedWindField.truth_path: the truth ({label(truth)}, '
         f'{truth.times[0]}..{truth.times[-1]}) does not hold the forecast\'s '
         f'valid times {first}..{last} ({label(forecast)})')
   corners = [(lat, lon) for lat in forecast.latitude[[0, -1]]
@@ -120,8 +120,8 @@ def truth_on_forecast_grid(forecast: Any, truth: Any) -> np.ndarray:
   outside = [c for c in corners if not truth.covers(*c)]
   if outside:
     raise errors.ConfigError(
-        f'Era5WindField.truth_path: the truth ({label(truth)}) does not cover '
-        f'the forecast\'s area at (lat, lon) {outside[0]} '
+        f'GriddedWindField.truth_path: the truth ({label(truth)}) does not '
+        f'cover the forecast\'s area at (lat, lon) {outside[0]} '
         f'({label(forecast)})')
   time_s = (forecast.times - truth.times[0]) / np.timedelta64(1, 's')
   tt, pp, la, lo = np.meshgrid(time_s, forecast.pressure, forecast.latitude,

@@ -15,9 +15,9 @@ request per forecast hour:
     `safe_io.atomic_write` (a temporary name, renamed), so a killed or failed
     download leaves no file under the final name.
 
-Only the winds are fetched (`UGRD`, `VGRD`): `era5.load` reads GRIB2 u and v
+Only the winds are fetched (`UGRD`, `VGRD`): `gridded.load` reads GRIB2 u and v
 on isobaric levels (`analysis.open_dataset`) and nothing else. The files of
-one run load together as one forecast (`era5.load('DIR/gfs_RUN_f*.grib2')`,
+one run load together as one forecast (`gridded.load('DIR/gfs_RUN_f*.grib2')`,
 `--wind_file`), joined along their valid times.
 
 NOMADS keeps about the last 10 days of runs and asks users to stay under
@@ -43,7 +43,7 @@ NOMADS_FILTER_URL = 'https://nomads.ncep.noaa.gov/cgi-bin/filter_gfs_0p25.pl'
 GFS_LEVELS_HPA = (1, 2, 3, 5, 7, 10, 15, 20, 30, 40, 50, 70, 100, 150, 200,
                   250, 300, 350, 400, 450, 500, 550, 600, 650, 700, 750, 800,
                   850, 900, 925, 950, 975, 1000)
-VARIABLES = ('UGRD', 'VGRD')  # The winds `era5.load` reads.
+VARIABLES = ('UGRD', 'VGRD')  # The winds `gridded.load` reads.
 CYCLES = (0, 6, 12, 18)  # Run hours. # [h UTC]
 HOURLY_UNTIL = 120  # Forecast hours are hourly to +120 h. # [h]
 THREE_HOURLY_UNTIL = 384  # Then 3-hourly to +384 h. # [h]

@@ -6,7 +6,7 @@ A lent GPU's image has no eccodes, and eccodes' wheels (with eckit's,
 `write_netcdf_copy` decodes the file with the project's reader
 (`analysis.open_dataset`: cfgrib + eccodes), writes the winds and their axes
 to NetCDF (the CF standard names and units the reader finds), and refuses
-a copy that does not read back (`era5.read_source`) to the same arrays, bit
+a copy that does not read back (`gridded.read_source`) to the same arrays, bit
 for bit: times, pressure [Pa], latitude and longitude [deg], u and v [m/s].
 `digest` is the arrays' SHA-256, which a run flying the copy records
 (`benchmarks/real_winds.py --source_copy`). Command:
@@ -20,7 +20,7 @@ import numpy as np
 
 from ble_latex import errors
 from ble_latex.wind import analysis
-from ble_latex.wind import era5
+from ble_latex.wind import gridded
 
 
 def digest(arrays: Iterable[np.ndarray]) -> str:
@@ -45,7 +45,7 @@ def write_netcdf_copy(grib: str, out: str, *,
   """
   if analysis.kind_of(grib) != 'grib':
     raise errors.ConfigError(f'{grib} is not a GRIB file')
-  label, original = era5.read_source(grib)[:2]
+  label, original = gridded.read_source(grib)[:2]
   dataset, _, names = analysis.open_dataset(grib, label)
   u, v = names['variables']
   keep = dataset[[u, v]]
@@ -55,7 +55,7 @@ def write_netcdf_copy(grib: str, out: str, *,
                                                'long_name') if k in attrs}
   keep.attrs = {'source': f'decoded from {grib} by {by} (cfgrib + eccodes)'}
   keep.to_netcdf(out)
-  copy = era5.read_source(out)[1]
+  copy = gridded.read_source(out)[1]
   same = all(a.dtype == b.dtype and a.shape == b.shape and
              np.array_equal(a, b) for a, b in zip(original, copy))
   if not same:

@@ -4,7 +4,7 @@
 A GFS forecast file holds ~350 messages, of which ~50 are u and v on
 isobaric levels. cfgrib builds its index by creating an eccodes handle and
 reading ~20 keys for every message, once per `xr.open_dataset`; on 13 such
-files `era5.load` spent ~40 of its ~55 s there
+files `gridded.load` spent ~40 of its ~55 s there
 (`benchmarks/grib_load_speed.py`).
 `wind_messages` frames the file's messages from their fixed headers (WMO
 Manual on Codes, FM 92 GRIB edition 2: section 0 is 16 octets with the

@@ -6,11 +6,11 @@ An ensemble file holds its members along one dimension (cfgrib and ERA5's
 EDA call it `number`; other NetCDF files `member`, `realization` or
 `ensemble`).
 
-- The forecast the agents see: `Era5WindField.member = k` (the k-th along
+- The forecast the agents see: `GriddedWindField.member = k` (the k-th along
   that dimension, 0-based; default 0, GEFS's control run), or
-  `Era5WindField.member = 'mean'` (the ensemble mean).
+  `GriddedWindField.member = 'mean'` (the ensemble mean).
 - The truth the balloon flies in: that same member plus the simplex noise
-  (`wind.forecast_error`), or, with `Era5WindField.truth_members = True`,
+  (`wind.forecast_error`), or, with `GriddedWindField.truth_members = True`,
   another member drawn per flight from its reset key (`truth_indices`: every
   member but the forecast's; every member under 'mean'). The members'
   spread is then the forecast error, and the noise's default scale is 0.
@@ -27,9 +27,9 @@ from ble_latex import errors
 
 # Names of an ensemble's member dimension.
 MEMBER_DIMS = ('number', 'member', 'realization', 'ensemble')
-BINDING = 'Era5WindField.member'
-TRUTH_BINDING = 'Era5WindField.truth_members'
-# `Era5WindField.member`'s value flying the ensemble mean.
+BINDING = 'GriddedWindField.member'
+TRUTH_BINDING = 'GriddedWindField.truth_members'
+# `GriddedWindField.member`'s value flying the ensemble mean.
 MEAN = 'mean'
 
 
@@ -46,7 +46,7 @@ def check(member: Any) -> Any:
 
 
 def check_truth(truth_members: Any) -> bool:
-  """`Era5WindField.truth_members`, checked: a bool, else one line."""
+  """`GriddedWindField.truth_members`, checked: a bool, else one line."""
   if not isinstance(truth_members, bool):
     raise errors.ConfigError(
         f'{TRUTH_BINDING} = {truth_members!r}: expected True (the truth is a '
@@ -55,7 +55,7 @@ def check_truth(truth_members: Any) -> bool:
 
 
 def bound(member: Any = None) -> Any:
-  """`member` if given, else gin's `Era5WindField.member` (0 unbound)."""
+  """`member` if given, else gin's `GriddedWindField.member` (0 unbound)."""
   if member is None:
     try:
       member = gin.query_parameter(BINDING)

@@ -8,7 +8,7 @@ guard, [`latex_controller.band_low_m`, `band_high_m`] (`flight.params`;
 real source (a GFS grid, GRIB2, a sounding) is accepted when its winds span
 it (`analysis.check_flight_band` by pressure, US Standard Atmosphere 1976;
 `sounding.read` by the sounding's own heights); above a sounding's top the
-wind is held at its top, and the record says so (`era5.Era5Data.
+wind is held at its top, and the record says so (`gridded.Era5Data.
 description`).
 """
 

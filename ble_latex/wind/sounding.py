@@ -47,7 +47,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ble_latex import errors
-from ble_latex.wind import era5_checks
+from ble_latex.wind import gridded_checks
 from ble_latex.wind import reach
 
 KNOT_MPS = 1852.0 / 3600.0  # [m/s] One knot (exact).
@@ -268,7 +268,7 @@ def read(path: str) -> Sounding:
       order, or winds that do not cover `reach.flight_band_m` (one line
       naming the file).
   """
-  era5_checks.not_regular(path, 'sounding')  # A FIFO would block open().
+  gridded_checks.not_regular(path, 'sounding')  # A FIFO would block open().
   try:
     size = os.path.getsize(path)
     if size > MAX_FILE_BYTES:
@@ -337,11 +337,11 @@ def _column(rows: Sequence[Dict[str, float]], path: str) -> Sounding:
         f'{path}: a pressure <= 0, a negative speed or a direction outside '
         '0-360 deg')
   fastest = int(np.argmax(speed_kt))
-  if speed_kt[fastest] * KNOT_MPS > era5_checks.MAX_WIND_MPS:
+  if speed_kt[fastest] * KNOT_MPS > gridded_checks.MAX_WIND_MPS:
     raise errors.BadFileError(
         f'{path}: a wind of {speed_kt[fastest]:g} knots at '
         f'{pressure_hpa[fastest]:g} hPa is above '
-        f'{era5_checks.MAX_WIND_MPS:g} m/s (corrupt data)')
+        f'{gridded_checks.MAX_WIND_MPS:g} m/s (corrupt data)')
   order = np.argsort(-pressure_hpa, kind='stable')
   # The first listed level of each pressure (a stable sort keeps file order).
   first = np.concatenate([[True], np.diff(pressure_hpa[order]) != 0])

@@ -92,8 +92,8 @@ def center(name: str, file: str) -> Tuple[float, float]:
   site = SOURCES[name].site
   if site is not None:
     return site
-  from ble_latex.wind import era5  # pylint: disable=g-import-not-at-top
-  data = era5.load(file)
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
+  data = gridded.load(file)
   lat = 0.5 * (data.latitude[0] + data.latitude[-1])
   lon = 0.5 * (data.longitude[0] + data.longitude[-1])
   return float(lat), float((lon + 180.0) % 360.0 - 180.0)
@@ -107,7 +107,7 @@ def table_station_mode(name: str) -> str:
 
 def checked_copy(file: str, sha256: str) -> None:
   """Refuses a NetCDF copy of a GRIB2 source unless its arrays' `digest`
-  (`grib_copy.digest` of `era5.read_source`'s arrays) is `sha256`.
+  (`grib_copy.digest` of `gridded.read_source`'s arrays) is `sha256`.
 
   Raises:
     FileNotFoundError: No file `file`.
@@ -115,12 +115,12 @@ def checked_copy(file: str, sha256: str) -> None:
       both).
   """
   # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import era5
   from ble_latex.wind import grib_copy
+  from ble_latex.wind import gridded
   # pylint: enable=g-import-not-at-top
   if not os.path.isfile(file):
     raise FileNotFoundError(f'{file}: no such file')
-  got = grib_copy.digest(era5.read_source(file)[1])
+  got = grib_copy.digest(gridded.read_source(file)[1])
   if got != sha256:
     raise errors.BadFileError(f'{file} reads to arrays of SHA-256 {got}, '
                               f'not {sha256}')

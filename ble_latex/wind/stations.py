@@ -1,13 +1,13 @@
 # coding=utf-8
 """Where the station of a flight lies on a gridded wind source (issue 45).
 
-Two modes (gin `Era5WindField.stations`):
-  - 'fixed' (default): every flight keeps station at `Era5WindField.
+Two modes (gin `GriddedWindField.stations`):
+  - 'fixed' (default): every flight keeps station at `GriddedWindField.
     center_lat`/`center_lon` (the paper's ERA5 setting, as before);
   - 'per_seed': each flight's station is drawn from its reset key
-    (`era5_jax.draw_station`: eval seed s flies station s, the same on
+    (`gridded_jax.draw_station`: eval seed s flies station s, the same on
     every run and machine) uniformly over the area of the box `station_box`
-    returns: the grid less `Era5WindField.station_margin_km` on every side,
+    returns: the grid less `GriddedWindField.station_margin_km` on every side,
     and within `MAX_STATION_ABS_LAT` of the equator.
 
 The margin is measured along the meridian (latitude) and along the parallel
@@ -18,7 +18,7 @@ the start distance's scale (`latex_start.max_start_distance_km`,
 flight leaves the data (`FlightStatus.LEFT_WIND_DOMAIN`).
 
 `end_outside_domain` says whether a flight that leaves the grid ends (gin
-`Era5WindField.end_outside_domain`; None: the source decides).
+`GriddedWindField.end_outside_domain`; None: the source decides).
 """
 
 import math
@@ -40,21 +40,21 @@ KM_PER_DEG = 6371.0 * math.pi / 180.0
 
 
 def check_mode(stations: Any) -> str:
-  """`Era5WindField.stations`, checked (one line naming the binding)."""
+  """`GriddedWindField.stations`, checked (one line naming the binding)."""
   if stations not in STATION_MODES:
     raise errors.ConfigError(
-        f'Era5WindField.stations = {stations!r}: expected one of '
+        f'GriddedWindField.stations = {stations!r}: expected one of '
         f'{list(STATION_MODES)}')
   return stations
 
 
 def check_margin(margin_km: Any) -> float:
-  """`Era5WindField.station_margin_km`, checked: a finite number >= 0."""
+  """`GriddedWindField.station_margin_km`, checked: a finite number >= 0."""
   if (isinstance(margin_km, bool) or not isinstance(margin_km, (int, float))
       or not math.isfinite(margin_km) or margin_km < 0):
     raise errors.ConfigError(
-        f'Era5WindField.station_margin_km = {margin_km!r}: expected a finite '
-        'number >= 0 [km]')
+        f'GriddedWindField.station_margin_km = {margin_km!r}: expected a '
+        'finite number >= 0 [km]')
   return float(margin_km)
 
 
@@ -102,7 +102,7 @@ def station_box(latitude: Sequence[float], longitude: Sequence[float],
     lon_lo, lon_hi = lon0 + lon_margin, lon1 - lon_margin
   if not (lat_lo <= lat_hi and lon_lo <= lon_hi):
     raise errors.ConfigError(
-        f'Era5WindField.station_margin_km = {margin_km:g}: wind file(s) '
+        f'GriddedWindField.station_margin_km = {margin_km:g}: wind file(s) '
         f'{list(paths)} (lat {lat0:g}..{lat1:g}, lon {lon0:g}..{lon1:g}) hold '
         f'no station {margin_km:g} km from every edge within '
         f'{MAX_STATION_ABS_LAT:g} deg of the equator; bind a smaller margin')
@@ -110,7 +110,7 @@ def station_box(latitude: Sequence[float], longitude: Sequence[float],
 
 
 def file_defaults(data: Any) -> Dict[str, Any]:
-  """The station settings a wind file implies (`Era5WindField.*`).
+  """The station settings a wind file implies (`GriddedWindField.*`).
 
   A grid other than ERA5 (a GFS analysis, GRIB2; a snapshot or a time
   series): per-seed stations; a sounding whose file names its site: the
@@ -119,7 +119,7 @@ def file_defaults(data: Any) -> Dict[str, Any]:
   `wind_file=`.
 
   Args:
-    data: The file's `era5.Era5Data`.
+    data: The file's `gridded.Era5Data`.
 
   Returns:
     `Era5Settings` keyword values, e.g. {'stations': 'per_seed'}.
@@ -139,12 +139,12 @@ def end_outside_domain(setting: Optional[bool], source: str,
   """Whether a flight that leaves the grid ends (`LEFT_WIND_DOMAIN`).
 
   Args:
-    setting: gin `Era5WindField.end_outside_domain`: True or False, or None
+    setting: gin `GriddedWindField.end_outside_domain`: True or False, or None
       (the default): True on a gridded real analysis ('analysis', 'GRIB2')
       and on per-seed stations; False on ERA5 files with a fixed station
       (the paper's setting: winds held at the edges, as BLE's field does)
       and on a sounding (the same winds everywhere: no edge).
-    source: `era5.Era5Data.source`.
+    source: `gridded.Era5Data.source`.
     stations: The station mode (`STATION_MODES`).
 
   Raises:
@@ -152,7 +152,7 @@ def end_outside_domain(setting: Optional[bool], source: str,
   """
   if setting is not None and not isinstance(setting, bool):
     raise errors.ConfigError(
-        f'Era5WindField.end_outside_domain = {setting!r}: expected True, '
+        f'GriddedWindField.end_outside_domain = {setting!r}: expected True, '
         'False or None (the source decides)')
   if setting is not None:
     return setting and source != 'sounding'

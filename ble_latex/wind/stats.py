@@ -27,10 +27,10 @@ Samplers:
     uniform distance 50-200 km from the station (uniform over the annulus'
     area) and uniform times in the field's 48 h; deterministic in the key.
   - `sample_era5`: any wind file the readers take (ERA5, a GFS-style NetCDF
-    analysis, GRIB2, a University of Wyoming sounding; `era5.load`):
+    analysis, GRIB2, a University of Wyoming sounding; `gridded.load`):
     `region='station'`: the station at the centre of the file's area, the
     same annulus (BLE's offset-to-lat/lng geometry,
-    `era5.latlng_of_offset`); `region='domain'`: uniform over the area of
+    `globe.latlng_of_offset`); `region='domain'`: uniform over the area of
     the whole grid; uniform times over the file's span; deterministic in the
     seed. The area must contain the annulus (else the winds would be clipped
     edge values). A sounding is one column: one sample
@@ -57,8 +57,9 @@ import scipy.stats
 
 from ble_latex import errors
 from ble_latex.wind import analysis
-from ble_latex.wind import era5
 from ble_latex.wind import generative
+from ble_latex.wind import globe
+from ble_latex.wind import gridded
 
 # The generative field's pressure range (BLE's VAE grid). # [Pa]
 BAND_PA = (5000.0, 14000.0)
@@ -210,7 +211,7 @@ def sample_era5(path: Union[str, Sequence[str]],
                 label: Optional[str] = None,
                 region: str = 'station',
                 band: Sequence[float] = BAND_PA) -> WindSamples:
-  """Columns of any wind file the readers accept (`era5.load`).
+  """Columns of any wind file the readers accept (`gridded.load`).
 
   ERA5, other CF NetCDF analyses and GRIB2 are sampled at `num_samples`
   places and times: `region='station'` in the annulus around the centre of
@@ -221,7 +222,7 @@ def sample_era5(path: Union[str, Sequence[str]],
   `num_samples` copies of it.
 
   Args:
-    path: Wind file(s) (`era5.load`).
+    path: Wind file(s) (`gridded.load`).
     pressures_pa: [L] levels (default: the file's levels in `band`). # [Pa]
     num_samples: Samples (place, time) of a grid.
     seed: Seed of the samples' places and times.
@@ -236,7 +237,7 @@ def sample_era5(path: Union[str, Sequence[str]],
 
   Raises:
     FileNotFoundError, IsADirectoryError, ValueError: a bad file (see
-      `era5.load`), fewer than 2 levels in the band, or an area that does
+      `gridded.load`), fewer than 2 levels in the band, or an area that does
       not contain the sampled annulus.
   """
   if num_samples < 1:
@@ -247,7 +248,7 @@ def sample_era5(path: Union[str, Sequence[str]],
         '(--wind_stats_samples)')
   if region not in REGIONS:
     raise ValueError(f'region must be one of {REGIONS}, got {region!r}')
-  data = era5.load(path)
+  data = gridded.load(path)
   where = f'{data.source} file(s) {list(data.paths)}'
   if pressures_pa is None:
     pressures_pa = band_levels(data.pressure, band)
@@ -278,7 +279,7 @@ def sample_era5(path: Union[str, Sequence[str]],
   return WindSamples(label, pressures, uv[..., 0], uv[..., 1])
 
 
-def _annulus_points(data: era5.Era5Data, rng: np.random.Generator,
+def _annulus_points(data: gridded.Era5Data, rng: np.random.Generator,
                     num_samples: int, radius_km: Sequence[float],
                     where: str) -> Any:
   """(lat, lon) [deg] uniform over the annulus around the area's centre."""
@@ -286,8 +287,8 @@ def _annulus_points(data: era5.Era5Data, rng: np.random.Generator,
   center_lon = 0.5 * (data.longitude[0] + data.longitude[-1])
   edge = float(radius_km[1])  # [km]
   for x, y in ((edge, 0.0), (-edge, 0.0), (0.0, edge), (0.0, -edge)):
-    lat, lon = era5.latlng_of_offset(center_lat, center_lon, x * 1000.0,
-                                     y * 1000.0)
+    lat, lon = globe.latlng_of_offset(center_lat, center_lon, x * 1000.0,
+                                      y * 1000.0)
     if not data.covers(lat, lon):
       lon = float(data.wrap_longitude(lon))
       raise ValueError(
@@ -298,8 +299,8 @@ def _annulus_points(data: era5.Era5Data, rng: np.random.Generator,
           f'lon {lon:.4g}')
   x_km, y_km = _annulus(rng.random(num_samples), rng.random(num_samples),
                         radius_km)
-  points = [era5.latlng_of_offset(center_lat, center_lon, float(x) * 1000.0,
-                                  float(y) * 1000.0)
+  points = [globe.latlng_of_offset(center_lat, center_lon, float(x) * 1000.0,
+                                   float(y) * 1000.0)
             for x, y in zip(x_km, y_km)]
   return (np.array([p[0] for p in points]), np.array([p[1] for p in points]))
 

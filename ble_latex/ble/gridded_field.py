@@ -1,15 +1,16 @@
 # coding=utf-8
-"""ERA5 reanalysis winds as a BLE `WindField`, for BLE's own agents.
+"""A wind file (ERA5, GFS, a sounding) as a BLE `WindField`, for BLE's agents.
 
-`Era5WindField` is the paper's Wind (Saunders et al. 2023, "RL problem"): a
-`wind_field.WindField` whose forecast is the ERA5 wind of `era5.load` (the one
-reader, no BLE object) interpolated multi-linearly in (time, pressure,
-latitude, longitude), and whose ground truth is forecast + BLE's
-`SimplexWindNoise` (switch the noise off with `add_noise=False`). Its
-settings are the plain `era5.Era5Settings` the JAX env flies
-(`era5_jax.grid_from_settings`); gin's `Era5WindField.*` bindings are those
-settings (`era5.settings`), and `Era5WindField.from_settings(era5.settings())`
-is BLE's field of them. The gym envs fly an `Era5WindField` as its grid in
+`GriddedWindField` is the paper's Wind (Saunders et al. 2023, "RL problem"):
+a `wind_field.WindField` whose forecast is the wind of `gridded.load` (the
+one reader, no BLE object; the paper's is ERA5) interpolated multi-linearly
+in (time, pressure, latitude, longitude), and whose ground truth is forecast
++ BLE's `SimplexWindNoise` (switch the noise off with `add_noise=False`). Its
+settings are the plain `gridded.Era5Settings` the JAX env flies
+(`gridded_jax.grid_from_settings`); gin's `GriddedWindField.*` bindings are
+those settings (`gridded.settings`), and
+`GriddedWindField.from_settings(gridded.settings())` is BLE's field of them.
+Its name until issue 66 was `Era5WindField` (module `ble.era5_field`). The gym envs fly a `GriddedWindField` as its grid in
 the core (`ble_latex.ble.arena`); BLE's consumers that want a `WindField`
 object on the host (scripts, `wind_field.WindField` users) build this one.
 """
@@ -25,37 +26,38 @@ from jax import numpy as jnp
 import numpy as np
 
 from ble_latex import errors
-from ble_latex.wind import era5
 from ble_latex.wind import forecast_error
+from ble_latex.wind import globe
+from ble_latex.wind import gridded
 
 
-class Era5WindField(wind_field.WindField):
+class GriddedWindField(wind_field.WindField):
   """ERA5 reanalysis winds around a station-keeping target (paper's Wind).
 
   Positions are BLE's x (east), y (north) offsets from the target at
   (center_lat, center_lon), converted to latitude/longitude with BLE's
-  `spherical_geometry.calculate_latlng_from_offset` (`era5.latlng_of_offset`).
+  `spherical_geometry.calculate_latlng_from_offset` (`globe.latlng_of_offset`).
   The forecast is the ERA5 (u, v) interpolated multi-linearly in time,
-  pressure, latitude and longitude (`era5.Era5Data.interpolate`); outside
+  pressure, latitude and longitude (`gridded.Era5Data.interpolate`); outside
   the file's area, pressure range or time range the wind is clipped to the
   edge value (as BLE's generative field). The ground truth adds BLE's
   simplex noise unless `add_noise` is False.
 
   Each reset samples the flight's start time uniformly (whole minutes) from
   the file's time range such that `episode_hours` fit, and inside
-  `start_dates` if given (the held-out split by dates, `era5.DATE_SPLITS`),
+  `start_dates` if given (the held-out split by dates, `gridded.DATE_SPLITS`),
   from the forecast key (same key, same start). The `date_time` BLE passes to
   `reset` is ignored (as BLE's generative field does); `start_date_time`
   holds the sampled start, and the arena uses it as the balloon's date and
-  time. Not a gin configurable: gin's `Era5WindField` is its settings
-  (`era5.settings`; `from_settings`).
+  time. Not a gin configurable: gin's `GriddedWindField` is its settings
+  (`gridded.settings`; `from_settings`).
   """
 
   def __init__(self,
                *,
                path: Union[str, Sequence[str]],
-               center_lat: float = era5.PAPER_CENTER_LAT,  # [deg N]
-               center_lon: float = era5.PAPER_CENTER_LON,  # [deg E]
+               center_lat: float = gridded.PAPER_CENTER_LAT,  # [deg N]
+               center_lon: float = gridded.PAPER_CENTER_LON,  # [deg E]
                episode_hours: float = 72.0,  # [h]
                add_noise: bool = True,
                start_dates: Any = None,
@@ -72,20 +74,20 @@ class Era5WindField(wind_field.WindField):
       add_noise: Whether the ground truth adds BLE's simplex noise to the
         forecast (the paper does).
       start_dates: None: flights start anywhere in the data; a split of
-        `era5.DATE_SPLITS` ('train', 'validation', 'eval') or a (first, end)
+        `gridded.DATE_SPLITS` ('train', 'validation', 'eval') or a (first, end)
         pair of ISO dates: flights start in [first, end)
-        (`era5.start_window`).
+        (`gridded.start_window`).
       noise_scale: The truth's factor on BLE's noise; None: the source
         decides (`forecast_error.noise_scale`: 1 on ERA5).
 
     Raises:
       FileNotFoundError: a file is missing.
       IsADirectoryError: a path is a directory.
-      ValueError: bad file (see `era5.load`), target outside the file's area,
+      ValueError: bad file (see `gridded.load`), target outside the file's area,
         non-finite arguments, or data shorter than `episode_hours`.
     """
     super().__init__()  # BLE's simplex noise (`SimplexWindNoise`).
-    self.settings = era5.Era5Settings(
+    self.settings = gridded.Era5Settings(
         path=path, center_lat=center_lat, center_lon=center_lon,
         episode_hours=episode_hours, add_noise=add_noise,
         start_dates=start_dates, noise_scale=noise_scale)
@@ -102,8 +104,8 @@ class Era5WindField(wind_field.WindField):
     self._start_offset_s: Optional[float] = None
 
   @classmethod
-  def from_settings(cls, settings: era5.Era5Settings) -> 'Era5WindField':
-    """BLE's field of plain settings (e.g. gin's, `era5.settings()`).
+  def from_settings(cls, settings: gridded.Era5Settings) -> 'GriddedWindField':
+    """BLE's field of plain settings (e.g. gin's, `gridded.settings()`).
 
     Raises:
       errors.ConfigError: per-seed stations (this BLE object keeps one
@@ -112,15 +114,15 @@ class Era5WindField(wind_field.WindField):
     if settings.truth_path is not None or settings.truth_members:
       name = 'truth_members' if settings.truth_members else 'truth_path'
       raise errors.ConfigError(
-          f"Era5WindField.{name}: BLE's Era5WindField object flies one "
+          f"GriddedWindField.{name}: BLE's GriddedWindField object flies one "
           'truth, the file; a truth of its own flies in the envs '
-          '(latex_episode.wind_field_factory = @Era5WindField)')
+          '(latex_episode.wind_field_factory = @GriddedWindField)')
     if settings.stations != 'fixed':
       raise errors.ConfigError(
-          f"Era5WindField.stations = {settings.stations!r}: BLE's "
-          'Era5WindField object keeps one fixed station; per-seed stations '
+          f"GriddedWindField.stations = {settings.stations!r}: BLE's "
+          'GriddedWindField object keeps one fixed station; per-seed stations '
           'fly in the envs (latex_episode.wind_field_factory = '
-          '@Era5WindField)')
+          '@GriddedWindField)')
     return cls(path=settings.path, center_lat=settings.center_lat,
                center_lon=settings.center_lon,
                episode_hours=settings.episode_hours,
@@ -129,7 +131,7 @@ class Era5WindField(wind_field.WindField):
                noise_scale=settings.noise_scale)
 
   @property
-  def data(self) -> era5.Era5Data:
+  def data(self) -> gridded.Era5Data:
     """The loaded ERA5 data."""
     return self._data
 
@@ -178,8 +180,8 @@ class Era5WindField(wind_field.WindField):
     """(lat, lon) of the offset (x east, y north) from the target. # [deg]"""
     if not (math.isfinite(x.meters) and math.isfinite(y.meters)):
       raise ValueError(f'Position must be finite, got x={x}, y={y}')
-    return era5.latlng_of_offset(self.center_lat, self.center_lon, x.meters,
-                                 y.meters)
+    return globe.latlng_of_offset(self.center_lat, self.center_lon, x.meters,
+                                  y.meters)
 
   def get_forecast(self, x: units.Distance, y: units.Distance, pressure: float,
                    elapsed_time: dt.timedelta) -> wind_field.WindVector:
@@ -245,19 +247,19 @@ class Era5WindField(wind_field.WindField):
         for f, t in ((forecast.u, truth.u), (forecast.v, truth.v))))
 
 
-def grid_settings(wind: Any) -> Optional[era5.Era5Settings]:
+def grid_settings(wind: Any) -> Optional[gridded.Era5Settings]:
   """The ERA5 settings a gym env flies as a grid in the core, or None.
 
-  An `Era5WindField` (not a subclass: those fly through host callbacks, as
-  any third-party `WindField`) gives its settings; `era5.Era5Settings`
-  (what gin's `@Era5WindField` factory returns) are themselves; anything
+  A `GriddedWindField` (not a subclass: those fly through host callbacks, as
+  any third-party `WindField`) gives its settings; `gridded.Era5Settings`
+  (what gin's `@GriddedWindField` factory returns) are themselves; anything
   else is None.
 
   Args:
     wind: What a gym env's wind field factory returned.
   """
-  if type(wind) is Era5WindField:  # pylint: disable=unidiomatic-typecheck
+  if type(wind) is GriddedWindField:  # pylint: disable=unidiomatic-typecheck
     return wind.settings
-  if isinstance(wind, era5.Era5Settings):
+  if isinstance(wind, gridded.Era5Settings):
     return wind
   return None

@@ -1,13 +1,13 @@
 # coding=utf-8
-"""ERA5 winds in JAX (`wind.era5_jax`, `winds.era5_wind`) against BLE's.
+"""ERA5 winds in JAX (`wind.gridded_jax`, `winds.era5_wind`) against BLE's.
 
-The reference is `wind.era5` (scipy interpolation in float64, BLE's
+The reference is `wind.gridded` (scipy interpolation in float64, BLE's
 geometry and simplex noise): the device grid interpolates as
 `Era5Data.interpolate` to float32 rounding, converts x/y as BLE's
-`calculate_latlng_from_offset`, draws `Era5WindField`'s start from the same
+`calculate_latlng_from_offset`, draws `GriddedWindField`'s start from the same
 key, and the functional env flown on it (vmapped, jitted) flies the
-Gymnasium env's flight of the `Era5WindField` object (host callbacks). No
-network: synthetic files (`test_era5.write_era5`) and arrays.
+Gymnasium env's flight of the `GriddedWindField` object (host callbacks). No
+network: synthetic files (`test_gridded.write_era5`) and arrays.
 """
 
 import datetime as dt
@@ -26,15 +26,15 @@ import numpy as np
 import pytest
 import s2sphere as s2
 
-from ble_latex.ble import era5_field
+from ble_latex.ble import gridded_field
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
 from ble_latex.envs import observed_winds
 from ble_latex.envs import winds
-from ble_latex.wind import era5
-from ble_latex.wind import era5_jax
-import test_era5
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_jax
+import test_gridded
 
 # Irregular axes (a 3 h step among 6 h ones, uneven levels, 0.4 deg grid).
 _HOURS = np.array([0.0, 6.0, 12.0, 15.0, 21.0, 27.0, 33.0])  # [h]
@@ -56,13 +56,13 @@ def _random_data(lons=_LONS, seed=0):
       _HOURS * 3600).astype('timedelta64[s]')
   uv = np.random.default_rng(seed).normal(
       0.0, 15.0, (len(_HOURS), len(_PRESSURE_PA), len(_LATS), len(lons), 2))
-  return era5.Era5Data(('random',), times, _HOURS * 3600.0, _PRESSURE_PA,
-                       _LATS, np.asarray(lons, np.float64), uv)
+  return gridded.Era5Data(('random',), times, _HOURS * 3600.0, _PRESSURE_PA,
+                          _LATS, np.asarray(lons, np.float64), uv)
 
 
 _DATA = _random_data()
-_GRID = era5_jax.grid_from_data(_DATA, episode_hours=6.0)
-_INTERPOLATE = jax.jit(era5_jax.interpolate)
+_GRID = gridded_jax.grid_from_data(_DATA, episode_hours=6.0)
+_INTERPOLATE = jax.jit(gridded_jax.interpolate)
 
 
 @settings(max_examples=200, deadline=None)
@@ -97,12 +97,12 @@ def test_interpolate_broadcasts_like_era5_data():
 ])
 def test_latlng_is_bles_geometry(lons, center):
   data = _random_data(lons)
-  grid = era5_jax.grid_from_data(data, center_lat=center[0],
-                                 center_lon=center[1], episode_hours=6.0)
+  grid = gridded_jax.grid_from_data(data, center_lat=center[0],
+                                    center_lon=center[1], episode_hours=6.0)
   rng = np.random.default_rng(2)
   xy = np.concatenate([[[0.0, 0.0], [0.0, 3e5], [-4e5, 0.0]],
                        rng.uniform(-6e5, 6e5, (40, 2))])
-  lat, lon = jax.jit(era5_jax.latlng)(grid, xy[:, 0], xy[:, 1])
+  lat, lon = jax.jit(gridded_jax.latlng)(grid, xy[:, 0], xy[:, 1])
   origin = s2.LatLng.from_degrees(*center)
   for (x, y), got_lat, got_lon in zip(xy, np.asarray(lat), np.asarray(lon)):
     ll = spherical_geometry.calculate_latlng_from_offset(
@@ -116,17 +116,17 @@ def test_latlng_is_bles_geometry(lons, center):
 
 def test_grid_checks_the_flight_as_era5_wind_field():
   with pytest.raises(ValueError, match='outside the area'):
-    era5_jax.grid_from_data(_DATA, center_lat=20.0, episode_hours=6.0)
+    gridded_jax.grid_from_data(_DATA, center_lat=20.0, episode_hours=6.0)
   with pytest.raises(ValueError, match='shorter than episode_hours'):
-    era5_jax.grid_from_data(_DATA)  # 33 h of data, 72 h flights.
+    gridded_jax.grid_from_data(_DATA)  # 33 h of data, 72 h flights.
 
 
 @pytest.fixture(name='era5_path', scope='module')
 def fixture_era5_path(tmp_path_factory):
   """An ERA5 file: 4 days, +-15 deg around the paper's target, random winds."""
   folder = tmp_path_factory.mktemp('era5')
-  times = test_era5.T0 + np.arange(17) * np.timedelta64(6, 'h')
-  path = test_era5.write_era5(
+  times = test_gridded.T0 + np.arange(17) * np.timedelta64(6, 'h')
+  path = test_gridded.write_era5(
       folder / 'linear.nc', times=times, lat=np.arange(16.0, -14.01, -1.0),
       lon=np.arange(-128.0, -97.99, 1.0),
       levels_hpa=np.array([20.0, 30.0, 50.0, 70.0, 100.0, 125.0, 150.0,
@@ -137,15 +137,15 @@ def fixture_era5_path(tmp_path_factory):
     for name in ('u', 'v'):
       dataset[name].values = rng.normal(0.0, 6.0, dataset[name].shape)
 
-  return test_era5.rewrite(path, folder / 'era5.nc', random_winds)
+  return test_gridded.rewrite(path, folder / 'era5.nc', random_winds)
 
 
 @pytest.mark.parametrize('episode_hours', [6.0, 24.0, 48.0])
 def test_start_draw_is_era5_wind_fields(era5_path, episode_hours):
-  field = era5_field.Era5WindField(path=era5_path,
+  field = gridded_field.GriddedWindField(path=era5_path,
                                    episode_hours=episode_hours)
-  grid = era5_jax.grid_from_data(field.data, episode_hours=episode_hours)
-  draw = jax.jit(era5_jax.draw_start_minute)
+  grid = gridded_jax.grid_from_data(field.data, episode_hours=episode_hours)
+  draw = jax.jit(gridded_jax.draw_start_minute)
   minutes = []
   for seed in range(12):
     wind_key = jax.random.PRNGKey(seed)
@@ -162,8 +162,8 @@ def test_start_draw_is_era5_wind_fields(era5_path, episode_hours):
 def _params(path, episode_hours=24.0):
   """(params without, with the ERA5 grid of `path`), gin defaults."""
   params = env_params.params_from_gin()
-  grid = era5_jax.grid_from_data(era5.load(path),
-                                 episode_hours=episode_hours)
+  grid = gridded_jax.grid_from_data(gridded.load(path),
+                                    episode_hours=episode_hours)
   return params, params.replace(wind_grid=grid)
 
 
@@ -173,7 +173,7 @@ def test_env_wind_is_era5_wind_fields(era5_path, add_noise):
   with_grid = with_grid.replace(wind_grid=with_grid.wind_grid.replace(
       add_noise=add_noise))
   env = jax_env.LatexBalloonJaxEnv()
-  field = era5_field.Era5WindField(path=era5_path, episode_hours=24.0,
+  field = gridded_field.GriddedWindField(path=era5_path, episode_hours=24.0,
                                    add_noise=add_noise)
   points = [(0.0, 0.0, 9000.0, 0.0), (120e3, -40e3, 5200.0, 5.5 * 3600),
             (-300e3, 250e3, 13900.0, 20 * 3600.0)]
@@ -287,18 +287,18 @@ def _jax_flight(params, seeds, actions):
   return np.asarray(obs).swapaxes(0, 1), np.asarray(where).swapaxes(0, 1)
 
 
-class HostEra5WindField(era5_field.Era5WindField):
-  """`Era5WindField` as a third-party BLE WindField: flown through host
+class HostGriddedWindField(gridded_field.GriddedWindField):
+  """`GriddedWindField` as a third-party BLE WindField: flown through host
   callbacks (scipy, float64), the reference of the JAX grid (an
-  `Era5WindField` itself flies its grid)."""
+  `GriddedWindField` itself flies its grid)."""
 
 
 def _gymnasium_flight(params, path, seed, actions, episode_hours=24.0):
-  """The same from the Gymnasium env flying `Era5WindField` (callbacks)."""
+  """The same from the Gymnasium env flying `GriddedWindField` (callbacks)."""
   from ble_latex.ble import wind as ble_wind  # pylint: disable=g-import-not-at-top
   env = gymnasium.make(
       'ble_latex/LatexBalloon-v0', params=params, normalize_actions=False,
-      host_wind=ble_wind.host_wind(HostEra5WindField(
+      host_wind=ble_wind.host_wind(HostGriddedWindField(
           path=path, episode_hours=episode_hours)))
   assert env.unwrapped._wind_field is not None  # pylint: disable=protected-access
   obs, _ = env.reset(seed=seed)
@@ -315,7 +315,7 @@ def _gymnasium_flight(params, path, seed, actions, episode_hours=24.0):
 
 
 @functools.lru_cache(maxsize=None)
-def _era5_jax_flight(path):
+def _gridded_jax_flight(path):
   """`_jax_flight` of `_ENV_SEEDS` with `_ACTIONS` on `path`'s grid (one
   compile for the two tests that compare other envs with it)."""
   _, with_grid = _params(path)
@@ -328,7 +328,7 @@ def _era5_jax_flight(path):
 def test_flight_is_the_gymnasium_envs_on_era5_wind_field(era5_path):
   params, _ = _params(era5_path)
   actions = jnp.asarray(_ACTIONS, jnp.float32)
-  obs, where = _era5_jax_flight(era5_path)
+  obs, where = _gridded_jax_flight(era5_path)
   for i, seed in enumerate(_ENV_SEEDS):
     ref_obs, ref_where = _gymnasium_flight(params, era5_path, seed,
                                               actions)
@@ -344,7 +344,7 @@ def test_vector_env_flies_the_grid_in_its_params(era5_path):
   from ble_latex.envs import gymnasium_vector  # pylint: disable=g-import-not-at-top
   _, with_grid = _params(era5_path)
   actions = jnp.asarray(_ACTIONS, jnp.float32)
-  obs, _ = _era5_jax_flight(era5_path)
+  obs, _ = _gridded_jax_flight(era5_path)
   envs = gymnasium_vector.LatexBalloonVectorEnv(len(_ENV_SEEDS),
                                              params=with_grid)
   first, _ = envs.reset(seed=_ENV_SEEDS[0])

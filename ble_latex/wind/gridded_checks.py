@@ -1,7 +1,7 @@
 # coding=utf-8
 """Checks of upper-air wind files: whole files, coordinates, units, winds.
 
-The checks `era5.load` (the reader) runs on every file before its winds
+The checks `gridded.load` (the reader) runs on every file before its winds
 reach a flight, each failure one line (`errors.BadFileError`) that names the
 file:
   - `check_file`: a path that is a directory, missing, or cut: NetCDF3
@@ -505,7 +505,7 @@ def check_time_steps(times: np.ndarray, sources: Sequence[str], *,
 
 
 # Bytes a wind value of each component takes while a file is read: u and v
-# as float64, their stack and its sorted copy (`era5.read_file`). # [B]
+# as float64, their stack and its sorted copy (`gridded.read_file`). # [B]
 READ_BYTES_PER_VALUE = 4 * 8
 
 

@@ -1,21 +1,24 @@
 # coding=utf-8
 """ERA5 from one gin binding / flag in every env and command; the date split.
 
-Issue 27 items 2 and 5: `latex_episode.wind_field_factory = @Era5WindField`
+Issue 27 items 2 and 5: `latex_episode.wind_field_factory = @GriddedWindField`
 (gin_configs/paper_era5.gin, or `--era5_path`) makes `env_params.params_from_gin`
-hold the file's grid (`EnvParams.wind_grid`, read once by `era5.load`), and
+hold the file's grid (`EnvParams.wind_grid`, read once by `gridded.load`), and
 every env flies it in JAX; `env_params.check_params` refuses bad grids; flights
-start inside disjoint date ranges (`era5.DATE_SPLITS`) for training,
+start inside disjoint date ranges (`gridded.DATE_SPLITS`) for training,
 validation and evaluation. No network: a synthetic file spanning the paper's
-period (`test_era5.write_era5`, random winds).
+period (`test_gridded.write_era5`, random winds).
 """
 
 import datetime as dt
+import importlib
 import json
 import os
+import pathlib
 import subprocess
 import sys
 import textwrap
+import warnings
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 import gin
@@ -26,27 +29,29 @@ import pytest
 
 from ble_latex import configs
 from ble_latex import errors
-from ble_latex.ble import era5_field
+from ble_latex import gin_aliases
+from ble_latex.ble import gridded_field
 from ble_latex.cli import common as cli
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
+from ble_latex.envs import winds
 from ble_latex.run import gin_binding
 from ble_latex.run import suites
-from ble_latex.wind import era5
-from ble_latex.wind import era5_jax
-import test_era5
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_jax
+import test_gridded
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 _ENV = dict(os.environ, TF_CPP_MIN_LOG_LEVEL='3', JAX_PLATFORMS='cpu')
 # 1 Nov 2022 00:00 - 31 Jan 2023 18:00, 6-hourly: the paper's period.
-_TIMES = test_era5.T0 + np.arange(368) * np.timedelta64(6, 'h')
+_TIMES = test_gridded.T0 + np.arange(368) * np.timedelta64(6, 'h')
 
 
 @pytest.fixture(name='era5_path', scope='module')
 def fixture_era5_path(tmp_path_factory):
   """The paper's period on a small area (+-4 deg), random winds."""
   folder = tmp_path_factory.mktemp('era5_gin')
-  path = test_era5.write_era5(
+  path = test_gridded.write_era5(
       folder / 'linear.nc', times=_TIMES, lat=np.arange(5.0, -3.01, -1.0),
       lon=np.arange(-117.0, -108.99, 1.0),
       levels_hpa=np.array([20.0, 50.0, 70.0, 100.0, 125.0, 150.0, 175.0]))
@@ -56,7 +61,7 @@ def fixture_era5_path(tmp_path_factory):
     for name in ('u', 'v'):
       dataset[name].values = rng.normal(0.0, 8.0, dataset[name].shape)
 
-  return test_era5.rewrite(path, folder / 'era5.nc', random_winds)
+  return test_gridded.rewrite(path, folder / 'era5.nc', random_winds)
 
 
 @pytest.fixture(name='gin_era5')
@@ -64,19 +69,19 @@ def fixture_gin_era5(era5_path):
   """gin_configs/paper_era5.gin with the synthetic file (cleared after)."""
   gin.clear_config()
   gin_binding.bind_gin(None, None, [configs.gin_file('paper_era5.gin')],
-                       [f"Era5WindField.path = '{era5_path}'"])
+                       [f"GriddedWindField.path = '{era5_path}'"])
   yield era5_path
   gin.clear_config()
 
 
 # -- The date split. ----------------------------------------------------------
 def _range(name):
-  return era5.start_dates_range(name)
+  return gridded.start_dates_range(name)
 
 
 def test_date_splits_are_disjoint_a_flight_apart():
   names = ['train', 'validation', 'eval']
-  assert sorted(era5.DATE_SPLITS) == sorted(names)
+  assert sorted(gridded.DATE_SPLITS) == sorted(names)
   ranges = [_range(n) for n in names]
   paper = (dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc),
            dt.datetime(2023, 2, 1, tzinfo=dt.timezone.utc))
@@ -92,13 +97,13 @@ def test_date_splits_are_disjoint_a_flight_apart():
 
 
 def test_drawn_starts_fall_inside_their_dates(era5_path):
-  data = era5.load(era5_path)
-  grid = era5_jax.grid_from_data(data)
-  draw = jax.jit(jax.vmap(era5_jax.draw_start_minute, in_axes=(None, 0)))
+  data = gridded.load(era5_path)
+  grid = gridded_jax.grid_from_data(data)
+  draw = jax.jit(jax.vmap(gridded_jax.draw_start_minute, in_axes=(None, 0)))
   keys = jax.random.split(jax.random.PRNGKey(0), 500)
   starts = {}
-  for name in era5.DATE_SPLITS:
-    split = era5_jax.with_start_dates(
+  for name in gridded.DATE_SPLITS:
+    split = gridded_jax.with_start_dates(
         grid, data, start_dates=name, center_lat=1.0, center_lon=-113.0,
         episode_hours=72.0)
     assert split.uv is grid.uv  # The winds are shared, not copied.
@@ -112,8 +117,8 @@ def test_drawn_starts_fall_inside_their_dates(era5_path):
                                           dt.timedelta(hours=72 if
                                                        name == 'eval' else 0))
     starts[name] = set(when)
-    # Era5WindField (BLE's path) draws the same starts.
-    field = era5_field.Era5WindField(path=era5_path, start_dates=name)
+    # GriddedWindField (BLE's path) draws the same starts.
+    field = gridded_field.GriddedWindField(path=era5_path, start_dates=name)
     for key, minute in list(zip(keys, minutes))[:5]:
       field.reset_forecast(key, dt.datetime(2012, 1, 1))
       assert field.start_date_time == data.start + dt.timedelta(
@@ -132,17 +137,17 @@ def test_drawn_starts_fall_inside_their_dates(era5_path):
 ])
 def test_bad_start_dates_are_one_line(era5_path, dates, message):
   with pytest.raises(errors.ConfigError, match=message) as raised:
-    era5_field.Era5WindField(path=era5_path, start_dates=dates)
+    gridded_field.GriddedWindField(path=era5_path, start_dates=dates)
   # One line (gin appends its call note; commands print `cli.one_line`).
   assert message.split('|')[0] in cli.one_line(raised.value)
-  assert cli.one_line(raised.value).startswith('Era5WindField.start_dates = ')
+  assert cli.one_line(raised.value).startswith('GriddedWindField.start_dates = ')
 
 
 # -- check_params: the grid. -------------------------------------------------
 @pytest.fixture(name='params', scope='module')
 def fixture_params(era5_path):
   params = env_params.params_from_gin()
-  grid = era5_jax.grid_from_data(era5.load(era5_path))
+  grid = gridded_jax.grid_from_data(gridded.load(era5_path))
   return params.replace(wind_grid=grid)
 
 
@@ -168,7 +173,7 @@ def test_check_params_takes_a_good_grid(params):
      'start minutes'),
     (lambda g: g.replace(center_lon=jnp.float32(jnp.nan)),
      'center_lon must be a finite scalar'),
-    (lambda g: 'era5.nc', 'must be an era5_jax.Era5Grid'),
+    (lambda g: 'era5.nc', 'must be a gridded_jax.Era5Grid'),
 ])
 def test_check_params_refuses_a_bad_grid_in_one_line(params, edit, message):
   with pytest.raises(errors.ConfigError, match=message) as raised:
@@ -183,14 +188,14 @@ def test_paper_gin_puts_the_grid_in_the_params(gin_era5):
   grid = params.wind_grid
   assert grid is not None
   assert env_params.params_from_gin().wind_grid is grid  # Read once, shared.
-  data = era5.load(gin_era5)
+  data = gridded.load(gin_era5)
   np.testing.assert_array_equal(np.asarray(grid.uv),
                                 np.float32(data.uv))
   assert (int(grid.first_start_minute), int(grid.last_start_minute)) == (
-      era5.start_window(data, center_lat=1.0, center_lon=-113.0,
-                        episode_hours=72.0))
+      gridded.start_window(data, center_lat=1.0, center_lon=-113.0,
+                           episode_hours=72.0))
   with gin.unlock_config():
-    gin.bind_parameter('Era5WindField.start_dates', 'train')
+    gin.bind_parameter('GriddedWindField.start_dates', 'train')
   train = env_params.params_from_gin().wind_grid
   assert train.uv is grid.uv  # Another start range, the same winds.
   assert int(train.first_start_minute) == 0
@@ -201,9 +206,9 @@ def test_paper_gin_puts_the_grid_in_the_params(gin_era5):
 def test_the_grid_reaches_the_functional_env_as_plain_settings(era5_path):
   """paper_era5.gin flies the functional env with nothing of BLE's objects.
 
-  gin's `Era5WindField` is the reader's plain settings (`era5.settings`):
+  gin's `GriddedWindField` is the reader's plain settings (`gridded.settings`):
   `env_params.params_from_gin` reads the file into the grid without importing
-  BLE's `WindField`s (`ble_latex.ble.era5_field`, `ble_latex.ble.wind`,
+  BLE's `WindField`s (`ble_latex.ble.gridded_field`, `ble_latex.ble.wind`,
   BLE's `wind_field`), BLE's gym env or TensorFlow (a fresh process; gin's
   finalize hook, which declares the gym env's configurables, is BLE's
   path and is not run).
@@ -213,17 +218,17 @@ def test_the_grid_reaches_the_functional_env_as_plain_settings(era5_path):
       import gin
       from ble_latex import configs
       from ble_latex.envs import env_params
-      from ble_latex.wind import era5
-      from ble_latex.wind import era5_jax
+      from ble_latex.wind import gridded
+      from ble_latex.wind import gridded_jax
       gin.parse_config_files_and_bindings(
           [configs.gin_file('paper_era5.gin')],
-          ["Era5WindField.path = {era5_path!r}"], finalize_config=False)
-      assert env_params.episode()['wind_field_factory'] is era5.settings
+          ["GriddedWindField.path = {era5_path!r}"], finalize_config=False)
+      assert env_params.episode()['wind_field_factory'] is gridded.settings
       grid = env_params.params_from_gin().wind_grid
-      assert grid is era5_jax.grid_from_settings(era5.Era5Settings(
+      assert grid is gridded_jax.grid_from_settings(gridded.Era5Settings(
           path={era5_path!r}))
       print(sorted(m for m in sys.modules if m.startswith((
-          'ble_latex.ble.era5_field', 'ble_latex.ble.wind',
+          'ble_latex.ble.gridded_field', 'ble_latex.ble.wind',
           'ble_latex.ble.arena', 'ble_latex.ble.gym_env',
           'balloon_learning_environment.env.wind_field', 'tensorflow'))))
       """)
@@ -237,9 +242,9 @@ def test_era5_factory_without_a_path_is_one_line():
   gin.clear_config()
   try:
     gin_binding.bind_gin(None, None, [], [
-        'import ble_latex.wind.era5',
-        'latex_episode.wind_field_factory = @Era5WindField'])
-    with pytest.raises(errors.ConfigError, match='Era5WindField.path'):
+        'import ble_latex.wind.gridded',
+        'latex_episode.wind_field_factory = @GriddedWindField'])
+    with pytest.raises(errors.ConfigError, match='GriddedWindField.path'):
       env_params.params_from_gin()
   finally:
     gin.clear_config()
@@ -254,18 +259,18 @@ def test_flags_bind_the_path_and_the_commands_dates(era5_path):
       cli.era5_bindings(None, 'eval', 'train')
     bindings = cli.era5_bindings(era5_path, None, 'train')
     assert bindings == [
-        'latex_episode.wind_field_factory = @Era5WindField',
-        f'Era5WindField.path = {era5_path!r}',
-        "Era5WindField.start_dates = 'train'"]
+        'latex_episode.wind_field_factory = @GriddedWindField',
+        f'GriddedWindField.path = {era5_path!r}',
+        "GriddedWindField.start_dates = 'train'"]
     assert cli.era5_bindings(era5_path, '2022-11-03,2022-11-09', 'x')[-1] == (
-        "Era5WindField.start_dates = ('2022-11-03', '2022-11-09')")
+        "GriddedWindField.start_dates = ('2022-11-03', '2022-11-09')")
     assert cli.era5_bindings(era5_path, 'all', 'x')[-1] == (
-        'Era5WindField.start_dates = None')
+        'GriddedWindField.start_dates = None')
     with pytest.raises(cli.CommandUsageError, match='--era5_dates'):
       cli.era5_bindings(era5_path, 'later', 'train')
     # A range the user's gin chose stays.
     gin_binding.bind_gin(None, None, [configs.gin_file('paper_era5.gin')],
-                         ["Era5WindField.start_dates = 'validation'"])
+                         ["GriddedWindField.start_dates = 'validation'"])
     assert cli.era5_bindings(None, None, 'eval') == []
   finally:
     gin.clear_config()
@@ -301,7 +306,7 @@ def test_every_env_flies_era5_from_the_gin_binding(gin_era5):
   era5_wind = np.asarray(reset(keys, params)[1].wind_u)
   vae_wind = np.asarray(reset(keys, params.replace(wind_grid=None))[1].wind_u)
   assert np.all(np.abs(era5_wind - vae_wind) > 1e-3)
-  data = era5.load(gin_era5)
+  data = gridded.load(gin_era5)
 
   # gymnasium.make, single balloon.
   single = gymnasium.make('ble_latex/LatexBalloon-v0', normalize_actions=False)
@@ -345,7 +350,7 @@ def test_every_env_flies_era5_from_the_gin_binding(gin_era5):
     truth = ble_field.get_ground_truth(units.Distance(m=0.0),
                                        units.Distance(m=0.0), 9000.0,
                                        dt.timedelta(hours=1))
-    reference = era5_field.Era5WindField(path=gin_era5)
+    reference = gridded_field.GriddedWindField(path=gin_era5)
     reference.reset(jax.random.PRNGKey(0), start)
     reference.set_start_date_time(start)
     forecast = ble_field.get_forecast(units.Distance(m=0.0),
@@ -386,7 +391,7 @@ def test_jax_trainer_trains_a_round_on_era5(tmp_path, era5_path):
                        cwd=REPO)
   assert out.returncode == 0, out.stderr[-3000:]
   config = (run / 'operative_config.gin').read_text()
-  assert "Era5WindField.start_dates = 'train'" in config
+  assert "GriddedWindField.start_dates = 'train'" in config
   assert era5_path in config
   validation = [json.loads(line) for line in
                 (run / 'validation.jsonl').read_text().splitlines()]
@@ -422,3 +427,65 @@ def test_eval_flies_era5_here_and_on_ray(tmp_path, era5_path):
                      'latex_station_seeker.json').read_bytes()
   assert outputs['era5'] == outputs['ray']
   assert outputs['era5'] != outputs['vae']
+
+
+# The configurable's old name (issue 66 item 4): an alias for one release.
+OLD_AND_NEW = (
+    ('Era5WindField', '@Era5WindField'),
+    ('ble_latex.wind.era5.Era5WindField',
+     '@ble_latex.wind.era5.Era5WindField'),
+    ('GriddedWindField', '@GriddedWindField'),
+    ('ble_latex.wind.gridded.GriddedWindField',
+     '@ble_latex.wind.gridded.GriddedWindField'))
+
+
+@pytest.mark.parametrize('name, reference', OLD_AND_NEW)
+def test_old_and_new_gin_names_configure_the_same_settings(name, reference):
+  gin.clear_config()
+  try:
+    gin.parse_config([f'latex_episode.wind_field_factory = {reference}',
+                      f"{name}.path = 'w.nc'",
+                      f'{name}.episode_hours = 6.0',
+                      f"{name}.stations = 'per_seed'"])
+    with warnings.catch_warnings():
+      warnings.simplefilter('ignore', FutureWarning)
+      factory = env_params.episode()['wind_field_factory']
+      settings = gridded.settings()
+    assert factory is gridded.settings and winds.is_era5(factory)
+    assert settings == gridded.Era5Settings(path='w.nc', episode_hours=6.0,
+                                            stations='per_seed')
+    assert winds.bound_settings() == {'path': 'w.nc', 'episode_hours': 6.0,
+                                      'stations': 'per_seed'}
+  finally:
+    gin.clear_config()
+
+
+def test_the_old_name_warns_and_differing_values_are_one_line():
+  gin.clear_config()
+  try:
+    gin.parse_config(["Era5WindField.path = 'w.nc'"])
+    with pytest.warns(FutureWarning, match=r'Era5WindField\.\* is deprecated'
+                      r'.*bind GriddedWindField\.path'):
+      assert gridded.settings().path == 'w.nc'
+    gin.parse_config(["GriddedWindField.path = 'v.nc'"])
+    with pytest.raises(errors.ConfigError, match='GriddedWindField.path only'):
+      gridded.settings()
+  finally:
+    gin.clear_config()
+
+
+def test_the_old_module_name_is_the_reader_and_documented():
+  with warnings.catch_warnings():
+    warnings.simplefilter('ignore', FutureWarning)
+    old = importlib.import_module('ble_latex.wind.era5')
+  assert old is gridded and old.Era5Settings is gridded.Era5Settings
+  gin.clear_config()
+  try:  # A gin file of the old spelling still parses.
+    gin.parse_config(['import ble_latex.wind.era5',
+                      "Era5WindField.path = 'w.nc'"])
+  finally:
+    gin.clear_config()
+  assert gin_aliases.ALIASES['Era5WindField'] == 'GriddedWindField'
+  page = (pathlib.Path(configs.__file__).resolve().parent.parent / 'docs' /
+          'commands.md').read_text(encoding='utf-8')
+  assert '`Era5WindField`' in page and '`GriddedWindField`' in page

@@ -1,28 +1,23 @@
 # coding=utf-8
-"""Tests of the ERA5 wind field, its CDS request builder and downloader.
+"""Tests of the one reader of wind files (`wind.gridded`) and its checks.
 
 The tests write small synthetic ERA5 files (both CDS layouts) whose winds are
 multi-linear functions of (time, pressure, latitude, longitude), so the
-interpolated winds can be checked exactly. No network.
+interpolated winds can be checked exactly. No network. The files and helpers
+here serve the other wind tests too (`import test_gridded`).
 """
 
 import datetime as dt
-import json
-import math
 import os
 import re
-import sys
-import types
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
-from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.utils import spherical_geometry
 from balloon_learning_environment.utils import units
 import gin
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
-import jax
 import numpy as np
 import pytest
 import s2sphere as s2
@@ -30,11 +25,9 @@ import xarray as xr
 
 from ble_latex import configs
 from ble_latex import errors
-from ble_latex.ble import era5_field
-from ble_latex.cli import download_era5
-from ble_latex.wind import era5
-from ble_latex.wind import era5_checks
-from ble_latex.wind import era5_requests
+from ble_latex.ble import gridded_field
+from ble_latex.wind import gridded
+from ble_latex.wind import gridded_checks
 
 T0 = np.datetime64('2022-11-01T00:00', 'ns')
 TIMES = T0 + np.arange(3) * np.timedelta64(6, 'h')  # 12 h of data.
@@ -115,7 +108,7 @@ def fixture_era5_file(tmp_path):
 
 def make_field(path, **kwargs):
   kwargs.setdefault('episode_hours', 6.0)
-  field = era5_field.Era5WindField(path=path, **kwargs)
+  field = gridded_field.GriddedWindField(path=path, **kwargs)
   field.set_start_date_time(dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc))
   return field
 
@@ -135,7 +128,7 @@ def as_tuple(vector):
 
 
 def test_interpolate_off_grid_points_exact(era5_file):
-  data = era5.load(era5_file)
+  data = gridded.load(era5_file)
   t_h = np.array([0.0, 1.5, 7.25, 12.0])
   p_hpa = np.array([20.0, 33.0, 140.5, 175.0])
   lat = np.array([-1.0, 0.3, 1.77, 2.9])
@@ -148,7 +141,7 @@ def test_interpolate_off_grid_points_exact(era5_file):
 
 
 def test_interpolate_hand_computed_value(era5_file):
-  data = era5.load(era5_file)
+  data = gridded.load(era5_file)
   # Midway between 50 and 100 hPa, 3 h, lat 1.5, lon -112.5.
   uv = data.interpolate(3 * 3600.0, 7500.0, 1.5, -112.5)
   # u = 2 + 0.5*3 + 0.01*75 + 0.3*1.5 - 0.2*0.5 + 0.05*1.5*0.5 + 0.001*3*75
@@ -160,7 +153,7 @@ def test_interpolate_hand_computed_value(era5_file):
 
 @pytest.fixture(name='shared_data', scope='module')
 def fixture_shared_data(tmp_path_factory):
-  return era5.load(write_era5(tmp_path_factory.mktemp('era5') / 'era5.nc'))
+  return gridded.load(write_era5(tmp_path_factory.mktemp('era5') / 'era5.nc'))
 
 
 @settings(max_examples=60, deadline=None)
@@ -172,85 +165,6 @@ def test_interpolate_is_exact_inside_and_clipped_outside(shared_data, t_h,
   clipped = (np.clip(t_h, 0.0, 12.0), np.clip(p_hpa, 20.0, 175.0),
              np.clip(lat, -1.0, 3.0), np.clip(lon, -115.0, -111.0))
   np.testing.assert_allclose(uv, [wind_u(*clipped), wind_v(*clipped)],
-                             atol=1e-9)
-
-
-def test_get_forecast_at_offsets_uses_ble_geometry(era5_file):
-  field = make_field(era5_file)
-  for x_km, y_km, hours, pressure in ((0.0, 0.0, 0.0, 9000.0),
-                                      (60.0, -35.0, 2.5, 5000.0),
-                                      (-120.0, 80.0, 5.75, 14000.0)):
-    lat, lon = latlng(x_km, y_km)
-    got = field.get_forecast(units.Distance(km=x_km), units.Distance(km=y_km),
-                             pressure, dt.timedelta(hours=hours))
-    assert isinstance(got, wind_field.WindVector)
-    np.testing.assert_allclose(
-        as_tuple(got), (wind_u(hours, pressure / 100, lat, lon),
-                        wind_v(hours, pressure / 100, lat, lon)), atol=1e-9)
-
-
-def test_x_is_east_and_y_is_north(era5_file):
-  field = make_field(era5_file)
-  t = dt.timedelta(hours=0)
-  # 100 km east at lat 1: lon + 100 / (111.195 cos 1deg). v depends on lon
-  # only via 0.002 p dlon: with p = 100 hPa, dv = 0.2 dlon.
-  dlon = 100.0 / (6371.0 * math.pi / 180.0 * math.cos(math.radians(1.0)))
-  east = field.get_forecast(units.Distance(km=100.0), units.Distance(km=0.0),
-                            10000.0, t)
-  centre = field.get_forecast(units.Distance(km=0.0), units.Distance(km=0.0),
-                              10000.0, t)
-  # (The great circle heading east dips ~1e-4 deg south over 100 km.)
-  assert east.v.meters_per_second - centre.v.meters_per_second == (
-      pytest.approx(0.2 * dlon, rel=1e-3))
-  # 100 km north: lat + 0.8993 deg; v has -0.4 lat.
-  north = field.get_forecast(units.Distance(km=0.0), units.Distance(km=100.0),
-                             10000.0, t)
-  assert north.v.meters_per_second - centre.v.meters_per_second == (
-      pytest.approx(-0.4 * 100.0 / (6371.0 * math.pi / 180.0), rel=1e-6))
-
-
-def test_forecast_uses_sampled_start_plus_elapsed(era5_file):
-  field = make_field(era5_file)
-  field.set_start_date_time(dt.datetime(2022, 11, 1, 4, 30))  # Naive = UTC.
-  assert field.start_date_time == dt.datetime(2022, 11, 1, 4, 30,
-                                              tzinfo=dt.timezone.utc)
-  got = field.get_forecast(units.Distance(km=0.0), units.Distance(km=0.0),
-                           6000.0, dt.timedelta(hours=2))
-  np.testing.assert_allclose(as_tuple(got), (wind_u(6.5, 60.0, *CENTER),
-                                             wind_v(6.5, 60.0, *CENTER)),
-                             atol=1e-9)
-
-
-def test_column_is_one_vectorised_call_matching_points(era5_file, monkeypatch):
-  field = make_field(era5_file)
-  pressures = np.linspace(5000.0, 14000.0, 25)
-  x, y = units.Distance(km=30.0), units.Distance(km=-45.0)
-  elapsed = dt.timedelta(hours=4, minutes=20)
-  expected = [as_tuple(field.get_forecast(x, y, p, elapsed))
-              for p in pressures]
-  calls = []
-  interpolate = field.data.interpolate
-  monkeypatch.setattr(
-      field, '_data', types.SimpleNamespace(
-          interpolate=lambda *a: calls.append(1) or interpolate(*a)))
-  column = field.get_forecast_column(x, y, pressures, elapsed)
-  assert len(calls) == 1
-  np.testing.assert_allclose([as_tuple(c) for c in column], expected,
-                             rtol=0, atol=1e-12)
-
-
-def test_outside_the_data_is_clipped_to_the_edge(era5_file):
-  field = make_field(era5_file)
-  far = field.get_forecast(units.Distance(km=2000.0),
-                           units.Distance(km=-3000.0), 30000.0,
-                           dt.timedelta(days=5))
-  edge = (12.0, 175.0, -1.0, -111.0)  # Last time, max level, south, east.
-  np.testing.assert_allclose(as_tuple(far), (wind_u(*edge), wind_v(*edge)),
-                             atol=1e-9)
-  high = field.get_forecast(units.Distance(km=0.0), units.Distance(km=0.0),
-                            100.0, dt.timedelta(0))
-  np.testing.assert_allclose(as_tuple(high), (wind_u(0, 20.0, *CENTER),
-                                              wind_v(0, 20.0, *CENTER)),
                              atol=1e-9)
 
 
@@ -282,8 +196,8 @@ def test_layouts_give_the_same_winds(tmp_path, era5_file, kwargs):
 
 
 def test_pressure_axis_is_pa_whatever_the_file_unit(tmp_path, era5_file):
-  pa = era5.load(write_era5(tmp_path / 'pa.nc', pressure_unit='Pa'))
-  hpa = era5.load(era5_file)
+  pa = gridded.load(write_era5(tmp_path / 'pa.nc', pressure_unit='Pa'))
+  hpa = gridded.load(era5_file)
   np.testing.assert_array_equal(pa.pressure, [2000.0, 5000.0, 10000.0,
                                               17500.0])
   np.testing.assert_array_equal(hpa.pressure, pa.pressure)
@@ -291,7 +205,7 @@ def test_pressure_axis_is_pa_whatever_the_file_unit(tmp_path, era5_file):
 
 
 def test_float32_file(tmp_path):
-  data = era5.load(write_era5(tmp_path / 'f4.nc', dtype='float32'))
+  data = gridded.load(write_era5(tmp_path / 'f4.nc', dtype='float32'))
   uv = data.interpolate(3600.0, 6000.0, 0.5, -112.5)
   np.testing.assert_allclose(uv, [wind_u(1.0, 60.0, 0.5, -112.5),
                                   wind_v(1.0, 60.0, 0.5, -112.5)], atol=1e-5)
@@ -304,7 +218,7 @@ def test_packed_int16_file(tmp_path, era5_file):
     packing = {'dtype': 'int16', 'scale_factor': 1e-3, 'add_offset': 5.0,
                '_FillValue': -32767}
     ds.load().to_netcdf(path, encoding={'u': packing, 'v': packing})
-  np.testing.assert_allclose(era5.load(path).uv, era5.load(era5_file).uv,
+  np.testing.assert_allclose(gridded.load(path).uv, gridded.load(era5_file).uv,
                              atol=6e-4)
 
 
@@ -319,76 +233,17 @@ def test_old_cds_expver_dimension_is_combined(tmp_path, era5_file):
     parts.append(ds[['u', 'v']].where(mask).expand_dims(expver=[number]))
   path = str(tmp_path / 'expver.nc')
   xr.concat(parts, dim='expver').to_netcdf(path)
-  np.testing.assert_array_equal(era5.load(path).uv, era5.load(era5_file).uv)
+  np.testing.assert_array_equal(gridded.load(path).uv, gridded.load(era5_file).uv)
 
 
 def test_files_are_joined_along_time(tmp_path, era5_file):
   first = write_era5(tmp_path / 'era5_a.nc', times=TIMES[:2])
   second = write_era5(tmp_path / 'era5_b.nc', times=TIMES[2:])
-  whole = era5.load(era5_file)
+  whole = gridded.load(era5_file)
   for path in ([second, first], str(tmp_path / 'era5_?.nc')):
-    joined = era5.load(path)
+    joined = gridded.load(path)
     np.testing.assert_array_equal(joined.times, whole.times)
     np.testing.assert_array_equal(joined.uv, whole.uv)
-
-
-# Start time sampling and noise.
-
-
-def test_start_sampling_is_deterministic_and_fits_the_episode(era5_file):
-  field = era5_field.Era5WindField(path=era5_file, episode_hours=6.0)
-  starts = []
-  for seed in range(40):
-    key = jax.random.PRNGKey(seed)
-    field.reset(key, dt.datetime(2013, 5, 1, tzinfo=dt.timezone.utc))
-    start = field.start_date_time
-    field.reset(key, dt.datetime(2011, 1, 1, tzinfo=dt.timezone.utc))
-    assert field.start_date_time == start
-    assert field.data.start <= start
-    assert start + dt.timedelta(hours=6) <= field.data.end
-    assert start.second == 0 and start.microsecond == 0
-    starts.append(start)
-  assert len(set(starts)) > 30
-  assert field.data.start == dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc)
-
-
-def test_episode_longer_than_data_is_an_error(era5_file):
-  with pytest.raises(ValueError, match=r'shorter than episode_hours = 72'):
-    era5_field.Era5WindField(path=era5_file, episode_hours=72.0)
-
-
-def test_forecast_before_reset_is_an_error(era5_file):
-  field = era5_field.Era5WindField(path=era5_file, episode_hours=6.0)
-  with pytest.raises(RuntimeError, match='reset'):
-    field.get_forecast(units.Distance(km=0), units.Distance(km=0), 1e4,
-                       dt.timedelta(0))
-
-
-def test_non_finite_queries_are_errors(era5_file):
-  field = make_field(era5_file)
-  with pytest.raises(ValueError, match='Pressure must be finite'):
-    field.get_forecast(units.Distance(km=0), units.Distance(km=0),
-                       float('nan'), dt.timedelta(0))
-  with pytest.raises(ValueError, match='Position must be finite'):
-    field.get_forecast(units.Distance(km=float('inf')), units.Distance(km=0),
-                       1e4, dt.timedelta(0))
-  with pytest.raises(ValueError, match='outside the ERA5 data'):
-    field.set_start_date_time(dt.datetime(2023, 1, 1))
-
-
-@pytest.mark.parametrize('add_noise', [False, True])
-def test_add_noise_switch(era5_file, add_noise):
-  field = era5_field.Era5WindField(path=era5_file, episode_hours=6.0,
-                                   add_noise=add_noise)
-  field.reset(jax.random.PRNGKey(7), dt.datetime(2013, 1, 1))
-  args = (units.Distance(km=20.0), units.Distance(km=-10.0), 8000.0,
-          dt.timedelta(hours=1))
-  forecast = as_tuple(field.get_forecast(*args))
-  truth = as_tuple(field.get_ground_truth(*args))
-  if add_noise:
-    assert truth != pytest.approx(forecast, abs=1e-6)
-  else:
-    assert truth == forecast
 
 
 # Bad files.
@@ -397,9 +252,9 @@ def test_add_noise_switch(era5_file, add_noise):
 def test_missing_file(tmp_path):
   path = str(tmp_path / 'nope.nc')
   with pytest.raises(FileNotFoundError, match=f'ERA5 file {path} does not'):
-    era5_field.Era5WindField(path=path)
+    gridded_field.GriddedWindField(path=path)
   with pytest.raises(FileNotFoundError, match='No ERA5 file matches'):
-    era5.load(str(tmp_path / 'era5_*.nc'))
+    gridded.load(str(tmp_path / 'era5_*.nc'))
 
 
 def test_not_netcdf(tmp_path):
@@ -407,13 +262,13 @@ def test_not_netcdf(tmp_path):
   path.write_bytes(b'\x00\x01garbage, not NetCDF\xff' * 50)
   with pytest.raises(ValueError,
                      match=f'ERA5 file {path} is not a readable NetCDF'):
-    era5.load(str(path))
+    gridded.load(str(path))
 
 
 def test_missing_variable(tmp_path):
   path = write_era5(tmp_path / 'no_u.nc', drop=('u',))
   with pytest.raises(ValueError) as error:
-    era5.load(path)
+    gridded.load(path)
   assert str(error.value).startswith(
       f"ERA5 file {path} has no wind variables (found: ['t', 'v']; expected "
       'CF standard_name eastward_wind/northward_wind or one of')
@@ -431,14 +286,14 @@ def test_missing_dimension(tmp_path):
                      match=f"ERA5 file {path} has no pressure-level dimension"
                      r".*'pressure_level', 'level'.*variable 'u' has dims "
                      r"\['valid_time', 'latitude', 'longitude'\]"):
-    era5.load(path)
+    gridded.load(path)
 
 
 def test_nan_winds(tmp_path):
   path = write_era5(tmp_path / 'nan.nc', nan=True)
   with pytest.raises(ValueError, match=f'ERA5 file {path} has NaN/inf winds: '
                      '1 values of u and 0 of v'):
-    era5.load(path)
+    gridded.load(path)
 
 
 def test_winds_beyond_memory_are_refused_before_reading(tmp_path, monkeypatch):
@@ -446,29 +301,29 @@ def test_winds_beyond_memory_are_refused_before_reading(tmp_path, monkeypatch):
   # never written); reading it asked for all of them. Here the machine's
   # memory is made smaller than a small file's winds.
   path = write_era5(tmp_path / 'era5.nc')
-  uv = era5.read_file(path)[-1]
-  need = uv[..., 0].size * era5_checks.READ_BYTES_PER_VALUE
-  monkeypatch.setattr(era5_checks, 'memory_bytes', lambda: need - 1)
+  uv = gridded.read_file(path)[-1]
+  need = uv[..., 0].size * gridded_checks.READ_BYTES_PER_VALUE
+  monkeypatch.setattr(gridded_checks, 'memory_bytes', lambda: need - 1)
   with pytest.raises(errors.BadFileError) as info:
-    era5.read_file(path)
+    gridded.read_file(path)
   message = str(info.value)
   assert 'reading them needs' in message and path in message
   assert '\n' not in message
   # GRIB2: the sum of its messages' data points, from their headers.
   grib = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
                       'realwinds', 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
-  monkeypatch.setattr(era5_checks, 'memory_bytes', lambda: 1_000_000)
+  monkeypatch.setattr(gridded_checks, 'memory_bytes', lambda: 1_000_000)
   with pytest.raises(errors.BadFileError, match=r'\(189,216 values\)'):
-    era5.read_source(grib)
+    gridded.read_source(grib)
 
 
 def test_target_outside_area(era5_file):
   with pytest.raises(ValueError, match=r'Target \(lat 10.0, lon -113.0\) lies '
                      'outside the area of ERA5 file'):
-    era5_field.Era5WindField(path=era5_file, center_lat=10.0,
+    gridded_field.GriddedWindField(path=era5_file, center_lat=10.0,
                              episode_hours=6.0)
   # The same target in the 0..360 convention is inside.
-  era5_field.Era5WindField(path=era5_file, center_lon=247.0,
+  gridded_field.GriddedWindField(path=era5_file, center_lon=247.0,
                            episode_hours=6.0)
 
 
@@ -476,13 +331,13 @@ def test_files_on_different_grids_are_not_joined(tmp_path, era5_file):
   other = write_era5(tmp_path / 'other.nc', times=TIMES + np.timedelta64(
       1, 'D'), lon=LONS + 0.5)
   with pytest.raises(ValueError, match='different longitudes'):
-    era5.load([era5_file, other])
+    gridded.load([era5_file, other])
 
 
 def test_single_level_is_an_error(tmp_path):
   path = write_era5(tmp_path / 'one.nc', levels_hpa=np.array([50.0]))
   with pytest.raises(ValueError, match='1 pressure level value'):
-    era5.load(path)
+    gridded.load(path)
 
 
 def with_coordinate(source, path, name, values):
@@ -538,7 +393,7 @@ def test_impossible_coordinates_are_errors(tmp_path, era5_file, name, values,
                                            message):
   path = with_coordinate(era5_file, tmp_path / 'bad.nc', name, values)
   with pytest.raises(ValueError) as error:
-    era5.load(path)
+    gridded.load(path)
   assert str(error.value).startswith(f'ERA5 file {path}: {message}'), error
 
 
@@ -547,7 +402,7 @@ def test_pressure_below_the_ground_is_an_error(tmp_path):
                     levels_hpa=np.array([20.0, 50.0, 100.0, 1200.0]))
   with pytest.raises(ValueError, match=f'^ERA5 file {path}: pressure level '
                      '120000 Pa is below the ground'):
-    era5.load(path)
+    gridded.load(path)
 
 
 def test_time_gap_between_joined_files_is_an_error(tmp_path):
@@ -557,9 +412,9 @@ def test_time_gap_between_joined_files_is_an_error(tmp_path):
   with pytest.raises(ValueError, match=(
       f'^ERA5 files {first} and {second}: time gap from 2022-11-01T12:00 to '
       r'2032-10-31T00:00 \(87636 h; the median step is 6 h')):
-    era5.load(str(tmp_path / 'era5_?.nc'))
+    gridded.load(str(tmp_path / 'era5_?.nc'))
   # Files that follow on (one 6 h step) are joined (test above).
-  era5.load([first, write_era5(tmp_path / 'next.nc', times=TIMES + 18 * HOUR)])
+  gridded.load([first, write_era5(tmp_path / 'next.nc', times=TIMES + 18 * HOUR)])
 
 
 @pytest.mark.parametrize('name, values', [
@@ -574,7 +429,7 @@ def test_time_gap_between_joined_files_is_an_error(tmp_path):
 ])
 def test_real_coordinates_load(tmp_path, era5_file, name, values):
   path = with_coordinate(era5_file, tmp_path / 'ok.nc', name, values)
-  data = era5.load(path)
+  data = gridded.load(path)
   axis = {'latitude': data.latitude, 'longitude': data.longitude,
           'valid_time': data.times}[name]
   np.testing.assert_array_equal(axis, np.sort(np.asarray(values)))
@@ -591,8 +446,8 @@ def test_truncated_netcdf3_file_is_an_error(tmp_path, file_format,
                     file_format=file_format, coords_first=coords_first,
                     unlimited_dims=unlimited_dims)
   np.testing.assert_array_equal(
-      era5.load(path).uv,
-      era5.load(write_era5(tmp_path / 'nc4.nc', layout='old')).uv)
+      gridded.load(path).uv,
+      gridded.load(write_era5(tmp_path / 'nc4.nc', layout='old')).uv)
   content = open(path, 'rb').read()
   for size in (len(content) - 8, len(content) * 3 // 4, len(content) // 2,
                60):
@@ -603,7 +458,7 @@ def test_truncated_netcdf3_file_is_an_error(tmp_path, file_format,
       f.truncate(size)
     with pytest.raises(ValueError,
                        match=f'ERA5 file {re.escape(cut)} is truncated'):
-      era5.load(cut)
+      gridded.load(cut)
 
 
 def test_truncated_netcdf4_file_is_an_error(tmp_path, era5_file):
@@ -613,7 +468,7 @@ def test_truncated_netcdf4_file_is_an_error(tmp_path, era5_file):
     cut.write_bytes(content[:size])
     with pytest.raises(ValueError,
                        match=f'ERA5 file {re.escape(str(cut))} is truncated'):
-      era5.load(str(cut))
+      gridded.load(str(cut))
 
 
 def test_directory_is_an_error(tmp_path, era5_file):
@@ -624,9 +479,9 @@ def test_directory_is_an_error(tmp_path, era5_file):
     with pytest.raises(IsADirectoryError,
                        match=f'ERA5 path {re.escape(str(directory))} is a '
                        'directory'):
-      era5.load(path)
+      gridded.load(path)
   with pytest.raises(IsADirectoryError, match='is a directory'):
-    era5_field.Era5WindField(path=str(directory))
+    gridded_field.GriddedWindField(path=str(directory))
 
 
 @pytest.mark.parametrize('pressure_unit, units_attr', [
@@ -639,7 +494,7 @@ def test_pressure_values_contradicting_units_are_errors(tmp_path,
   with pytest.raises(ValueError,
                      match=f'ERA5 file {re.escape(path)}: pressure coordinate '
                      f"'pressure_level' has units '{units_attr}' but values "):
-    era5.load(path)
+    gridded.load(path)
 
 
 def test_hpa_numbers_labelled_pa_above_10_hpa_are_errors(tmp_path):
@@ -648,19 +503,19 @@ def test_hpa_numbers_labelled_pa_above_10_hpa_are_errors(tmp_path):
   path = write_era5(tmp_path / 'p.nc', units_attr='Pa',
                     levels_hpa=np.array([100.0, 125.0, 150.0, 200.0]))
   with pytest.raises(ValueError, match="has units 'Pa' but values"):
-    era5.load(path)
+    gridded.load(path)
 
 
 @pytest.mark.parametrize('pressure_unit', ['hPa', 'Pa'])
 @pytest.mark.parametrize('levels_hpa', [
-    era5_checks.ERA5_PRESSURE_LEVELS_HPA, (1, 2, 3, 5, 7, 10), (1, 2),
+    gridded_checks.ERA5_PRESSURE_LEVELS_HPA, (1, 2, 3, 5, 7, 10), (1, 2),
     (975, 1000)])
 def test_every_era5_pressure_level_set_loads(tmp_path, pressure_unit,
                                              levels_hpa):
   levels = np.array(levels_hpa, dtype=np.float64)
-  data = era5.load(write_era5(tmp_path / 'all.nc', times=TIMES[:2],
-                              levels_hpa=levels,
-                              pressure_unit=pressure_unit))
+  data = gridded.load(write_era5(tmp_path / 'all.nc', times=TIMES[:2],
+                                 levels_hpa=levels,
+                                 pressure_unit=pressure_unit))
   np.testing.assert_array_equal(data.pressure, levels * 100.0)
 
 
@@ -689,7 +544,7 @@ def test_undeclared_fill_values_and_absurd_winds_are_errors(tmp_path, name,
   path = rewrite(source, tmp_path / 'fill.nc', edit,
                  encoding={name: {'_FillValue': None}})
   with pytest.raises(ValueError) as error:
-    era5.load(path)
+    gridded.load(path)
   message = str(error.value)
   assert message.startswith(f'ERA5 file {path}: variable {name!r} has 2 '
                             f'values with |{name}| > 200 m/s (first ')
@@ -705,7 +560,7 @@ def test_strong_but_possible_winds_load(tmp_path):
     dataset['u'].values[0, 0, 0, 0] = -199.0
     dataset['v'].values[1, 1, 1, 1] = 180.0
 
-  data = era5.load(rewrite(source, tmp_path / 'strong.nc', edit))
+  data = gridded.load(rewrite(source, tmp_path / 'strong.nc', edit))
   assert data.uv.min() == -199.0 and data.uv.max() == 180.0
 
 
@@ -722,7 +577,7 @@ def test_declared_fill_values_are_nan_errors(tmp_path, attribute):
   path = rewrite(source, tmp_path / 'declared.nc', edit, encoding=encoding)
   with pytest.raises(ValueError, match=f'ERA5 file {re.escape(path)} has '
                      'NaN/inf winds: 1 values of u and 0 of v'):
-    era5.load(path)
+    gridded.load(path)
 
 
 # Other CF-style sources: the reader's `Layout`.
@@ -730,9 +585,9 @@ def test_declared_fill_values_are_nan_errors(tmp_path, attribute):
 
 def test_a_layout_reads_another_sources_names(tmp_path, era5_file):
   """NCEP-style names (uwnd/vwnd on lev, lat, lon) read as ERA5's."""
-  ncep = era5.Layout(label='NCEP', variables=('uwnd', 'vwnd'),
-                     time=('time',), pressure=('lev',), latitude=('lat',),
-                     longitude=('lon',))
+  ncep = gridded.Layout(label='NCEP', variables=('uwnd', 'vwnd'),
+                        time=('time',), pressure=('lev',), latitude=('lat',),
+                        longitude=('lon',))
 
   def rename(dataset):
     return dataset.rename({'u': 'uwnd', 'v': 'vwnd', 'valid_time': 'time',
@@ -743,19 +598,19 @@ def test_a_layout_reads_another_sources_names(tmp_path, era5_file):
     renamed = rename(dataset.load())
   path = str(tmp_path / 'ncep.nc')
   renamed.to_netcdf(path)
-  got, want = era5.load(path, ncep), era5.load(era5_file)
+  got, want = gridded.load(path, ncep), gridded.load(era5_file)
   for name in ('times', 'time_s', 'pressure', 'latitude', 'longitude', 'uv'):
     np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
   # The reader chosen by content finds uwnd/vwnd (an alias) and `lev` (a
   # pressure `units` attribute) itself.
-  found = era5.load(path)
+  found = gridded.load(path)
   assert found.source == 'analysis'
   np.testing.assert_array_equal(found.uv, want.uv)
   renamed['uwnd'].values[0, 0, 0, 0] = np.nan
   bad = str(tmp_path / 'ncep_nan.nc')
   renamed.to_netcdf(bad)
   with pytest.raises(errors.BadFileError) as error:
-    era5.load(bad, ncep)
+    gridded.load(bad, ncep)
   assert str(error.value).startswith(
       f'NCEP file {bad} has NaN/inf winds: 1 values of uwnd and 0 of vwnd')
 
@@ -771,314 +626,14 @@ def test_paper_gin_file_binds_the_field(era5_file):
   try:
     gin.parse_config_files_and_bindings(
         [configs.gin_file('paper_era5.gin')],
-        [f"Era5WindField.path = '{era5_file}'",
-         'Era5WindField.episode_hours = 6.0'])
-    settings = era5.settings()  # gin's `Era5WindField.*`: plain values.
-    assert settings == era5.Era5Settings(path=era5_file, episode_hours=6.0)
-    field = era5_field.Era5WindField.from_settings(settings)
+        [f"GriddedWindField.path = '{era5_file}'",
+         'GriddedWindField.episode_hours = 6.0'])
+    settings = gridded.settings()  # gin's `GriddedWindField.*`: plain values.
+    assert settings == gridded.Era5Settings(path=era5_file, episode_hours=6.0)
+    field = gridded_field.GriddedWindField.from_settings(settings)
     assert field.add_noise and field.settings == settings
     factory = gin.query_parameter('latex_episode.wind_field_factory')
-    assert factory.selector == 'Era5WindField'
+    assert factory.selector == 'GriddedWindField'
     del env_lib
   finally:
     gin.clear_config()
-
-
-# Requests and the download command.
-
-
-def test_paper_requests_are_exact():
-  requests = era5_requests.build_requests()
-  assert [month for month, _ in requests] == ['2022-11', '2022-12', '2023-01']
-  month, request = requests[0]
-  assert request == {
-      'product_type': ['reanalysis'],
-      'variable': ['u_component_of_wind', 'v_component_of_wind'],
-      'year': ['2022'],
-      'month': ['11'],
-      'day': [f'{d:02d}' for d in range(1, 31)],
-      'time': ['00:00', '06:00', '12:00', '18:00'],
-      'pressure_level': ['20', '30', '50', '70', '100', '125', '150', '175'],
-      'area': [6.0, -118.0, -4.0, -108.0],
-      'grid': [0.4, 0.4],
-      'data_format': 'netcdf',
-      'download_format': 'unarchived',
-  }
-  assert requests[1][1]['day'][-1] == '31'
-  assert requests[2][1]['year'] == ['2023'] and requests[2][1]['month'] == [
-      '01']
-  assert len(requests[2][1]['day']) == 31
-  del month
-
-
-def test_requests_for_partial_months():
-  requests = era5_requests.build_requests(start_date=dt.date(2022, 12, 30),
-                                 end_date=dt.date(2023, 1, 2),
-                                 half_width_deg=2.0, min_pressure_hpa=50,
-                                 max_pressure_hpa=100)
-  assert [(m, r['day']) for m, r in requests] == [
-      ('2022-12', ['30', '31']), ('2023-01', ['01', '02'])]
-  assert requests[0][1]['area'] == [3.0, -115.0, -1.0, -111.0]
-  assert requests[0][1]['pressure_level'] == ['50', '70', '100']
-  with pytest.raises(ValueError, match='before start_date'):
-    era5_requests.build_requests(start_date=dt.date(2023, 1, 2),
-                        end_date=dt.date(2023, 1, 1))
-  with pytest.raises(ValueError, match='No ERA5 pressure level'):
-    era5_requests.build_requests(min_pressure_hpa=21, max_pressure_hpa=29)
-
-
-def test_dry_run_prints_json_without_cdsapi(monkeypatch, capsys, tmp_path):
-  monkeypatch.setitem(sys.modules, 'cdsapi', None)  # Importing it fails.
-  output = str(tmp_path / 'era5_paper.nc')
-  assert download_era5.main(['--dry_run', '--output', output]) == 0
-  printed = json.loads(capsys.readouterr().out)
-  assert printed['dataset'] == 'reanalysis-era5-pressure-levels'
-  assert printed['output'] == output
-  assert [r['request'] for r in printed['requests']] == [
-      r for _, r in era5_requests.build_requests()]
-  assert [r['target'] for r in printed['requests']] == [
-      str(tmp_path / f'era5_paper_{m}.nc')
-      for m in ('2022-11', '2022-12', '2023-01')]
-  assert not list(tmp_path.iterdir())
-
-
-def test_missing_credentials_is_a_clear_error(monkeypatch, capsys, tmp_path):
-  monkeypatch.setitem(sys.modules, 'cdsapi', None)
-  monkeypatch.delenv('CDSAPI_URL', raising=False)
-  monkeypatch.delenv('CDSAPI_KEY', raising=False)
-  monkeypatch.setenv('CDSAPI_RC', str(tmp_path / 'no_cdsapirc'))
-  assert download_era5.main(['--output', str(tmp_path / 'x.nc')]) == 2
-  err = capsys.readouterr().err
-  assert f'no CDS API credentials: {tmp_path / "no_cdsapirc"} does not ' in err
-
-
-def test_download_with_fake_client_writes_and_joins_months(
-    monkeypatch, capsys, tmp_path):
-  retrieved = []
-
-  class FakeClient:
-
-    def retrieve(self, dataset, request, target):
-      retrieved.append((dataset, request))
-      year, month = int(request['year'][0]), int(request['month'][0])
-      days = [int(d) for d in request['day']]
-      times = np.array([np.datetime64(dt.datetime(year, month, d, h))
-                        for d in days for h in (0, 6, 12, 18)],
-                       dtype='datetime64[ns]')
-      write_era5(target, times=times, lat=np.array([2.0, 1.0, 0.0]),
-                 lon=np.array([-114.0, -113.0, -112.0]),
-                 levels_hpa=np.array([50.0, 70.0, 100.0]),
-                 dtype='float32', t0=times[0])
-
-  monkeypatch.setitem(sys.modules, 'cdsapi',
-                      types.SimpleNamespace(Client=FakeClient))
-  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
-  monkeypatch.setenv('CDSAPI_KEY', 'fake')
-  output = str(tmp_path / 'era5.nc')
-  argv = ['--output', output, '--start_date', '2022-12-31', '--end_date',
-          '2023-01-01', '--half_width_deg', '1']
-  assert download_era5.main(argv) == 0
-  assert [r['month'] for _, r in retrieved] == [['12'], ['01']]
-  data = era5.load(output)
-  assert data.times.size == 8
-  assert data.start == dt.datetime(2022, 12, 31, tzinfo=dt.timezone.utc)
-  assert 'wrote' in capsys.readouterr().out
-  # Months already there are not fetched again.
-  assert download_era5.main(argv) == 0
-  assert len(retrieved) == 2
-
-
-def test_failed_retrieval_is_a_clear_error(monkeypatch, capsys, tmp_path):
-
-  class FailingClient:
-
-    def retrieve(self, dataset, request, target):
-      raise RuntimeError('403 Forbidden: required licences not accepted')
-
-  monkeypatch.setitem(sys.modules, 'cdsapi',
-                      types.SimpleNamespace(Client=FailingClient))
-  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
-  monkeypatch.setenv('CDSAPI_KEY', 'fake')
-  assert download_era5.main(['--output', str(tmp_path / 'x.nc')]) == 1
-  assert 'CDS request for 2022-11 failed (RuntimeError: 403' in (
-      capsys.readouterr().err)
-  assert not list(tmp_path.iterdir())
-
-
-def recording_client(calls):
-  """A fake cdsapi module whose client records its calls (never called)."""
-
-  class Client:
-
-    def retrieve(self, dataset, request, target):
-      calls.append((dataset, request, target))
-      raise AssertionError('no request expected')
-
-  return types.SimpleNamespace(Client=Client)
-
-
-@pytest.mark.parametrize('dry_run', [False, True])
-def test_output_directory_is_a_usage_error(monkeypatch, capsys, tmp_path,
-                                           dry_run):
-  calls = []
-  monkeypatch.setitem(sys.modules, 'cdsapi', recording_client(calls))
-  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
-  monkeypatch.setenv('CDSAPI_KEY', 'fake')
-  existing = tmp_path / 'existing'
-  existing.mkdir()
-  for output in (str(existing), str(tmp_path / 'new') + '/',
-                 str(tmp_path / 'new') + os.sep, str(existing) + '/'):
-    argv = ['--output', output] + (['--dry_run'] if dry_run else [])
-    assert download_era5.main(argv) == 2
-    captured = capsys.readouterr()
-    assert captured.out == ''
-    assert captured.err == (
-        f'ble-latex-download-era5: error: --output {output} is a directory; give a file name such as '
-        f'{os.path.join(output, "era5_paper.nc")}\n')
-  assert not calls
-  assert [p.name for p in tmp_path.iterdir()] == ['existing']
-  assert not list(existing.iterdir())
-
-
-def test_output_under_a_file_is_a_usage_error(monkeypatch, capsys, tmp_path):
-  calls = []
-  monkeypatch.setitem(sys.modules, 'cdsapi', recording_client(calls))
-  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
-  monkeypatch.setenv('CDSAPI_KEY', 'fake')
-  (tmp_path / 'file').write_text('x')
-  output = str(tmp_path / 'file' / 'era5.nc')
-  assert download_era5.main(['--output', output]) == 2
-  assert capsys.readouterr().err == (
-      f'ble-latex-download-era5: error: --output {output}: {tmp_path / "file"} is not a directory\n')
-  assert not calls
-
-
-def test_monthly_target_directory_is_a_usage_error(monkeypatch, capsys,
-                                                   tmp_path):
-  calls = []
-  monkeypatch.setitem(sys.modules, 'cdsapi', recording_client(calls))
-  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
-  monkeypatch.setenv('CDSAPI_KEY', 'fake')
-  (tmp_path / 'era5_2022-12.nc').mkdir()
-  assert download_era5.main(['--output', str(tmp_path / 'era5.nc')]) == 2
-  assert capsys.readouterr().err == (
-      f'ble-latex-download-era5: error: {tmp_path / "era5_2022-12.nc"} (the file for 2022-12) is a '
-      'directory\n')
-  assert not calls
-
-
-@pytest.mark.parametrize('exception', [RuntimeError, KeyboardInterrupt])
-def test_failed_retrieval_leaves_no_part_file(monkeypatch, capsys, tmp_path,
-                                              exception):
-
-  class HalfClient:
-
-    def retrieve(self, dataset, request, target):
-      with open(target, 'wb') as f:
-        f.write(b'CDF\x01 half a download')
-      raise exception('connection reset')
-
-  monkeypatch.setitem(sys.modules, 'cdsapi',
-                      types.SimpleNamespace(Client=HalfClient))
-  monkeypatch.setenv('CDSAPI_URL', 'https://example.invalid/api')
-  monkeypatch.setenv('CDSAPI_KEY', 'fake')
-  argv = ['--output', str(tmp_path / 'x.nc')]
-  if exception is KeyboardInterrupt:
-    with pytest.raises(KeyboardInterrupt):
-      download_era5.main(argv)
-  else:
-    assert download_era5.main(argv) == 1
-    assert 'CDS request for 2022-11 failed' in capsys.readouterr().err
-  assert not list(tmp_path.iterdir())
-
-
-def test_failed_merge_leaves_no_part_file(monkeypatch, capsys, tmp_path):
-  sources = [write_era5(tmp_path / f'era5_{m}.nc', times=times)
-             for m, times in (('2022-11', TIMES[:2]), ('2022-12', TIMES[2:]))]
-  written = []
-
-  def failing_to_netcdf(self, path, *args, **kwargs):
-    del self, args, kwargs
-    written.append(path)
-    with open(path, 'wb') as f:
-      f.write(b'CDF\x01 half written')
-    raise OSError(28, 'No space left on device')
-
-  monkeypatch.setattr(xr.Dataset, 'to_netcdf', failing_to_netcdf)
-  output = str(tmp_path / 'era5.nc')
-  with pytest.raises(OSError, match='No space left'):
-    download_era5.merge_files(sources, output)
-  assert written == [output + '.part']
-  assert sorted(p.name for p in tmp_path.iterdir()) == [
-      'era5_2022-11.nc', 'era5_2022-12.nc']
-  # The command reports it as a one-line error.
-  assert download_era5.main(['--output', output, '--start_date', '2022-11-01',
-                             '--end_date', '2022-12-31']) == 1
-  assert capsys.readouterr().err.startswith(
-      f'ble-latex-download-era5: error: could not write {output} (OSError: [Errno 28] No space left')
-  assert sorted(p.name for p in tmp_path.iterdir()) == [
-      'era5_2022-11.nc', 'era5_2022-12.nc']
-
-
-# The environment.
-
-
-@pytest.mark.slow
-@pytest.mark.ci
-def test_env_flies_at_the_sampled_era5_start(tmp_path):
-  from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
-  path = write_era5(tmp_path / 'era5.nc')
-  env = env_lib.LatexBalloonEnv(
-      wind_field_factory=lambda: era5_field.Era5WindField(
-          path=path, episode_hours=1.0),
-      episode_steps=2, seed=0)
-  # An Era5WindField flies its grid in the core (`EnvParams.wind_grid`).
-  assert env.arena.params.wind_grid is not None
-  reference = era5_field.Era5WindField(path=path, episode_hours=1.0)
-  starts = []
-  for _ in range(2):
-    env.reset(seed=5)
-    start = env.arena.driver.start_date_time
-    starts.append(start)
-    assert env.arena.get_balloon_state().date_time == start
-    env.step(np.array([17_000.0, 1.0, 1.0]))
-  assert starts[0] == starts[1]
-  # Inside the data, 1 h before its end (the draw is the field's own:
-  # test_era5_jax.test_start_draw_is_era5_wind_fields).
-  assert reference.data.start <= starts[0] <= (
-      reference.data.end - dt.timedelta(hours=1))
-
-
-@pytest.mark.slow
-@pytest.mark.ci  # Out of the default suite (<= 8 min); CI runs it.
-def test_full_random_episode_on_era5_wind(tmp_path):
-  from ble_latex.ble import gym_env as env_lib  # pylint: disable=g-import-not-at-top
-  times = T0 + np.arange(17) * np.timedelta64(6, 'h')  # 4 days of data.
-  path = write_era5(tmp_path / 'era5_4d.nc', times=times)
-  env = env_lib.LatexBalloonEnv(
-      wind_field_factory=lambda: era5_field.Era5WindField(path=path), seed=0)
-  env.reset(seed=3)
-  rng = np.random.default_rng(0)
-  done, steps = False, 0
-  while not done:
-    _, reward, done, info = env.step(
-        rng.uniform(env.action_space.low, env.action_space.high))
-    steps += 1
-    assert np.isfinite(reward)
-  assert steps == 216 or info['out_of_resources'] or info['envelope_burst']
-  assert info['time_limit'] == (steps == 216)
-
-
-def test_era5_noise_equals_bles_simplex_noise(era5_file):
-  import jax  # pylint: disable=g-import-not-at-top
-  field = era5_field.Era5WindField(path=era5_file, episode_hours=6.0)
-  key = jax.random.PRNGKey(4)
-  field.reset(key, dt.datetime(2022, 11, 1, tzinfo=dt.timezone.utc))
-  reference = wind_field.SimplexWindNoise()
-  reference.reset_wind_noise(jax.random.split(key, num=2)[0], None)
-  for x_km, y_km, p, h in [(0, 0, 9000.0, 1.0), (120, -40, 5200.0, 5.5),
-                           (-300, 250, 13900.0, 0.0)]:
-    args = (units.Distance(km=x_km), units.Distance(km=y_km), p,
-            dt.timedelta(hours=h))
-    assert as_tuple(field._noise_model.get_wind_noise(*args)) == as_tuple(  # pylint: disable=protected-access
-        reference.get_wind_noise(*args))

@@ -1,26 +1,26 @@
 # coding=utf-8
 """ERA5 winds in JAX: the reader's data and settings as device arrays.
 
-`Era5Grid` holds the ERA5 u, v of an `era5.Era5Data` (time, pressure,
-latitude, longitude; `era5.load` stays the one reader: loading, validation,
+`Era5Grid` holds the ERA5 u, v of a `gridded.Era5Data` (time, pressure,
+latitude, longitude; `gridded.load` stays the one reader: loading, validation,
 errors) as float32 device arrays, with the station-keeping target and the
-start-time range of plain `era5.Era5Settings` (gin's `Era5WindField.*`;
+start-time range of plain `gridded.Era5Settings` (gin's `GriddedWindField.*`;
 `grid_from_settings`, no BLE object). It is a pytree: put it in the env's
 params (`env_types.EnvParams.wind_grid`) and every balloon of a vmapped batch
 reads the same arrays (never copied per balloon), and a new grid of the
 same shape does not recompile.
 
 The functions are pure and jittable and answer as BLE's `WindField` of the
-same settings (`ble_latex.ble.era5_field.Era5WindField`):
+same settings (`ble_latex.ble.gridded_field.GriddedWindField`):
   - `latlng`: BLE's x (east) / y (north) offsets from the target to
     latitude/longitude (BLE's `spherical_geometry.
     calculate_latlng_from_offset`: great-circle destination on a sphere of
     radius 6371 km);
   - `interpolate`: `Era5Data.interpolate`, multi-linear in (time, pressure,
     latitude, longitude), each coordinate clipped to the grid's edges;
-  - `draw_start_minute`: `Era5WindField.reset_forecast`'s start time from
+  - `draw_start_minute`: `GriddedWindField.reset_forecast`'s start time from
     the forecast key (the same `jax.random.randint` call);
-  - `forecast`: `Era5WindField.get_forecast(_column)`, around the grid's
+  - `forecast`: `GriddedWindField.get_forecast(_column)`, around the grid's
     fixed target or a flight's own station;
   - `draw_station`: a flight's station drawn from its key (per-seed
     stations, `wind.stations`); `outside`: whether a position has left the
@@ -35,7 +35,7 @@ after 97 days). At the same float32 coordinates `interpolate` agrees with
 `Era5Data.interpolate` (float64 scipy) to 1e-4 m/s on random winds of
 15 m/s rms, and `latlng` with BLE's geometry to 2e-5 deg; the env on this
 grid flies the BLE object's flight (host callbacks) to a few metres over
-216 strides (tests/test_era5_jax.py).
+216 strides (tests/test_gridded_jax.py).
 """
 
 import datetime as dt
@@ -49,8 +49,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import errors
-from ble_latex.wind import era5
 from ble_latex.wind import forecast_error
+from ble_latex.wind import gridded
 from ble_latex.wind import members as members_lib
 from ble_latex.wind import stations as stations_lib
 
@@ -61,7 +61,7 @@ EARTH_RADIUS_M = 6_371_000.0
 
 @flax.struct.dataclass
 class Era5Grid:
-  """ERA5 winds and the flight area of `Era5WindField`, on the device.
+  """ERA5 winds and the flight area of `GriddedWindField`, on the device.
 
   Axes are stored relative to their first value, which keeps float32's
   resolution of the coordinates (~1e-6 deg instead of ~1e-5 deg at 100 deg).
@@ -79,12 +79,12 @@ class Era5Grid:
     center_lon: The target's longitude after `longitude_origin`, the
       file's convention. # [deg]
     first_start_minute: Earliest flight start after the first time (int32;
-      `era5.start_window`: 0, or the first minute of `start_dates`). # [min]
+      `gridded.start_window`: 0, or the first minute of `start_dates`). # [min]
     last_start_minute: Latest flight start after the first time (int32;
-      `era5.start_window`). # [min]
+      `gridded.start_window`). # [min]
     first_time_min: The data's first time after 1970-01-01 UTC (int32). # [min]
     add_noise: Whether the ground truth adds BLE's simplex noise to the
-      forecast (`Era5WindField.add_noise`). Static.
+      forecast (`GriddedWindField.add_noise`). Static.
     noise_scale: The truth's factor on that noise (`forecast_error.
       noise_scale`: 1 on ERA5, 2.39 on other files, 0 with a truth file).
       Static.
@@ -103,7 +103,7 @@ class Era5Grid:
       grid's rows within one spacing of a pole reach it
       (`globe.latitude_bounds`). # [deg]
 
-  A global grid (`era5.Era5Data.global_longitude`) holds the wrapped column
+  A global grid (`gridded.Era5Data.global_longitude`) holds the wrapped column
   (its longitudes end 360 deg after `longitude_origin`): `_wrap` maps every
   longitude into it, so the wind is bilinear across the seam and no flight
   leaves it east or west.
@@ -130,14 +130,14 @@ class Era5Grid:
   latitude_bounds: Optional[Array] = None
 
 
-def _snapshot_minute(data: era5.Era5Data, when: Any) -> Optional[int]:
+def _snapshot_minute(data: gridded.Era5Data, when: Any) -> Optional[int]:
   """`Era5Settings.snapshot_time` in minutes after 1970, or None."""
   if when is None:
     return None
   if not data.time_invariant:
     raise errors.ConfigError(
-        f'Era5WindField.snapshot_time = {when!r}: only a time-invariant source '
-        f'takes a date; {list(data.paths)} is a time series')
+        f'GriddedWindField.snapshot_time = {when!r}: only a time-invariant '
+        f'source takes a date; {list(data.paths)} is a time series')
   try:
     if not isinstance(when, dt.datetime):
       when = dt.datetime.fromisoformat(str(when))
@@ -146,16 +146,16 @@ def _snapshot_minute(data: era5.Era5Data, when: Any) -> Optional[int]:
     seconds = when.timestamp()
   except (ValueError, OverflowError) as e:
     raise errors.ConfigError(
-        f'Era5WindField.snapshot_time = {when!r}: not an ISO date-time '
+        f'GriddedWindField.snapshot_time = {when!r}: not an ISO date-time '
         '(UTC)') from e
   if seconds % 60 or not -1.5e9 < seconds < 3.4e9:  # int32 offsets.
     raise errors.ConfigError(
-        f'Era5WindField.snapshot_time = {when!r}: expected a whole minute '
+        f'GriddedWindField.snapshot_time = {when!r}: expected a whole minute '
         'in years 1943..2079')
   return int(seconds // 60)
 
 
-def station_center(data: era5.Era5Data, stations: str,
+def station_center(data: gridded.Era5Data, stations: str,
                    station_margin_km: float, center_lat: float,
                    center_lon: float) -> Tuple[float, float, Any]:
   """(target lat, lon, station box or None) of a station mode on `data`.
@@ -168,7 +168,7 @@ def station_center(data: era5.Era5Data, stations: str,
     return center_lat, center_lon, None
   if data.source == 'sounding':
     raise errors.ConfigError(
-        "Era5WindField.stations = 'per_seed' needs a gridded source; "
+        "GriddedWindField.stations = 'per_seed' needs a gridded source; "
         f'{list(data.paths)} is a sounding (the same winds everywhere)')
   box = stations_lib.station_box(data.latitude, data.longitude,
                                  station_margin_km, data.paths,
@@ -176,7 +176,7 @@ def station_center(data: era5.Era5Data, stations: str,
   return 0.5 * (box[0] + box[1]), 0.5 * (box[2] + box[3]), box
 
 
-def _warn_unnamed_sounding(data: era5.Era5Data, center_lat: float,
+def _warn_unnamed_sounding(data: gridded.Era5Data, center_lat: float,
                            center_lon: float, snapshot_time: Any) -> None:
   """One logged line where a sounding names no site or time (issue 64).
 
@@ -188,13 +188,13 @@ def _warn_unnamed_sounding(data: era5.Era5Data, center_lat: float,
     return
   missing = []
   if (site.latitude is None and
-      (center_lat, center_lon) == (era5.PAPER_CENTER_LAT,
-                                   era5.PAPER_CENTER_LON)):
+      (center_lat, center_lon) == (gridded.PAPER_CENTER_LAT,
+                                   gridded.PAPER_CENTER_LON)):
     missing.append(f'its station is the paper\'s target ({center_lat:g} N, '
                    f'{center_lon:g} E; --station_lat/--station_lon or '
-                   'Era5WindField.center_lat/center_lon choose it)')
+                   'GriddedWindField.center_lat/center_lon choose it)')
   if site.time is None and snapshot_time is None:
-    missing.append('its date is 1970-01-01 00:00 UTC (Era5WindField.'
+    missing.append('its date is 1970-01-01 00:00 UTC (GriddedWindField.'
                    'snapshot_time chooses it)')
   if missing:
     unnamed = [n for n, m in (('site', site.latitude is None),
@@ -204,9 +204,9 @@ def _warn_unnamed_sounding(data: era5.Era5Data, center_lat: float,
         '; '.join(missing))
 
 
-def grid_from_data(data: era5.Era5Data, *,
-                   center_lat: float = era5.PAPER_CENTER_LAT,  # [deg N]
-                   center_lon: float = era5.PAPER_CENTER_LON,  # [deg E]
+def grid_from_data(data: gridded.Era5Data, *,
+                   center_lat: float = gridded.PAPER_CENTER_LAT,  # [deg N]
+                   center_lon: float = gridded.PAPER_CENTER_LON,  # [deg E]
                    episode_hours: float = 72.0,  # [h]
                    add_noise: bool = True,
                    start_dates: Any = None,
@@ -216,16 +216,16 @@ def grid_from_data(data: era5.Era5Data, *,
                    end_outside_domain: Optional[bool] = None,
                    snapshot_time: Any = None,
                    noise_scale: Optional[float] = None,
-                   truth: Optional[era5.Era5Data] = None,
-                   truth_members: Sequence[era5.Era5Data] = ()) -> Era5Grid:
-  """The device grid of loaded ERA5 data (`era5.load(path)`).
+                   truth: Optional[gridded.Era5Data] = None,
+                   truth_members: Sequence[gridded.Era5Data] = ()) -> Era5Grid:
+  """The device grid of loaded ERA5 data (`gridded.load(path)`).
 
-  The keyword arguments are `era5.Era5Settings`'s, with its defaults
+  The keyword arguments are `gridded.Era5Settings`'s, with its defaults
   (per-seed stations: the target is the station box's centre, and is used
   only for the start-window checks).
 
   Args:
-    data: ERA5 data, read and checked by `era5.load`.
+    data: ERA5 data, read and checked by `gridded.load`.
     center_lat: Latitude of the station-keeping target. # [deg N]
     center_lon: Longitude of the station-keeping target. # [deg E]
     episode_hours: Flight length that must fit after the start. # [h]
@@ -235,20 +235,20 @@ def grid_from_data(data: era5.Era5Data, *,
     truth: None, or a second file's data: the truth (two-source mode).
     truth_members: (), or an ensemble's members (`member_truths`): each
       flight's truth is one of them, drawn at reset (`draw_truth_member`).
-    start_dates: None, a split of `era5.DATE_SPLITS` or a (first, end)
-      pair of dates: the range flights start in (`era5.start_window`).
+    start_dates: None, a split of `gridded.DATE_SPLITS` or a (first, end)
+      pair of dates: the range flights start in (`gridded.start_window`).
 
   Returns:
     The grid, float32 (int32 minutes).
 
   Raises:
-    ValueError: as `era5.start_window`, or a first
+    ValueError: as `gridded.start_window`, or a first
       time that is not a whole minute; errors.ConfigError: a bad station
       mode, margin, `end_outside_domain` or `snapshot_time`.
   """
   if truth is not None and truth_members:
     raise errors.ConfigError(
-        'Era5WindField.truth_path and Era5WindField.truth_members = True '
+        'GriddedWindField.truth_path and GriddedWindField.truth_members = True '
         'both name the truth: bind one')
   center_lat, center_lon, box = station_center(
       data, stations, station_margin_km, center_lat, center_lon)
@@ -256,10 +256,10 @@ def grid_from_data(data: era5.Era5Data, *,
   ends = stations_lib.end_outside_domain(end_outside_domain, data.source,
                                          stations)
   snapshot = _snapshot_minute(data, snapshot_time)
-  first, last = era5.start_window(data, center_lat=center_lat,
-                                  center_lon=center_lon,
-                                  episode_hours=episode_hours,
-                                  start_dates=start_dates)
+  first, last = gridded.start_window(data, center_lat=center_lat,
+                                     center_lon=center_lon,
+                                     episode_hours=episode_hours,
+                                     start_dates=start_dates)
   first_s = (data.times[0] - np.datetime64('1970-01-01T00:00:00')) / (
       np.timedelta64(1, 's'))
   if first_s % 60:
@@ -293,8 +293,8 @@ def grid_from_data(data: era5.Era5Data, *,
                        if data.global_longitude else None))
 
 
-def _truth_uv(data: era5.Era5Data, truth: Optional[era5.Era5Data],
-              truth_members: Sequence[era5.Era5Data]) -> Optional[Array]:
+def _truth_uv(data: gridded.Era5Data, truth: Optional[gridded.Era5Data],
+              truth_members: Sequence[gridded.Era5Data]) -> Optional[Array]:
   """`Era5Grid.truth_uv` of a truth file or of members (float32). # [m/s]"""
   if truth is not None:
     return jnp.asarray(forecast_error.truth_on_forecast_grid(data, truth),
@@ -304,27 +304,27 @@ def _truth_uv(data: era5.Era5Data, truth: Optional[era5.Era5Data],
   for member in truth_members:
     if member.uv.shape != data.uv.shape:
       raise errors.ConfigError(
-          f'Era5WindField.truth_members: member {member.member} of '
+          f'GriddedWindField.truth_members: member {member.member} of '
           f'{list(member.paths)} has winds of shape {member.uv.shape}, the '
           f'forecast {data.uv.shape}')
   return jnp.asarray(np.stack([m.uv for m in truth_members]), jnp.float32)
 
 
 def member_truths(path: Any, member: Any = None
-                  ) -> Tuple[era5.Era5Data, ...]:
+                  ) -> Tuple[gridded.Era5Data, ...]:
   """The members an ensemble file's flights draw their truth from.
 
   Every member of `path`'s ensemble but the forecast's (`member`; None:
-  gin's `Era5WindField.member`), or every member under 'mean'
-  (`members.truth_indices`), each read by `era5.load`.
+  gin's `GriddedWindField.member`), or every member under 'mean'
+  (`members.truth_indices`), each read by `gridded.load`.
 
   Raises:
     errors.ConfigError: A file without a member dimension (one line).
   """
   member = members_lib.bound(member)
-  forecast = era5.load(path, member=member)
+  forecast = gridded.load(path, member=member)
   size = members_lib.size_of(forecast.member)
-  return tuple(era5.load(path, member=k) for k in
+  return tuple(gridded.load(path, member=k) for k in
                members_lib.truth_indices(size, member, list(forecast.paths)))
 
 
@@ -342,26 +342,26 @@ def has_truth_members(grid: Era5Grid) -> bool:
 
 # Grids built from settings, by (data, target, flight, noise, dates): every
 # env of a process shares one device copy of a file's winds.
-_GRIDS: Dict[Tuple[Any, ...], Tuple[era5.Era5Data, Era5Grid]] = {}
+_GRIDS: Dict[Tuple[Any, ...], Tuple[gridded.Era5Data, Era5Grid]] = {}
 
 
-def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
+def grid_from_settings(settings: gridded.Era5Settings) -> Era5Grid:
   """The device grid of plain ERA5 settings (cached per data and settings).
 
-  The file(s) are read by `era5.load` (checked, cached per file and
+  The file(s) are read by `gridded.load` (checked, cached per file and
   modification time). Two settings that differ only in `start_dates` share
   the winds' arrays (`with_start_dates`).
 
   Args:
     settings: The file, target, flight length, noise and start dates (gin's
-      `Era5WindField.*`: `era5.settings()`).
+      `GriddedWindField.*`: `gridded.settings()`).
 
   Returns:
     The grid.
 
   Raises:
     FileNotFoundError, IsADirectoryError, errors.BadFileError: As
-      `era5.load`; ValueError: as `grid_from_data`.
+      `gridded.load`; ValueError: as `grid_from_data`.
   """
   data = settings.load()
   # Values as their repr: a gin binding of any type (a list, a dict) is a
@@ -387,7 +387,7 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
           snapshot_time=settings.snapshot_time,
           noise_scale=settings.noise_scale,
           truth=(None if settings.truth_path is None else
-                 era5.load(settings.truth_path)),
+                 gridded.load(settings.truth_path)),
           truth_members=(member_truths(settings.path, settings.member)
                          if settings.truth_members else ()))
     else:
@@ -404,7 +404,7 @@ def grid_from_settings(settings: era5.Era5Settings) -> Era5Grid:
   return _GRIDS[key][1]
 
 
-def with_start_dates(grid: Era5Grid, data: era5.Era5Data, *,
+def with_start_dates(grid: Era5Grid, data: gridded.Era5Data, *,
                      start_dates: Any, center_lat: float, center_lon: float,
                      episode_hours: float) -> Era5Grid:
   """`grid` with flights starting in `start_dates` (same arrays, no copy).
@@ -420,16 +420,16 @@ def with_start_dates(grid: Era5Grid, data: era5.Era5Data, *,
     center_lon: As `grid_from_data`. # [deg E]
     episode_hours: As `grid_from_data`. # [h]
   """
-  first, last = era5.start_window(data, center_lat=center_lat,
-                                  center_lon=center_lon,
-                                  episode_hours=episode_hours,
-                                  start_dates=start_dates)
+  first, last = gridded.start_window(data, center_lat=center_lat,
+                                     center_lon=center_lon,
+                                     episode_hours=episode_hours,
+                                     start_dates=start_dates)
   return grid.replace(first_start_minute=jnp.asarray(first, jnp.int32),
                       last_start_minute=jnp.asarray(last, jnp.int32))
 
 
 def draw_start_minute(grid: Era5Grid, key: Array) -> Array:
-  """`Era5WindField.reset_forecast`'s start draw from the forecast key.
+  """`GriddedWindField.reset_forecast`'s start draw from the forecast key.
 
   Uniform over whole minutes in [`first_start_minute`,
   `last_start_minute`] after the data's first time: BLE's call
@@ -540,7 +540,7 @@ def latlng(grid: Era5Grid, x_m: Array, y_m: Array,
            station: Optional[Array] = None) -> Tuple[Array, Array]:
   """(lat, lon) of the offset (x east, y north) from the target. # [deg]
 
-  BLE's `spherical_geometry.calculate_latlng_from_offset` (`Era5WindField.
+  BLE's `spherical_geometry.calculate_latlng_from_offset` (`GriddedWindField.
   _latlng`): heading h = atan2(x, y) from north, angular distance d =
   hypot(x, y) / R, the great-circle destination (sin lat = cos d sin lat0 +
   sin d cos lat0 cos h; dlon = atan2(sin h sin d cos lat0, cos d -
@@ -617,7 +617,7 @@ def _interpolate(grid: Era5Grid, time_s: Array, pressure_pa: Array,
 def forecast(grid: Era5Grid, time_s: Array, x_m: Array, y_m: Array,
              pressure_pa: Array, station: Optional[Array] = None,
              member: Optional[Array] = None) -> Tuple[Array, Array]:
-  """`Era5WindField.get_forecast` / `get_forecast_column`. # [m/s]
+  """`GriddedWindField.get_forecast` / `get_forecast_column`. # [m/s]
 
   Args:
     grid: The grid.
