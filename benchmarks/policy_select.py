@@ -56,6 +56,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import quiet
+from ble_latex import run_files
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 
@@ -69,7 +70,6 @@ from ble_latex.envs import jax_env
 from ble_latex.run import episode_log
 from ble_latex.run import jax_train
 from ble_latex.run import metrics
-from ble_latex.run import run_dir
 from ble_latex.run import seed_runs
 from ble_latex.run import suites
 
@@ -287,7 +287,7 @@ def _seed_run(run: str, seed: int) -> str:
 
 
 def _chosen(run: str, seed: int) -> str:
-  return run_dir.chosen_policy_path(_seed_run(run, seed))
+  return run_files.chosen_policy_path(_seed_run(run, seed))
 
 
 def _best_snapshots(run: str, seed: int, count: int) -> List[str]:

@@ -40,7 +40,7 @@ from typing import Any, Dict, List, Optional, Sequence
 import numpy as np
 import xarray as xr
 
-from ble_latex.run import run_dir as run_dir_lib
+from ble_latex import run_files
 
 # The paper's period, 6-hourly: 1 Nov 2022 00:00 - 31 Jan 2023 18:00.
 _TIMES = (np.datetime64('2022-11-01T00:00', 'ns') +
@@ -148,7 +148,7 @@ def main(argv: Optional[Sequence[str]] = None) -> Dict[str, Any]:
   with open(os.path.join(run_dir, 'validation.jsonl'), encoding='utf-8') as f:
     validation = [json.loads(line) for line in f if line.strip()]
   best = max(validation, key=lambda r: r['tw50_mean'])
-  policy = run_dir_lib.policy_snapshot_path(run_dir, best['iteration'])
+  policy = run_files.policy_snapshot_path(run_dir, best['iteration'])
   if not os.path.exists(policy):
     sys.exit(f'era5_end_to_end: no snapshot {policy} for the chosen round')
 

@@ -31,7 +31,7 @@ BENCHMARKS = PACKAGE.parent / 'benchmarks'
 # by its first component.
 FLOORS = (
     ('errors', 'quiet', 'jax_cache', 'dtypes'),
-    ('gin_values', 'gin_aliases', 'safe_io', 'configs'),
+    ('gin_values', 'gin_aliases', 'safe_io', 'configs', 'run_files'),
     ('wind', 'flight'),
     ('envs',),
     ('ble', 'compat'),

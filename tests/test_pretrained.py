@@ -7,6 +7,7 @@ import ble_latex  # noqa: F401
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
+from ble_latex import run_files
 from ble_latex import safe_io
 from ble_latex.agents.sac import agent as sac
 from ble_latex.agents.sac import core as sac_core
@@ -57,7 +58,7 @@ def test_exported_policy_acts_like_the_checkpoint(tmp_path):
   _train_a_little(agent)
   agent.save_checkpoint(str(tmp_path), 0)
   policy_file = str(tmp_path / 'policy.msgpack')
-  pretrained.export_policy(sac_core.checkpoint_path(str(tmp_path), 0),
+  pretrained.export_policy(run_files.checkpoint_file(str(tmp_path), 0),
                            policy_file, note='test')
   loaded = sac.SACPretrainedAgent(
       3, (71,), action_low=_LOW, action_high=_HIGH, seed=7, hidden_units=16,
@@ -88,7 +89,7 @@ def test_policy_for_other_shapes_is_rejected(tmp_path):
   agent = _sac(hidden=16)
   agent.save_checkpoint(str(tmp_path), 0)
   policy_file = str(tmp_path / 'policy.msgpack')
-  pretrained.export_policy(sac_core.checkpoint_path(str(tmp_path), 0),
+  pretrained.export_policy(run_files.checkpoint_file(str(tmp_path), 0),
                            policy_file)
   with pytest.raises(ValueError, match='observation_shape'):
     sac.SACPretrainedAgent(3, (70,), action_low=_LOW,
@@ -189,7 +190,7 @@ def small_policy(tmp_path_factory):
   agent = _sac(hidden=16)
   agent.save_checkpoint(str(folder), 0)
   path = str(folder / 'policy.msgpack')
-  pretrained.export_policy(sac_core.checkpoint_path(str(folder), 0), path)
+  pretrained.export_policy(run_files.checkpoint_file(str(folder), 0), path)
   return safe_io.read_tree(path, file_format=pretrained.POLICY_FORMAT)
 
 
@@ -309,7 +310,7 @@ def test_export_policy_refuses_a_nan_checkpoint(tmp_path, capsys):
   from ble_latex.cli import export_policy as export_cli
   agent = _sac(hidden=16)
   agent.save_checkpoint(str(tmp_path), 0)
-  path = sac_core.checkpoint_path(str(tmp_path), 0)
+  path = run_files.checkpoint_file(str(tmp_path), 0)
   tree = safe_io.read_tree(path, file_format=sac_core.CHECKPOINT_FORMAT)
   tree['log_alpha'] = np.array([np.nan], np.float32)
   safe_io.write_tree(path, tree, file_format=sac_core.CHECKPOINT_FORMAT)

@@ -22,6 +22,7 @@ import pytest
 
 from ble_latex import agents as latex_agents
 from ble_latex import errors
+from ble_latex import run_files
 from ble_latex import safe_io
 from ble_latex.agents.sac import agent as sac
 from ble_latex.agents.sac import core as sac_core
@@ -283,7 +284,7 @@ def test_checkpoint_values_are_checked_on_load(tmp_path, change, message):
   agent = _agent(seed=0)
   _run_episodes(agent, _WalkEnv(), 2)
   agent.save_checkpoint(ckpt, 0)
-  path = sac_core.checkpoint_path(ckpt, 0)
+  path = run_files.checkpoint_file(ckpt, 0)
   tree = safe_io.read_tree(path, file_format=sac_core.CHECKPOINT_FORMAT)
   safe_io.write_tree(path, _corrupted(tree, change),
                      file_format=sac_core.CHECKPOINT_FORMAT)
@@ -309,7 +310,7 @@ def test_diverged_agent_writes_no_checkpoint_or_policy(tmp_path):
     agent.save_checkpoint(ckpt, 1)
   with pytest.raises(sac_core.TrainingDiverged):
     agent.acting_bundle(1)
-  assert sac_core.checkpoint_iterations(ckpt) == [0]
+  assert run_files.iterations(ckpt) == [0]
 
 
 def test_actions_always_inside_box():
@@ -631,9 +632,9 @@ def test_checkpoint_iterations_ignore_unnumbered_names(tmp_path):
                'checkpoint_backup.msgpack', 'checkpoint_00011 (copy).msgpack',
                'checkpoint_00012.pkl', '.tmp-checkpoint_00013.msgpack-1'):
     (tmp_path / name).write_bytes(b'')
-  assert sac_core.checkpoint_iterations(str(tmp_path)) == [3, 10]
-  assert sac_core.checkpoint_iterations(str(tmp_path),
-                                   sac_core.LEGACY_CHECKPOINT_PATTERN) == [12]
+  assert run_files.iterations(str(tmp_path)) == [3, 10]
+  assert run_files.iterations(str(tmp_path),
+                              run_files.LEGACY_CHECKPOINT_PATTERN) == [12]
 
 
 def test_crafted_pickle_checkpoint_runs_no_code(tmp_path):
@@ -659,7 +660,7 @@ def test_truncated_checkpoint_is_an_error_naming_it(tmp_path):
   agent = _sac()
   _train_a_little(agent)
   agent.save_checkpoint(str(tmp_path), 0)
-  path = sac_core.checkpoint_path(str(tmp_path), 0)
+  path = run_files.checkpoint_file(str(tmp_path), 0)
   data = open(path, 'rb').read()
   with open(path, 'wb') as f:
     f.write(data[:len(data) // 2])
@@ -676,7 +677,7 @@ def test_checkpoint_with_wrong_shapes_leaves_agent_unchanged(tmp_path):
   _train_a_little(agent)
   bundle = agent.bundle_and_checkpoint(str(tmp_path), 0)
   bundle['optimizer_state'] = bundle['optimizer_state'][:-1]
-  safe_io.write_tree(sac_core.checkpoint_path(str(tmp_path), 0), bundle,
+  safe_io.write_tree(run_files.checkpoint_file(str(tmp_path), 0), bundle,
                      file_format=sac_core.CHECKPOINT_FORMAT)
   fresh = _sac(seed=5)
   before = _eval_actions(fresh)
@@ -703,7 +704,7 @@ def _legacy_bundle(agent):
 def test_legacy_pickles_load_only_with_the_opt_in(tmp_path):
   agent = _sac()
   _train_a_little(agent)
-  with open(sac_core.legacy_checkpoint_path(str(tmp_path), 3), 'wb') as f:
+  with open(run_files.legacy_checkpoint_file(str(tmp_path), 3), 'wb') as f:
     pickle.dump(_legacy_bundle(agent), f)
   with pytest.raises(safe_io.UntrustedFileError):
     _sac(seed=4).reload_latest_checkpoint(str(tmp_path))
@@ -713,7 +714,7 @@ def test_legacy_pickles_load_only_with_the_opt_in(tmp_path):
   np.testing.assert_array_equal(_eval_actions(restored), _eval_actions(agent))
   # Converting the legacy checkpoint's policy gives a data-only file.
   out = tmp_path / 'policy.msgpack'
-  pretrained.export_policy(sac_core.legacy_checkpoint_path(str(tmp_path), 3),
+  pretrained.export_policy(run_files.legacy_checkpoint_file(str(tmp_path), 3),
                            str(out), trust_legacy_pickle=True)
   loaded = sac.SACPretrainedAgent(
       3, (71,), action_low=_LOW, action_high=_HIGH, hidden_units=16,
@@ -769,10 +770,10 @@ def test_checkpoint_replay_counters_must_fit_its_arrays(tmp_path, field, value,
   agent = _sac()
   _train_a_little(agent)  # 21 transitions.
   agent.save_checkpoint(str(tmp_path), 0)
-  tree = safe_io.read_tree(sac_core.checkpoint_path(str(tmp_path), 0),
+  tree = safe_io.read_tree(run_files.checkpoint_file(str(tmp_path), 0),
                            file_format=sac_core.CHECKPOINT_FORMAT)
   crafted_dir = tmp_path / 'crafted'
-  path = sac_core.checkpoint_path(str(crafted_dir), 0)
+  path = run_files.checkpoint_file(str(crafted_dir), 0)
   os.makedirs(crafted_dir)
   safe_io.write_tree(path, {**tree, 'replay': {**tree['replay'], field: value}},
                      file_format=sac_core.CHECKPOINT_FORMAT)

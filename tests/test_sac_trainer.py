@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
+from ble_latex import run_files
 from ble_latex import safe_io
 from ble_latex.agents.sac import core as sac_core
 from ble_latex.agents.sac import trainer as sac_trainer
@@ -558,7 +559,7 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
     return real(learner, env, state, seeds, num_steps, params)
 
   monkeypatch.setattr(sac_trainer, 'train_round', poisoned)
-  kept = run_dir.checkpoint_path(str(tmp_path), 0)
+  kept = run_files.checkpoint_path(str(tmp_path), 0)
   with pytest.raises(FloatingPointError,
                      match=r'^training diverged at round 1: non-finite .*'
                      r'network parameters.*; last good checkpoint: '
@@ -566,7 +567,7 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
     _train(tmp_path, 3)
   assert isinstance(raised.value, sac_trainer.sac_core.TrainingDiverged)
   assert rounds == [0, 1]
-  assert sac_trainer.sac_core.checkpoint_iterations(
+  assert run_files.iterations(
       str(tmp_path / 'checkpoints')) == [0]
   assert sorted(os.listdir(tmp_path / 'policies')) == ['policy_00000.msgpack']
   assert len(episode_log.read(str(tmp_path / episode_log.EPISODE_LOG))) == 3
@@ -576,7 +577,7 @@ def test_diverged_round_stops_before_anything_of_it_is_written(
   from ble_latex.agents.sac import pretrained
   pretrained.load_policy(str(tmp_path / 'policies' / 'policy_00000.msgpack'))
   _, template = sac_trainer.make_learner(CONFIG, jax.random.PRNGKey(0))
-  jax_train.load_checkpoint(run_dir.checkpoint_path(str(tmp_path), 0),
+  jax_train.load_checkpoint(run_files.checkpoint_path(str(tmp_path), 0),
                               template)
 
 
@@ -652,7 +653,7 @@ def test_write_chosen_policy_copies_the_snapshot_with_why(tmp_path):
     seed_runs.write_chosen_policy(run, 0, chosen, [chosen], 5.0)
   policy = pretrained.load_policy(pretrained.shipped_policy(False))
   policy['iteration'] = 3
-  source = run_dir.policy_snapshot_path(run, 3)
+  source = run_files.policy_snapshot_path(run, 3)
   os.makedirs(os.path.dirname(source))
   pretrained.write_policy(policy, source)
   path = seed_runs.write_chosen_policy(run, 0, chosen, [chosen, chosen], 5.0)
@@ -678,5 +679,5 @@ def test_best_snapshots_ranks_a_runs_validation_within_the_cap(tmp_path):
           'out_of_resources_pct': oor}) + '\n')
   got = seed_runs.best_snapshots(str(run), 3, 5.0)
   # Round 1 is out (8 %); rounds 2 and 3 tie, the earlier first.
-  assert got == [run_dir.policy_snapshot_path(str(run), i) for i in (2, 3, 4)]
+  assert got == [run_files.policy_snapshot_path(str(run), i) for i in (2, 3, 4)]
   assert got[0] == str(run / 'policies' / 'policy_00002.msgpack')

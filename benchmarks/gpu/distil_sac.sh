@@ -76,14 +76,15 @@ for s in "${list[@]}"; do
   d="$runs/seed_$s"
   $py - "$d/sac/seed_$s" >>"$log" 2>&1 <<'EOF'
 import os, shutil, sys
-from ble_latex.run import records, run_dir, selection
+from ble_latex import run_files
+from ble_latex.run import records, selection
 run = sys.argv[1]
 validation = records.load_validation(os.path.join(run, 'validation.jsonl'))
 chosen = selection.choose_snapshot(validation, 5.0, None, None)
 print(run, 'chosen', chosen)
 if chosen:
-  shutil.copy(run_dir.policy_snapshot_path(run, chosen['iteration']),
-              run_dir.chosen_policy_path(run))
+  shutil.copy(run_files.policy_snapshot_path(run, chosen['iteration']),
+              run_files.chosen_policy_path(run))
 EOF
   mkdir -p "$runs/pack/seed_$s/dagger" "$runs/pack/seed_$s/sac"
   cp "$d/dagger"/{run.json,summary.json,best_policy.msgpack} "$runs/pack/seed_$s/dagger/" 2>>"$log"

@@ -30,6 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import gin_values
+from ble_latex import run_files
 from ble_latex import safe_io
 from ble_latex.agents import dagger
 from ble_latex.agents.planning import config as plan_config
@@ -46,7 +47,6 @@ from ble_latex.run import suites
 
 Array = jax.Array
 CHECKPOINT_FORMAT = 'ble_latex.dagger/1'  # msgpack (`safe_io`).
-CHECKPOINT_PATTERN = re.compile(r'^dagger_(\d{5,})\.msgpack$')
 SUMMARY = 'summary.json'  # Per-round records (committed with a run).
 BEST_POLICY = 'best_policy.msgpack'  # The best student as a SAC policy.
 MAX_DATASET = 10_000_000  # Rows of the aggregate: 74 float32 = 3 GB.
@@ -125,20 +125,6 @@ class DaggerConfig:
 
 
 # --- The driver: run directory, checkpoints, resume. ------------------------
-
-
-def checkpoint_path(base_dir: str, round_index: int) -> str:
-  return os.path.join(run_dir.checkpoint_dir(base_dir),
-                      f'dagger_{round_index:05d}.msgpack')
-
-
-def newest_checkpoint(base_dir: str) -> Optional[Tuple[int, str]]:
-  """(round, path) of the newest checkpoint, or None."""
-  folder = run_dir.checkpoint_dir(base_dir)
-  found = [(int(m.group(1)), os.path.join(folder, name))
-           for name in (os.listdir(folder) if os.path.isdir(folder) else [])
-           if (m := CHECKPOINT_PATTERN.match(name))]
-  return max(found) if found else None
 
 
 class _Progress(NamedTuple):
@@ -313,7 +299,7 @@ def train(*, base_dir: str, num_rounds: int, config: Optional[DaggerConfig] = No
   settings = run_settings(config, teacher)
   os.makedirs(base_dir, exist_ok=True)
   with run_dir.locked(base_dir):
-    newest = newest_checkpoint(base_dir)
+    newest = run_files.newest_dagger_checkpoint(base_dir)
     start = 0 if newest is None else newest[0] + 1
     run_dir.check_resume(base_dir, settings, start_iteration=start,
                          episodes_per_iteration=config.num_balloons,
@@ -321,7 +307,7 @@ def train(*, base_dir: str, num_rounds: int, config: Optional[DaggerConfig] = No
     run_dir.write_run_info(base_dir, settings)
     if newest is not None:
       _, progress = _load(newest[1], progress)
-    os.makedirs(run_dir.checkpoint_dir(base_dir), exist_ok=True)
+    os.makedirs(run_files.checkpoint_dir(base_dir), exist_ok=True)
     for r in range(start, num_rounds):
       began = time.monotonic()
       mix_key, fit_key = jax.random.split(jax.random.fold_in(run_key, r))
@@ -366,7 +352,7 @@ def train(*, base_dir: str, num_rounds: int, config: Optional[DaggerConfig] = No
             f'{r}: validation TW50 window {result["tw50_window_mean"]:.3f} on '
             f'latex_validation[:{config.validation_seeds}]',
             observation=env_params.observation_of(params))
-      path = checkpoint_path(base_dir, r)
+      path = run_files.dagger_checkpoint_path(base_dir, r)
       _save(path, r, progress)
       if newest is not None and newest[1] != path:
         os.remove(newest[1])

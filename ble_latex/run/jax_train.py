@@ -43,6 +43,7 @@ from ble_latex.run import episode_log
 from ble_latex.run import metrics
 from ble_latex.run import run_dir
 from ble_latex.run import suites
+from ble_latex import run_files
 from ble_latex import safe_io
 
 CHECKPOINT_FORMAT = 'ble_latex.sac_trainer/1'  # msgpack (`safe_io`).
@@ -125,9 +126,9 @@ def check_round(out: sac_trainer.RoundOutput, iteration: int,
   bad = [name for name in sac_trainer.NONFINITE if int(counts[name])]
   if not bad:
     return
-  done = sac_core.checkpoint_iterations(run_dir.checkpoint_dir(base_dir))
+  done = run_files.iterations(run_files.checkpoint_dir(base_dir))
   kept = (f'last good checkpoint: '
-          f'{run_dir.checkpoint_path(base_dir, done[-1])} kept' if done
+          f'{run_files.checkpoint_path(base_dir, done[-1])} kept' if done
           else f'no checkpoint was written in {base_dir}')
   raise sac_core.TrainingDiverged(
       f'training diverged at round {iteration}: non-finite '
@@ -161,12 +162,12 @@ def save_checkpoint(base_dir: str, iteration: int,
           'replay': replay, 'key': np.asarray(host.key),
           'updates': int(host.updates), 'env_steps': int(host.env_steps),
           'elapsed_s': float(elapsed_s)}
-  path = run_dir.checkpoint_path(base_dir, iteration)
+  path = run_files.checkpoint_path(base_dir, iteration)
   os.makedirs(os.path.dirname(path), exist_ok=True)
   safe_io.write_tree(path, tree, file_format=CHECKPOINT_FORMAT)
   folder = os.path.dirname(path)
-  for old in sac_core.checkpoint_iterations(folder)[:-keep]:
-    os.remove(run_dir.checkpoint_path(base_dir, old))
+  for old in run_files.iterations(folder)[:-keep]:
+    os.remove(run_files.checkpoint_path(base_dir, old))
 
 
 def load_checkpoint(path: str, template: sac_trainer.TrainState
@@ -311,8 +312,8 @@ class _RunDir:
     _, self.state = sac_trainer.make_learner(
         config, jax.random.PRNGKey(seed),
         num_features=env_params_lib.num_features(dict(observation)))
-    done_iterations = sac_core.checkpoint_iterations(
-        run_dir.checkpoint_dir(base_dir))
+    done_iterations = run_files.iterations(
+        run_files.checkpoint_dir(base_dir))
     self.start = done_iterations[-1] + 1 if done_iterations else 0
     run_info = {'trainer': 'jax', 'seed': seed,
                 'config': dataclasses.asdict(config), 'episode_steps': window,
@@ -327,7 +328,7 @@ class _RunDir:
     self.elapsed = 0.0
     if self.start:
       self.state, self.elapsed = load_checkpoint(
-          run_dir.checkpoint_path(base_dir, self.start - 1), self.state)
+          run_files.checkpoint_path(base_dir, self.start - 1), self.state)
       logging.info('%s: resuming after round %d.', base_dir, self.start - 1)
     elif config.init_policy:
       self.state = warm_start(learner, self.state, config.init_policy,
@@ -416,7 +417,7 @@ class _RunDir:
           note=f'sac (jax trainer, seed {self.seed}) after '
           f'{(iteration + 1) * n} training episodes')
       pretrained.write_policy(
-          policy, run_dir.policy_snapshot_path(self.base_dir, iteration))
+          policy, run_files.policy_snapshot_path(self.base_dir, iteration))
     return record
 
   def close(self) -> None:

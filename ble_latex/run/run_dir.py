@@ -4,26 +4,24 @@
 `ble-latex-train --base_dir` holds `run.json` (the settings a resumed run
 must agree with), `checkpoints/`, `policies/policy_NNNNN.msgpack` snapshots,
 `episodes.jsonl` and `metrics/`; after a choice on validation,
-`chosen_policy.msgpack`. One process writes it at a time (`locked`).
+`chosen_policy.msgpack` (those files' paths: `ble_latex.run_files`, their
+one home). One process writes it at a time (`locked`).
 Used by the agent loop (`train_lib`) and the jitted trainer (`jax_train`).
 """
 
 import contextlib
 import json
 import os
-import re
 from typing import Any, Iterator, List, Mapping, Optional
 
 from ble_latex import errors
 from ble_latex import gin_values
+from ble_latex import run_files
 from ble_latex import safe_io
-from ble_latex.agents.sac import core as sac_core
 from ble_latex.envs import seeds as seeds_lib
 from ble_latex.run import episode_log
 
 RUN_INFO = 'run.json'  # What a resumed run must agree with.
-POLICY_SNAPSHOT_PATTERN = re.compile(r'^policy_(\d{5,})\.msgpack$')
-CHOSEN_POLICY = 'chosen_policy.msgpack'  # The snapshot chosen on validation.
 
 
 def check_training_seed(seed: Any, name: str = 'training seed') -> int:
@@ -41,27 +39,6 @@ def check_training_seed(seed: Any, name: str = 'training seed') -> int:
                               maximum=seeds_lib.MAX_SEED - 1)
 
 
-def checkpoint_dir(base_dir: str) -> str:
-  """The folder of a run's checkpoints."""
-  return os.path.join(base_dir, 'checkpoints')
-
-
-def checkpoint_path(base_dir: str, iteration: int) -> str:
-  """Where a SAC trainer checkpoints `iteration` (0-based)."""
-  return sac_core.checkpoint_path(checkpoint_dir(base_dir), iteration)
-
-
-def policy_snapshot_path(base_dir: str, iteration: int) -> str:
-  """Where a trainer exports the policy of `iteration` (0-based)."""
-  return os.path.join(base_dir, 'policies', f'policy_{iteration:05d}.msgpack')
-
-
-def chosen_policy_path(base_dir: str) -> str:
-  """Where the snapshot chosen on validation is copied
-  (`seed_runs.write_chosen_policy`)."""
-  return os.path.join(base_dir, CHOSEN_POLICY)
-
-
 def snapshot_candidates(base_dir: str, every: int,
                         include_newest: bool) -> List[str]:
   """Snapshots of rounds i with (i + 1) % every == 0 (and the newest).
@@ -69,19 +46,15 @@ def snapshot_candidates(base_dir: str, every: int,
   Raises:
     FileNotFoundError: The run has no snapshot.
   """
-  folder = os.path.join(base_dir, 'policies')
-  paths = sorted(os.path.join(folder, name)
-                 for name in (os.listdir(folder) if os.path.isdir(folder)
-                              else []) if POLICY_SNAPSHOT_PATTERN.match(name))
-  if not paths:
+  snapshots = run_files.policy_snapshots(base_dir)
+  if not snapshots:
     raise FileNotFoundError(
         f'no exported policies in {base_dir}/policies (train with '
         '--policy_snapshot_period, or `train_sac.py train`)')
-  chosen = [p for p in paths
-            if (int(POLICY_SNAPSHOT_PATTERN.match(os.path.basename(p)).group(1))
-                + 1) % every == 0]
-  if include_newest and paths[-1] not in chosen:
-    chosen.append(paths[-1])
+  chosen = [path for iteration, path in snapshots
+            if (iteration + 1) % every == 0]
+  if include_newest and snapshots[-1][1] not in chosen:
+    chosen.append(snapshots[-1][1])
   return chosen
 
 
@@ -93,9 +66,10 @@ def locked(base_dir: str, *, wait_s: float = 0.0) -> Iterator[None]:
   live writer: those killed writes left are removed.
   """
   with safe_io.locked_dir(base_dir, wait_s=wait_s):
-    safe_io.remove_stale_temporaries(checkpoint_dir(base_dir), 'checkpoint_')
-    safe_io.remove_stale_temporaries(os.path.join(base_dir, 'policies'),
-                                     'policy_')
+    safe_io.remove_stale_temporaries(run_files.checkpoint_dir(base_dir),
+                                     run_files.CHECKPOINT_PREFIX)
+    safe_io.remove_stale_temporaries(run_files.policy_dir(base_dir),
+                                     run_files.POLICY_PREFIX)
     yield
 
 

@@ -23,6 +23,8 @@ import subprocess
 import sys
 from typing import Any, Dict, List, Optional, Sequence
 
+from ble_latex import run_files
+
 
 def train_seeds(base_dir: str, seeds: List[int], num_iterations: int,
                 snapshot_period: int, checkpoint_period: int,
@@ -104,10 +106,9 @@ def write_chosen_policy(run: str, seed: int, chosen: Dict[str, Any],
   """
   # pylint: disable=g-import-not-at-top
   from ble_latex.agents.sac import pretrained
-  from ble_latex.run import run_dir
   # pylint: enable=g-import-not-at-top
-  source = run_dir.policy_snapshot_path(run, chosen['iteration'])
-  policy_path = run_dir.chosen_policy_path(run)
+  source = run_files.policy_snapshot_path(run, chosen['iteration'])
+  policy_path = run_files.chosen_policy_path(run)
   if not os.path.exists(source):
     if os.path.exists(policy_path):
       kept = pretrained.load_policy(policy_path)
@@ -138,13 +139,12 @@ def best_snapshots(run: str, count: int, max_oor_pct: float) -> List[str]:
   # pylint: disable=g-import-not-at-top
   from ble_latex.run import episode_log
   from ble_latex.run import records
-  from ble_latex.run import run_dir
   from ble_latex.run import selection
   # pylint: enable=g-import-not-at-top
   rows = records.load_validation(os.path.join(run, episode_log.VALIDATION_LOG))
   rows = selection.ranked(rows, max_oor_pct=max_oor_pct,
                           tie=lambda r: -r['iteration'])
-  return [run_dir.policy_snapshot_path(run, r['iteration'])
+  return [run_files.policy_snapshot_path(run, r['iteration'])
           for r in rows[:count]]
 
 

@@ -14,9 +14,9 @@ import gin
 import gym
 
 from ble_latex import errors
+from ble_latex import run_files
 from ble_latex import safe_io
 from ble_latex.agents.sac import agent as sac
-from ble_latex.agents.sac import core as sac_core
 from ble_latex.agents.sac import pretrained
 from ble_latex.envs import env_params
 from ble_latex.run import collectors as collectors_lib
@@ -36,8 +36,8 @@ def _reload_latest(agent: base_agent.Agent, checkpoint_dir: str) -> int:
   if isinstance(agent, sac.SACAgent):
     return agent.reload_latest_checkpoint(checkpoint_dir)
   # BLE's own agents write Dopamine's `checkpoint_NNNNN.pkl` files.
-  iterations = sac_core.checkpoint_iterations(checkpoint_dir,
-                                         sac_core.LEGACY_CHECKPOINT_PATTERN)
+  iterations = run_files.iterations(checkpoint_dir,
+                                    run_files.LEGACY_CHECKPOINT_PATTERN)
   if not iterations:
     return -1
   agent.load_checkpoint(checkpoint_dir, iterations[-1])
@@ -89,7 +89,7 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
     if policy_snapshot_period and not isinstance(agent, sac.SACAgent):
       raise errors.ConfigError(
           f'policy snapshots need a SAC agent, not {agent_name!r}')
-    checkpoint_dir = run_dir.checkpoint_dir(base_dir)
+    checkpoint_dir = run_files.checkpoint_dir(base_dir)
     start_iteration = _reload_latest(agent, checkpoint_dir) + 1
     run_info = {'agent': agent_name, 'env_name': env_name, 'seed': seed,
                 'episodes_per_iteration': episodes_per_iteration,
@@ -127,11 +127,11 @@ def train(*, agent_name: str, env_name: str, base_dir: str,
         # iteration.
         policy = pretrained.policy_from_bundle(
             agent.acting_bundle(iteration),
-            os.path.basename(run_dir.checkpoint_path(base_dir, iteration)),
+            os.path.basename(run_files.checkpoint_path(base_dir, iteration)),
             note=f'{agent_name} after '
             f'{(iteration + 1) * episodes_per_iteration} training episodes')
         pretrained.write_policy(
-            policy, run_dir.policy_snapshot_path(base_dir, iteration))
+            policy, run_files.policy_snapshot_path(base_dir, iteration))
     dispatcher.end_training()
     safe_io.atomic_write(os.path.join(base_dir, 'operative_config.gin'),
                          gin.operative_config_str())

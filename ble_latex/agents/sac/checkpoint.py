@@ -26,6 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ble_latex import run_files
 from ble_latex import safe_io
 from ble_latex.agents.sac import core as sac_core
 
@@ -247,12 +248,12 @@ class SACCheckpoints:
     safe_io.remove_stale_temporaries(checkpoint_dir, 'checkpoint_')
     bundle = self.bundle_and_checkpoint(checkpoint_dir, iteration_number)
     safe_io.write_tree(
-        sac_core.checkpoint_path(checkpoint_dir, iteration_number), bundle,
+        run_files.checkpoint_file(checkpoint_dir, iteration_number), bundle,
         file_format=sac_core.CHECKPOINT_FORMAT)
     if self._checkpoint_duration is not None:
-      for old in sac_core.checkpoint_iterations(checkpoint_dir):
+      for old in run_files.iterations(checkpoint_dir):
         if old < iteration_number - self._checkpoint_duration:
-          os.remove(sac_core.checkpoint_path(checkpoint_dir, old))
+          os.remove(run_files.checkpoint_file(checkpoint_dir, old))
 
   def load_checkpoint(self, checkpoint_dir: str, iteration_number: int) -> None:
     """Restores the checkpoint of `iteration_number`.
@@ -271,8 +272,8 @@ class SACCheckpoints:
       ValueError: If the file is truncated, corrupt or not a compatible SAC
         checkpoint (the message names the file).
     """
-    path = sac_core.checkpoint_path(checkpoint_dir, iteration_number)
-    legacy = sac_core.legacy_checkpoint_path(checkpoint_dir, iteration_number)
+    path = run_files.checkpoint_file(checkpoint_dir, iteration_number)
+    legacy = run_files.legacy_checkpoint_file(checkpoint_dir, iteration_number)
     if not os.path.exists(path) and os.path.exists(legacy):
       path = legacy
       bundle = safe_io.read_legacy_pickle(
@@ -304,12 +305,12 @@ class SACCheckpoints:
       ValueError: If the newest checkpoint cannot be read (never falls back
         silently to starting over).
     """
-    iterations = sac_core.checkpoint_iterations(checkpoint_dir)
-    legacy = sac_core.checkpoint_iterations(
-        checkpoint_dir, sac_core.LEGACY_CHECKPOINT_PATTERN)
+    iterations = run_files.iterations(checkpoint_dir)
+    legacy = run_files.iterations(
+        checkpoint_dir, run_files.LEGACY_CHECKPOINT_PATTERN)
     if legacy and (not iterations or legacy[-1] > iterations[-1]):
       if not self._trust_legacy_pickle:
-        newest = sac_core.legacy_checkpoint_path(checkpoint_dir, legacy[-1])
+        newest = run_files.legacy_checkpoint_file(checkpoint_dir, legacy[-1])
         raise safe_io.UntrustedFileError(
             f'{checkpoint_dir} holds legacy pickle checkpoints (newest '
             f'{os.path.basename(newest)}'

@@ -12,8 +12,6 @@ checkpoint or policy file is checked here before anything is built from it
 
 import dataclasses
 import functools
-import os
-import re
 from typing import Any, ClassVar, Dict, Mapping
 
 import jax
@@ -29,8 +27,6 @@ from ble_latex.envs import env_params
 
 CHECKPOINT_FORMAT = 'ble_latex.sac/2'  # msgpack (`safe_io`).
 LEGACY_CHECKPOINT_FORMAT = 'ble_latex.sac/1'  # Pickles of ble_latex <= 0.1.
-CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.msgpack$')
-LEGACY_CHECKPOINT_PATTERN = re.compile(r'^checkpoint_(\d+)\.pkl$')
 # Largest networks a gin binding or a checkpoint / policy file may ask for:
 # a file's config is checked against these before anything is built from it.
 MAX_NUM_LAYERS = 16
@@ -387,54 +383,6 @@ def check_hyperparameters(owner: str, **values: Any) -> None:
 SAC_DEFAULTS = SACHyperparameters()
 SAC_HYPERPARAMETERS = tuple(
     f.name for f in dataclasses.fields(SACHyperparameters))
-
-
-def checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:
-  """The checkpoint file of `iteration_number` (BLE's numbering).
-
-  Args:
-    checkpoint_dir: Folder of the checkpoints.
-    iteration_number: The iteration.
-
-  Returns:
-    `<checkpoint_dir>/checkpoint_<iteration, 5 digits>.msgpack`.
-  """
-  return os.path.join(checkpoint_dir,
-                      f'checkpoint_{iteration_number:05d}.msgpack')
-
-
-def legacy_checkpoint_path(checkpoint_dir: str, iteration_number: int) -> str:
-  """The pickle checkpoint an older ble_latex wrote for `iteration_number`.
-
-  Args:
-    checkpoint_dir: Folder of the checkpoints.
-    iteration_number: The iteration.
-
-  Returns:
-    `<checkpoint_dir>/checkpoint_<iteration, 5 digits>.pkl`.
-  """
-  return os.path.join(checkpoint_dir, f'checkpoint_{iteration_number:05d}.pkl')
-
-
-def checkpoint_iterations(checkpoint_dir: str,
-                          pattern: re.Pattern = CHECKPOINT_PATTERN) -> list:
-  """Iterations of the numbered checkpoints in a folder, ascending.
-
-  Only names that match `pattern` exactly count: stray files such as
-  `checkpoint_backup.pkl` or `checkpoint_00002 (copy).msgpack` are ignored
-  (BLE's `get_latest_checkpoint` gives -1 when it meets one).
-
-  Args:
-    checkpoint_dir: Folder to scan (missing: no checkpoints).
-    pattern: Regex with the iteration as group 1.
-
-  Returns:
-    Sorted iteration numbers.
-  """
-  if not os.path.isdir(checkpoint_dir):
-    return []
-  found = (pattern.match(name) for name in os.listdir(checkpoint_dir))
-  return sorted(int(m.group(1)) for m in found if m)
 
 
 def restore_like(template: Any, stored: Any, what: str) -> Any:
