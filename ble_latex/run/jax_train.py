@@ -32,6 +32,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ble_latex import errors
+from ble_latex import run_files
+from ble_latex import safe_io
 from ble_latex.agents.sac import pretrained
 from ble_latex.agents.sac import core as sac_core
 from ble_latex.agents.sac import trainer as sac_trainer
@@ -43,8 +45,6 @@ from ble_latex.run import episode_log
 from ble_latex.run import metrics
 from ble_latex.run import run_dir
 from ble_latex.run import suites
-from ble_latex import run_files
-from ble_latex import safe_io
 
 CHECKPOINT_FORMAT = 'ble_latex.sac_trainer/1'  # msgpack (`safe_io`).
 
