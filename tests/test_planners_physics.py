@@ -214,7 +214,8 @@ def test_night_margin_is_the_out_of_helium_condition():
 def test_the_sunsets_reserve_keeps_helium():
   """With `helium_reserve` a plan that ends with less ventable lift than
   the later sunsets take pays for it (pro rata of a day's sunset); with
-  enough, or with the reserve off, it pays nothing more."""
+  enough, or with the reserve off, it pays nothing more; a
+  `resource_buffer_kg` adds to what both reserves keep."""
   f0 = _at_float(17_000.0, _sunset_s(REALISTIC) - 3 * HOUR_S)
   state = env_types.EnvState(
       flight=f0, atmosphere=None, forecast=None, noise_u=None, noise_v=None,
@@ -224,10 +225,10 @@ def test_the_sunsets_reserve_keeps_helium():
   d, ok = jnp.float32(100.0), jnp.bool_(False)
   params = env_types.EnvParams(flight=REALISTIC, decoder=None)
 
-  def cost(reserve, f_end):
+  def cost(reserve, f_end, buffer_kg=0.0):
     config = plan_config.PlannerConfig(
         horizon=4, num_segments=2, grid_levels=2, num_samples=8,
-        helium_reserve=reserve).checked()
+        helium_reserve=reserve, resource_buffer_kg=buffer_kg).checked()
     return float(jax.jit(lambda f: plan_objective.end_terms(
         config, params, state, f, d, ok)[1])(f_end))
 
@@ -245,6 +246,11 @@ def test_the_sunsets_reserve_keeps_helium():
   assert cost(1.0, vented) > cost(0.0, vented) + 1.0
   # Kept: the reserve costs little more than its pricing.
   assert cost(1.0, f_end) < cost(0.0, f_end) + 0.1
+  # A buffer beyond the ventable lift and the sand left costs a shortfall.
+  left_kg = min(float(plan_objective.night_margin_kg(REALISTIC, f_end)),
+                float(plan_objective.resource_margins(params, f_end)[0]))
+  assert cost(1.0, f_end, left_kg - need + 0.2) > cost(1.0, f_end) + 1.0
+  assert cost(1.0, f_end, 0.01) < cost(1.0, f_end) + 0.1
 
 
 @pytest.mark.slow

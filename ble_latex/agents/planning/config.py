@@ -91,6 +91,10 @@ class PlannerConfig:
       still vent (free lift + sand, at the gas's temperature) must cover
       the nights to come or the flight ends out of helium; 0: not kept
       (helium priced by its daytime margin). # [.]
+    resource_buffer_kg: Under the sun, sand and ventable lift kept on top
+      of what the later sunsets take (both reserves), for what the plan's
+      model does not foresee (the heating's noise, the estimated
+      disturbance); 0: none. # [kg]
     wind_correction_hours: e-folding time of the measured-wind correction
       of the forecast (0: none; FORECAST and GRADIENT only). # [h]
     wind_correction_pa: e-folding pressure distance of that correction. # [Pa]
@@ -164,6 +168,7 @@ class PlannerConfig:
   helium_cost: float = 0.1
   terminal_cost: float = 20.0
   helium_reserve: float = 1.0
+  resource_buffer_kg: float = 0.0
   wind_correction_hours: float = 3.0
   wind_correction_pa: float = 1_000.0
   grad_starts: int = 4
@@ -237,7 +242,8 @@ class PlannerConfig:
                   'halflife_km', 'wind_correction_pa', 'grad_step_m'):
       gin_values.check_number(name(field), getattr(self, field), above=0.0)
     for field in ('shaping', 'progress', 'sand_cost', 'helium_cost',
-                  'terminal_cost', 'helium_reserve', 'wind_correction_hours'):
+                  'terminal_cost', 'helium_reserve', 'resource_buffer_kg',
+                  'wind_correction_hours'):
       gin_values.check_number(name(field), getattr(self, field), minimum=0.0)
     gin_values.check_bool(name('plan_float'), self.plan_float)
     gin_values.require(self.search in SEARCHES, name('search'),

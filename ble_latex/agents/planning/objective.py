@@ -393,9 +393,11 @@ def end_terms(config: plan_config.PlannerConfig, params: env_types.EnvParams,
     # through them). The same lift is kept out of the helium margin
     # (`helium_reserve` x it): a balloon that holds its altitude vents at
     # each sunrise what it dropped at the sunset before, and each night its
-    # cooled gas lifts that much less (`night_margin_kg`).
+    # cooled gas lifts that much less (`night_margin_kg`). Both keep
+    # `resource_buffer_kg` more for what the model does not foresee.
     end_s = f0.time_s + left * params.stride_s
     need, per_day = sunset_sand_kg(flight, f_end, end_s)
+    need = need + config.resource_buffer_kg
     sand_margin = sand_margin - need
     short = jnp.maximum(need - resource_margins(params, f_end)[0], 0.0)
     if config.helium_reserve > 0.0:  # Static.
