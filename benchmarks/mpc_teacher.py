@@ -25,6 +25,7 @@ an arm whose rounds are all recorded is skipped on a re-run; an unfinished
 arm starts again (no checkpoints: a study, not a training run).
 """
 
+import functools
 import json
 import os
 import sys
@@ -72,6 +73,7 @@ def collect_demos(config, env, params, num_episodes: int, batch: int
   import jax.numpy as jnp  # pylint: disable=g-import-not-at-top
   from ble_latex.agents.planning import planner as planning  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import rollout  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
 
   low = jnp.asarray(jax_env.ACTION_LOW, jnp.float32)
@@ -80,21 +82,18 @@ def collect_demos(config, env, params, num_episodes: int, batch: int
 
   @jax.jit
   def fly(states, obs, active, plans, params):
-    def stride(carry, action):
-      states, obs, active = carry
-      next_obs, states, reward, terminated, info = jax.vmap(
-          env.step_env, in_axes=(None, 0, 0, None))(None, states, action,
-                                                    params)
+    def record(active, planned, obs, action, step):
+      del planned
+      next_obs, _, reward, terminated, info = step
       normalised = jnp.clip(2.0 * (action - low) / (high - low) - 1.0,
                             -1.0, 1.0)
       row = (obs, normalised, reward, next_obs,
              terminated.astype(jnp.float32), active)
-      active = active & ~(terminated | info['time_limit'])
-      return (states, next_obs, active), row
-    return jax.lax.scan(stride, (states, obs, active),
-                        planning.flown_actions(config, plans))
+      return active & ~(terminated | info['time_limit']), row
+    return rollout.fly(env, params, states, obs, rollout.planned, record,
+                       carry=active, xs=planning.flown_actions(config, plans))
 
-  reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
+  reset = jax.jit(functools.partial(rollout.reset_batch, env))
   seeds = [suites.train_seed(DEMO_EPISODE_OFFSET + i)
            for i in range(num_episodes)]
   rows: List[Any] = []

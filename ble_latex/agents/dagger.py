@@ -48,6 +48,7 @@ from ble_latex.agents.sac import pretrained
 from ble_latex.agents.sac import trainer as sac_trainer
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
+from ble_latex.envs import rollout
 
 Array = jax.Array
 
@@ -177,24 +178,26 @@ def _programs(env: jax_env.LatexBalloonJaxEnv,
   or the student's, and returns each stride's (observation, teacher label
   in [-1, 1]^3, whether the balloon was still flying).
   """
-  reset = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))
+  reset = jax.jit(functools.partial(rollout.reset_batch, env))
 
   def fly(params, states, obs, active, plans, student_params, use_teacher):
-    def stride(carry, teacher_action):
-      states, obs, active, within = carry
+    def policy(carry, states, obs, teacher_action):
+      del states
       own = jax_env.to_box(mean_actions(student, student_params, obs))
-      action = jnp.where(use_teacher[:, None], teacher_action, own)
-      next_obs, states, _, terminated, info = jax.vmap(
-          env.step_env, in_axes=(None, 0, 0, None))(None, states, action,
-                                                    params)
+      return jnp.where(use_teacher[:, None], teacher_action, own), carry
+
+    def record(carry, teacher_action, obs, action, step):
+      del action
+      active, within = carry
+      _, _, _, terminated, info = step
       within = within + (active & (info['distance_km'] <= params.radius_km))
       row = (obs, from_box(teacher_action), active)
       active = active & ~(terminated | info['time_limit'])
-      return (states, next_obs, active, within), row
+      return (active, within), row
     zeros = jnp.zeros(active.shape, jnp.int32)
-    (states, obs, active, within), rows = jax.lax.scan(
-        stride, (states, obs, active, zeros),
-        planning.flown_actions(teacher, plans))
+    (states, obs, (active, within)), rows = rollout.fly(
+        env, params, states, obs, policy, record, carry=(active, zeros),
+        xs=planning.flown_actions(teacher, plans))
     return states, obs, active, within, rows
   return reset, jax.jit(fly)
 

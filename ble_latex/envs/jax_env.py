@@ -76,6 +76,7 @@ from ble_latex.envs import jax_features
 from ble_latex.envs import observed_sun_gas
 from ble_latex.envs import observed_winds
 from ble_latex.envs import reset_pool
+from ble_latex.envs import rollout as rollout_lib
 from ble_latex.envs import winds
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import controller as controller_lib
@@ -735,14 +736,16 @@ def _rollout(env: LatexBalloonJaxEnv, keys: Array, actions: Array,
              params: env_types.EnvParams, num_steps: int
              ) -> Tuple[Array, Array, Array]:
   """`rollout`, jitted (its sizes checked)."""
-  obs0, state = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+  obs0, state = rollout_lib.reset_batch(env, keys, params)
   if actions.ndim == 2:
     actions = jnp.broadcast_to(actions, (num_steps,) + actions.shape)
 
-  def one(state, action):
-    obs, state, reward, terminated, info = jax.vmap(
-        env.step_env, in_axes=(0, 0, 0, None))(keys, state, action, params)
-    return state, (obs, reward, terminated | info['time_limit'])
+  def record(carry, action, observations, actions, step):
+    del action, observations, actions
+    obs, _, reward, terminated, info = step
+    return carry, (obs, reward, terminated | info['time_limit'])
 
-  _, (obs, rewards, done) = jax.lax.scan(one, state, actions)
+  _, (obs, rewards, done) = rollout_lib.fly(
+      env, params, state, None, rollout_lib.planned, record, xs=actions,
+      keys=keys)
   return jnp.concatenate([obs0[None], obs]), rewards, done

@@ -64,6 +64,7 @@ from ble_latex.ble import gym_env
 from ble_latex.envs import env_types
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
+from ble_latex.envs import rollout
 from ble_latex.envs import winds
 from ble_latex.run import metrics
 from ble_latex.run import planner_batch
@@ -340,9 +341,8 @@ def _seeker_policy(agent: baselines.GeometricStationSeeker,
 def _stepper(env: jax_env.LatexBalloonJaxEnv):
   """Jitted: [N] states and actions -> states, (obs, reward, info, flight)."""
   def step(states, actions, params):
-    obs, states, reward, _, info = jax.vmap(
-        env.step_env, in_axes=(None, 0, 0, None))(None, states, actions,
-                                                  params)
+    obs, states, reward, _, info = rollout.step_batch(env, states, actions,
+                                                      params)
     flight = {k: getattr(states.flight, k)
               for k in planner_batch.FLIGHT_FIELDS}
     return states, (obs, reward, info, flight)

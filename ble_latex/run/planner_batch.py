@@ -37,19 +37,22 @@ def _fly_functions(config: Any, env: Any):
   import jax
   from ble_latex.agents.planning import planner as planning
   from ble_latex.envs import jax_env
+  from ble_latex.envs import rollout
   # pylint: enable=g-import-not-at-top
 
   def fly(states, plans, params):
-    def stride(states, actions):
-      _, states, reward, _, info = jax.vmap(
-          env.step_env, in_axes=(None, 0, 0, None))(None, states, actions,
-                                                    params)
-      return states, (reward, info, states.flight)
+    def record(carry, actions, observations, action, step):
+      del actions, observations, action
+      _, states, reward, _, info = step
+      return carry, (reward, info, states.flight)
 
-    return jax.lax.scan(stride, states, planning.flown_actions(config, plans))
+    (states, _, _), outputs = rollout.fly(
+        env, params, states, None, rollout.planned, record,
+        xs=planning.flown_actions(config, plans))
+    return states, outputs
 
   def start(keys, params):
-    _, states = jax.vmap(env.reset, in_axes=(0, None))(keys, params)
+    _, states = rollout.reset_batch(env, keys, params)
     info = jax.vmap(jax_env.step_info, in_axes=(0, None))(states, params)
     return states, info, states.flight
 

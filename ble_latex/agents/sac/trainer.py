@@ -55,6 +55,7 @@ from ble_latex.agents.sac import networks
 from ble_latex.envs import env_params
 from ble_latex.envs import env_types
 from ble_latex.envs import jax_env
+from ble_latex.envs import rollout
 
 Array = jax.Array
 
@@ -453,29 +454,30 @@ def fly_policy(env: jax_env.LatexBalloonJaxEnv,
   Returns:
     [N] arrays: `within_steps`, `steps`, `status` (`FlightStatus`).
   """
-  obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(
-      jax.vmap(jax.random.PRNGKey)(seeds), params)
+  obs, env_state = rollout.reset_batch(
+      env, jax.vmap(jax.random.PRNGKey)(seeds), params)
   n = seeds.shape[0]
-  if observe is not None:
-    obs = jax.vmap(observe)(env_state)
 
-  def one_step(carry, step_key):
-    env_state, obs, active, within, steps = carry
-    obs, env_state, _, terminated, info = jax.vmap(
-        env.step_env, in_axes=(None, 0, 0, None))(
-            None, env_state, env.env_action(act(obs, step_key)), params)
-    if observe is not None:
+  def policy(carry, env_state, obs, step_key):
+    if observe is not None:  # Read from the states, not carried.
       obs = jax.vmap(observe)(env_state)
+    return env.env_action(act(obs, step_key)), carry
+
+  def record(carry, step_key, obs, action, step):
+    del step_key, obs, action
+    active, within, steps = carry
+    _, _, _, terminated, info = step
     done = terminated | info['time_limit']
     within = within + (active & (info['distance_km'] <= params.radius_km))
     steps = steps + active
-    return (env_state, obs, active & ~done, within, steps), None
+    return (active & ~done, within, steps), None
 
   zeros = jnp.zeros((n,), jnp.int32)
   keys = jax.random.split(jax.random.PRNGKey(0) if key is None else key,
                           num_steps)
-  (env_state, _, _, within, steps), _ = jax.lax.scan(
-      one_step, (env_state, obs, jnp.ones((n,), bool), zeros, zeros), keys)
+  (env_state, _, (_, within, steps)), _ = rollout.fly(
+      env, params, env_state, None if observe is not None else obs, policy,
+      record, carry=(jnp.ones((n,), bool), zeros, zeros), xs=keys)
   return {'within_steps': within, 'steps': steps,
           'status': env_state.flight.status}
 
