@@ -1,4 +1,4 @@
-"""The planners (`ble_latex.agents.planning.planner`) on a suite, balloons batched.
+"""The planners (`ble_latex.agents.planning`) on a suite, balloons batched.
 
   python benchmarks/planners.py --agent=latex_mpc --suite=latex_small \
       --output_dir=benchmarks/records/planners/results [--num_seeds=100] [--batch=25] \

@@ -1,4 +1,5 @@
-"""SAC critics (ble_latex/agents/sac/networks.py) in the update, agent and trainer."""
+"""SAC critics (ble_latex/agents/sac/networks.py) in the update, agent and
+trainer."""
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 from dopamine.jax import continuous_networks

@@ -1,4 +1,4 @@
-"""The planners (`ble_latex.agents.planning.agents` and the pure planning modules):
+"""The planners (`ble_latex.agents.planning`: BLE agents and pure modules):
 registry, flight, determinism, noise-blindness of the forecast MPC, gradients
 through the core, size limits, imports without TensorFlow.
 
@@ -515,8 +515,10 @@ def test_pure_planning_imports_no_tensorflow():
   """The planning modules import neither TensorFlow, Dopamine nor BLE's
   agents (only `agents/planning/agents.py`, the BLE agents, does)."""
   code = ('import sys\n'
-          'import ble_latex.agents.planning.planner, ble_latex.agents.planning.config\n'
-          'import ble_latex.agents.planning.objective, ble_latex.agents.planning.beam\n'
+          'import ble_latex.agents.planning.planner\n'
+          'import ble_latex.agents.planning.config\n'
+          'import ble_latex.agents.planning.objective\n'
+          'import ble_latex.agents.planning.beam\n'
           'heavy = ("tensorflow", "dopamine", '
           '"balloon_learning_environment.agents")\n'
           'print(sorted(h for h in heavy if h in sys.modules))\n')

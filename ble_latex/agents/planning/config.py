@@ -4,10 +4,10 @@
 The settings of the three planners (`planning`'s module docstring) and their
 gin configurables `LatexMpcAgent`, `LatexMpcOracleAgent` and
 `LatexMpcGradAgent` (gin module `ble_latex.agents.planners`, where the BLE
-agents of those names lived before `agents/planning/`): each is a function of the config fields,
-keyword-only, that returns the checked `PlannerConfig` of its planner
-(`PLANNERS`, `from_gin`). Pure Python and gin: no TensorFlow, Dopamine or
-BLE agent is imported here.
+agents of those names lived before `agents/planning/`): each is a function
+of the config fields, keyword-only, that returns the checked `PlannerConfig`
+of its planner (`PLANNERS`, `from_gin`). Pure Python and gin: no
+TensorFlow, Dopamine or BLE agent is imported here.
 
 Sizes that drive memory are bounded (`MAX_SIZES`, `MAX_PLAN_STRIDES`) and
 checked before anything is compiled or allocated: a beam of 1e8 would
