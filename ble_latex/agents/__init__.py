@@ -1,25 +1,27 @@
 # coding=utf-8
 """ble_latex agents, added to BLE's agent registry by `register()`.
 
-- 'sac': `sac.SACAgent`, Soft Actor-Critic for the Box action of
+- 'sac': `sac.agent.SACAgent`, Soft Actor-Critic for the Box action of
   LatexBalloon-v0; no default gin file (its hyperparameters' defaults are
   `sac.core.SACHyperparameters`';
   bind `ble_latex.agents.sac.SACAgent.*`).
-- 'sac_pretrained': `sac.SACPretrainedAgent`, SAC with the policy
+- 'sac_pretrained': `sac.agent.SACPretrainedAgent`, SAC with the policy
   shipped in `agents/policies/sac_latex.msgpack`.
-- 'sac_ensemble': `ensemble.SACEnsembleAgent`, SAC policies whose critics
+- 'sac_ensemble': `sac.ensemble.SACEnsembleAgent`, SAC policies whose critics
   choose among their actions, each member on its own view of the wind
   column (the shipped twelve fly under gin_configs/latex_wind_memory.gin);
   eval only.
 - 'latex_random', 'latex_station_seeker': the Box baselines of
   `baselines.py` (no gin file).
 - 'latex_mpc', 'latex_mpc_oracle', 'latex_mpc_grad': the planners of
-  `planners.py` (forecast CEM MPC, the same on the true wind as an upper
+  `planning/agents.py` (forecast CEM MPC, the same on the true wind as an upper
   bound, first-order MPC); no gin file (gin `LatexMpcAgent.*`, ...). They
   read the env's core state (`attach_env`, called by
   `run.runner.create_agent`).
 
-Importing this package is cheap; `register()` imports BLE's registry and the
+The algorithms are subpackages (`sac/`, `planning/`) and `dagger.py`
+(DAgger's algorithm; its driver is `run/dagger.py`). Importing this package
+is cheap; `register()` imports BLE's registry and the
 agents (TensorFlow, JAX, Dopamine).
 """
 
