@@ -372,8 +372,8 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
     The new state and the round's per-balloon results.
   """
   c = learner.config
-  obs, env_state = jax.vmap(env.reset, in_axes=(0, None))(
-      jax.vmap(jax.random.PRNGKey)(seeds), params)
+  obs, env_state = rollout.reset_batch(
+      env, jax.vmap(jax.random.PRNGKey)(seeds), params)
   n = seeds.shape[0]
   zeros = jnp.zeros((n,), jnp.float32)
   info0 = jax.vmap(jax_env.step_info, in_axes=(0, None))(env_state, params)
@@ -386,9 +386,8 @@ def train_round(learner: Learner, env: jax_env.LatexBalloonJaxEnv,
     action = _act(learner, state, obs, act_key)
     bad_actions = bad_actions + jnp.sum(
         ~jnp.isfinite(action) & active[:, None])
-    next_obs, env_state, reward, terminated, info = jax.vmap(
-        env.step_env, in_axes=(None, 0, 0, None))(
-            act_key, env_state, env.env_action(action), params)
+    next_obs, env_state, reward, terminated, info = rollout.step_batch(
+        env, env_state, env.env_action(action), params)
     done = terminated | info['time_limit']
     terminal = terminated.astype(jnp.float32)
     state = state.replace(
