@@ -8,7 +8,8 @@ N balloons fly together: `reset_batch` starts them (`vmap` of
 these: `jax_env.rollout` (open-loop actions), the SAC trainer's validation
 (`agents.sac.trainer.fly_policy`), DAgger's rounds (`agents.dagger`), the
 planners' batched flights (`run.planner_batch`), `benchmarks/mpc_teacher.py`;
-`run.batch_eval` steps its host-side policies with `step_batch`.
+the SAC trainer's rounds (`train_round`, learning inside its own scan) and
+`run.batch_eval` (host-side policies) step with `step_batch`.
 
 Episodes that end are not reset (`step_env`): callers mask them.
 """
