@@ -513,8 +513,7 @@ def test_a_normal_short_run_prints_no_warnings(tmp_path):
 
 def test_gin_flags_have_one_home():
   """--gin_file/--gin_bindings: `cli.define_gin_flags` defines them for every
-  command and script (issue 66); benchmarks/planners.py, being reworked
-  beside this change, still defines its own."""
+  command and script (issue 66); none defines its own."""
   from absl import flags  # pylint: disable=g-import-not-at-top
   values = flags.FlagValues()
   cli.define_gin_flags(values, files_help='f.', files_alias=True)
@@ -536,4 +535,4 @@ def test_gin_flags_have_one_home():
                    f"DEFINE_multi_string('{name}'" in p.read_text(
                        encoding='utf-8')
                    for name in ('gin_file', 'gin_bindings')))
-  assert own == ['benchmarks/planners.py'], own
+  assert own == [], own
