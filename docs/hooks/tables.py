@@ -453,8 +453,12 @@ TASK_ROWS = (
     ('SAC trained on the task (sun and gas observation), 3 seeds (mean ± '
      'std over seeds)', 'sac_jax_realistic_task (3 seeds)'),
     ('the best-validated of those seeds', 'sac_realistic_task_best'),
+    ('`sac_ensemble` of those 3 seeds, 3 strides ahead (chosen on '
+     'validation)', 'sac_ensemble_realistic_task'),
     ('`latex_mpc` (forecast, estimated disturbance, sunset-aware)',
      'latex_mpc'),
+    ('`latex_mpc` with resource reserves (sunsets\' lift kept in helium, '
+     '0.6 kg buffer; chosen on validation)', 'latex_mpc_reserves'),
     ('`latex_mpc_oracle`', 'latex_mpc_oracle'),
     ('`sac_pretrained`, the realistic policy trained before issue 68',
      'sac_pretrained_realistic_before_68'),
