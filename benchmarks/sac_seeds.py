@@ -96,32 +96,6 @@ flags.DEFINE_string('ship', None, 'report: also write the best-validated '
 
 
 
-def compare(run_dirs: Sequence[str], max_oor_pct: float,
-            max_iteration: Optional[int], max_minutes: Optional[float]
-            ) -> List[Dict[str, Any]]:
-  """Validation-only summary of each run (settings that differ shown)."""
-  rows = seed_runs.validation_rows(run_dirs, max_oor_pct, max_iteration,
-                                   max_minutes)
-  configs = [r['config'] for r in rows]
-  differ = sorted({k for c in configs for k in c
-                   if any(d.get(k) != c.get(k) for d in configs)})
-  print(f'| run | {" | ".join(differ)} | last round | chosen round | '
-        'validation TW50 window (chosen) | OOR % (chosen) | mean of last 5 '
-        '| OOR % (last 5) |')
-  print('|---' * (len(differ) + 7) + '|')
-  for r in rows:
-    c = r['chosen'] or {}
-    pct = lambda x: '—' if x is None else f'{100 * x:.1f} %'
-    print(f'| {r["run"]} | '
-          + ' | '.join(str(r['config'].get(k, '—')) for k in differ)
-          + f' | {(r["validated_rounds"] or ["—"])[0]} | '
-          f'{c.get("iteration", "—")} | {pct(c.get("tw50_window_mean"))} | '
-          f'{c.get("out_of_resources_pct", "—")} | '
-          f'{pct(r["last5_tw50_window_mean"])} | '
-          f'{"—" if r["last5_oor_pct"] is None else round(r["last5_oor_pct"], 1)} |')
-  return rows
-
-
 def report(base_dir: str, seeds: List[int], max_oor_pct: float,
            max_minutes: Optional[float], max_iteration: Optional[int],
            results_dir: str, ship: Optional[str], parallel: int = 1,
@@ -237,8 +211,9 @@ def _main(argv: Sequence[str]) -> int:
   if argv[1] == 'compare':
     if not args.run_dirs:
       raise cli.CommandUsageError('compare needs --run_dirs')
-    rows = compare(args.run_dirs, args.max_oor_pct, args.max_iteration,
-                   args.max_minutes)
+    rows = seed_runs.validation_rows(args.run_dirs, args.max_oor_pct,
+                                     args.max_iteration, args.max_minutes)
+    print(seed_runs.comparison_table(rows))
     if args.json:
       safe_io.atomic_write(args.json, json.dumps(rows, indent=1) + '\n')
     return 0

@@ -427,9 +427,8 @@ def test_choose_snapshot_chooses_on_validation_within_caps():
   assert choose(log, 5.0, max_iteration=3) is None
 
 
-def test_sac_seeds_compares_runs_on_validation(benchmark_script, tmp_path,
-                                               capsys):
-  module = benchmark_script('sac_seeds.py')
+def _two_validated_runs(tmp_path):
+  """Two runs' folders (run.json, validation.jsonl) of different critics."""
   runs = []
   for name, critic, scores in (('old', None, [0.3, 0.5, 0.4, 0.6]),
                                ('ln', 'layernorm', [0.2, 0.45, 0.1, 0.7])):
@@ -447,17 +446,46 @@ def test_sac_seeds_compares_runs_on_validation(benchmark_script, tmp_path,
             'tw50_window_mean': score, 'tw50_mean': score,
             'out_of_resources_pct': 10.0 if i == 1 else 0.0}) + '\n')
     runs.append(str(run))
-  rows = module.compare(runs, max_oor_pct=5.0, max_iteration=2,
-                        max_minutes=None)
+  return runs
+
+
+def test_validation_rows_compare_runs_within_the_caps(tmp_path):
+  """`seed_runs.validation_rows` + `comparison_table` (the comparison
+  `benchmarks/sac_seeds.py compare` prints)."""
+  runs = _two_validated_runs(tmp_path)
+  rows = seed_runs.validation_rows(runs, max_oor_pct=5.0, max_iteration=2,
+                                   max_minutes=None)
   # Round 1 is out (10 % OOR), round 3 beyond the cap.
   assert [r['chosen']['iteration'] for r in rows] == [2, 0]
   assert rows[0]['config']['critic'] == 'mlp'  # Run from before critics.
   assert rows[1]['last5_tw50_window_mean'] == pytest.approx(0.25)
-  # The rows are the package's (`seed_runs.validation_rows`), the table the
-  # script's.
-  assert rows == seed_runs.validation_rows(runs, 5.0, 2, None)
-  table = capsys.readouterr().out
-  assert '| run | critic |' in table and '| layernorm |' in table
+  assert rows[1]['last5_oor_pct'] == pytest.approx(10 / 3)
+  table = seed_runs.comparison_table(rows).splitlines()
+  # Only the settings that differ are columns (critic, not num_envs).
+  assert table[0].startswith('| run | critic | last round |')
+  assert table[1] == '|---' * 8 + '|'
+  assert table[2] == (f'| {runs[0]} | mlp | 2 | 2 | 40.0 % | 0.0 | '
+                      '40.0 % | 3.3 |')
+  assert table[3] == (f'| {runs[1]} | layernorm | 2 | 0 | 20.0 % | 0.0 | '
+                      '25.0 % | 3.3 |')
+  # A run with nothing within the caps: dashes, no error.
+  none = seed_runs.validation_rows(runs[:1], 5.0, 0, 0.001)
+  assert none[0]['chosen'] is None
+  assert seed_runs.comparison_table(none).splitlines()[2].endswith(
+      '| 0 | — | — | — | 30.0 % | 0.0 |')
+
+
+def test_sac_seeds_compare_command_prints_and_writes_the_rows(
+    benchmark_script, tmp_path, capsys):
+  """The script's command line: `compare --run_dirs --json`."""
+  runs = _two_validated_runs(tmp_path)
+  out = tmp_path / 'rows.json'
+  assert benchmark_script('sac_seeds.py').main(
+      ['compare', f'--run_dirs={",".join(runs)}', '--max_iteration=2',
+       f'--json={out}']) == 0
+  rows = seed_runs.validation_rows(runs, 5.0, 2, None)
+  assert json.loads(out.read_text()) == json.loads(json.dumps(rows))
+  assert seed_runs.comparison_table(rows) in capsys.readouterr().out
 
 
 # -- NaN and bad values: refused on resume, stopped while training. ----------

@@ -9,7 +9,8 @@ The machinery of `benchmarks/sac_seeds.py` and `benchmarks/reward_shape.py`
   (`selection.choose_snapshot`) to the seed's `chosen_policy.msgpack`, with
   why it was chosen in its note;
 - `validation_rows`: runs of different settings side by side on
-  validation only (the chosen snapshot, the mean of the last five);
+  validation only (the chosen snapshot, the mean of the last five), and
+  `comparison_table`, their Markdown table (the settings that differ shown);
 - `best_snapshots`: a run's best-validated snapshots (an ensemble's
   members beside the chosen one);
 - `fly_held_out`: flies a pretrained policy on a held-out suite in the gym
@@ -181,3 +182,30 @@ def validation_rows(run_dirs: Sequence[str], max_oor_pct: float,
         'last5_oor_pct': (statistics.mean(
             r['out_of_resources_pct'] for r in last) if last else None)})
   return rows
+
+
+def comparison_table(rows: Sequence[Dict[str, Any]]) -> str:
+  """`validation_rows`' rows as a Markdown table (no trailing newline): per
+  run the recorded settings that differ between the runs, the last validated
+  round, the chosen snapshot's round, TW50 (window) [%] and out-of-resources
+  % [%], and the mean of the last five validations ('—' where missing)."""
+  configs = [r['config'] for r in rows]
+  differ = sorted({k for c in configs for k in c
+                   if any(d.get(k) != c.get(k) for d in configs)})
+  pct = lambda x: '—' if x is None else f'{100 * x:.1f} %'
+  lines = [f'| run | {" | ".join(differ)} | last round | chosen round | '
+           'validation TW50 window (chosen) | OOR % (chosen) | mean of last 5 '
+           '| OOR % (last 5) |',
+           '|---' * (len(differ) + 7) + '|']
+  for r in rows:
+    c = r['chosen'] or {}
+    last5_oor = r['last5_oor_pct']
+    lines.append(
+        f'| {r["run"]} | '
+        + ' | '.join(str(r['config'].get(k, '—')) for k in differ)
+        + f' | {(r["validated_rounds"] or ["—"])[0]} | '
+        f'{c.get("iteration", "—")} | {pct(c.get("tw50_window_mean"))} | '
+        f'{c.get("out_of_resources_pct", "—")} | '
+        f'{pct(r["last5_tw50_window_mean"])} | '
+        f'{"—" if last5_oor is None else round(last5_oor, 1)} |')
+  return '\n'.join(lines)
