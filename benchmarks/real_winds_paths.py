@@ -117,30 +117,6 @@ def fly(path: str, agent: str, seeds: Sequence[int], suite: str,
   return records, about
 
 
-def track_latlon(record: Dict[str, Any]) -> Tuple[List[float], List[float]]:
-  """A record's flight path in (lat, lon) [deg], from its station's frame."""
-  from ble_latex.wind import globe  # pylint: disable=g-import-not-at-top
-  lats, lons = [], []
-  for p in record['flight_path']:
-    lat, lon = globe.latlng_of_offset(record['station_lat'],
-                                      record['station_lon'],
-                                      1e3 * p['x_km'], 1e3 * p['y_km'])
-    lats.append(lat)
-    lons.append(lon)
-  return lats, lons
-
-
-def circle_latlon(lat: float, lon: float, radius_km: float,
-                  points: int = 73) -> Tuple[List[float], List[float]]:
-  """The circle `radius_km` around (lat, lon), in (lat, lon) [deg]."""
-  import numpy as np  # pylint: disable=g-import-not-at-top
-  from ble_latex.wind import globe  # pylint: disable=g-import-not-at-top
-  out = [globe.latlng_of_offset(lat, lon, 1e3 * radius_km * np.sin(a),
-                                1e3 * radius_km * np.cos(a))
-         for a in np.linspace(0.0, 2.0 * np.pi, points)]
-  return [p[0] for p in out], [p[1] for p in out]
-
-
 def draw(path: str, title: str, panels: Dict[str, List[Dict[str, Any]]],
          radius_km: float, png: str) -> None:
   """The figure: one panel per agent of its flights over the file's domain."""
@@ -149,6 +125,7 @@ def draw(path: str, title: str, panels: Dict[str, List[Dict[str, Any]]],
   from matplotlib import patches as mpl_patches
   from matplotlib.backends import backend_agg
   import numpy as np
+  from ble_latex.run import tracks
   from ble_latex.wind import gridded
   # pylint: enable=g-import-not-at-top
   data = gridded.load(path)
@@ -165,13 +142,14 @@ def draw(path: str, title: str, panels: Dict[str, List[Dict[str, Any]]],
         lw=1.2, ls='--', label='wind file domain'))
     for i, r in enumerate(records):
       color = colors[i % len(colors)]
-      lats, lons = track_latlon(r)
+      lats, lons = tracks.path_lat_lon(r['station_lat'], r['station_lon'],
+                                       r['flight_path'])
       ax.plot(lons, lats, color=color, lw=1.0,
               label=f"seed {r['seed']}: TW50 {100 * r['tw50_window']:.0f} %")
       ax.plot(lons[0], lats[0], 'o', color=color, ms=3)
       ax.plot(lons[-1], lats[-1], 'x', color=color, ms=5)
-      clats, clons = circle_latlon(r['station_lat'], r['station_lon'],
-                                   radius_km)
+      clats, clons = tracks.circle_lat_lon(r['station_lat'],
+                                           r['station_lon'], radius_km)
       ax.plot(clons, clats, color=color, lw=0.8)
       ax.plot(r['station_lon'], r['station_lat'], '*', color=color, ms=7,
               mec='k', mew=0.4)

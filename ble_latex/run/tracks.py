@@ -22,7 +22,8 @@ the track on a map, on every wind source:
   great-circle destination, `globe.latlng_of_offset`), and the start plus
   the point's `t_s`.
 
-`track` reads them back from any eval record (records written before these
+`path_lat_lon` and `circle_lat_lon` give a path's and a station-keeping
+circle's lat/lon for drawing. `track` reads them back from any eval record (records written before these
 fields get them computed the same way, a station-less record at the nominal
 position). Nothing here draws or writes files.
 """
@@ -137,6 +138,32 @@ def point_lat_lon(station_lat: float, station_lon: float, x_km: float,
   lat, lon = globe.latlng_of_offset(station_lat, station_lon, x_km * 1000.0,
                                     y_km * 1000.0)
   return lat, float(wrap_longitude(lon))
+
+
+def path_lat_lon(station_lat: float, station_lon: float,
+                 flight_path: Sequence[Mapping[str, Any]]
+                 ) -> 'tuple[List[float], List[float]]':
+  """A flight path's (lats, lons in -180..180), from its station's frame.
+
+  `point_lat_lon` of each point's `x_km`, `y_km` (east, north of the
+  station). # [deg]
+  """
+  pairs = [point_lat_lon(station_lat, station_lon, p['x_km'], p['y_km'])
+           for p in flight_path]
+  return [a for a, _ in pairs], [b for _, b in pairs]
+
+
+def circle_lat_lon(lat: float, lon: float, radius_km: float,
+                   points: int = 73) -> 'tuple[List[float], List[float]]':
+  """The circle `radius_km` [km] around (lat, lon): (lats, lons). # [deg]
+
+  `points` points (the last the first again), clockwise from north:
+  `point_lat_lon` of (r sin a, r cos a) for a in 0..2 pi.
+  """
+  pairs = [point_lat_lon(lat, lon, radius_km * np.sin(a),
+                         radius_km * np.cos(a))
+           for a in np.linspace(0.0, 2.0 * np.pi, points)]
+  return [a for a, _ in pairs], [b for _, b in pairs]
 
 
 def locate_record(record: Mapping[str, Any], station: Sequence[float],
