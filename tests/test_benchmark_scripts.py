@@ -1,7 +1,6 @@
 """The planner benchmark scripts' own checks (benchmarks/planners.py --seeds,
 the batch's size; without TensorFlow: tests/test_no_tensorflow.py)."""
 
-import importlib.util
 import pathlib
 import subprocess
 import sys
@@ -11,20 +10,14 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
-def _load(name, path):
-  spec = importlib.util.spec_from_file_location(name, path)
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
-
-
 @pytest.mark.parametrize('seeds, message', [
     ('5', '--seeds: [5] not among the 100 seeds of latex_small'),
     ('1000000,x', "--seeds: integers, got ['1000000', 'x']"),
 ])
 def test_planners_seeds_outside_the_suite_are_one_line(tmp_path, capsys,
-                                                       seeds, message):
-  planners = _load('bench_planners', ROOT / 'benchmarks' / 'planners.py')
+                                                       seeds, message,
+                                                       benchmark_script):
+  planners = benchmark_script('planners.py')
   rc = planners.main(['--suite=latex_small', f'--seeds={seeds}',
                       f'--output_dir={tmp_path}'])
   err = capsys.readouterr().err.strip().splitlines()
@@ -33,11 +26,12 @@ def test_planners_seeds_outside_the_suite_are_one_line(tmp_path, capsys,
   assert not list(tmp_path.rglob('*.json'))  # Nothing written.
 
 
-def test_planners_refuse_a_batch_too_big_for_one_call(tmp_path, capsys):
+def test_planners_refuse_a_batch_too_big_for_one_call(tmp_path, capsys,
+                                                      benchmark_script):
   """Issue 48 item 15: a batched call that would fly more plan strides at
   once than `plan_config.MAX_PLAN_STRIDES` is refused in one line naming the
   binding and --batch, before anything is compiled or written."""
-  planners = _load('bench_planners_batch', ROOT / 'benchmarks' / 'planners.py')
+  planners = benchmark_script('planners.py')
   rc = planners.main(['--agent=latex_mpc_oracle', '--suite=latex_small',
                       '--batch=100', f'--output_dir={tmp_path}',
                       '--gin_bindings=LatexMpcOracleAgent.beam_width=8192'])
@@ -50,11 +44,11 @@ def test_planners_refuse_a_batch_too_big_for_one_call(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_planners_times_a_planner_that_plans_once(tmp_path):
+def test_planners_times_a_planner_that_plans_once(tmp_path, benchmark_script):
   """One plan per episode (the oracle's way): the batches after the first
   compiled one still give seconds per decision, and the first is left out."""
   import json  # pylint: disable=g-import-not-at-top
-  planners = _load('bench_planners_once', ROOT / 'benchmarks' / 'planners.py')
+  planners = benchmark_script('planners.py')
   bindings = [f'--gin_bindings=LatexMpcOracleAgent.{b}' for b in (
       'horizon=12', 'num_segments=4', 'replan_every=12', 'beam_width=2',
       'grid_levels=2', 'beam_cell_km=0')]
@@ -78,13 +72,14 @@ _CHEAP_ORACLE = [f'--gin_bindings=LatexMpcOracleAgent.{b}' for b in (
 
 
 @pytest.mark.slow
-def test_planners_never_drop_seeds_and_refuse_other_settings(tmp_path, capsys):
+def test_planners_never_drop_seeds_and_refuse_other_settings(tmp_path, capsys,
+                                                             benchmark_script):
   """Issue 48 items 1, 2, 14: a re-flight of chosen seeds merges into the
   finished record (never fewer seeds); a partial file flown with other
   settings is refused naming them; a truncated or crafted partial is one
   line; so is an unknown suite."""
   import json  # pylint: disable=g-import-not-at-top
-  planners = _load('bench_planners_merge', ROOT / 'benchmarks' / 'planners.py')
+  planners = benchmark_script('planners.py')
   base = ['--agent=latex_mpc_oracle', '--suite=latex_small', '--short',
           '--max_episode_length=2', f'--output_dir={tmp_path}',
           *_CHEAP_ORACLE]
@@ -135,10 +130,11 @@ def test_planners_never_drop_seeds_and_refuse_other_settings(tmp_path, capsys):
       "benchmarks/planners.py: unknown suite 'nosuch'") and len(err) == 1
 
 
-def test_policy_speed_refuses_bad_policies_in_one_line(tmp_path, capsys):
+def test_policy_speed_refuses_bad_policies_in_one_line(tmp_path, capsys,
+                                                       benchmark_script):
   """benchmarks/policy_speed.py: a --policy that is not NAME=PATH is a usage
   error (2), a missing file a failure (1), before anything is flown."""
-  speed = _load('bench_policy_speed', ROOT / 'benchmarks' / 'policy_speed.py')
+  speed = benchmark_script('policy_speed.py')
   out = tmp_path / 'speed.json'
   rc = speed.main(['--policy=nonsense', f'--json={out}'])
   err = capsys.readouterr().err.strip().splitlines()
@@ -158,12 +154,12 @@ def test_policy_speed_refuses_bad_policies_in_one_line(tmp_path, capsys):
   assert not out.exists()
 
 
-def test_policy_select_refuses_bad_input_in_one_line(tmp_path, capsys):
+def test_policy_select_refuses_bad_input_in_one_line(tmp_path, capsys,
+                                                     benchmark_script):
   """benchmarks/policy_select.py: a bad flag or a policy of another
   observation is a usage error (2), a missing file a failure (1); nothing
   is written."""
-  script = _load('bench_policy_select',
-                 ROOT / 'benchmarks' / 'policy_select.py')
+  script = benchmark_script('policy_select.py')
   out = tmp_path / 'record.json'
   for argv, rc_want, text in (
       (['--mode=bogus'], 2, 'mode'),
@@ -180,12 +176,12 @@ def test_policy_select_refuses_bad_input_in_one_line(tmp_path, capsys):
   assert not out.exists()
 
 
-def test_observation_results_refuses_bad_runs_in_one_line(tmp_path, capsys):
+def test_observation_results_refuses_bad_runs_in_one_line(tmp_path, capsys,
+                                                          benchmark_script):
   """benchmarks/observation_results.py: a --run that is not NAME=BASE_DIR is
   a usage error (2), a run without its report a failure (1); nothing is
   written either way."""
-  script = _load('bench_observation_results',
-                 ROOT / 'benchmarks' / 'observation_results.py')
+  script = benchmark_script('observation_results.py')
   out = tmp_path / 'record.json'
   rc = script.main(['--run=nonsense', f'--json={out}'])
   err = capsys.readouterr().err.strip().splitlines()

@@ -1,18 +1,9 @@
 """benchmarks/dagger_results.py: DAgger runs into the docs' record."""
 
-import importlib.util
 import json
 import pathlib
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-
-
-def _script():
-  spec = importlib.util.spec_from_file_location(
-      'bench_dagger_results', ROOT / 'benchmarks' / 'dagger_results.py')
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
 
 
 def _summary_round(r, tw50, oor=0.0):
@@ -44,7 +35,8 @@ def test_the_log_lines_dagger_train_writes_are_read_back(tmp_path):
           for r in read] == [(0, 0.125, 0.0, 100), (1, 0.353, 2.0, 100)]
 
 
-def test_a_group_is_written_with_held_out_pairs(tmp_path, capsys):
+def test_a_group_is_written_with_held_out_pairs(tmp_path, capsys,
+                                                benchmark_script):
   runs = tmp_path / 'runs'
   for seed, curve in ((0, (0.1, 0.3, 0.2)), (1, (0.4, 0.6))):
     (runs / f'seed_{seed}').mkdir(parents=True)
@@ -58,10 +50,11 @@ def test_a_group_is_written_with_held_out_pairs(tmp_path, capsys):
   (tmp_path / 'ref.json').write_text(json.dumps(_eval([1, 2, 3],
                                                       [0.5, 0.5, 0.5])))
   out = tmp_path / 'results.json'
-  rc = _script().main([f'--name=g', f'--runs={runs}',
-                       f'--heldout={tmp_path}/held_{{seed}}.json',
-                       f'--reference=latex_mpc={tmp_path}/ref.json',
-                       f'--json={out}'])
+  script = benchmark_script('dagger_results.py')
+  rc = script.main([f'--name=g', f'--runs={runs}',
+                    f'--heldout={tmp_path}/held_{{seed}}.json',
+                    f'--reference=latex_mpc={tmp_path}/ref.json',
+                    f'--json={out}'])
   assert rc == 0, capsys.readouterr().err
   group = json.loads(out.read_text())['groups']['g']
   assert group['seeds']['0']['best_round'] == 1
@@ -71,15 +64,17 @@ def test_a_group_is_written_with_held_out_pairs(tmp_path, capsys):
   assert group['references']['latex_mpc']['seeds'] == [1, 2, 3]
 
 
-def test_a_missing_reference_is_one_line_and_writes_nothing(tmp_path, capsys):
+def test_a_missing_reference_is_one_line_and_writes_nothing(tmp_path, capsys,
+                                                            benchmark_script):
   runs = tmp_path / 'runs' / 'seed_0'
   runs.mkdir(parents=True)
   (runs / 'summary.json').write_text(json.dumps(
       {'rounds': [_summary_round(0, 0.1)]}))
   out = tmp_path / 'results.json'
-  rc = _script().main([f'--name=g', f'--runs={tmp_path / "runs"}',
-                       f'--reference=x={tmp_path}/absent.json',
-                       f'--json={out}'])
+  script = benchmark_script('dagger_results.py')
+  rc = script.main([f'--name=g', f'--runs={tmp_path / "runs"}',
+                    f'--reference=x={tmp_path}/absent.json',
+                    f'--json={out}'])
   err = capsys.readouterr().err.strip().splitlines()
   assert rc == 1 and len(err) == 1 and 'absent.json' in err[0], err
   assert not out.exists()

@@ -299,3 +299,162 @@ def test_the_script_checks_see_sys_path_edits_and_script_imports(tmp_path):
   assert _edits_sys_path(probe) == [2, 4]
   assert 'real_winds' in _imports(probe, package='benchmarks')
   assert {'batch_speed.py', 'gpu/decode_grib.py'} <= set(_scripts())
+
+
+# -- tests load a script of benchmarks/ only to run its command line. --------
+# A script is loaded by conftest's `benchmark_script` fixture alone, and a
+# test uses only its `main` (monkeypatching what main calls is fine): logic a
+# test needs on its own belongs in the package (issue 66).
+TESTS = PACKAGE.parent / 'tests'
+SCRIPT_LOADER = 'benchmark_script'
+SCRIPT_COMMAND_LINE = frozenset({'main'})
+_LOADER_CALLS = frozenset({'spec_from_file_location', 'spec_from_loader',
+                           'run_path', 'run_module', 'import_module',
+                           'SourceFileLoader'})
+# (test file, script, name) still reached in a script for library logic:
+# each moves into the package and leaves this list (a stale entry fails).
+SCRIPT_LOGIC_PENDING = frozenset({
+    ('test_reward_shape_script.py', 'reward_shape.py', 'reward_bindings'),
+    ('test_reward_shape_script.py', 'reward_shape.py', 'real_cell'),
+    ('test_reward_shape_script.py', 'reward_shape.py', 'real_missing'),
+    ('test_reward_shape_script.py', 'reward_shape.py', '_summary'),
+    ('test_reward_shape_script.py', 'reward_shape.py', '_fly_real'),
+    ('test_reward_shape_script.py', 'real_winds.py', 'fly_cell'),
+    ('test_wind_compare.py', 'real_winds.py', 'seeds_per_source'),
+})
+
+
+def _script_name(call: ast.AST) -> str:
+  """'x.py' of `benchmark_script('x.py')` (os.path.join of constants read
+  as 'a/b.py'), '' if `call` is no such call, '?' if not constant."""
+  if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name)
+          and call.func.id == SCRIPT_LOADER and call.args):
+    return ''
+  arg = call.args[0]
+  if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+    return arg.value
+  if isinstance(arg, ast.Call) and all(
+      isinstance(a, ast.Constant) for a in arg.args):
+    return '/'.join(a.value for a in arg.args)
+  return '?'
+
+
+def _called_name(call: ast.Call) -> str:
+  func = call.func
+  return func.attr if isinstance(func, ast.Attribute) else getattr(
+      func, 'id', '')
+
+
+def _script_uses(path: pathlib.Path) -> Tuple[Set[Tuple[str, str]],
+                                               List[int]]:
+  """A test file's ({(script, name used)} beyond `main`, lines loading a
+  benchmarks/ script other than through the fixture)."""
+  tree = ast.parse(path.read_text(encoding='utf-8'), str(path))
+
+  def is_benchmarks(node: ast.AST) -> bool:  # 'benchmarks', 'benchmarks/x'
+    return (isinstance(node, ast.Constant) and isinstance(node.value, str)
+            and node.value.split('/')[0] == 'benchmarks')
+
+  # Names bound to a path under benchmarks/ (`script = ROOT / 'benchmarks'
+  # / 'x.py'`), then calls that load from one.
+  paths = {t.id for n in ast.walk(tree) if isinstance(n, ast.Assign)
+           and any(is_benchmarks(c) for c in ast.walk(n.value))
+           for t in n.targets if isinstance(t, ast.Name)}
+  # The loaders: importlib's and runpy's, and the file's helpers around them.
+  loaders = _LOADER_CALLS | {
+      f.name for f in ast.walk(tree) if isinstance(f, ast.FunctionDef)
+      and any(isinstance(c, ast.Call) and _called_name(c) in _LOADER_CALLS
+              for c in ast.walk(f))}
+  loads = sorted(
+      n.lineno for n in ast.walk(tree)
+      if isinstance(n, ast.Call) and _called_name(n) in loaders
+      and any(is_benchmarks(c) or (isinstance(c, ast.Name) and c.id in paths)
+              for a in [*n.args, *(k.value for k in n.keywords)]
+              for c in ast.walk(a)))
+  fixtures = {}  # A fixture returning a loaded script: its name -> script.
+  for node in ast.walk(tree):
+    if isinstance(node, ast.FunctionDef):
+      for ret in ast.walk(node):
+        if isinstance(ret, ast.Return) and _script_name(ret.value):
+          fixtures[node.name] = _script_name(ret.value)
+  used = set()
+  for func in ast.walk(tree):
+    if not isinstance(func, ast.FunctionDef):
+      continue
+    bound = {a.arg: fixtures[a.arg] for a in func.args.args
+             if a.arg in fixtures}
+    for node in ast.walk(func):
+      if (isinstance(node, ast.Assign) and len(node.targets) == 1 and
+          isinstance(node.targets[0], ast.Name) and _script_name(node.value)):
+        bound[node.targets[0].id] = _script_name(node.value)
+    for node in ast.walk(func):
+      if not isinstance(node, ast.Attribute):
+        continue
+      script = _script_name(node.value) or (
+          bound.get(node.value.id, '') if isinstance(node.value, ast.Name)
+          else '')
+      if script and node.attr not in SCRIPT_COMMAND_LINE:
+        used.add((script, node.attr))
+  return used, loads
+
+
+def _tests_script_uses() -> Tuple[Set[Tuple[str, str, str]],
+                                  Dict[str, List[int]]]:
+  uses, loads = set(), {}
+  for path in sorted(TESTS.glob('test_*.py')):
+    used, lines = _script_uses(path)
+    uses |= {(path.name, *u) for u in used}
+    if lines:
+      loads[path.name] = lines
+  return uses, loads
+
+
+def test_tests_load_benchmark_scripts_only_through_the_fixture():
+  _, loads = _tests_script_uses()
+  assert not loads, (
+      f'{loads}: load a benchmarks/ script with the `{SCRIPT_LOADER}` '
+      'fixture (tests/conftest.py), to run its main')
+
+
+def test_tests_use_benchmark_scripts_only_for_their_command_line():
+  uses, _ = _tests_script_uses()
+  new = sorted(uses - SCRIPT_LOGIC_PENDING)
+  assert not new, (
+      f'{new}: tests use these benchmarks/ scripts\' names beyond main: '
+      'move the logic into ble_latex/ and test it there')
+  moved = sorted(SCRIPT_LOGIC_PENDING - uses)
+  assert not moved, f'{moved}: no longer used; drop from SCRIPT_LOGIC_PENDING'
+
+
+def test_the_script_use_check_sees_library_use_and_direct_loads(tmp_path):
+  # The checks above cannot pass vacuously.
+  probe = tmp_path / 'test_probe.py'
+  probe.write_text(
+      'import importlib.util, pytest\n'
+      '@pytest.fixture\n'
+      'def paths(benchmark_script):\n'
+      '  return benchmark_script("real_winds_paths.py")\n'
+      'def test_a(paths, benchmark_script):\n'
+      '  paths.main([])\n'
+      '  paths.track_latlon({})\n'
+      '  benchmark_script("sac_seeds.py").compare([])\n'
+      '  grib = benchmark_script(os.path.join("gpu", "decode_grib.py"))\n'
+      '  grib.digest(1)\n'
+      'def test_b(tmp_path):\n'
+      '  importlib.util.spec_from_file_location("x", ROOT / "benchmarks" /'
+      ' "x.py")\n'
+      '  script = ROOT / "benchmarks" / "y.py"\n'
+      '  runpy.run_path(str(script))\n'
+      '  importlib.import_module("ble_latex.cli.eval")\n'
+      '  text = "benchmarks/planners.py"\n'
+      'def _load(name, path):\n'
+      '  return importlib.util.spec_from_file_location(name, path)\n'
+      'def test_c():\n'
+      '  _load("y", ROOT / "benchmarks" / "y.py")\n'
+      '  _load("t", ROOT / "docs" / "hooks" / "tables.py")\n',
+      encoding='utf-8')
+  used, loads = _script_uses(probe)
+  assert used == {('real_winds_paths.py', 'track_latlon'),
+                  ('sac_seeds.py', 'compare'),
+                  ('gpu/decode_grib.py', 'digest')}
+  assert loads == [12, 14, 20]

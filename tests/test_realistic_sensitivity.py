@@ -7,7 +7,6 @@ binds the sigma and swing asked for and nothing else, days aloft and TW50
 are counted as physics_results counts them, bad grids are one usage line.
 """
 
-import importlib.util
 import pathlib
 
 import numpy as np
@@ -20,13 +19,9 @@ from ble_latex.run import sensitivity
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
-@pytest.fixture(scope='module')
-def module():
-  spec = importlib.util.spec_from_file_location(
-      'realistic_sensitivity', ROOT / 'benchmarks' / 'realistic_sensitivity.py')
-  mod = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(mod)
-  return mod
+@pytest.fixture
+def module(benchmark_script):
+  return benchmark_script('realistic_sensitivity.py')
 
 
 def test_a_cell_sets_sigma_and_the_swing_in_the_calibrated_split():

@@ -1,7 +1,6 @@
 """benchmarks/reward_shape.py (the study itself is not run here) and the edge
 fractions it reads (`ble_latex.run.metrics`)."""
 
-import importlib.util
 import json
 import pathlib
 
@@ -14,12 +13,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
-def script():
-  spec = importlib.util.spec_from_file_location(
-      'bench_reward_shape', ROOT / 'benchmarks' / 'reward_shape.py')
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
+def script(benchmark_script):
+  return benchmark_script('reward_shape.py')
 
 
 def _record(distances_km, window):

@@ -160,8 +160,9 @@ def test_wind_compare_figure(tmp_path):
   assert legend[1].endswith('(one column)') and '50 columns' in legend[0]
 
 
-def test_real_winds_refuses_bad_flags_in_one_line(tmp_path, capsys):
-  real_winds = _load('bench_real_winds', ROOT / 'benchmarks' / 'real_winds.py')
+def test_real_winds_refuses_bad_flags_in_one_line(tmp_path, capsys,
+                                                  benchmark_script):
+  real_winds = benchmark_script('real_winds.py')
   record = tmp_path / 'r.json'
   for argv, message in (
       (['--sources=nowhere'], "--sources: unknown ['nowhere']"),

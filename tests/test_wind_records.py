@@ -101,18 +101,11 @@ def test_the_planner_flies_the_series_through_eval(series, tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_the_planner_benchmark_flies_the_series(series, tmp_path):
+def test_the_planner_benchmark_flies_the_series(series, tmp_path,
+                                                 benchmark_script):
   """benchmarks/planners.py --wind_file on the series: its records and
   timing name the run and lead times."""
-  import importlib.util  # pylint: disable=g-import-not-at-top
-  import pathlib  # pylint: disable=g-import-not-at-top
-  script = pathlib.Path(__file__).resolve().parents[1] / 'benchmarks' / (
-      'planners.py')
-  spec = importlib.util.spec_from_file_location('bench_planners_series',
-                                                script)
-  planners = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(planners)
-  rc = planners.main([
+  rc = benchmark_script('planners.py').main([
       '--agent=latex_mpc', '--suite=latex_small', '--num_seeds=2',
       '--max_episode_length=3', f'--output_dir={tmp_path}',
       '--gin_bindings=GriddedWindField.episode_hours=1.0', *_SMALL_MPC,
