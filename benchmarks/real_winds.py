@@ -52,8 +52,7 @@ import math
 import os
 import platform
 import sys
-import time
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 from absl import flags
 
@@ -62,8 +61,8 @@ from ble_latex import errors
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.run import episode_log
-from ble_latex.run import planner_batch
 from ble_latex.run import provenance
+from ble_latex.run import real_cells
 from ble_latex.run import wind_file
 from ble_latex.wind import sources
 
@@ -73,18 +72,7 @@ SOURCES = sources.SOURCES
 RECORD_WAIT_S = 60.0
 AGENTS = ('sac_pretrained', 'latex_station_seeker', 'latex_random',
           'latex_mpc', 'latex_mpc_oracle', 'ble_station_seeker_discrete')
-# Agents named here for what they fly: name -> (BLE agent id, env id).
-BLE_AGENTS = {'ble_station_seeker_discrete': ('station_seeker',
-                                              'LatexBalloonDiscrete-v0')}
 CHEAP_AGENTS = AGENTS[:3]
-# Flown by `planner_batch.fly_planner` (no TensorFlow).
-PLANNERS = ('latex_mpc', 'latex_mpc_oracle')
-# What a seed's compact record keeps of `eval_lib.fly`'s.
-KEPT = ('seed', 'tw50', 'tw50_window', 'window_steps', 'reward', 'steps',
-        'helium_vented_mols', 'sand_dropped_kg', 'terminal_reason',
-        'final_distance_km')
-# Kept too where the records have them (a per-seed station's place).
-KEPT_IF_THERE = ('station_lat', 'station_lon')
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_list('sources', list(SOURCES), f'Sources flown, of {list(SOURCES)}.',
@@ -121,29 +109,6 @@ flags.DEFINE_integer('chunk', 25, 'Seeds flown between two writes of the '
                      lower_bound=1, flag_values=FLAGS)
 flags.DEFINE_boolean('overwrite', False, 'Re-fly cells flown with other '
                      'settings.', flag_values=FLAGS)
-
-
-def seeds_per_source(entries: Sequence[str], sources: Sequence[str]
-                     ) -> Dict[str, int]:
-  """--seeds: 'N' for all, or 'SOURCE:N' entries (others: 100)."""
-  counts = {s: 100 for s in sources}
-  for entry in entries:
-    name, _, number = entry.rpartition(':')
-    try:
-      n = int(number)
-    except ValueError:
-      raise cli.CommandUsageError(f'--seeds: {entry!r} is not N or '
-                                  'SOURCE:N') from None
-    if n < 1:
-      raise cli.CommandUsageError(f'--seeds: {entry!r}: N must be >= 1')
-    if not name:
-      counts = {s: n for s in sources}
-    elif name not in counts:
-      raise cli.CommandUsageError(f'--seeds: {name!r} is not among '
-                                  f'--sources {list(sources)}')
-    else:
-      counts[name] = n
-  return counts
 
 
 def settings(name: str, agent: str, path: str) -> Dict[str, Any]:
@@ -217,8 +182,8 @@ def checked_cell(record: Dict[str, Any], key: str, path: str,
     raise bad('needs settings (object), flights and runs (lists)')
   allowed, seen = set(suite_seeds), set()
   for i, flight in enumerate(cell['flights']):
-    if not isinstance(flight, dict) or any(k not in flight for k in KEPT):
-      raise bad(f'flight {i} lacks fields of {list(KEPT)}')
+    if not isinstance(flight, dict) or any(k not in flight for k in real_cells.KEPT):
+      raise bad(f'flight {i} lacks fields of {list(real_cells.KEPT)}')
     seed = flight['seed']
     if isinstance(seed, bool) or not isinstance(seed, int) or (
         seed not in allowed):
@@ -264,45 +229,6 @@ def source_copies(entries: Sequence[str]) -> Dict[str, Tuple[str, str]]:
   return copies
 
 
-def fly_cell(cell: Dict[str, Any], path: str, seeds: Sequence[int]
-             ) -> Tuple[List[Dict[str, Any]], str, Union[bool, str], float]:
-  """Flies `seeds`: (compact records, wind source, batched, fly seconds).
-
-  `batched`: whether `eval_lib.evaluate` flew them batched, or
-  'planners.py' for a planner (`planner_batch.fly_planner`, batched too).
-  """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import env_params
-  from ble_latex.run import suites
-  # pylint: enable=g-import-not-at-top
-  bindings = wind_file.cell_bindings(cell, path)
-  max_steps = cell['max_steps'] or suites.get_eval_suite(
-      cell['suite']).max_episode_length
-  if cell['agent'] in PLANNERS:
-    records, source, wall = planner_batch.fly_planner(
-        cell['agent'], bindings, seeds, max_steps)
-    batched = 'planners.py'
-  else:
-    # pylint: disable=g-import-not-at-top
-    from ble_latex.run import batch_eval
-    from ble_latex.run import eval_lib
-    # pylint: enable=g-import-not-at-top
-    name, env_name = BLE_AGENTS.get(cell['agent'],
-                                    (cell['agent'], 'LatexBalloon-v0'))
-    agent, env = eval_lib.build(eval_lib.EvalSpec(
-        agent=name, env_name=env_name, gin_bindings=tuple(bindings)))
-    source = env_params.wind_source()
-    batched = batch_eval.flies_batched(agent, env)
-    began = time.perf_counter()
-    records = eval_lib.evaluate(
-        agent, env, seeds, max_steps,
-        description=f"{cell['source']} {cell['agent']}")
-    wall = time.perf_counter() - began
-  kept = [{**{k: r[k] for k in KEPT},
-           **{k: r[k] for k in KEPT_IF_THERE if k in r}} for r in records]
-  return kept, source, batched, wall
-
-
 def _main(argv: Sequence[str]) -> None:
   del argv
   version = provenance.code_version()  # Before the first import of the flight code.
@@ -327,7 +253,10 @@ def _main(argv: Sequence[str]) -> None:
   if FLAGS.station_bindings and FLAGS.station_mode != 'per_seed':
     raise cli.CommandUsageError('--station_bindings needs '
                                 '--station_mode=per_seed')
-  counts = seeds_per_source(FLAGS.seeds, FLAGS.sources)
+  try:
+    counts = real_cells.seeds_per_source(FLAGS.seeds, FLAGS.sources)
+  except ValueError as e:
+    raise cli.CommandUsageError(f'--seeds: {e}') from e
   suite_seeds = list(suites.get_eval_suite(FLAGS.suite).seeds)
   command = ' '.join(['python', 'benchmarks/real_winds.py', *sys.argv[1:]])
   # The record's folder, before anything is flown.
@@ -364,7 +293,7 @@ def _main(argv: Sequence[str]) -> None:
         chunk = todo[at:at + FLAGS.chunk]
         load_before = [round(x, 2) for x in os.getloadavg()]
         date = dt.datetime.now(dt.timezone.utc).isoformat(timespec='minutes')
-        flights, source, batched, wall = fly_cell(
+        flights, source, batched, wall = real_cells.fly_cell(
             cell, copy[0] if copy else path, chunk)
         if copy:  # The copy reads as a plain NetCDF ('ERA5'): name the file.
           source = (f'GRIB2 (time-invariant): {[os.path.abspath(path)]}, '

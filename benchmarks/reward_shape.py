@@ -68,9 +68,9 @@ from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.run import episode_log
 from ble_latex.run import metrics
+from ble_latex.run import real_cells
 from ble_latex.run import seed_runs
 from ble_latex.run import selection
-from ble_latex.run import wind_file
 from ble_latex.wind import sources
 
 FLAGS = flags.FlagValues()
@@ -122,13 +122,11 @@ flags.DEFINE_integer('parallel', 1, 'Cells (reward, seed) trained and flown '
                      lower_bound=1, flag_values=FLAGS)
 
 def reward_bindings(reward: str, tanh_scale_km: float) -> List[str]:
-  """The gin bindings that select `reward` for training."""
-  if reward == 'perciatelli':
-    return []
-  if reward == 'tanh':
-    return [f'latex_reward.reward_tanh_scale_km = {tanh_scale_km!r}']
-  raise cli.CommandUsageError(
-      f'--rewards: {reward!r} is not one of perciatelli, tanh')
+  """`seed_runs.reward_bindings`; an unknown reward is a usage error."""
+  try:
+    return seed_runs.reward_bindings(reward, tanh_scale_km)
+  except ValueError as e:
+    raise cli.CommandUsageError(f'--rewards: {e}') from e
 
 
 def edges_of(path: str) -> Dict[str, Any]:
@@ -153,60 +151,18 @@ def _held_out(suite_name: str, episodes: Optional[int], policy_path: str,
   return summary, records.load_eval(output)
 
 
-def real_cell(name: str, suite: str, path: str) -> Dict[str, Any]:
-  """Where a real source flies (real_winds.py's cell: station and suite)."""
-  return {'source': name, 'suite': suite,
-          **wind_file.station_settings(
-              name, path, sources.table_station_mode(name))}
-
-
-def _fly_real(policy_path: str, cell: Dict[str, Any], path: str,
-              num_seeds: int, max_steps: Optional[int] = None
-              ) -> Dict[str, Any]:
-  """Flies a policy on one real source (a spawned process); its summary.
-
-  `max_steps`: strides per flight (default the suite's; tests shorten it).
-  """
-  # pylint: disable=g-import-not-at-top
-  from ble_latex.envs import env_params
-  from ble_latex.run import eval_lib
-  from ble_latex.run import suites
-  # pylint: enable=g-import-not-at-top
-  bindings = [*wind_file.cell_bindings(cell, path),
-              f'SACPretrainedAgent.policy_path = {policy_path!r}']
-  agent, env = eval_lib.build(eval_lib.EvalSpec(
-      agent='sac_pretrained', gin_bindings=tuple(bindings)))
-  suite = suites.get_eval_suite(cell['suite'])
-  held = eval_lib.evaluate(agent, env, list(suite.seeds)[:num_seeds],
-                           max_steps or suite.max_episode_length,
-                           description=f"{cell['source']} {policy_path}")
-  summary = metrics.summarize(held)
-  return {**cell, 'wind_source': env_params.wind_source(),
-          'episodes': len(held),
-          'tw50_window': summary['tw50_window_mean'],
-          'out_of_resources_pct': summary['out_of_resources_pct'],
-          **metrics.edge_summary(held),
-          'per_seed': metrics.per_seed_edges(held)}
-
-
-def real_missing(args: Any, row: Dict[str, Any]) -> List[str]:
-  """The --real_sources a done cell has not flown with these settings."""
-  flown = row.get('real_winds', {})
-  return [name for name in args.real_sources
-          if flown.get(name, {}).get('episodes') != args.real_seeds
-          or flown[name].get('suite') != args.held_out_suite]
-
-
 def fly_real(args: Any, row: Dict[str, Any], policy: str) -> None:
   """Flies `policy` on the real sources `row` lacks, into row['real_winds']."""
-  for name in real_missing(args, row):
+  for name in real_cells.missing_sources(row, args.real_sources,
+                                        args.real_seeds, args.held_out_suite):
     path = sources.path(name, args.realdata_dir)
     with futures.ProcessPoolExecutor(
         max_workers=1,
         mp_context=multiprocessing.get_context('spawn')) as pool:
-      result = pool.submit(_fly_real, policy,
-                           real_cell(name, args.held_out_suite), path,
-                           args.real_seeds).result()
+      result = pool.submit(real_cells.fly_policy, policy,
+                           real_cells.source_cell(name, args.held_out_suite,
+                                                  path),
+                           path, args.real_seeds).result()
     row.setdefault('real_winds', {})[name] = result
 
 
@@ -219,25 +175,6 @@ def settings(args: Any) -> Dict[str, Any]:
           'held_out_episodes': args.held_out_episodes,
           'max_oor_pct': args.max_oor_pct,
           'gin_bindings': list(args.gin_bindings)}
-
-
-def _summary(rows: Dict[str, Dict[str, Any]]) -> Dict[str, Any]:
-  done = [r for r in rows.values() if 'held_out_tw50_window' in r]
-  out: Dict[str, Any] = {'seeds_done': len(done)}
-  def spread(prefix: str, values: List[float]) -> None:
-    if values:
-      out[f'{prefix}_mean'] = statistics.mean(values)
-      out[f'{prefix}_std'] = statistics.stdev(values) if len(values) > 1 else 0.0
-  for key in ('held_out_tw50_window', 'edge_fraction', 'core_fraction'):
-    spread(key, [r[key] for r in done])
-  names = sorted({n for r in done for n in r.get('real_winds', {})})
-  for name in names:
-    flown = [r['real_winds'][name] for r in done
-             if name in r.get('real_winds', {})]
-    out[f'real_{name}_seeds_done'] = len(flown)
-    for key in ('tw50_window', 'edge_fraction', 'core_fraction'):
-      spread(f'real_{name}_{key}', [f[key] for f in flown])
-  return out
 
 
 def run_folder(args: Any, reward: str) -> str:
@@ -360,7 +297,9 @@ def _main(argv: Sequence[str]) -> int:
         cell = data['rewards'].setdefault(reward, {'seeds': {}})
         row = cell['seeds'].get(str(seed), {})
         if ('held_out_tw50_window' in row and 'held_out_per_seed' in row
-            and not real_missing(args, row)):
+            and not real_cells.missing_sources(
+                row, args.real_sources, args.real_seeds,
+                args.held_out_suite)):
           print(f'{reward} seed {seed}: done, kept', flush=True)
         else:
           pending.append((reward, seed))
@@ -396,7 +335,7 @@ def _main(argv: Sequence[str]) -> int:
         row = done.result()
         cell = data['rewards'][reward]
         cell['seeds'][str(seed)] = row
-        cell['summary'] = _summary(cell['seeds'])
+        cell['summary'] = seed_runs.reward_summary(cell['seeds'])
         data['command'] = ' '.join(['python', 'benchmarks/reward_shape.py',
                                     *sys.argv[1:]])
         safe_io.atomic_write(args.output, json.dumps(data, indent=1) + '\n')

@@ -10,6 +10,7 @@ import pytest
 
 from ble_latex import errors
 from ble_latex.envs import winds
+from ble_latex.run import real_cells
 from ble_latex.wind import forecast_error
 from ble_latex.wind import globe
 from ble_latex.wind import gridded
@@ -191,7 +192,7 @@ def test_real_winds_cells_record_the_noise_scale(benchmark_script, tmp_path,
                             'helium_vented_mols': 0.0, 'sand_dropped_kg': 0.0,
                             'terminal_reason': 'time_limit',
                             'final_distance_km': 1.0} for s in seeds]
-  monkeypatch.setattr(real_winds, 'fly_cell', lambda cell, path, seeds: (
+  monkeypatch.setattr(real_cells, 'fly_cell', lambda cell, path, seeds: (
       flights(seeds), 'sounding (time-invariant)', True, 0.1))
   record = tmp_path / 'r.json'
   argv = [f'--json={record}', f'--realdata_dir={realdata}', '--sources=hilo',

@@ -9,6 +9,7 @@ import pytest
 
 from ble_latex import errors
 from ble_latex import gin_values
+from ble_latex.run import real_cells
 
 
 def _one_line(capsys, prog):
@@ -393,7 +394,7 @@ def _real_winds_run(benchmark_script, tmp_path, monkeypatch):
       action()
     return _flights(chunk), 'sounding (time-invariant)', True, 0.1
 
-  monkeypatch.setattr(real_winds, 'fly_cell', fly_cell)
+  monkeypatch.setattr(real_cells, 'fly_cell', fly_cell)
   return real_winds, record, argv, seeds, during
 
 

@@ -313,15 +313,7 @@ _LOADER_CALLS = frozenset({'spec_from_file_location', 'spec_from_loader',
                            'SourceFileLoader'})
 # (test file, script, name) still reached in a script for library logic:
 # each moves into the package and leaves this list (a stale entry fails).
-SCRIPT_LOGIC_PENDING = frozenset({
-    ('test_reward_shape_script.py', 'reward_shape.py', 'reward_bindings'),
-    ('test_reward_shape_script.py', 'reward_shape.py', 'real_cell'),
-    ('test_reward_shape_script.py', 'reward_shape.py', 'real_missing'),
-    ('test_reward_shape_script.py', 'reward_shape.py', '_summary'),
-    ('test_reward_shape_script.py', 'reward_shape.py', '_fly_real'),
-    ('test_reward_shape_script.py', 'real_winds.py', 'fly_cell'),
-    ('test_wind_compare.py', 'real_winds.py', 'seeds_per_source'),
-})
+SCRIPT_LOGIC_PENDING = frozenset()
 
 
 def _script_name(call: ast.AST) -> str:

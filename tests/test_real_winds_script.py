@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from ble_latex.run import planner_batch
+from ble_latex.run import real_cells
 from ble_latex.run import wind_file
 from ble_latex.wind import grib_copy
 from ble_latex.wind import gridded
@@ -137,7 +138,7 @@ def test_a_cut_run_keeps_its_finished_chunks(benchmark_script, tmp_path,
       raise RuntimeError('cut')
     return _fake_flights(seeds), 'sounding (time-invariant)', True, 0.1
 
-  monkeypatch.setattr(real_winds, 'fly_cell', fly_cell)
+  monkeypatch.setattr(real_cells, 'fly_cell', fly_cell)
   record = tmp_path / 'r.json'
   key = 'hilo/latex_station_seeker/center'
   argv = [f'--json={record}', f'--realdata_dir={realdata}', '--sources=hilo',
@@ -177,7 +178,7 @@ def test_two_runs_on_other_cells_share_the_record(benchmark_script, tmp_path,
       record.write_text(json.dumps(other))
     return _fake_flights(seeds), 'sounding (time-invariant)', True, 0.1
 
-  monkeypatch.setattr(real_winds, 'fly_cell', fly_cell)
+  monkeypatch.setattr(real_cells, 'fly_cell', fly_cell)
   argv = [f'--json={record}', f'--realdata_dir={realdata}', '--sources=hilo',
           '--seeds=2']
   assert real_winds.main(argv + ['--agents=latex_station_seeker']) == 0

@@ -1,5 +1,6 @@
-"""benchmarks/reward_shape.py (the study itself is not run here) and the edge
-fractions it reads (`ble_latex.run.metrics`)."""
+"""benchmarks/reward_shape.py's command line (the study itself is not run
+here), its library (`run.seed_runs`' rewards and summary, `run.real_cells`)
+and the edge fractions it reads (`ble_latex.run.metrics`)."""
 
 import json
 import pathlib
@@ -8,6 +9,8 @@ import pytest
 
 from ble_latex.run import episode_log
 from ble_latex.run import metrics
+from ble_latex.run import real_cells
+from ble_latex.run import seed_runs
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -33,10 +36,12 @@ def test_edge_fractions_count_strides_of_the_window():
   assert never['edge'] == never['core'] == 0.0
 
 
-def test_rewards_and_their_bindings(script):
-  assert script.reward_bindings('perciatelli', 25.0) == []
-  assert script.reward_bindings('tanh', 25.0) == [
+def test_rewards_and_their_bindings():
+  assert seed_runs.reward_bindings('perciatelli', 25.0) == []
+  assert seed_runs.reward_bindings('tanh', 25.0) == [
       'latex_reward.reward_tanh_scale_km = 25.0']
+  with pytest.raises(ValueError, match="'flat' is not one of perciatelli"):
+    seed_runs.reward_bindings('flat', 25.0)
 
 
 @pytest.mark.parametrize('args, message', [
@@ -62,7 +67,7 @@ def test_a_resume_with_other_settings_is_refused(script, tmp_path, capsys):
   assert 'made with other settings (' in err[0] and 'rounds: 60 -> 61' in err[0]
 
 
-def test_real_sources_fly_where_the_real_winds_table_flies(script):
+def test_real_sources_fly_where_the_real_winds_table_flies():
   """Each source's station settings are its cells' in the committed
   real-winds record (a sounding at its site, a grid's per-seed stations)."""
   import json  # pylint: disable=g-import-not-at-top
@@ -70,31 +75,31 @@ def test_real_sources_fly_where_the_real_winds_table_flies(script):
       (episode_log.RECORDS_DIR / 'real_winds.json').read_text())
   keys = ('station_mode', 'station_lat_lon', 'station_bindings')
   for name in ('hilo', 'boise', 'gfs_namerica', 'gfs_global'):
-    cell = script.real_cell(name, 'latex_small', '/not/read')
+    cell = real_cells.source_cell(name, 'latex_small', '/not/read')
     assert cell['suite'] == 'latex_small'
     table = record['cells'][f'{name}/sac_pretrained/{cell["station_mode"]}']
     assert {k: cell.get(k) for k in keys} == {
         k: table['settings'].get(k) for k in keys}, name
 
 
-def test_a_done_cell_flies_only_the_real_sources_it_lacks(script):
-  args = type('Args', (), {'real_sources': ['hilo', 'boise'],
-                           'real_seeds': 100,
-                           'held_out_suite': 'latex_small'})()
+def test_a_done_cell_flies_only_the_real_sources_it_lacks():
+  names = ['hilo', 'boise']
   row = {'real_winds': {'hilo': {'episodes': 100, 'suite': 'latex_small'},
                         'boise': {'episodes': 20, 'suite': 'latex_small'}}}
-  assert script.real_missing(args, row) == ['boise']
-  assert script.real_missing(args, {}) == ['hilo', 'boise']
+  assert real_cells.missing_sources(row, names, 100, 'latex_small') == [
+      'boise']
+  assert real_cells.missing_sources(row, names, 100, 'latex_tiny') == names
+  assert real_cells.missing_sources({}, names, 100, 'latex_small') == names
 
 
-def test_the_summary_spreads_each_real_source_over_seeds(script):
+def test_the_summary_spreads_each_real_source_over_seeds():
   rows = {str(s): {'held_out_tw50_window': 0.5, 'edge_fraction': 0.1,
                    'core_fraction': 0.4,
                    'real_winds': {'hilo': {'tw50_window': t,
                                            'edge_fraction': 0.2,
                                            'core_fraction': 0.3}}}
           for s, t in ((0, 0.6), (1, 0.8))}
-  summary = script._summary(rows)  # pylint: disable=protected-access
+  summary = seed_runs.reward_summary(rows)
   assert summary['seeds_done'] == 2
   assert summary['real_hilo_seeds_done'] == 2
   assert summary['real_hilo_tw50_window_mean'] == pytest.approx(0.7)
@@ -127,8 +132,9 @@ def test_a_second_study_on_one_record_is_refused(script, tmp_path, capsys):
 
 @pytest.mark.slow
 def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
-    script, tmp_path, benchmark_script):
-  """`_fly_real` with the shipped policy = real_winds' `sac_pretrained`."""
+    tmp_path):
+  """`real_cells.fly_policy` with the shipped policy = `fly_cell`'s
+  `sac_pretrained` (real_winds.py's)."""
   import shutil  # pylint: disable=g-import-not-at-top
   from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
@@ -137,11 +143,11 @@ def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
   path = str(folder / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
   shutil.copy(ROOT / 'tests' / 'data' / 'realwinds' /
               'PHTO-Hilo_2023-11-01T00Z_uwyo.csv', path)
-  cell = script.real_cell('hilo', 'latex_small', path)
-  flown = script._fly_real(  # pylint: disable=protected-access
+  cell = real_cells.source_cell('hilo', 'latex_small', path)
+  flown = real_cells.fly_policy(
       pretrained.shipped_policy(False), cell, path, 2, max_steps=12)
   seeds = list(suites.get_eval_suite('latex_small').seeds)[:2]
-  records, _, _, _ = benchmark_script('real_winds.py').fly_cell(
+  records, _, _, _ = real_cells.fly_cell(
       {**cell, 'agent': 'sac_pretrained', 'max_steps': 12}, path, seeds)
   assert flown['episodes'] == len(records) == 2
   assert flown['tw50_window'] == pytest.approx(

@@ -17,6 +17,7 @@ import pytest
 
 from ble_latex.cli import plot
 from ble_latex.plots import figures
+from ble_latex.run import real_cells
 from ble_latex.wind import analysis
 from ble_latex.wind import stats
 
@@ -177,8 +178,12 @@ def test_real_winds_refuses_bad_flags_in_one_line(tmp_path, capsys,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
   assert not record.exists()
-  assert real_winds.seeds_per_source(['7', 'hilo:3'], ['boise', 'hilo']) == {
+  assert real_cells.seeds_per_source(['7', 'hilo:3'], ['boise', 'hilo']) == {
       'boise': 7, 'hilo': 3}
+  assert real_cells.seeds_per_source([], ['boise']) == {
+      'boise': real_cells.DEFAULT_SEEDS}
+  with pytest.raises(ValueError, match="'hilo:0': N must be >= 1"):
+    real_cells.seeds_per_source(['hilo:0'], ['hilo'])
 
 
 def _tables():

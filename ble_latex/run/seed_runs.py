@@ -14,7 +14,10 @@ The machinery of `benchmarks/sac_seeds.py` and `benchmarks/reward_shape.py`
 - `best_snapshots`: a run's best-validated snapshots (an ensemble's
   members beside the chosen one);
 - `fly_held_out`: flies a pretrained policy on a held-out suite in the gym
-  env (`ble-latex-eval`'s code) and writes its records.
+  env (`ble-latex-eval`'s code) and writes its records;
+- `reward_bindings`: the gin bindings that train with one of `REWARDS`, and
+  `reward_summary`: a reward's seeds spread (mean, std) on the held-out
+  suite and each real source (`benchmarks/reward_shape.py`).
 """
 
 import json
@@ -22,7 +25,7 @@ import os
 import statistics
 import subprocess
 import sys
-from typing import Any, Dict, List, Optional, Sequence
+from typing import Any, Dict, List, Mapping, Optional, Sequence
 
 from ble_latex import run_files
 
@@ -209,3 +212,48 @@ def comparison_table(rows: Sequence[Dict[str, Any]]) -> str:
         f'{pct(r["last5_tw50_window_mean"])} | '
         f'{"—" if last5_oor is None else round(last5_oor, 1)} |')
   return '\n'.join(lines)
+
+
+# The rewards a study can train with: the paper's flat one, or tanh-shaped.
+REWARDS = ('perciatelli', 'tanh')
+
+
+def reward_bindings(reward: str, tanh_scale_km: float) -> List[str]:
+  """The gin bindings that select `reward` of `REWARDS` for training
+  (tanh: `latex_reward.reward_tanh_scale_km`, [km]).
+
+  Raises:
+    ValueError: one line, for a reward not in `REWARDS`.
+  """
+  if reward == 'perciatelli':
+    return []
+  if reward == 'tanh':
+    return [f'latex_reward.reward_tanh_scale_km = {tanh_scale_km!r}']
+  raise ValueError(f'{reward!r} is not one of {", ".join(REWARDS)}')
+
+
+def reward_summary(rows: Mapping[str, Mapping[str, Any]]) -> Dict[str, Any]:
+  """A reward's seeds (seed -> row) spread over the done ones (with a
+  `held_out_tw50_window`): 'seeds_done', then `<key>_mean`/`_std` of the
+  held-out TW50 window and edge and core fractions, and per real source
+  flown `real_<name>_seeds_done` and its `tw50_window`, `edge_fraction`,
+  `core_fraction` spread (std 0 for one seed)."""
+  done = [r for r in rows.values() if 'held_out_tw50_window' in r]
+  out: Dict[str, Any] = {'seeds_done': len(done)}
+
+  def spread(prefix: str, values: List[float]) -> None:
+    if values:
+      out[f'{prefix}_mean'] = statistics.mean(values)
+      out[f'{prefix}_std'] = (statistics.stdev(values) if len(values) > 1
+                              else 0.0)
+
+  for key in ('held_out_tw50_window', 'edge_fraction', 'core_fraction'):
+    spread(key, [r[key] for r in done])
+  names = sorted({n for r in done for n in r.get('real_winds', {})})
+  for name in names:
+    flown = [r['real_winds'][name] for r in done
+             if name in r.get('real_winds', {})]
+    out[f'real_{name}_seeds_done'] = len(flown)
+    for key in ('tw50_window', 'edge_fraction', 'core_fraction'):
+      spread(f'real_{name}_{key}', [f[key] for f in flown])
+  return out
