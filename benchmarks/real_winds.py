@@ -273,7 +273,8 @@ def _main(argv: Sequence[str]) -> None:
       cell = settings(name, agent, path)
       key = f'{name}/{agent}/{FLAGS.station_mode}'
       old = checked_cell(record, key, FLAGS.json, suite_seeds)
-      if old is not None and old['settings'] != cell:
+      if old is not None and (wind_file.canonical(old['settings']) !=
+                              wind_file.canonical(cell)):
         if not FLAGS.overwrite:
           differ = [k for k in set(cell) | set(old['settings'])
                     if cell.get(k) != old['settings'].get(k)]
@@ -316,7 +317,8 @@ def _main(argv: Sequence[str]) -> None:
           record = load_record(FLAGS.json)
           current = checked_cell(record, key, FLAGS.json, suite_seeds)
           runs = [run]
-          if current is not None and current['settings'] == cell:
+          if current is not None and (wind_file.canonical(
+              current['settings']) == wind_file.canonical(cell)):
             flown.update({r['seed']: r for r in current['flights']
                           if r['seed'] not in flown})
             runs = current.get('runs', []) + runs

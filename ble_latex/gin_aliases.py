@@ -36,6 +36,21 @@ ALIASES: Dict[str, str] = {}
 REMOVAL = 'the next release'
 
 
+def current(binding: str) -> str:
+  """Gin binding text 'NAME.key = value' under today's name of NAME.
+
+  A NAME (maybe module-qualified) that `ALIASES` lists as renamed becomes
+  its new name, unqualified; any other text is returned as it is. For
+  comparing a binding recorded before a rename with one written today
+  (the modules that rename must be imported first: they fill `ALIASES`).
+  """
+  target, equals, value = binding.partition('=')
+  parts = target.strip().split('.')
+  if not equals or len(parts) < 2 or parts[-2] not in ALIASES:
+    return binding
+  return f'{ALIASES[parts[-2]]}.{parts[-1]} ={value}'
+
+
 def _unbound(value: Any) -> Any:
   """A bound value as comparable text (references are not evaluated)."""
   return repr(value)

@@ -6,6 +6,7 @@ import os
 import gin
 import pytest
 
+from ble_latex import gin_aliases
 from ble_latex.cli import common as cli
 from ble_latex.run import gin_binding
 from ble_latex.run import wind_file
@@ -60,3 +61,18 @@ def test_the_commands_bindings_come_from_here():
       cli.era5_bindings(None, 'train', 'eval')
   finally:
     gin.clear_config()
+
+
+def test_a_cell_recorded_under_an_old_gin_name_is_the_same_cell():
+  """`canonical`: a record's per-seed station written before the rename
+  (`Era5WindField.stations`, also module-qualified) equals today's; another
+  value does not."""
+  today = wind_file.station_settings('boise', '/not/read', 'per_seed')
+  for old_name in ('Era5WindField', 'ble_latex.wind.era5.Era5WindField'):
+    recorded = {**today, 'station_bindings': [
+        f"{old_name}.stations = 'per_seed'"]}
+    assert recorded != today
+    assert wind_file.canonical(recorded) == wind_file.canonical(today)
+  other = {**today, 'station_bindings': ["Era5WindField.stations = 'fixed'"]}
+  assert wind_file.canonical(other) != wind_file.canonical(today)
+  assert gin_aliases.current('x.y = 1') == 'x.y = 1'

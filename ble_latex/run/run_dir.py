@@ -132,8 +132,8 @@ def check_resume(base_dir: str, run_info: Mapping[str, Any], *,
     raise errors.ResumeError(
         f'{log_path} holds {logged} episodes but {newest} covers only '
         f'{covered}: resuming would drop {logged - covered} logged episodes. '
-        f'Are checkpoints missing from {checkpoint_dir(base_dir)}? Nothing '
-        'was changed.')
+        f'Are checkpoints missing from {run_files.checkpoint_dir(base_dir)}? '
+        'Nothing was changed.')
   if logged < covered:
     raise errors.ResumeError(
         f'{log_path} holds {logged} episodes but the newest checkpoint '

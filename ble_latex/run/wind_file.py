@@ -16,6 +16,8 @@ records its 'station_bindings' (`PER_SEED` first).
 import os
 from typing import Any, Dict, List, Mapping, Sequence
 
+from ble_latex import gin_aliases
+
 # Per-seed stations: seed s flies station s of the domain (`wind.stations`).
 PER_SEED = "GriddedWindField.stations = 'per_seed'"
 
@@ -67,6 +69,18 @@ def station_settings(name: str, file: str, mode: str,
             'station_lat_lon': [round(lat, 4), round(lon, 4)]}
   return {'station_mode': mode,
           'station_bindings': [PER_SEED, *extra_bindings]}
+
+
+def canonical(cell: Mapping[str, Any]) -> Dict[str, Any]:
+  """A cell's settings with its station bindings under today's gin names
+  (`gin_aliases.current`), so a cell recorded before a rename (e.g.
+  `Era5WindField.stations`) compares equal to the same cell written now."""
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top,unused-import  # Its aliases.
+  out = dict(cell)
+  if 'station_bindings' in out:
+    out['station_bindings'] = [gin_aliases.current(b)
+                               for b in out['station_bindings']]
+  return out
 
 
 def cell_station_bindings(cell: Mapping[str, Any]) -> List[str]:
