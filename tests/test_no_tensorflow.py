@@ -60,6 +60,7 @@ _ENV_AND_PLANNER = textwrap.dedent('''
     from ble_latex.envs import jax_env
     from ble_latex.run import gin_binding
     from ble_latex.run import planner_batch
+    from ble_latex.run import real_cells
     from ble_latex.run import wind_file
     from ble_latex.wind import sources
 
@@ -74,6 +75,7 @@ _ENV_AND_PLANNER = textwrap.dedent('''
     config = plan_config.from_gin('latex_mpc')
     assert config.num_samples == 4 and callable(planning.plan_batch)
     assert callable(planner_batch.fly_planner) and sources.SOURCES
+    assert callable(real_cells.fly_cell)  # benchmarks/real_winds.py's core
     assert wind_file.cell_bindings
     # BLE's light package modules (its gym id, its noise constants) may load;
     # its env, arena and agents (TensorFlow behind them) may not.
