@@ -492,10 +492,13 @@ def realistic_task() -> str:
     paired = '—'
     if (reference is not None and name != TASK_REFERENCE and
         'per_seed' in row and 'per_seed' in reference):
-      seeds = reference['per_seed']['seeds']
+      flown = set(row['per_seed']['seeds'])  # Both flew: the shorter's.
+      seeds = [s for s in reference['per_seed']['seeds'] if s in flown]
       paired = _paired(_flights_of(reference, seeds),
                        _flights_of(row, seeds), PHYSICS)
-      if len(seeds) < len(row['per_seed']['seeds']):
+      if len(seeds) < len(reference['per_seed']['seeds']):
+        paired += ' on its seeds'
+      elif len(seeds) < len(row['per_seed']['seeds']):
         paired += f' on its {len(seeds)} seeds'
     if 'per_seed' in row and len(row['per_seed']['seeds']) < 100:
       label += f' (first {len(row["per_seed"]["seeds"])} seeds)'
