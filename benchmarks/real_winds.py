@@ -273,14 +273,13 @@ def _main(argv: Sequence[str]) -> None:
       cell = settings(name, agent, path)
       key = f'{name}/{agent}/{FLAGS.station_mode}'
       old = checked_cell(record, key, FLAGS.json, suite_seeds)
-      if old is not None and (wind_file.canonical(old['settings']) !=
-                              wind_file.canonical(cell)):
+      differ = ([] if old is None else
+                wind_file.differing(old['settings'], cell))
+      if differ:
         if not FLAGS.overwrite:
-          differ = [k for k in set(cell) | set(old['settings'])
-                    if cell.get(k) != old['settings'].get(k)]
           raise cli.CommandUsageError(
               f'{FLAGS.json}: cell {key} was flown with other settings '
-              f'({", ".join(sorted(differ))}); --overwrite re-flies it')
+              f'({", ".join(differ)}); --overwrite re-flies it')
         old = None
       flown = {r['seed']: r for r in (old or {}).get('flights', [])}
       todo = [s for s in wanted if s not in flown]
@@ -317,8 +316,8 @@ def _main(argv: Sequence[str]) -> None:
           record = load_record(FLAGS.json)
           current = checked_cell(record, key, FLAGS.json, suite_seeds)
           runs = [run]
-          if current is not None and (wind_file.canonical(
-              current['settings']) == wind_file.canonical(cell)):
+          if current is not None and not wind_file.differing(
+              current['settings'], cell):
             flown.update({r['seed']: r for r in current['flights']
                           if r['seed'] not in flown})
             runs = current.get('runs', []) + runs

@@ -185,8 +185,8 @@ def recorded_tw50(source: str, agent: str, cell: Dict[str, Any],
     raise cli.CommandFailure(f'{record_path}: not a real_winds record '
                              f'({type(e).__name__}: {e})') from e
   old = cells.get(f'{source}/{agent}/per_seed')
-  if not isinstance(old, dict) or wind_file.canonical(
-      old.get('settings') or {}) != wind_file.canonical(cell):
+  if not isinstance(old, dict) or wind_file.differing(
+      old.get('settings') or {}, cell):
     return {}
   return {r['seed']: r['tw50_window'] for r in old['flights']}
 

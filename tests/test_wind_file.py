@@ -73,6 +73,8 @@ def test_a_cell_recorded_under_an_old_gin_name_is_the_same_cell():
         f"{old_name}.stations = 'per_seed'"]}
     assert recorded != today
     assert wind_file.canonical(recorded) == wind_file.canonical(today)
+    assert not wind_file.differing(recorded, today)
   other = {**today, 'station_bindings': ["Era5WindField.stations = 'fixed'"]}
   assert wind_file.canonical(other) != wind_file.canonical(today)
+  assert wind_file.differing(other, today) == ['station_bindings']
   assert gin_aliases.current('x.y = 1') == 'x.y = 1'

@@ -83,6 +83,14 @@ def canonical(cell: Mapping[str, Any]) -> Dict[str, Any]:
   return out
 
 
+def differing(recorded: Mapping[str, Any],
+              cell: Mapping[str, Any]) -> List[str]:
+  """The settings in which a recorded cell differs from `cell`, compared
+  under today's gin names (`canonical`); empty: the same cell."""
+  a, b = canonical(recorded), canonical(cell)
+  return sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+
+
 def cell_station_bindings(cell: Mapping[str, Any]) -> List[str]:
   """The station bindings of a cell's `station_settings`."""
   if cell['station_mode'] == 'center':
