@@ -24,12 +24,12 @@ README = ROOT / 'README.md'
 README_MAX_LINES = 300
 
 
-def _hook():
-  spec = importlib.util.spec_from_file_location(
-      'docs_generated_hook', DOCS / 'hooks' / 'generated.py')
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
+@pytest.fixture(name='hooks')
+def _hooks(monkeypatch):
+  """Imports a module of docs/hooks by name, as MkDocs runs its hook: with
+  docs/hooks on sys.path (the hooks import each other as siblings)."""
+  monkeypatch.syspath_prepend(str(DOCS / 'hooks'))
+  return importlib.import_module
 
 
 def _docs_text() -> str:
@@ -52,9 +52,9 @@ def test_readme_links_into_the_docs_exist():
   assert not missing, f'README.md links to missing files: {missing}'
 
 
-def test_every_command_and_gin_file_is_documented():
+def test_every_command_and_gin_file_is_documented(hooks):
   docs = _docs_text()
-  commands = _hook().console_scripts()
+  commands = hooks('generated').console_scripts()
   assert 'ble-latex-train' in commands  # the parser found the entry points
   gin_files = sorted(p.name for p in (ROOT / 'gin_configs').glob('*.gin'))
   assert gin_files
@@ -65,10 +65,10 @@ def test_every_command_and_gin_file_is_documented():
       f'not mentioned on any page under docs/: {undocumented}')
 
 
-def test_observation_map_names_every_feature_once():
+def test_observation_map_names_every_feature_once(hooks):
   """The table the site generates covers indices 0..NUM_FEATURES-1."""
   from ble_latex.envs import jax_features  # pylint: disable=g-import-not-at-top
-  hook = _hook()
+  hook = hooks('generated')
   rows = hook.observation_rows()
   indices = [i for index, _, _ in rows for i in hook.row_indices(index)]
   assert indices == list(range(jax_features.NUM_FEATURES))
@@ -82,9 +82,9 @@ def test_observation_map_names_every_feature_once():
     assert f'{constant:g}' in text, constant
 
 
-def test_hook_refuses_unknown_generated_blocks():
+def test_hook_refuses_unknown_generated_blocks(hooks):
   with pytest.raises(ValueError, match='unknown generated block'):
-    _hook().on_page_markdown('<!-- generated: no-such-table -->')
+    hooks('generated').on_page_markdown('<!-- generated: no-such-table -->')
 
 
 @pytest.mark.slow
@@ -113,24 +113,16 @@ def test_site_builds_strictly(tmp_path):
   assert 'Keep a Changelog' in changelog  # CHANGELOG.md is included
 
 
-def _tables():
-  spec = importlib.util.spec_from_file_location(
-      'docs_tables', DOCS / 'hooks' / 'tables.py')
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
-
-
-def test_result_tables_are_the_records():
+def test_result_tables_are_the_records(hooks):
   """README's and the docs' result tables equal what the records give."""
-  tables = _tables()
+  tables = hooks('tables')
   pages = {str(p.relative_to(ROOT)) for p in tables.pages()}
   assert {'README.md', 'docs/results.md', 'docs/planners.md'} <= pages
   assert not tables.stale(), 'run python docs/hooks/tables.py'
 
 
-def test_a_result_table_follows_its_record(tmp_path, monkeypatch):
-  tables = _tables()
+def test_a_result_table_follows_its_record(tmp_path, monkeypatch, hooks):
+  tables = hooks('tables')
   rows = json.loads(tables.RESULTS.read_text(encoding='utf-8'))
   for row in rows:
     if row['agent'] == 'latex_random':
@@ -143,13 +135,14 @@ def test_a_result_table_follows_its_record(tmp_path, monkeypatch):
   with pytest.raises(ValueError, match='unknown table'):
     tables.fill('<!-- table: nosuch -->\n<!-- end table -->')
   # The site's hook regenerates the blocks too.
-  assert 'old' not in _hook().on_page_markdown(text)
+  assert 'old' not in hooks('generated').on_page_markdown(text)
 
 
-def test_the_reward_study_tables_pair_the_same_flights(tmp_path, monkeypatch):
+def test_the_reward_study_tables_pair_the_same_flights(tmp_path, monkeypatch,
+                                                        hooks):
   """Over training seeds: mean ± sample std, each seed; per seed: tanh − flat
   on the same flights with its standard error, ahead / behind."""
-  tables = _tables()
+  tables = hooks('tables')
 
   def row(windows, real):
     return {'held_out_tw50_window': sum(windows) / len(windows),

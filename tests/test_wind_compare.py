@@ -8,7 +8,7 @@ refusals and the tables `docs/hooks/tables.py` makes of the two records.
 No network, no VAE decoding (the VAE side is in tests/test_wind_stats.py).
 """
 
-import importlib.util
+import importlib
 import json
 import pathlib
 
@@ -26,13 +26,6 @@ DATA = ROOT / 'tests' / 'data' / 'realwinds'
 GFS = str(DATA / 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
 BOISE = str(DATA / 'BOI-Boise_2010-12-09T12Z_uwyo.txt')
 HILO = str(DATA / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
-
-
-def _load(name, path):
-  spec = importlib.util.spec_from_file_location(name, path)
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
 
 
 def samples(u, v, pressures=(5000.0, 7000.0, 10000.0), label='x'):
@@ -186,12 +179,15 @@ def test_real_winds_refuses_bad_flags_in_one_line(tmp_path, capsys,
     real_cells.seeds_per_source(['hilo:0'], ['hilo'])
 
 
-def _tables():
-  return _load('docs_tables_wind', ROOT / 'docs' / 'hooks' / 'tables.py')
+def _tables(monkeypatch):
+  """docs/hooks/tables.py, imported as MkDocs runs it (its folder on
+  sys.path: it imports `learned.py` beside it)."""
+  monkeypatch.syspath_prepend(str(ROOT / 'docs' / 'hooks'))
+  return importlib.import_module('tables')
 
 
 def test_tables_render_the_real_winds_record(tmp_path, monkeypatch):
-  tables = _tables()
+  tables = _tables(monkeypatch)
   flights = [{'seed': s, 'tw50': 0.5, 'tw50_window': w, 'final_distance_km':
               10.0 * s, 'terminal_reason': r}
              for s, w, r in ((1, 0.25, 'ok'), (2, 0.75, 'out_of_sand'))]
@@ -221,8 +217,8 @@ def test_tables_render_the_real_winds_record(tmp_path, monkeypatch):
       '| `sac_pretrained` | 50.0 % (2 seeds †) |')
 
 
-def test_tables_render_the_committed_records():
-  tables = _tables()
+def test_tables_render_the_committed_records(monkeypatch):
+  tables = _tables(monkeypatch)
   if tables.REAL_WINDS.exists():
     rows = tables.real_winds_full().splitlines()[2:]
     assert rows and all('|' in r for r in rows)

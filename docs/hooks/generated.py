@@ -14,17 +14,20 @@ generated Markdown there:
     docstring line.
 
 Result tables (`<!-- table: NAME -->` ... `<!-- end table -->`) are made
-from the committed records by `tables.py` beside this file; the hook
+from the committed records by `tables.py` beside this file (imported as a
+sibling: MkDocs runs a hook with its folder on sys.path); the hook
 regenerates them in every page it builds.
 
-The parsers read source text with `ast` only, so the site builds without
-JAX, TensorFlow or BLE. tests/test_docs.py uses them too.
+The parsers read source text with `ast` only (no JAX, TensorFlow or BLE).
+tests/test_docs.py uses them too.
 """
 
 import ast
 import pathlib
 import re
 from typing import Dict, List, Tuple
+
+import tables  # docs/hooks/tables.py (MkDocs puts docs/hooks on sys.path)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 FEATURES_MODULE = ROOT / 'ble_latex' / 'envs' / 'jax_features.py'
@@ -155,15 +158,5 @@ def on_page_markdown(markdown: str, **kwargs) -> str:  # pylint: disable=unused-
                        f'{sorted(_GENERATORS)}')
     return _GENERATORS[name]()
 
-  return _tables().fill(_MARKER.sub(generate, markdown),
-                       kwargs.get('page', 'page'))
-
-
-def _tables():
-  """`tables.py` beside this file (MkDocs loads hooks by path, not package)."""
-  import importlib.util  # pylint: disable=g-import-not-at-top
-  spec = importlib.util.spec_from_file_location(
-      'ble_latex_docs_tables', pathlib.Path(__file__).with_name('tables.py'))
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
+  return tables.fill(_MARKER.sub(generate, markdown),
+                     kwargs.get('page', 'page'))

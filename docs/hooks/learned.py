@@ -1,24 +1,21 @@
-"""Issue 47's tables (learned controllers), for `tables.py` beside this file.
+"""Issue 47's tables (learned controllers), registered by `tables.py` beside
+this file (`TABLES`).
 
 DAgger students (`benchmarks/records/dagger/results.json`), SAC on different
 observations (`benchmarks/records/sac_jax/observation_results.json`) and README's
 learned controllers, with seconds per decision (`benchmarks/records/policy_speed*.json`).
-The shared helpers are `tables.py`'s (loaded by path, as MkDocs loads hooks).
+What a cell holds is `ble_latex.run.tables`'s; the best-validated training
+seed is `ble_latex.run.selection`'s rule.
 """
 
-import importlib.util
-import pathlib
 import re
 from typing import Dict, Tuple
 
-_SPEC = importlib.util.spec_from_file_location(
-    'ble_latex_docs_tables_lib', pathlib.Path(__file__).with_name('tables.py'))
-tables = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(tables)
-ROOT = tables.ROOT
-RECORDS = tables.RECORDS
-_load, _mean_std, _paired, _pct = (tables._load, tables._mean_std,  # pylint: disable=protected-access
-                                   tables._paired, tables._pct)  # pylint: disable=protected-access
+from ble_latex.run import episode_log
+from ble_latex.run import selection
+from ble_latex.run import tables as tables_lib
+
+RECORDS = episode_log.RECORDS_DIR
 DAGGER = RECORDS / 'dagger' / 'results.json'
 OBSERVATION = RECORDS / 'sac_jax' / 'observation_results.json'
 
@@ -30,7 +27,7 @@ DAGGER_REFERENCES = (('sac_pretrained', '`sac_pretrained`'),
 
 def dagger() -> str:
   """Per DAgger group and training seed: validation, held out, paired."""
-  record = _load(DAGGER)
+  record = tables_lib.load(DAGGER)
   lines = ['| run | training seed | rounds (labels) | best round: validation '
            '| `latex_small` TW50 window | out of resources | ' + ' | '.join(
                f'student − {label} per seed' for _, label in DAGGER_REFERENCES)
@@ -42,18 +39,19 @@ def dagger() -> str:
       cells = ['—'] * (2 + len(DAGGER_REFERENCES))
       if held:
         held_means.append(held['tw50_window_mean'])
-        cells = [_pct(held['tw50_window_mean'], held['tw50_window_std']),
-                 f"{held['out_of_resources_pct']:.0f} %"] + [
-                     _paired(group['references'][ref], held, DAGGER)
-                     if ref in group['references'] else '—'
-                     for ref, _ in DAGGER_REFERENCES]
+        cells = [
+            tables_lib.pct(held['tw50_window_mean'], held['tw50_window_std']),
+            f"{held['out_of_resources_pct']:.0f} %"] + [
+                tables_lib.paired_cell(group['references'][ref], held, DAGGER)
+                if ref in group['references'] else '—'
+                for ref, _ in DAGGER_REFERENCES]
       lines.append(
           f"| {name} | {seed} | {len(entry['rounds'])} ({entry['labels']:,}) "
           f"| {entry['best_round']}: "
           f"{100 * entry['best_validation_tw50_window']:.1f} % | "
           + ' | '.join(cells) + ' |')
     if len(held_means) > 1:
-      mean, std = _mean_std(held_means)
+      mean, std = tables_lib.mean_std(held_means)
       lines.append(f'| {name} | mean ± std over seeds | | | '
                    f'{100 * mean:.1f} % ± {100 * std:.1f} |' + ' |' * (
                        1 + len(DAGGER_REFERENCES)))
@@ -63,7 +61,7 @@ def dagger() -> str:
 def observation() -> str:
   """Per observation and training seed: chosen on validation, held out,
   paired with the references seed by seed."""
-  record = _load(OBSERVATION)
+  record = tables_lib.load(OBSERVATION)
   lines = ['| observation | training seed | chosen round: validation | '
            '`latex_small` TW50 window | out of resources | ' + ' | '.join(
                f'− {label} per seed' for _, label in DAGGER_REFERENCES)
@@ -73,16 +71,17 @@ def observation() -> str:
     for seed, entry in sorted(run['seeds'].items(), key=lambda x: int(x[0])):
       held_means.append(entry['heldout_tw50_window_mean'])
       held = entry['heldout']
-      paired = [_paired(record['references'][ref], held, OBSERVATION)
-                if held and ref in record['references'] else '—'
-                for ref, _ in DAGGER_REFERENCES]
+      paired = [
+          tables_lib.paired_cell(record['references'][ref], held, OBSERVATION)
+          if held and ref in record['references'] else '—'
+          for ref, _ in DAGGER_REFERENCES]
       lines.append(
           f"| {name} ({_settings(entry['observation'])}) | {seed} | "
           f"{entry['chosen_round']}: "
           f"{100 * entry['chosen_validation_tw50_window']:.1f} % | "
           f"{100 * entry['heldout_tw50_window_mean']:.1f} % | "
           f"{entry['heldout_oor_pct']:.0f} % | " + ' | '.join(paired) + ' |')
-    mean, std = _mean_std(held_means)
+    mean, std = tables_lib.mean_std(held_means)
     lines.append(f'| {name} | mean ± std over {len(held_means)} seeds | | '
                  f'{100 * mean:.1f} % ± {100 * std:.1f} |' + ' |' * (
                      1 + len(DAGGER_REFERENCES)))
@@ -117,17 +116,20 @@ def _key(observation: Dict[str, int]) -> Tuple[Tuple[str, int], ...]:
 
 
 def _best_validated(seeds: Dict[str, dict], score) -> Tuple[str, dict]:
-  """The training seed whose chosen policy validated best (`score`)."""
-  return max(seeds.items(), key=lambda item: (score(item[1]), -int(item[0])))
+  """The training seed whose chosen policy validated best (`score`; ties:
+  the lower seed), by `selection.best` (no out-of-resources cap)."""
+  return selection.best(
+      seeds.items(), result=lambda item: {selection.SCORE: score(item[1])},
+      tie=lambda item: -int(item[0]))
 
 
 def learned_short() -> str:
   """README's learned controllers: held out over training seeds, the
   best-validated seed paired with `latex_mpc`, seconds per decision."""
-  observation_record = _load(OBSERVATION)
-  dagger_record = _load(DAGGER)
-  speed = {p['name']: p for p in _load(POLICY_SPEED)['policies']}
-  observed = _load(POLICY_SPEED_OBSERVATION)
+  observation_record = tables_lib.load(OBSERVATION)
+  dagger_record = tables_lib.load(DAGGER)
+  speed = {p['name']: p for p in tables_lib.load(POLICY_SPEED)['policies']}
+  observed = tables_lib.load(POLICY_SPEED_OBSERVATION)
   observed_speed = {p['name']: p for p in observed['policies']}
   observe_ms = {_key(o['observation']): 1e3 * o['median_s']
                 for o in observed['observations']}
@@ -138,7 +140,7 @@ def learned_short() -> str:
            '`latex_mpc` per seed | ms / decision |', '|---|---|---|---|---|---|']
 
   def row(label, means, oor, paired, ms, seeds=None, tw50=None):
-    mean, std = _mean_std(means)
+    mean, std = tables_lib.mean_std(means)
     tw50 = tw50 or f'{100 * mean:.1f} % ± {100 * std:.1f}'
     lines.append(f'| {label} | {seeds or len(means)} | {tw50} | '
                  f'{oor:.1f} % | {paired} | {ms} |')
@@ -158,19 +160,19 @@ def learned_short() -> str:
     row(f'{_label(observation)} (seed {seed} best validated)',
         [e['heldout_tw50_window_mean'] for e in seeds.values()],
         sum(e['heldout_oor_pct'] for e in seeds.values()) / len(seeds),
-        _paired(mpc, held, OBSERVATION) if held else '—', ms)
-  sweep = _load(ENSEMBLE)
-  flown = tables.flights_summary(ENSEMBLE_EVAL)
+        tables_lib.paired_cell(mpc, held, OBSERVATION) if held else '—', ms)
+  sweep = tables_lib.load(ENSEMBLE)
+  flown = tables_lib.flights_summary(ENSEMBLE_EVAL)
   chosen = sweep['runs'][sweep['lookahead_chosen']]['latex_validation']
   step = observed_speed[_lookahead_speed_name(chosen)]
   observe = observe_ms[_key(step['observation'])]
   shipped = sweep['shipped']['policies']
   alone = _alone(sweep['runs'], 'latex_small')
-  spread = _mean_std([alone[p]['tw50_window_mean'] for p in shipped])
+  spread = tables_lib.mean_std([alone[p]['tw50_window_mean'] for p in shipped])
   row(f'`sac_ensemble`: {_members_label(shipped)}; their critics choose '
       f'among their actions, each flown {_lookahead_words(chosen)}',
       [flown['tw50_window'][0]], flown['out_of_resources_pct'],
-      _paired(mpc, flown['per_seed'], ENSEMBLE_EVAL),
+      tables_lib.paired_cell(mpc, flown['per_seed'], ENSEMBLE_EVAL),
       f'{observe + 1e3 * step["median_s"]:.2f} (observation {observe:.2f})',
       seeds=f'{len(shipped)} (one ensemble)',
       tw50=f'{100 * flown["tw50_window"][0]:.1f} % (its members alone: '
@@ -184,7 +186,8 @@ def learned_short() -> str:
       [e['heldout']['tw50_window_mean'] for e in group['seeds'].values()],
       sum(e['heldout']['out_of_resources_pct']
           for e in group['seeds'].values()) / len(group['seeds']),
-      _paired(group['references']['latex_mpc'], best['heldout'], DAGGER),
+      tables_lib.paired_cell(group['references']['latex_mpc'],
+                             best['heldout'], DAGGER),
       f'{observe_ms[paper] + min(ms):.2f}–{observe_ms[paper] + max(ms):.2f} '
       f'(observation {observe_ms[paper]:.2f})')
   return '\n'.join(lines)
@@ -196,7 +199,7 @@ OBSERVATION_ROUNDS = (49, 99, 149, 199, 229)
 
 def observation_curve() -> str:
   """Validation TW50 at equal rounds: mean ± std over seeds, each run."""
-  record = _load(OBSERVATION)
+  record = tables_lib.load(OBSERVATION)
   lines = ['| observation | seeds | ' + ' | '.join(
       f'round {r}' for r in OBSERVATION_ROUNDS) + ' |',
            '|---' * (2 + len(OBSERVATION_ROUNDS)) + '|']
@@ -209,7 +212,7 @@ def observation_curve() -> str:
       if not values:
         cells.append('—')
         continue
-      mean, std = _mean_std(values)
+      mean, std = tables_lib.mean_std(values)
       cells.append(f'{100 * mean:.1f} % ± {100 * std:.1f} ({len(values)})')
     lines.append(f'| {name} | {len(run["seeds"])} | ' + ' | '.join(cells)
                  + ' |')
@@ -228,22 +231,18 @@ PLANNER_VALUE_ROWS = (
 )
 
 
-def _per_seed(path: str) -> dict:
-  """A planners' record as `_paired` reads it (seeds, TW50 window)."""
-  return tables.flights_summary(tables.PLANNERS / f'{path}.json')['per_seed']
-
-
 def planner_value() -> str:
   """`latex_mpc` with and without the learned value, paired per seed."""
   lines = ['| planner | seeds | TW50 window (mean ± std) | out of resources | '
            'sand dropped [kg] | s / decision | − `latex_mpc` per seed |',
            '|---|---|---|---|---|---|---|']
-  reference = _per_seed(PLANNER_VALUE_ROWS[0][0])
+  reference = tables_lib.planner_per_seed(PLANNER_VALUE_ROWS[0][0])
   for i, (path, label) in enumerate(PLANNER_VALUE_ROWS):
-    s = tables.planner_summary(path)
-    paired = _paired(reference, s['per_seed'],
-                     tables.PLANNERS / f'{path}.json') if i else '—'
-    lines.append(f'| {label} | {s["seeds"]} | {_pct(*s["tw50_window"])} | '
+    s = tables_lib.planner_summary(path)
+    paired = tables_lib.paired_cell(
+        reference, s['per_seed'], tables_lib.planner_record(path)) if i else '—'
+    lines.append(f'| {label} | {s["seeds"]} | '
+                 f'{tables_lib.pct(*s["tw50_window"])} | '
                  f'{s["out_of_resources_pct"]:.0f} % | {s["sand"]:.2f} | '
                  f'{s["s_per_decision"]:.3g} | {paired} |')
   return '\n'.join(lines)
@@ -288,11 +287,7 @@ def _alone(runs: dict, suite: str) -> dict:
 def _members_mean(runs: dict, policies, suite: str) -> dict:
   """Per seed, the mean TW50 of an ensemble's members flown alone."""
   alone = _alone(runs, suite)
-  members = [alone[p] for p in policies]
-  return {'seeds': members[0]['seeds'],
-          'tw50_window': [sum(m['tw50_window'][i] for m in members)
-                          / len(members)
-                          for i in range(len(members[0]['seeds']))]}
+  return tables_lib.per_seed_mean([alone[p] for p in policies])
 
 
 def _cell(run: dict, suite: str) -> str:
@@ -313,9 +308,9 @@ def _validation_cell(run: dict) -> str:
 def ensemble() -> str:
   """SAC policies alone and as critic-chosen ensembles, validation and
   held out, paired with their members and with `latex_mpc` per seed."""
-  sweep = _load(ENSEMBLE)
+  sweep = tables_lib.load(ENSEMBLE)
   runs = sweep['runs']
-  mpc = _per_seed('latex_small/latex_mpc')
+  mpc = tables_lib.planner_per_seed('latex_small/latex_mpc')
   lines = ['| controller | `latex_validation` TW50 window (out of '
            'resources) | `latex_small` '
            'TW50 window | out of resources (`latex_small`) | − its members '
@@ -324,15 +319,15 @@ def ensemble() -> str:
 
   def row(label, run):
     held = run.get('latex_small')
-    members = (_paired(_members_mean(runs, held['policies'], 'latex_small'),
-                       held, ENSEMBLE)
+    members = (tables_lib.paired_cell(
+        _members_mean(runs, held['policies'], 'latex_small'), held, ENSEMBLE)
                if held and held['mode'] in ('critic', 'mixed') else '—')
     lines.append(
         f"| {label} | {_validation_cell(run)} | "
         f"{_cell(run, 'latex_small')} | "
         + (f"{held['out_of_resources_pct']:.0f} %" if held else '—')
         + f" | {members} | "
-        + (_paired(mpc, held, ENSEMBLE) if held else '—') + ' |')
+        + (tables_lib.paired_cell(mpc, held, ENSEMBLE) if held else '—') + ' |')
 
   for prefix, what, whose in (('drifts', 'drifts', 'drift'),
                               ('memory', 'corrected column',
@@ -350,13 +345,14 @@ def ensemble() -> str:
       held = [runs[n]['latex_small']['tw50_window_mean'] for n in triples]
       valid = [runs[n]['latex_validation']['tw50_window_mean']
                for n in triples]
-      (hm, hs), (vm, vs) = _mean_std(held), _mean_std(valid)
+      (hm, hs), (vm, vs) = tables_lib.mean_std(held), tables_lib.mean_std(valid)
       gains = []
       for n in triples:
         r = runs[n]['latex_small']
         base = _members_mean(runs, r['policies'], 'latex_small')
-        gains.append(r['tw50_window_mean'] - _mean_std(base['tw50_window'])[0])
-      gm, gs = _mean_std(gains)
+        gains.append(r['tw50_window_mean'] -
+                     tables_lib.mean_std(base['tw50_window'])[0])
+      gm, gs = tables_lib.mean_std(gains)
       lines.append(
           f'| every 3 of the {len(alone)} seeds ({len(triples)} ensembles, '
           f'mean ± std over them) | {100 * vm:.1f} % ± {100 * vs:.1f} | '
@@ -404,11 +400,12 @@ def ensemble_lookahead() -> str:
   """The shipped members with their proposals flown ahead: validation,
   held out (the best validated only), paired with the same members without
   a lookahead, and milliseconds per decision."""
-  sweep = _load(ENSEMBLE)
+  sweep = tables_lib.load(ENSEMBLE)
   runs = sweep['runs']
   base = runs[sweep['shipped']['name']]
-  speed = {p['name']: p for p in _load(POLICY_SPEED_OBSERVATION)['policies']}
-  mpc = _per_seed('latex_small/latex_mpc')
+  speed = {p['name']: p for p in
+           tables_lib.load(POLICY_SPEED_OBSERVATION)['policies']}
+  mpc = tables_lib.planner_per_seed('latex_small/latex_mpc')
   lines = ['| each proposal flown | `latex_validation` TW50 window (out of '
            'resources) | − no lookahead per seed (validation) | '
            '`latex_small` TW50 window (out of resources) | − no lookahead '
@@ -422,19 +419,21 @@ def ensemble_lookahead() -> str:
     valid = run['latex_validation']
     held = run.get('latex_small')
     step = speed.get(_lookahead_speed_name(valid))
-    held_cells = (f'{_result_cell(held)} | '
-                  f"{_paired(base['latex_small'], held, ENSEMBLE)} | "
-                  f'{_paired(mpc, held, ENSEMBLE)}' if held else '— | — | —')
+    held_cells = (
+        f'{_result_cell(held)} | '
+        f"{tables_lib.paired_cell(base['latex_small'], held, ENSEMBLE)} | "
+        f'{tables_lib.paired_cell(mpc, held, ENSEMBLE)}' if held else
+        '— | — | —')
     ms = f"{1e3 * step['median_s']:.2f}" if step else '—'
     lines.append(
         f'| {_lookahead_words(valid)} | {_validation_cell(run)} | '
-        f"{_paired(base['latex_validation'], valid, ENSEMBLE)} | "
+        f"{tables_lib.paired_cell(base['latex_validation'], valid, ENSEMBLE)} | "
         f'{held_cells} | {ms} |')
   lines.append(
       f"| not flown ahead (the shipped members' critics score where the "
       f"balloon is) | {_validation_cell(base)} | — | "
       f"{_result_cell(base['latex_small'])} | — | "
-      f"{_paired(mpc, base['latex_small'], ENSEMBLE)} | "
+      f"{tables_lib.paired_cell(mpc, base['latex_small'], ENSEMBLE)} | "
       f"{1e3 * speed['shipped_ensemble']['median_s']:.2f} |")
   return '\n'.join(lines)
 
@@ -442,9 +441,9 @@ def ensemble_lookahead() -> str:
 def ensemble_replicates() -> str:
   """The recipe replicated on disjoint training seeds (`REPLICATES` of
   benchmarks/policy_select.py): without and with the chosen lookahead."""
-  sweep = _load(ENSEMBLE)
+  sweep = tables_lib.load(ENSEMBLE)
   runs = sweep['runs']
-  mpc = _per_seed('latex_small/latex_mpc')
+  mpc = tables_lib.planner_per_seed('latex_small/latex_mpc')
   lines = ['| members (4 training seeds each) | `latex_validation`: without '
            '/ with the lookahead | `latex_small`: without / with (out of '
            'resources with) | with − without per seed (`latex_small`) | '
@@ -463,10 +462,10 @@ def ensemble_replicates() -> str:
         f"{_cell(with_, 'latex_validation')} | "
         f"{_cell(without, 'latex_small')} / {_cell(with_, 'latex_small')} "
         f"({small['out_of_resources_pct']:.0f} %) | "
-        f"{_paired(without['latex_small'], small, ENSEMBLE)} | "
-        f'{_paired(mpc, small, ENSEMBLE)} |')
+        f"{tables_lib.paired_cell(without['latex_small'], small, ENSEMBLE)} | "
+        f'{tables_lib.paired_cell(mpc, small, ENSEMBLE)} |')
   if held:
-    mean, std = _mean_std(held)
+    mean, std = tables_lib.mean_std(held)
     lines.append(f'| mean ± std over the {len(held)} replicates | | '
                  f'with: {100 * mean:.1f} % ± {100 * std:.1f} | | |')
   return '\n'.join(lines)
@@ -482,7 +481,8 @@ def ensemble_realistic() -> str:
   and with the lookahead on validation, the chosen one held out, paired
   with the shipped realistic `sac_pretrained` on the same flights."""
   def summary(suite, name):
-    return tables.flights_summary(ENSEMBLE_REALISTIC / suite / f'{name}.json')
+    return tables_lib.flights_summary(
+        ENSEMBLE_REALISTIC / suite / f'{name}.json')
 
   def cell(s):
     return (f"{100 * s['tw50_window'][0]:.1f} % "
@@ -501,6 +501,21 @@ def ensemble_realistic() -> str:
       f'{cell(valid[False])} | — | — |',
       f'| `sac_ensemble` of 3 realistic SAC seeds, 3 strides ahead '
       f'(then its member\'s actions) | {cell(valid[True])} | {cell(held)} | '
-      f"{_paired(single['per_seed'], held['per_seed'], where)} |",
+      f"{tables_lib.paired_cell(single['per_seed'], held['per_seed'], where)}"
+      ' |',
       f'| `sac_pretrained`, the shipped realistic policy | — | {cell(single)} '
       '| — |'])
+
+
+# This file's tables by block name (`tables.TABLES` holds them too).
+TABLES = {
+    'dagger': dagger,
+    'observation': observation,
+    'observation-curve': observation_curve,
+    'learned-short': learned_short,
+    'planner-value': planner_value,
+    'ensemble': ensemble,
+    'ensemble-lookahead': ensemble_lookahead,
+    'ensemble-replicates': ensemble_replicates,
+    'ensemble-realistic': ensemble_realistic,
+}

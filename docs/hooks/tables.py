@@ -11,7 +11,9 @@ README and the docs hold each table between two marker lines:
 docs/*.md from the records; `python docs/hooks/tables.py --check` exits 1
 naming the first stale block (tests/test_docs.py runs the same check, and
 the MkDocs hook `generated.py` regenerates the blocks of the site's pages at
-build time). Standard library only: the records are JSON.
+build time). This file says which records, which rows and where each table
+goes; what a cell holds (means, spreads, per-seed pairs, percentage cells) is
+`ble_latex.run.tables`'s; issue 47's tables are `learned.py`'s beside it.
 
 Records read (all committed):
   * `benchmarks/records/results_table.json`: the eval rows `benchmarks/results_table.py`
@@ -38,8 +40,6 @@ Means and standard deviations are over episodes (population std, as
 `ble_latex.run.metrics.summarize`).
 """
 
-import importlib.util
-import json
 import math
 import pathlib
 import re
@@ -47,11 +47,12 @@ import sys
 from typing import Callable, Dict, List, Sequence, Tuple
 
 from ble_latex.run import episode_log
+from ble_latex.run import tables as tables_lib
+import learned  # docs/hooks/learned.py (MkDocs and this script: on sys.path)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 RECORDS = episode_log.RECORDS_DIR
 RESULTS = RECORDS / 'results_table.json'
-PLANNERS = RECORDS / 'planners'
 REAL_WINDS = RECORDS / 'real_winds.json'
 PHYSICS = RECORDS / 'physics_results.json'
 VALBAL = RECORDS / 'valbal_check.json'
@@ -60,7 +61,6 @@ FLOAT_CALIBRATION_BEFORE = RECORDS / 'float_calibration_before.json'
 FLOAT_CALIBRATION_SWEEP = RECORDS / 'float_calibration_sweep.json'
 WIND_COMPARE = RECORDS / 'wind_compare.json'
 REWARD_SHAPE = RECORDS / 'reward_shape.json'
-OUT_OF_RESOURCES = ('out_of_sand', 'out_of_helium')
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
                    re.DOTALL)
 
@@ -96,22 +96,8 @@ PLANNER_ROWS = (
 )
 
 
-def _pct(mean: float, std: float) -> str:
-  return f'{100 * mean:.1f} % ± {100 * std:.1f}'
-
-
-def _mean_std(values: Sequence[float]) -> Tuple[float, float]:
-  mean = sum(values) / len(values)
-  return mean, math.sqrt(sum((v - mean) ** 2 for v in values) / len(values))
-
-
-def _load(path: pathlib.Path):
-  with open(path, encoding='utf-8') as f:
-    return json.load(f)
-
-
 def _agent_rows() -> Dict[str, dict]:
-  rows = {r['agent']: r for r in _load(RESULTS)}
+  rows = {r['agent']: r for r in tables_lib.load(RESULTS)}
   missing = [name for name, _ in AGENTS if name not in rows]
   if missing:
     raise ValueError(f'{RESULTS}: no rows for {missing}')
@@ -125,7 +111,8 @@ def agents_short() -> str:
            'out of resources |', '|---|---|---|---|---|']
   for name, label in AGENTS:
     r = rows[name]
-    lines.append(f'| {label} | {_pct(*r["tw50_window"])} | {_pct(*r["tw50"])} '
+    lines.append(f'| {label} | {tables_lib.pct(*r["tw50_window"])} '
+                 f'| {tables_lib.pct(*r["tw50"])} '
                  f'| {r["reward"][0]:.1f} ± {r["reward"][1]:.1f} '
                  f'| {r["out_of_resources_pct"]:.0f} % |')
   return '\n'.join(lines)
@@ -139,38 +126,12 @@ def agents_full() -> str:
            'resources | episodes |', '|---|---|---|---|---|---|---|---|']
   for name, label in AGENTS:
     r = rows[name]
-    lines.append(f'| {label} | {_pct(*r["tw50_window"])} | {_pct(*r["tw50"])} '
+    lines.append(f'| {label} | {tables_lib.pct(*r["tw50_window"])} '
+                 f'| {tables_lib.pct(*r["tw50"])} '
                  f'| {r["reward"][0]:.1f} ± {r["reward"][1]:.1f} '
                  f'| {r["helium"]:.1f} | {r["sand"]:.2f} '
                  f'| {r["out_of_resources_pct"]:.0f} % | {r["episodes"]} |')
   return '\n'.join(lines)
-
-
-def flights_summary(record: pathlib.Path) -> dict:
-  """Mean/std of an eval or planners' record of flights (one per seed)."""
-  flights = _load(record)
-  if not flights:
-    raise ValueError(f'{record}: no flights')
-  return {
-      'seeds': len(flights),
-      'per_seed': {'seeds': [f['seed'] for f in flights],
-                   'tw50_window': [f['tw50_window'] for f in flights]},
-      'tw50_window': _mean_std([f['tw50_window'] for f in flights]),
-      'out_of_resources_pct': 100.0 * sum(
-          f['terminal_reason'] in OUT_OF_RESOURCES for f in flights) /
-                              len(flights),
-      'sand': _mean_std([f['sand_dropped_kg'] for f in flights])[0],
-      'helium': _mean_std([f['helium_vented_mols'] for f in flights])[0],
-  }
-
-
-def planner_summary(path: str) -> dict:
-  """`flights_summary` of a planners' record and its timing summary."""
-  record = PLANNERS / f'{path}.json'
-  seconds = _load(record.parent / 'timing' / record.name)['summary']
-  return {**flights_summary(record),
-          's_per_decision': seconds['s_per_decision_per_balloon'],
-          's_per_episode': seconds['s_per_episode_per_balloon']}
 
 
 def _seconds(value: float) -> str:
@@ -182,8 +143,9 @@ def planners_short() -> str:
   lines = ['| planner | seeds | TW50 window | out of resources | s / decision |',
            '|---|---|---|---|---|']
   for path, label, note in PLANNER_ROWS:
-    s = planner_summary(path)
-    lines.append(f'| {label} | {s["seeds"]} | {_pct(*s["tw50_window"])} '
+    s = tables_lib.planner_summary(path)
+    lines.append(f'| {label} | {s["seeds"]} '
+                 f'| {tables_lib.pct(*s["tw50_window"])} '
                  f'| {s["out_of_resources_pct"]:.0f} % '
                  f'| {_seconds(s["s_per_decision"])}{note} |')
   return '\n'.join(lines)
@@ -195,8 +157,9 @@ def planners_full() -> str:
            'sand dropped [kg] | helium vented [mol] | s / decision | '
            's / episode |', '|---|---|---|---|---|---|---|---|']
   for path, label, note in PLANNER_ROWS:
-    s = planner_summary(path)
-    lines.append(f'| {label} | {s["seeds"]} | {_pct(*s["tw50_window"])} '
+    s = tables_lib.planner_summary(path)
+    lines.append(f'| {label} | {s["seeds"]} '
+                 f'| {tables_lib.pct(*s["tw50_window"])} '
                  f'| {s["out_of_resources_pct"]:.0f} % | {s["sand"]:.2f} '
                  f'| {s["helium"]:.1f} | {_seconds(s["s_per_decision"])}{note} '
                  f'| {_seconds(s["s_per_episode"])} |')
@@ -223,7 +186,7 @@ REAL_WINDS_SOURCES = (
 
 def _real_cells() -> List[dict]:
   """The cells of benchmarks/records/real_winds.json in table order."""
-  cells = list(_load(REAL_WINDS)['cells'].values())
+  cells = list(tables_lib.load(REAL_WINDS)['cells'].values())
   agents = [a for a, _ in REAL_WINDS_AGENTS]
   sources = [s for s, _ in REAL_WINDS_SOURCES]
   known = [c for c in cells if c['settings']['agent'] in agents and
@@ -292,15 +255,16 @@ def real_winds_full() -> str:
   cells = _real_cells()
   for c in cells:
     s = c['summary']
-    distance = _mean_std([f['final_distance_km'] for f in c['flights']])[0]
+    distance = tables_lib.mean_std(
+        [f['final_distance_km'] for f in c['flights']])[0]
     left = 100.0 * sum(f['terminal_reason'] == 'left_wind_domain'
                        for f in c['flights']) / len(c['flights'])
     lines.append(
         f"| {labels[c['settings']['agent']]} "
         f"| {sources[c['settings']['source']]} | {_station(c)} "
         f"| {_seeds(c, cells).replace(' seeds', '')} "
-        f"| {_pct(s['tw50_window_mean'], s['tw50_window_std'])} "
-        f"| {_pct(s['tw50_mean'], s['tw50_std'])} "
+        f"| {tables_lib.pct(s['tw50_window_mean'], s['tw50_window_std'])} "
+        f"| {tables_lib.pct(s['tw50_mean'], s['tw50_std'])} "
         f"| {s['out_of_resources_pct']:.0f} % | {left:.0f} % "
         f"| {distance:.0f} |")
   return '\n'.join(lines)
@@ -313,7 +277,7 @@ def _apart(profile: dict) -> str:
 
 def wind_compare() -> str:
   """docs/winds.md's table: the VAE and each real source, 15-25 km."""
-  record = _load(WIND_COMPARE)
+  record = tables_lib.load(WIND_COMPARE)
   common = record['settings']['common_pressures_pa']
   at = ', '.join(f'{p / 100:g}' for p in common)
   top = common[0]
@@ -375,7 +339,7 @@ UNCALIBRATED_ROWS = (
 
 
 def _physics() -> dict:
-  record = _load(PHYSICS)
+  record = tables_lib.load(PHYSICS)
   for section in ('paper', 'realistic', 'paper_long', 'realistic_long'):
     if not record.get(section):
       raise ValueError(f'{PHYSICS}: no {section!r} rows')
@@ -494,8 +458,9 @@ def realistic_task() -> str:
         'per_seed' in row and 'per_seed' in reference):
       flown = set(row['per_seed']['seeds'])  # Both flew: the shorter's.
       seeds = [s for s in reference['per_seed']['seeds'] if s in flown]
-      paired = _paired(_flights_of(reference, seeds),
-                       _flights_of(row, seeds), PHYSICS)
+      paired = tables_lib.paired_cell(
+          tables_lib.per_seed_on(reference, seeds),
+          tables_lib.per_seed_on(row, seeds), PHYSICS)
       if len(seeds) < len(reference['per_seed']['seeds']):
         paired += ' on its seeds'
       elif len(seeds) < len(row['per_seed']['seeds']):
@@ -507,15 +472,6 @@ def realistic_task() -> str:
         f'{row["sand_dropped_kg_mean"]:.2f} | {_days(long.get(name))} | '
         f'{paired} |')
   return '\n'.join(lines)
-
-
-def _flights_of(row: dict, seeds: Sequence[int]) -> dict:
-  """`row`'s per-seed TW50 on `seeds` (a subset flown by both)."""
-  by_seed = dict(zip(row['per_seed']['seeds'], row['per_seed']['tw50_window']))
-  missing = [s for s in seeds if s not in by_seed]
-  if missing:
-    return {'seeds': list(row['per_seed']['seeds']), 'tw50_window': []}
-  return {'seeds': list(seeds), 'tw50_window': [by_seed[s] for s in seeds]}
 
 
 def realistic_uncalibrated() -> str:
@@ -555,7 +511,7 @@ VALBAL_ROWS = (
 
 def valbal_check() -> str:
   """docs/physics.md's ValBal table: days aloft and ballast per case."""
-  record = _load(VALBAL)
+  record = tables_lib.load(VALBAL)
   lines = ['| case | system + payload / ballast [kg] | disturbance [g/√s] | '
            'days aloft (of 7; flights) | ballast a day [kg] | within ±750 m '
            '| ValBal |', '|---|---|---|---|---|---|---|']
@@ -579,7 +535,7 @@ REWARDS = (('perciatelli', 'flat (the paper\'s, default)'),
 
 def _float_calibration(path: pathlib.Path) -> str:
   """The rows of a `benchmarks/float_calibration.py` record (issue 68)."""
-  record = _load(path)
+  record = tables_lib.load(path)
   lines = ['| row | measured | range | inside |', '|---|---|---|---|']
   for row in record['rows']:
     value = row['value']
@@ -600,7 +556,7 @@ def _float_calibration(path: pathlib.Path) -> str:
 
 def float_calibration_sweep() -> str:
   """The heating-disturbance sweep of `float_calibration.py --sweep`."""
-  record = _load(FLOAT_CALIBRATION_SWEEP)
+  record = tables_lib.load(FLOAT_CALIBRATION_SWEEP)
   lines = ['| heating rms [K] | correlation time [s] | calm probability | '
            'band cost [kg/day] | days aloft (of 7) | within ±750 m |',
            '|---|---|---|---|---|---|']
@@ -611,7 +567,7 @@ def float_calibration_sweep() -> str:
 
 
 def _reward_cells() -> List[Tuple[str, dict]]:
-  rewards = _load(REWARD_SHAPE)['rewards']
+  rewards = tables_lib.load(REWARD_SHAPE)['rewards']
   out = [(label, rewards[name]) for name, label in REWARDS if name in rewards]
   if not out:
     raise ValueError(f'{REWARD_SHAPE}: no rewards')
@@ -623,15 +579,6 @@ def _seeds_done(cell: dict) -> List[dict]:
           if 'held_out_tw50_window' in cell['seeds'][k]]
 
 
-def _over_seeds(values: Sequence[float], digits: int = 1) -> str:
-  """mean ± std over training seeds (sample std), then each seed's value."""
-  mean = sum(values) / len(values)
-  std = (math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1))
-         if len(values) > 1 else 0.0)
-  each = ' / '.join(f'{100 * v:.{digits}f}' for v in values)
-  return f'{100 * mean:.{digits}f} % ± {100 * std:.{digits}f} ({each})'
-
-
 def reward_shape() -> str:
   """docs/launch.md's reward study: each reward over its training seeds."""
   lines = ['| reward | training seeds | held-out TW50 window | time at 40–50 km '
@@ -639,6 +586,7 @@ def reward_shape() -> str:
            '| ' + ' | '.join(f'{label}: TW50 window'
                               for _, label in REAL_WINDS_SOURCES) + ' |',
            '|---' * (7 + len(REAL_WINDS_SOURCES)) + '|']
+  over = tables_lib.over_seeds_cell
   for label, cell in _reward_cells():
     rows = _seeds_done(cell)
     if not rows:
@@ -647,32 +595,19 @@ def reward_shape() -> str:
     for source, _ in REAL_WINDS_SOURCES:
       flown = [r['real_winds'][source]['tw50_window'] for r in rows
                if source in r.get('real_winds', {})]
-      real.append(_over_seeds(flown) + (
+      real.append(over(flown) + (
           f' [{len(flown)} seeds]' if len(flown) != len(rows) else '')
                   if flown else '—')
     oor = ' / '.join(f"{r['held_out_out_of_resources_pct']:.0f}"
                      for r in rows)
     lines.append(
         f'| {label} | {len(rows)} '
-        f"| {_over_seeds([r['held_out_tw50_window'] for r in rows])} "
-        f"| {_over_seeds([r['edge_fraction'] for r in rows])} "
-        f"| {_over_seeds([r['core_fraction'] for r in rows])} "
-        f"| {_over_seeds([r['edge_share_of_inside'] for r in rows], 0)} "
+        f'| {over([r["held_out_tw50_window"] for r in rows])} '
+        f'| {over([r["edge_fraction"] for r in rows])} '
+        f'| {over([r["core_fraction"] for r in rows])} '
+        f'| {over([r["edge_share_of_inside"] for r in rows], 0)} '
         f'| {oor} % | ' + ' | '.join(real) + ' |')
   return '\n'.join(lines)
-
-
-def _paired(a: dict, b: dict, where: pathlib.Path = REWARD_SHAPE) -> str:
-  """b − a on the same flights: mean ± standard error, ahead/behind."""
-  if a['seeds'] != b['seeds']:
-    raise ValueError(f'{where}: paired rows fly other seeds')
-  diff = [y - x for x, y in zip(a['tw50_window'], b['tw50_window'])]
-  mean = sum(diff) / len(diff)
-  se = (math.sqrt(sum((d - mean) ** 2 for d in diff) / (len(diff) - 1)
-                  / len(diff)) if len(diff) > 1 else 0.0)
-  ahead = sum(d > 0 for d in diff)
-  behind = sum(d < 0 for d in diff)
-  return f'{100 * mean:+.1f} ± {100 * se:.1f} ({ahead} / {behind})'
 
 
 def reward_shape_paired() -> str:
@@ -692,8 +627,11 @@ def reward_shape_paired() -> str:
     for source, _ in REAL_WINDS_SOURCES:
       ra = a.get('real_winds', {}).get(source, {}).get('per_seed')
       rb = b.get('real_winds', {}).get(source, {}).get('per_seed')
-      real.append(_paired(ra, rb) if ra and rb else '—')
-    lines.append(f"| {key} | {_paired(a['held_out_per_seed'], b['held_out_per_seed'])} | "
+      real.append(tables_lib.paired_cell(ra, rb, REWARD_SHAPE) if ra and rb
+                  else '—')
+    held = tables_lib.paired_cell(a['held_out_per_seed'],
+                                  b['held_out_per_seed'], REWARD_SHAPE)
+    lines.append(f'| {key} | {held} | '
                  + ' | '.join(real) + ' |')
   return '\n'.join(lines)
 
@@ -718,26 +656,8 @@ TABLES: Dict[str, Callable[[], str]] = {
     'wind-compare': wind_compare,
     'reward-shape': reward_shape,
     'reward-shape-paired': reward_shape_paired,
-    # Issue 47's learned controllers: learned.py beside this file.
-    'dagger': lambda: _learned().dagger(),
-    'observation': lambda: _learned().observation(),
-    'observation-curve': lambda: _learned().observation_curve(),
-    'learned-short': lambda: _learned().learned_short(),
-    'planner-value': lambda: _learned().planner_value(),
-    'ensemble': lambda: _learned().ensemble(),
-    'ensemble-lookahead': lambda: _learned().ensemble_lookahead(),
-    'ensemble-replicates': lambda: _learned().ensemble_replicates(),
-    'ensemble-realistic': lambda: _learned().ensemble_realistic(),
+    **learned.TABLES,  # Issue 47's learned controllers.
 }
-
-
-def _learned():
-  """`learned.py` beside this file (loaded by path, as MkDocs loads hooks)."""
-  spec = importlib.util.spec_from_file_location(
-      'ble_latex_docs_learned', pathlib.Path(__file__).with_name('learned.py'))
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
 
 
 def fill(text: str, where: str = 'text') -> str:
