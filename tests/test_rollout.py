@@ -3,11 +3,17 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from ble_latex.envs import jax_env
 from ble_latex.envs import rollout
 
 
+# An equivalence of two compiled flights (~26 s on the idle 2-core machine,
+# 2026-12-05, benchmarks/suite_time.sh): with the default suite's longest
+# tests in `make test-ci` (pytest.ini's `ci` marker).
+@pytest.mark.slow
+@pytest.mark.ci
 def test_fly_is_the_strides_flown_one_by_one():
   # A closed-loop policy (it reads the observation and the per-stride
   # input) flown by `fly` in one scan gives, bit for bit, the strides flown
