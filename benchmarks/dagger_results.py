@@ -31,6 +31,7 @@ from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.run import dagger
 from ble_latex.run import episode_log
+from ble_latex.run import gin_binding
 from ble_latex.run import metrics
 
 FLAGS = flags.FlagValues()
@@ -73,7 +74,7 @@ def _main(argv: Sequence[str]) -> int:
   try:
     return _write()
   except (OSError, ValueError, KeyError) as error:
-    raise cli.CommandFailure(cli.one_line(error)) from error
+    raise cli.CommandFailure(gin_binding.one_line(error)) from error
 
 
 def _write() -> int:

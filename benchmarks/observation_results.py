@@ -32,6 +32,7 @@ from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.envs import env_params
 from ble_latex.run import episode_log
+from ble_latex.run import gin_binding
 from ble_latex.run import metrics
 from ble_latex.run import records
 
@@ -106,7 +107,7 @@ def _main(argv: Sequence[str]) -> int:
         'references': {name: metrics.per_seed_summary(path)
                        for name, path in references.items()}}
   except (OSError, ValueError, KeyError, TypeError) as error:
-    raise cli.CommandFailure(cli.one_line(error)) from error
+    raise cli.CommandFailure(gin_binding.one_line(error)) from error
   safe_io.atomic_write(FLAGS.json, json.dumps(record, indent=1) + '\n')
   for name, run in record['runs'].items():
     for seed, entry in run['seeds'].items():

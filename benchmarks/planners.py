@@ -36,6 +36,7 @@ from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.run import episode_log
 from ble_latex.run import planner_batch
+from ble_latex.run import wind_file
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('agent', 'latex_mpc', 'latex_mpc, latex_mpc_oracle or '
@@ -166,7 +167,7 @@ def _main(argv: Sequence[str]) -> int:
     cli.output_name(FLAGS.name_override, '--name_override')
   gin_binding.bind_gin(None, None, FLAGS.gin_file, FLAGS.gin_bindings)
   # --wind_file: its bindings (and the suite's dates) join the user's.
-  bindings = [*FLAGS.gin_bindings, *cli.era5_bindings(
+  bindings = [*FLAGS.gin_bindings, *wind_file.era5_bindings(
       FLAGS.wind_file, None, suites.era5_dates(FLAGS.suite))]
   if len(bindings) > len(FLAGS.gin_bindings):
     gin_binding.bind_gin(None, None, FLAGS.gin_file, bindings)
@@ -293,7 +294,8 @@ def _main(argv: Sequence[str]) -> int:
 
 def check() -> None:
   """An unknown suite or a bad agent seed: one line, exit status 2."""
-  cli.check_suite(FLAGS.suite)
+  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
+  suites.check_suite(FLAGS.suite)
   if not 0 <= FLAGS.seed < 2**31:  # The planners take an int32 seed.
     raise cli.CommandUsageError(f'--seed must be in [0, 2**31), got '
                                 f'{FLAGS.seed}')

@@ -39,6 +39,7 @@ import numpy as np
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
+from ble_latex.run import gin_binding
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_multi_string('policy', ['shipped'], 'NAME=PATH of a SAC policy '
@@ -211,7 +212,8 @@ def _main(argv: Sequence[str]) -> int:
     try:
       rows.append(_time(name, path, FLAGS.steps, h))
     except ValueError as error:  # errors.ConfigError is one.
-      raise cli.CommandFailure(f'--policy {name}: {cli.one_line(error)}')
+      raise cli.CommandFailure(
+          f'--policy {name}: {gin_binding.one_line(error)}')
     print(f"{name}: median {1e3 * rows[-1]['median_s']:.3f} ms, p90 "
           f"{1e3 * rows[-1]['p90_s']:.3f} ms per decision")
   observing = []

@@ -9,8 +9,9 @@ Flies the suite's (--suite, default latex_small) first --seeds seeds of
 each agent on a real source (`ble_latex.wind.sources.SOURCES`, a GFS grid)
 as that script's `--station_mode=per_seed` does: `eval_lib.evaluate` (the
 batched path for the JAX-core agents) on the `--wind_file` bindings
-(`cli.era5_bindings`) plus `wind_file.cell_station_bindings` of a per-seed cell
-(seed s at station s; --station_bindings adds bindings, recorded), every
+(`wind_file.era5_bindings`) plus `wind_file.cell_station_bindings` of a
+per-seed cell (seed s at station s; --station_bindings adds bindings,
+recorded), every
 flight time-invariant (the snapshot is the forecast, the truth the snapshot
 plus BLE's simplex noise). The eval records hold each flight's path in its
 station's frame (x east, y north [km]); `jax_env.flight_stations` gives each
@@ -95,8 +96,9 @@ def fly(path: str, agent: str, seeds: Sequence[int], suite: str,
   from ble_latex.run import suites
   # pylint: enable=g-import-not-at-top
   gin.clear_config()  # `era5_bindings` reads what gin binds.
-  bindings = (cli.era5_bindings(path, suites.era5_dates(suite), 'eval') +
-              wind_file.cell_station_bindings(cell))
+  bindings = (
+      wind_file.era5_bindings(path, suites.era5_dates(suite), 'eval') +
+      wind_file.cell_station_bindings(cell))
   agent_obj, env = eval_lib.build(eval_lib.EvalSpec(
       agent=agent, gin_bindings=tuple(bindings)))
   began = time.perf_counter()

@@ -67,8 +67,10 @@ from ble_latex import gin_values
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 from ble_latex.run import episode_log
+from ble_latex.run import gin_binding
 from ble_latex.run import metrics
 from ble_latex.run import real_cells
+from ble_latex.run import run_dir
 from ble_latex.run import seed_runs
 from ble_latex.run import selection
 from ble_latex.wind import sources
@@ -139,7 +141,7 @@ def edges_of(path: str) -> Dict[str, Any]:
             **metrics.edge_summary(held)}
   except (ValueError, KeyError, TypeError, statistics.StatisticsError) as e:
     raise cli.CommandFailure(f'--edges_of: {path} is not a usable eval file '
-                             f'({cli.one_line(e)})') from e
+                             f'({gin_binding.one_line(e)})') from e
 
 
 def _held_out(suite_name: str, episodes: Optional[int], policy_path: str,
@@ -266,7 +268,7 @@ def _main(argv: Sequence[str]) -> int:
   if not args.base_dir:
     raise cli.CommandUsageError('--base_dir is required')
   # Training seeds in [0, 2**32), checked before any child is started.
-  seeds = cli.training_seeds(args.seeds)
+  seeds = run_dir.training_seeds(args.seeds)
   for reward in args.rewards:
     reward_bindings(reward, args.tanh_scale_km)
   if not gin_values.is_positive(args.tanh_scale_km):

@@ -32,6 +32,7 @@ from absl import flags
 from ble_latex.cli import common as cli
 from ble_latex.run import run_dir
 from ble_latex.run import selection
+from ble_latex.run import wind_file
 
 FLAGS = flags.FlagValues()
 flags.DEFINE_string('base_dir', None, 'The training run.', flag_values=FLAGS)
@@ -108,8 +109,8 @@ def select(base_dir: str, every: int, include_newest: bool,
                  if v.get('seeds') == [seeds[0], seeds[-1]] and
                  'tw50_window_mean' in v}
   gin_binding.bind_gin('sac_pretrained', None, [], [])
-  era5 = cli.era5_bindings(era5_path, None,
-                           suites.era5_dates('latex_validation'))
+  era5 = wind_file.era5_bindings(
+      era5_path, None, suites.era5_dates('latex_validation'))
   if era5:
     gin_binding.bind_gin('sac_pretrained', None, [], era5)
     results_path = os.path.join(base_dir, 'validation_era5.json')

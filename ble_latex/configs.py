@@ -12,9 +12,13 @@ working directory, which gin searches first), so a shipped gin file can
 the command runs; such a file imports `ble_latex.configs` first.
 """
 
+import os
 import pathlib
+from typing import Iterable, Optional
 
 import gin
+
+from ble_latex import errors
 
 _PACKAGE = pathlib.Path(__file__).resolve().parent
 _CANDIDATES = (_PACKAGE / 'gin_configs', _PACKAGE.parent / 'gin_configs')
@@ -56,3 +60,26 @@ def gin_file(name: str) -> str:
     raise FileNotFoundError(
         f'No gin file {name!r} in {gin_dir()}; available: {available}')
   return str(path)
+
+
+def check_gin_files(paths: Iterable[Optional[str]]) -> None:
+  """Each gin file exists as given or under BLE's folder (as gin finds it).
+
+  Raises:
+    errors.UsageError: One line naming the missing file (exit 2).
+  """
+  from ble_latex import quiet  # pylint: disable=g-import-not-at-top
+  with quiet.third_party_noise():  # BLE's package import registers gym envs.
+    import balloon_learning_environment  # pylint: disable=g-import-not-at-top
+  ble_parent = os.path.dirname(
+      os.path.dirname(balloon_learning_environment.__file__))
+  shipped = [p.name for p in gin_dir().glob('*.gin')]
+  for path in paths:
+    if path is None or os.path.isfile(path) or os.path.isfile(
+        os.path.join(ble_parent, path)):
+      continue
+    hint = (f' (shipped: {gin_file(os.path.basename(path))})'
+            if os.path.basename(path) in shipped else '')
+    raise errors.UsageError(
+        f'{errors.unknown("gin file", path, shipped)}{hint}; shipped files '
+        f'live in {gin_dir()}')

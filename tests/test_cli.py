@@ -10,6 +10,7 @@ import pytest
 
 from ble_latex import errors
 from ble_latex.cli import common as cli
+from ble_latex.run import gin_binding
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -20,17 +21,60 @@ def _python(code: str, timeout: float = 300) -> subprocess.CompletedProcess:
 
 
 def test_unknown_names_one_line_with_guess():
-  message = cli.unknown('suite', 'latex_tinyy', ['latex_tiny', 'micro_eval'])
+  message = errors.unknown('suite', 'latex_tinyy', ['latex_tiny', 'micro_eval'])
   assert message == ("unknown suite 'latex_tinyy' (did you mean 'latex_tiny'?)"
                      '; valid: latex_tiny, micro_eval')
   assert '\n' not in message
 
 
 def test_gin_usage_message():
-  assert cli.gin_usage_message(ValueError(
+  assert gin_binding.gin_usage_message(ValueError(
       "No configurable matching 'nope'.\n  In bindings string line 1")
                               ).startswith("unknown gin configurable 'nope'")
-  assert cli.gin_usage_message(ValueError('other')) is None
+  assert gin_binding.gin_usage_message(ValueError('other')) is None
+
+
+def test_library_checks_below_cli_raise_usage_errors(tmp_path, capsys):
+  """The name and seed checks live beside their registries (not in cli/):
+  they raise `errors.UsageError`, which `run_absl` prints as one line with
+  exit status 2, as it does the commands' own `CommandUsageError`."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import configs
+  from ble_latex.ble import gym_registration
+  from ble_latex.run import distributed
+  from ble_latex.run import run_dir
+  from ble_latex.run import suites
+  # pylint: enable=g-import-not-at-top
+  assert issubclass(cli.CommandUsageError, errors.UsageError)
+  assert not issubclass(errors.UsageError, ValueError)
+  checks = [
+      (lambda: suites.check_suite('latex_tinyy'),
+       "unknown suite 'latex_tinyy' (did you mean 'latex_tiny'?)"),
+      (lambda: gym_registration.check_env_name('LatexBaloon-v0'),
+       "unknown env 'LatexBaloon-v0' (did you mean 'LatexBalloon-v0'?)"),
+      (lambda: configs.check_gin_files([str(tmp_path / 'latex_env.gin')]),
+       f"unknown gin file '{tmp_path / 'latex_env.gin'}'"),
+      (lambda: run_dir.training_seeds(['1', '1']),
+       "--seeds takes distinct integers >= 0, got ['1', '1']"),
+      (lambda: run_dir.training_seed(2**32), '--seed'),
+      (lambda: distributed.check_ray_flags(None, 2),
+       '--ray_num_cpus needs --ray_address=local'),
+  ]
+  for check, start in checks:
+    with pytest.raises(errors.UsageError) as raised:
+      check()
+    assert str(raised.value).startswith(start), str(raised.value)
+    assert '\n' not in str(raised.value)
+  assert run_dir.training_seeds(['3', '0']) == [3, 0]
+  suites.check_suite('latex_tiny')
+  distributed.check_ray_flags(None, None)
+
+  def refused(unused_argv):
+    suites.check_suite('nope')
+
+  from absl import flags  # pylint: disable=g-import-not-at-top
+  assert cli.run_absl(refused, 'toy', flags.FlagValues(), []) == 2
+  assert capsys.readouterr().err.startswith("toy: unknown suite 'nope'")
 
 
 def _absl_cases(module: str, cases, capsys):

@@ -31,12 +31,12 @@ from ble_latex import configs
 from ble_latex import errors
 from ble_latex import gin_aliases
 from ble_latex.ble import gridded_field
-from ble_latex.cli import common as cli
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.envs import winds
 from ble_latex.run import gin_binding
 from ble_latex.run import suites
+from ble_latex.run import wind_file
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 import test_gridded
@@ -138,9 +138,9 @@ def test_drawn_starts_fall_inside_their_dates(era5_path):
 def test_bad_start_dates_are_one_line(era5_path, dates, message):
   with pytest.raises(errors.ConfigError, match=message) as raised:
     gridded_field.GriddedWindField(path=era5_path, start_dates=dates)
-  # One line (gin appends its call note; commands print `cli.one_line`).
-  assert message.split('|')[0] in cli.one_line(raised.value)
-  assert cli.one_line(raised.value).startswith('GriddedWindField.start_dates = ')
+  # One line (gin appends its call note; commands print `gin_binding.one_line`).
+  assert message.split('|')[0] in gin_binding.one_line(raised.value)
+  assert gin_binding.one_line(raised.value).startswith('GriddedWindField.start_dates = ')
 
 
 # -- check_params: the grid. -------------------------------------------------
@@ -254,24 +254,24 @@ def test_flags_bind_the_path_and_the_commands_dates(era5_path):
   gin.clear_config()
   try:
     gin_binding.bind_gin(None, None, [], [])
-    assert cli.era5_bindings(None, None, 'train') == []  # No ERA5: none.
-    with pytest.raises(cli.CommandUsageError, match='--era5_dates needs'):
-      cli.era5_bindings(None, 'eval', 'train')
-    bindings = cli.era5_bindings(era5_path, None, 'train')
+    assert wind_file.era5_bindings(None, None, 'train') == []  # No ERA5: none.
+    with pytest.raises(errors.UsageError, match='--era5_dates needs'):
+      wind_file.era5_bindings(None, 'eval', 'train')
+    bindings = wind_file.era5_bindings(era5_path, None, 'train')
     assert bindings == [
         'latex_episode.wind_field_factory = @GriddedWindField',
         f'GriddedWindField.path = {era5_path!r}',
         "GriddedWindField.start_dates = 'train'"]
-    assert cli.era5_bindings(era5_path, '2022-11-03,2022-11-09', 'x')[-1] == (
+    assert wind_file.era5_bindings(era5_path, '2022-11-03,2022-11-09', 'x')[-1] == (
         "GriddedWindField.start_dates = ('2022-11-03', '2022-11-09')")
-    assert cli.era5_bindings(era5_path, 'all', 'x')[-1] == (
+    assert wind_file.era5_bindings(era5_path, 'all', 'x')[-1] == (
         'GriddedWindField.start_dates = None')
-    with pytest.raises(cli.CommandUsageError, match='--era5_dates'):
-      cli.era5_bindings(era5_path, 'later', 'train')
+    with pytest.raises(errors.UsageError, match='--era5_dates'):
+      wind_file.era5_bindings(era5_path, 'later', 'train')
     # A range the user's gin chose stays.
     gin_binding.bind_gin(None, None, [configs.gin_file('paper_era5.gin')],
                          ["GriddedWindField.start_dates = 'validation'"])
-    assert cli.era5_bindings(None, None, 'eval') == []
+    assert wind_file.era5_bindings(None, None, 'eval') == []
   finally:
     gin.clear_config()
 

@@ -12,7 +12,9 @@ the layer rules:
 - no module is over 800 lines;
 - the modules import each other in no circle;
 - the scripts of benchmarks/ import only the package: no `sys.path` edit,
-  no import of another script (issue 66).
+  no import of another script (issue 66);
+- `cli/common.py` defines only the command convention (`CLI_CONVENTION`)
+  and the scripts take only that from it, and no other `cli/` module.
 
 Nothing is imported or run: the test reads source text only.
 """
@@ -299,6 +301,107 @@ def test_the_script_checks_see_sys_path_edits_and_script_imports(tmp_path):
   assert _edits_sys_path(probe) == [2, 4]
   assert 'real_winds' in _imports(probe, package='benchmarks')
   assert {'batch_speed.py', 'gpu/decode_grib.py'} <= set(_scripts())
+
+
+# -- cli/ holds the commands: library logic lives in the package. -----------
+# `ble_latex/cli/common.py` is the command convention (absl plumbing, usage
+# errors, flag definitions and help texts) and holds nothing else: every name
+# it defines is one of these. A script of benchmarks/ uses from it only these
+# and imports no other cli/ module (a command's library is in the package).
+CLI_COMMON = PACKAGE / 'cli' / 'common.py'
+CLI_CONVENTION = frozenset({
+    'HELP_FLAGS', 'EXIT_USAGE', 'EXIT_FAILURE', 'LazyModule', 'lazy_module',
+    'CommandUsageError', 'CommandFailure', 'usage', 'usage_error',
+    'help_text', '_exit_status', 'run_absl', 'number_flags_message',
+    'quiet_init_callbacks', 'output_name', 'prepare_output_dir',
+    'WIND_FILE_HELP', 'ERA5_DATES_HELP', 'GIN_FILE_HELP',
+    'GIN_BINDINGS_HELP', 'define_gin_flags', 'STATION_HELP',
+    'define_station_flags'})
+
+
+def _defined_names(path: pathlib.Path) -> Set[str]:
+  """Names a module defines at its top level (functions, classes, values)."""
+  tree = ast.parse(path.read_text(encoding='utf-8'), str(path))
+  names = set()
+  for node in tree.body:
+    if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef,
+                         ast.ClassDef)):
+      names.add(node.name)
+    elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+      targets = node.targets if isinstance(node, ast.Assign) else [
+          node.target]
+      names |= {t.id for t in targets if isinstance(t, ast.Name)}
+  return names
+
+
+def _cli_uses(path: pathlib.Path) -> Tuple[Set[str], Set[str]]:
+  """A script's (names it takes from `ble_latex.cli.common`, other cli/
+  modules it imports)."""
+  tree = ast.parse(path.read_text(encoding='utf-8'), str(path))
+  aliases, used, others = set(), set(), set()
+  for node in ast.walk(tree):
+    if isinstance(node, ast.ImportFrom) and node.module == 'ble_latex.cli':
+      for alias in node.names:
+        if alias.name == 'common':
+          aliases.add(alias.asname or alias.name)
+        else:
+          others.add(alias.name)
+    elif (isinstance(node, ast.ImportFrom) and node.module
+          == 'ble_latex.cli.common'):
+      used |= {alias.name for alias in node.names}
+    elif isinstance(node, ast.ImportFrom) and (node.module or '').startswith(
+        'ble_latex.cli.'):
+      others.add(node.module)
+    elif isinstance(node, ast.Import):
+      for alias in node.names:
+        if alias.name == 'ble_latex.cli.common' and alias.asname:
+          aliases.add(alias.asname)
+        elif alias.name.startswith('ble_latex.cli.'):
+          others.add(alias.name)
+  for node in ast.walk(tree):
+    if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+        and node.value.id in aliases):
+      used.add(node.attr)
+  return used, others
+
+
+def test_cli_common_holds_only_the_command_convention():
+  extra = sorted(_defined_names(CLI_COMMON) - CLI_CONVENTION)
+  assert not extra, (
+      f'{extra}: ble_latex/cli/common.py is the command convention; move '
+      'library logic into the package (or add a convention name to '
+      'CLI_CONVENTION)')
+
+
+def test_benchmark_scripts_take_only_the_convention_from_cli():
+  found = {}
+  for name, path in _scripts().items():
+    used, others = _cli_uses(path)
+    bad = sorted(used - CLI_CONVENTION) + sorted(others)
+    if bad:
+      found[name] = bad
+  assert not found, (
+      f'{found}: scripts take only the command convention from '
+      'ble_latex.cli.common (CLI_CONVENTION); call library logic in its home '
+      'in the package')
+
+
+def test_the_cli_checks_see_a_library_call_through_cli(tmp_path):
+  # The checks above cannot pass vacuously.
+  probe = tmp_path / 'probe.py'
+  probe.write_text('from ble_latex.cli import common as cli\n'
+                   'from ble_latex.cli import plot\n'
+                   'import ble_latex.cli.common as c2\n'
+                   'from ble_latex.cli.common import run_absl, one_line\n'
+                   'cli.run_absl(None)\n'
+                   'def f():\n  return cli.era5_bindings(None, None, "x")\n'
+                   'c2.station_bindings(1, 2)\n', encoding='utf-8')
+  used, others = _cli_uses(probe)
+  assert used - CLI_CONVENTION == {'era5_bindings', 'station_bindings',
+                                   'one_line'}
+  assert others == {'plot'}
+  assert {'run_absl', 'define_gin_flags', 'CommandUsageError'} <= (
+      _defined_names(CLI_COMMON))
 
 
 # -- tests load a script of benchmarks/ only to run its command line. --------

@@ -6,8 +6,8 @@ import os
 import gin
 import pytest
 
+from ble_latex import errors
 from ble_latex import gin_aliases
-from ble_latex.cli import common as cli
 from ble_latex.run import gin_binding
 from ble_latex.run import wind_file
 
@@ -48,17 +48,17 @@ def test_a_cells_bindings():
 
 
 def test_the_commands_bindings_come_from_here():
-  """--wind_file and --station_lat/--station_lon (`cli/common.py`)."""
+  """--wind_file and --station_lat/--station_lon (`wind_file.era5_bindings`, `station_bindings`)."""
   gin.clear_config()
   try:
     gin_binding.bind_gin(None, None, [], [])
-    assert cli.station_bindings(1.5, 2.0) == wind_file.fixed_station(1.5, 2.0)
-    bindings = cli.era5_bindings(HILO, None, 'eval')
+    assert wind_file.station_bindings(1.5, 2.0) == wind_file.fixed_station(1.5, 2.0)
+    bindings = wind_file.era5_bindings(HILO, None, 'eval')
     assert bindings[:2] == wind_file.file_bindings(os.path.abspath(HILO))
     # A sounding's named site (`stations.file_defaults`), no start range.
     assert all(b.startswith('GriddedWindField.') for b in bindings[2:])
-    with pytest.raises(cli.CommandUsageError, match='needs ERA5 winds'):
-      cli.era5_bindings(None, 'train', 'eval')
+    with pytest.raises(errors.UsageError, match='needs ERA5 winds'):
+      wind_file.era5_bindings(None, 'train', 'eval')
   finally:
     gin.clear_config()
 

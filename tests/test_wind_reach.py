@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
-from ble_latex.cli import common as cli
 from ble_latex.flight import params as flight_params_lib
+from ble_latex.run import wind_file
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import reach
@@ -94,20 +94,20 @@ def test_a_sounding_without_site_or_time_warns_in_one_line(caplog):
 
 
 def test_station_flags_bind_a_fixed_station():
-  assert cli.station_bindings(None, None) == []
-  assert cli.station_bindings(51.5, -1.0) == [
+  assert wind_file.station_bindings(None, None) == []
+  assert wind_file.station_bindings(51.5, -1.0) == [
       "GriddedWindField.stations = 'fixed'", 'GriddedWindField.center_lat = 51.5',
       'GriddedWindField.center_lon = -1.0']
   for lat, lon in ((51.5, None), (None, 1.0), (91.0, 0.0)):
-    with pytest.raises(cli.CommandUsageError):
-      cli.station_bindings(lat, lon)
-  station = cli.station_bindings(40.0, -103.0)
-  bindings = cli.era5_bindings(GFS, 'all', 'eval', station=station)
+    with pytest.raises(errors.UsageError):
+      wind_file.station_bindings(lat, lon)
+  station = wind_file.station_bindings(40.0, -103.0)
+  bindings = wind_file.era5_bindings(GFS, 'all', 'eval', station=station)
   assert bindings[2:5] == station  # Instead of per-seed stations.
-  assert "GriddedWindField.stations = 'per_seed'" in cli.era5_bindings(
+  assert "GriddedWindField.stations = 'per_seed'" in wind_file.era5_bindings(
       GFS, 'all', 'eval')
-  with pytest.raises(cli.CommandUsageError, match='needs ERA5 winds'):
-    cli.era5_bindings(None, None, 'eval', station=station)
+  with pytest.raises(errors.UsageError, match='needs ERA5 winds'):
+    wind_file.era5_bindings(None, None, 'eval', station=station)
 
 
 @pytest.mark.parametrize('command', ['eval', 'train', 'launch'])

@@ -27,11 +27,11 @@ def _series(tmp_path):
 def test_the_bound_series_names_its_run_and_lead_times(series):
   """What eval's records and train's run.json write (`env_params.
   wind_source`), as the commands bind --wind_file."""
-  from ble_latex.cli import common as cli  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.run import gin_binding  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import wind_file  # pylint: disable=g-import-not-at-top
   gin_binding.bind_gin(None, None, [], [])
-  bindings = cli.era5_bindings(series, None, 'eval')
+  bindings = wind_file.era5_bindings(series, None, 'eval')
   gin_binding.bind_gin(None, None, [], bindings)
   assert env_params.wind_source() == f"{RUN}: ['{series}']"
 

@@ -298,18 +298,18 @@ def test_a_soundings_date_is_its_flights_and_label(tmp_path):
 
 
 def test_wind_file_defaults(tmp_path):
-  from ble_latex.cli import common  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import wind_file  # pylint: disable=g-import-not-at-top
   gin.clear_config()
   try:
-    assert common.wind_file_defaults(GFS_NC) == [
+    assert wind_file.file_defaults(GFS_NC) == [
         "GriddedWindField.stations = 'per_seed'"]
-    assert common.wind_file_defaults(BOISE) == []  # No site in the file.
-    assert common.wind_file_defaults(_page(tmp_path)) == [
+    assert wind_file.file_defaults(BOISE) == []  # No site in the file.
+    assert wind_file.file_defaults(_page(tmp_path)) == [
         'GriddedWindField.center_lat = 43.56',
         'GriddedWindField.center_lon = -116.21']
     gin.parse_config(['import ble_latex.wind.gridded',
                       'GriddedWindField.center_lat = 40.0'])
-    assert common.wind_file_defaults(GFS_NC) == []  # The user's station.
+    assert wind_file.file_defaults(GFS_NC) == []  # The user's station.
   finally:
     gin.clear_config()
 

@@ -117,14 +117,14 @@ def test_the_default_split_is_not_applied_to_a_series_other_than_era5(
   """eval's and train's default ERA5 splits refused a GFS series (the
   'eval' dates are not in it); they apply to ERA5 files only, and a given
   --era5_dates still does (refused in one line when the file lacks it)."""
-  from ble_latex.cli import common as cli  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import wind_file  # pylint: disable=g-import-not-at-top
   path = _write_steps(tmp_path / 'steps.grib2', HOURS)
   gin.clear_config()
   try:
     for split in ('eval', 'train'):
-      bindings = cli.era5_bindings(path, None, split)
+      bindings = wind_file.era5_bindings(path, None, split)
       assert not any('start_dates' in b for b in bindings), bindings
-    assert cli.era5_bindings(path, 'all', 'eval')[-1] == (
+    assert wind_file.era5_bindings(path, 'all', 'eval')[-1] == (
         'GriddedWindField.start_dates = None')
   finally:
     gin.clear_config()

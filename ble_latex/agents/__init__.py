@@ -42,6 +42,22 @@ PLANNER_AGENTS: FrozenSet[str] = frozenset(
 EVAL_ONLY_AGENTS: FrozenSet[str] = PLANNER_AGENTS | {'sac_ensemble'}
 
 
+def check_agent(name: str) -> None:
+  """Raises errors.UsageError (exit 2) unless `name` is a registered agent
+  (BLE's or ble_latex's, `register`)."""
+  # pylint: disable=g-import-not-at-top
+  from ble_latex import errors
+  from ble_latex import quiet
+  # pylint: enable=g-import-not-at-top
+  with quiet.third_party_noise():  # Imports dopamine's SAC, TF's GPU probe.
+    # pylint: disable-next=g-import-not-at-top
+    from balloon_learning_environment.agents import agent_registry
+    register()
+  if name not in agent_registry.REGISTRY:
+    raise errors.UsageError(
+        errors.unknown('agent', name, agent_registry.REGISTRY))
+
+
 def register() -> None:
   """Adds the ble_latex agents to BLE's `agent_registry.REGISTRY`.
 

@@ -63,3 +63,12 @@ def register_env() -> None:
       if hasattr(registration, 'namespace'):
         stack.enter_context(registration.namespace(None))
       registration.register(id=env_id, entry_point=entry_point)
+
+
+def check_env_name(name: str) -> None:
+  """Raises errors.UsageError (exit 2) unless gym knows the env `name`."""
+  import gym  # pylint: disable=g-import-not-at-top
+  from ble_latex import errors  # pylint: disable=g-import-not-at-top
+  valid = [k for k in gym.envs.registry if 'Balloon' in k]
+  if name not in gym.envs.registry:
+    raise errors.UsageError(errors.unknown('env', name, valid))

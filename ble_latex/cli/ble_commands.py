@@ -26,6 +26,7 @@ import ble_latex  # pylint: disable=unused-import  # Installs the fixes first.
 from ble_latex.cli import common as cli
 from ble_latex import errors
 from ble_latex import quiet
+from ble_latex.run import gin_binding
 
 COMMANDS = {
     'train': 'balloon_learning_environment.train',
@@ -58,10 +59,10 @@ def _latex_ble_eval(args: Sequence[str]) -> int:
   try:
     return ble_eval.main([prog, *args], prog)
   except (OSError, errors.BadFileError) as e:
-    print(f'{prog}: {cli.one_line(e)}', file=sys.stderr)
+    print(f'{prog}: {gin_binding.one_line(e)}', file=sys.stderr)
     return cli.EXIT_FAILURE
   except ValueError as e:  # A refused configuration (gin, agent, env).
-    message = cli.refused_config_message(e)
+    message = gin_binding.refused_config_message(e)
     if message is None:
       raise
     return cli.usage(prog, message)

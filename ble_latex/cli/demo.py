@@ -31,6 +31,7 @@ from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
 from ble_latex import agents
+from ble_latex import errors
 from ble_latex.cli import common as cli
 from ble_latex.run import episode_log
 from ble_latex.run import gin_binding
@@ -138,10 +139,10 @@ def run(output_dir: str, suite: str, baseline: str, run_dir: Optional[str],
 
 
 def _check() -> None:
-  cli.check_suite(FLAGS.suite)
-  cli.check_agent(FLAGS.baseline)
+  suites.check_suite(FLAGS.suite)
+  agents.check_agent(FLAGS.baseline)
   if FLAGS.baseline not in agents.BOX_AGENTS:
-    raise cli.CommandUsageError(cli.unknown(
+    raise cli.CommandUsageError(errors.unknown(
         'Box agent', FLAGS.baseline,
         agents.BOX_AGENTS - {TRAINED, LEARNED, 'sac'}))
   if FLAGS.run_dir is not None and FLAGS.train_episodes:

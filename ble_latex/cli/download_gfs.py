@@ -21,6 +21,7 @@ from typing import Optional, Sequence
 from absl import flags
 
 from ble_latex.cli import common as cli
+from ble_latex.run import gin_binding
 from ble_latex.wind import gfs_requests as gfs
 
 _PROG = 'ble-latex-download-gfs'
@@ -120,14 +121,14 @@ def _main(argv: Sequence[str]) -> int:
                          pause_s=args.pause_s,
                          log=lambda line: print(line, flush=True))
   except OSError as error:
-    print(f'{_PROG}: {cli.one_line(error)}', file=sys.stderr)
+    print(f'{_PROG}: {gin_binding.one_line(error)}', file=sys.stderr)
     return 1
   from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
   try:  # The files must fly: load them as `--wind_file` would.
     data = gridded.load(paths)
   except (OSError, ValueError) as error:
-    print(f'{_PROG}: the downloaded files do not load: {cli.one_line(error)}',
-          file=sys.stderr)
+    print(f'{_PROG}: the downloaded files do not load: '
+          f'{gin_binding.one_line(error)}', file=sys.stderr)
     return 1
   pattern = f'{args.output_dir.rstrip("/")}/{gfs.run_glob(run)}'
   print(f'wrote {len(paths)} file(s): {data.description}, '

@@ -47,8 +47,12 @@ from absl import app
 from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex import agents
+from ble_latex import configs
+from ble_latex.ble import gym_registration
 from ble_latex.cli import common as cli
 from ble_latex.run import gin_binding
+from ble_latex.run import wind_file
 
 # Imported on first use, after the flags are parsed (`--help` stays fast).
 batch_eval = cli.lazy_module('ble_latex.run.batch_eval')
@@ -117,9 +121,9 @@ def _main(argv: Sequence[str]) -> None:
   # bindings travel in the spec (Ray workers bind the same).
   gin_binding.bind_gin(FLAGS.agent, FLAGS.agent_gin_file, FLAGS.gin_file,
                        FLAGS.gin_bindings)
-  era5_bindings = cli.era5_bindings(
+  era5_bindings = wind_file.era5_bindings(
       FLAGS.wind_file, FLAGS.era5_dates, suites.era5_dates(FLAGS.suite),
-      station=cli.station_bindings(FLAGS.station_lat, FLAGS.station_lon))
+      station=wind_file.station_bindings(FLAGS.station_lat, FLAGS.station_lon))
   spec = eval_lib.EvalSpec(
       agent=FLAGS.agent, env_name=FLAGS.env_name,
       agent_gin_file=FLAGS.agent_gin_file, gin_files=tuple(FLAGS.gin_file),
@@ -189,11 +193,11 @@ def _fly(spec: 'eval_lib.EvalSpec', path: str, agent: Any, env: Any) -> None:
 
 def check() -> None:
   """Unknown agent, suite, env or gin file: one line, exit status 2."""
-  cli.check_agent(FLAGS.agent)
-  cli.check_suite(FLAGS.suite)
-  cli.check_env_name(FLAGS.env_name)
-  cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
-  cli.check_ray_flags(FLAGS.ray_address, FLAGS.ray_num_cpus)
+  agents.check_agent(FLAGS.agent)
+  suites.check_suite(FLAGS.suite)
+  gym_registration.check_env_name(FLAGS.env_name)
+  configs.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
+  distributed.check_ray_flags(FLAGS.ray_address, FLAGS.ray_num_cpus)
   eval_lib.shard([], FLAGS.num_shards, FLAGS.shard_idx)  # Before any lock.
 
 

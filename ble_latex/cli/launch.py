@@ -33,6 +33,7 @@ from typing import List, Optional, Sequence
 
 from absl import flags
 
+from ble_latex import agents
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
 
@@ -183,7 +184,7 @@ def _check() -> None:
     if value is not None and value < minimum:
       raise cli.CommandUsageError(f'--{name} must be >= {minimum}, got '
                                   f'{value}')
-  cli.check_agent(FLAGS.agent)
+  agents.check_agent(FLAGS.agent)
   cli.prepare_output_dir(FLAGS.output_dir, '--output_dir')
 
 

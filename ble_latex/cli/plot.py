@@ -74,16 +74,16 @@ status 0 on success, 1 on bad input (a message naming the file, record and
 field), 2 on bad flags.
 """
 
-import datetime as dt
 import json
 import os
 import sys
-from typing import Any, Dict, List, Optional, Sequence
+from typing import Any, List, Optional, Sequence
 
 from absl import flags
 import numpy as np
 
 import ble_latex  # pylint: disable=unused-import  # Fixes before BLE imports.
+from ble_latex import configs
 from ble_latex import quiet
 from ble_latex import safe_io
 from ble_latex.cli import common as cli
@@ -94,6 +94,7 @@ with quiet.third_party_noise():
   from ble_latex.plots import feasibility as feasibility_plots
   from ble_latex.plots import figures as plots
   from ble_latex.plots import maps
+  from ble_latex.plots import wind_samples
   from ble_latex.run import episode_log
   from ble_latex.run import gin_binding
   from ble_latex.run import records as records_lib
@@ -251,115 +252,6 @@ def wind_stats(f: flags.FlagValues) -> Any:
         points_per_field=f.wind_stats_points, region=f.wind_stats_region)
 
 
-def sample_wind_grid(field: Any, pressures_pa: Sequence[float], *,
-                     extent_km: float, num_points: int,
-                     elapsed: dt.timedelta) -> Dict[str, np.ndarray]:
-  """Forecast wind on a square x-y grid, one column query per grid point.
-
-  Args:
-    field: A reset BLE `wind_field.WindField` (generative, ERA5, ...).
-    pressures_pa: Pressure levels. # [Pa]
-    extent_km: Grid from -extent_km to +extent_km in x and y. # [km]
-    num_points: Grid points per side.
-    elapsed: Time since the field's start.
-
-  Returns:
-    x_km, y_km (num_points,) and u_mps, v_mps (levels, num_points, num_points),
-    indexed [level, y, x].
-  """
-  # pylint: disable-next=g-import-not-at-top
-  from balloon_learning_environment.utils import units
-  axis = np.linspace(-extent_km, extent_km, num_points)  # [km]
-  shape = (len(pressures_pa), num_points, num_points)
-  u, v = np.empty(shape), np.empty(shape)
-  for iy, y in enumerate(axis):
-    for ix, x in enumerate(axis):
-      column = field.get_forecast_column(
-          units.Distance(km=float(x)), units.Distance(km=float(y)),
-          list(pressures_pa), elapsed)
-      u[:, iy, ix] = [w.u.meters_per_second for w in column]
-      v[:, iy, ix] = [w.v.meters_per_second for w in column]
-  return {'x_km': axis, 'y_km': axis, 'u_mps': u, 'v_mps': v}
-
-
-def wind_rows(seeds: Sequence[int], pressures_pa: Sequence[float], *,
-              env_name: str, hours: float, extent_km: float,
-              num_points: int) -> List[plots.WindPanelRow]:
-  """Builds the env (gin already parsed), resets per seed, samples the wind.
-
-  Args:
-    seeds: Env seeds, one row each.
-    pressures_pa: Pressure levels, one column each. # [Pa]
-    env_name: A registered balloon env.
-    hours: Forecast time after the reset. # [h]
-    extent_km: Grid half-width. # [km]
-    num_points: Grid points per side.
-
-  Returns:
-    One `plots.WindPanelRow` per seed.
-
-  Raises:
-    flags.ValidationError: `env_name` is not a registered balloon env.
-  """
-  with quiet.third_party_noise():
-    import gym  # pylint: disable=g-import-not-at-top
-  try:
-    with quiet.third_party_noise():
-      env = gym.make(env_name)
-  except gym.error.Error as e:
-    raise flags.ValidationError(f'--env_name={env_name}: {e}') from e
-  try:
-    if not hasattr(env.unwrapped, 'arena'):
-      raise flags.ValidationError(f'--env_name={env_name}: not a balloon env '
-                                  '(it has no arena to take the wind from)')
-    return [_wind_row(env, seed, pressures_pa, hours=hours,
-                      extent_km=extent_km, num_points=num_points)
-            for seed in seeds]
-  finally:
-    env.close()
-
-
-def _wind_row(env: Any, seed: int, pressures_pa: Sequence[float], *,
-              hours: float, extent_km: float,
-              num_points: int) -> plots.WindPanelRow:
-  """Resets `env` to `seed` and samples its forecast wind."""
-  env.reset(seed=seed)
-  arena = env.unwrapped.arena
-  simulator_state = arena.get_simulator_state()
-  field = simulator_state.wind_field
-  atmosphere = simulator_state.atmosphere
-  state = simulator_state.balloon_state
-  elapsed = dt.timedelta(hours=hours)
-  grid = sample_wind_grid(field, pressures_pa, extent_km=extent_km,
-                          num_points=num_points, elapsed=elapsed)
-  altitudes = [atmosphere.at_pressure(p).height.kilometers
-               for p in pressures_pa]
-  when = (state.date_time + elapsed).strftime('%Y-%m-%d %H:%M UTC')
-  return plots.WindPanelRow(
-      title=f'seed {seed}, {when}\n{type(field).__name__}',
-      pressures_pa=np.asarray(pressures_pa, dtype=float),
-      altitudes_km=np.asarray(altitudes),
-      balloon_xy_km=(state.x.kilometers, state.y.kilometers), **grid)
-
-
-def format_summary(summary: Dict[str, Dict[str, float]]) -> str:
-  """One line per eval file: mean +- std of TW50, reward, resources."""
-  lines = []
-  for path, s in summary.items():
-    lines.append(
-        f'{path}: {s["episodes"]} seeds, '
-        f'TW50 (window) {100 * s["tw50_window_mean"]:.1f} +- '
-        f'{100 * s["tw50_window_std"]:.1f}%, '
-        f'TW50 (flown) {100 * s["tw50_mean"]:.1f} +- {100 * s["tw50_std"]:.1f}%, '
-        f'reward {s["reward_mean"]:.1f} +- {s["reward_std"]:.1f}, '
-        f'helium vented {s["helium_vented_mols_mean"]:.1f} +- '
-        f'{s["helium_vented_mols_std"]:.1f} mol, '
-        f'sand dropped {s["sand_dropped_kg_mean"]:.2f} +- '
-        f'{s["sand_dropped_kg_std"]:.2f} kg, '
-        f'out of resources {s["out_of_resources_pct"]:.0f}%')
-  return '\n'.join(lines)
-
-
 def _float_list(name: str, values: Sequence[str]) -> List[float]:
   try:
     out = [float(v) for v in values]
@@ -396,7 +288,8 @@ def run(f: flags.FlagValues) -> List[str]:
     The paths written, in drawing order.
 
   Raises:
-    flags.ValidationError: bad flag values (exit status 2).
+    flags.ValidationError, errors.UsageError: bad flag values (exit
+      status 2).
     OSError, ValueError: a missing or malformed input, naming the file (and
       record and field).
   """
@@ -448,9 +341,9 @@ def run(f: flags.FlagValues) -> List[str]:
   if wind_seeds:
     with quiet.third_party_noise():
       gin_binding.bind_gin(None, None, f.gin_file, f.gin_bindings)
-    rows = wind_rows(wind_seeds, pressures, env_name=f.env_name,
-                     hours=f.wind_hours, extent_km=f.wind_extent_km,
-                     num_points=f.wind_grid)
+    rows = wind_samples.wind_rows(
+        wind_seeds, pressures, env_name=f.env_name, hours=f.wind_hours,
+        extent_km=f.wind_extent_km, num_points=f.wind_grid)
   elif f.gin_file or f.gin_bindings:
     print('ble-latex-plot: --gin_file/--gin_bindings only affect '
           f'{WIND_FIELD} (give --wind_seed); ignored.', file=sys.stderr)
@@ -516,7 +409,7 @@ def run(f: flags.FlagValues) -> List[str]:
     evals[f.baseline_eval_json] = baseline
   if evals:
     summary = {path: metrics.summarize(r) for path, r in evals.items()}
-    print(format_summary(summary))
+    print(metrics.format_summary(summary))
     path = os.path.join(out, SUMMARY)
     safe_io.atomic_write(path, json.dumps(summary, indent=2))
     written.append(path)
@@ -554,7 +447,7 @@ def _check() -> None:
     raise cli.CommandUsageError('--wind_file (--era5_path) and '
                                 '--wind_stats_* need --wind_stats '
                                 '(--wind_file: or --feasibility)')
-  cli.check_gin_files(FLAGS.gin_file)
+  configs.check_gin_files(FLAGS.gin_file)
 
 
 def _main(argv: Sequence[str]) -> int:
@@ -564,9 +457,9 @@ def _main(argv: Sequence[str]) -> int:
   except flags.Error as e:
     raise cli.CommandUsageError(str(e)) from e
   except (OSError, ValueError) as e:
-    if isinstance(e, ValueError) and cli.refused_config_message(e):
+    if isinstance(e, ValueError) and gin_binding.refused_config_message(e):
       raise
-    print(f'ble-latex-plot: error: {cli.one_line(e)}', file=sys.stderr)
+    print(f'ble-latex-plot: error: {gin_binding.one_line(e)}', file=sys.stderr)
     return 1
   for path in written:
     print(f'wrote {path}')

@@ -26,8 +26,10 @@ from typing import Optional, Sequence
 from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex import configs
 from ble_latex.cli import common as cli
 from ble_latex.run import distributed
+from ble_latex.run import run_dir
 from ble_latex.run import sweep_lib
 
 # The command's own flags (`cli.run_absl`).
@@ -81,7 +83,7 @@ def settings_from_flags() -> sweep_lib.SweepSettings:
   space = sweep_lib.load_space(FLAGS.space) if FLAGS.space else None
   space = sweep_lib.merge(space, [sweep_lib.parse_grid_flag(g)
                                   for g in FLAGS.grid], FLAGS.num_samples)
-  seeds = tuple(cli.training_seeds(FLAGS.seeds))
+  seeds = tuple(run_dir.training_seeds(FLAGS.seeds))
   return sweep_lib.SweepSettings(
       sweep_dir=os.path.abspath(FLAGS.sweep_dir),
       points=tuple(sweep_lib.points(space, FLAGS.search_seed, len(seeds))),
@@ -129,12 +131,12 @@ def _main(argv: Sequence[str]) -> None:
 
 def check() -> None:
   """Ray missing, bad address or gin file: one line, exit status 2."""
-  cli.check_ray_flags(FLAGS.ray_address, FLAGS.ray_num_cpus)
+  distributed.check_ray_flags(FLAGS.ray_address, FLAGS.ray_num_cpus)
   if FLAGS.num_iterations < FLAGS.policy_snapshot_period:
     raise cli.CommandUsageError(
         '--num_iterations must be >= --policy_snapshot_period (trials '
         'report at snapshots)')
-  cli.check_gin_files(FLAGS.gin_file)
+  configs.check_gin_files(FLAGS.gin_file)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -43,11 +43,18 @@ from typing import List, Optional, Sequence, Tuple
 from absl import flags
 
 import ble_latex  # pylint: disable=unused-import  # Fixes first.
+from ble_latex import agents
+from ble_latex import configs
+from ble_latex import errors
+from ble_latex.ble import gym_registration
 from ble_latex.cli import common as cli
 from ble_latex.run import gin_binding
+from ble_latex.run import wind_file
 
 # Imported on first use, after the flags are parsed (`--help` stays fast).
 collectors = cli.lazy_module('ble_latex.run.collectors')
+env_params = cli.lazy_module('ble_latex.envs.env_params')
+run_dir = cli.lazy_module('ble_latex.run.run_dir')
 suites = cli.lazy_module('ble_latex.run.suites')
 train_lib = cli.lazy_module('ble_latex.run.train_lib')
 
@@ -137,13 +144,13 @@ def _main(argv: Sequence[str]) -> None:
     from ble_latex.agents.sac import trainer as sac_trainer  # pylint: disable=g-import-not-at-top,unused-import
   gin_binding.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                        FLAGS.gin_bindings)
-  era5_bindings = cli.era5_bindings(
+  era5_bindings = wind_file.era5_bindings(
       FLAGS.wind_file, FLAGS.era5_dates, suites.TRAIN_DATES,
-      station=cli.station_bindings(FLAGS.station_lat, FLAGS.station_lon))
+      station=wind_file.station_bindings(FLAGS.station_lat, FLAGS.station_lon))
   if era5_bindings:  # ERA5: the file, and the training dates.
     gin_binding.bind_gin(FLAGS.agent, agent_gin_file, FLAGS.gin_file,
                          [*FLAGS.gin_bindings, *era5_bindings])
-  cli.check_env_config()
+  env_params.params_from_gin()  # Refused env values: errors.ConfigError.
   if jax_trainer:  # Its settings (sizes that drive memory too), first.
     from ble_latex.agents.sac import trainer as sac_trainer  # pylint: disable=g-import-not-at-top
     sac_trainer.TrainerConfig()
@@ -195,12 +202,12 @@ def _era5_validation_params():
 
 def check() -> None:
   """Unknown agent, env, collector or gin file: one line, exit status 2."""
-  cli.check_agent(FLAGS.agent)
-  cli.check_env_name(FLAGS.env_name)
+  agents.check_agent(FLAGS.agent)
+  gym_registration.check_env_name(FLAGS.env_name)
   if FLAGS.seeds is not None:
-    cli.training_seeds(FLAGS.seeds)
+    run_dir.training_seeds(FLAGS.seeds)
   else:
-    cli.training_seed(FLAGS.seed)
+    run_dir.training_seed(FLAGS.seed)
   if FLAGS.vmap_seeds and (FLAGS.trainer != 'jax' or FLAGS.seeds is None):
     raise cli.CommandUsageError('--vmap_seeds needs --trainer=jax and --seeds')
   if FLAGS.trainer == 'jax':
@@ -221,9 +228,9 @@ def check() -> None:
       raise cli.CommandUsageError('--checkpoint_period must be >= 1')
   for name in FLAGS.collectors:
     if name not in collectors.AVAILABLE_COLLECTORS:
-      raise cli.CommandUsageError(cli.unknown(
+      raise cli.CommandUsageError(errors.unknown(
           'collector', name, collectors.AVAILABLE_COLLECTORS))
-  cli.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
+  configs.check_gin_files([FLAGS.agent_gin_file, *FLAGS.gin_file])
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

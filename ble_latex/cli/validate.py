@@ -32,7 +32,7 @@ stride, so the rate asked for holds only where the command was given).
 
 import os
 import sys
-from typing import Any, Dict, Optional, Sequence
+from typing import Optional, Sequence
 
 from absl import flags
 
@@ -46,62 +46,14 @@ with quiet.third_party_noise():
   import numpy as np
 
   from ble_latex.flight import params as params_lib
-  from ble_latex.flight import physics
   from ble_latex.flight import reference
+  from ble_latex.plots import validation
   # pylint: enable=g-import-not-at-top
 
 OUTPUT_FILENAME = 'latex_validation.png'
 MODES_FILENAME = 'latex_modes.png'
 MODES = ('paper', 'realistic')
 REALISTIC_GIN_FILE = 'latex_realistic.gin'
-
-
-def plot(result: Dict[str, Any], path: str) -> None:
-  """Writes the four-panel figure (altitude, ascent rate, helium, sand)."""
-  import matplotlib  # pylint: disable=g-import-not-at-top
-  matplotlib.use('Agg')
-  import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
-
-  stride_h = result['stride_s'] / 3600.0
-  t = result['times_h']
-  fig, axes = plt.subplots(4, 1, figsize=(10, 11), sharex=True)
-  ax_h, ax_v, ax_n, ax_s = axes
-  ax_h.plot(t, result['altitude'] / 1000.0, color='C0', label='altitude')
-  ax_v.plot(t, result['ascent_rate'], color='C0', label='simulated')
-  desired_t, desired_v = [], []
-  colors = {'vent': 'C3', 'ballast': 'C2', 'float': 'C7', 'nothing': 'w'}
-  for i, r in enumerate(result['strides']):
-    start, end = i * stride_h, (i + 1) * stride_h
-    for ax in axes:
-      ax.axvspan(start, end, color=colors[r['decision']], alpha=0.12, lw=0)
-    ax_h.text(start + 0.5 * stride_h, 1.0, r['decision'], rotation=90,
-              ha='center', va='top', fontsize=7,
-              transform=ax_h.get_xaxis_transform())
-    if r['decision'] in ('vent', 'ballast'):
-      # a0 is due a1 strides after the command.
-      ax_h.plot([start + r['command'][1] * stride_h],
-                [r['command'][0] / 1000.0], 'x', color='C1')
-    desired_t += [start, end]
-    desired_v += [r['desired_rate'], r['desired_rate']]
-  ax_h.plot([], [], 'x', color='C1', label='a0 at a1 strides after the command')
-  ax_v.plot(desired_t, desired_v, '--', color='C1', label='desired')
-  ax_n.plot(t, result['helium'], color='C4')
-  ax_s.plot(t, result['sand'], color='C5')
-  ax_h.set_ylabel('altitude [km]')
-  ax_v.set_ylabel('ascent rate [m/s]')
-  ax_n.set_ylabel('helium [mol]')
-  ax_s.set_ylabel('sand [kg]')
-  ax_s.set_xlabel('time [h]')
-  ax_h.legend(loc='lower right', fontsize=8)
-  ax_v.legend(loc='lower right', fontsize=8)
-  ax_h.set_title('Latex balloon: venting and ballasting at 20-min intervals '
-                 f'(max ascent-rate error {100 * result["max_rate_error"]:.2f}'
-                 '%)')
-  for ax in axes:
-    ax.grid(alpha=0.3)
-  fig.tight_layout()
-  fig.savefig(path, dpi=120)
-  plt.close(fig)
 
 
 # The command's own flags (`cli.run_absl`).
@@ -127,69 +79,13 @@ flags.DEFINE_list('modes', [],
 
 
 def _check() -> None:
-  cli.check_gin_files(FLAGS.gin_file)
+  configs.check_gin_files(FLAGS.gin_file)
   for mode in FLAGS.modes:
     if mode not in MODES:
       raise cli.CommandUsageError(
           f'--modes: unknown mode {mode!r} (known: {", ".join(MODES)})')
   if len(set(FLAGS.modes)) != len(FLAGS.modes):
     raise cli.CommandUsageError('--modes: a mode is named twice')
-
-
-def plot_modes(results: Dict[str, Dict[str, Any]], path: str) -> None:
-  """Writes the side-by-side figure of `reference.compare_modes`."""
-  import matplotlib  # pylint: disable=g-import-not-at-top
-  matplotlib.use('Agg')
-  import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
-
-  fig, axes = plt.subplots(2, 2, figsize=(12, 9))
-  (ax_up, ax_man), (ax_day, ax_cost) = axes
-  colors = {'paper': 'C0', 'realistic': 'C3'}
-  for name, r in results.items():
-    c = colors.get(name, 'C2')
-    ax_up.plot(r['ascent_mps'], r['altitudes_m'] / 1000.0, color=c,
-               label=name)
-    m = r['manoeuvre']
-    ax_man.plot(m['times_h'], m['altitude'] / 1000.0, color=c, label=name)
-    d = r['day']
-    ax_day.plot(d['times_h'], d['altitude'] / 1000.0, color=c, label=name)
-  astra = [(reference.PUBLISHED[f'ascent_{h:.0f}m'], h / 1000.0)
-           for h in reference.ASCENT_ALTITUDES_M]
-  ax_up.plot(*zip(*astra), 'kx', label='ASTRA')
-  ax_up.set_xlabel('steady ascent rate [m/s]')
-  ax_up.set_ylabel('altitude [km]')
-  ax_up.set_title('Ascent of the reference system (1.2 kg latex, 1 kg '
-                  'payload, 1 kg free lift)', fontsize=9)
-  ax_man.set_xlabel('time [h]')
-  ax_man.set_ylabel('altitude [km]')
-  ax_man.set_title('Scripted vent/ballast manoeuvre (20-min strides)',
-                   fontsize=9)
-  ax_day.set_xlabel('time [h] (from 2022-11-01 0h UTC at 1 N, 113 W)')
-  ax_day.set_ylabel('altitude [km]')
-  ax_day.set_title('A day at float at 17 km (float every 20 min)',
-                   fontsize=9)
-  names = list(results)
-  width = 0.8 / max(1, len(names))
-  groups = ('manoeuvre\nhelium', 'manoeuvre\nsand', 'day\nhelium',
-            'day\nsand')
-  for i, name in enumerate(names):
-    r = results[name]
-    values = [physics.LIFT_PER_MOL * r['manoeuvre']['helium_vented_mols'],
-              r['manoeuvre']['sand_dropped_kg'],
-              physics.LIFT_PER_MOL * r['day']['helium_vented_mols'],
-              r['day']['sand_dropped_kg']]
-    ax_cost.bar(np.arange(len(groups)) + i * width, values, width,
-                color=colors.get(name, 'C2'), label=name)
-  ax_cost.set_xticks(np.arange(len(groups)) + 0.5 * width * (len(names) - 1))
-  ax_cost.set_xticklabels(groups, fontsize=8)
-  ax_cost.set_ylabel('lift spent [kg] (helium as its lift)')
-  ax_cost.set_title('Resources spent', fontsize=9)
-  for ax in axes.flat:
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-  fig.tight_layout()
-  fig.savefig(path, dpi=120)
-  plt.close(fig)
 
 
 def _compare_modes(args) -> int:
@@ -200,7 +96,7 @@ def _compare_modes(args) -> int:
                    params_lib.flight_params_from_gin())
   results = reference.compare_modes(modes, seed=args.seed)
   path = os.path.join(args.output_dir, MODES_FILENAME)
-  plot_modes(results, path)
+  validation.plot_modes(results, path)
   rows = [('sea-level ascent [m/s]', 'ascent_0m', 1.0, '.2f'),
           ('ascent at 15 km [m/s]', 'ascent_15000m', 1.0, '.2f'),
           ('ascent at 18 km [m/s]', 'ascent_18000m', 1.0, '.2f'),
@@ -255,7 +151,7 @@ def _main(argv: Sequence[str]) -> int:
   result = reference.run_validation(seed=args.seed,
                                     reference=not args.no_reference)
   path = os.path.join(args.output_dir, OUTPUT_FILENAME)
-  plot(result, path)
+  validation.plot_validation(result, path)
 
   print(f'{"stride":>6} {"command (a0, a1, a2)":>24} {"decision":>9} '
         f'{"h0 [m]":>9} {"h1 [m]":>9} {"desired":>8} {"simulated":>9} '

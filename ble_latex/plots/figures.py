@@ -14,12 +14,11 @@ writes a PNG with matplotlib's Agg canvas (no display, no global pyplot state):
                                station-keeping cylinder.
 
 (Fig. 1, altitude and ascent rate under vent/ballast/float commands, is
-`ble-latex-validate`.) The loaders read the run/eval file formats of
+`plots.validation`, drawn by `ble-latex-validate`.) The loaders read the run/eval file formats of
 `ble-latex-train` (RUN/episodes.jsonl) and `ble-latex-eval` (OUT/SUITE/A.json)
 and check every record against its schema (`ble_latex.run.records`), raising
 ValueError naming the file, record and field; see docs/plots.md. Nothing
-here imports BLE; `ble_latex.cli.plot` (the
-`ble-latex-plot` command) gathers wind data from the env.
+here imports BLE; `plots.wind_samples` gathers wind data from the env.
 """
 
 import dataclasses

@@ -24,6 +24,8 @@ import json
 import socket
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
+from ble_latex import errors
+
 RAY_EXTRA = "pip install 'ble_latex[ray]'"
 # A worker that dies (node lost, out of memory) has its task re-run this many
 # times by Ray; an exception raised by the task itself is not retried.
@@ -62,6 +64,27 @@ def require_ray():
     raise RayUnavailableError(
         f'Ray is not installed; install the extra: {RAY_EXTRA}') from e
   return ray
+
+
+def check_ray_flags(address: Optional[str], num_cpus: Optional[int]) -> None:
+  """--ray_address / --ray_num_cpus: Ray installed, address well formed.
+
+  Raises:
+    errors.UsageError: One line naming the flag (exit 2).
+  """
+  if address is None:
+    if num_cpus is not None:
+      raise errors.UsageError('--ray_num_cpus needs --ray_address=local')
+    return
+  try:
+    check_address(address)
+    require_ray()
+  except (ValueError, RayUnavailableError) as e:
+    raise errors.UsageError(str(e)) from e
+  if num_cpus is not None and address != 'local':
+    raise errors.UsageError(
+        '--ray_num_cpus is only for --ray_address=local; a cluster\'s nodes '
+        'declare their CPUs (ray start --num-cpus)')
 
 
 def check_address(address: str) -> None:

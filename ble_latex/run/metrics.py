@@ -6,7 +6,7 @@
 - `LatexStatistics`: BLE's `StatisticsInstance` (a dataclass) plus the env's
   `info` and, at episode end, the `EpisodeSummary`, what the collectors of
   `ble_latex.run.collectors` receive;
-- `summarize`: mean / std over episodes;
+- `summarize`: mean / std over episodes; `format_summary` prints them;
 - what the studies read beyond it: `edge_fractions` (time near the circle's
   edge, `benchmarks/reward_shape.py`), `summarize_aloft` and `over_seeds`
   (days aloft, rows over training seeds, `benchmarks/physics_results.py`).
@@ -191,6 +191,26 @@ def summarize(records: Sequence[Mapping[str, Any]]) -> Dict[str, float]:
       [r['terminal_reason'] in records_lib.OUT_OF_RESOURCES_REASONS
        for r in records]))
   return out
+
+
+def format_summary(summary: Mapping[str, Mapping[str, float]]) -> str:
+  """One line per eval file (`summarize` of each, by path): mean +- std of
+  TW50, reward, resources."""
+  lines = []
+  for path, s in summary.items():
+    lines.append(
+        f'{path}: {s["episodes"]} seeds, '
+        f'TW50 (window) {100 * s["tw50_window_mean"]:.1f} +- '
+        f'{100 * s["tw50_window_std"]:.1f}%, '
+        f'TW50 (flown) {100 * s["tw50_mean"]:.1f} +- '
+        f'{100 * s["tw50_std"]:.1f}%, '
+        f'reward {s["reward_mean"]:.1f} +- {s["reward_std"]:.1f}, '
+        f'helium vented {s["helium_vented_mols_mean"]:.1f} +- '
+        f'{s["helium_vented_mols_std"]:.1f} mol, '
+        f'sand dropped {s["sand_dropped_kg_mean"]:.2f} +- '
+        f'{s["sand_dropped_kg_std"]:.2f} kg, '
+        f'out of resources {s["out_of_resources_pct"]:.0f}%')
+  return '\n'.join(lines)
 
 
 def per_seed_summary(path: str) -> Dict[str, Any]:

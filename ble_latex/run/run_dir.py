@@ -12,7 +12,7 @@ Used by the agent loop (`train_lib`) and the jitted trainer (`jax_train`).
 import contextlib
 import json
 import os
-from typing import Any, Iterator, List, Mapping, Optional
+from typing import Any, Iterator, List, Mapping, Optional, Sequence
 
 from ble_latex import errors
 from ble_latex import gin_values
@@ -37,6 +37,37 @@ def check_training_seed(seed: Any, name: str = 'training seed') -> int:
   """
   return gin_values.check_int(name, seed, minimum=0,
                               maximum=seeds_lib.MAX_SEED - 1)
+
+
+def training_seeds(values: Sequence[str], flag: str = '--seeds'
+                   ) -> List[int]:
+  """A --seeds list of training seeds: distinct ints in [0, 2**32).
+
+  Raises:
+    errors.UsageError: One line naming the flag and the bad value.
+  """
+  try:
+    seeds = [int(s) for s in values]
+  except ValueError as e:
+    raise errors.UsageError(f'{flag} takes integers, got {values}') from e
+  if not seeds or len(set(seeds)) != len(seeds):
+    raise errors.UsageError(f'{flag} takes distinct integers >= 0, got '
+                            f'{values}')
+  for seed in seeds:
+    training_seed(seed, flag)
+  return seeds
+
+
+def training_seed(seed: int, flag: str = '--seed') -> int:
+  """A training seed given as `flag` (`check_training_seed`).
+
+  Raises:
+    errors.UsageError: One line naming the flag and the bad value.
+  """
+  try:
+    return check_training_seed(seed, flag)
+  except errors.ConfigError as e:
+    raise errors.UsageError(str(e)) from e
 
 
 def snapshot_candidates(base_dir: str, every: int,

@@ -21,6 +21,7 @@ from typing import List
 
 from balloon_learning_environment.eval import suites
 
+from ble_latex import errors
 from ble_latex.envs import task
 
 TRAIN_SEED_OFFSET = 0
@@ -71,6 +72,12 @@ def available_suites() -> List[str]:
   """BLE's `suites.available_suites()`, the latex suites included."""
   register()
   return suites.available_suites()
+
+
+def check_suite(name: str) -> None:
+  """Raises errors.UsageError (exit 2) unless `name` is a suite."""
+  if name not in available_suites():
+    raise errors.UsageError(errors.unknown('suite', name, available_suites()))
 
 
 def train_seed(episode: int) -> int:
