@@ -11,7 +11,11 @@
 # Settings: 256 balloons a round, 100 validation seeds of latex_validation,
 # 2 000 Adam steps on minibatches of 1 024 rows, an aggregate of up to
 # 1 000 000 rows; DAGGER_BINDINGS (gin lines separated by ';') come after
-# these and override them.
+# these and override them. DAGGER_GIN_FILES (paths separated by ',') are
+# parsed first, in order: the realistic task (issue 63) with the reserves
+# planner as the teacher is
+#   DAGGER_GIN_FILES=gin_configs/latex_realistic.gin,gin_configs/latex_realistic_task.gin,gin_configs/latex_sun_observation.gin \
+#   DAGGER_BINDINGS='LatexMpcAgent.resource_buffer_kg = 0.6' bash benchmarks/gpu/dagger.sh OUT 540
 # The run directories sit in $RUNS (default /tmp/dagger_runs): the aggregate in
 # a checkpoint is too big to come back. OUT/seed_S.tar holds seed_S/run.json,
 # seed_S/summary.json (per-round validation, wall times) and
@@ -43,16 +47,22 @@ bindings=(--gin_bindings="dagger_config.num_balloons = $balloons"
           --gin_bindings='dagger_config.batch_size = 1024'
           --gin_bindings='dagger_config.dataset_capacity = 1000000')
 IFS=';' read -ra extra <<<"${DAGGER_BINDINGS:-}"
+IFS=, read -ra gin_files <<<"${DAGGER_GIN_FILES:-}"
+files=()
+for g in "${gin_files[@]}"; do
+  [ -f "$g" ] || { echo "dagger.sh: DAGGER_GIN_FILES: no file $g" >&2; exit 2; }
+  files+=(--gin_file="$g")
+done
 for b in "${extra[@]}"; do [ -n "$b" ] && bindings+=(--gin_bindings="$b"); done
 IFS=, read -ra list <<<"$seeds"
 [ "${#list[@]}" -le 3 ] || { echo "dagger.sh: at most 3 seeds (8 files come back)" >&2; exit 2; }
 limit=$(( $(left) - 30 ))  # Leaves time to pack what came of it.
-echo "== dagger seeds ${list[*]} side by side (limit $limit s): ${bindings[*]}" >>"$log"
+echo "== dagger seeds ${list[*]} side by side (limit $limit s): ${files[*]} ${bindings[*]}" >>"$log"
 for s in "${list[@]}"; do
   # Up to 200 rounds; the limit ends them sooner (the cut round is lost).
   ( t0=$(date +%s)
     timeout "$limit" $py benchmarks/train_dagger.py --base_dir="$runs/seed_$s" \
-      --seed="$s" --rounds=200 "${bindings[@]}" >"$out/seed_$s.log" 2>&1
+      --seed="$s" --rounds=200 "${files[@]}" "${bindings[@]}" >"$out/seed_$s.log" 2>&1
     echo "-- dagger seed $s: rc $? in $(( $(date +%s) - t0 )) s" >>"$log" ) &
 done
 wait
