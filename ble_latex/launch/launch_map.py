@@ -38,7 +38,6 @@ def launch_map(scores: scoring.Scores, shape: Any, radius_km: float,
     title: The figure's title.
     delay_panel: Draw the right panel (False: the map alone).
   """
-  matplotlib.use('Agg', force=False)
   n_east, n_north, n_hours = (list(shape) + [1, 1])[:3]
   n_alt = len(scores.launches) // (n_east * n_north * n_hours)
   # Index ((a * n_hours + t) * n_north + j) * n_east + k.

@@ -13,10 +13,9 @@ import json
 import os
 from typing import Optional, Sequence
 
-import matplotlib
-
-matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
+from matplotlib import axes as mpl_axes
+from matplotlib import figure as mpl_figure
+from matplotlib.backends import backend_agg
 import numpy as np
 import scipy.spatial
 
@@ -26,8 +25,16 @@ from ble_latex.wind import feasibility
 from ble_latex.wind import gridded
 from ble_latex.wind import reach
 
+# Resolution of the figures' PNGs. # [dots per inch]
+_DPI = 110
 # Colour range of the margin. # [m/s]
 MARGIN_RANGE_MPS = 10.0
+
+
+def _save(fig: mpl_figure.Figure, path: str) -> None:
+  """Writes `fig` to `path` (PNG) on its own Agg canvas (no pyplot state)."""
+  backend_agg.FigureCanvasAgg(fig)
+  fig.savefig(path, dpi=_DPI)
 
 
 def plot_map(fmap: feasibility.FeasibilityMap, path: str, title: str,
@@ -47,7 +54,8 @@ def plot_map(fmap: feasibility.FeasibilityMap, path: str, title: str,
   order = np.argsort(lon, kind='stable')
   lon, margin = lon[order], fmap.margin_mps[:, order]
   width = 11.0 if lon[-1] - lon[0] > 180.0 else 8.0
-  fig, ax = plt.subplots(figsize=(width, width * 0.55))
+  fig = mpl_figure.Figure(figsize=(width, width * 0.55))
+  ax = fig.subplots()
   mesh = ax.pcolormesh(lon, fmap.latitude, margin, shading='nearest',
                        cmap='RdBu', vmin=-MARGIN_RANGE_MPS,
                        vmax=MARGIN_RANGE_MPS)
@@ -78,14 +86,13 @@ def plot_map(fmap: feasibility.FeasibilityMap, path: str, title: str,
   ax.set_ylabel('latitude [deg N]')
   ax.set_aspect('equal')
   fig.tight_layout()
-  fig.savefig(path, dpi=110)
-  plt.close(fig)
+  _save(fig, path)
   return note
 
 
 def plot_hodograph(winds: np.ndarray, levels: np.ndarray, label: str,
                    col: feasibility.Column, path: str, title: str,
-                   ax: Optional[plt.Axes] = None) -> None:
+                   ax: Optional[mpl_axes.Axes] = None) -> None:
   """One column's reachable winds, their hull and zero, as a PNG.
 
   Args:
@@ -99,7 +106,8 @@ def plot_hodograph(winds: np.ndarray, levels: np.ndarray, label: str,
   """
   own = ax is None
   if own:
-    fig, ax = plt.subplots(figsize=(5.6, 5.0))
+    fig = mpl_figure.Figure(figsize=(5.6, 5.0))
+    ax = fig.subplots()
   else:
     fig = ax.figure
   ax.plot(winds[:, 0], winds[:, 1], color='0.6', linewidth=0.8, zorder=1)
@@ -127,8 +135,7 @@ def plot_hodograph(winds: np.ndarray, levels: np.ndarray, label: str,
                fontsize=8)
   if own:
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
 
 
 MAP_PNG = 'feasibility_map.png'

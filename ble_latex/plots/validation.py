@@ -6,25 +6,27 @@
   (`flight.reference.run_validation`);
 - `plot_modes`: the paper's and the realistic physics side by side
   (`flight.reference.compare_modes`).
+
+Both draw on their own `Figure` with matplotlib's Agg canvas
+(`figures.save_png`): no pyplot state, no process-wide backend.
 """
 
 from typing import Any, Dict
 
+from matplotlib import figure as mpl_figure
 import numpy as np
 
 from ble_latex.flight import physics
 from ble_latex.flight import reference
+from ble_latex.plots import figures
 
 
 def plot_validation(result: Dict[str, Any], path: str) -> None:
   """Writes the four-panel figure (altitude, ascent rate, helium, sand)."""
-  import matplotlib  # pylint: disable=g-import-not-at-top
-  matplotlib.use('Agg')
-  import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
-
   stride_h = result['stride_s'] / 3600.0
   t = result['times_h']
-  fig, axes = plt.subplots(4, 1, figsize=(10, 11), sharex=True)
+  fig = mpl_figure.Figure(figsize=(10, 11))
+  axes = fig.subplots(4, 1, sharex=True)
   ax_h, ax_v, ax_n, ax_s = axes
   ax_h.plot(t, result['altitude'] / 1000.0, color='C0', label='altitude')
   ax_v.plot(t, result['ascent_rate'], color='C0', label='simulated')
@@ -60,17 +62,13 @@ def plot_validation(result: Dict[str, Any], path: str) -> None:
   for ax in axes:
     ax.grid(alpha=0.3)
   fig.tight_layout()
-  fig.savefig(path, dpi=120)
-  plt.close(fig)
+  figures.save_png(fig, path)
 
 
 def plot_modes(results: Dict[str, Dict[str, Any]], path: str) -> None:
   """Writes the side-by-side figure of `reference.compare_modes`."""
-  import matplotlib  # pylint: disable=g-import-not-at-top
-  matplotlib.use('Agg')
-  import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
-
-  fig, axes = plt.subplots(2, 2, figsize=(12, 9))
+  fig = mpl_figure.Figure(figsize=(12, 9))
+  axes = fig.subplots(2, 2)
   (ax_up, ax_man), (ax_day, ax_cost) = axes
   colors = {'paper': 'C0', 'realistic': 'C3'}
   for name, r in results.items():
@@ -116,5 +114,4 @@ def plot_modes(results: Dict[str, Dict[str, Any]], path: str) -> None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
   fig.tight_layout()
-  fig.savefig(path, dpi=120)
-  plt.close(fig)
+  figures.save_png(fig, path)
