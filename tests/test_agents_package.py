@@ -11,8 +11,9 @@ import pathlib
 
 import gin
 import pytest
+from tests import helpers
 
-REPO = pathlib.Path(__file__).resolve().parent.parent
+REPO = helpers.ROOT
 
 
 @pytest.fixture(autouse=True)

@@ -6,8 +6,9 @@ import subprocess
 import sys
 
 import pytest
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = helpers.ROOT
 
 
 @pytest.mark.parametrize('seeds, message', [

@@ -20,8 +20,9 @@ import sys
 import pytest
 
 from ble_latex.cli import ble_commands
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = helpers.ROOT
 PAGE = ROOT / 'docs' / 'ble-commands.md'
 PLACEHOLDER = '/tmp/ble_cmds'
 # How each documented program runs here (the console scripts' modules).

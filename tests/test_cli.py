@@ -11,8 +11,9 @@ import pytest
 from ble_latex import errors
 from ble_latex.cli import common as cli
 from ble_latex.run import gin_binding
+from tests import helpers
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REPO = str(helpers.ROOT)
 
 
 def _python(code: str, timeout: float = 300) -> subprocess.CompletedProcess:

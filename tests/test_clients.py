@@ -15,8 +15,9 @@ import subprocess
 import sys
 
 import pytest
+from tests import helpers
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REPO = str(helpers.ROOT)
 
 
 def _run_example(name: str, *args: str, timeout: float = 1200):

@@ -14,8 +14,9 @@ import ble_latex
 from ble_latex import compat
 import numpy as np
 import pytest
+from tests import helpers
 
-_DATA = pathlib.Path(__file__).parent / 'data'
+_DATA = helpers.DATA
 
 
 def _run(code: str, disable: str = '') -> subprocess.CompletedProcess:
@@ -255,7 +256,7 @@ def test_import_ble_latex_is_light():
 
 
 def test_global_changes_are_listed_in_the_docs():
-  page = (pathlib.Path(__file__).resolve().parents[1] / 'docs' /
+  page = (helpers.ROOT / 'docs' /
           'ble-compat.md')
   text = page.read_text()
   for change in ('jax_threefry_partitionable', 'jax.tree_map',

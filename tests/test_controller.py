@@ -14,8 +14,8 @@ import pytest
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
 # The retired NumPy controller, the oracle of tests/test_flight_core.py.
-from reference import numpy_controller as controller_lib
-from reference import numpy_physics as physics
+from tests.reference import numpy_controller as controller_lib
+from tests.reference import numpy_physics as physics
 
 _SETTINGS = settings(max_examples=40, deadline=None)
 PAYLOAD = 2.2  # [kg]

@@ -2,8 +2,9 @@
 
 import json
 import pathlib
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = helpers.ROOT
 
 
 def _summary_round(r, tw50, oor=0.0):

@@ -17,8 +17,9 @@ import subprocess
 import sys
 
 import pytest
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = helpers.ROOT
 DOCS = ROOT / 'docs'
 README = ROOT / 'README.md'
 README_MAX_LINES = 300

@@ -14,8 +14,9 @@ import pytest
 from ble_latex import errors
 from ble_latex.wind import feasibility
 from ble_latex.wind import gridded
+from tests import helpers
 
-DATA = pathlib.Path(__file__).resolve().parent / 'data' / 'realwinds'
+DATA = helpers.REAL_WINDS
 HILO = DATA / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv'
 BOISE = DATA / 'BOI-Boise_2010-12-09T12Z_uwyo.txt'
 GRIB = DATA / 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2'

@@ -37,9 +37,9 @@ from ble_latex.flight import params as params_lib
 from ble_latex.flight import physics
 from ble_latex.flight import state as state_lib
 # The retired NumPy float64 model as the oracle.
-from reference import numpy_balloon as balloon_lib
-from reference import numpy_controller as controller_lib
-from reference import numpy_physics as np_physics
+from tests.reference import numpy_balloon as balloon_lib
+from tests.reference import numpy_controller as controller_lib
+from tests.reference import numpy_physics as np_physics
 
 _SETTINGS = settings(max_examples=30, deadline=None, derandomize=True)
 _FEW = settings(max_examples=15, deadline=None, derandomize=True)

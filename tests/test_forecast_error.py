@@ -16,8 +16,9 @@ from ble_latex.wind import globe
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import simplex
+from tests import helpers
 
-HILO = str(pathlib.Path(__file__).resolve().parent / 'data' / 'realwinds' /
+HILO = str(helpers.REAL_WINDS /
            'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
 
 
@@ -87,7 +88,7 @@ def test_ble_field_object_scales_its_noise(tmp_path):
   import jax  # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.utils import units  # pylint: disable=g-import-not-at-top
   from ble_latex.ble import gridded_field  # pylint: disable=g-import-not-at-top
-  import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests import test_gridded  # pylint: disable=g-import-not-at-top
   path = test_gridded.write_era5(tmp_path / 'era5.nc')
   args = (units.Distance(km=20.0), units.Distance(km=-10.0), 8000.0,
           dt.timedelta(hours=1))
@@ -108,7 +109,7 @@ def test_ble_field_object_scales_its_noise(tmp_path):
 
 
 def _pair(tmp_path, **truth_kwargs):
-  import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests import test_gridded  # pylint: disable=g-import-not-at-top
   forecast = test_gridded.write_era5(tmp_path / 'forecast.nc')
   truth_kwargs.setdefault('t0', test_gridded.T0 - np.timedelta64(12, 'h'))
   truth = test_gridded.write_era5(tmp_path / 'truth.nc', **truth_kwargs)
@@ -116,7 +117,7 @@ def _pair(tmp_path, **truth_kwargs):
 
 
 def test_two_sources_truth_from_the_second_file(tmp_path):
-  import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests import test_gridded  # pylint: disable=g-import-not-at-top
   # The truth: other winds (another time origin), on a wider grid and a
   # longer time range than the forecast's.
   forecast_path, truth_path = _pair(
@@ -162,7 +163,7 @@ def test_two_sources_truth_from_the_second_file(tmp_path):
 
 
 def test_two_sources_refuse_a_truth_that_misses_the_forecast(tmp_path):
-  import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests import test_gridded  # pylint: disable=g-import-not-at-top
   forecast_path, late = _pair(
       tmp_path, times=test_gridded.TIMES + np.timedelta64(6, 'h'))
   with pytest.raises(errors.ConfigError, match="valid times"):

@@ -23,9 +23,9 @@ import pytest
 from ble_latex.cli import download_gfs
 from ble_latex.wind import gfs_requests as gfs
 from ble_latex.wind import gridded
+from tests import helpers
 
-SLICE = os.path.join(os.path.dirname(__file__), 'data', 'realwinds',
-                     'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
+SLICE = os.path.join(helpers.REAL_WINDS, 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
 RUN = dt.datetime(2026, 12, 5, 0)
 SCRIPT = '/cgi-bin/filter_gfs_0p25.pl'
 _SHORT = {'UGRD': 'u', 'VGRD': 'v'}

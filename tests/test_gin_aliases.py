@@ -13,8 +13,9 @@ from ble_latex import errors
 from ble_latex import gin_aliases
 from ble_latex.envs import env_params
 from ble_latex.flight import params as flight_params_lib  # pylint: disable=unused-import
+from tests import helpers
 
-REPO = pathlib.Path(__file__).resolve().parent.parent
+REPO = helpers.ROOT
 # Old name -> (new name, a keyword and a value that differs from its default).
 RENAMED = {
     'LatexBalloonEnv': ('latex_episode', 'episode_steps', '10'),

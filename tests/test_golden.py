@@ -39,8 +39,9 @@ import pytest
 
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import state as state_lib
+from tests import helpers
 
-DATA = pathlib.Path(__file__).resolve().parent / 'data'
+DATA = helpers.DATA
 SOURCES = ('random', 'scripted')
 
 # Issue 11 tolerances.

@@ -28,6 +28,7 @@ from ble_latex import errors
 from ble_latex.ble import gridded_field
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_checks
+from tests import helpers
 
 T0 = np.datetime64('2022-11-01T00:00', 'ns')
 TIMES = T0 + np.arange(3) * np.timedelta64(6, 'h')  # 12 h of data.
@@ -310,8 +311,7 @@ def test_winds_beyond_memory_are_refused_before_reading(tmp_path, monkeypatch):
   assert 'reading them needs' in message and path in message
   assert '\n' not in message
   # GRIB2: the sum of its messages' data points, from their headers.
-  grib = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
-                      'realwinds', 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
+  grib = os.path.join(helpers.REAL_WINDS, 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
   monkeypatch.setattr(gridded_checks, 'memory_bytes', lambda: 1_000_000)
   with pytest.raises(errors.BadFileError, match=r'\(189,216 values\)'):
     gridded.read_source(grib)

@@ -39,9 +39,10 @@ from ble_latex.run import suites
 from ble_latex.run import wind_file
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
-import test_gridded
+from tests import test_gridded
+from tests import helpers
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REPO = str(helpers.ROOT)
 _ENV = dict(os.environ, TF_CPP_MIN_LOG_LEVEL='3', JAX_PLATFORMS='cpu')
 # 1 Nov 2022 00:00 - 31 Jan 2023 18:00, 6-hourly: the paper's period.
 _TIMES = test_gridded.T0 + np.arange(368) * np.timedelta64(6, 'h')

@@ -27,10 +27,11 @@ from ble_latex.envs import gymnasium_registration
 from ble_latex.envs import gymnasium_render
 from ble_latex.envs import gymnasium_vector
 from ble_latex.envs import jax_env
+from tests import helpers
 
 ID = 'ble_latex/LatexBalloon-v0'
 DISCRETE_ID = 'ble_latex/LatexBalloonDiscrete-v0'
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REPO = str(helpers.ROOT)
 
 
 def _python(code: str, timeout: float = 300, **env_changes):

@@ -11,6 +11,7 @@ import pytest
 from ble_latex import errors
 from ble_latex import gin_values
 from ble_latex.cli import common as cli
+from tests import helpers
 
 
 def _one_line(capsys, prog):
@@ -191,7 +192,7 @@ def test_era5_dates_that_overflow_are_a_config_error():
 
 
 # -- Items 18, 19: policy files hold only what write_tree stores. -----------
-_SHIPPED_POLICY = (pathlib.Path(__file__).resolve().parents[1] / 'ble_latex' /
+_SHIPPED_POLICY = (helpers.ROOT / 'ble_latex' /
                    'agents' / 'policies' / 'sac_latex.msgpack')
 
 
@@ -237,7 +238,7 @@ def test_export_policy_to_a_pickle_name_is_a_usage_error(tmp_path, capsys):
 
 # -- Item 7: levels outside a wind source are refused, not clamped. ---------
 def test_wind_stats_levels_outside_the_file_are_refused(tmp_path, capsys):
-  import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests import test_gridded  # pylint: disable=g-import-not-at-top
   import jax  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import stats  # pylint: disable=g-import-not-at-top
@@ -285,7 +286,7 @@ def test_every_settings_binding_is_accepted_or_one_line_naming_it():
   # traceback in two places (GriddedWindField.stations, dagger_config.teacher).
   import inspect  # pylint: disable=g-import-not-at-top
   builders = _settings_builders()
-  wind_file = str(pathlib.Path(__file__).parent / 'data' / 'realwinds' /
+  wind_file = str(helpers.REAL_WINDS /
                  'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
   failures, tried = [], 0
   try:

@@ -24,8 +24,9 @@ import pathlib
 from typing import Dict, List, Set, Tuple
 
 import pytest
+from tests import helpers
 
-PACKAGE = pathlib.Path(__file__).resolve().parent.parent / 'ble_latex'
+PACKAGE = helpers.ROOT / 'ble_latex'
 BENCHMARKS = PACKAGE.parent / 'benchmarks'
 
 # Floors, ground first: a module may import its own floor or lower ones.
@@ -496,11 +497,11 @@ def _script_uses(path: pathlib.Path) -> Tuple[Set[Tuple[str, str]],
 def _tests_script_uses() -> Tuple[Set[Tuple[str, str, str]],
                                   Dict[str, List[int]]]:
   uses, loads = set(), {}
-  for path in sorted(TESTS.glob('test_*.py')):
+  for path in sorted(TESTS.rglob('test_*.py')):
     used, lines = _script_uses(path)
-    uses |= {(path.name, *u) for u in used}
+    uses |= {(str(path.relative_to(TESTS)), *u) for u in used}
     if lines:
-      loads[path.name] = lines
+      loads[str(path.relative_to(TESTS))] = lines
   return uses, loads
 
 

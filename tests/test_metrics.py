@@ -10,8 +10,9 @@ from hypothesis import strategies as st
 import pytest
 
 from ble_latex.run import metrics
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+ROOT = helpers.ROOT
 
 
 def _fly(tracker, distances_km):

@@ -16,8 +16,9 @@ import sys
 import textwrap
 
 import pytest
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = helpers.ROOT
 
 # Put first in each process: TensorFlow's imports fail as where it is absent
 # (the finder goes ahead of ble_latex's compat hook, which `import ble_latex`

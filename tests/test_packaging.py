@@ -4,8 +4,9 @@ import importlib.metadata
 import pathlib
 
 import yaml
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+ROOT = helpers.ROOT
 
 
 def test_wheel_metadata_names_licence_and_links():

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 # The retired NumPy model, the oracle of tests/test_flight_core.py.
-from reference import numpy_physics as physics
+from tests.reference import numpy_physics as physics
 
 _SETTINGS = settings(max_examples=40, deadline=None)
 PAYLOAD = 2.2  # [kg]

@@ -21,8 +21,9 @@ from ble_latex.cli import sweep as sweep_command  # noqa: E402
 from ble_latex.run import distributed  # noqa: E402
 from ble_latex.run import eval_lib  # noqa: E402
 from ble_latex.run import sweep_lib  # noqa: E402
+from tests import helpers
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REPO = str(helpers.ROOT)
 TINY = list(range(1_000_000, 1_000_010))  # latex_tiny's held-out seeds.
 
 

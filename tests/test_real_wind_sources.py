@@ -11,9 +11,9 @@ from ble_latex import errors
 from ble_latex.wind import grib_copy
 from ble_latex.wind import gridded
 from ble_latex.wind import sources
+from tests import helpers
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
-                    'realwinds')
+DATA = str(helpers.REAL_WINDS)
 GFS_NC = os.path.join(DATA, 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
 
 

@@ -25,9 +25,9 @@ from ble_latex.wind import analysis
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import sounding
+from tests import helpers
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
-                    'realwinds')
+DATA = str(helpers.REAL_WINDS)
 GFS_NC = os.path.join(DATA, 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
 GFS_GRIB = os.path.join(DATA, 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
 BOISE = os.path.join(DATA, 'BOI-Boise_2010-12-09T12Z_uwyo.txt')

@@ -19,10 +19,9 @@ import pytest
 from ble_latex.run import tracks
 from ble_latex.wind import gridded
 from ble_latex.wind import sources
+from tests import helpers
 
-GFS_NC = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
-                      'realwinds',
-                      'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
+GFS_NC = os.path.join(helpers.REAL_WINDS, 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
 _STEPS = 3
 
 

@@ -21,9 +21,9 @@ from ble_latex.run import wind_file
 from ble_latex.wind import grib_copy
 from ble_latex.wind import gridded
 from ble_latex.wind import sources
+from tests import helpers
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
-                    'realwinds')
+DATA = str(helpers.REAL_WINDS)
 GFS_GRIB = os.path.join(DATA, 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
 HILO = os.path.join(DATA, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
 

@@ -15,8 +15,9 @@ import pytest
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import state as state_lib
 from ble_latex.run import sensitivity
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = helpers.ROOT
 
 
 @pytest.fixture

@@ -16,8 +16,9 @@ import sys
 import pytest
 
 from ble_latex import safe_io
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = helpers.ROOT
 
 
 def test_output_problem_names_what_is_wrong(tmp_path):

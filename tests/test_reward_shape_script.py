@@ -12,8 +12,9 @@ from ble_latex.run import metrics
 from ble_latex.run import real_cells
 from ble_latex.run import seed_runs
 from ble_latex.run import wind_file
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = helpers.ROOT
 
 
 @pytest.fixture
@@ -143,7 +144,7 @@ def test_a_policy_flies_a_real_source_as_the_real_winds_table_does(
   folder = tmp_path / 'soundings'
   folder.mkdir()
   path = str(folder / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
-  shutil.copy(ROOT / 'tests' / 'data' / 'realwinds' /
+  shutil.copy(helpers.REAL_WINDS /
               'PHTO-Hilo_2023-11-01T00Z_uwyo.csv', path)
   cell = real_cells.source_cell('hilo', 'latex_small', path)
   flown = real_cells.fly_policy(

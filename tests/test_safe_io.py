@@ -12,8 +12,9 @@ import time
 import pytest
 
 from ble_latex import safe_io
+from tests import helpers
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REPO = str(helpers.ROOT)
 
 # Holds the lock of argv[1] for argv[2] seconds; with argv[3] == 'fork' it
 # first forks a child that outlives it. Prints each pid, then 'locked'.

@@ -11,8 +11,9 @@ import pytest
 
 from ble_latex import errors
 from ble_latex.wind import sounding
+from tests import helpers
 
-DATA = pathlib.Path(__file__).parent / 'data' / 'realwinds'
+DATA = helpers.REAL_WINDS
 BOISE = DATA / 'BOI-Boise_2010-12-09T12Z_uwyo.txt'
 HILO = DATA / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv'
 

@@ -22,8 +22,9 @@ from ble_latex.plots import exports
 from ble_latex.plots import maps
 from ble_latex.run import records
 from ble_latex.run import tracks
+from tests import helpers
 
-DATA = pathlib.Path(__file__).parent / 'data' / 'realwinds'
+DATA = helpers.REAL_WINDS
 GFS_NC = DATA / 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc'
 EARTH_RADIUS_KM = 6371.0  # BLE's sphere.
 KML = '{http://www.opengis.net/kml/2.2}'
@@ -344,7 +345,7 @@ def test_launch_progress_gives_an_eta(capsys, monkeypatch):
 
 # -- The Operators page's commands. -------------------------------------------
 
-OPERATORS_PAGE = pathlib.Path(__file__).parent.parent / 'docs' / 'operators.md'
+OPERATORS_PAGE = helpers.ROOT / 'docs' / 'operators.md'
 # What makes the page's commands quick here: fewer seeds, strides, launches.
 _SMALLER = (('latex_tiny', 'latex_micro'),
             ('--max_episode_length=72', '--max_episode_length=4'),
@@ -373,7 +374,7 @@ def test_the_operators_page_commands_run(tmp_path, capsys, monkeypatch):
   commands = _operators_commands()
   assert [shlex.split(c)[0] for c in commands] == [
       'ble-latex-eval', 'ble-latex-plot', 'ble-latex-launch']
-  monkeypatch.chdir(pathlib.Path(__file__).parent.parent)  # Its paths.
+  monkeypatch.chdir(helpers.ROOT)  # Its paths.
   for command in commands:
     for big, small in _SMALLER:
       command = command.replace(big, small)

@@ -20,9 +20,10 @@ from ble_latex.plots import figures
 from ble_latex.run import real_cells
 from ble_latex.wind import analysis
 from ble_latex.wind import stats
+from tests import helpers
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-DATA = ROOT / 'tests' / 'data' / 'realwinds'
+ROOT = helpers.ROOT
+DATA = helpers.REAL_WINDS
 GFS = str(DATA / 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
 BOISE = str(DATA / 'BOI-Boise_2010-12-09T12Z_uwyo.txt')
 HILO = str(DATA / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')

@@ -10,9 +10,9 @@ from ble_latex import errors
 from ble_latex import gin_aliases
 from ble_latex.run import gin_binding
 from ble_latex.run import wind_file
+from tests import helpers
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
-                    'realwinds')
+DATA = str(helpers.REAL_WINDS)
 HILO = os.path.join(DATA, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
 
 

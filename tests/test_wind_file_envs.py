@@ -15,8 +15,9 @@ from ble_latex.envs import env_params
 from ble_latex.envs import winds
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
+from tests import helpers
 
-REAL = pathlib.Path(__file__).parent / 'data' / 'realwinds'
+REAL = helpers.REAL_WINDS
 GFS = str(REAL / 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
 HILO = str(REAL / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
 

@@ -21,12 +21,13 @@ from ble_latex.wind import globe
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import stations
+from tests import helpers
 
 LONS = np.arange(0.0, 360.0, 10.0)  # [deg E] 0..350: the seam at 350 -> 360.
 LATS = np.arange(-80.0, 81.0, 20.0)  # [deg N] within one row of each pole.
 LEVELS_HPA = np.array([20.0, 50.0, 100.0, 175.0])  # [hPa]
 P_PA = 5000.0  # A query level. # [Pa]
-REAL = pathlib.Path(__file__).parent / 'data' / 'realwinds'
+REAL = helpers.REAL_WINDS
 GFS_GLOBAL = REAL / 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2'
 HILO = REAL / 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv'
 

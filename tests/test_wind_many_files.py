@@ -15,8 +15,9 @@ import pytest
 
 from ble_latex.wind import grib_subset
 from ble_latex.wind import gridded
+from tests import helpers
 
-SLICE = (pathlib.Path(__file__).parent / 'data' / 'realwinds' /
+SLICE = (helpers.REAL_WINDS /
          'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
 HOURS = (72, 75, 78)
 

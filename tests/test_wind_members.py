@@ -14,8 +14,9 @@ import xarray as xr
 
 from ble_latex import errors
 from ble_latex.wind import gridded
+from tests import helpers
 
-GFS_NC = (pathlib.Path(__file__).parent / 'data' / 'realwinds' /
+GFS_NC = (helpers.REAL_WINDS /
           'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
 GFS_GRIB = GFS_NC.parent / 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2'
 NAMES = ('u-component_of_wind_isobaric', 'v-component_of_wind_isobaric')

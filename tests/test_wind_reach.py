@@ -23,8 +23,9 @@ from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import reach
 from ble_latex.wind import sounding
+from tests import helpers
 
-REAL = pathlib.Path(__file__).parent / 'data' / 'realwinds'
+REAL = helpers.REAL_WINDS
 BOISE = str(REAL / 'BOI-Boise_2010-12-09T12Z_uwyo.txt')
 GFS = str(REAL / 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
 

@@ -25,9 +25,9 @@ from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import sounding
 from ble_latex.wind import stations
+from tests import helpers
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'data',
-                    'realwinds')
+DATA = str(helpers.REAL_WINDS)
 GFS_NC = os.path.join(DATA, 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')
 BOISE = os.path.join(DATA, 'BOI-Boise_2010-12-09T12Z_uwyo.txt')
 HILO = os.path.join(DATA, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')

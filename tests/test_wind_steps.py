@@ -17,8 +17,9 @@ from ble_latex import errors
 from ble_latex.wind import analysis
 from ble_latex.wind import gridded
 from ble_latex.wind import stations
+from tests import helpers
 
-REAL = pathlib.Path(__file__).parent / 'data' / 'realwinds'
+REAL = helpers.REAL_WINDS
 SLICE = REAL / 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2'
 GFS_NC = REAL / 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc'
 HOURS = (72, 75, 78)

@@ -37,8 +37,8 @@ from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
 import s2sphere as s2
 
-from reference import numpy_controller as controller_lib
-from reference import numpy_physics as physics
+from . import numpy_controller as controller_lib
+from . import numpy_physics as physics
 
 # Default flight system (README, "Physics and altitude controller").
 DEFAULT_PAYLOAD_KG = 2.2  # [kg] 1.2 kg TA-1200-class envelope + 1.0 kg avionics

@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from reference import numpy_physics as physics
+from . import numpy_physics as physics
 
 # Action bounds (a0 [m], a1 [.], a2 [.]), paper "Method".
 ACTION_LOW = np.array([14_000.0, 1.0, -1.0], dtype=np.float32)
