@@ -238,7 +238,7 @@ def test_export_policy_to_a_pickle_name_is_a_usage_error(tmp_path, capsys):
 
 # -- Item 7: levels outside a wind source are refused, not clamped. ---------
 def test_wind_stats_levels_outside_the_file_are_refused(tmp_path, capsys):
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   import jax  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
   from ble_latex.wind import stats  # pylint: disable=g-import-not-at-top

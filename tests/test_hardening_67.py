@@ -117,7 +117,7 @@ def test_launch_library_grid_is_bounded_before_meshgrid():
 
 
 def test_launch_date_at_the_end_of_time_is_one_line(tmp_path, capsys):
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import launch  # pylint: disable=g-import-not-at-top
   path = test_gridded.write_era5(tmp_path / 'era5.nc')
   assert launch.main([f'--output_dir={tmp_path / "o"}', f'--wind_file={path}',
@@ -260,7 +260,7 @@ def test_policy_select_output_folder_checked_first(tmp_path, capsys,
                                   '--wind_stats_fields=100000',
                                   ])
 def test_wind_stats_sample_counts_are_bounded(flag, tmp_path, capsys):
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
   era5_file = test_gridded.write_era5(tmp_path / 'era5.nc')
   out = tmp_path / 'plots'
@@ -506,7 +506,7 @@ def test_launch_refuses_a_sounding_in_pa_in_one_line(tmp_path, capsys):
 
 
 def test_launch_world_params_go_through_check_params(tmp_path):
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   from ble_latex.envs import env_params  # pylint: disable=g-import-not-at-top
   from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
   path = test_gridded.write_era5(tmp_path / 'era5.nc')
@@ -524,7 +524,7 @@ def test_launch_world_params_go_through_check_params(tmp_path):
 ])
 def test_launch_world_applies_or_refuses_wind_bindings(binding, needle,
                                                        tmp_path):
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   from ble_latex.launch import scoring  # pylint: disable=g-import-not-at-top
   path = test_gridded.write_era5(tmp_path / 'era5.nc')
   gin.clear_config()

@@ -20,7 +20,7 @@ from ble_latex.cli import download_era5
 from ble_latex.wind import era5_requests
 from ble_latex.wind import gridded
 # pylint: disable=g-bad-import-order,unused-import
-from tests.test_gridded import (  # The synthetic files.
+from tests.wind.test_gridded import (  # The synthetic files.
     TIMES, write_era5)
 # pylint: enable=g-bad-import-order,unused-import
 

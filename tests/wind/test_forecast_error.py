@@ -88,7 +88,7 @@ def test_ble_field_object_scales_its_noise(tmp_path):
   import jax  # pylint: disable=g-import-not-at-top
   from balloon_learning_environment.utils import units  # pylint: disable=g-import-not-at-top
   from ble_latex.ble import gridded_field  # pylint: disable=g-import-not-at-top
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   path = test_gridded.write_era5(tmp_path / 'era5.nc')
   args = (units.Distance(km=20.0), units.Distance(km=-10.0), 8000.0,
           dt.timedelta(hours=1))
@@ -109,7 +109,7 @@ def test_ble_field_object_scales_its_noise(tmp_path):
 
 
 def _pair(tmp_path, **truth_kwargs):
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   forecast = test_gridded.write_era5(tmp_path / 'forecast.nc')
   truth_kwargs.setdefault('t0', test_gridded.T0 - np.timedelta64(12, 'h'))
   truth = test_gridded.write_era5(tmp_path / 'truth.nc', **truth_kwargs)
@@ -117,7 +117,7 @@ def _pair(tmp_path, **truth_kwargs):
 
 
 def test_two_sources_truth_from_the_second_file(tmp_path):
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   # The truth: other winds (another time origin), on a wider grid and a
   # longer time range than the forecast's.
   forecast_path, truth_path = _pair(
@@ -163,7 +163,7 @@ def test_two_sources_truth_from_the_second_file(tmp_path):
 
 
 def test_two_sources_refuse_a_truth_that_misses_the_forecast(tmp_path):
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   forecast_path, late = _pair(
       tmp_path, times=test_gridded.TIMES + np.timedelta64(6, 'h'))
   with pytest.raises(errors.ConfigError, match="valid times"):

@@ -30,7 +30,7 @@ from ble_latex.flight import atmosphere
 from ble_latex.flight import solar
 from ble_latex.flight import thermal
 from ble_latex.run import jax_train
-from tests import test_observed_winds
+from tests.envs import test_observed_winds
 
 _OPTIONS = {'none': {}, 'sun': {'sun': True},
             'gas': {'gas_temperature': True},

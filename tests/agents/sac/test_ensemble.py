@@ -438,7 +438,7 @@ def test_shipped_ensemble_reproduces_its_record():
   from ble_latex.run import eval_lib  # pylint: disable=g-import-not-at-top
   from ble_latex.run import metrics  # pylint: disable=g-import-not-at-top
   from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
-  from tests.test_pretrained import ROW_TOLERANCE  # pylint: disable=g-import-not-at-top
+  from tests.agents.sac.test_pretrained import ROW_TOLERANCE  # pylint: disable=g-import-not-at-top
   recorded = metrics.summarize(json.loads(
       (episode_log.RECORDS_DIR / 'ensemble' / 'latex_small' /
        'sac_ensemble.json').read_text()))

@@ -11,7 +11,7 @@ import json
 import gin
 import pytest
 
-from tests.test_wind_steps import _write_steps  # pylint: disable=g-bad-import-order
+from tests.wind.test_steps import _write_steps  # pylint: disable=g-bad-import-order
 
 HOURS = (72, 75, 78)
 RUN = 'GRIB2 run 2011-10-08T00Z +72..+78 h'

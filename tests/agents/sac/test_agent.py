@@ -29,8 +29,8 @@ from ble_latex.agents.sac import core as sac_core
 from ble_latex.agents.sac import networks
 from ble_latex.agents.sac import pretrained
 from ble_latex.agents.sac import trainer as sac_trainer
-from tests.test_pretrained import _HIGH, _LOW, _sac  # pylint: disable=g-bad-import-order
-from tests.test_pretrained import _crafted_pickle, _train_a_little  # pylint: disable=g-bad-import-order
+from tests.agents.sac.test_pretrained import _HIGH, _LOW, _sac  # pylint: disable=g-bad-import-order
+from tests.agents.sac.test_pretrained import _crafted_pickle, _train_a_little  # pylint: disable=g-bad-import-order
 
 # The latex env's action box: a0 altitude [m], a1 time factor, a2 float flag.
 LOW = np.array([14_000.0, 1.0, -1.0])

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ble_latex.wind import stats
-from tests import test_gridded  # pylint: disable=g-bad-import-order
+from tests.wind import test_gridded  # pylint: disable=g-bad-import-order
 
 
 @pytest.fixture(name='era5_file', scope='module')

@@ -16,7 +16,7 @@ from ble_latex.cli import plot
 from ble_latex.plots import figures as plots
 from ble_latex.run import episode_log
 from ble_latex.run import records as records_lib
-from tests import test_gridded  # pylint: disable=g-bad-import-order
+from tests.wind import test_gridded  # pylint: disable=g-bad-import-order
 
 _PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
 _REASONS = ('out_of_sand', 'time_limit', 'time_limit', 'out_of_helium')

@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from tests import test_golden
+from tests.ble import test_golden
 
 # Measured (float32 JAX vs float64 numpy): features <= ~1e-6 (the float32
 # output's own rounding is 6e-8), reward <= ~1e-7.

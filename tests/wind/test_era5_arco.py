@@ -23,7 +23,7 @@ from ble_latex.cli import download_era5
 from ble_latex.wind import era5_arco
 from ble_latex.wind import era5_requests
 from ble_latex.wind import gridded
-from tests import test_gridded  # pylint: disable=g-bad-import-order
+from tests.wind import test_gridded  # pylint: disable=g-bad-import-order
 
 pytest.importorskip('zarr')
 

@@ -34,7 +34,7 @@ from ble_latex.envs import observed_winds
 from ble_latex.envs import winds
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
-from tests import test_gridded
+from tests.wind import test_gridded
 
 # Irregular axes (a 3 h step among 6 h ones, uneven levels, 0.4 deg grid).
 _HOURS = np.array([0.0, 6.0, 12.0, 15.0, 21.0, 27.0, 33.0])  # [h]

@@ -39,7 +39,7 @@ from ble_latex.run import suites
 from ble_latex.run import wind_file
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
-from tests import test_gridded
+from tests.wind import test_gridded
 from tests import helpers
 
 REPO = str(helpers.ROOT)

@@ -275,7 +275,7 @@ def test_command_output_dir_a_file_exits_1(tmp_path, capsys):
 
 
 def test_era5_world_places_the_station_and_launch_date(tmp_path, setup):
-  from tests import test_gridded  # pylint: disable=g-import-not-at-top
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
   _, controller, _, _ = setup
   times = test_gridded.T0 + np.arange(9) * np.timedelta64(6, 'h')  # 2 days.
   path = test_gridded.write_era5(

@@ -22,7 +22,7 @@ from ble_latex.envs import reset_pool
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import state as state_lib
-from tests import test_golden
+from tests.ble import test_golden
 
 _KEY = jax.random.PRNGKey(0)
 

@@ -19,7 +19,7 @@ import pytest
 
 from ble_latex.ble import gridded_field
 # pylint: disable=g-bad-import-order,unused-import
-from tests.test_gridded import (  # The synthetic files.
+from tests.wind.test_gridded import (  # The synthetic files.
     as_tuple, CENTER, fixture_era5_file, latlng, make_field, T0, wind_u,
     wind_v, write_era5)
 # pylint: enable=g-bad-import-order,unused-import
