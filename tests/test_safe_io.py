@@ -11,7 +11,9 @@ import time
 
 import pytest
 
+from ble_latex import errors
 from ble_latex import safe_io
+
 from tests import helpers
 
 REPO = str(helpers.ROOT)
@@ -138,3 +140,12 @@ def test_locked_file_locks_one_file_of_a_folder(tmp_path):
         pass
   assert sorted(os.listdir(tmp_path / 'suite')) == ['.a.json.lock',
                                                      '.b.json.lock']
+
+
+def test_a_fifo_is_not_read_as_a_policy(tmp_path):
+  from ble_latex import safe_io  # pylint: disable=g-import-not-at-top
+  path = tmp_path / 'fifo.msgpack'
+  import os  # pylint: disable=g-import-not-at-top
+  os.mkfifo(path)
+  with pytest.raises(errors.BadFileError, match='not a regular file'):
+    safe_io.read_tree(str(path), file_format='x', what='SAC policy')

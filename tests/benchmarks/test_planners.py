@@ -191,3 +191,15 @@ def test_observation_results_refuses_bad_runs_in_one_line(tmp_path, capsys,
   err = capsys.readouterr().err.strip().splitlines()
   assert rc == 1 and len(err) == 1 and 'report.json' in err[0], err
   assert not out.exists()
+
+
+@pytest.mark.parametrize('name', ['../../x', '/tmp/abs'])
+def test_planners_name_override_stays_inside_output_dir(
+    name, tmp_path, capsys, benchmark_script):
+  script = benchmark_script('planners.py')
+  out = tmp_path / 'a' / 'out'
+  assert script.main([f'--output_dir={out}', f'--name_override={name}',
+                      '--suite=latex_small', '--seeds=0']) == 2
+  assert '--name_override must be a plain file name' in helpers.one_line(
+      capsys, 'benchmarks/planners.py')
+  assert not list(tmp_path.rglob('*.json'))

@@ -8,6 +8,7 @@ copy decoded here (`benchmarks/gpu/decode_grib.py`), refused unless the copy
 reads to the original's arrays (`wind.grib_copy.digest`).
 """
 
+import json
 import os
 import shutil
 
@@ -21,6 +22,7 @@ from ble_latex.run import wind_file
 from ble_latex.wind import grib_copy
 from ble_latex.wind import gridded
 from ble_latex.wind import sources
+
 from tests import helpers
 
 DATA = str(helpers.REAL_WINDS)
@@ -196,3 +198,103 @@ def test_two_runs_on_other_cells_share_the_record(benchmark_script, tmp_path,
   assert len(err) == 1 and 'real_winds record' in err[0], err
   assert 'in use by' in err[0] and '(waited 0.2 s)' in err[0], err
   assert record.read_bytes() == before
+
+
+# -- Items 1, 8, 10: benchmarks/real_winds.py's record. ---------------------
+_KEY = 'hilo/latex_station_seeker/center'
+
+
+def _flights(seeds, tw50=0.5):
+  return [{'seed': s, 'tw50': tw50, 'tw50_window': tw50, 'window_steps': 3,
+           'reward': 1.0, 'steps': 3, 'helium_vented_mols': 0.0,
+           'sand_dropped_kg': 0.0, 'terminal_reason': 'time_limit',
+           'final_distance_km': 1.0} for s in seeds]
+
+
+@pytest.fixture(name='real_winds_run')
+def _real_winds_run(benchmark_script, tmp_path, monkeypatch):
+  import shutil  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import suites  # pylint: disable=g-import-not-at-top
+  real_winds = benchmark_script('real_winds.py')
+  realdata = tmp_path / 'realdata'
+  (realdata / 'soundings').mkdir(parents=True)
+  shutil.copy(os.path.join(helpers.REAL_WINDS, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv'),
+              realdata / 'soundings')
+  record = tmp_path / 'r.json'
+  argv = [f'--json={record}', f'--realdata_dir={realdata}', '--sources=hilo',
+          '--agents=latex_station_seeker']
+  seeds = list(suites.get_eval_suite('latex_small').seeds)
+  during = []
+
+  def fly_cell(cell, path, chunk):
+    del cell, path
+    for action in during:
+      action()
+    return _flights(chunk), 'sounding (time-invariant)', True, 0.1
+
+  monkeypatch.setattr(real_cells, 'fly_cell', fly_cell)
+  return real_winds, record, argv, seeds, during
+
+
+def test_two_writers_of_one_cell_keep_both_runs_seeds(real_winds_run):
+  real_winds, record, argv, seeds, during = real_winds_run
+  assert real_winds.main(argv + ['--seeds=2']) == 0
+
+  def other_writer():  # A run with --seeds=5 writes seeds 2..4 meanwhile.
+    data = json.loads(record.read_text())
+    cell = data['cells'][_KEY]
+    cell['flights'] += _flights(seeds[2:5], tw50=0.25)
+    cell['runs'].append({'by': 'the other run'})
+    record.write_text(json.dumps(data))
+    during.clear()
+
+  during.append(other_writer)
+  assert real_winds.main(argv + ['--seeds=3']) == 0
+  cell = json.loads(record.read_text())['cells'][_KEY]
+  assert [f['seed'] for f in cell['flights']] == sorted(seeds[:5])
+  assert {'by': 'the other run'} in cell['runs'] and len(cell['runs']) == 3
+  assert cell['summary']['episodes'] == 5
+
+
+@pytest.mark.parametrize('change, needle', [
+    (lambda f: f.update(seed=123456789), 'is not a seed of suite'),
+    (lambda f: f.update(tw50_window=7.5), 'tw50_window 7.5'),
+    (lambda f: f.update(steps=-1), 'steps -1'),
+    (lambda f: f.pop('tw50'), 'lacks fields'),
+])
+def test_resume_checks_the_records_flights(change, needle, real_winds_run,
+                                           capsys):
+  real_winds, record, argv, _, _ = real_winds_run
+  assert real_winds.main(argv + ['--seeds=2']) == 0
+  data = json.loads(record.read_text())
+  change(data['cells'][_KEY]['flights'][0])
+  record.write_text(json.dumps(data))
+  capsys.readouterr()
+  assert real_winds.main(argv + ['--seeds=3']) == 1
+  assert needle in helpers.one_line(capsys, 'real_winds.py')
+
+
+@pytest.mark.parametrize('text, needle', [
+    ('{"cells": {"hilo', 'truncated'),
+    (json.dumps({'cells': {_KEY: {'flights': []}}}), 'needs settings'),
+    (json.dumps({'cells': {_KEY: {'settings': {}, 'flights': 3, 'runs': []}}}),
+     'needs settings'),
+    (json.dumps({'cells': {_KEY: {'settings': {}, 'flights': [1],
+                                  'runs': []}}}), 'lacks fields'),
+])
+def test_a_malformed_real_winds_record_is_one_line(text, needle,
+                                                   real_winds_run, capsys):
+  real_winds, record, argv, _, _ = real_winds_run
+  record.write_text(text)
+  assert real_winds.main(argv + ['--seeds=2']) == 1
+  assert needle in helpers.one_line(capsys, 'real_winds.py')
+  assert record.read_text() == text
+
+
+def test_real_winds_output_folder_checked_first(real_winds_run, tmp_path,
+                                                capsys):
+  real_winds, _, argv, _, _ = real_winds_run
+  blocker = tmp_path / 'file'
+  blocker.write_text('x')
+  assert real_winds.main(argv[1:] + [f'--json={blocker / "r.json"}']) == 1
+  assert '--json' in helpers.one_line(capsys, 'real_winds.py')

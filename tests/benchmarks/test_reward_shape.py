@@ -164,3 +164,46 @@ def test_edge_summary_averages_flights_and_skips_never_inside():
   assert summary['edge_fraction'] == pytest.approx(0.25)
   assert summary['core_fraction'] == pytest.approx(0.25)
   assert summary['edge_share_of_inside'] == pytest.approx(0.5)  # First only.
+
+
+# -- Items 6, 11, 12: benchmarks/reward_shape.py. ---------------------------
+@pytest.mark.parametrize('argv, needle', [
+    (['--tanh_scale_km=1e-40'], '--tanh_scale_km'),
+    (['--seeds=99999999999999999999'], '[0, 4294967295]'),
+    (['--seeds=0,-1'], '[0, 4294967295]'),
+])
+def test_reward_shape_refuses_flags_up_front(argv, needle, tmp_path, capsys,
+                                             benchmark_script):
+  script = benchmark_script('reward_shape.py')
+  out = tmp_path / 'r.json'
+  assert script.main([f'--base_dir={tmp_path / "b"}', f'--output={out}',
+                      *argv]) == 2
+  assert needle in helpers.one_line(capsys, 'benchmarks/reward_shape.py')
+  assert not (tmp_path / 'b').exists() and not out.exists()
+
+
+@pytest.mark.parametrize('text, needle', [
+    ('{"settings": {}, "rew', 'truncated'),
+    ('{"settings": {}, "rewards": {"perciatelli": []}}', 'rewards.perciatelli'),
+    ('{"settings": {}, "rewards": {"tanh": {"seeds": [1]}}}', 'rewards.tanh'),
+])
+def test_reward_shape_bad_record_is_one_line(text, needle, tmp_path, capsys,
+                                             benchmark_script):
+  script = benchmark_script('reward_shape.py')
+  out = tmp_path / 'r.json'
+  out.write_text(text)
+  assert script.main([f'--base_dir={tmp_path / "b"}', f'--output={out}',
+                      '--seeds=0']) == 1
+  assert needle in helpers.one_line(capsys, 'benchmarks/reward_shape.py')
+  assert out.read_text() == text
+
+
+def test_reward_shape_edges_of_a_bad_eval_file_is_one_line(
+    tmp_path, capsys, benchmark_script):
+  script = benchmark_script('reward_shape.py')
+  for i, content in enumerate(([{'seed': 0}], {'a': 1}, '[{"seed"')):
+    path = tmp_path / f'e{i}.json'
+    path.write_text(content if isinstance(content, str) else
+                    json.dumps(content))
+    assert script.main([f'--edges_of={path}']) == 1
+    assert str(path) in helpers.one_line(capsys, 'benchmarks/reward_shape.py')

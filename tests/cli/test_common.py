@@ -6,11 +6,14 @@ import os
 import subprocess
 import sys
 
+from absl import flags
+import gin
 import pytest
 
 from ble_latex import errors
 from ble_latex.cli import common as cli
 from ble_latex.run import gin_binding
+
 from tests import helpers
 
 REPO = str(helpers.ROOT)
@@ -581,3 +584,37 @@ def test_gin_flags_have_one_home():
                        encoding='utf-8')
                    for name in ('gin_file', 'gin_bindings')))
   assert own == [], own
+
+
+def _toy_command(argv, seen):
+  values = flags.FlagValues()
+  flags.DEFINE_float('ratio', 1.0, 'A float.', flag_values=values)
+  flags.DEFINE_integer('count', 1, 'An int.', flag_values=values)
+
+  def main(unused_argv):
+    seen.append(gin.config_str())
+    gin.parse_config('latex_launch.payload_kg = 7.0')
+    return 0
+  return cli.run_absl(main, 'toy', values, argv)
+
+
+@pytest.mark.parametrize('flag', ['--ratio=nan', '--ratio=inf',
+                                  '--ratio=-1e39',
+                                  '--count=99999999999999999999'])
+def test_number_flags_of_every_command_are_checked(flag, capsys):
+  seen = []
+  assert _toy_command([flag], seen) == 2
+  assert not seen  # Refused before the command's main.
+  assert flag.split('=')[0] in helpers.one_line(capsys, 'toy')
+
+
+# -- Item 22: a command run twice binds afresh. ----------------------------
+def test_a_command_does_not_keep_the_previous_runs_gin():
+  seen = []
+  gin.parse_config('latex_launch.payload_kg = 5.0')  # An earlier run's.
+  try:
+    assert _toy_command([], seen) == 0
+    assert _toy_command([], seen) == 0
+  finally:
+    gin.clear_config()
+  assert 'payload_kg' not in seen[0] and 'payload_kg' not in seen[1]

@@ -259,3 +259,16 @@ def test_failed_merge_leaves_no_part_file(monkeypatch, capsys, tmp_path):
       f'ble-latex-download-era5: error: could not write {output} (OSError: [Errno 28] No space left')
   assert sorted(p.name for p in tmp_path.iterdir()) == [
       'era5_2022-11.nc', 'era5_2022-12.nc']
+
+
+# -- Item 22: ble-latex-download-era5's grid spacing is bounded. ------------
+@pytest.mark.parametrize('grid', ['1e-30', '0.001', '50'])
+def test_download_era5_grid_deg_out_of_range_is_refused(grid, capsys):
+  from ble_latex.cli import download_era5  # pylint: disable=g-import-not-at-top
+  assert download_era5.main(['--dry_run', f'--grid_deg={grid}']) == 2
+  assert 'grid_deg must be in [0.05, ' in capsys.readouterr().err
+
+
+def test_download_era5_paper_grid_is_accepted(capsys):
+  from ble_latex.cli import download_era5  # pylint: disable=g-import-not-at-top
+  assert download_era5.main(['--dry_run', '--grid_deg=0.25']) == 0

@@ -18,6 +18,7 @@ from ble_latex.run import suites
 import jax
 import numpy as np
 import pytest
+from tests import helpers
 
 # A tiny SAC so the test is fast; the schedule is the real one.
 _TINY_SAC = [
@@ -338,3 +339,55 @@ def test_snapshot_candidates_and_the_best_named(tmp_path):
   assert selection.best_named(results, 10.0) == 'c'  # 'a' is over the cap.
   assert selection.best_named(results, 100.0) == 'a'
   assert selection.best_named({'a': r(0.5, 20.0)}, 10.0) is None
+
+
+# -- Items 4, 12: training seeds in [0, 2**32). ---------------------------
+@pytest.mark.parametrize('argv', [
+    ['--trainer=jax', '--seed=4294967296'],
+    ['--seed=-1'],
+    ['--trainer=jax', '--seeds=0,99999999999999999999'],
+    ['--seeds=4294967296'],
+])
+def test_train_refuses_seeds_beyond_2_32(argv, tmp_path, capsys):
+  from ble_latex.cli import train  # pylint: disable=g-import-not-at-top
+  base = tmp_path / 'run'
+  assert train.main([f'--base_dir={base}', *argv]) == 2
+  assert '[0, 4294967295]' in helpers.one_line(capsys, 'ble-latex-train')
+  assert not base.exists()  # No stray run or seed_ directory.
+
+
+# -- Items 8-11: the eval command. ------------------------------------------
+@pytest.mark.parametrize('argv, needle', [
+    (['--agent=latex_mpc', '--env_name=LatexBalloonDiscrete-v0'],
+     "Agent 'latex_mpc' acts in the Box"),
+    (['--agent=latex_station_seeker', '--env_name=LatexBalloonDiscrete-v0'],
+     "Agent 'latex_station_seeker' acts in the Box"),
+    (['--num_shards=2', '--shard_idx=5'], '--shard_idx must be in [0, '),
+    (['--max_episode_length=0'], 'max_episode_length'),
+    (['--max_episode_length=-3'], 'max_episode_length'),
+    (['--agent=latex_station_seeker', '--era5_path=/nonexistent.nc',
+      '--era5_dates=0001-01-01T00:00+01:00,2022-01-01'],
+     'years 1..9999'),
+])
+def test_eval_refusals_are_one_line(argv, needle, tmp_path, capsys):
+  from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'out'
+  assert eval_cli.main([f'--output_dir={out}', *argv]) == 2
+  assert needle in helpers.one_line(capsys, 'ble-latex-eval')
+  assert not out.exists() or not list(out.rglob('*'))  # No lock file left.
+
+
+# -- Item 21: output names stay inside the output folder. -------------------
+@pytest.mark.parametrize('name', ['../../x', '/tmp/abs', '..', 'a/b', ''])
+def test_eval_name_override_stays_inside_output_dir(name, tmp_path, capsys):
+  from ble_latex.cli import eval as eval_cli  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'a' / 'b' / 'out'
+  rc = eval_cli.main([f'--output_dir={out}', f'--name_override={name}',
+                      '--agent=latex_station_seeker', '--suite=latex_micro'])
+  if name == '':  # absl: an empty override is no override; nothing checked.
+    capsys.readouterr()
+    return
+  assert rc == 2
+  assert '--name_override must be a plain file name' in helpers.one_line(
+      capsys, 'ble-latex-eval')
+  assert not list(tmp_path.rglob('*.json'))

@@ -341,3 +341,15 @@ def test_given_params_are_checked(change, binding):
       flight=flight_params_lib.FlightParams(), decoder=None)
   with pytest.raises(ValueError, match=f'^gin binding {binding} must be'):
     gymnasium_vector.LatexBalloonVectorEnv(2, params=params.replace(**change))
+
+
+# -- Item 16: the Gymnasium vector env's num_envs is capped. ----------------
+@pytest.mark.parametrize('kwargs', [{}, {'asynchronous': True}])
+@pytest.mark.parametrize('num_envs', [10**9, 65_537])
+def test_make_vec_caps_num_envs_before_allocating(kwargs, num_envs):
+  import gymnasium  # pylint: disable=g-import-not-at-top
+  import ble_latex  # pylint: disable=g-import-not-at-top,unused-import
+  with pytest.raises(ValueError, match=r'num_envs must be an int in \[1, '
+                     r'65536\]'):
+    gymnasium.make_vec('ble_latex/LatexBalloon-v0', num_envs=num_envs,
+                       **kwargs)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from ble_latex import errors
+from ble_latex import gin_values
 from ble_latex.envs import env_params
 from ble_latex.envs import jax_env
 from ble_latex.envs import jax_features
@@ -84,3 +85,7 @@ def test_bad_scale_is_one_line_naming_the_binding(value):
   with pytest.raises(errors.ConfigError,
                      match='latex_reward.reward_tanh_scale_km'):
     env_params.params_from_gin()
+
+
+def test_tanh_scale_0_still_switches_the_reward_off():
+  gin_values.check_reward_values({'reward_tanh_scale_km': 0.0})

@@ -1,13 +1,14 @@
 """A training run directory (ble_latex/run/run_dir.py): the resume check."""
 
 import json
+import os
 
 import ble_latex  # noqa: F401  pylint: disable=unused-import
 import pytest
 
+from ble_latex import errors
 from ble_latex.run import episode_log
 from ble_latex.run import run_dir
-from ble_latex import errors
 
 
 def _write_log(path, n):
@@ -85,3 +86,18 @@ def test_settings_added_since_a_run_started_count_with_their_defaults(
   resume({'a': 1, 'b': 'old'})
   with pytest.raises(errors.ResumeError, match="'b': 'new'"):
     resume({'a': 1, 'b': 'new'})
+
+
+@pytest.mark.parametrize('seed', [2**32, -1, 10**20, True])
+def test_both_trainers_refuse_seeds_beyond_2_32(seed, tmp_path):
+  from ble_latex.run import jax_train  # pylint: disable=g-import-not-at-top
+  from ble_latex.run import train_lib  # pylint: disable=g-import-not-at-top
+  with pytest.raises(errors.ConfigError, match='training seed'):
+    train_lib.train(agent_name='sac', env_name='LatexBalloon-v0',
+                    base_dir=str(tmp_path / 'a'), num_iterations=1,
+                    episodes_per_iteration=1, max_episode_length=1,
+                    collectors=[], seed=seed)
+  with pytest.raises(errors.ConfigError, match='training seed'):
+    jax_train.train_seeds(runs=[(seed, str(tmp_path / 'b'))],
+                          num_iterations=1)
+  assert not os.listdir(tmp_path)

@@ -637,3 +637,69 @@ def test_paper_gin_file_binds_the_field(era5_file):
     del env_lib
   finally:
     gin.clear_config()
+
+
+def test_era5_dates_that_overflow_are_a_config_error():
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
+  for pair in (('0001-01-01T00:00+01:00', '2022-01-01'),
+               ('2022-01-01', '9999-12-31T23:00-05:00')):
+    with pytest.raises(errors.ConfigError, match='years 1..9999'):
+      gridded.start_dates_range(pair)
+
+
+def test_the_wind_memory_guard_uses_available_memory(monkeypatch):
+  from ble_latex import safe_io  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import gridded_checks  # pylint: disable=g-import-not-at-top
+  monkeypatch.setattr(safe_io, 'available_memory_bytes', lambda: 10**6)
+  assert gridded_checks.memory_bytes() == 10**6
+  with pytest.raises(errors.BadFileError, match='available now'):
+    gridded_checks.check_size('f.nc', (10, 10, 10, 1000))
+
+
+@pytest.mark.parametrize('name, needle', [
+    ('gfs.grib2', 'ble-latex-download-gfs'),
+    ('PHTO_uwyo.csv', 'University of Wyoming sounding'),
+    ('station.txt', 'University of Wyoming sounding'),
+])
+def test_a_missing_wind_file_hint_names_its_kind(name, needle, tmp_path):
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
+  with pytest.raises(FileNotFoundError) as info:
+    gridded.load(str(tmp_path / name))
+  assert needle in str(info.value)
+  assert 'download-era5' not in str(info.value)
+
+
+def test_a_fifo_or_symlink_loop_is_not_called_missing(tmp_path):
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import sounding  # pylint: disable=g-import-not-at-top
+  fifo = tmp_path / 'winds.nc'
+  os.mkfifo(fifo)
+  loop = tmp_path / 'loop.nc'
+  os.symlink(loop, loop)
+  for path, needle in ((fifo, 'is a FIFO'), (loop, 'symbolic link')):
+    with pytest.raises(errors.BadFileError, match=needle):
+      gridded.load(str(path))
+  with pytest.raises(errors.BadFileError, match='is a FIFO'):
+    sounding.read(str(fifo))
+
+
+def test_wind_file_fifo_is_one_line_exit_1(tmp_path, capsys):
+  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
+  fifo = tmp_path / 'winds.nc'
+  os.mkfifo(fifo)
+  assert plot.main([f'--output_dir={tmp_path / "p"}', '--wind_stats',
+                    f'--wind_file={fifo}']) == 1
+  assert 'is a FIFO' in helpers.one_line(capsys, 'ble-latex-plot')
+
+
+# -- Item 7: a GRIB2 file with two messages of one field is refused. --------
+def test_grib2_with_a_duplicated_message_is_refused(tmp_path):
+  from ble_latex.wind import gridded  # pylint: disable=g-import-not-at-top
+  grib = os.path.join(helpers.REAL_WINDS, 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')
+  with open(grib, 'rb') as f:
+    raw = f.read()
+  end = raw.index(b'7777') + 4  # The first message, appended once more.
+  path = tmp_path / 'twice.grib2'
+  path.write_bytes(raw + raw[:end])
+  with pytest.raises(errors.BadFileError, match='holds two messages of'):
+    gridded.read_source(str(path))

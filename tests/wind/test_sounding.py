@@ -1,6 +1,7 @@
 """wind/sounding.py: University of Wyoming soundings on real bytes."""
 
 import math
+import os
 import pathlib
 
 from hypothesis import given
@@ -11,6 +12,7 @@ import pytest
 
 from ble_latex import errors
 from ble_latex.wind import sounding
+
 from tests import helpers
 
 DATA = helpers.REAL_WINDS
@@ -100,3 +102,35 @@ def test_truncated_and_binary_and_missing_files(tmp_path):
   big.write_bytes(b' ' * (sounding.MAX_FILE_BYTES + 1))
   with pytest.raises(errors.BadFileError, match='no sounding'):
     sounding.read(str(big))
+
+
+def test_a_sounding_csv_with_a_byte_order_mark_reads(tmp_path):
+  from ble_latex.wind import sounding  # pylint: disable=g-import-not-at-top
+  hilo = os.path.join(helpers.REAL_WINDS, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
+  with open(hilo, 'rb') as f:
+    raw = f.read()
+  path = tmp_path / 'bom.csv'
+  path.write_bytes(b'\xef\xbb\xbf' + raw)
+  plain, bom = sounding.read(hilo), sounding.read(str(path))
+  assert len(bom.pressure_pa) == len(plain.pressure_pa) > 10
+
+
+# -- Item 3: a sounding's pressures are checked against their heights. ------
+def _hilo_scaled(tmp_path, factor):
+  hilo = os.path.join(helpers.REAL_WINDS, 'PHTO-Hilo_2023-11-01T00Z_uwyo.csv')
+  with open(hilo, encoding='utf-8') as f:
+    lines = f.read().splitlines()
+  rows = [lines[0]] + [
+      ','.join([repr(float(l.split(',')[0]) * factor), *l.split(',')[1:]])
+      for l in lines[1:] if l.strip()]
+  path = tmp_path / f'PHTO-Hilo_x{factor:g}_uwyo.csv'
+  path.write_text('\n'.join(rows) + '\n')
+  return str(path)
+
+
+@pytest.mark.parametrize('factor', [100.0, 0.1, 1e34])
+def test_a_sounding_in_other_pressure_units_is_refused(factor, tmp_path):
+  from ble_latex.wind import sounding  # pylint: disable=g-import-not-at-top
+  with pytest.raises(errors.BadFileError, match='PRES must be in hPa'):
+    sounding.read(_hilo_scaled(tmp_path, factor))
+  assert len(sounding.read(_hilo_scaled(tmp_path, 1.0)).pressure_pa) == 162

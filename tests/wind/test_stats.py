@@ -9,8 +9,10 @@ import jax
 import numpy as np
 import pytest
 
+from ble_latex import errors
 from ble_latex.wind import stats
 from tests.wind import test_gridded  # pylint: disable=g-bad-import-order
+from tests import helpers
 
 
 @pytest.fixture(name='era5_file', scope='module')
@@ -120,3 +122,41 @@ def test_bad_inputs_are_errors_naming_them(era5_file, tmp_path):
     stats.compare(a, b)
   with pytest.raises(ValueError, match='non-finite winds'):
     samples([[np.nan] * 3], [[0.0] * 3])
+
+
+# -- Item 7: levels outside a wind source are refused, not clamped. ---------
+def test_wind_stats_levels_outside_the_file_are_refused(tmp_path, capsys):
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
+  import jax  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
+  from ble_latex.wind import stats  # pylint: disable=g-import-not-at-top
+  era5_file = test_gridded.write_era5(tmp_path / 'era5.nc')  # 5000..10000 Pa.
+  for levels in ([1.0, 2.0], [5000.0, 20000.0], [float('nan'), 5000.0]):
+    with pytest.raises(errors.ConfigError, match='outside ERA5 file'):
+      stats.sample_era5(era5_file, levels, num_samples=5)
+  with pytest.raises(errors.ConfigError, match="outside the VAE"):
+    stats.sample_vae(jax.random.PRNGKey(0), [1.0, 5000.0], num_fields=1,
+                     points_per_field=1)
+  out = tmp_path / 'plots'
+  for against in ([], [f'--wind_stats_against={era5_file}']):
+    assert plot.main([f'--output_dir={out}', '--wind_stats',
+                      f'--era5_path={era5_file}',
+                      '--wind_stats_pressures_pa=1,2', *against]) == 2
+    assert 'pressure levels [1.0, 2.0] Pa are outside' in helpers.one_line(
+        capsys, 'ble-latex-plot')
+  assert not out.exists() or not list(out.iterdir())
+
+
+# -- Item 17: wind statistics' sample counts are bounded. -------------------
+@pytest.mark.parametrize('flag', ['--wind_stats_samples=2000000000',
+                                  '--wind_stats_fields=100000',
+                                  ])
+def test_wind_stats_sample_counts_are_bounded(flag, tmp_path, capsys):
+  from tests.wind import test_gridded  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import plot  # pylint: disable=g-import-not-at-top
+  era5_file = test_gridded.write_era5(tmp_path / 'era5.nc')
+  out = tmp_path / 'plots'
+  assert plot.main([f'--output_dir={out}', '--wind_stats',
+                    f'--era5_path={era5_file}', '--wind_stats_points=1000',
+                    flag]) == 2
+  assert flag.split('=')[0] in helpers.one_line(capsys, 'ble-latex-plot')

@@ -10,6 +10,7 @@ import functools
 import subprocess
 import sys
 
+import gin
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
@@ -605,5 +606,18 @@ def test_values_infinite_in_float32_are_refused(field):
   try:
     with pytest.raises(errors.ConfigError, match=f'LatexMpcAgent.{field}'):
       plan_config.from_gin('latex_mpc')
+  finally:
+    gin.clear_config()
+
+
+def test_planner_cost_beyond_float32_is_refused():
+  from ble_latex.agents.planning import agents as planners  # pylint: disable=g-import-not-at-top
+  from ble_latex.envs import jax_env  # pylint: disable=g-import-not-at-top
+  gin.clear_config()
+  try:
+    gin.parse_config('LatexMpcAgent.sand_cost = 1e39')
+    with pytest.raises(ValueError, match='sand_cost'):
+      planners.AGENTS['latex_mpc'](3, (71,), action_low=jax_env.ACTION_LOW,
+                                   action_high=jax_env.ACTION_HIGH)
   finally:
     gin.clear_config()

@@ -7,6 +7,7 @@ import ble_latex  # noqa: F401
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
+from ble_latex import errors
 from ble_latex import run_files
 from ble_latex import safe_io
 from ble_latex.agents.sac import agent as sac
@@ -15,6 +16,7 @@ from ble_latex.agents.sac import pretrained
 from ble_latex.run import episode_log
 import numpy as np
 import pytest
+from tests import helpers
 
 _LOW = np.array([14000.0, 1.0, -1.0], dtype=np.float32)
 _HIGH = np.array([21000.0, 5.0, 1.0], dtype=np.float32)
@@ -364,3 +366,69 @@ def test_shipped_policy_is_a_data_file():
                                                   b'\x05')
   policy = pretrained.load_policy(pretrained.DEFAULT_POLICY)
   assert policy['format'] == pretrained.POLICY_FORMAT
+
+
+# -- Items 18, 19: policy files hold only what write_tree stores. -----------
+_SHIPPED_POLICY = (helpers.ROOT / 'ble_latex' /
+                   'agents' / 'policies' / 'sac_latex.msgpack')
+
+
+def _crafted_policy(tmp_path, name, extra):
+  """The shipped policy's bytes with `extra` entries added (msgpack)."""
+  import msgpack  # pylint: disable=g-import-not-at-top
+  # flax's arrays stay msgpack ext types here: repacked byte for byte.
+  raw = msgpack.unpackb(_SHIPPED_POLICY.read_bytes(), raw=False,
+                        strict_map_key=False)
+  raw.update(extra)
+  path = tmp_path / name
+  path.write_bytes(msgpack.packb(raw))
+  return path
+
+
+@pytest.mark.parametrize('extra', [
+    {'note': 'EXT'}, {7: 'an int key'}])
+def test_policy_with_ext_type_or_int_key_is_refused_naming_it(
+    extra, tmp_path, capsys):
+  import msgpack  # pylint: disable=g-import-not-at-top
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
+  from ble_latex.cli import export_policy  # pylint: disable=g-import-not-at-top
+  if extra.get('note') == 'EXT':
+    extra = {'note': msgpack.ExtType(42, b'x')}
+  path = _crafted_policy(tmp_path, 'crafted.msgpack', extra)
+  with pytest.raises(errors.BadFileError, match=str(path)):
+    pretrained.load_policy(str(path))
+  out = tmp_path / 'out.msgpack'
+  assert export_policy.main([f'--checkpoint={path}', f'--output={out}']) == 1
+  assert str(path) in helpers.one_line(capsys, 'ble-latex-export-policy')
+  assert not out.exists()
+
+
+def test_export_policy_to_a_pickle_name_is_a_usage_error(tmp_path, capsys):
+  from ble_latex.cli import export_policy  # pylint: disable=g-import-not-at-top
+  out = tmp_path / 'x.pkl'
+  assert export_policy.main([
+      f'--checkpoint={_SHIPPED_POLICY}',
+      f'--output={out}']) == 2
+  assert 'msgpack' in helpers.one_line(capsys, 'ble-latex-export-policy')
+  assert not out.exists()
+
+
+# -- Item 15: policy and checkpoint files are size-bounded before reading. ---
+def test_a_huge_policy_is_refused_before_it_is_read(tmp_path):
+  from ble_latex.agents.sac import pretrained  # pylint: disable=g-import-not-at-top
+  path = tmp_path / 'huge.msgpack'
+  with open(path, 'wb') as f:
+    f.truncate(2**30)  # Sparse: 1 GiB on no disk.
+  with pytest.raises(errors.BadFileError, match='more than the most a SAC'):
+    pretrained.load_policy(str(path))
+
+
+def test_a_huge_checkpoint_is_refused_before_it_is_read(tmp_path, capsys):
+  from ble_latex.cli import export_policy  # pylint: disable=g-import-not-at-top
+  path = tmp_path / 'checkpoint_00001.msgpack'
+  with open(path, 'wb') as f:
+    f.truncate(2**43)  # Sparse: 8 TiB, more than any memory here.
+  out = tmp_path / 'p.msgpack'
+  assert export_policy.main([f'--checkpoint={path}', f'--output={out}']) == 1
+  assert 'memory available' in helpers.one_line(capsys, 'ble-latex-export-policy')
+  assert not out.exists()
