@@ -1,5 +1,6 @@
 # coding=utf-8
-"""Tests for ble_latex.plots.figures (figures) and ble_latex.cli.plot (`ble-latex-plot`)."""
+"""Tests for ble_latex.plots.figures (figures); the command, ble-latex-plot, in
+tests/cli/test_plot.py."""
 
 import dataclasses
 import json
@@ -8,7 +9,6 @@ import pathlib
 import types
 from typing import Any, Dict, List
 
-import gin
 import numpy as np
 import pytest
 
@@ -16,7 +16,6 @@ from ble_latex.cli import plot
 from ble_latex.plots import figures as plots
 from ble_latex.run import episode_log
 from ble_latex.run import records as records_lib
-from tests.wind import test_gridded  # pylint: disable=g-bad-import-order
 
 _PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
 _REASONS = ('out_of_sand', 'time_limit', 'time_limit', 'out_of_helium')
@@ -526,189 +525,6 @@ def test_wind_stats_figure(tmp_path):
                              [0.1, 0.2, 0.3])
 
 
-# --- the command -------------------------------------------------------------
-
-
-def test_main_training_and_eval_figures(tmp_path, capsys):
-  run_dir = tmp_path / 'run'
-  _write_episodes(run_dir / 'episodes.jsonl', n=120, torn_tail=True)
-  trained = _write_json(tmp_path / 'eval' / 'tiny' / 'sac.json',
-                        _eval_records((3, 5, 7)))
-  baseline = _write_json(tmp_path / 'eval' / 'tiny' / 'random.json',
-                         _eval_records((7, 5), drift_km=12.0))
-  out = tmp_path / 'plots'
-  with pytest.warns(records_lib.EpisodeLogWarning):
-    status = plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
-                        f'--eval_json={trained}',
-                        f'--baseline_eval_json={baseline}',
-                        '--max_trajectories=2'])
-  assert status == 0
-  stdout = capsys.readouterr().out
-  for name in (plot.TRAINING_CURVES, plot.TERMINAL_CONDITIONS,
-               plot.TRAJECTORIES, plot.TRAJECTORY_3D):
-    _assert_png(out / name)
-    assert f'wrote {out / name}' in stdout
-  assert not (out / plot.WIND_FIELD).exists()
-  summary = json.loads((out / plot.SUMMARY).read_text())
-  s = summary[str(trained)]
-  assert s['episodes'] == 3
-  assert s['tw50_mean'] == pytest.approx(0.5)
-  assert s['tw50_window_mean'] == pytest.approx(0.25)
-  assert s['reward_mean'] == pytest.approx(10.0)
-  assert s['out_of_resources_pct'] == pytest.approx(100.0 / 3.0)
-  assert summary[str(baseline)]['episodes'] == 2
-  assert (f'{trained}: 3 seeds, TW50 (window) 25.0 +- 8.2%, TW50 (flown) '
-          '50.0 +- ') in stdout
-
-
-def test_main_only_given_inputs(tmp_path):
-  trained = _write_json(tmp_path / 'a.json', _eval_records())
-  out = tmp_path / 'plots'
-  assert plot.main([f'--output_dir={out}', f'--eval_json={trained}']) == 0
-  assert sorted(p.name for p in out.iterdir()) == sorted(
-      [plot.SUMMARY, plot.TRAJECTORIES, plot.TRACK_MAP, plot.FLIGHT_TIME])
-
-
-def test_main_bad_inputs(tmp_path, capsys):
-  out = tmp_path / 'plots'
-  invalid = tmp_path / 'invalid.json'
-  invalid.write_text('[{"seed": 1,')
-  assert plot.main([f'--output_dir={out}', f'--eval_json={invalid}']) == 1
-  assert f'{invalid}: not a valid eval JSON' in capsys.readouterr().err
-  assert plot.main([f'--output_dir={out}',
-                    f'--run_dir={tmp_path / "norun"}']) == 1
-  assert 'episodes.jsonl' in capsys.readouterr().err
-  assert plot.main([f'--output_dir={out}']) == 2
-  assert 'nothing to plot' in capsys.readouterr().err
-  assert plot.main(['--run_dir=x']) == 2  # --output_dir is required.
-  assert plot.main([f'--output_dir={out}', '--no_such_flag=1']) == 2
-  assert plot.main([f'--output_dir={out}', '--wind_seeds=a']) == 2
-  trained = _write_json(tmp_path / 'a.json', _eval_records((3, 5)))
-  baseline = _write_json(tmp_path / 'b.json', _eval_records((5,)))
-  assert plot.main([f'--output_dir={out}', f'--eval_json={trained}',
-                    f'--baseline_eval_json={baseline}', '--seed=3']) == 1
-  assert 'seed 3 is not in both eval files' in capsys.readouterr().err
-  assert not out.exists()  # Nothing drawn on bad input.
-  assert plot.main(['--help']) == 0
-  assert '--wind_seeds' in capsys.readouterr().out
-
-
-def test_main_wind_stats_writes_figure_and_json(tmp_path, capsys):
-  era5_file = test_gridded.write_era5(tmp_path / 'era5.nc')
-  out = tmp_path / 'plots'
-  argv = [f'--output_dir={out}', '--wind_stats', f'--era5_path={era5_file}',
-          '--wind_stats_fields=2', '--wind_stats_points=4',
-          '--wind_stats_samples=20']
-  assert plot.main(argv) == 0
-  assert sorted(p.name for p in out.iterdir()) == [plot.WIND_STATS_JSON,
-                                                   plot.WIND_STATS]
-  _assert_png(out / plot.WIND_STATS)
-  result = json.loads((out / plot.WIND_STATS_JSON).read_text())
-  assert result['sources'] == {'a': 'VAE', 'b': era5_file}
-  assert result['pressures_pa'] == [5000.0, 10000.0]
-  assert result['samples'] == {'a': 8, 'b': 20}
-  assert result['wasserstein_u_mps'] > 0.0
-  assert set(result['direction_diversity']['a']) >= {
-      'opposing_pair_fraction', 'opposing_any_fraction', 'opposing_by_level'}
-  assert capsys.readouterr().err == ''
-  # Against a second ERA5 file (itself): distance 0, no JAX.
-  assert plot.main(argv + [f'--wind_stats_against={era5_file}',
-                           '--wind_stats_pressures_pa=7000,5000']) == 0
-  result = json.loads((out / plot.WIND_STATS_JSON).read_text())
-  assert result['pressures_pa'] == [5000.0, 7000.0]
-  assert result['per_level'][0]['u_mps']['a']['mean'] == pytest.approx(
-      result['per_level'][0]['u_mps']['b']['mean'], abs=1.0)
-
-
-@pytest.mark.parametrize('change, message', [
-    (dict(nan=True), 'has NaN/inf winds'),
-    (dict(lat=np.array([2.0, 1.0, 0.0])), 'too small for samples up to 200 '
-     'km'),
-    (dict(levels_hpa=np.array([20.0, 50.0, 175.0])), 'the comparison needs 2 '
-     'or more'),
-])
-def test_main_wind_stats_bad_era5_files(tmp_path, capsys, change, message):
-  era5_file = test_gridded.write_era5(tmp_path / 'era5.nc', **change)
-  out = tmp_path / 'plots'
-  assert plot.main([f'--output_dir={out}', '--wind_stats',
-                    f'--era5_path={era5_file}']) == 1
-  error = capsys.readouterr().err
-  assert error.startswith('ble-latex-plot: error: ') and message in error
-  assert error.count('\n') == 1, error
-  assert not out.exists()
-
-
-def test_main_validates_every_input_before_drawing(tmp_path, capsys):
-  run_dir = tmp_path / 'run'
-  _write_episodes(run_dir / 'episodes.jsonl', n=60)
-  good = _write_json(tmp_path / 'good.json', _eval_records())
-  bad_records = _eval_records()
-  bad_records[2]['flight_path'][3]['altitude_m'] = None
-  bad = _write_json(tmp_path / 'bad.json', bad_records)
-  out = tmp_path / 'plots'
-  for inputs in ([f'--eval_json={bad}'],
-                 [f'--eval_json={good}', f'--eval_json={bad}'],
-                 [f'--eval_json={good}', f'--baseline_eval_json={bad}']):
-    assert plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
-                      *inputs]) == 1
-    err = capsys.readouterr().err
-    assert (f"{bad}: record 2 (seed 7): flight_path[3]: field 'altitude_m': "
-            'expected a finite number, got null') in err
-    assert not out.exists(), sorted(out.iterdir())  # No figure, no summary.
-
-
-def test_main_bad_episode_value_exits_1_naming_file(tmp_path, capsys):
-  run_dir = tmp_path / 'run'
-  records = [_episode(i) for i in range(8)]
-  records[5]['reward'] = None  # Was an uncaught TypeError while drawing.
-  (run_dir).mkdir()
-  log = run_dir / 'episodes.jsonl'
-  log.write_text('\n'.join(json.dumps(r) for r in records) + '\n')
-  trained = _write_json(tmp_path / 'a.json', _eval_records())
-  out = tmp_path / 'plots'
-  assert plot.main([f'--output_dir={out}', f'--eval_json={trained}',
-                    f'--run_dir={run_dir}']) == 1
-  assert (f"ble-latex-plot: error: {log}: record 6 (episode 5): field "
-          "'reward': expected a finite number, got null"
-          ) in capsys.readouterr().err
-  assert not out.exists()
-
-
-def test_main_bad_wind_flags_draw_nothing(tmp_path, capsys):
-  run_dir = tmp_path / 'run'
-  _write_episodes(run_dir / 'episodes.jsonl', n=60)
-  out = tmp_path / 'plots'
-  assert plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
-                    '--wind_seed=-1']) == 2
-  assert '--wind_seed(s) must be >= 0' in capsys.readouterr().err
-  assert plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
-                    '--wind_seed=0', '--wind_pressures_pa=14000,-5']) == 2
-  assert 'finite positive numbers' in capsys.readouterr().err
-  try:
-    status = plot.main([f'--output_dir={out}', f'--run_dir={run_dir}',
-                        '--wind_seed=0', '--env_name=NoSuchBalloon-v0'])
-  finally:
-    gin.clear_config()
-  assert status == 2
-  assert '--env_name=NoSuchBalloon-v0' in capsys.readouterr().err
-  assert not out.exists()
-
-
-def test_main_wind_field_real_env(tmp_path, capsys):
-  out = tmp_path / 'plots'
-  try:
-    status = plot.main([f'--output_dir={out}', '--wind_seeds=0,1',
-                        '--wind_pressures_pa=14000,7000', '--wind_grid=7',
-                        '--wind_hours=1',
-                        '--gin_bindings=latex_episode.episode_steps = 5'])
-    assert gin.query_parameter('latex_episode.episode_steps') == 5
-  finally:
-    gin.clear_config()
-  assert status == 0
-  _assert_png(out / plot.WIND_FIELD)
-  assert f'wrote {out / plot.WIND_FIELD}' in capsys.readouterr().out
-
-
 def test_seed_curves_mean_and_band(tmp_path):
   runs = {}
   for seed in range(3):
@@ -812,39 +628,3 @@ def test_load_validation_bad_files(tmp_path):
                      '\n')
   with pytest.raises(ValueError, match='corrupt.jsonl'):
     records_lib.load_validation(str(corrupt))
-
-
-def test_wind_samples_grid_queries_each_point_and_summary_is_one_line_each():
-  """`plots.wind_samples` (the wind `--wind_seed` draws) and
-  `metrics.format_summary` (what ble-latex-plot prints), out of cli/."""
-  # pylint: disable=g-import-not-at-top
-  import datetime as dt
-  from ble_latex.plots import wind_samples
-  from ble_latex.run import metrics
-  # pylint: enable=g-import-not-at-top
-  queries = []
-
-  class Field:
-
-    def get_forecast_column(self, x, y, pressures, elapsed):
-      queries.append((x.kilometers, y.kilometers, tuple(pressures), elapsed))
-      speed = types.SimpleNamespace
-      return [speed(u=speed(meters_per_second=x.kilometers + p),
-                    v=speed(meters_per_second=y.kilometers))
-              for p in pressures]
-
-  grid = wind_samples.sample_wind_grid(
-      Field(), [5000.0, 7000.0], extent_km=10.0, num_points=3,
-      elapsed=dt.timedelta(hours=1))
-  assert len(queries) == 9 and grid['u_mps'].shape == (2, 3, 3)
-  np.testing.assert_allclose(grid['x_km'], [-10.0, 0.0, 10.0])
-  assert grid['u_mps'][1, 0, 2] == 10.0 + 7000.0  # [level, y, x]
-  assert grid['v_mps'][0, 2, 0] == 10.0
-  keys = ('tw50_window', 'tw50', 'reward', 'helium_vented_mols',
-          'sand_dropped_kg')
-  summary = {'a.json': {'episodes': 2, 'out_of_resources_pct': 50.0,
-                        **{f'{k}_{s}': 0.5 for k in keys
-                           for s in ('mean', 'std')}}}
-  text = metrics.format_summary(summary)
-  assert text.startswith('a.json: 2 seeds, TW50 (window) 50.0 +- 50.0%')
-  assert text.endswith('out of resources 50%') and '\n' not in text
