@@ -18,7 +18,6 @@ import math
 from balloon_learning_environment.env import wind_field
 from balloon_learning_environment.env.balloon import standard_atmosphere
 from balloon_learning_environment.utils import units
-import gin
 from hypothesis import HealthCheck, assume
 from hypothesis import given
 from hypothesis import settings
@@ -29,7 +28,6 @@ import numpy as np
 import pytest
 import s2sphere as s2
 
-from ble_latex import configs
 from ble_latex.flight import atmosphere
 from ble_latex.flight import controller
 from ble_latex.flight import dynamics
@@ -267,128 +265,6 @@ def _end_near_boundary(params, ns) -> bool:
           abs(ns.sand_kg - params.min_drop_kg) < 1e-5 or
           abs(volume / params.burst_volume_m3 - 1.0) < 1e-4 or
           abs(ns.altitude_m) < 1.0)
-
-
-# --- parameters --------------------------------------------------------------
-
-
-def test_params_defaults_have_one_home():
-  p = params_lib.FlightParams()
-  assert p.initial_helium_mols is None
-  assert not p.finite_valve and not p.finite_ballast
-  assert params_lib.make_flight_params() == p
-  # Numeric constants are leaves, structure is static.
-  leaves = jax.tree.leaves(p)
-  # 12 of the paper's model, 23 of the realistic physics (issues 28, 44: the
-  # lift walk's time constant, the gas's thermal lag and the intermittent
-  # disturbance's calm intensity and two dwell times; issue 68: the heating
-  # disturbance's rms and correlation time).
-  assert len(leaves) == 35 and all(isinstance(v, float) for v in leaves)
-  assert not p.realistic
-
-
-def test_flight_params_from_gin_reads_existing_bindings():
-  gin.clear_config()
-  try:
-    assert params_lib.flight_params_from_gin() == params_lib.FlightParams()
-    gin.parse_config_files_and_bindings(
-        [configs.gin_file('latex_physics.gin')],
-        ['latex_launch.payload_kg = 2.5',
-         'latex_launch.helium_mols = 180.0',
-         'latex_controller.band_low_m = 12000.0',
-         'latex_controller.min_vent_mols = 0.3',
-         'latex_flight.valve_flow_mols_per_s = 0.1',
-         'latex_flight.guard_within_stride = False'])
-    p = params_lib.flight_params_from_gin(burst_volume_m3=300.0)
-    assert p.payload_kg == 2.5 and p.initial_helium_mols == 180.0
-    assert p.band_low_m == 12000.0 and p.min_vent_mols == 0.3
-    assert p.finite_valve and p.valve_flow_mols_per_s == 0.1
-    assert not p.finite_ballast and not p.guard_within_stride
-    assert p.burst_volume_m3 == 300.0 and p.initial_sand_kg == 2.0
-  finally:
-    gin.clear_config()
-
-
-def test_make_flight_params_validates():
-  with pytest.raises(ValueError, match='band'):
-    params_lib.make_flight_params(band_low_m=22_000.0, band_high_m=13_000.0)
-  with pytest.raises(ValueError, match='valve_flow'):
-    params_lib.make_flight_params(valve_flow_mols_per_s=0.0)
-  with pytest.raises(ValueError, match='payload'):
-    params_lib.make_flight_params(payload_kg=float('nan'))
-  p = params_lib.make_flight_params(stride=dt.timedelta(minutes=10),
-                                    ballast_rate_kg_per_s=0.002)
-  assert p.stride_s == 600.0 and p.finite_ballast
-
-
-_BAD_FLIGHT_VALUES = [
-    ('sand_kg', True, 'latex_launch.sand_kg'),
-    ('sand_kg', 'abc', 'latex_launch.sand_kg'),
-    ('payload_kg', None, 'latex_launch.payload_kg'),
-    ('payload_kg', 'abc', 'latex_launch.payload_kg'),
-    ('drag_coefficient', float('inf'), 'latex_launch.drag_coefficient'),
-    ('burst_volume_m3', -1.0, 'latex_launch.burst_volume_m3'),
-    ('helium_mols', 0.0, 'latex_launch.helium_mols'),
-    ('helium_mols', False, 'latex_launch.helium_mols'),
-    ('min_vent_mols', None, 'latex_controller.min_vent_mols'),
-    ('min_drop_kg', float('nan'), 'latex_controller.min_drop_kg'),
-    ('band_low_m', 'low', 'latex_controller.band_low_m'),
-    ('stride', 0.5, 'latex_controller.stride'),
-    ('max_substep', 1e-9, 'latex_flight.max_substep'),
-    ('max_substep', dt.timedelta(microseconds=1), 'latex_flight.max_substep'),
-    ('vertical_step', None, 'latex_flight.vertical_step'),
-    ('actuation_chunk', -10.0, 'latex_flight.actuation_chunk'),
-    ('valve_flow_mols_per_s', 'fast', 'latex_flight.valve_flow_mols_per_s'),
-    ('ballast_rate_kg_per_s', True, 'latex_flight.ballast_rate_kg_per_s'),
-    ('guard_within_stride', 'yes', 'latex_flight.guard_within_stride'),
-]
-
-
-@pytest.mark.parametrize('arg, value, binding', _BAD_FLIGHT_VALUES)
-def test_make_flight_params_refuses_non_numbers_naming_the_binding(
-    arg, value, binding):
-  """bool/str/None/out of range: a ValueError naming the gin binding."""
-  with pytest.raises(ValueError, match=f'^gin binding {binding} must be '):
-    params_lib.make_flight_params(**{arg: value})
-  # The same check for params built as they are (FlightParams directly).
-  field = {'sand_kg': 'initial_sand_kg', 'helium_mols': 'initial_helium_mols',
-           'stride': 'stride_s', 'max_substep': 'max_substep_s',
-           'vertical_step': 'vertical_step_s',
-           'actuation_chunk': 'actuation_chunk_s'}.get(arg, arg)
-  if isinstance(value, dt.timedelta):
-    value = value.total_seconds()
-  flags = {'valve_flow_mols_per_s': {'finite_valve': True},
-           'ballast_rate_kg_per_s': {'finite_ballast': True}}.get(arg, {})
-  with pytest.raises(ValueError, match=f'^gin binding {binding} must be '):
-    params_lib.check_flight_params(params_lib.FlightParams(
-        **{field: value}, **flags))
-
-
-def test_flight_params_from_gin_names_the_binding():
-  """A gin-bound 'abc' or None is a ValueError naming it, not a TypeError."""
-  import ble_latex.ble.balloon  # pylint: disable=g-import-not-at-top,unused-import
-  gin.clear_config()
-  try:
-    for binding, value in (('latex_launch.sand_kg', 'True'),
-                           ('latex_launch.payload_kg', "'abc'"),
-                           ('latex_launch.drag_coefficient', 'None')):
-      gin.clear_config()
-      gin.parse_config(f'{binding} = {value}')
-      with pytest.raises(ValueError, match=f'gin binding {binding} must be'):
-        params_lib.flight_params_from_gin()
-  finally:
-    gin.clear_config()
-
-
-def test_make_flight_params_valid_values_unchanged():
-  """Valid values (NumPy scalars too) give the same Python floats."""
-  p = params_lib.make_flight_params(
-      payload_kg=np.float32(2.5), sand_kg=np.float64(1.5), helium_mols=170,
-      max_substep=dt.timedelta(minutes=3), vertical_step=1.0)
-  assert p.payload_kg == 2.5 and p.initial_sand_kg == 1.5
-  assert p.initial_helium_mols == 170.0 and p.vertical_step_s == 1.0
-  assert all(type(v) is float for v in jax.tree.leaves(p))  # pylint: disable=unidiomatic-typecheck
-  assert params_lib.make_flight_params() == params_lib.FlightParams()
 
 
 _KINDS = st.sampled_from(['finite', 'nan', 'inf', '-inf'])
