@@ -78,8 +78,8 @@ setuptools.setup(
                   'ble_latex.agents': ['policies/*.msgpack']},
     install_requires=_INSTALL_REQUIRES,
     extras_require={
-        # SB3 and the CPU torch for tests/test_gymnasium_env.py and examples/.
-        # zarr: tests/test_era5_arco.py's local Zarr stores (no gcsfs).
+        # SB3 and the CPU torch for tests/envs/test_gymnasium_env.py and examples/.
+        # zarr: tests/wind/test_era5_arco.py's local Zarr stores (no gcsfs).
         # lz4: RLlib's sample compression (examples/rllib_ppo.py; RLlib
         # warns without it).
         'test': ['pytest', 'pytest-timeout', 'pytest-xdist', 'hypothesis',
@@ -88,7 +88,7 @@ setuptools.setup(
         'arco': ['zarr', 'gcsfs'],
         # ble-latex-eval --ray_address and ble-latex-sweep.
         'ray': ['ray[tune]'],
-        # The documentation site (mkdocs.yml, docs/; tests/test_docs.py builds
+        # The documentation site (mkdocs.yml, docs/; tests/docs/test_docs.py builds
         # it with `mkdocs build --strict`).
         'docs': ['mkdocs', 'mkdocs-material', 'mkdocstrings[python]'],
     },

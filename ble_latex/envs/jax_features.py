@@ -53,7 +53,7 @@ history slots hold the current values and float actions 0.
 Precision: computed in the floating dtype of the inputs (float32 by default);
 features are returned as float32 like `get_features`, rewards in the input
 dtype. In float32 the features agree with BLE-object computations within ~1e-6
-and the reward with BLE's within ~1e-7 (tests/test_jax_features.py). Bearing
+and the reward with BLE's within ~1e-7 (tests/envs/test_jax_features.py). Bearing
 errors are computed as atan2(|cross|, dot), not arccos(cos): the same angle,
 without arccos's loss of precision near 0 and pi.
 """

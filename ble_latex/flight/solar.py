@@ -11,7 +11,7 @@ its day minus 2451545.0 (`start_day_j2000`) and the second of that day
 
 Differences from BLE: no atmospheric refraction correction (< 0.6 deg, and
 only near the horizon; the gas-temperature model spreads the sunset over
--16..24 deg anyway) and no azimuth or flux. tests/test_physics_realistic.py
+-16..24 deg anyway) and no azimuth or flux. tests/flight/test_physics_realistic.py
 checks the elevation against BLE's `solar_calculator` (< 0.7 deg).
 """
 

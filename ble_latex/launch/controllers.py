@@ -19,7 +19,7 @@ settings (gin bindings included):
 
 - `baselines.GeometricStationSeeker` (`latex_station_seeker`): its rule on
   the observation, decoded as `jax_features.NamedLatexFeatures` decodes it
-  (the same actions as the agent's, `tests/test_launch.py`);
+  (the same actions as the agent's, `tests/launch/test_launch.py`);
 - `sac.SACAgent` in eval mode (`sac`, `sac_pretrained`): its mean action
   tanh(mu(s)) mapped onto the Box by `jax_env.to_box`;
 - `ensemble.SACEnsembleAgent` (`sac_ensemble`): its members' critics'

@@ -10,7 +10,7 @@ stride is one jitted, `vmap`-ed `jax_env.LatexBalloonJaxEnv.step_env` call
 for the batch and one policy call for the batch. The records are
 `eval_lib.fly`'s (same fields, seeds and order, flight paths included),
 equal per seed within float32 noise: a `vmap`-ed step and a batched policy
-call sum in other orders than the single ones (`tests/test_batch_eval.py`).
+call sum in other orders than the single ones (`tests/run/test_batch_eval.py`).
 
 The protocol is one small class, `CorePolicy`: `begin` and `step` act for
 N balloons from their env states and observations, as BLE's

@@ -20,7 +20,7 @@ package (a thin entry point over BLE's `eval_lib` and `suites`):
   cumulative_reward, time_within_radius, final_timestep, flight_path, ...).
 
 Per seed the record is the flight `ble-latex-eval` records for the same agent
-(`tests/test_ble_commands.py`): cumulative_reward = reward, final_timestep =
+(`tests/cli/test_ble_commands.py`): cumulative_reward = reward, final_timestep =
 steps, time_within_radius = tw50.
 """
 

@@ -35,7 +35,7 @@ after 97 days). At the same float32 coordinates `interpolate` agrees with
 `Era5Data.interpolate` (float64 scipy) to 1e-4 m/s on random winds of
 15 m/s rms, and `latlng` with BLE's geometry to 2e-5 deg; the env on this
 grid flies the BLE object's flight (host callbacks) to a few metres over
-216 strides (tests/test_gridded_jax.py).
+216 strides (tests/wind/test_gridded_jax.py).
 """
 
 import datetime as dt

@@ -16,7 +16,7 @@ stationary field with covariance
   k(q, q') = c^2 M^2 var(n) sum_h w_h^2 rho(|(q - q') / s_h|),      (1)
 
 where rho is OpenSimplex's autocorrelation at a distance r in lattice units.
-Measured on 200 000 random points (`tests/test_noise_gp.py` re-measures it
+Measured on 200 000 random points (`tests/wind/test_noise_gp.py` re-measures it
 on 20 000):
 rho(0.2) = 0.91, rho(0.4) = 0.68, rho(0.6) = 0.40, rho(0.8) = 0.17,
 rho(1.0) = 0.03, the same along an axis and along the diagonal; a Gaussian

@@ -30,7 +30,7 @@ Reproduces, as jittable and vmappable JAX functions:
 
 Precision: every function computes in the floating dtype of its coordinate
 inputs (float32 by default in JAX). In float64 `noise4d` agrees with
-opensimplex to ~1e-15 (tests/test_wind_simplex.py checks 1e-9); run it in a
+opensimplex to ~1e-15 (tests/wind/test_simplex.py checks 1e-9); run it in a
 local x64 scope, without changing the process-wide setting:
 
   with jax.enable_x64(True):   # JAX 0.10: thread-local, restored on exit

@@ -19,7 +19,7 @@ sibling: MkDocs runs a hook with its folder on sys.path); the hook
 regenerates them in every page it builds.
 
 The parsers read source text with `ast` only (no JAX, TensorFlow or BLE).
-tests/test_docs.py uses them too.
+tests/docs/test_docs.py uses them too.
 """
 
 import ast

@@ -9,7 +9,7 @@ README and the docs hold each table between two marker lines:
 
 `python docs/hooks/tables.py` rewrites every such block in README.md and
 docs/*.md from the records; `python docs/hooks/tables.py --check` exits 1
-naming the first stale block (tests/test_docs.py runs the same check, and
+naming the first stale block (tests/docs/test_docs.py runs the same check, and
 the MkDocs hook `generated.py` regenerates the blocks of the site's pages at
 build time). This file says which records, which rows and where each table
 goes; what a cell holds (means, spreads, per-seed pairs, percentage cells) is

@@ -2,7 +2,7 @@
 """benchmarks/realistic_sensitivity.py (issue 44): its cells (`run.sensitivity`)
 and its record.
 
-The flights themselves are the env's (tests/test_jax_env.py); here: a cell
+The flights themselves are the env's (tests/envs/test_jax_env.py); here: a cell
 binds the sigma and swing asked for and nothing else, days aloft and TW50
 are counted as physics_results counts them, bad grids are one usage line.
 """

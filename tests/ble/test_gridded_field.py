@@ -1,7 +1,7 @@
 # coding=utf-8
 """Tests of a wind file as BLE's `WindField` (`ble.gridded_field`).
 
-`GriddedWindField` over the synthetic files of tests/test_gridded.py: BLE's
+`GriddedWindField` over the synthetic files of tests/wind/test_gridded.py: BLE's
 geometry, the sampled start, columns, edges, noise and the gym env on it.
 No network.
 """

@@ -1,7 +1,7 @@
 # coding=utf-8
 """Tests of the ERA5 downloads: the CDS requests and ble-latex-download-era5.
 
-Over the synthetic files of tests/test_gridded.py, with fake clients: no
+Over the synthetic files of tests/wind/test_gridded.py, with fake clients: no
 network.
 """
 

@@ -4,7 +4,7 @@
 Before the latex balloon's physics / wind move to a pure JAX core, this script
 flies today's env (`import ble_latex; gym.make('LatexBalloon-v0')`, default
 gin settings = gin_configs/latex_env.gin + latex_physics.gin) and stores what
-happened, so that `tests/test_golden.py` can check that a new implementation
+happened, so that `tests/ble/test_golden.py` can check that a new implementation
 reproduces it.
 
   .venv/bin/python tests/data/make_golden.py            # writes tests/data/

@@ -5,7 +5,7 @@
 One functional-env reset is compiled for the module (`flight`); every option
 is observed on its state. The Gymnasium and BLE gym flights (their own
 compiles) run in CI (`make test-ci`). Bad bindings of the options are
-refused in tests/test_observed_winds.py with the wind settings'."""
+refused in tests/envs/test_observed_winds.py with the wind settings'."""
 
 import datetime as dt
 import types

@@ -276,7 +276,7 @@ def test_one_stride_drift_is_the_corrected_column_at_the_balloon():
     ('wind_memory', env_params.MAX_WIND_MEMORY + 1), ('wind_lookahead', -1),
     ('wind_lookahead', 1.5), ('wind_lookahead', 'long'),
     ('wind_lookahead', env_params.MAX_WIND_LOOKAHEAD + 1),
-    # The switches (tests/test_observation_options.py) are bools.
+    # The switches (tests/envs/test_observed_sun_gas.py) are bools.
     ('sun', 1), ('sun', 'yes'), ('gas_temperature', None)])
 def test_bad_observation_binding_is_refused(name, value):
   with gin.unlock_config():
@@ -377,7 +377,7 @@ def test_every_entry_point_observes_the_observed_column(flights, drifted,
 def assert_entry_points_observe(bindings, seed, actions, want):
   """Gymnasium's id and BLE's gym id, under the gin `bindings`, observe
   `want`: the functional env's observations at reset (seed `seed`) and
-  after each of `actions` (also tests/test_observation_options.py)."""
+  after each of `actions` (also tests/envs/test_observed_sun_gas.py)."""
   import gym  # pylint: disable=g-import-not-at-top
   import gymnasium  # pylint: disable=g-import-not-at-top
   with gin.unlock_config():

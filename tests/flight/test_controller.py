@@ -13,7 +13,7 @@ import pytest
 
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
-# The retired NumPy controller, the oracle of tests/test_flight_core.py.
+# The retired NumPy controller, the oracle of tests/flight/test_core.py.
 from tests.reference import numpy_controller as controller_lib
 from tests.reference import numpy_physics as physics
 

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-# The retired NumPy model, the oracle of tests/test_flight_core.py.
+# The retired NumPy model, the oracle of tests/flight/test_core.py.
 from tests.reference import numpy_physics as physics
 
 _SETTINGS = settings(max_examples=40, deadline=None)

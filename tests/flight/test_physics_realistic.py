@@ -5,7 +5,7 @@ The equations against their sources (Sutherland's law, ASTRA's c_d(Re) and
 Weibull burst law, BLE's NOAA solar calculator), the reference table of the
 issue within 5 % (computed by `flight.reference.reference_table`, the
 function docs/physics.md prints), the switches' defaults (the paper's model,
-unchanged: tests/test_golden.py holds its flights bit for bit), and the
+unchanged: tests/ble/test_golden.py holds its flights bit for bit), and the
 bookkeeping of one stride in both modes as hypothesis properties.
 """
 

@@ -1,7 +1,7 @@
 # coding=utf-8
 # The retired NumPy float64 model (ble_latex before the JAX flight core,
 # commit dcfa0e1), kept only as an independent oracle for the tests
-# (tests/test_flight_core.py compares the core against it; test_physics.py
+# (tests/flight/test_core.py compares the core against it; test_physics.py
 # and test_controller.py keep the oracle honest). Not part of the package;
 # gin registrations removed (the package owns those names).
 """Vent/ballast altitude controller (Eq. fullcontroller).

@@ -1,7 +1,7 @@
 # coding=utf-8
 # The retired NumPy float64 model (ble_latex before the JAX flight core,
 # commit dcfa0e1), kept only as an independent oracle for the tests
-# (tests/test_flight_core.py compares the core against it; test_physics.py
+# (tests/flight/test_core.py compares the core against it; test_physics.py
 # and test_controller.py keep the oracle honest). Not part of the package;
 # gin registrations removed (the package owns those names).
 """Vertical physics of a zero-superpressure latex balloon.
@@ -254,7 +254,7 @@ def integrate_vertical(
   ascent rate with k at the new altitude (the rate relaxes within seconds to
   the terminal velocity of where the balloon is). Against a dt = 0.05 s RK4
   over 20-minute strides at up to 5.8 m/s: altitude within 0.04 %, ascent
-  rate within 0.05 % (tests/test_physics.py).
+  rate within 0.05 % (tests/flight/test_physics.py).
 
   Args:
     altitude: Initial h. # [m]

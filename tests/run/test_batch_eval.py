@@ -20,7 +20,7 @@ SMALL_MPC = ('LatexMpcAgent.num_samples = 8', 'LatexMpcAgent.horizon = 4',
              'LatexMpcAgent.num_segments = 2', 'LatexMpcAgent.replan_every = 2',
              'LatexMpcAgent.grid_levels = 2', 'LatexMpcAgent.beam_width = 4',
              'LatexMpcAgent.wind_memory = 2')
-# The stated tolerances of one core against another (tests/test_golden.py,
+# The stated tolerances of one core against another (tests/ble/test_golden.py,
 # issue 11): altitude 0.5 m, position 5 m, resources 1e-6 of the launch
 # inventory (here relative to the value), reward 1e-3 per stride. Today the
 # batched records equal the others bit for bit on this machine; XLA's

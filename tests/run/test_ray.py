@@ -45,7 +45,7 @@ def test_ray_eval_equals_serial_eval(local_ray, agent):
   # flights here: bit for bit. Unbatched, this process flies the step its
   # env's reset compiles anyway (batched, it compiled a second one: the
   # seeker's case alone 31 compiles, 20 now). Batched flights equal these
-  # within the stated tolerances: tests/test_batch_eval.py.
+  # within the stated tolerances: tests/run/test_batch_eval.py.
   serial = eval_lib.evaluate(*eval_lib.build(spec), seeds, 72, batched=False)
   remote = distributed.evaluate(spec, seeds, 72)
   assert [r['seed'] for r in remote] == seeds

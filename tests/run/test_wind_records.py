@@ -1,7 +1,7 @@
 # coding=utf-8
 """Eval, train and launch records name a time series' source, run and lead
 times (`wind_source`; issue 64, item 3). The series is one GRIB2 file of
-the committed GFS slice at +72, +75, +78 h (`test_wind_steps._write_steps`);
+the committed GFS slice at +72, +75, +78 h (`tests/wind/test_steps._write_steps`);
 eval and train fly it with their default dates (the ERA5 split is for ERA5
 files only).
 """
@@ -78,7 +78,7 @@ def test_launch_world_names_the_run_and_lead_times(series):
   assert world.describe['winds_vary_in_time']
 
 
-# A planner small enough to compile in seconds (tests/test_planners.py's).
+# A planner small enough to compile in seconds (tests/agents/planning/test_planners.py's).
 _SMALL_MPC = [f'--gin_bindings=LatexMpcAgent.{b}' for b in (
     'num_samples=8', 'iterations=1', 'horizon=4', 'num_segments=2',
     'replan_every=2', 'grid_levels=2')]

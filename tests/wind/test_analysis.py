@@ -5,7 +5,7 @@
 GFS NetCDF subset, two University of Wyoming soundings), `ble-latex-plot
 --wind_stats --wind_file` on a sounding, `benchmarks/real_winds.py`'s
 refusals and the tables `docs/hooks/tables.py` makes of the two records.
-No network, no VAE decoding (the VAE side is in tests/test_wind_stats.py).
+No network, no VAE decoding (the VAE side is in tests/wind/test_stats.py).
 """
 
 import importlib

@@ -4,7 +4,7 @@
 The tests write small local Zarr stores shaped like Google's public
 ARCO-ERA5 store (variables `u_component_of_wind`, `v_component_of_wind` on
 (time, level [millibars], latitude descending, longitude 0..360), hourly)
-whose winds are the multi-linear functions of tests/test_gridded.py, so the
+whose winds are the multi-linear functions of tests/wind/test_gridded.py, so the
 written files can be checked exactly. No network, no gcsfs.
 """
 

@@ -1,7 +1,7 @@
 # coding=utf-8
 """ble_latex.wind.grib_copy: a GRIB2 file's NetCDF copy, read back bit for bit.
 
-(The command, `benchmarks/gpu/decode_grib.py`, in test_real_winds_script.)
+(The command, `benchmarks/gpu/decode_grib.py`, in tests/benchmarks/test_real_winds.py.)
 """
 
 import os

@@ -1,7 +1,7 @@
 # coding=utf-8
 """Tests of the wind-source comparison (`ble_latex.wind.stats`).
 
-ERA5 sources are the synthetic files of tests/test_gridded.py; the VAE source
+ERA5 sources are the synthetic files of tests/wind/test_gridded.py; the VAE source
 decodes a few forecast keys only. No network.
 """
 

@@ -104,7 +104,7 @@ class VectorReplayBuffer(circular_replay_buffer.OutOfGraphReplayBuffer):
   (`stack_size == 1`, `update_horizon == 1`), validity checks and batch
   gathering are done with NumPy fancy indexing instead of Dopamine's
   per-index Python loop (which was ~8 ms of a ~25 ms training step). The
-  results equal Dopamine's element for element (tests/test_sac_agent.py);
+  results equal Dopamine's element for element (tests/agents/sac/test_agent.py);
   any other stack size or horizon falls back to Dopamine's code.
   """
 

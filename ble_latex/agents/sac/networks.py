@@ -6,7 +6,7 @@ and shapes) and outputs of Dopamine 4.0.9's
 `dopamine.jax.continuous_networks.SACNetwork` (Apache 2.0; re-written here so
 that the jitted trainer needs neither Dopamine nor TensorFlow, which that
 module imports), so policies and checkpoints written with Dopamine's network
-load unchanged; tests/test_networks.py checks both against each other.
+load unchanged; tests/agents/sac/test_networks.py checks both against each other.
 
 The actor (`_actor_layers_i`, `_actor_final_layer`): an MLP of `num_layers`
 ReLU layers giving the mean mu and log standard deviation log(sigma) of a
