@@ -6,7 +6,6 @@ BLE_LATEX_COMPAT_DISABLE, so the stock failure is reproduced on this stack.
 
 import json
 import os
-import pathlib
 import subprocess
 import sys
 
@@ -14,6 +13,7 @@ import ble_latex
 from ble_latex import compat
 import numpy as np
 import pytest
+
 from tests import helpers
 
 _DATA = helpers.DATA

@@ -1,6 +1,5 @@
 """Old gin names (LatexBalloonEnv, create_state, ...): aliases for one release."""
 
-import pathlib
 import re
 import warnings
 
@@ -13,6 +12,7 @@ from ble_latex import errors
 from ble_latex import gin_aliases
 from ble_latex.envs import env_params
 from ble_latex.flight import params as flight_params_lib  # pylint: disable=unused-import
+
 from tests import helpers
 
 REPO = helpers.ROOT

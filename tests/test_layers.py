@@ -24,6 +24,7 @@ import pathlib
 from typing import Dict, List, Set, Tuple
 
 import pytest
+
 from tests import helpers
 
 PACKAGE = helpers.ROOT / 'ble_latex'

@@ -10,12 +10,12 @@ imports of TensorFlow, TFP and flax's TensorBoard writer raise ImportError
 (a `sys.meta_path` finder), as they would there.
 """
 
-import pathlib
 import subprocess
 import sys
 import textwrap
 
 import pytest
+
 from tests import helpers
 
 ROOT = helpers.ROOT

@@ -1,9 +1,9 @@
 """The distribution's metadata, licence and citation files."""
 
 import importlib.metadata
-import pathlib
 
 import yaml
+
 from tests import helpers
 
 ROOT = helpers.ROOT

@@ -7,10 +7,9 @@ values, and `ble_latex.agents.sac_trainer` (the first import of every recorded
 jitted-trainer config) is the trainer itself.
 """
 
-import pathlib
-
 import gin
 import pytest
+
 from tests import helpers
 
 REPO = helpers.ROOT

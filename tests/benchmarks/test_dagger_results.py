@@ -1,7 +1,7 @@
 """benchmarks/dagger_results.py: DAgger runs into the docs' record."""
 
 import json
-import pathlib
+
 from tests import helpers
 
 ROOT = helpers.ROOT

@@ -1,11 +1,11 @@
 """The planner benchmark scripts' own checks (benchmarks/planners.py --seeds,
 the batch's size; without TensorFlow: tests/test_no_tensorflow.py)."""
 
-import pathlib
 import subprocess
 import sys
 
 import pytest
+
 from tests import helpers
 
 ROOT = helpers.ROOT

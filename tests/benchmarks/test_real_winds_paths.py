@@ -19,6 +19,7 @@ import pytest
 from ble_latex.run import tracks
 from ble_latex.wind import gridded
 from ble_latex.wind import sources
+
 from tests import helpers
 
 GFS_NC = os.path.join(helpers.REAL_WINDS, 'gfs_2010-10-26T12Z_uv_10-300hPa_1deg_subset.nc')

@@ -7,14 +7,13 @@ binds the sigma and swing asked for and nothing else, days aloft and TW50
 are counted as physics_results counts them, bad grids are one usage line.
 """
 
-import pathlib
-
 import numpy as np
 import pytest
 
 from ble_latex.flight import params as params_lib
 from ble_latex.flight import state as state_lib
 from ble_latex.run import sensitivity
+
 from tests import helpers
 
 ROOT = helpers.ROOT

@@ -8,7 +8,6 @@ writes with `safe_io.atomic_write`; a test reads the scripts' source for
 plain writes, so a new writer cannot slip back.
 """
 
-import pathlib
 import re
 import subprocess
 import sys
@@ -16,6 +15,7 @@ import sys
 import pytest
 
 from ble_latex import safe_io
+
 from tests import helpers
 
 ROOT = helpers.ROOT

@@ -3,7 +3,6 @@ here), its library (`run.seed_runs`' rewards and summary, `run.real_cells`)
 and the edge fractions it reads (`ble_latex.run.metrics`)."""
 
 import json
-import pathlib
 
 import pytest
 
@@ -12,6 +11,7 @@ from ble_latex.run import metrics
 from ble_latex.run import real_cells
 from ble_latex.run import seed_runs
 from ble_latex.run import wind_file
+
 from tests import helpers
 
 ROOT = helpers.ROOT

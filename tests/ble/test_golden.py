@@ -30,7 +30,6 @@ import datetime as dt
 import functools
 import importlib.util
 import json
-import pathlib
 from typing import Any, Callable, Dict, List, Mapping, Sequence
 
 import jax.numpy as jnp
@@ -39,6 +38,7 @@ import pytest
 
 from ble_latex.flight import atmosphere as atmosphere_lib
 from ble_latex.flight import state as state_lib
+
 from tests import helpers
 
 DATA = helpers.DATA

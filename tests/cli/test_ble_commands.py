@@ -20,6 +20,7 @@ import sys
 import pytest
 
 from ble_latex.cli import ble_commands
+
 from tests import helpers
 
 ROOT = helpers.ROOT

@@ -23,6 +23,7 @@ import pytest
 from ble_latex.cli import download_gfs
 from ble_latex.wind import gfs_requests as gfs
 from ble_latex.wind import gridded
+
 from tests import helpers
 
 SLICE = os.path.join(helpers.REAL_WINDS, 'gfs_2011-10-11T00Z_uv_10-250hPa_2p5deg.grib2')

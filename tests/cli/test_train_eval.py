@@ -18,6 +18,7 @@ from ble_latex.run import suites
 import jax
 import numpy as np
 import pytest
+
 from tests import helpers
 
 # A tiny SAC so the test is fast; the schedule is the real one.

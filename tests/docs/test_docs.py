@@ -11,12 +11,12 @@ install) and is skipped, saying so, where mkdocs is not installed.
 import importlib.util
 import json
 import os
-import pathlib
 import re
 import subprocess
 import sys
 
 import pytest
+
 from tests import helpers
 
 ROOT = helpers.ROOT

@@ -27,6 +27,7 @@ from ble_latex.envs import gymnasium_registration
 from ble_latex.envs import gymnasium_render
 from ble_latex.envs import gymnasium_vector
 from ble_latex.envs import jax_env
+
 from tests import helpers
 
 ID = 'ble_latex/LatexBalloon-v0'

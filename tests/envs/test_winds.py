@@ -3,8 +3,6 @@
 wind file (issue 64, "Why" 8). No network.
 """
 
-import pathlib
-
 import gymnasium
 import numpy as np
 import pytest
@@ -15,6 +13,7 @@ from ble_latex.envs import env_params
 from ble_latex.envs import winds
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
+
 from tests import helpers
 
 REAL = helpers.REAL_WINDS

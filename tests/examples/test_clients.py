@@ -15,6 +15,7 @@ import subprocess
 import sys
 
 import pytest
+
 from tests import helpers
 
 REPO = str(helpers.ROOT)

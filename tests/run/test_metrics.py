@@ -1,7 +1,6 @@
 """The episode metrics: BLE's TW50 over the steps flown and over the window."""
 
 import json
-import pathlib
 import subprocess
 import sys
 
@@ -10,6 +9,7 @@ from hypothesis import strategies as st
 import pytest
 
 from ble_latex.run import metrics
+
 from tests import helpers
 
 ROOT = helpers.ROOT

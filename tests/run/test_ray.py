@@ -21,6 +21,7 @@ from ble_latex.cli import sweep as sweep_command  # noqa: E402
 from ble_latex.run import distributed  # noqa: E402
 from ble_latex.run import eval_lib  # noqa: E402
 from ble_latex.run import sweep_lib  # noqa: E402
+
 from tests import helpers
 
 REPO = str(helpers.ROOT)

@@ -11,7 +11,6 @@ import io
 import json
 import math
 import os
-import pathlib
 from xml.etree import ElementTree
 
 import numpy as np
@@ -22,6 +21,7 @@ from ble_latex.plots import exports
 from ble_latex.plots import maps
 from ble_latex.run import records
 from ble_latex.run import tracks
+
 from tests import helpers
 
 DATA = helpers.REAL_WINDS

@@ -10,6 +10,7 @@ from ble_latex import errors
 from ble_latex import gin_aliases
 from ble_latex.run import gin_binding
 from ble_latex.run import wind_file
+
 from tests import helpers
 
 DATA = str(helpers.REAL_WINDS)

@@ -10,7 +10,6 @@ No network, no VAE decoding (the VAE side is in tests/wind/test_stats.py).
 
 import importlib
 import json
-import pathlib
 
 import numpy as np
 import pytest
@@ -20,6 +19,7 @@ from ble_latex.plots import figures
 from ble_latex.run import real_cells
 from ble_latex.wind import analysis
 from ble_latex.wind import stats
+
 from tests import helpers
 
 ROOT = helpers.ROOT

@@ -4,7 +4,6 @@
 import json
 import math
 import os
-import pathlib
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -14,6 +13,7 @@ import pytest
 from ble_latex import errors
 from ble_latex.wind import feasibility
 from ble_latex.wind import gridded
+
 from tests import helpers
 
 DATA = helpers.REAL_WINDS

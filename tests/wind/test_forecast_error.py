@@ -1,7 +1,6 @@
 # coding=utf-8
 """The forecast error on real files: BLE's noise scaled (`wind.forecast_error`)."""
 
-import pathlib
 import types
 
 import jax.numpy as jnp
@@ -16,6 +15,7 @@ from ble_latex.wind import globe
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import simplex
+
 from tests import helpers
 
 HILO = str(helpers.REAL_WINDS /

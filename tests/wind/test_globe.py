@@ -9,8 +9,6 @@ per-seed stations span every longitude; a sounding's column is the same
 anywhere on the sphere (Funafuti at 179.22 E, the poles). No network.
 """
 
-import pathlib
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -21,6 +19,7 @@ from ble_latex.wind import globe
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import stations
+
 from tests import helpers
 
 LONS = np.arange(0.0, 360.0, 10.0)  # [deg E] 0..350: the seam at 350 -> 360.

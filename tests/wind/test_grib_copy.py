@@ -13,6 +13,7 @@ import xarray as xr
 from ble_latex import errors
 from ble_latex.wind import grib_copy
 from ble_latex.wind import gridded
+
 from tests import helpers
 
 DATA = str(helpers.REAL_WINDS)

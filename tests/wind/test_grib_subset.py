@@ -15,6 +15,7 @@ import pytest
 
 from ble_latex.wind import grib_subset
 from ble_latex.wind import gridded
+
 from tests import helpers
 
 SLICE = (helpers.REAL_WINDS /

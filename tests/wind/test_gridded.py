@@ -28,6 +28,7 @@ from ble_latex import errors
 from ble_latex.ble import gridded_field
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_checks
+
 from tests import helpers
 
 T0 = np.datetime64('2022-11-01T00:00', 'ns')

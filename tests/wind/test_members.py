@@ -5,8 +5,6 @@ asked of a file without members, is one line. Synthetic file: the committed
 GFS NetCDF subset with three members (winds + member) at two times.
 """
 
-import pathlib
-
 import gin
 import numpy as np
 import pytest
@@ -14,6 +12,7 @@ import xarray as xr
 
 from ble_latex import errors
 from ble_latex.wind import gridded
+
 from tests import helpers
 
 GFS_NC = (helpers.REAL_WINDS /

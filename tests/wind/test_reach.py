@@ -10,7 +10,6 @@ train take --station_lat/--station_lon. No network.
 """
 
 import logging
-import pathlib
 
 import gin
 import numpy as np
@@ -23,6 +22,7 @@ from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import reach
 from ble_latex.wind import sounding
+
 from tests import helpers
 
 REAL = helpers.REAL_WINDS

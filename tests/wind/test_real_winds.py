@@ -25,6 +25,7 @@ from ble_latex.wind import analysis
 from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import sounding
+
 from tests import helpers
 
 DATA = str(helpers.REAL_WINDS)

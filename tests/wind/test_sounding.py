@@ -2,7 +2,6 @@
 
 import math
 import os
-import pathlib
 
 from hypothesis import given
 from hypothesis import settings

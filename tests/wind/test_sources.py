@@ -11,6 +11,7 @@ from ble_latex import errors
 from ble_latex.wind import grib_copy
 from ble_latex.wind import gridded
 from ble_latex.wind import sources
+
 from tests import helpers
 
 DATA = str(helpers.REAL_WINDS)

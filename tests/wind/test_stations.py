@@ -25,6 +25,7 @@ from ble_latex.wind import gridded
 from ble_latex.wind import gridded_jax
 from ble_latex.wind import sounding
 from ble_latex.wind import stations
+
 from tests import helpers
 
 DATA = str(helpers.REAL_WINDS)

@@ -6,8 +6,6 @@ The files are the real GFS +72 h slice's u/v messages written again with
 lead times +72, +75, +78 h (eccodes; winds + 0, 1, 2 m/s). No network.
 """
 
-import pathlib
-
 import gin
 import numpy as np
 import pytest
@@ -17,6 +15,7 @@ from ble_latex import errors
 from ble_latex.wind import analysis
 from ble_latex.wind import gridded
 from ble_latex.wind import stations
+
 from tests import helpers
 
 REAL = helpers.REAL_WINDS

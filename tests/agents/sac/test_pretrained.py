@@ -16,6 +16,7 @@ from ble_latex.agents.sac import pretrained
 from ble_latex.run import episode_log
 import numpy as np
 import pytest
+
 from tests import helpers
 
 _LOW = np.array([14000.0, 1.0, -1.0], dtype=np.float32)
