@@ -78,7 +78,7 @@ setuptools.setup(
                   'ble_latex.agents': ['policies/*.msgpack']},
     install_requires=_INSTALL_REQUIRES,
     extras_require={
-        # SB3 and the CPU torch for tests/envs/test_gymnasium_env.py and examples/.
+        # SB3 and the CPU torch for tests/examples/test_sb3_sac.py and examples/.
         # zarr: tests/wind/test_era5_arco.py's local Zarr stores (no gcsfs).
         # lz4: RLlib's sample compression (examples/rllib_ppo.py; RLlib
         # warns without it).

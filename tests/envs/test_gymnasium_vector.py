@@ -1,6 +1,8 @@
 """make_vec('ble_latex/LatexBalloon-v0'): N balloons in one batched core call."""
 
 import datetime as dt
+import subprocess
+import sys
 
 import gymnasium
 from gymnasium.utils import seeding
@@ -14,6 +16,8 @@ from ble_latex.envs import gymnasium_vector
 from ble_latex.envs import jax_env
 from ble_latex.flight import params as flight_params_lib
 from ble_latex.flight import state as state_lib
+
+from tests.envs import gymnasium_cases as cases
 
 ID = 'ble_latex/LatexBalloon-v0'
 N = 3
@@ -353,3 +357,63 @@ def test_make_vec_caps_num_envs_before_allocating(kwargs, num_envs):
                      r'65536\]'):
     gymnasium.make_vec('ble_latex/LatexBalloon-v0', num_envs=num_envs,
                        **kwargs)
+
+
+# -- Vector envs. -------------------------------------------------------------
+def test_make_vec_is_the_batched_core_and_discrete_is_sync():
+  """make_vec's default: one batched env (ID), SyncVectorEnv (DISCRETE_ID)."""
+  envs = gymnasium.make_vec(cases.ID, num_envs=3, normalize_actions=True)
+  assert isinstance(envs, gymnasium_vector.LatexBalloonVectorEnv)
+  assert envs.num_envs == 3
+  assert envs.single_action_space == gymnasium.spaces.Box(-1, 1, (3,),
+                                                          np.float32)
+  assert envs.action_space.shape == (3, 3)
+  assert envs.observation_space.shape == (3, 71)
+  envs.close()
+  with pytest.raises(gymnasium.error.Error, match='vector_kwargs'):
+    gymnasium.make_vec(cases.ID, num_envs=2, vector_kwargs={'copy': False})
+  sync = gymnasium.make_vec(cases.ID, num_envs=2, vectorization_mode='sync')
+  assert isinstance(sync, gymnasium.vector.SyncVectorEnv)
+  sync.close()
+  discrete = gymnasium.make_vec(cases.DISCRETE_ID, num_envs=1)
+  assert isinstance(discrete, gymnasium.vector.SyncVectorEnv)
+  discrete.close()
+
+
+@pytest.mark.parametrize('env_id, kwargs', [
+    (cases.DISCRETE_ID, {}), (cases.ID, {}),
+    (cases.ID, {'asynchronous': True})])
+@pytest.mark.parametrize('num_envs', [0, -2, 1.5, True])
+def test_make_vec_refuses_bad_num_envs_in_one_line(env_id, kwargs, num_envs):
+  """Issue 48 item 20: the discrete id's num_envs=0 was an IndexError."""
+  with pytest.raises(ValueError,
+                     match=r'^num_envs must be an int in \[1, 65536\], got '):
+    gymnasium.make_vec(env_id, num_envs=num_envs, **kwargs)
+
+
+_ASYNC = '''
+import numpy as np
+import ble_latex, gymnasium
+
+if __name__ == '__main__':
+  envs = gymnasium.make_vec('{id}', num_envs=2, {how})
+  obs, _ = envs.reset(seed=3)
+  obs, reward, *_ = envs.step(np.zeros((2, 3), np.float32))
+  print(type(envs).__name__, obs.shape, reward.shape)
+  envs.close()
+'''
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('how', [
+    'normalize_actions=True, asynchronous=True',
+    "normalize_actions=True, vectorization_mode='async', "
+    "vector_kwargs={'context': 'spawn'}",
+])
+def test_async_vector_env_with_spawn(tmp_path, how):
+  script = tmp_path / 'run_async.py'  # spawn re-imports __main__: a file.
+  script.write_text(_ASYNC.format(id=cases.ID, how=how))
+  result = subprocess.run([sys.executable, str(script)], cwd=cases.REPO,
+                          capture_output=True, text=True, timeout=400)
+  assert result.returncode == 0, result.stderr[-3000:]
+  assert result.stdout.split() == ['AsyncVectorEnv', '(2,', '71)', '(2,)']

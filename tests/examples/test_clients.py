@@ -3,7 +3,7 @@ run in a fresh process (issue 31): SB3 PPO, CleanRL-style SAC and PPO,
 purejaxrl-style PPO on the functional env, RLlib PPO; ERA5 end to end
 (synthetic file -> ble-latex-train -> select -> ble-latex-eval) and an eval
 on Ray. SB3 SAC is
-tests/envs/test_gymnasium_env.py's. No network. Each compiles the env (JAX) in
+tests/examples/test_sb3_sac.py's. No network. Each compiles the env (JAX) in
 its process, so all are slow tests (docs/clients.md has their times); the
 five RL clients are also marked `ci`: CI runs them (`make test-ci`) after
 the default suite."""
