@@ -236,7 +236,7 @@ def update(network_def: networks.LatexSACNetwork,
   """One SAC update: Dopamine's `sac_agent.train`, batched (same arguments).
 
   The one SAC update of the project: `SACAgent` and the jitted trainer
-  (`sac_trainer`) both call it. `tests/agents/sac/test_agent.py` checks it against
+  (`sac_trainer`) both call it. `tests/agents/sac/test_core.py` checks it against
   Dopamine's `sac_agent.train` on the same inputs.
 
   Args:
