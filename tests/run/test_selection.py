@@ -75,3 +75,20 @@ def test_committed_reports_choose_the_same_snapshots(run):
     chosen = selection.best(log, max_oor_pct=report['max_oor_pct'],
                             tie=lambda r: -r['iteration'])
     assert chosen['iteration'] == row['iteration'], (run, row['seed'])
+
+
+def test_choose_snapshot_chooses_on_validation_within_caps():
+  choose = selection.choose_snapshot
+
+  def r(iteration, tw50, oor, minutes):
+    return {'iteration': iteration, 'tw50_window_mean': tw50,
+            'out_of_resources_pct': oor, 'elapsed_s': 60.0 * minutes}
+  log = [r(4, 0.3, 0.0, 10), r(9, 0.5, 8.0, 20), r(14, 0.45, 2.0, 30),
+         r(19, 0.6, 0.0, 50)]
+  assert choose(log, 5.0)['iteration'] == 19
+  assert choose(log, 5.0, max_minutes=45)['iteration'] == 14
+  assert choose(log, 10.0, max_minutes=45)['iteration'] == 9
+  assert choose(log, 5.0, max_minutes=5) is None
+  assert choose(log, 5.0, max_iteration=18)['iteration'] == 14
+  assert choose(log, 5.0, max_iteration=14)['iteration'] == 14
+  assert choose(log, 5.0, max_iteration=3) is None
