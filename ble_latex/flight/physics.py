@@ -498,7 +498,7 @@ def vent_root(a3: Array, b: Array, c: Array,
   monotonically to it (quadratically). With s = r sigma the cubic is
   a3 r^3 (sigma^3 - beta sigma^2 - 1), beta = b / (a3 r), so the number of
   iterations needed depends on beta alone: 8 reach the root to a few ulp
-  for |beta| <= 200 (float64; tests/flight/test_core.py), while the flight
+  for |beta| <= 200 (float64; tests/flight/test_physics.py), while the flight
   envelope has |beta| < 1 (|hdot| <= 7 m/s above 13 km; beta grows as
   hdot^2 (P/T)^(1/3) / (m_p + m_s)^(1/3)).
 

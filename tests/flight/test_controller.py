@@ -8,14 +8,21 @@ from hypothesis import assume
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from ble_latex.envs import gymnasium_env
 from ble_latex.envs import jax_env
-# The retired NumPy controller, the oracle of tests/flight/test_core.py.
+from ble_latex.flight import controller
+from ble_latex.flight import params as params_lib
+from ble_latex.flight import state as state_lib
+# The retired NumPy controller, the oracle of the core (oracle_cases.py).
 from tests.reference import numpy_controller as controller_lib
 from tests.reference import numpy_physics as physics
+
+from tests.flight import oracle_cases as cases
 
 _SETTINGS = settings(max_examples=40, deadline=None)
 PAYLOAD = 2.2  # [kg]
@@ -205,3 +212,126 @@ def test_decide_rejects_non_finite_state(atmosphere, field):
   state[field] = float('nan')
   with pytest.raises(ValueError, match=field):
     controller_lib.AltitudeController().decide([17_000, 1, -1], **state)
+
+
+_KINDS = st.sampled_from(['finite', 'nan', 'inf', '-inf'])
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(kinds=st.tuples(_KINDS, _KINDS, _KINDS), action=cases.ACTION,
+       h=cases.f32(0.0, 40_000.0))
+def test_float_if_nan_replaces_an_action_with_any_nan(kinds, action, h):
+  """Any NaN component: the whole action is the float action (clip(h), 1,
+  1); +-inf and finite values pass unchanged (clipped later)."""
+  a = np.array(action, np.float32)
+  for i, kind in enumerate(kinds):
+    a[i] = {'finite': a[i], 'nan': np.nan, 'inf': np.inf,
+            '-inf': -np.inf}[kind]
+  out, invalid = controller.float_if_nan(jnp.asarray(a), jnp.float32(h))
+  out = np.asarray(out)
+  if 'nan' in kinds:
+    assert bool(invalid)
+    np.testing.assert_array_equal(
+        out, [np.clip(np.float32(h), 14_000.0, 21_000.0), 1.0, 1.0])
+  else:
+    assert not bool(invalid)
+    np.testing.assert_array_equal(out, a)
+
+
+def _check_actuation(got, ref, x64, params=cases.PARAMS):
+  assert int(got.decision) == list(cases.Decision).index(ref.decision)
+  assert bool(got.guarded) == ref.guarded
+  assert abs(float(got.desired_ascent_rate) - ref.desired_ascent_rate) <= (
+      1e-12 if x64 else 1e-5)
+  assert abs(float(got.vent_mols) - ref.vent_mols) <= (1e-9 if x64 else 2e-5)
+  assert abs(float(got.drop_kg) - ref.drop_kg) <= (1e-11 if x64 else 1e-6)
+  del params
+
+
+@cases.PRECISIONS
+@cases.SETTINGS
+@given(k=cases.KEY, h=cases.ALTITUDE, v=cases.RATE, n=cases.HELIUM, s=cases.SAND, action=cases.ACTION)
+def test_decide_matches_numpy(x64, k, h, v, n, s, action):
+  if not x64:
+    assume(not cases.near_threshold(cases.PARAMS, k, h, v, n, s, action))
+  ref = cases.np_decide(cases.PARAMS, k, h, v, n, s, action)
+  t, p = cases.ambient(k, h)
+  dtype = cases.dtype(x64)
+  with jax.enable_x64(x64):
+    state = cases.jax_state(cases.PARAMS, k, h, v, n, s)
+    got = cases.decide(cases.PARAMS, state, jnp.asarray(action, dtype),
+                  jnp.asarray(t, dtype), jnp.asarray(p, dtype))
+  _check_actuation(got, ref, x64)
+  # The target lift is the lift once the amounts are released.
+  after = physics.free_lift(n - ref.vent_mols, cases.PAYLOAD, s - ref.drop_kg)
+  assert abs(float(got.lift_after_kg) - after) <= (1e-12 if x64 else 1e-6)
+
+
+@cases.PRECISIONS
+@cases.SETTINGS
+@given(k=cases.KEY, h=st.one_of(cases.f32(11_000.0, 12_999.0), cases.f32(22_001.0, 24_000.0)),
+       v=cases.RATE, n=cases.HELIUM, s=cases.SAND, action=cases.ACTION)
+def test_band_guard_matches_numpy_outside_the_band(x64, k, h, v, n, s,
+                                                   action):
+  if not x64:
+    assume(not cases.near_threshold(cases.PARAMS, k, h, v, n, s, action))
+  ref = cases.np_decide(cases.PARAMS, k, h, v, n, s, action)
+  t, p = cases.ambient(k, h)
+  dtype = cases.dtype(x64)
+  with jax.enable_x64(x64):
+    state = cases.jax_state(cases.PARAMS, k, h, v, n, s)
+    got = cases.decide(cases.PARAMS, state, jnp.asarray(action, dtype),
+                  jnp.asarray(t, dtype), jnp.asarray(p, dtype))
+  _check_actuation(got, ref, x64)
+
+
+def test_band_guard_is_an_action_filter():
+  k, n, s = 0, 170.0, 1.0
+  for h, v, rate, decision, stands in [
+      (12_500.0, -1.0, -2.0, state_lib.DecisionCode.VENT, False),
+      (12_500.0, -1.0, 1.0, state_lib.DecisionCode.BALLAST, True),
+      (12_500.0, -1.0, 0.0, state_lib.DecisionCode.NOTHING, False),
+      (12_500.0, 1.0, 0.0, state_lib.DecisionCode.NOTHING, True),
+      (22_500.0, 1.0, 2.0, state_lib.DecisionCode.BALLAST, False),
+      (22_500.0, 1.0, -2.0, state_lib.DecisionCode.VENT, True),
+      (17_000.0, 1.0, 3.0, state_lib.DecisionCode.BALLAST, True),
+  ]:
+    state = cases.jax_state(cases.PARAMS, k, h, v, n, s)
+    act = controller.Actuation(
+        decision=jnp.int32(decision), desired_ascent_rate=jnp.float32(rate),
+        vent_mols=jnp.float32(0.5), drop_kg=jnp.float32(0.0),
+        guarded=jnp.bool_(False), lift_after_kg=jnp.float32(0.1))
+    out = controller.band_guard(cases.PARAMS, state, act)
+    if stands:
+      assert int(out.decision) == decision and not bool(out.guarded)
+    else:
+      ref = cases.np_controller(cases.PARAMS).float_actuation(
+          helium_mols=n, sand_kg=s, payload_kg=cases.PAYLOAD, guarded=True)
+      assert int(out.decision) == state_lib.DecisionCode.FLOAT
+      assert bool(out.guarded)
+      assert float(out.vent_mols) == pytest.approx(ref.vent_mols, rel=1e-6)
+      assert float(out.lift_after_kg) == 0.0
+
+
+@pytest.mark.parametrize('which', ['vent', 'ballast'])
+def test_thresholds_match_numpy(which):
+  """n_min and m_s_min: just above the amount -> nothing, just below -> act."""
+  k, h, s = 3, 17_000.0, 1.0
+  n = 170.0 if which == 'vent' else 120.0  # free lift +1.04 / -0.20 kg
+  action = (15_000.0, 2.0, -1.0) if which == 'vent' else (20_000.0, 1.0,
+                                                            -1.0)
+  v = 0.0
+  free = params_lib.make_flight_params(min_vent_mols=0.0, min_drop_kg=0.0)
+  amount = cases.np_decide(free, k, h, v, n, s, action)
+  amount = amount.vent_mols if which == 'vent' else amount.drop_kg
+  assert amount > 0.0
+  t, p = cases.ambient(k, h)
+  with jax.enable_x64(True):
+    for factor, acts in ((1.0 + 1e-9, False), (1.0 - 1e-9, True)):
+      key = 'min_vent_mols' if which == 'vent' else 'min_drop_kg'
+      params = params_lib.make_flight_params(**{key: amount * factor})
+      ref = cases.np_decide(params, k, h, v, n, s, action)
+      got = cases.decide(params, cases.jax_state(params, k, h, v, n, s),
+                    jnp.asarray(action), t, p)
+      assert (ref.decision != cases.Decision.NOTHING) == acts
+      _check_actuation(got, ref, True)

@@ -1,8 +1,9 @@
 # coding=utf-8
 # The retired NumPy float64 model (ble_latex before the JAX flight core,
 # commit dcfa0e1), kept only as an independent oracle for the tests
-# (tests/flight/test_core.py compares the core against it; test_physics.py
-# and test_controller.py keep the oracle honest). Not part of the package;
+# (the core's tests in tests/flight compare the core against it, setup in
+# oracle_cases.py; test_physics.py and test_controller.py also keep the oracle
+# honest). Not part of the package;
 # gin registrations removed (the package owns those names).
 """Vent/ballast altitude controller (Eq. fullcontroller).
 
