@@ -38,6 +38,15 @@ export XLA_PYTHON_CLIENT_PREALLOCATE=false
 py=${PYTHON:-python3}
 runs=${RUNS:-/tmp/dagger_runs}
 log=$out/log.txt
+# Usage errors first, before anything is written or started.
+IFS=, read -ra list <<<"$seeds"
+[ "${#list[@]}" -le 3 ] || { echo "dagger.sh: at most 3 seeds (8 files come back)" >&2; exit 2; }
+IFS=, read -ra gin_files <<<"${DAGGER_GIN_FILES:-}"
+files=()
+for g in "${gin_files[@]}"; do
+  [ -f "$g" ] || { echo "dagger.sh: DAGGER_GIN_FILES: no file $g" >&2; exit 2; }
+  files+=(--gin_file="$g")
+done
 mkdir -p "$out" "$runs"
 . "$(dirname "$0")/budget.sh"
 { date -u; nvidia-smi -L; $py -c 'import jax, flax, optax; print("jax", jax.__version__, "flax", flax.__version__, "optax", optax.__version__, jax.devices())'; uptime; } >>"$log" 2>&1
@@ -47,15 +56,7 @@ bindings=(--gin_bindings="dagger_config.num_balloons = $balloons"
           --gin_bindings='dagger_config.batch_size = 1024'
           --gin_bindings='dagger_config.dataset_capacity = 1000000')
 IFS=';' read -ra extra <<<"${DAGGER_BINDINGS:-}"
-IFS=, read -ra gin_files <<<"${DAGGER_GIN_FILES:-}"
-files=()
-for g in "${gin_files[@]}"; do
-  [ -f "$g" ] || { echo "dagger.sh: DAGGER_GIN_FILES: no file $g" >&2; exit 2; }
-  files+=(--gin_file="$g")
-done
 for b in "${extra[@]}"; do [ -n "$b" ] && bindings+=(--gin_bindings="$b"); done
-IFS=, read -ra list <<<"$seeds"
-[ "${#list[@]}" -le 3 ] || { echo "dagger.sh: at most 3 seeds (8 files come back)" >&2; exit 2; }
 limit=$(( $(left) - 30 ))  # Leaves time to pack what came of it.
 echo "== dagger seeds ${list[*]} side by side (limit $limit s): ${files[*]} ${bindings[*]}" >>"$log"
 for s in "${list[@]}"; do
