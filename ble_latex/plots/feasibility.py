@@ -15,11 +15,11 @@ from typing import Optional, Sequence
 
 from matplotlib import axes as mpl_axes
 from matplotlib import figure as mpl_figure
-from matplotlib.backends import backend_agg
 import numpy as np
 import scipy.spatial
 
 from ble_latex import errors
+from ble_latex.plots import figures
 from ble_latex.plots import maps
 from ble_latex.wind import feasibility
 from ble_latex.wind import gridded
@@ -29,12 +29,6 @@ from ble_latex.wind import reach
 _DPI = 110
 # Colour range of the margin. # [m/s]
 MARGIN_RANGE_MPS = 10.0
-
-
-def _save(fig: mpl_figure.Figure, path: str) -> None:
-  """Writes `fig` to `path` (PNG) on its own Agg canvas (no pyplot state)."""
-  backend_agg.FigureCanvasAgg(fig)
-  fig.savefig(path, dpi=_DPI)
 
 
 def plot_map(fmap: feasibility.FeasibilityMap, path: str, title: str,
@@ -86,7 +80,7 @@ def plot_map(fmap: feasibility.FeasibilityMap, path: str, title: str,
   ax.set_ylabel('latitude [deg N]')
   ax.set_aspect('equal')
   fig.tight_layout()
-  _save(fig, path)
+  figures.save_png(fig, path, dpi=_DPI)
   return note
 
 
@@ -135,7 +129,7 @@ def plot_hodograph(winds: np.ndarray, levels: np.ndarray, label: str,
                fontsize=8)
   if own:
     fig.tight_layout()
-    _save(fig, path)
+    figures.save_png(fig, path, dpi=_DPI)
 
 
 MAP_PNG = 'feasibility_map.png'

@@ -150,12 +150,14 @@ def _flight_arrays(record: Mapping[str, Any]) -> Dict[str, np.ndarray]:
   }
 
 
-def save_png(fig: mpl_figure.Figure, path: str) -> mpl_figure.Figure:
-  """Writes `fig` to `path` (PNG); returns it, for callers that inspect it."""
+def save_png(fig: mpl_figure.Figure, path: str, *, dpi: int = _DPI
+             ) -> mpl_figure.Figure:
+  """Writes `fig` to `path` (PNG, `dpi` dots per inch) on its own Agg canvas
+  (no pyplot state); returns it, for callers that inspect it."""
   folder = os.path.dirname(os.path.abspath(path))
   os.makedirs(folder, exist_ok=True)
   backend_agg.FigureCanvasAgg(fig)
-  fig.savefig(path, dpi=_DPI)
+  fig.savefig(path, dpi=dpi)
   return fig
 
 

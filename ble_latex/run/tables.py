@@ -41,8 +41,7 @@ def load(path: pathlib.Path) -> Any:
 def mean_std(values: Sequence[float]) -> Tuple[float, float]:
   """(mean, population standard deviation) of `values` (one or more): the
   spread over episodes, as `metrics.summarize`."""
-  mean = sum(values) / len(values)
-  return mean, math.sqrt(sum((v - mean) ** 2 for v in values) / len(values))
+  return sum(values) / len(values), math.sqrt(_squares(values) / len(values))
 
 
 def _squares(values: Sequence[float]) -> float:
@@ -62,9 +61,7 @@ def sample_std(values: Sequence[float]) -> float:
 def standard_error(values: Sequence[float]) -> float:
   """Standard error of the mean of `values`: sample std / sqrt(n); 0.0 for
   one value."""
-  if len(values) < 2:
-    return 0.0
-  return math.sqrt(_squares(values) / (len(values) - 1) / len(values))
+  return sample_std(values) / math.sqrt(len(values))
 
 
 def pct(mean: float, std: float) -> str:
