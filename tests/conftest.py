@@ -33,6 +33,8 @@ if 'JAX_COMPILATION_CACHE_DIR' not in os.environ:
   os.environ['JAX_COMPILATION_CACHE_DIR'] = _CACHE
   atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 
+pytest_plugins = ('pytester',)  # tests/test_conftest.py runs a session in one.
+
 import ble_latex  # noqa: E402,F401  pylint: disable=g-import-not-at-top,unused-import
 
 # $BLE_LATEX_TEST_COMPILES=DIR: each test process appends one JSON line per
@@ -89,6 +91,23 @@ def _free_compiled_code():
   import sys  # pylint: disable=g-import-not-at-top
   if 'jax' in sys.modules:
     sys.modules['jax'].clear_caches()
+
+
+@pytest.fixture(autouse=True, scope='module')
+def _fresh_gin():
+  """Each test module starts and ends with gin's bindings cleared.
+
+  Gin's bindings are process-wide; under pytest-xdist one worker runs many
+  modules (`--dist loadfile`), so a binding left by one module (a wind
+  file, an env setting) would reach the next and make its result depend on
+  the file order (a 3-day Gymnasium comparison failed so, passing alone).
+  No test module binds gin at import, so clearing at its first test's
+  setup loses nothing of its own.
+  """
+  import gin  # pylint: disable=g-import-not-at-top
+  gin.clear_config()
+  yield
+  gin.clear_config()
 
 
 @pytest.fixture(scope='session')
