@@ -33,6 +33,9 @@ Records read (all committed):
     (`benchmarks/wind_compare.py`).
   * `benchmarks/records/reward_shape.json`: SAC trained with the flat and the tanh
     reward (`benchmarks/reward_shape.py`, issue 46), per training seed.
+  * `benchmarks/records/planners/realistic_task/validation_sweep.json`: the
+    reserves planner's settings on 16 validation seeds
+    (`benchmarks/planner_sweep_summary.py`, issue 63).
   * `benchmarks/records/dagger/results.json`: DAgger runs and their best students'
     held-out flights (`benchmarks/dagger_results.py`, issue 47).
 
@@ -47,6 +50,7 @@ import sys
 from typing import Callable, Dict, List, Sequence, Tuple
 
 from ble_latex.run import episode_log
+from ble_latex.run import records as records_lib
 from ble_latex.run import tables as tables_lib
 import learned  # docs/hooks/learned.py (MkDocs and this script: on sys.path)
 
@@ -61,6 +65,7 @@ FLOAT_CALIBRATION_BEFORE = RECORDS / 'float_calibration_before.json'
 FLOAT_CALIBRATION_SWEEP = RECORDS / 'float_calibration_sweep.json'
 WIND_COMPARE = RECORDS / 'wind_compare.json'
 REWARD_SHAPE = RECORDS / 'reward_shape.json'
+RESERVES_SWEEP = RECORDS / 'planners' / 'realistic_task' / 'validation_sweep.json'
 BLOCK = re.compile(r'(<!-- table: ([a-z0-9-]+) -->\n)(.*?)(<!-- end table -->)',
                    re.DOTALL)
 
@@ -423,6 +428,8 @@ TASK_ROWS = (
      'latex_mpc'),
     ('`latex_mpc` with resource reserves (sunsets\' lift kept in helium, '
      '0.6 kg buffer; chosen on validation)', 'latex_mpc_reserves'),
+    ('the same with its resources priced 20 times higher (sand and helium '
+     'cost 2.0; chosen on 16 validation seeds)', 'latex_mpc_priced'),
     ('`latex_mpc_oracle`', 'latex_mpc_oracle'),
     ('`sac_pretrained`, the realistic policy trained before issue 68',
      'sac_pretrained_realistic_before_68'),
@@ -636,6 +643,34 @@ def reward_shape_paired() -> str:
   return '\n'.join(lines)
 
 
+def reserves_sweep() -> str:
+  """docs/physics.md: the reserves planner's settings on validation seeds
+  (issue 63): TW50, failures by resource, sand, the opening's spending."""
+  record = tables_lib.load(RESERVES_SWEEP)
+  hours = record['early_hours']
+  lines = ['| `LatexMpcAgent` bindings | validation TW50 window (mean ± std) | '
+           'out of resources (helium, sand) | sand dropped [kg] | '
+           f'spent in the first {hours:g} h: sand [kg], helium |',
+           '|---|---|---|---|---|']
+  for entry in record['settings']:
+    seeds = entry['per_seed']
+    n = len(seeds['seeds'])
+    reasons = seeds['terminal_reason']
+    label = ', '.join(f'`{b.split(".", 1)[-1]}`'
+                      for b in entry['gin_bindings']) or 'defaults'
+    mean, std = entry['summary']['tw50_window']
+    failed = sum(r in records_lib.OUT_OF_RESOURCES_REASONS for r in reasons)
+    early_sand = sum(seeds['early_sand_kg']) / n
+    early_helium = sum(seeds['early_helium_fraction']) / n
+    lines.append(
+        f'| {label} | {100 * mean:.1f} % ± {100 * std:.1f} | '
+        f'{failed} / {n} '
+        f'({reasons.count("out_of_helium")}, {reasons.count("out_of_sand")}) | '
+        f'{entry["summary"]["sand"]:.2f} | {early_sand:.2f}, '
+        f'{100 * early_helium:.0f} % |')
+  return '\n'.join(lines)
+
+
 # (reference name in benchmarks/records/dagger/results.json, column label).
 TABLES: Dict[str, Callable[[], str]] = {
     'valbal-check': valbal_check,
@@ -647,6 +682,7 @@ TABLES: Dict[str, Callable[[], str]] = {
     'realistic-long': realistic_long,
     'realistic-uncalibrated': realistic_uncalibrated,
     'realistic-task': realistic_task,
+    'reserves-sweep': reserves_sweep,
     'agents-short': agents_short,
     'agents-full': agents_full,
     'planners-short': planners_short,
