@@ -13,9 +13,10 @@
 # 1 000 000 rows; DAGGER_BINDINGS (gin lines separated by ';') come after
 # these and override them. DAGGER_GIN_FILES (paths separated by ',') are
 # parsed first, in order: the realistic task (issue 63) with the reserves
-# planner as the teacher is
+# planner with priced resources (benchmarks/records/planners/realistic_task/DECLARATION_costs.md) as the teacher is
 #   DAGGER_GIN_FILES=gin_configs/latex_realistic.gin,gin_configs/latex_realistic_task.gin,gin_configs/latex_sun_observation.gin \
-#   DAGGER_BINDINGS='LatexMpcAgent.resource_buffer_kg = 0.6' bash benchmarks/gpu/dagger.sh OUT 540
+#   DAGGER_BINDINGS='LatexMpcAgent.resource_buffer_kg = 0.6;LatexMpcAgent.sand_cost = 2.0;LatexMpcAgent.helium_cost = 2.0' \
+#   bash benchmarks/gpu/dagger.sh OUT 540
 # The run directories sit in $RUNS (default /tmp/dagger_runs): the aggregate in
 # a checkpoint is too big to come back. OUT/seed_S.tar holds seed_S/run.json,
 # seed_S/summary.json (per-round validation, wall times) and
