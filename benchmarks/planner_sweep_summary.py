@@ -9,7 +9,7 @@ Reads DIR/NAME.json (`benchmarks/planners.py`'s flights, one per seed, with
 their flight paths: ~0.7 MB for 16 three-day flights, too big to commit)
 and DIR/timing/NAME.json (the settings they were flown with, `run_config`)
 for each NAME, and writes one record: per setting its gin files and
-bindings, the summary (`run.tables.flights_summary`: TW50 over the window,
+bindings, the summary (`run.tables.summarize_flights`: TW50 over the window,
 out of resources, sand, helium) and per seed the TW50, strides flown, the
 terminal reason, the sand and helium spent, and what of them went in the
 first --early_hours (a flight's opening manoeuvre). docs' tables are
@@ -56,13 +56,13 @@ def setting(folder: pathlib.Path, name: str, hours: float) -> Dict[str, Any]:
   flights = records.load_eval(str(path))
   timing = tables.load(folder / 'timing' / f'{name}.json')
   config = timing.get('run_config') or {}
+  totals = tables.summarize_flights(flights, path)
   early = [early_spend(f, hours) for f in flights]
   return {
       'name': name,
       'gin_files': config.get('gin_files', []),
       'gin_bindings': config.get('gin_bindings', []),
-      'summary': {k: v for k, v in tables.flights_summary(path).items()
-                  if k != 'per_seed'},
+      'summary': {k: v for k, v in totals.items() if k != 'per_seed'},
       'per_seed': {
           'seeds': [f['seed'] for f in flights],
           'tw50_window': [f['tw50_window'] for f in flights],

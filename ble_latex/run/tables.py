@@ -136,9 +136,15 @@ def flights_summary(record: pathlib.Path) -> Dict[str, Any]:
   Raises:
     ValueError: The record holds no flights.
   """
-  flights = load(record)
+  return summarize_flights(load(record), record)
+
+
+def summarize_flights(flights: Sequence[Dict[str, Any]],
+                      source: Any) -> Dict[str, Any]:
+  """`flights_summary` of flights already read from `source` (named in the
+  ValueError raised when there are none)."""
   if not flights:
-    raise ValueError(f'{record}: no flights')
+    raise ValueError(f'{source}: no flights')
   return {
       'seeds': len(flights),
       'per_seed': {'seeds': [f['seed'] for f in flights],

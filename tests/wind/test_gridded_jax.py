@@ -20,7 +20,6 @@ import gymnasium
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
-import gin
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -161,14 +160,8 @@ def test_start_draw_is_era5_wind_fields(era5_path, episode_hours):
 
 @functools.lru_cache(maxsize=None)
 def _params(path, episode_hours=24.0):
-  """(params without, with the ERA5 grid of `path`), gin defaults.
-
-  Gin's bindings are cleared first: a wind file bound by an earlier test in
-  the same process (pytest-xdist runs many files in one) would otherwise set
-  the "without" params' grid too (seen once in a `slow` run of several
-  folders, 2026-12-05: the Gymnasium env refused a grid beside its host wind).
-  """
-  gin.clear_config()
+  """(params without, with the ERA5 grid of `path`), gin defaults (no
+  earlier module's bindings: tests/conftest.py clears them per module)."""
   params = env_params.params_from_gin()
   grid = gridded_jax.grid_from_data(gridded.load(path),
                                     episode_hours=episode_hours)
